@@ -1,0 +1,27 @@
+"""Type aliases shared across the package (jaxtyping shape annotations).
+
+Shapes use these names: ``n`` nodes or joints, ``t`` time samples, ``b`` batch members.
+"""
+
+from jaxtyping import Array, ArrayLike, Bool, Float, Int
+
+Scalar = Float[Array, ""]
+ScalarLike = float | Float[ArrayLike, ""]
+Vector3 = Float[Array, "3"]
+Matrix3 = Float[Array, "3 3"]
+Twist = Float[Array, "6"]
+Transform = Float[Array, "4 4"]
+
+__all__ = [
+    "Array",
+    "ArrayLike",
+    "Bool",
+    "Float",
+    "Int",
+    "Matrix3",
+    "Scalar",
+    "ScalarLike",
+    "Transform",
+    "Twist",
+    "Vector3",
+]

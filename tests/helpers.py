@@ -1,0 +1,38 @@
+"""Tree-aware comparisons for tests."""
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+
+def _leaf_allclose(x, y, rtol: float, atol: float) -> bool:
+    if eqx.is_array_like(x) and eqx.is_array_like(y):
+        x, y = np.asarray(x), np.asarray(y)
+        if x.shape != y.shape or x.dtype.kind != y.dtype.kind:
+            return False
+        if x.dtype.kind in "fc":
+            return bool(np.allclose(x, y, rtol=rtol, atol=atol, equal_nan=False))
+        return bool(np.array_equal(x, y))
+    return x == y
+
+
+def tree_allclose(x, y, *, rtol: float = 1e-5, atol: float = 1e-8) -> bool:
+    """True when two pytrees have the same structure and all leaves are close (NaN never equals)."""
+    x_leaves, x_tree = jax.tree_util.tree_flatten(x)
+    y_leaves, y_tree = jax.tree_util.tree_flatten(y)
+    if x_tree != y_tree:
+        return False
+    return all(_leaf_allclose(a, b, rtol, atol) for a, b in zip(x_leaves, y_leaves, strict=True))
+
+
+def max_relative_error(actual, expected, *, floor: float = 0.0) -> float:
+    """Largest |actual - expected| / max(|expected|_max, floor) over all leaves of two pytrees."""
+    errors = []
+    for a, e in zip(
+        jax.tree_util.tree_leaves(actual), jax.tree_util.tree_leaves(expected), strict=True
+    ):
+        a, e = jnp.asarray(a), jnp.asarray(e)
+        scale = max(float(jnp.max(jnp.abs(e))), floor)
+        errors.append(float(jnp.max(jnp.abs(a - e))) / (scale if scale > 0 else 1.0))
+    return max(errors, default=0.0)

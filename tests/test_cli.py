@@ -1,0 +1,54 @@
+"""The command line: help, version, subcommands listed, unimplemented parts honest."""
+
+import subprocess
+import sys
+
+import pytest
+
+from origami_jax import __version__
+from origami_jax.cli import build_parser, main
+
+SUBCOMMANDS = ("paper", "unfold", "simulate", "design", "sweep", "export")
+
+
+def test_help_lists_every_subcommand(capsys):
+    with pytest.raises(SystemExit) as excinfo:
+        main(["--help"])
+    assert excinfo.value.code == 0
+    text = capsys.readouterr().out
+    for name in SUBCOMMANDS:
+        assert name in text
+
+
+def test_version(capsys):
+    with pytest.raises(SystemExit):
+        main(["--version"])
+    assert __version__ in capsys.readouterr().out
+
+
+def test_no_subcommand_is_a_usage_error(capsys):
+    assert main([]) == 2
+
+
+@pytest.mark.parametrize("name", SUBCOMMANDS)
+def test_each_subcommand_has_help(name, capsys):
+    with pytest.raises(SystemExit) as excinfo:
+        main([name, "--help"])
+    assert excinfo.value.code == 0
+    assert "--out" in capsys.readouterr().out or name == "export"
+
+
+def test_parser_builds_without_importing_physics():
+    # `--help` must be quick: building the parser may not pull in the heavy parts.
+    assert build_parser().prog == "origami-jax"
+
+
+def test_module_entry_point_runs():
+    result = subprocess.run(
+        [sys.executable, "-m", "origami_jax", "--version"],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert result.returncode == 0, result.stderr
+    assert __version__ in result.stdout
