@@ -1,0 +1,134 @@
+"""Timing helpers shared by every benchmark.
+
+The rules (see STYLE.md, MJX): compile time is measured apart from run time by lowering and compiling
+explicitly; every timed call waits on its *result* with ``jax.block_until_ready``; run times are the median
+over repeats with min and max; the peer runs in the same process; answers are compared before timing.
+"""
+
+import json
+import platform
+import statistics
+import time
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+import jax
+
+
+@dataclass
+class Timing:
+    """Seconds per call: median, min, max over ``repeats`` calls."""
+
+    median: float
+    minimum: float
+    maximum: float
+    repeats: int
+
+
+@dataclass
+class Result:
+    """One benchmark row: ours against a peer, same inputs, answers compared first."""
+
+    name: str
+    ours: Timing
+    peer_name: str | None = None
+    peer: Timing | None = None
+    compile_s: float | None = None
+    max_abs_difference: float | None = None
+    flops: float | None = None
+    per_item: int = 1
+    notes: str = ""
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def ratio(self) -> float | None:
+        """Peer time over our time (> 1: we are faster)."""
+        if self.peer is None:
+            return None
+        return self.peer.median / self.ours.median
+
+    def to_dict(self) -> dict[str, Any]:
+        data = asdict(self)
+        data["ratio_peer_over_ours"] = self.ratio
+        return data
+
+    def line(self) -> str:
+        parts = [f"{self.name}: ours {_fmt(self.ours.median / self.per_item)}/item"]
+        if self.compile_s is not None:
+            parts.append(f"compile {self.compile_s:.2f} s")
+        if self.peer is not None:
+            parts.append(f"{self.peer_name} {_fmt(self.peer.median / self.per_item)}/item")
+            parts.append(f"ratio {self.ratio:.2f}x")
+        if self.max_abs_difference is not None:
+            parts.append(f"max |diff| {self.max_abs_difference:.2e}")
+        if self.flops:
+            parts.append(f"{self.flops:.3g} FLOP/call")
+        return ", ".join(parts)
+
+
+def _fmt(seconds: float) -> str:
+    for unit, scale in (("s", 1.0), ("ms", 1e-3), ("us", 1e-6), ("ns", 1e-9)):
+        if seconds >= scale:
+            return f"{seconds / scale:.3g} {unit}"
+    return f"{seconds / 1e-9:.3g} ns"
+
+
+def time_calls(fn: Callable[[], Any], *, repeats: int, warmup: int = 1) -> Timing:
+    """Time ``fn()`` (which must return its result) ``repeats`` times, blocking on JAX results."""
+    for _ in range(warmup):
+        jax.block_until_ready(fn())
+    samples = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        jax.block_until_ready(fn())
+        samples.append(time.perf_counter() - start)
+    return Timing(statistics.median(samples), min(samples), max(samples), repeats)
+
+
+def compile_jitted(fn: Callable, *args: Any, **kwargs: Any) -> tuple[Callable, float, float | None]:
+    """Lower and compile ``jax.jit(fn)`` for these arguments.
+
+    **Returns:** ``(compiled, compile_seconds, flops)`` where ``flops`` is XLA's cost-analysis estimate
+    of floating-point operations per call (``None`` where the backend gives none).
+    """
+    start = time.perf_counter()
+    compiled = jax.jit(fn).lower(*args, **kwargs).compile()
+    seconds = time.perf_counter() - start
+    flops = None
+    try:
+        analysis = compiled.cost_analysis()
+        if isinstance(analysis, list):
+            analysis = analysis[0] if analysis else {}
+        flops = float(analysis.get("flops", 0.0)) or None
+    except Exception:  # cost analysis is best effort and backend dependent
+        flops = None
+    return compiled, seconds, flops
+
+
+def machine_description() -> dict[str, str]:
+    """Facts about the machine and versions, recorded next to every figure."""
+    import os
+
+    info = {
+        "date": time.strftime("%Y-%m-%d"),
+        "python": platform.python_version(),
+        "platform": platform.platform(),
+        "processor": platform.processor() or platform.machine(),
+        "cpu_count": str(os.cpu_count()),
+        "jax": jax.__version__,
+        "jax_backend": jax.default_backend(),
+        "devices": ", ".join(str(d) for d in jax.devices()),
+    }
+    for module in ("equinox", "diffrax", "optimistix", "pinocchio", "mujoco", "scipy"):
+        try:
+            info[module] = __import__(module).__version__
+        except Exception:
+            pass
+    return info
+
+
+def dump_json(path, results: list[Result]) -> None:
+    payload = {"machine": machine_description(), "results": [r.to_dict() for r in results]}
+    with open(path, "w") as file:
+        json.dump(payload, file, indent=2, default=str)
