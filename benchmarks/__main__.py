@@ -9,6 +9,7 @@ from pathlib import Path
 import jax
 
 from ._harness import Result, dump_json, machine_description
+from ._report import results_markdown, throughput_figure
 
 
 def main(argv=None) -> int:
@@ -20,6 +21,15 @@ def main(argv=None) -> int:
     parser.add_argument("--json", type=Path, default=None, help="write all results as JSON here")
     parser.add_argument(
         "--float32", action="store_true", help="leave JAX in float32 (default float64)"
+    )
+    parser.add_argument(
+        "--markdown",
+        type=Path,
+        default=None,
+        help="write the results as a Markdown section here (paste into benchmarks/RESULTS.md)",
+    )
+    parser.add_argument(
+        "--figure", type=Path, default=None, help="throughput-vs-batch-size PNG here"
     )
     args = parser.parse_args(argv)
     if not args.float32:
@@ -47,6 +57,12 @@ def main(argv=None) -> int:
     if args.json:
         dump_json(args.json, results)
         print(f"\nresults written to {args.json}")
+    if args.markdown:
+        title = f"{jax.default_backend().upper()} ({'quick' if args.quick else 'full'} run)"
+        args.markdown.write_text(results_markdown(results, title=title, quick=args.quick))
+        print(f"Markdown written to {args.markdown}")
+    if args.figure and throughput_figure(results, args.figure):
+        print(f"figure written to {args.figure}")
     return 1 if failed else 0
 
 
