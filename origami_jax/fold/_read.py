@@ -1,0 +1,289 @@
+"""Reading FOLD: JSON text or a dictionary into a checked `FoldFile`.
+
+Every problem becomes a `FoldFormatError` that names the key, the index and the fix; nothing in a file
+can make the reader crash with a `KeyError`, `IndexError` or `TypeError`.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ._checks import check_fold
+from ._errors import FoldFormatError
+from ._model import (
+    _FRAME_FIELDS,
+    ASSIGNMENTS,
+    SUPPORTED_ASSIGNMENTS,
+    SUPPORTED_SPECS,
+    FoldFile,
+    FoldFrame,
+)
+
+# Legacy (FOLD 1.0) names, read and rewritten under their 1.1+ names.
+_LEGACY = {"edges_foldAngles": "edges_foldAngle", "edges_lengths": "edges_length"}
+
+
+def read_fold(path: str | os.PathLike[str]) -> FoldFile:
+    """Read and check a `.fold` file.
+
+    **Arguments:**
+    - `path`: the file.
+
+    **Returns:** the `FoldFile`, checked by `check_fold` (structure, indices, counter-clockwise faces,
+    assignments against fold angles) and, when `jsonschema` is installed, against the shipped schema.
+
+    **Raises:** `FoldFormatError` for anything unreadable or unsupported (bad JSON, missing keys,
+    `C`/`J` edges, a newer spec version, ...). A missing file raises `FileNotFoundError`.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError as error:
+        raise FoldFormatError(f"{path}: not a text (UTF-8) file: {error}") from None
+    try:
+        return loads_fold(text)
+    except FoldFormatError as error:
+        raise FoldFormatError(f"{path}: {error}") from None
+
+
+def loads_fold(text: str) -> FoldFile:
+    """Parse FOLD JSON text (see `read_fold`)."""
+    try:
+        data = json.loads(text, parse_constant=_reject_constant)
+    except json.JSONDecodeError as error:
+        raise FoldFormatError(
+            f"not valid JSON (line {error.lineno}, column {error.colno}: {error.msg}); "
+            "a .fold file is a JSON object"
+        ) from None
+    return fold_from_dict(data)
+
+
+def fold_from_dict(data: Any, *, validate_schema: bool = True) -> FoldFile:
+    """Build and check a `FoldFile` from decoded FOLD JSON data (see `read_fold`)."""
+    if not isinstance(data, Mapping):
+        raise FoldFormatError(
+            f"the top level of a FOLD file must be a JSON object, not {type(data).__name__}"
+        )
+    original = data
+    data = dict(data)
+    spec = _read_spec(data.pop("file_spec", None))
+    file_metadata = {
+        k: data.pop(k) for k in list(data) if k.startswith("file_") and k != "file_frames"
+    }
+    frames_data = data.pop("file_frames", None)
+    frames = [_frame_from_dict(data, 0)]
+    if frames_data is not None:
+        if not isinstance(frames_data, list):
+            raise FoldFormatError("file_frames must be an array of frame objects")
+        for i, frame_data in enumerate(frames_data, start=1):
+            if not isinstance(frame_data, Mapping):
+                raise FoldFormatError(f"file_frames[{i - 1}] (frame {i}) must be a JSON object")
+            frame_data = dict(frame_data)
+            misplaced = [k for k in frame_data if k.startswith("file_")]
+            if misplaced:
+                raise FoldFormatError(
+                    f"frame {i} has file-level keys {misplaced}: file_... properties belong at the "
+                    "top level only (FOLD 1.2, Multiple Frames)"
+                )
+            frames.append(_frame_from_dict(frame_data, i))
+    fold = FoldFile(frames=tuple(frames), file_spec=spec, file_metadata=file_metadata)
+    check_fold(fold)
+    if validate_schema:
+        # After our own parsing, whose messages are more specific; the schema is a second net.
+        from ._schema import validate_schema as _validate
+
+        _validate(original)
+    return fold
+
+
+def _reject_constant(name: str) -> None:
+    raise FoldFormatError(
+        f"not valid JSON: {name} is not a JSON number (coordinates must be finite)"
+    )
+
+
+def _read_spec(value: Any) -> int | float | None:
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise FoldFormatError(f"file_spec must be a number such as 1.2, not {value!r}")
+    if value not in SUPPORTED_SPECS:
+        supported = ", ".join(str(s) for s in SUPPORTED_SPECS)
+        raise FoldFormatError(
+            f"unsupported FOLD spec version file_spec = {value}: this reader understands "
+            f"{supported}. Convert the file with the FOLD tools, or set file_spec to 1.2 if it "
+            "only uses 1.2 features."
+        )
+    return value
+
+
+def _frame_from_dict(data: dict[str, Any], index: int) -> FoldFrame:
+    where = "key frame" if index == 0 else f"frame {index}"
+    data = dict(data)
+    for old, new in _LEGACY.items():
+        if old in data:
+            legacy = data.pop(old)
+            if new in data and data[new] != legacy:
+                raise FoldFormatError(
+                    f"{where} has both {new} and the legacy {old}, and they differ: keep one"
+                )
+            data.setdefault(new, legacy)
+    fields: dict[str, Any] = {}
+    for key, name in _FRAME_FIELDS.items():
+        if key in data:
+            fields[name] = _PARSERS[key](data.pop(key), where)
+    if index == 0 and "frame_parent" in fields:
+        raise FoldFormatError("the key frame (frame 0) cannot have a frame_parent")
+    return FoldFrame(**fields, extra=data)
+
+
+def _coords(value: Any, where: str) -> np.ndarray:
+    rows = _list(value, "vertices_coords", where)
+    dimension = 2
+    for i, row in enumerate(rows):
+        row = _list(row, f"vertices_coords[{i}]", where)
+        if len(row) not in (2, 3):
+            raise FoldFormatError(
+                f"{where}: vertices_coords[{i}] has {len(row)} coordinates; only 2D and 3D "
+                "coordinates are supported"
+            )
+        for x in row:
+            if not _is_number(x) or not math.isfinite(x):
+                raise FoldFormatError(
+                    f"{where}: vertices_coords[{i}] = {row!r} must hold finite numbers"
+                )
+        dimension = max(dimension, len(row))
+    out = np.zeros((len(rows), dimension))
+    for i, row in enumerate(rows):
+        out[i, : len(row)] = row
+    return out
+
+
+def _edges(value: Any, where: str) -> np.ndarray:
+    rows = _list(value, "edges_vertices", where)
+    out = np.zeros((len(rows), 2), dtype=np.int64)
+    for i, row in enumerate(rows):
+        if not (isinstance(row, list) and len(row) == 2 and all(_is_index(v) for v in row)):
+            raise FoldFormatError(
+                f"{where}: edges_vertices[{i}] = {row!r} must be a pair [u, v] of vertex ids"
+            )
+        if row[0] == row[1]:
+            raise FoldFormatError(f"{where}: edges_vertices[{i}] = {row!r} is a loop (u = v)")
+        out[i] = row
+    return out
+
+
+def _assignments(value: Any, where: str) -> tuple[str, ...]:
+    rows = _list(value, "edges_assignment", where)
+    out = []
+    for i, a in enumerate(rows):
+        if not isinstance(a, str) or a.upper() not in ASSIGNMENTS:
+            raise FoldFormatError(
+                f"{where}: edges_assignment[{i}] = {a!r} is not one of B, M, V, F, U, C, J"
+            )
+        a = a.upper()
+        if a not in SUPPORTED_ASSIGNMENTS:
+            hint = (
+                "split the cut into two boundary (B) edges, one per face"
+                if a == "C"
+                else "merge the faces on either side into one face and drop the edge"
+            )
+            raise FoldFormatError(
+                f"{where}: edges_assignment[{i}] is {a!r} ({ASSIGNMENTS[a]} edge), which "
+                f"origami_jax does not support: {hint}"
+            )
+        out.append(a)
+    return tuple(out)
+
+
+def _fold_angles(value: Any, where: str) -> np.ndarray:
+    rows = _list(value, "edges_foldAngle", where)
+    out = np.full(len(rows), np.nan)
+    for i, x in enumerate(rows):
+        if x is None:
+            continue
+        if not _is_number(x) or not -180 <= x <= 180:
+            raise FoldFormatError(
+                f"{where}: edges_foldAngle[{i}] = {x!r} must be a number of degrees in "
+                "[-180, 180] (valley +, mountain -) or null"
+            )
+        out[i] = x
+    return out
+
+
+def _faces(value: Any, where: str) -> tuple[tuple[int, ...], ...]:
+    rows = _list(value, "faces_vertices", where)
+    out = []
+    for i, row in enumerate(rows):
+        if not (isinstance(row, list) and len(row) >= 3 and all(_is_index(v) for v in row)):
+            raise FoldFormatError(
+                f"{where}: faces_vertices[{i}] = {row!r} must list at least 3 vertex ids"
+            )
+        out.append(tuple(row))
+    return tuple(out)
+
+
+def _string(key: str):
+    def parse(value: Any, where: str) -> str:
+        if not isinstance(value, str):
+            raise FoldFormatError(f"{where}: {key} must be a string, not {value!r}")
+        return value
+
+    return parse
+
+
+def _strings(key: str):
+    def parse(value: Any, where: str) -> tuple[str, ...]:
+        rows = _list(value, key, where)
+        if not all(isinstance(s, str) for s in rows):
+            raise FoldFormatError(f"{where}: {key} must be an array of strings")
+        return tuple(rows)
+
+    return parse
+
+
+def _parent(value: Any, where: str) -> int:
+    if not _is_index(value):
+        raise FoldFormatError(f"{where}: frame_parent must be a frame id (integer >= 0)")
+    return int(value)
+
+
+def _inherit(value: Any, where: str) -> bool:
+    if not isinstance(value, bool):
+        raise FoldFormatError(f"{where}: frame_inherit must be true or false, not {value!r}")
+    return value
+
+
+_PARSERS = {
+    "vertices_coords": _coords,
+    "edges_vertices": _edges,
+    "edges_assignment": _assignments,
+    "edges_foldAngle": _fold_angles,
+    "faces_vertices": _faces,
+    "frame_unit": _string("frame_unit"),
+    "frame_classes": _strings("frame_classes"),
+    "frame_attributes": _strings("frame_attributes"),
+    "frame_parent": _parent,
+    "frame_inherit": _inherit,
+}
+
+
+def _list(value: Any, key: str, where: str) -> list:
+    if not isinstance(value, list):
+        raise FoldFormatError(f"{where}: {key} must be an array, not {type(value).__name__}")
+    return value
+
+
+def _is_number(x: Any) -> bool:
+    return isinstance(x, int | float) and not isinstance(x, bool)
+
+
+def _is_index(x: Any) -> bool:
+    return isinstance(x, int) and not isinstance(x, bool) and x >= 0

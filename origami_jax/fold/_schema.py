@@ -1,0 +1,58 @@
+"""The shipped JSON schema (`fold_schema.json`) for the FOLD subset we read and write.
+
+Validation with it needs the optional `jsonschema` package; without it `validate_schema` does nothing
+and the structural checks of `check_fold` (always run) still catch what matters to us.
+"""
+
+from __future__ import annotations
+
+import functools
+import importlib.resources
+import json
+from typing import Any
+
+from ._errors import FoldFormatError
+
+SCHEMA_FILE = "fold_schema.json"
+
+
+@functools.cache
+def fold_schema() -> dict[str, Any]:
+    """The JSON schema (draft-07) for the FOLD 1.2 subset origami_jax reads and writes."""
+    text = importlib.resources.files(__package__).joinpath(SCHEMA_FILE).read_text(encoding="utf-8")
+    return json.loads(text)
+
+
+def has_jsonschema() -> bool:
+    """Whether the optional `jsonschema` package is importable."""
+    try:
+        import jsonschema  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+def validate_schema(data: Any) -> bool:
+    """Validate decoded FOLD data against `fold_schema()` when `jsonschema` is installed.
+
+    **Returns:** `True` if the schema was checked, `False` if `jsonschema` is not installed.
+
+    **Raises:** `FoldFormatError` naming the offending key path and the schema's complaint.
+    """
+    if not has_jsonschema():
+        return False
+    import jsonschema
+
+    validator = jsonschema.Draft7Validator(fold_schema())
+    errors = sorted(validator.iter_errors(data), key=lambda e: list(e.absolute_path))
+    if errors:
+        error = errors[0]
+        location = "".join(
+            f"[{p}]" if isinstance(p, int) else (f".{p}" if i else str(p))
+            for i, p in enumerate(error.absolute_path)
+        )
+        more = f" (and {len(errors) - 1} more problem(s))" if len(errors) > 1 else ""
+        raise FoldFormatError(
+            f"does not match the FOLD schema at {location or 'the top level'}: {error.message}{more}"
+        )
+    return True
