@@ -1,0 +1,44 @@
+"""Hinged-flap chains: kinematics, dynamics and bilayer-hinge physics (SPEC Part B, issue #3).
+
+Kernels are unit-agnostic; builders, materials and `HingeDesign` convert their SI constants into a
+`UnitSystem`, `MICRO` (µm, µs, ng) by default.
+"""
+
+from ._chain import Chain as Chain
+from ._chain import accordion as accordion
+from ._chain import flap_chain as flap_chain
+from ._chain import plate_inertia as plate_inertia
+from ._dynamics import bias_torque as bias_torque
+from ._dynamics import coriolis_matrix as coriolis_matrix
+from ._dynamics import forward_dynamics as forward_dynamics
+from ._dynamics import hinge_torque as hinge_torque
+from ._dynamics import inverse_dynamics as inverse_dynamics
+from ._dynamics import kinetic_energy as kinetic_energy
+from ._dynamics import mass_matrix as mass_matrix
+from ._dynamics import potential_energy as potential_energy
+from ._hinge import AIR as AIR
+from ._hinge import CR as CR
+from ._hinge import KOH_SOLUTION as KOH_SOLUTION
+from ._hinge import SINX as SINX
+from ._hinge import Fluid as Fluid
+from ._hinge import HingeDesign as HingeDesign
+from ._hinge import Material as Material
+from ._hinge import biaxial_modulus as biaxial_modulus
+from ._hinge import bilayer_curvature as bilayer_curvature
+from ._kinematics import body_jacobians as body_jacobians
+from ._kinematics import forward_kinematics as forward_kinematics
+from ._kinematics import spatial_jacobians as spatial_jacobians
+from ._se3 import adjoint as adjoint
+from ._se3 import exp_so3 as exp_so3
+from ._se3 import exp_twist as exp_twist
+from ._se3 import hat as hat
+from ._se3 import inverse_adjoint as inverse_adjoint
+from ._se3 import inverse_transform as inverse_transform
+from ._se3 import make_transform as make_transform
+from ._se3 import revolute_twist as revolute_twist
+from ._se3 import twist_hat as twist_hat
+from ._se3 import twist_vee as twist_vee
+from ._se3 import vee as vee
+from ._units import MICRO as MICRO
+from ._units import SI as SI
+from ._units import UnitSystem as UnitSystem

@@ -1,0 +1,293 @@
+"""The serial chain of rigid flaps joined by revolute hinges, and its builders.
+
+A `Chain` holds, at the reference configuration ``θ = 0`` and in the inertial frame: each hinge's unit axis
+``ω_i`` and a point ``q_i`` on it, each flap's centre-of-gravity pose, its mass and its inertia about the CG
+(in the flap frame). Flap ``i`` is carried by hinges ``1..i`` (SPEC Part B). The kernels never look at units;
+any consistent system works (see `UnitSystem`; the builders default to `MICRO`: µm, µs, ng).
+"""
+
+import equinox as eqx
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, ArrayLike, Float
+
+from ._units import MICRO, UnitSystem
+from ._validate import as_float_array, check_finite, check_positive, check_shape, is_traced
+
+# Relative tolerance on |ω| = 1 and on RᵀR = I. Inputs typed by hand or stored in float32 carry ~1e-7
+# relative error; anything beyond 1e-6 is a wrong input, not round-off.
+_UNIT_TOLERANCE = 1e-6
+
+# SiNx density, kg/m³: 3100 (LPCVD low-stress silicon nitride; e.g. Petersen, "Silicon as a mechanical
+# material", Proc. IEEE 70 (1982); SPEC Part B "Materials"). Used as the accordion's default flap density.
+_SINX_DENSITY_SI = 3100.0
+
+
+class Chain(eqx.Module):
+    """A serial chain of ``n`` rigid flaps joined by revolute hinges (any consistent units).
+
+    **Fields** (all at ``θ = 0``, inertial frame):
+    - `axes`: unit hinge axes ``ω_i``, shape `(n, 3)`, dimensionless.
+    - `points`: a point ``q_i`` on each hinge axis, shape `(n, 3)`, length.
+    - `cg_poses`: pose ``g_{sl_i}(0)`` of each flap's CG frame, shape `(n, 4, 4)` (length in the last column).
+    - `masses`: flap masses, shape `(n,)`, mass.
+    - `inertias`: inertia of each flap about its CG, in its CG frame, shape `(n, 3, 3)`, mass·length².
+    - `gravity`: acceleration of gravity, shape `(3,)`, length/time²; zero by default (negligible at the
+      µm scale and absent in the paper).
+
+    **Raises:** `ValueError` (before tracing) for wrong shapes or mismatched lengths, NaN/inf, zero or
+    non-unit axes, non-positive masses, non-symmetric or non-positive-definite inertias, non-rigid CG poses.
+    When built from traced values (under `jit`/`vmap`) the value checks become `eqx.error_if`.
+    """
+
+    axes: Float[Array, "n 3"]
+    points: Float[Array, "n 3"]
+    cg_poses: Float[Array, "n 4 4"]
+    masses: Float[Array, " n"]
+    inertias: Float[Array, "n 3 3"]
+    gravity: Float[Array, "3"]
+
+    def __init__(
+        self,
+        axes: ArrayLike,
+        points: ArrayLike,
+        cg_poses: ArrayLike,
+        masses: ArrayLike,
+        inertias: ArrayLike,
+        gravity: ArrayLike | None = None,
+    ):
+        axes = as_float_array(axes, "axes")
+        points = as_float_array(points, "points")
+        cg_poses = as_float_array(cg_poses, "cg_poses")
+        masses = as_float_array(masses, "masses")
+        inertias = as_float_array(inertias, "inertias")
+        gravity = (
+            jnp.zeros(3, axes.dtype) if gravity is None else as_float_array(gravity, "gravity")
+        )
+
+        check_shape(axes, (None, 3), "axes", "Give one 3-vector per hinge.")
+        n = axes.shape[0]
+        if n < 1:
+            raise ValueError("A chain needs at least one hinge; axes is empty.")
+        hint = f"axes has {n} hinges, so every per-hinge array needs {n} rows."
+        check_shape(points, (n, 3), "points", hint)
+        check_shape(cg_poses, (n, 4, 4), "cg_poses", hint)
+        check_shape(masses, (n,), "masses", hint)
+        check_shape(inertias, (n, 3, 3), "inertias", hint)
+        check_shape(gravity, (3,), "gravity")
+
+        points = check_finite(points, "points")
+        gravity = check_finite(gravity, "gravity")
+        self.axes = _check_axes(axes)
+        self.points = points
+        self.cg_poses = _check_poses(cg_poses)
+        self.masses = check_positive(masses, "masses", "mass units")
+        self.inertias = _check_inertias(inertias)
+        self.gravity = gravity
+
+    @property
+    def n_joints(self) -> int:
+        """Number of hinges (= flaps), a static Python int."""
+        return self.axes.shape[0]
+
+
+def _check_axes(axes: Array) -> Array:
+    axes = check_finite(axes, "axes")
+    norms = jnp.linalg.norm(axes, axis=-1)
+    if is_traced(axes):
+        return eqx.error_if(
+            axes, jnp.any(jnp.abs(norms - 1) > _UNIT_TOLERANCE), "hinge axes must be unit vectors."
+        )
+    norms = np.asarray(norms)
+    for i, norm in enumerate(norms):
+        if norm == 0:
+            raise ValueError(f"axes[{i}] is the zero vector; a hinge needs a direction.")
+        if abs(norm - 1) > _UNIT_TOLERANCE:
+            raise ValueError(
+                f"axes[{i}] has norm {norm:.6g}, not 1; pass unit vectors "
+                "(e.g. origami_jax._math.normalise(axes)) so that θ is an angle in radians."
+            )
+    return axes
+
+
+def _check_poses(poses: Array) -> Array:
+    poses = check_finite(poses, "cg_poses")
+    rotation = poses[:, :3, :3]
+    orthogonality = jnp.max(jnp.abs(jnp.swapaxes(rotation, -1, -2) @ rotation - jnp.eye(3)))
+    bottom = jnp.max(jnp.abs(poses[:, 3, :] - jnp.array([0.0, 0.0, 0.0, 1.0])))
+    determinant = jnp.linalg.det(rotation)
+    bad = (orthogonality > _UNIT_TOLERANCE) | (bottom > 0) | jnp.any(determinant <= 0)
+    if is_traced(poses):
+        return eqx.error_if(poses, bad, "cg_poses must be rigid transforms [[R, p], [0, 1]].")
+    if bool(bad):
+        raise ValueError(
+            "cg_poses must be rigid transforms [[R, p], [0, 0, 0, 1]] with R a rotation "
+            f"(max |RᵀR − I| = {float(orthogonality):.3g}, max bottom-row error {float(bottom):.3g}, "
+            f"min det R = {float(jnp.min(determinant)):.3g})."
+        )
+    return poses
+
+
+def _check_inertias(inertias: Array) -> Array:
+    inertias = check_finite(inertias, "inertias")
+    asymmetry = jnp.max(jnp.abs(inertias - jnp.swapaxes(inertias, -1, -2)), axis=(-1, -2))
+    scale = jnp.max(jnp.abs(inertias), axis=(-1, -2))
+    # Sylvester's criterion (leading minors) works on tracers, where eigvalsh would be wasteful.
+    minor1 = inertias[:, 0, 0]
+    minor2 = inertias[:, 0, 0] * inertias[:, 1, 1] - inertias[:, 0, 1] * inertias[:, 1, 0]
+    minor3 = jnp.linalg.det(inertias)
+    not_pd = (minor1 <= 0) | (minor2 <= 0) | (minor3 <= 0)
+    not_symmetric = asymmetry > 1e-9 * scale
+    if is_traced(inertias):
+        return eqx.error_if(
+            inertias,
+            jnp.any(not_pd | not_symmetric),
+            "inertias must be symmetric positive definite 3x3 matrices.",
+        )
+    for i in range(inertias.shape[0]):
+        if bool(not_symmetric[i]):
+            raise ValueError(f"inertias[{i}] is not symmetric; an inertia tensor is.")
+        eigenvalues = np.linalg.eigvalsh(np.asarray(inertias[i]))
+        if eigenvalues.min() <= 0:
+            raise ValueError(
+                f"inertias[{i}] is not positive definite (eigenvalues {eigenvalues}); every rigid "
+                "flap with positive mass has a positive-definite inertia about its CG."
+            )
+    return inertias
+
+
+def plate_inertia(
+    length: Float[ArrayLike, "*batch"],
+    width: Float[ArrayLike, "*batch"],
+    thickness: Float[ArrayLike, "*batch"],
+    density: Float[ArrayLike, "*batch"],
+) -> tuple[Float[Array, "*batch"], Float[Array, "*batch 3 3"]]:
+    """Mass and inertia about the CG of a uniform rectangular plate (any consistent units).
+
+    The plate frame has ``x`` along the width (parallel to the hinge), ``y`` along the length (away from
+    the hinge) and ``z`` along the thickness (the flap normal). The formula is the exact cuboid one, so the
+    thin-plate limit is included: ``I_xx = m(L² + t²)/12``, ``I_yy = m(w² + t²)/12``, ``I_zz = m(L² + w²)/12``.
+
+    **Arguments:** `length` ``L``, `width` ``w``, `thickness` ``t`` (length), `density` (mass/length³).
+
+    **Returns:** `(mass, inertia)`, mass ``ρ L w t`` and the diagonal inertia (mass·length²).
+    """
+    length, width, thickness, density = jnp.broadcast_arrays(
+        *(jnp.asarray(x) for x in (length, width, thickness, density))
+    )
+    mass = density * length * width * thickness
+    diagonal = jnp.stack(
+        [length**2 + thickness**2, width**2 + thickness**2, length**2 + width**2], axis=-1
+    ) * (mass[..., None] / 12)
+    return mass, diagonal[..., None] * jnp.eye(3, dtype=diagonal.dtype)
+
+
+def flap_chain(
+    axes: Float[ArrayLike, "n 3"],
+    points: Float[ArrayLike, "n 3"],
+    cg_positions: Float[ArrayLike, "n 3"],
+    *,
+    flap_length: Float[ArrayLike, "*#n"],
+    flap_width: Float[ArrayLike, "*#n"],
+    thickness: Float[ArrayLike, "*#n"],
+    density: Float[ArrayLike, "*#n"],
+    flap_rotations: Float[ArrayLike, "n 3 3"] | None = None,
+    gravity: Float[ArrayLike, "3"] | None = None,
+) -> Chain:
+    """A chain of thin rectangular flaps: mass and inertia computed from the plate geometry.
+
+    **Arguments** (any consistent units; `MICRO` is µm, ng/µm³):
+    - `axes`: unit hinge axes at ``θ = 0``, shape `(n, 3)`.
+    - `points`: a point on each hinge axis, shape `(n, 3)`, length.
+    - `cg_positions`: each flap's centre of gravity at ``θ = 0``, shape `(n, 3)`, length.
+    - `flap_length`, `flap_width`, `thickness`: plate dimensions (length), scalars or shape `(n,)`.
+    - `density`: plate density (mass/length³), scalar or shape `(n,)`.
+    - `flap_rotations`: orientation of each flap frame at ``θ = 0`` (columns: width, length and normal
+      directions, see `plate_inertia`), shape `(n, 3, 3)`; identity by default.
+    - `gravity`: shape `(3,)`, length/time²; zero by default.
+
+    **Returns:** a `Chain`.
+
+    **Raises:** `ValueError` for non-positive or non-finite dimensions or density, and everything `Chain`
+    raises.
+    """
+    axes = as_float_array(axes, "axes")
+    check_shape(axes, (None, 3), "axes", "Give one 3-vector per hinge.")
+    n = axes.shape[0]
+    dims = {}
+    for name, value in (
+        ("flap_length", flap_length),
+        ("flap_width", flap_width),
+        ("thickness", thickness),
+        ("density", density),
+    ):
+        array = as_float_array(value, name)
+        if array.ndim > 1 or (array.ndim == 1 and array.shape[0] != n):
+            raise ValueError(f"{name} must be a scalar or have shape ({n},), got {array.shape}.")
+        dims[name] = check_positive(jnp.broadcast_to(array, (n,)), name)
+    cg_positions = as_float_array(cg_positions, "cg_positions")
+    check_shape(cg_positions, (n, 3), "cg_positions", f"axes has {n} hinges.")
+    if flap_rotations is None:
+        rotations = jnp.broadcast_to(jnp.eye(3, dtype=cg_positions.dtype), (n, 3, 3))
+    else:
+        rotations = as_float_array(flap_rotations, "flap_rotations")
+        check_shape(rotations, (n, 3, 3), "flap_rotations", f"axes has {n} hinges.")
+    masses, inertias = plate_inertia(
+        dims["flap_length"], dims["flap_width"], dims["thickness"], dims["density"]
+    )
+    top = jnp.concatenate([rotations, cg_positions[:, :, None]], axis=-1)
+    bottom = jnp.broadcast_to(jnp.array([0.0, 0.0, 0.0, 1.0], dtype=top.dtype), (n, 1, 4))
+    return Chain(axes, points, jnp.concatenate([top, bottom], axis=-2), masses, inertias, gravity)
+
+
+def accordion(
+    n_flaps: int = 3,
+    *,
+    flap_length: ArrayLike | None = None,
+    flap_width: ArrayLike | None = None,
+    thickness: ArrayLike | None = None,
+    density: ArrayLike | None = None,
+    gravity: ArrayLike | None = None,
+    units: UnitSystem = MICRO,
+) -> Chain:
+    """The paper's accordion: ``n_flaps`` flaps in a row along ``y``, all hinges along ``x``.
+
+    Hinge ``i`` (1-based) passes through ``(0, L(i − 1), 0)`` and flap ``i``'s CG sits at
+    ``(0, L/2 + L(i − 1), 0)`` with the identity orientation (SPEC Part B; paper Eq. 9 for n = 3).
+
+    **Arguments** (in `units`; a `None` takes the SPEC/Fig. 4 default converted into `units`):
+    - `n_flaps`: number of flaps (= hinges), any ``n ≥ 1``.
+    - `flap_length`: ``L``, default 200 µm (the paper).
+    - `flap_width`: default 200 µm (not given in the paper: a parameter; square flaps by default).
+    - `thickness`: membrane thickness, default 200 nm (Fig. 4 SiNx).
+    - `density`: default SiNx, 3100 kg/m³.
+    - `gravity`: shape `(3,)`; zero by default.
+    - `units`: the unit system of the inputs and of the returned chain, default `MICRO` (µm, µs, ng).
+
+    **Returns:** a `Chain`.
+    """
+    if not isinstance(n_flaps, int | np.integer) or isinstance(n_flaps, bool) or n_flaps < 1:
+        raise ValueError(f"n_flaps must be an integer >= 1, got {n_flaps!r}.")
+    n_flaps = int(n_flaps)
+    length = units.length(200e-6) if flap_length is None else flap_length
+    width = units.length(200e-6) if flap_width is None else flap_width
+    thickness = units.length(200e-9) if thickness is None else thickness
+    density = units.density(_SINX_DENSITY_SI) if density is None else density
+    length_array = check_positive(as_float_array(length, "flap_length"), "flap_length")
+    if length_array.ndim != 0:
+        raise ValueError(
+            "accordion's flap_length must be a scalar (all flaps alike); use flap_chain."
+        )
+    index = jnp.arange(n_flaps, dtype=length_array.dtype)
+    e_x = jnp.array([1.0, 0.0, 0.0], dtype=length_array.dtype)
+    e_y = jnp.array([0.0, 1.0, 0.0], dtype=length_array.dtype)
+    return flap_chain(
+        jnp.broadcast_to(e_x, (n_flaps, 3)),
+        (length_array * index)[:, None] * e_y,
+        (length_array * (index + 0.5))[:, None] * e_y,
+        flap_length=length_array,
+        flap_width=width,
+        thickness=thickness,
+        density=density,
+        gravity=gravity,
+    )

@@ -1,0 +1,349 @@
+"""Hinge physics: materials, fluids, the Timoshenko bilayer, hinge stiffness and drag (SPEC Part B).
+
+A stressed chromium film on a silicon-nitride membrane curls the hinge to radius ``ρ`` (Timoshenko); the
+hinge length that folds the flap by ``θ_final`` is ``l = ρ θ_final``; the hinge is a spring of stiffness
+``k`` and each flap feels quadratic drag ``b θ̇|θ̇|`` from the fluid it folds in. `HingeDesign` holds every
+physical parameter as a pytree leaf, so gradients flow from any of them through `stiffness` and `drag` to
+the dynamics. Constants are defined in SI and converted into the design's `UnitSystem` (default `MICRO`:
+µm, µs, ng ⇒ stress MPa, torque µN·µm = pN·m).
+"""
+
+from typing import Literal
+
+import equinox as eqx
+import jax.numpy as jnp
+from jaxtyping import Array, ArrayLike, Float
+
+from ._chain import Chain, accordion
+from ._units import MICRO, SI, UnitSystem
+from ._validate import as_float_array, check_finite, check_positive, is_traced
+
+
+class Material(eqx.Module):
+    """An isotropic elastic thin film.
+
+    **Fields:**
+    - `youngs_modulus`: ``E``, stress units of `units` (Pa in SI, MPa in MICRO).
+    - `poisson_ratio`: ``ν``, dimensionless, in (−1, ½).
+    - `density`: mass/length³ of `units` (kg/m³ in SI, ng/µm³ in MICRO).
+    - `units`: the unit system of the values (static), SI by default.
+    """
+
+    youngs_modulus: Float[Array, "..."]
+    poisson_ratio: Float[Array, "..."]
+    density: Float[Array, "..."]
+    units: UnitSystem = eqx.field(static=True)
+
+    def __init__(
+        self,
+        youngs_modulus: ArrayLike,
+        poisson_ratio: ArrayLike,
+        density: ArrayLike,
+        units: UnitSystem = SI,
+    ):
+        self.youngs_modulus = check_positive(
+            as_float_array(youngs_modulus, "youngs_modulus"), "youngs_modulus", "stress"
+        )
+        nu = check_finite(as_float_array(poisson_ratio, "poisson_ratio"), "poisson_ratio")
+        if is_traced(nu):
+            nu = eqx.error_if(nu, (nu <= -1) | (nu >= 0.5), "poisson_ratio must lie in (-1, 0.5).")
+        elif bool(jnp.any((nu <= -1) | (nu >= 0.5))):
+            raise ValueError(f"poisson_ratio must lie in (-1, 0.5) for a stable solid, got {nu}.")
+        self.poisson_ratio = nu
+        self.density = check_positive(as_float_array(density, "density"), "density", "mass/length³")
+        self.units = units
+
+    @property
+    def biaxial_modulus(self) -> Float[Array, "..."]:
+        """``E' = E / (1 − ν)``, the modulus of a film under equal in-plane biaxial strain (stress units)."""
+        return self.youngs_modulus / (1 - self.poisson_ratio)
+
+    def to(self, units: UnitSystem) -> "Material":
+        """The same material with its values expressed in `units`."""
+        if units == self.units:
+            return self
+        return Material(
+            units.stress(self.units.to_si(self.youngs_modulus, mass=1, length=-1, time=-2)),
+            self.poisson_ratio,
+            units.density(self.units.to_si(self.density, mass=1, length=-3)),
+            units,
+        )
+
+
+class Fluid(eqx.Module):
+    """The fluid the flaps fold in; only its density enters the quadratic drag.
+
+    **Fields:** `density` (mass/length³ of `units`), `units` (static, SI by default), `name` (static).
+    """
+
+    density: Float[Array, "..."]
+    units: UnitSystem = eqx.field(static=True)
+    name: str = eqx.field(static=True)
+
+    def __init__(self, density: ArrayLike, units: UnitSystem = SI, name: str = "fluid"):
+        self.density = check_positive(as_float_array(density, "density"), "density", "mass/length³")
+        self.units = units
+        self.name = name
+
+    def to(self, units: UnitSystem) -> "Fluid":
+        """The same fluid with its density expressed in `units`."""
+        if units == self.units:
+            return self
+        return Fluid(
+            units.density(self.units.to_si(self.density, mass=1, length=-3)), units, self.name
+        )
+
+
+# Sources (SPEC Part B "Materials"):
+# - SiNx (LPCVD low-stress silicon nitride): E ≈ 250 GPa, ν ≈ 0.23, ρ ≈ 3100 kg/m³. Petersen, "Silicon as a
+#   mechanical material", Proc. IEEE 70 (1982) 420 (E); MEMSnet/MatWeb LPCVD Si3N4 data (ν, ρ); the 200 nm
+#   membranes of the paper's Fig. 4.
+# - Cr (evaporated film, bulk values): E ≈ 279 GPa, ν ≈ 0.21, ρ ≈ 7190 kg/m³. CRC Handbook of Chemistry and
+#   Physics, "Elastic constants of metals" and "Density of elements"; Kaye & Laby, Tables of Physical and
+#   Chemical Constants §2.2.2.
+SINX = Material(250e9, 0.23, 3100.0)
+"""Low-stress LPCVD silicon nitride, SI values (structural membrane)."""
+CR = Material(279e9, 0.21, 7190.0)
+"""Chromium, SI values (stressed hinge film)."""
+
+# - Air at 20 °C and 1 atm: 1.204 kg/m³ (ideal gas, 28.96 g/mol; CRC Handbook, "Properties of dry air").
+# - KOH etch bath, 30 wt% aqueous KOH at 20 °C: 1.29 g/cm³ (CRC Handbook, "Concentrative properties of
+#   aqueous solutions", KOH). The fold happens while the hinge is released in this bath (SPEC Part B); at
+#   the usual 80 °C the density is ~2 % lower, well inside the uncertainty of C_D.
+AIR = Fluid(1.204, SI, "air")
+"""Air at 20 °C, 1 atm (SI)."""
+KOH_SOLUTION = Fluid(1290.0, SI, "30 wt% KOH solution")
+"""30 wt% aqueous KOH at 20 °C (SI)."""
+
+# Literature defaults (SPEC Part B, Fig. 4): 200 nm SiNx, 100 nm Cr, ~1 GPa tensile residual stress in the
+# evaporated Cr. The paper gives neither the flap/hinge width nor C_D: square 200 µm flaps with the hinge
+# spanning the width, and C_D = 1.17 for a flat plate broadside to the flow (Hoerner, Fluid-Dynamic Drag,
+# 1965, ch. 3), are our choices, not the paper's.
+_LITERATURE_SI = dict(
+    hinge_width=200e-6,
+    flap_length=200e-6,
+    flap_width=200e-6,
+    t_structural=200e-9,
+    t_hinge=100e-9,
+    residual_stress=1e9,
+)
+_LITERATURE_THETA_FINAL = jnp.pi
+_LITERATURE_DRAG_COEFFICIENT = 1.17
+
+
+def biaxial_modulus(youngs_modulus: ArrayLike, poisson_ratio: ArrayLike) -> Array:
+    """``E' = E / (1 − ν)`` (units of `youngs_modulus`)."""
+    return jnp.asarray(youngs_modulus) / (1 - jnp.asarray(poisson_ratio))
+
+
+def bilayer_curvature(
+    biaxial_1: ArrayLike,
+    thickness_1: ArrayLike,
+    biaxial_2: ArrayLike,
+    thickness_2: ArrayLike,
+    misfit_strain: ArrayLike,
+) -> Array:
+    """Timoshenko curvature of a bilayer with misfit strain ``ε`` (SPEC; the paper's Eq. 7 is misprinted).
+
+    ``κ = 6 E₁' E₂' t₁ t₂ (t₁ + t₂) ε / (E₁'² t₁⁴ + E₂'² t₂⁴ + 2 E₁' E₂' t₁ t₂ (2t₁² + 3t₁t₂ + 2t₂²))``.
+    As ``t₂ → 0`` it tends to Stoney's ``6 E₂' t₂ ε / (E₁' t₁²)``.
+
+    **Arguments:** biaxial moduli ``E'`` (any stress unit, the same for both), thicknesses ``t`` (length),
+    layer 1 the structural film, layer 2 the stressed one; `misfit_strain` ``ε`` (dimensionless, > 0 curls
+    towards layer 2).
+
+    **Returns:** ``κ = 1/ρ`` in 1/length.
+    """
+    e1, t1, e2, t2, eps = (
+        jnp.asarray(x) for x in (biaxial_1, thickness_1, biaxial_2, thickness_2, misfit_strain)
+    )
+    numerator = 6 * e1 * e2 * t1 * t2 * (t1 + t2) * eps
+    denominator = (
+        e1**2 * t1**4
+        + e2**2 * t2**4
+        + 2 * e1 * e2 * t1 * t2 * (2 * t1**2 + 3 * t1 * t2 + 2 * t2**2)
+    )
+    return numerator / denominator
+
+
+class HingeDesign(eqx.Module):
+    """Physical parameters of a bilayer-hinged flap chain, from which ``k`` and ``b`` per hinge follow.
+
+    Every numeric field is a pytree leaf (scalar, or shape `(n,)` for per-hinge values) in the units of
+    `units` (default `MICRO`: lengths µm, stresses MPa, densities ng/µm³), so `jax.grad` reaches any of them.
+    Build the SPEC/Fig. 4 defaults with `HingeDesign.literature()`.
+
+    **Fields:**
+    - `hinge_width` ``w``, `flap_length` ``L``, `flap_width` (length).
+    - `t_structural` ``t₁`` (SiNx membrane and flap), `t_hinge` ``t₂`` (Cr film) (length).
+    - `misfit_strain` ``ε`` (dimensionless; pass `residual_stress` to the constructor instead to get
+      ``ε = σ / E₂'``).
+    - `theta_final`: the fold angle the free hinge reaches, rad (``l = ρ θ_final``).
+    - `drag_coefficient` ``C_D`` (dimensionless).
+    - `structural`, `hinge`: `Material`s (converted into `units`); `fluid`: `Fluid` (converted).
+    - `k_scale`, `b_scale`: dimensionless factors on ``k`` and ``b`` (calibration knobs), default 1.
+    - `stiffness_model` (static): `"paper"` ``k = w (E₁'t₁³ + E₂'t₂³) / (3 l)`` (default) or `"plate"`,
+      pure plate bending, ``/(12 l)`` — a factor 4 softer (SPEC "questionable formulas").
+    - `drag_model` (static): `"paper"` ``b = C_D ν A L³ / 16`` (default) or `"strip"`, quadratic drag
+      integrated along the plate, ``/8``.
+    - `units` (static).
+    """
+
+    hinge_width: Float[Array, "..."]
+    flap_length: Float[Array, "..."]
+    flap_width: Float[Array, "..."]
+    t_structural: Float[Array, "..."]
+    t_hinge: Float[Array, "..."]
+    misfit_strain: Float[Array, "..."]
+    theta_final: Float[Array, "..."]
+    drag_coefficient: Float[Array, "..."]
+    structural: Material
+    hinge: Material
+    fluid: Fluid
+    k_scale: Float[Array, "..."]
+    b_scale: Float[Array, "..."]
+    stiffness_model: Literal["paper", "plate"] = eqx.field(static=True)
+    drag_model: Literal["paper", "strip"] = eqx.field(static=True)
+    units: UnitSystem = eqx.field(static=True)
+
+    def __init__(
+        self,
+        *,
+        hinge_width: ArrayLike,
+        flap_length: ArrayLike,
+        flap_width: ArrayLike,
+        t_structural: ArrayLike,
+        t_hinge: ArrayLike,
+        misfit_strain: ArrayLike | None = None,
+        residual_stress: ArrayLike | None = None,
+        theta_final: ArrayLike = _LITERATURE_THETA_FINAL,
+        drag_coefficient: ArrayLike = _LITERATURE_DRAG_COEFFICIENT,
+        structural: Material = SINX,
+        hinge: Material = CR,
+        fluid: Fluid = AIR,
+        k_scale: ArrayLike = 1.0,
+        b_scale: ArrayLike = 1.0,
+        stiffness_model: str = "paper",  # str, not Literal: a wrong value gets the ValueError below
+        drag_model: str = "paper",
+        units: UnitSystem = MICRO,
+    ):
+        if stiffness_model not in ("paper", "plate"):
+            raise ValueError(
+                f"stiffness_model must be 'paper' or 'plate', got {stiffness_model!r}."
+            )
+        if drag_model not in ("paper", "strip"):
+            raise ValueError(f"drag_model must be 'paper' or 'strip', got {drag_model!r}.")
+        if (misfit_strain is None) == (residual_stress is None):
+            raise ValueError(
+                "Give exactly one of misfit_strain (dimensionless) or residual_stress (stress units of "
+                "`units`, MPa in MICRO); the strain follows from the stress as ε = σ / E₂'."
+            )
+        self.units = units
+        self.stiffness_model = stiffness_model
+        self.drag_model = drag_model
+        self.structural = structural.to(units)
+        self.hinge = hinge.to(units)
+        self.fluid = fluid.to(units)
+        for name, value in (
+            ("hinge_width", hinge_width),
+            ("flap_length", flap_length),
+            ("flap_width", flap_width),
+            ("t_structural", t_structural),
+            ("t_hinge", t_hinge),
+            ("theta_final", theta_final),
+            ("drag_coefficient", drag_coefficient),
+        ):
+            setattr(self, name, check_positive(as_float_array(value, name), name))
+        if misfit_strain is None:
+            stress = check_positive(
+                as_float_array(residual_stress, "residual_stress"), "residual_stress"
+            )
+            misfit_strain = stress / self.hinge.biaxial_modulus
+        self.misfit_strain = check_positive(
+            as_float_array(misfit_strain, "misfit_strain"),
+            "misfit_strain",
+            "tensile misfit in the hinge film, which curls the hinge towards it",
+        )
+        self.k_scale = check_positive(as_float_array(k_scale, "k_scale"), "k_scale")
+        self.b_scale = check_positive(as_float_array(b_scale, "b_scale"), "b_scale")
+
+    @classmethod
+    def literature(cls, units: UnitSystem = MICRO, **overrides) -> "HingeDesign":
+        """SPEC/Fig. 4 defaults in `units`: 200 nm SiNx, 100 nm Cr at 1 GPa residual stress, 200 µm square
+        flaps with hinges as wide as the flaps, ``θ_final = π``, ``C_D = 1.17``, air.
+
+        `overrides` replace any constructor argument, in `units` (e.g. ``fluid=KOH_SOLUTION``,
+        ``k_scale=3.07``, ``misfit_strain=2e-3``).
+        """
+        kwargs = {
+            "hinge_width": units.length(_LITERATURE_SI["hinge_width"]),
+            "flap_length": units.length(_LITERATURE_SI["flap_length"]),
+            "flap_width": units.length(_LITERATURE_SI["flap_width"]),
+            "t_structural": units.length(_LITERATURE_SI["t_structural"]),
+            "t_hinge": units.length(_LITERATURE_SI["t_hinge"]),
+        }
+        if "misfit_strain" not in overrides:
+            kwargs["residual_stress"] = units.stress(_LITERATURE_SI["residual_stress"])
+        kwargs.update(overrides)
+        return cls(units=units, **kwargs)
+
+    def curvature(self) -> Array:
+        """Timoshenko curvature ``κ = 1/ρ`` of the hinge (1/length)."""
+        return bilayer_curvature(
+            self.structural.biaxial_modulus,
+            self.t_structural,
+            self.hinge.biaxial_modulus,
+            self.t_hinge,
+            self.misfit_strain,
+        )
+
+    def radius(self) -> Array:
+        """Radius of curvature ``ρ`` of the free hinge (length); ≈ 78 µm with literature values."""
+        return 1 / self.curvature()
+
+    def hinge_length(self) -> Array:
+        """``l = ρ θ_final`` (length): the arc that bends by ``θ_final`` at the free curvature."""
+        return self.radius() * self.theta_final
+
+    def stiffness(self, n_joints: int) -> Float[Array, " n"]:
+        """Rotational stiffness ``k`` of each hinge, shape `(n_joints,)`, torque/rad (µN·µm in MICRO).
+
+        ``k = k_scale · w (E₁'t₁³ + E₂'t₂³) / (c l)`` with ``c = 3`` (`"paper"`) or 12 (`"plate"`).
+        """
+        bending = (
+            self.structural.biaxial_modulus * self.t_structural**3
+            + self.hinge.biaxial_modulus * self.t_hinge**3
+        )
+        denominator = 3.0 if self.stiffness_model == "paper" else 12.0
+        k = self.k_scale * self.hinge_width * bending / (denominator * self.hinge_length())
+        return jnp.broadcast_to(k, (n_joints,))
+
+    def drag(self, n_joints: int) -> Float[Array, " n"]:
+        """Quadratic drag coefficient ``b`` of each hinge, shape `(n_joints,)`, torque·time²/rad².
+
+        ``b = b_scale · C_D ν A L³ / c`` with ``A = L × flap_width``, ``ν`` the fluid density and ``c = 16``
+        (`"paper"`) or 8 (`"strip"`).
+        """
+        area = self.flap_length * self.flap_width
+        denominator = 16.0 if self.drag_model == "paper" else 8.0
+        b = (
+            self.b_scale
+            * self.drag_coefficient
+            * self.fluid.density
+            * area
+            * self.flap_length**3
+            / denominator
+        )
+        return jnp.broadcast_to(b, (n_joints,))
+
+    def accordion(self, n_flaps: int = 3, *, gravity: ArrayLike | None = None) -> Chain:
+        """The accordion chain with this design's flaps (length, width, ``t₁``, structural density)."""
+        return accordion(
+            n_flaps,
+            flap_length=self.flap_length,
+            flap_width=self.flap_width,
+            thickness=self.t_structural,
+            density=self.structural.density,
+            gravity=gravity,
+            units=self.units,
+        )

@@ -1,0 +1,294 @@
+"""Dynamics of flap chains (issue #3): Pinocchio, Christoffel symbols, structure, energy, gradients."""
+
+import diffrax
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pinocchio as pin
+import pytest
+from jax.test_util import check_grads
+
+import origami_jax.chain as oc
+
+from .chain_cases import SEED, as_jax, quick_jit, random_chain, random_states, to_pinocchio
+from .helpers import max_relative_error
+
+# Pinocchio is an independent C++ implementation (CRBA, RNEA, ABA) in float64; we see ~1e-15, and the
+# issue asks for 1e-10 relative to the largest entry.
+PINOCCHIO_RTOL = 1e-10
+# Recursive Newton–Euler vs the Christoffel symbols of the Jacobian-form M: same model, different
+# algebra, both float64; the issue asks for 1e-12.
+PATH_RTOL = 1e-12
+# Forward then inverse dynamics: the round trip goes through a solve with M, so its error is
+# ~cond(M)·eps (cond(M) reaches ~1e4 for the random chains), not eps.
+ROUND_TRIP_RTOL = 1e-10
+# Ṁ − 2C skew: an identity of the Christoffel construction, so only round-off remains.
+SKEW_RTOL = 1e-12
+# Energy drift along a B = 0, τ = 0 trajectory: the integrator runs at rtol = atol = 1e-11 on the state,
+# so the energy can drift by ~1e-9 of its size over the run; 1e-7 leaves room.
+ENERGY_RTOL = 1e-7
+
+N_STATES = 4
+
+CASES = {
+    "accordion3": lambda: oc.accordion(3),
+    "random5_gravity": lambda: random_chain(5, SEED, gravity=True),
+    "random7": lambda: random_chain(7, SEED + 1),
+}
+# The Christoffel path compiles slowly (autodiff through O(n²) transforms): two cases cover it.
+REFERENCE_CASES = ("accordion3", "random5_gravity")
+
+
+@quick_jit
+def _recursive(chain, theta, theta_dot, tau):
+    """The fast path, vmapped over states: one compilation per chain size."""
+
+    def one(q, v, t):
+        acceleration = oc.forward_dynamics(chain, q, v, t, stiffness=0.0, drag=0.0)
+        return dict(
+            mass=oc.mass_matrix(chain, q),
+            mass_dot=jax.jvp(lambda x: oc.mass_matrix(chain, x), (q,), (v,))[1],
+            bias=oc.bias_torque(chain, q, v),
+            acceleration=acceleration,
+            inverse=oc.inverse_dynamics(chain, q, v, acceleration),
+        )
+
+    return jax.vmap(one)(theta, theta_dot, tau)
+
+
+@quick_jit
+def _reference(chain, theta, theta_dot):
+    """The paper's path: Jacobian-form M, Christoffel C, gravity as the gradient of the potential."""
+
+    def one(q, v):
+        return dict(
+            mass=oc.mass_matrix(chain, q, method="jacobian"),
+            coriolis=oc.coriolis_matrix(chain, q, v),
+            gravity=jax.grad(oc.potential_energy, argnums=1)(chain, q),
+        )
+
+    return jax.vmap(one)(theta, theta_dot)
+
+
+_CACHE: dict = {}
+
+
+def _case(name):
+    # Cached per module run: each chain size compiles the fast path once, shared by every test below.
+    if name not in _CACHE:
+        chain = CASES[name]()
+        states = random_states(chain.n_joints, N_STATES, SEED + 7)
+        ours = jax.tree_util.tree_map(np.asarray, _recursive(chain, *as_jax(*states)))
+        _CACHE[name] = (chain, states, ours)
+    return _CACHE[name]
+
+
+@pytest.fixture(scope="module", params=list(CASES))
+def case(request):
+    return _case(request.param)
+
+
+@pytest.fixture(scope="module", params=REFERENCE_CASES)
+def reference_case(request):
+    chain, (theta, theta_dot, _), ours = _case(request.param)
+    reference = jax.tree_util.tree_map(np.asarray, _reference(chain, *as_jax(theta, theta_dot)))
+    return theta_dot, ours, reference
+
+
+def test_matches_pinocchio(case):
+    chain, (theta, theta_dot, tau), ours = case
+    model = to_pinocchio(chain)
+    data = model.createData()
+    for s in range(N_STATES):
+        mass = pin.crba(model, data, theta[s])
+        mass = np.triu(mass) + np.triu(mass, 1).T  # crba fills the upper triangle only
+        nle = pin.nonLinearEffects(model, data, theta[s], theta_dot[s])
+        aba = pin.aba(model, data, theta[s], theta_dot[s], tau[s])
+        assert max_relative_error(ours["mass"][s], mass) < PINOCCHIO_RTOL
+        assert max_relative_error(ours["bias"][s], nle) < PINOCCHIO_RTOL
+        assert max_relative_error(ours["acceleration"][s], aba) < PINOCCHIO_RTOL
+
+
+def test_recursive_equals_christoffel(reference_case):
+    theta_dot, ours, reference = reference_case
+    christoffel_bias = (
+        np.einsum("sij,sj->si", reference["coriolis"], theta_dot) + reference["gravity"]
+    )
+    assert max_relative_error(ours["mass"], reference["mass"]) < PATH_RTOL
+    assert max_relative_error(ours["bias"], christoffel_bias) < PATH_RTOL
+
+
+def test_inverse_dynamics_inverts_forward(case):
+    _, (_, _, tau), ours = case
+    assert max_relative_error(ours["inverse"], tau) < ROUND_TRIP_RTOL
+
+
+def test_mdot_minus_2c_skew(reference_case):
+    _, ours, reference = reference_case
+    for mass_dot, coriolis in zip(ours["mass_dot"], reference["coriolis"], strict=True):
+        n = mass_dot - 2 * coriolis
+        assert np.abs(n + n.T).max() <= SKEW_RTOL * np.abs(mass_dot).max()
+
+
+def test_mass_matrix_symmetric_positive_definite(case):
+    *_, ours = case
+    for mass in ours["mass"]:
+        np.testing.assert_array_equal(mass, mass.T)  # symmetric by construction, bit for bit
+        assert np.linalg.eigvalsh(mass).min() > 0
+
+
+def test_energy_conserved_without_drag():
+    chain = oc.accordion(3)
+    design = oc.HingeDesign.literature()
+    k = design.stiffness(3)
+
+    def field(t, y, args):
+        q, v = y
+        return v, oc.forward_dynamics(chain, q, v, jnp.zeros(3), stiffness=k, drag=0.0)
+
+    def energy(q, v):
+        return oc.kinetic_energy(chain, q, v) + 0.5 * jnp.sum(k * q**2)
+
+    y0 = (jnp.array([jnp.pi / 2, -jnp.pi / 3, jnp.pi / 4]), jnp.array([0.0, 0.05, -0.02]))
+
+    @quick_jit
+    def solve(y0):
+        return diffrax.diffeqsolve(
+            diffrax.ODETerm(field),
+            diffrax.Tsit5(),
+            t0=0.0,
+            t1=200.0,  # µs, more than a period of the slowest mode
+            dt0=0.1,
+            y0=y0,
+            saveat=diffrax.SaveAt(ts=jnp.linspace(0.0, 200.0, 21)),
+            stepsize_controller=diffrax.PIDController(rtol=1e-11, atol=1e-11),
+            max_steps=100_000,
+        )
+
+    solution = solve(y0)
+    energies = jax.vmap(energy)(*solution.ys)
+    assert np.ptp(np.asarray(energies)) <= ENERGY_RTOL * float(energies[0])
+    # The motion is not trivial: the angles sweep a good part of their range.
+    assert float(jnp.ptp(solution.ys[0][:, 2])) > 0.5
+
+
+def _accordion_acceleration(scales, theta, theta_dot, tau):
+    # Design parameters enter as relative scale factors so that the finite-difference step (1e-4 in
+    # check_grads) is a relative perturbation of every physical parameter, whatever its size.
+    base = oc.HingeDesign.literature(fluid=oc.KOH_SOLUTION)
+    design = oc.HingeDesign.literature(
+        fluid=oc.KOH_SOLUTION,
+        flap_length=base.flap_length * scales[0],
+        flap_width=base.flap_width * scales[1],
+        hinge_width=base.hinge_width * scales[2],
+        t_structural=base.t_structural * scales[3],
+        t_hinge=base.t_hinge * scales[4],
+        misfit_strain=base.misfit_strain * scales[5],
+        drag_coefficient=base.drag_coefficient * scales[6],
+        theta_final=base.theta_final * scales[7],
+    )
+    chain = design.accordion(3)
+    return oc.forward_dynamics(
+        chain, theta, theta_dot, tau, stiffness=design.stiffness(3), drag=design.drag(3)
+    )
+
+
+def test_gradients_wrt_state_and_hinges():
+    """M and θ̈ of a chain with non-parallel axes against finite differences, both modes."""
+    chain = random_chain(3, SEED + 3)
+
+    # Jitted, so that the finite differences reuse one compilation instead of running op by op
+    # (check_grads nests it inside its own transformations, where compiler options are refused).
+    @jax.jit
+    def mass_and_acceleration(theta, theta_dot, tau, stiffness, drag):
+        return (
+            oc.mass_matrix(chain, theta) / 1e6,
+            oc.forward_dynamics(chain, theta, theta_dot, tau, stiffness=stiffness, drag=drag),
+        )
+
+    args = as_jax(
+        [0.4, -1.1, 2.0], [0.03, -0.02, 0.05], [100.0, -200.0, 300.0], [800.0] * 3, [3e4] * 3
+    )
+    check_grads(mass_and_acceleration, args, order=1, modes=["fwd", "rev"])
+
+
+@pytest.mark.slow
+def test_gradients_wrt_design():
+    """θ̈ of the accordion against finite differences in eight physical design parameters."""
+
+    @jax.jit
+    def acceleration(scales):
+        theta = jnp.array([0.4, -1.1, 2.0])
+        theta_dot = jnp.array([0.03, -0.02, 0.05])
+        return _accordion_acceleration(scales, theta, theta_dot, jnp.array([100.0, -200.0, 300.0]))
+
+    check_grads(acceleration, (jnp.ones(8),), order=1, modes=["fwd", "rev"])
+
+
+def test_jit_vmap_over_designs_and_states_without_retracing():
+    @quick_jit
+    @eqx.debug.assert_max_traces(max_traces=1)
+    def batched(scales, theta, theta_dot, tau):
+        return jax.vmap(_accordion_acceleration)(scales, theta, theta_dot, tau)
+
+    rng = np.random.default_rng(SEED)
+    for _ in range(3):
+        args = as_jax(
+            rng.uniform(0.8, 1.2, size=(16, 8)),
+            rng.uniform(-3.0, 3.0, size=(16, 3)),
+            rng.normal(scale=0.05, size=(16, 3)),
+            rng.normal(scale=1e3, size=(16, 3)),
+        )
+        out = batched(*args)
+        assert out.shape == (16, 3) and bool(jnp.all(jnp.isfinite(out)))
+    # A batch member equals the unbatched evaluation.
+    single = _accordion_acceleration(*(a[5] for a in args))
+    assert max_relative_error(out[5], single) < PATH_RTOL
+
+
+def test_hinge_torque():
+    torque = oc.hinge_torque(
+        jnp.array([1.0, 2.0]), jnp.array([3.0, 4.0]), jnp.array([0.5, -1.0]), jnp.array([-2.0, 3.0])
+    )
+    np.testing.assert_allclose(torque, [0.5 - 12.0, -2.0 + 36.0])
+
+
+def test_units_do_not_change_the_answer():
+    """The same physical state in SI and in MICRO gives the same physical acceleration."""
+    theta = jnp.array([0.4, -1.1, 2.0])
+    rate_si = jnp.array([3e4, -2e4, 5e4])  # rad/s
+    results = {}
+    for units in (oc.SI, oc.MICRO):
+        design = oc.HingeDesign.literature(units=units)
+        chain = design.accordion(3)
+        rate = rate_si * units.second_per_time
+        accel = oc.forward_dynamics(
+            chain, theta, rate, jnp.zeros(3), stiffness=design.stiffness(3), drag=design.drag(3)
+        )
+        results[units.name] = accel / units.second_per_time**2  # rad/s²
+    assert max_relative_error(results["micro"], results["SI"]) < PATH_RTOL
+
+
+def test_array_path_for_long_chains_agrees():
+    """Chains longer than `_SCALAR_MAX` run the same algorithm on (n, 3) arrays: same numbers."""
+    from origami_jax.chain import _dynamics
+
+    chain, (theta, theta_dot, tau), ours = _case("random7")
+
+    @quick_jit
+    def arrays(chain, q, v, t):
+        def one(q, v, t):
+            bodies = _dynamics._Bodies(chain, q)
+            return (
+                _dynamics._composite_mass_matrix(bodies),
+                _dynamics._newton_euler(bodies, chain.gravity, v, jnp.zeros_like(v)),
+                _dynamics._forward_dynamics_arrays(chain, q, v, t),
+            )
+
+        return jax.vmap(one)(q, v, t)
+
+    mass, bias, acceleration = arrays(chain, *as_jax(theta, theta_dot, tau))
+    assert max_relative_error(mass, ours["mass"]) < PATH_RTOL
+    assert max_relative_error(bias, ours["bias"]) < PATH_RTOL
+    assert max_relative_error(acceleration, ours["acceleration"]) < ROUND_TRIP_RTOL
