@@ -10,3 +10,26 @@ call ``jax.config.update("jax_enable_x64", True)`` before using it (the CLI does
 """
 
 __version__ = "0.1.0"
+
+import importlib as _importlib
+from typing import TYPE_CHECKING as _TYPE_CHECKING
+
+# Subpackages load on first use so that `origami-jax --help` and `import origami_jax` stay fast;
+# `origami_jax.chain`, `origami_jax.simulation`, ... behave as ordinary attributes.
+_SUBPACKAGES = ("chain", "design", "fold", "plotting", "simulation", "sweep", "vertex")
+
+if _TYPE_CHECKING:
+    from . import chain, design, fold, plotting, simulation, sweep, vertex  # noqa: F401
+
+
+def __getattr__(name: str):
+    if name in _SUBPACKAGES:
+        return _importlib.import_module(f"{__name__}.{name}")
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *_SUBPACKAGES})
+
+
+__all__ = ["__version__", *_SUBPACKAGES]

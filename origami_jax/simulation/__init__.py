@@ -1,0 +1,25 @@
+"""Folding simulation of hinged-flap chains: inputs, `simulate`, response metrics (issue #4).
+
+Paper sections "Open Loop Control Law", "Step Input", "Ramp Input", Figs. 7–11; SPEC Part B "Inputs",
+"Results to reproduce", "Numerics".
+"""
+
+from ._inputs import FAST_RAMP_DURATION_SI as FAST_RAMP_DURATION_SI
+from ._inputs import KOH_ETCH_RATE_SI as KOH_ETCH_RATE_SI
+from ._inputs import AbstractInput as AbstractInput
+from ._inputs import EtchRamp as EtchRamp
+from ._inputs import Step as Step
+from ._inputs import UserTorque as UserTorque
+from ._inputs import alternating_targets as alternating_targets
+from ._inputs import fast_ramp as fast_ramp
+from ._metrics import ResponseMetrics as ResponseMetrics
+from ._metrics import response_metrics as response_metrics
+from ._results import RESULTS as RESULTS
+from ._simulate import DEFAULT_ATOL as DEFAULT_ATOL
+from ._simulate import DEFAULT_RTOL as DEFAULT_RTOL
+from ._simulate import Trajectory as Trajectory
+from ._simulate import default_controller as default_controller
+from ._simulate import default_solver as default_solver
+from ._simulate import simulate as simulate
+from ._slow_ramp import SlowRampResult as SlowRampResult
+from ._slow_ramp import simulate_slow_ramp as simulate_slow_ramp

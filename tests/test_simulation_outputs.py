@@ -1,0 +1,84 @@
+"""CLI `origami-jax simulate` and the chain figures (GIF, frame strip, annotated angles)."""
+
+import json
+
+import jax.numpy as jnp
+import matplotlib.pyplot as plt
+import numpy as np
+
+import origami_jax.simulation as sim
+from origami_jax.chain import accordion
+from origami_jax.cli import main
+from origami_jax.plotting import chain as chain_plots
+
+
+def _fake_trajectory(n_t=40):
+    times = jnp.linspace(0.0, 100.0, n_t)
+    y = 1 - jnp.exp(-times / 20.0) * jnp.cos(times / 10.0)
+    target = sim.alternating_targets(3)
+    theta = y[:, None] * target
+    v = jnp.gradient(y, times)[:, None] * target
+    return sim.Trajectory(
+        times=times,
+        theta=theta,
+        theta_dot=v,
+        theta_ddot=jnp.gradient(v, times, axis=0),
+        tau=jnp.zeros_like(theta),
+        target=target,
+        stats={},
+        result=sim.RESULTS.successful,
+    )
+
+
+def test_figures_and_animation(tmp_path):
+    chain = accordion(3)
+    trajectory = _fake_trajectory()
+    metrics = sim.response_metrics(trajectory)
+    fig = chain_plots.plot_joint_angles(trajectory, metrics, title="test")
+    fig.savefig(tmp_path / "angles.png")
+    plt.close(fig)
+    fig = chain_plots.chain_frames(chain, trajectory, tmp_path / "frames.png", n_frames=3)
+    plt.close(fig)
+    gif = chain_plots.animate_chain(chain, trajectory, tmp_path / "fold.gif", n_frames=4)
+    for name in ("angles.png", "frames.png", "fold.gif"):
+        assert (tmp_path / name).stat().st_size > 1000
+    assert gif.suffix == ".gif"
+    corners = chain_plots.flap_corners(chain, np.zeros(3))
+    # Flat accordion: three 200 µm × 200 µm flaps side by side along y.
+    # (The length comes from the plate inertia, sqrt(L² + t²): 1e-4 µm long for t = 0.2 µm.)
+    np.testing.assert_allclose(corners[:, :, 1].min(), 0.0, atol=1e-3)
+    np.testing.assert_allclose(corners[:, :, 1].max(), 600.0, atol=1e-3)
+
+
+def test_cli_simulate_writes_trajectory_and_metrics(tmp_path, capsys):
+    code = main(
+        [
+            "simulate",
+            "--input",
+            "step",
+            "--flaps",
+            "2",
+            "--solver",
+            "tsit5",
+            "--t1",
+            "300",
+            "--n-save",
+            "301",
+            "--param",
+            "k_scale=2",
+            "--no-figures",
+            "--out",
+            str(tmp_path),
+        ]
+    )
+    assert code == 0
+    header = (tmp_path / "trajectory.csv").read_text().splitlines()[0]
+    assert header.startswith("time [us],theta_1 [rad]") and "tau_2 [pN*m]" in header
+    report = json.loads((tmp_path / "metrics.json").read_text())
+    assert report["succeeded"] and report["params"] == {"k_scale": 2.0}
+    assert len(report["metrics"]["rise_time"]) == 2
+
+
+def test_cli_simulate_rejects_bad_params(tmp_path, capsys):
+    assert main(["simulate", "--param", "nonsense", "--out", str(tmp_path)]) == 2
+    assert main(["simulate", "--param", "no_such_field=1", "--out", str(tmp_path)]) == 2
