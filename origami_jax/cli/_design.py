@@ -1,8 +1,21 @@
 """`origami-jax design`: Fit hinge parameters to target rise times / overshoot or to a measured response."""
 
 import argparse
+import json
+import math
+import sys
+import time
 
-from ._common import add_out_argument, not_implemented
+from ._common import EXIT_FAILED, EXIT_OK, EXIT_USAGE, add_out_argument, prepare_out
+
+_EPILOG = """\
+Times are in SI seconds on the command line; per-joint lists are comma-separated with '-' for a joint
+without a target. A single --target-overshoot value targets joint 1 (as the paper reports it).
+
+example (the paper's Fig. 7 step response):
+  origami-jax design --target-rise 37e-6,101e-6,38e-6 --target-overshoot 0.39 \\
+      --free k_scale,b_scale --bounds k_scale=0.1:100,b_scale=0.1:1000 --out design_out
+"""
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -10,10 +23,181 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "design",
         help="Fit hinge parameters to target rise times / overshoot or to a measured response.",
         description="Fit hinge parameters to target rise times / overshoot or to a measured response.",
+        epilog=_EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument("--target-rise", help="10-90 %% rise time per joint, seconds")
+    parser.add_argument("--target-overshoot", help="overshoot per joint, fraction (0.39 = 39 %%)")
+    parser.add_argument("--target-peak", help="time of the highest peak per joint, seconds")
+    parser.add_argument("--target-settling", help="2 %% settling time per joint, seconds")
+    parser.add_argument("--target-final", help="final angle per joint, degrees")
+    parser.add_argument(
+        "--curve",
+        help="measured response: CSV with a header, columns t (s) then theta_1..theta_n (rad)",
+    )
+    parser.add_argument(
+        "--free",
+        default="k_scale,b_scale",
+        help="free HingeDesign parameters (default k_scale,b_scale)",
+    )
+    parser.add_argument(
+        "--bounds",
+        default="",
+        help="name=lower:upper,... in SI units for dimensional parameters (default ×/÷ 100 of the start)",
+    )
+    parser.add_argument(
+        "--fluid", choices=("air", "koh"), default="air", help="fold fluid (default air)"
+    )
+    parser.add_argument(
+        "--n-flaps", type=int, default=None, help="accordion flaps (default: targets')"
+    )
+    parser.add_argument(
+        "--t1", type=float, default=None, help="run length, s (default from the targets)"
+    )
+    parser.add_argument("--starts", type=int, default=4, help="multi-start count (default 4)")
+    parser.add_argument("--max-steps", type=int, default=48, help="optimiser steps per start")
+    parser.add_argument(
+        "--tolerance", type=float, default=0.05, help="relative miss counted as met"
     )
     add_out_argument(parser)
     parser.set_defaults(func=run)
 
 
+def _floats(text: str | None, what: str) -> list[float] | None:
+    if text is None:
+        return None
+    values = []
+    for item in text.split(","):
+        item = item.strip()
+        values.append(math.nan if item in ("", "-", "nan") else float(item))
+    if not values or all(math.isnan(v) for v in values):
+        raise ValueError(f"{what}: no values in {text!r}.")
+    return values
+
+
+def _pad(values: list[float] | None, n: int, what: str) -> list[float] | None:
+    if values is None:
+        return None
+    if len(values) == 1 and n > 1:
+        return values + [math.nan] * (n - 1)
+    if len(values) != n:
+        raise ValueError(f"{what}: {len(values)} values for {n} joints.")
+    return values
+
+
+# SI → design units, per parameter kind (see origami_jax.design._space.parameter_unit).
+def _convert(units, kind: str, value: float) -> float:
+    return {
+        "length": units.length,
+        "stress": units.stress,
+        "mass/length³": units.density,
+    }.get(kind, lambda v: v)(value)
+
+
 def run(args: argparse.Namespace) -> int:
-    return not_implemented("design", issue=6)
+    try:
+        rise = _floats(args.target_rise, "--target-rise")
+        overshoot = _floats(args.target_overshoot, "--target-overshoot")
+        peak = _floats(args.target_peak, "--target-peak")
+        settling = _floats(args.target_settling, "--target-settling")
+        final = _floats(args.target_final, "--target-final")
+    except ValueError as error:
+        print(f"origami-jax design: {error}", file=sys.stderr)
+        return EXIT_USAGE
+    lists = [v for v in (rise, peak, settling, final) if v is not None]
+    n = args.n_flaps or (len(lists[0]) if lists else None)
+    if n is None and args.curve is None and overshoot is not None:
+        n = 3
+    if n is None and args.curve is None:
+        print(
+            "origami-jax design: give at least one target (--target-*, --curve).", file=sys.stderr
+        )
+        return EXIT_USAGE
+
+    print(
+        "origami-jax design: loading JAX and compiling (the first fit takes a minute) ...",
+        flush=True,
+    )
+    import numpy as np
+
+    import origami_jax.design as ojd
+    from origami_jax.chain import AIR, KOH_SOLUTION, MICRO, HingeDesign
+
+    units = MICRO
+    try:
+        curve = None
+        if args.curve is not None:
+            table = np.loadtxt(args.curve, delimiter=",", skiprows=1, ndmin=2)
+            curve = ojd.MeasuredCurve(units.time(table[:, 0]), table[:, 1:])
+            n = n or curve.theta.shape[1]
+        to_time = lambda v: None if v is None else [units.time(x) for x in _pad(v, n, "time")]
+        targets = ojd.Targets(
+            rise_time=to_time(rise),
+            overshoot=_pad(overshoot, n, "--target-overshoot"),
+            peak_time=to_time(peak),
+            settling_time=to_time(settling),
+            final_angle=None
+            if final is None
+            else [math.radians(x) for x in _pad(final, n, "--target-final")],
+            curve=curve,
+        )
+        free = [name.strip() for name in args.free.split(",") if name.strip()]
+        bounds = {}
+        for item in filter(None, (b.strip() for b in args.bounds.split(","))):
+            name, _, span = item.partition("=")
+            lower, _, upper = span.partition(":")
+            kind = ojd.parameter_unit(name.strip())
+            bounds[name.strip()] = (
+                _convert(units, kind, float(lower)),
+                _convert(units, kind, float(upper)),
+            )
+        fluid = AIR if args.fluid == "air" else KOH_SOLUTION
+        hinge = HingeDesign.literature(units, fluid=fluid)
+        t1 = None if args.t1 is None else units.time(args.t1)
+    except ValueError as error:
+        print(f"origami-jax design: {error}", file=sys.stderr)
+        return EXIT_USAGE
+
+    out = prepare_out(args.out)
+    print(
+        f"  targets: {', '.join(targets.labels) or '-'}{' + measured curve' if curve is not None else ''}"
+        f"\n  free: {', '.join(free)}; {args.starts} starts, up to {args.max_steps} steps each",
+        flush=True,
+    )
+    start = time.perf_counter()
+    try:
+        result = ojd.design(
+            hinge,
+            targets,
+            free,
+            bounds=bounds,
+            t1=t1,
+            n_flaps=n,
+            n_starts=args.starts,
+            max_steps=args.max_steps,
+            tolerance=args.tolerance,
+        )
+    except (ValueError, RuntimeError) as error:
+        print(f"origami-jax design: {error}", file=sys.stderr)
+        return EXIT_FAILED if isinstance(error, RuntimeError) else EXIT_USAGE
+    print(f"  fitted in {time.perf_counter() - start:.1f} s (compilation included)", flush=True)
+    print(result.summary())
+
+    payload = result.to_dict()
+    payload["units_note"] = "values in MICRO units: µm, µs, ng, MPa; overshoot as a fraction"
+    payload["targets_si"] = {
+        row.label: {
+            "target": row.target * (1e-6 if row.unit == "time" else 1.0),
+            "achieved": row.achieved * (1e-6 if row.unit == "time" else 1.0),
+        }
+        for row in result.targets
+    }
+    with open(out / "design.json", "w") as file:
+        json.dump(payload, file, indent=2, default=float)
+    print("  drawing the before/after response ...", flush=True)
+    import matplotlib
+
+    matplotlib.use("Agg")
+    ojd.plot_response(result, path=out / "design_response.png")
+    print(f"wrote {out / 'design.json'} and {out / 'design_response.png'}")
+    return EXIT_OK if result.reached else EXIT_FAILED

@@ -1,0 +1,48 @@
+"""Gradient-based hinge design and calibration to measured responses (issue #6).
+
+```python
+import origami_jax.design as ojd
+from origami_jax.chain import HingeDesign
+
+targets = ojd.Targets(rise_time=[37.0, 101.0, 38.0], overshoot=[0.39, nan, nan])   # µs, fraction
+result = ojd.calibrate(HingeDesign.literature(), targets, ["k_scale", "b_scale"],
+                       bounds={"k_scale": (0.1, 100), "b_scale": (0.1, 1000)})
+print(result.summary())
+```
+
+- `design` / `calibrate`: bounded (sigmoid-reparametrised) least squares through the simulation,
+  Levenberg–Marquardt from several starts in one vmapped batch; a `DesignResult` with the metrics next to
+  the targets, sensitivities, an identifiability verdict and a report of unreachable targets.
+- `Targets`, `MeasuredCurve`: what to aim at. `ParameterSpace` / `parameter_space`: free parameters.
+- `fit_batch`: the multi-start least-squares driver over any residual function.
+- `identifiability`: rank and (non-)determined combinations of a sensitivity matrix.
+- Plots: `origami_jax.design.plot_response` (imports matplotlib when called).
+"""
+
+from ._design import DEFAULT_N_SAVE as DEFAULT_N_SAVE
+from ._design import DEFAULT_TOLERANCE as DEFAULT_TOLERANCE
+from ._design import SimulationSettings as SimulationSettings
+from ._design import calibrate as calibrate
+from ._design import design as design
+from ._design import evaluate as evaluate
+from ._design import residual_and_jacobian as residual_and_jacobian
+from ._design import residual_at as residual_at
+from ._design import response as response
+from ._identify import RANK_RTOL as RANK_RTOL
+from ._identify import WEAK_RTOL as WEAK_RTOL
+from ._identify import Identifiability as Identifiability
+from ._identify import identifiability as identifiability
+from ._lstsq import RESULTS as RESULTS
+from ._lstsq import FitBatch as FitBatch
+from ._lstsq import fit_batch as fit_batch
+from ._plot import plot_response as plot_response
+from ._report import DesignResult as DesignResult
+from ._report import TargetRow as TargetRow
+from ._space import PARAMETER_NAMES as PARAMETER_NAMES
+from ._space import ParameterSpace as ParameterSpace
+from ._space import parameter_space as parameter_space
+from ._space import parameter_unit as parameter_unit
+from ._targets import KINDS as KINDS
+from ._targets import MeasuredCurve as MeasuredCurve
+from ._targets import Targets as Targets
+from ._targets import time_horizon as time_horizon

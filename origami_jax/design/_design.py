@@ -1,0 +1,332 @@
+"""`design` and `calibrate`: hinge parameters that make a folding chain meet targets, through the simulation.
+
+Stages: unconstrained ``z`` → bounded parameters (`ParameterSpace`) → `HingeDesign` → chain, stiffness,
+drag → `simulate` (forward-mode sensitivities, `diffrax.ForwardMode`) → `response_metrics` → dimensionless
+residual rows (`Targets`) → Levenberg–Marquardt from several starts at once (`fit_batch`) → the best start,
+its metrics next to the targets, the sensitivity of every metric to every parameter, an identifiability
+verdict and, for targets that are not met, how far off they are and why.
+"""
+
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any
+
+import diffrax
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import optimistix as optx
+from jaxtyping import Array, Float
+
+from ..chain import Chain, HingeDesign
+from ..simulation import AbstractInput, Step, alternating_targets, response_metrics, simulate
+from ._identify import identifiability
+from ._lstsq import fit_batch
+from ._report import DesignResult, build_report
+from ._space import ParameterSpace, parameter_space
+from ._targets import KINDS, Targets, achieved_values, ill_conditioned_rows, residual, time_horizon
+
+DEFAULT_N_SAVE = 1201
+"""Samples of each simulated response: the metrics refine crossings between samples by cubic Hermite
+interpolation, so a few dozen samples per oscillation suffice; 1201 over a run of 6× the longest rise
+time gives ~200 per rise."""
+DEFAULT_TOLERANCE = 0.05
+"""A target counts as met when its achieved value is within 5 % of it (relative; overshoot and final
+angle relative to ``max(|target|, floor)``, see `Targets`)."""
+
+
+class SimulationSettings(eqx.Module):
+    """How each candidate design is simulated (all in the design's units, MICRO: µs).
+
+    **Fields:**
+    - `t1`: run length (time units). Rise times, peaks and settling must happen well inside it.
+    - `n_flaps`: flaps of the accordion built from the design (static), when `chain` is `None`.
+    - `chain`: a fixed `Chain` instead of `design.accordion(n_flaps)`; then the flap geometry and density
+      of the design do not reach the dynamics, and freeing them is refused.
+    - `inputs`: the input (default the step `Step(alternating_targets(n))`, paper Eq. 12), or a function
+      `HingeDesign -> AbstractInput` (e.g. an etch ramp whose radius follows the design).
+    - `n_save`: samples of the response (static).
+    - `solver`: diffrax solver. Default `Tsit5`: for the accordion in air it compiles ~6× and runs ~10×
+      faster than the simulation's default Kvaerno5 with derivatives matching finite differences (tests);
+      pass `diffrax.Kvaerno5()` for stiff cases (very stiff hinges, KOH at high drag).
+    - `rtol`, `atol`: step-size tolerances (static).
+    - `max_steps`: ODE step budget (static).
+    """
+
+    t1: Float[Array, ""]
+    n_flaps: int = eqx.field(static=True)
+    chain: Chain | None
+    inputs: AbstractInput | Callable | None
+    n_save: int = eqx.field(static=True)
+    solver: diffrax.AbstractSolver
+    rtol: float = eqx.field(static=True)
+    atol: float = eqx.field(static=True)
+    max_steps: int = eqx.field(static=True)
+
+    def __init__(
+        self,
+        t1: float,
+        *,
+        n_flaps: int = 3,
+        chain: Chain | None = None,
+        inputs: AbstractInput | Callable | None = None,
+        n_save: int = DEFAULT_N_SAVE,
+        solver: diffrax.AbstractSolver | None = None,
+        rtol: float = 1e-8,
+        atol: float = 1e-10,
+        max_steps: int = 16_384,
+    ):
+        if not t1 > 0:
+            raise ValueError(f"t1 must be a positive run length, got {t1}.")
+        if n_save < 16:
+            raise ValueError(f"n_save must be at least 16 to resolve the response, got {n_save}.")
+        self.t1 = jnp.asarray(float(t1))
+        self.n_flaps = int(chain.n_joints if chain is not None else n_flaps)
+        self.chain = chain
+        self.inputs = inputs
+        self.n_save = int(n_save)
+        self.solver = diffrax.Tsit5() if solver is None else solver
+        self.rtol = float(rtol)
+        self.atol = float(atol)
+        self.max_steps = int(max_steps)
+
+
+def response(hinge: HingeDesign, settings: SimulationSettings):
+    """Simulate `hinge` as `settings` say: `(Trajectory, ResponseMetrics)` (not jitted; composes)."""
+    n = settings.n_flaps
+    chain = hinge.accordion(n) if settings.chain is None else settings.chain
+    if settings.inputs is None:
+        inputs = Step(alternating_targets(n))
+    elif isinstance(settings.inputs, AbstractInput):
+        inputs = settings.inputs
+    else:
+        inputs = settings.inputs(hinge)
+    trajectory = simulate(
+        chain,
+        inputs,
+        stiffness=hinge.stiffness(n),
+        drag=hinge.drag(n),
+        t1=settings.t1,
+        n_save=settings.n_save,
+        solver=settings.solver,
+        rtol=settings.rtol,
+        atol=settings.atol,
+        max_steps=settings.max_steps,
+        throw=False,
+        adjoint=diffrax.ForwardMode(),
+    )
+    return trajectory, response_metrics(trajectory)
+
+
+class _Problem(eqx.Module):
+    hinge: HingeDesign
+    space: ParameterSpace
+    targets: Targets
+    settings: SimulationSettings
+
+
+def _all_metrics(metrics) -> Array:
+    """Every metric of every joint, in `KINDS` order (overshoot as a fraction), shape `(5 n,)`."""
+    return jnp.concatenate(
+        [
+            metrics.rise_time,
+            metrics.overshoot / 100.0,
+            metrics.peak_time,
+            metrics.settling_time,
+            metrics.target + metrics.final_error,
+        ]
+    )
+
+
+def _residual_fn(z, problem: _Problem):
+    x = problem.space.to_physical(z)
+    hinge = problem.space.apply(problem.hinge, x)
+    trajectory, metrics = response(hinge, problem.settings)
+    r = residual(problem.targets, metrics, trajectory)
+    aux = dict(
+        x=x,
+        achieved=achieved_values(problem.targets, metrics),
+        flags=ill_conditioned_rows(problem.targets, metrics),
+        simulation_ok=trajectory.succeeded,
+    )
+    return r, _all_metrics(metrics), aux
+
+
+@eqx.filter_jit
+def _evaluate(problem: _Problem, z):
+    x = problem.space.to_physical(z)
+    hinge = problem.space.apply(problem.hinge, x)
+    trajectory, metrics = response(hinge, problem.settings)
+    r = residual(problem.targets, metrics, trajectory)
+    return dict(
+        residual=r,
+        achieved=achieved_values(problem.targets, metrics),
+        flags=ill_conditioned_rows(problem.targets, metrics),
+        trajectory=trajectory,
+        metrics=metrics,
+    )
+
+
+def _check_free(space: ParameterSpace, settings: SimulationSettings) -> None:
+    if settings.chain is None:
+        return
+    geometric = {"flap_length", "flap_width", "t_structural", "structural.density"}
+    clash = geometric.intersection(space.names)
+    if clash:
+        raise ValueError(
+            f"{sorted(clash)} change the flaps' mass and inertia, but a fixed `chain` was given; "
+            "leave `chain=None` so the accordion is rebuilt from each candidate design."
+        )
+
+
+def _starts(space: ParameterSpace, start: Array, n_starts: int, key) -> Array:
+    """The given start plus `n_starts − 1` Latin-hypercube points in the inner 90 % of the z-box."""
+    z0 = space.to_unconstrained(start)[None, :]
+    if n_starts <= 1:
+        return z0
+    p = space.size
+    m = n_starts - 1
+    k1, k2 = jax.random.split(key)
+    strata = jax.vmap(lambda k: jax.random.permutation(k, m))(jax.random.split(k1, p)).T
+    u = (strata + jax.random.uniform(k2, (m, p))) / m
+    s = 0.05 + 0.9 * u
+    return jnp.concatenate([z0, jnp.log(s) - jnp.log1p(-s)], axis=0)
+
+
+def design(
+    hinge: HingeDesign,
+    targets: Targets,
+    free: Sequence[str],
+    *,
+    bounds: Mapping[str, tuple[float, float]] | None = None,
+    settings: SimulationSettings | None = None,
+    t1: float | None = None,
+    n_flaps: int | None = None,
+    n_starts: int = 8,
+    key: Any = None,
+    solver: optx.AbstractLeastSquaresSolver | optx.AbstractMinimiser | None = None,
+    max_steps: int = 48,
+    tolerance: float = DEFAULT_TOLERANCE,
+    throw: bool = True,
+) -> DesignResult:
+    """Find free hinge parameters that make the folding meet `targets`, by least squares through the
+    simulation, from several starts at once.
+
+    **Arguments:**
+    - `hinge`: a [`origami_jax.chain.HingeDesign`][]: fixed values, and the first start of the free ones.
+    - `targets`: [`origami_jax.design.Targets`][] (per-joint metrics and/or a measured curve), in the
+      design's units (MICRO: µs).
+    - `free`: names of the free parameters, e.g. ``["k_scale", "b_scale"]`` or
+      ``["hinge_width", "t_hinge"]`` (see [`origami_jax.design.parameter_space`][]).
+    - `bounds`: ``{name: (lower, upper)}`` in the design's units; default a factor 100 around the start.
+      Enforced by a sigmoid reparametrisation (log-scaled for positive bounds), never by clipping.
+    - `settings`: [`origami_jax.design.SimulationSettings`][]; by default a step input on the accordion
+      with `n_flaps` flaps (default: the targets' joint count) over `t1` (default from the targets, see
+      `time_horizon`).
+    - `n_starts`: starting points: `hinge`'s values plus Latin-hypercube points inside the bounds, all
+      solved in one vmapped batch; the best is reported, every start is listed.
+    - `key`: PRNG key for the extra starts (default: a fixed seed, so results are reproducible).
+    - `solver`: optimistix least-squares solver (default `LevenbergMarquardt(1e-6, 1e-8)`), or a
+      minimiser such as `optimistix.BFGS`.
+    - `max_steps`: optimiser steps per start.
+    - `tolerance`: relative miss below which a target counts as met.
+    - `throw`: raise a `RuntimeError` when no start produced a usable answer (every simulation failed).
+      Targets that cannot be met and an optimiser that ran out of steps never raise: they are reported
+      in the result (`reached`, `verdict`, `result`).
+
+    **Returns:** a [`origami_jax.design.DesignResult`][].
+
+    **Raises:** `ValueError` for unknown parameters, bad bounds or targets for another number of joints.
+    """
+    space = parameter_space(hinge, free, bounds)
+    if settings is None:
+        horizon = time_horizon(targets) if t1 is None else t1
+        if horizon is None:
+            raise ValueError("Give t1 (run length): the targets hold no time to derive it from.")
+        settings = SimulationSettings(horizon, n_flaps=n_flaps or targets.n_joints)
+    if settings.n_flaps != targets.n_joints:
+        raise ValueError(
+            f"targets are for {targets.n_joints} joints but the chain has {settings.n_flaps}."
+        )
+    _check_free(space, settings)
+    if n_starts < 1:
+        raise ValueError(f"n_starts must be at least 1, got {n_starts}.")
+    key = jax.random.key(0) if key is None else key
+    start = space.read(hinge)
+    problem = _Problem(hinge, space, targets, settings)
+    z0s = _starts(space, start, n_starts, key)
+    before = _evaluate(problem, z0s[0])
+    batch = fit_batch(_residual_fn, z0s, problem, solver=solver, max_steps=max_steps)
+    best = batch.best()
+    ok = bool(~batch.nonfinite[best]) and bool(batch.aux["simulation_ok"][best])
+    if throw and not ok:
+        raise RuntimeError(
+            "design: no start produced a finite residual (the simulations failed or a targeted metric "
+            "was undefined at every start). Check the bounds and the run length t1, or pass "
+            "throw=False to inspect the starts."
+        )
+    return build_report(
+        problem=problem,
+        batch=batch,
+        best=best,
+        start=start,
+        before=before,
+        tolerance=tolerance,
+        identify=identifiability,
+        metric_kinds=KINDS,
+    )
+
+
+def calibrate(
+    hinge: HingeDesign,
+    targets: Targets,
+    free: Sequence[str],
+    *,
+    n_starts: int = 1,
+    **kwargs,
+) -> DesignResult:
+    """Calibrate unknown parameters to measured metrics or a measured θ(t) curve.
+
+    The same computation as [`origami_jax.design.design`][] (all its keyword arguments apply), but a
+    local fit from `hinge`'s values (literature or prior estimates) by default: `n_starts=1`. Pass more
+    starts when the prior is poor.
+    """
+    return design(hinge, targets, free, n_starts=n_starts, **kwargs)
+
+
+def evaluate(result: DesignResult, which="after"):
+    """Re-simulate a result's start (`"before"`), solution (`"after"`) or any other values of its free
+    parameters (an array, shape `(p,)`, inside the bounds): `(Trajectory, ResponseMetrics)`.
+
+    Shares its compilation with the evaluation `design` makes of the start, so it is cheap to call.
+    """
+    problem = result._problem
+    if isinstance(which, str):
+        if which not in ("before", "after"):
+            raise ValueError(f"which must be 'before', 'after' or parameter values, got {which!r}.")
+        x = result.start if which == "before" else result.values
+    else:
+        x = np.asarray(which, dtype=float)
+        if x.shape != (len(result.names),):
+            raise ValueError(
+                f"give one value per free parameter {result.names}, got shape {x.shape}."
+            )
+    out = _evaluate(problem, problem.space.to_unconstrained(jnp.asarray(np.asarray(x))))
+    return out["trajectory"], out["metrics"]
+
+
+def residual_and_jacobian(result: DesignResult, x: Float[Array, " p"] | None = None):
+    """Residual rows and ``∂r/∂z`` at parameters `x` (default the solution), computed exactly as the
+    optimiser computes them; for checks against finite differences. Returns `(r, J, z)`."""
+    from ._lstsq import evaluate_with_jacobian
+
+    problem = result._problem
+    x = result.values if x is None else x
+    z = problem.space.to_unconstrained(jnp.asarray(np.asarray(x)))
+    r, jac, _, _, _ = eqx.filter_jit(evaluate_with_jacobian)(_residual_fn, z, problem)
+    return r, jac, z
+
+
+def residual_at(result: DesignResult, z: Float[Array, " p"]) -> Float[Array, " r"]:
+    """Residual rows at unconstrained `z` (forward simulation only; shares `design`'s compilation)."""
+    return _evaluate(result._problem, z)["residual"]

@@ -1,0 +1,182 @@
+"""Multi-start, bounded, gradient-based least squares over any residual function (optimistix inside).
+
+`fit_batch(fn, z0s, args)` runs one optimistix solve per row of `z0s`, vmapped into a single compiled
+program, with `throw=False`, and returns every start's answer and result code. The residual function
+`fn(z, args) -> (r, extra, aux)` gives the residual rows `r`, further outputs `extra` whose Jacobian is
+wanted as well (a design's metrics) and anything else as `aux`.
+
+**Why a custom JVP.** Levenberg–Marquardt asks for `jax.linearize(fn)`. Through an ODE solve's
+`while_loop` that linear function re-runs the whole solve at every product the QR factorisation needs.
+Here the Jacobian is computed once per point with `jax.jacfwd` (p forward-mode tangents, vmapped into
+one solve) and attached to `r` by a `custom_jvp`, so the linear map the optimiser sees is a small matrix
+product and the Jacobian it uses is exactly the one reported (and tested against finite differences).
+
+**Non-finite residuals** (a failed simulation, a level never crossed) are replaced by a large constant
+with a zero Jacobian row: the optimiser rejects steps into such regions instead of propagating NaN, and
+the start is reported with `RESULTS.nonfinite_residual` if it ends there.
+"""
+
+from collections.abc import Callable
+from typing import Any
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import optimistix as optx
+from jaxtyping import Array, Bool, Float, Int
+
+# Residual value standing in for a non-finite one (residual rows are O(1) when targets are met).
+NONFINITE_PENALTY = 1e3
+
+
+class RESULTS(optx.RESULTS):  # pyright: ignore[reportGeneralTypeIssues]
+    """Outcome of a design / calibration start: optimistix's codes plus our own."""
+
+    nonfinite_residual = (
+        "The residual was NaN or infinite at the returned point: the simulation failed or a metric was "
+        "undefined there (e.g. the response never reached 90 % within the run)."
+    )
+
+
+@jax.custom_jvp
+def _attach_jacobian(z, r, jac):
+    del z, jac
+    return r
+
+
+@_attach_jacobian.defjvp
+def _attach_jacobian_jvp(primals, tangents):
+    z, r, jac = primals
+    dz, _, _ = tangents
+    return r, jac @ dz
+
+
+def _with_jacobian(fn: Callable) -> Callable:
+    """`fn` → `(z, args) -> (r, (aux, r, J_r, extra, J_extra, bad))` with `J_r` attached to `r`."""
+
+    def wrapped(z, args):
+        z_frozen = jax.lax.stop_gradient(z)
+
+        def outputs(zz):
+            r, extra, aux = fn(zz, args)
+            return jnp.concatenate([r, extra]), (r, extra, aux)
+
+        jac_all, (r, extra, aux) = jax.jacfwd(outputs, has_aux=True)(z_frozen)
+        n_r = r.shape[0]
+        jac_r, jac_extra = jac_all[:n_r], jac_all[n_r:]
+        bad_rows = ~jnp.isfinite(r) | ~jnp.all(jnp.isfinite(jac_r), axis=-1)
+        r_safe = jnp.where(bad_rows, NONFINITE_PENALTY, r)
+        jac_safe = jnp.where(bad_rows[:, None], 0.0, jac_r)
+        r_out = _attach_jacobian(z, r_safe, jac_safe)
+        return r_out, (aux, r, jac_safe, extra, jac_extra, jnp.any(bad_rows))
+
+    return wrapped
+
+
+def evaluate_with_jacobian(fn: Callable, z: Float[Array, " p"], args: Any):
+    """`fn` and its Jacobians at `z`, the same way the optimiser sees them (not jitted: compose it).
+
+    **Returns:** `(r, J_r, extra, J_extra, aux)`; `J_r` has non-finite rows zeroed.
+    """
+    _, (aux, r, jac, extra, jac_extra, _) = _with_jacobian(fn)(z, args)
+    return r, jac, extra, jac_extra, aux
+
+
+class FitBatch(eqx.Module):
+    """Every start of a multi-start fit (leading axis: start).
+
+    **Fields:**
+    - `z`: unconstrained solution per start, `(s, p)`.
+    - `residual`, `jacobian`: residual rows and `∂r/∂z` at the solution, `(s, r)` and `(s, r, p)`.
+    - `extra`, `extra_jacobian`: the extra outputs and `∂extra/∂z`, `(s, e)` and `(s, e, p)`.
+    - `aux`: the residual function's aux at the solution, batched.
+    - `loss`: ``½‖r‖²`` (non-finite rows counted as the penalty), `(s,)`.
+    - `result`: a [`origami_jax.design.RESULTS`][] code per start.
+    - `num_steps`: optimiser steps per start, `(s,)`.
+    """
+
+    z: Float[Array, "*s p"]
+    residual: Float[Array, "*s r"]
+    jacobian: Float[Array, "*s r p"]
+    extra: Float[Array, "*s e"]
+    extra_jacobian: Float[Array, "*s e p"]
+    aux: Any
+    loss: Float[Array, "*s"]
+    result: RESULTS
+    num_steps: Int[Array, "*s"]
+    nonfinite: Bool[Array, "*s"]
+
+    def best(self) -> int:
+        """Index of the start with the smallest loss among those with finite residuals (else 0)."""
+        loss = jnp.where(self.nonfinite, jnp.inf, self.loss)
+        return int(jnp.argmin(loss)) if bool(jnp.any(jnp.isfinite(loss))) else 0
+
+
+def default_solver(rtol: float = 1e-6, atol: float = 1e-8) -> optx.AbstractLeastSquaresSolver:
+    """`optimistix.LevenbergMarquardt(rtol, atol)`: robust to the poor conditioning that
+    non-identifiable parameter combinations cause (its damping keeps the step finite along them)."""
+    return optx.LevenbergMarquardt(rtol=rtol, atol=atol)
+
+
+def _fit_one(fn, z0, args, solver, max_steps):
+    wrapped = _with_jacobian(fn)
+    if isinstance(solver, optx.AbstractMinimiser):
+
+        def loss_fn(z, a):
+            r, aux = wrapped(z, a)
+            return 0.5 * jnp.sum(r**2), aux
+
+        sol = optx.minimise(
+            loss_fn, solver, z0, args, has_aux=True, max_steps=max_steps, throw=False
+        )
+        # A minimiser's aux may belong to the previous iterate: evaluate once more at the answer.
+        _, aux = wrapped(sol.value, args)
+    else:
+        sol = optx.least_squares(
+            wrapped, solver, z0, args, has_aux=True, max_steps=max_steps, throw=False
+        )
+        # The solver state's aux belongs to the last accepted point, which is `sol.value`.
+        aux = sol.state.aux
+    user_aux, r, jac, extra, jac_extra, bad = aux
+    loss = 0.5 * jnp.sum(jnp.where(jnp.isfinite(r), r, NONFINITE_PENALTY) ** 2)
+    result = RESULTS.promote(sol.result)
+    result = RESULTS.where(bad, RESULTS.nonfinite_residual, result)
+    return FitBatch(
+        z=sol.value,
+        residual=r,
+        jacobian=jac,
+        extra=extra,
+        extra_jacobian=jac_extra,
+        aux=user_aux,
+        loss=loss,
+        result=result,
+        num_steps=jnp.asarray(sol.stats["num_steps"]),
+        nonfinite=bad,
+    )
+
+
+@eqx.filter_jit
+def fit_batch(
+    fn: Callable,
+    z0s: Float[Array, "s p"],
+    args: Any,
+    *,
+    solver: optx.AbstractLeastSquaresSolver | optx.AbstractMinimiser | None = None,
+    max_steps: int = 64,
+) -> FitBatch:
+    """Least squares from every start in `z0s` at once (vmapped), never raising.
+
+    **Arguments:**
+    - `fn`: `(z, args) -> (r, extra, aux)`, residual rows `r` (shape `(r,)`), extra differentiable
+      outputs `extra` (shape `(e,)`, may be empty) and any aux. It must be the same Python object between
+      calls to reuse the compilation.
+    - `z0s`: starting points, unconstrained, shape `(s, p)`.
+    - `args`: pytree passed to `fn` (its arrays are traced: new values do not recompile).
+    - `solver`: an optimistix least-squares solver (default `LevenbergMarquardt(1e-6, 1e-8)`) or a
+      minimiser such as `optx.BFGS` (applied to ``½‖r‖²``).
+    - `max_steps`: optimiser step budget per start (steps, not function evaluations).
+
+    **Returns:** a [`origami_jax.design.FitBatch`][]; read `result` for each start.
+    """
+    solver = default_solver() if solver is None else solver
+    return jax.vmap(lambda z0: _fit_one(fn, z0, args, solver, max_steps))(z0s)

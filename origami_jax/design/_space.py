@@ -1,0 +1,224 @@
+"""Free parameters of a design and their bounds, enforced by a smooth reparametrisation.
+
+The optimiser works on unconstrained variables ``z ∈ ℝᵖ``. Each physical parameter ``x`` is a sigmoid of
+its ``z`` between its bounds — in log space for positive quantities (``x = exp(log lo + (log hi − log lo)
+σ(z))``, so a factor of 10 is the same distance everywhere), linearly otherwise (``x = lo + (hi − lo)
+σ(z)``). The bounds can therefore never be violated, and no gradient is cut as a clip would cut it; a
+parameter pushed to a bound shows up as ``σ(z)`` close to 0 or 1 (see `ParameterSpace.at_bound`).
+
+Parameters are named by their field in `origami_jax.chain.HingeDesign`, with a dot for the fields of its
+materials and fluid (``"fluid.density"``, ``"hinge.youngs_modulus"``).
+"""
+
+from collections.abc import Mapping, Sequence
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, Float
+
+from ..chain import HingeDesign
+
+# Scalar fields of `HingeDesign` that may be freed, with their physical unit (in the design's `units`).
+_TOP_LEVEL = {
+    "hinge_width": "length",
+    "flap_length": "length",
+    "flap_width": "length",
+    "t_structural": "length",
+    "t_hinge": "length",
+    "misfit_strain": "",
+    "theta_final": "rad",
+    "drag_coefficient": "",
+    "k_scale": "",
+    "b_scale": "",
+}
+_NESTED = {
+    "fluid.density": "mass/length³",
+    "structural.youngs_modulus": "stress",
+    "structural.poisson_ratio": "",
+    "structural.density": "mass/length³",
+    "hinge.youngs_modulus": "stress",
+    "hinge.poisson_ratio": "",
+    "hinge.density": "mass/length³",
+}
+_ALIASES = {"fluid_density": "fluid.density"}
+PARAMETER_NAMES = tuple(_TOP_LEVEL) + tuple(_NESTED)
+"""Every name `ParameterSpace` accepts (plus the alias ``fluid_density`` for ``fluid.density``)."""
+
+# Default bounds: a factor of 100 either side of the start (log-scaled parameters).
+_DEFAULT_FACTOR = 100.0
+# σ(z) this close to 0 or 1 counts as "at the bound" in reports; within `_NEAR_BOUND` it counts when
+# the cost still decreases outwards (the sigmoid flattens there, so an optimiser creeps to the bound).
+_AT_BOUND = 1e-3
+_NEAR_BOUND = 0.03
+# Starts exactly on a bound are moved inside by this fraction of the (log) range: σ⁻¹ is infinite there.
+_INSIDE = 1e-6
+
+
+def _canonical(name: str) -> str:
+    name = _ALIASES.get(name, name)
+    if name not in _TOP_LEVEL and name not in _NESTED:
+        raise ValueError(
+            f"{name!r} is not a free parameter of HingeDesign. Choose among: "
+            f"{', '.join(PARAMETER_NAMES)} (alias: fluid_density)."
+        )
+    return name
+
+
+def _getter(name: str):
+    parts = name.split(".")
+
+    def get(hinge):
+        value = hinge
+        for part in parts:
+            value = getattr(value, part)
+        return value
+
+    return get
+
+
+def parameter_unit(name: str) -> str:
+    """The kind of unit of a parameter (``"length"``, ``"stress"``, ``""`` for dimensionless, …)."""
+    name = _canonical(name)
+    return _TOP_LEVEL.get(name, _NESTED.get(name, ""))
+
+
+class ParameterSpace(eqx.Module):
+    """The free parameters of a design, their bounds and the map from unconstrained ``z`` to them.
+
+    **Fields:**
+    - `names`: parameter names (static), e.g. ``("k_scale", "b_scale")``.
+    - `lower`, `upper`: bounds, shape `(p,)`, in the design's units (`HingeDesign.units`).
+    - `log`: per parameter, whether the sigmoid runs in log space (static; positive bounds only).
+
+    Build it with [`origami_jax.design.parameter_space`][].
+    """
+
+    names: tuple[str, ...] = eqx.field(static=True)
+    lower: Float[Array, " p"]
+    upper: Float[Array, " p"]
+    log: tuple[bool, ...] = eqx.field(static=True)
+
+    @property
+    def size(self) -> int:
+        return len(self.names)
+
+    def _ends(self):
+        log = jnp.asarray(self.log)
+        lo = jnp.where(log, jnp.log(jnp.where(log, self.lower, 1.0)), self.lower)
+        hi = jnp.where(log, jnp.log(jnp.where(log, self.upper, 1.0)), self.upper)
+        return log, lo, hi
+
+    def to_physical(self, z: Float[Array, " p"]) -> Float[Array, " p"]:
+        """Unconstrained ``z`` → parameter values strictly inside the bounds."""
+        log, lo, hi = self._ends()
+        u = lo + (hi - lo) * jax.nn.sigmoid(z)
+        return jnp.where(log, jnp.exp(jnp.where(log, u, 0.0)), u)
+
+    def to_unconstrained(self, x: Float[Array, " p"]) -> Float[Array, " p"]:
+        """Parameter values (inside or on the bounds) → ``z``; values on a bound are nudged inside."""
+        log, lo, hi = self._ends()
+        u = jnp.where(log, jnp.log(jnp.where(log, x, 1.0)), x)
+        s = jnp.clip((u - lo) / (hi - lo), _INSIDE, 1 - _INSIDE)
+        return jnp.log(s) - jnp.log1p(-s)
+
+    def fraction(self, x: Float[Array, " p"]) -> Float[Array, " p"]:
+        """Where each value sits between its bounds, 0 (lower) to 1 (upper), in the sigmoid's scale."""
+        log, lo, hi = self._ends()
+        u = jnp.where(log, jnp.log(jnp.where(log, x, 1.0)), x)
+        return (u - lo) / (hi - lo)
+
+    def at_bound(self, x, gradient=None) -> np.ndarray:
+        """Per parameter: -1 at the lower bound, +1 at the upper bound, 0 inside (host NumPy).
+
+        `gradient`: the cost's gradient with respect to each parameter's sigmoid variable (optional); a
+        parameter within 3 % of a bound whose gradient points outwards counts as pinned there too.
+        """
+        s = np.asarray(self.fraction(jnp.asarray(x)))
+        lower = s < _AT_BOUND
+        upper = s > 1 - _AT_BOUND
+        if gradient is not None:
+            g = np.asarray(gradient)
+            lower |= (s < _NEAR_BOUND) & (g > 0)
+            upper |= (s > 1 - _NEAR_BOUND) & (g < 0)
+        return np.where(lower, -1, np.where(upper, 1, 0))
+
+    def read(self, hinge: HingeDesign) -> Float[Array, " p"]:
+        """The current values of the free parameters in `hinge`, shape `(p,)`."""
+        return jnp.stack([jnp.asarray(_getter(n)(hinge), dtype=float) for n in self.names])
+
+    def apply(self, hinge: HingeDesign, x: Float[Array, " p"]) -> HingeDesign:
+        """`hinge` with its free parameters replaced by `x` (shape `(p,)`); differentiable in `x`."""
+        getters = [_getter(n) for n in self.names]
+        return eqx.tree_at(
+            lambda h: tuple(g(h) for g in getters),
+            hinge,
+            tuple(x[i] for i in range(len(getters))),
+        )
+
+
+def parameter_space(
+    hinge: HingeDesign,
+    free: Sequence[str],
+    bounds: Mapping[str, tuple[float, float]] | None = None,
+    *,
+    scale: Mapping[str, str] | None = None,
+) -> ParameterSpace:
+    """Free parameters of `hinge` and their bounds.
+
+    **Arguments:**
+    - `hinge`: the design that supplies every fixed value and the start of the free ones.
+    - `free`: names of the free parameters (see `PARAMETER_NAMES`), e.g. ``["k_scale", "b_scale"]``.
+    - `bounds`: ``{name: (lower, upper)}`` in the design's units (MICRO: µm, MPa, ng/µm³); a parameter not
+      listed gets a factor of 100 either side of its value in `hinge`.
+    - `scale`: ``{name: "log" | "linear"}``; default log when the lower bound is positive.
+
+    **Returns:** a [`origami_jax.design.ParameterSpace`][].
+
+    **Raises:** `ValueError` for unknown or repeated names, per-joint (non-scalar) fields, bounds that are
+    not ordered, log scale with a non-positive bound, or a start in `hinge` outside its bounds.
+    """
+    bounds = {} if bounds is None else {_canonical(k): v for k, v in bounds.items()}
+    scale = {} if scale is None else {_canonical(k): v for k, v in scale.items()}
+    names = tuple(_canonical(n) for n in free)
+    if not names:
+        raise ValueError("free is empty: name at least one parameter to fit.")
+    if len(set(names)) != len(names):
+        raise ValueError(f"free parameters must be unique, got {list(free)}.")
+    for name in list(bounds) + list(scale):
+        if name not in names:
+            raise ValueError(
+                f"bounds/scale given for {name!r}, which is not in free={list(names)}."
+            )
+    lower, upper, log = [], [], []
+    for name in names:
+        value = np.asarray(_getter(name)(hinge), dtype=float)
+        if value.ndim != 0:
+            raise ValueError(
+                f"{name} has shape {value.shape} in this HingeDesign; only scalar (all-hinges-alike) "
+                "fields can be free."
+            )
+        start = float(value)
+        lo, hi = bounds.get(name, (start / _DEFAULT_FACTOR, start * _DEFAULT_FACTOR))
+        lo, hi = float(lo), float(hi)
+        if start <= 0 and name not in bounds:
+            raise ValueError(f"{name} starts at {start}; give explicit bounds for it.")
+        if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
+            raise ValueError(
+                f"bounds of {name} must be finite with lower < upper, got ({lo}, {hi})."
+            )
+        kind = scale.get(name, "log" if lo > 0 else "linear")
+        if kind not in ("log", "linear"):
+            raise ValueError(f"scale of {name} must be 'log' or 'linear', got {kind!r}.")
+        if kind == "log" and lo <= 0:
+            raise ValueError(f"log scale needs a positive lower bound for {name}, got {lo}.")
+        if not lo <= start <= hi:
+            raise ValueError(
+                f"{name} starts at {start:.6g}, outside its bounds ({lo:.6g}, {hi:.6g}); widen the "
+                "bounds or start inside them."
+            )
+        lower.append(lo)
+        upper.append(hi)
+        log.append(kind == "log")
+    return ParameterSpace(names, jnp.asarray(lower), jnp.asarray(upper), tuple(log))

@@ -1,0 +1,125 @@
+"""Design building blocks without the simulation: bounded reparametrisation, targets, the multi-start
+least-squares driver on a closed-form residual, the identifiability verdict."""
+
+import math
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import optimistix as optx
+import pytest
+
+import origami_jax.design as ojd
+from origami_jax.chain import HingeDesign
+
+NAN = math.nan
+
+
+@pytest.fixture(scope="module")
+def hinge():
+    return HingeDesign.literature()
+
+
+def test_space_round_trip_and_bounds(hinge):
+    space = ojd.parameter_space(
+        hinge,
+        ["k_scale", "hinge_width", "hinge.poisson_ratio"],
+        {"k_scale": (0.1, 100.0), "hinge.poisson_ratio": (0.0, 0.4)},
+    )
+    assert space.log == (True, True, False)
+    start = space.read(hinge)
+    np.testing.assert_allclose(space.to_physical(space.to_unconstrained(start)), start, rtol=1e-12)
+    # Any z, however large, maps strictly inside the bounds: no clipping, no escape.
+    for z in (jnp.full(3, -30.0), jnp.full(3, 30.0), jnp.array([3.0, -2.0, 0.5])):
+        x = space.to_physical(z)
+        assert bool(jnp.all(x >= space.lower)) and bool(jnp.all(x <= space.upper))
+    # Gradient of the map is finite and positive (monotone) everywhere.
+    grad = jax.jacfwd(space.to_physical)(jnp.array([0.3, -1.0, 2.0]))
+    assert bool(jnp.all(jnp.diag(grad) > 0))
+    applied = space.apply(hinge, jnp.array([2.0, 150.0, 0.3]))
+    assert float(applied.k_scale) == 2.0 and float(applied.hinge.poisson_ratio) == 0.3
+    assert float(applied.b_scale) == float(hinge.b_scale)
+
+
+def test_space_rejects_bad_input(hinge):
+    with pytest.raises(ValueError, match="not a free parameter"):
+        ojd.parameter_space(hinge, ["stiffness"])
+    with pytest.raises(ValueError, match="outside its bounds"):
+        ojd.parameter_space(hinge, ["k_scale"], {"k_scale": (2.0, 3.0)})
+    with pytest.raises(ValueError, match="lower < upper"):
+        ojd.parameter_space(hinge, ["k_scale"], {"k_scale": (3.0, 0.1)})
+    with pytest.raises(ValueError, match="unique"):
+        ojd.parameter_space(hinge, ["k_scale", "k_scale"])
+    space = ojd.parameter_space(hinge, ["fluid_density"])
+    assert space.names == ("fluid.density",)
+
+
+def test_targets_rows_and_validation():
+    targets = ojd.Targets(rise_time=[37.0, 101.0, 38.0], overshoot=[0.39, NAN, NAN])
+    assert targets.labels == [
+        "rise_time[joint 1]",
+        "rise_time[joint 2]",
+        "rise_time[joint 3]",
+        "overshoot[joint 1]",
+    ]
+    np.testing.assert_allclose(targets.scales(), [37.0, 101.0, 38.0, 0.39])
+    assert ojd.time_horizon(targets) == pytest.approx(606.0)
+    with pytest.raises(ValueError, match="one value per joint"):
+        ojd.Targets(rise_time=[37.0, 101.0], overshoot=[0.39, NAN, NAN])
+    with pytest.raises(ValueError, match="positive times"):
+        ojd.Targets(rise_time=[-1.0])
+    with pytest.raises(ValueError, match="nothing to aim at"):
+        ojd.Targets()
+
+
+def _exponential_fit(z, data):
+    t, y = data
+    amplitude, rate = z[0], z[1]
+    model = amplitude * jnp.exp(-rate * t)
+    return model - y, jnp.array([amplitude * rate]), {"model": model}
+
+
+@pytest.mark.parametrize(
+    "solver", [None, optx.GaussNewton(rtol=1e-8, atol=1e-10), optx.BFGS(rtol=1e-8, atol=1e-10)]
+)
+def test_fit_batch_closed_form(solver):
+    t = jnp.linspace(0.0, 3.0, 25)
+    data = (t, 2.0 * jnp.exp(-0.7 * t))
+    z0s = jnp.array([[1.0, 0.1], [5.0, 2.0], [0.5, 0.5]])
+    batch = ojd.fit_batch(_exponential_fit, z0s, data, solver=solver, max_steps=200)
+    np.testing.assert_allclose(batch.z, np.tile([2.0, 0.7], (3, 1)), rtol=1e-6)
+    assert bool(jnp.all(batch.result._value == ojd.RESULTS.successful._value))
+    # The Jacobian handed to the optimiser is the exact one.
+    exact = jax.jacfwd(lambda z: _exponential_fit(z, data)[0])(batch.z[0])
+    np.testing.assert_allclose(batch.jacobian[0], exact, rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(batch.extra[:, 0], 1.4, rtol=1e-6)
+    np.testing.assert_allclose(batch.extra_jacobian[0, 0], [0.7, 2.0], rtol=1e-6)
+
+
+def test_fit_batch_reports_nonfinite_start_without_raising():
+    def fn(z, _):
+        r = jnp.where(z[0] > 10.0, jnp.nan, z - jnp.array([1.0, 2.0]))
+        return r, jnp.zeros(0), None
+
+    batch = ojd.fit_batch(fn, jnp.array([[0.0, 0.0], [20.0, 0.0]]), None)
+    np.testing.assert_allclose(batch.z[0], [1.0, 2.0], atol=1e-8)
+    assert bool(batch.nonfinite[1]) and not bool(batch.nonfinite[0])
+    assert batch.best() == 0
+    assert int(batch.result._value[1]) == int(ojd.RESULTS.nonfinite_residual._value)
+
+
+def test_identifiability_finds_width_times_stiffness():
+    # Columns for log(hinge_width) and log(k_scale) identical (k ∝ w·k_scale), b_scale independent.
+    rng = np.random.default_rng(0)
+    a, b = rng.normal(size=6), rng.normal(size=6)
+    verdict = ojd.identifiability(
+        np.stack([a, a, b], axis=1), ["hinge_width", "k_scale", "b_scale"]
+    )
+    assert verdict.rank == 2 and not verdict.identifiable
+    assert len(verdict.undetermined) == 1
+    text = verdict.undetermined[0]
+    assert "hinge_width × c^+1" in text and "k_scale × c^-1" in text
+    full = ojd.identifiability(np.stack([a, b], axis=1), ["k_scale", "b_scale"])
+    assert full.identifiable and "determined" in full.verdict
+    weak = ojd.identifiability(np.stack([a, a + 1e-5 * b], axis=1), ["x", "y"])
+    assert weak.rank == 2 and weak.weak
