@@ -1,0 +1,169 @@
+"""Sweep configuration files (TOML) for `origami-jax sweep CONFIG.toml`.
+
+```toml
+[model]
+name = "accordion"        # a model of `available_models()`, or its prefix with `input`
+input = "step"            # -> "accordion-step"
+t_end = 2000.0            # any other key: a model setting (see the model's builder)
+
+[sweep]
+kind = "grid"             # "grid" (full factorial), "lhs", "uniform" (seeded samples) or "table"
+n = 200                   # lhs / uniform: number of samples
+seed = 0                  # lhs / uniform
+chunk_size = 64           # optional; default: chosen to fit memory
+
+[parameters]              # grid / lhs / uniform
+hinge_width = { min = 20.0, max = 200.0, num = 6, scale = "log" }   # num: grid points
+misfit_strain = { values = [2.0e-3, 2.5e-3, 3.0e-3] }
+fluid = { values = ["air", "koh"] }
+
+[[designs]]               # kind = "table": one table per design
+hinge_width = 50.0
+misfit_strain = 2.0e-3
+
+[plots]
+metrics = ["rise_time", "overshoot"]   # optional; default: every float output
+```
+
+In `grid`, a `{min, max, num, scale}` parameter becomes `num` linearly or logarithmically spaced
+points. In `lhs` / `uniform`, it is sampled in `[min, max)`; parameters given by `values` are
+crossed with the samples (every sample with every value). Units default to the model's.
+"""
+
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ._kernel import Kernel
+from ._kernels import MODELS, get_model
+from ._space import DesignSpace, Grid, Product, Range, Samples, Table
+
+KINDS = ("grid", "lhs", "uniform", "table")
+
+
+@dataclass
+class SweepConfig:
+    """A parsed configuration: the kernel, the design space, and the run options."""
+
+    kernel: Kernel
+    space: DesignSpace
+    chunk_size: int | None = None
+    plot_metrics: list[str] | None = None
+    raw: dict[str, Any] = field(default_factory=dict)
+
+
+def _model_name(model: Mapping[str, Any]) -> str:
+    name = model.get("name")
+    if not isinstance(name, str):
+        raise ValueError(f"[model] needs a name, one of {sorted(MODELS)}.")
+    given = model.get("input")
+    if given is not None:
+        full = name if name.endswith(f"-{given}") else f"{name}-{given}"
+        if full not in MODELS:
+            inputs = sorted(m.split("-", 1)[1] for m in MODELS if m.startswith(f"{name}-"))
+            raise ValueError(
+                f"model {name!r} has no input {given!r}"
+                + (f"; it has {inputs}." if inputs else f"; the models are {sorted(MODELS)}.")
+            )
+        return full
+    return name
+
+
+def _grid_axis(name: str, spec: Mapping[str, Any]) -> np.ndarray | list:
+    if "values" in spec:
+        return list(spec["values"])
+    try:
+        low, high, num = float(spec["min"]), float(spec["max"]), int(spec["num"])
+    except KeyError as error:
+        raise ValueError(
+            f"parameter {name!r}: give `values = [...]` or `min`, `max` and `num` for a grid."
+        ) from error
+    if spec.get("scale", "linear") == "log":
+        Range(low, high, "log")  # checks low > 0
+        return np.geomspace(low, high, num)
+    return np.linspace(low, high, num)
+
+
+def load_config(path: str | Path) -> SweepConfig:
+    """Read a sweep TOML file (format: see the module docstring).
+
+    **Raises:** `ValueError` for an unknown model, kind or key, or a malformed parameter;
+    `NotImplementedError` for a model whose physics is pending.
+    """
+    path = Path(path)
+    with path.open("rb") as file:
+        raw = tomllib.load(file)
+    unknown = set(raw) - {"model", "sweep", "parameters", "designs", "plots"}
+    if unknown:
+        raise ValueError(f"{path}: unknown section(s) {sorted(unknown)}.")
+    model = dict(raw.get("model", {}))
+    name = _model_name(model)
+    settings = {k: v for k, v in model.items() if k not in ("name", "input")}
+    kernel = get_model(name, **settings)
+    units = dict(kernel.parameters or {})
+
+    run = dict(raw.get("sweep", {}))
+    kind = run.pop("kind", "grid")
+    if kind not in KINDS:
+        raise ValueError(f"[sweep] kind must be one of {KINDS}, got {kind!r}.")
+    chunk_size = run.pop("chunk_size", None)
+    n = run.pop("n", None)
+    seed = int(run.pop("seed", 0))
+    if run:
+        raise ValueError(f"[sweep]: unknown key(s) {sorted(run)}.")
+
+    parameters = dict(raw.get("parameters", {}))
+    space: DesignSpace
+    if kind == "table":
+        designs = raw.get("designs")
+        if not designs or parameters:
+            raise ValueError("kind = 'table' needs [[designs]] entries and no [parameters].")
+        names = list(designs[0])
+        space = Table.from_records(designs, units={k: units.get(k, "") for k in names})
+    else:
+        if not parameters:
+            raise ValueError(f"kind = {kind!r} needs a [parameters] section.")
+        for pname, spec in parameters.items():
+            if not isinstance(spec, Mapping):
+                raise ValueError(
+                    f"parameter {pname!r}: give a table such as {{ values = [...] }} or "
+                    "{ min = ..., max = ..., num = ... }."
+                )
+        unit_of = {p: parameters[p].get("unit", units.get(p, "")) for p in parameters}
+        if kind == "grid":
+            axes = {p: _grid_axis(p, spec) for p, spec in parameters.items()}
+            space = Grid(axes, units=unit_of)
+        else:
+            if n is None:
+                raise ValueError(f"kind = {kind!r} needs [sweep] n = <number of samples>.")
+            fixed = {p: s for p, s in parameters.items() if "values" in s}
+            ranges = {
+                p: Range(float(s["min"]), float(s["max"]), s.get("scale", "linear"))
+                for p, s in parameters.items()
+                if "values" not in s
+            }
+            if not ranges:
+                raise ValueError(f"kind = {kind!r} needs at least one {{min, max}} parameter.")
+            sampled = Samples(
+                ranges, n=int(n), seed=seed, method=kind, units={p: unit_of[p] for p in ranges}
+            )
+            space = sampled
+            if fixed:
+                grid = Grid(
+                    {p: list(s["values"]) for p, s in fixed.items()},
+                    units={p: unit_of[p] for p in fixed},
+                )
+                space = Product((grid, sampled))
+    plots = dict(raw.get("plots", {}))
+    metrics = plots.get("metrics")
+    return SweepConfig(
+        kernel=kernel,
+        space=space,
+        chunk_size=None if chunk_size is None else int(chunk_size),
+        plot_metrics=None if metrics is None else list(metrics),
+        raw=raw,
+    )

@@ -1,0 +1,500 @@
+"""`sweep`: one compiled, vmapped, device-sharded call per chunk of designs, stored as it goes.
+
+How a sweep runs:
+
+1. The design space is expanded on the host into one column per parameter. Designs are grouped by
+   their *static* parameters (shape-fixing ones such as a flap count); each group is one compiled
+   function, so a sweep compiles once per distinct static value, never once per chunk.
+2. The kernel is `jax.vmap`-ed over designs and `jax.jit`-ed with its inputs and outputs sharded
+   along the batch axis (`NamedSharding` over a 1-D `Mesh` of the devices, `jax.local_devices()`
+   unless given); XLA's SPMD partitioner splits the batch, each device computing its slice.
+   Trade-off, measured on this code base: `jax.shard_map` would let each device leave an adaptive
+   while-loop (ODE solver, Newton) as soon as *its* members are done, whereas under SPMD
+   partitioning the vmapped loop's condition is reduced over the whole batch, so every device
+   iterates until the slowest member of the chunk finishes (the same holds within one device for
+   any vmapped batch). But lineax's linear solves inside diffrax's implicit solvers fail to trace
+   under `shard_map` in jax 0.10.2 ("pytree does not match out_structure"), so the sharded `jit`
+   is used for every kernel.
+3. Every chunk has the same size (a multiple of the device count), the last one padded by repeating
+   its last design; padded members are discarded. Results are copied to the host, labelled and
+   written to `out/chunks/` before the next chunk starts (see `_store.py`).
+4. At the end the chunks are gathered into one `xarray.Dataset` (written to `out/sweep.nc`).
+
+**Multi-host.** Call `jax.distributed.initialize()` in every process before `sweep` (on SLURM or
+TPU pods it finds its peers from the environment; elsewhere pass `coordinator_address`,
+`num_processes` and `process_id`), give every process the same `out` folder on a shared file
+system, and run the same script everywhere. Each process takes every `jax.process_count()`-th chunk
+and runs it on its own `jax.local_devices()`; the processes meet at barriers before starting and at
+the end, where process 0 gathers `sweep.nc` and the others read it back. `resume=True` works the same
+way. (This path has not been run on more than one host in this repository's tests.)
+"""
+
+import json
+import math
+import os
+import sys
+import time
+from collections.abc import Callable, Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import xarray as xr
+from jax.sharding import Mesh, NamedSharding
+from jax.sharding import PartitionSpec as P
+
+from ._kernel import Kernel, as_kernel
+from ._space import DesignSpace
+from ._store import RESULT, Store, gather
+
+AXIS = "design"
+# Default chunk sizing (see `_default_chunk_size`).
+MIN_CHUNKS = 8
+PER_DEVICE_CAP = {"cpu": 256}
+PER_DEVICE_CAP_ACCELERATOR = 8192
+MEMORY_FRACTION = 0.5
+
+
+def _canonical(column: np.ndarray) -> np.ndarray:
+    kind = "float" if column.dtype.kind == "f" else "int"
+    dtype = jax.dtypes.canonicalize_dtype(np.float64 if kind == "float" else np.int64)
+    return np.asarray(column, dtype=dtype)
+
+
+def _python_scalar(value: Any) -> Any:
+    return value.item() if isinstance(value, np.generic) else value
+
+
+def _default_chunk_size(n_designs: int, n_devices: int, platform: str) -> int:
+    """Designs per chunk when the caller gives none.
+
+    At least `MIN_CHUNKS` chunks (so an interruption loses at most ~1/8 of the work and the progress
+    bar moves), at most `PER_DEVICE_CAP` designs per device (256 on CPU, where a larger vmapped batch
+    is no faster; 8192 on accelerators), always a multiple of the device count. The memory check in
+    `_fit_memory` may then shrink it.
+    """
+    cap = PER_DEVICE_CAP.get(platform, PER_DEVICE_CAP_ACCELERATOR)
+    per_device = max(1, min(cap, math.ceil(n_designs / (n_devices * MIN_CHUNKS))))
+    return per_device * n_devices
+
+
+def _device_memory(device: jax.Device) -> int | None:
+    try:
+        stats = device.memory_stats()
+    except Exception:  # CPU devices may not report; treated as unknown
+        stats = None
+    if stats and stats.get("bytes_limit"):
+        return int(stats["bytes_limit"])
+    if device.platform == "cpu":
+        try:
+            return os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+        except (ValueError, OSError, AttributeError):
+            return None
+    return None
+
+
+def _compiled_bytes(compiled: Any) -> int | None:
+    try:
+        stats = compiled.memory_analysis()
+        return int(
+            stats.temp_size_in_bytes + stats.argument_size_in_bytes + stats.output_size_in_bytes
+        )
+    except Exception:  # best effort: some backends give no analysis
+        return None
+
+
+class _Group:
+    """Designs sharing the same static parameter values: one compiled function."""
+
+    def __init__(self, static_values: dict[str, Any], indices: np.ndarray):
+        self.static_values = static_values
+        self.indices = indices
+        self.shapes: dict[str, jax.ShapeDtypeStruct] = {}
+        self.extra: dict[str, jax.ShapeDtypeStruct] = {}
+        self.compiled: Callable | None = None
+
+
+def sweep(
+    fn: Callable[..., Any] | Kernel,
+    space: DesignSpace,
+    *,
+    chunk_size: int | None = None,
+    out: str | os.PathLike | None = None,
+    resume: bool = False,
+    devices: Sequence[jax.Device] | None = None,
+    progress: bool = True,
+    on_chunk: Callable[[int, int], None] | None = None,
+) -> xr.Dataset:
+    """Evaluate `fn` on every design of `space`, in chunks, sharded over devices; return a dataset.
+
+    **Arguments:**
+    - `fn`: a `Kernel`, or a plain function `fn(params: dict) -> dict[str, Array]` of one design
+      (see `Kernel` for the contract: traceable, no raising, result code under `"result"`).
+    - `space`: a `Grid`, `Samples`, `Table` or `Product` of them.
+    - `chunk_size`: designs per compiled call; rounded up to a multiple of the device count. `None`
+      picks one: at least 8 chunks, at most 256 designs per device on CPU (8192 on accelerators),
+      then halved until XLA's memory analysis of the compiled call fits in half the device's memory.
+    - `out`: folder to store the sweep in (created if missing). `None` keeps it in memory only.
+    - `resume`: continue the sweep stored in `out`, computing only designs not stored yet. Raises
+      if the stored sweep has a different kernel, settings or design space. Without `resume`, an
+      `out` that already holds a sweep is an error (nothing is overwritten).
+    - `devices`: devices to shard the batch axis over (default: `jax.local_devices()`).
+    - `progress`: show a tqdm progress bar (designs and designs/s) on stderr.
+    - `on_chunk`: called as `on_chunk(done, total)` after each chunk is stored.
+
+    **Returns:** an `xarray.Dataset` with dimension `design` (index coordinate `design`, the design's
+    row in `space.columns()`), every parameter as a coordinate along `design` (attribute `units`),
+    every output as a variable (attribute `units`), and `result` (`int32`, 0 = success) with CF
+    `flag_values`/`flag_meanings`. Attributes: `model`, `settings` and `space` (JSON), `n_designs`,
+    `n_failed`, `chunk_size`, `devices`, `compile_s` (seconds spent compiling in this call: the
+    one attribute that differs between runs of the same sweep).
+
+    **Raises:** `ValueError` for a wrong design space or kernel outputs (before any compute);
+    `FileExistsError` / `ValueError` from the store (see `resume`); `RuntimeError` if a compiled
+    chunk raises (a kernel that throws instead of returning a result code).
+    """
+    kernel = as_kernel(fn)
+    if not isinstance(space, DesignSpace):
+        raise ValueError(f"space must be a Grid, Samples, Table or Product, got {type(space)}.")
+    if kernel.parameters is not None:
+        unknown = [n for n in space.names if n not in kernel.parameters]
+        if unknown:
+            raise ValueError(
+                f"model {kernel.name!r} has no parameter(s) {unknown}; it accepts "
+                f"{sorted(kernel.parameters)}."
+            )
+    if chunk_size is not None and int(chunk_size) < 1:
+        raise ValueError(f"chunk_size must be >= 1, got {chunk_size}.")
+
+    columns = space.columns()
+    n_designs = space.size
+    static_names = [n for n in space.names if n in space.static or n in kernel.static]
+    dynamic_names = [n for n in space.names if n not in static_names]
+    categories = {}
+    for name in dynamic_names:
+        if columns[name].dtype.kind == "U":
+            known = kernel.categories.get(name) or space.categories(name)
+            unknown = sorted(set(columns[name].tolist()) - set(known))
+            if unknown:
+                raise ValueError(
+                    f"parameter {name!r}: model {kernel.name!r} knows {list(known)}, not {unknown}."
+                )
+            categories[name] = tuple(known)
+        elif name in kernel.categories:
+            raise ValueError(
+                f"parameter {name!r} takes one of {list(kernel.categories[name])}, not numbers."
+            )
+    encoded: dict[str, np.ndarray] = {}
+    for name in dynamic_names:
+        if name in categories:
+            lookup = {label: i for i, label in enumerate(categories[name])}
+            encoded[name] = np.array([lookup[v] for v in columns[name]], dtype=np.int32)
+        else:
+            encoded[name] = _canonical(columns[name])
+
+    groups = _make_groups(columns, static_names, n_designs)
+    devices = list(devices) if devices is not None else jax.local_devices()
+    if not devices:
+        raise ValueError("no devices to run on.")
+    mesh = Mesh(np.array(devices), (AXIS,))
+    sharding = NamedSharding(mesh, P(AXIS))
+
+    def member_fn(static_values: dict[str, Any]) -> Callable:
+        def member(params: dict[str, Any]) -> dict[str, Any]:
+            outputs = kernel.fn({**params, **static_values})
+            if not isinstance(outputs, Mapping):
+                raise ValueError(
+                    f"model {kernel.name!r} must return a flat dict of arrays, got "
+                    f"{type(outputs).__name__}."
+                )
+            return {str(k): jnp.asarray(v) for k, v in outputs.items()}
+
+        return member
+
+    def prepared(group: _Group, indices: np.ndarray) -> dict[str, np.ndarray]:
+        # Host-side per-design inputs (e.g. random geometry drawn by NumPy), see `Kernel.prepare`.
+        if kernel.prepare is None:
+            return {}
+        host = {n: columns[n][indices] for n in dynamic_names}
+        extra = {
+            str(k): np.asarray(v) for k, v in kernel.prepare(host, group.static_values).items()
+        }
+        for name, value in extra.items():
+            if name in encoded or value.shape[:1] != (len(indices),):
+                raise ValueError(
+                    f"prepare() of {kernel.name!r} returned {name!r} with shape {value.shape}; "
+                    f"expected a new name and a leading axis of {len(indices)} designs."
+                )
+        return extra
+
+    example = {n: jnp.zeros((), encoded[n].dtype) for n in dynamic_names}
+    for group in groups:
+        group.extra = {
+            k: jax.ShapeDtypeStruct(v.shape[1:], v.dtype)
+            for k, v in prepared(group, group.indices[:1]).items()
+        }
+        shapes = jax.eval_shape(member_fn(group.static_values), {**example, **group.extra})
+        for name, shape in shapes.items():
+            if not isinstance(shape, jax.ShapeDtypeStruct):
+                raise ValueError(f"output {name!r} of {kernel.name!r} is not an array.")
+        group.shapes = shapes
+    layout = _output_layout(kernel, groups)
+
+    process_index, process_count = jax.process_index(), jax.process_count()
+    manifest = {
+        "format": 1,
+        "model": kernel.name,
+        "settings": dict(kernel.settings),
+        "space": space.to_config(),
+        "static": static_names,
+        "outputs": {n: [list(d), dt] for n, (d, _, dt) in layout.items()},
+    }
+    store = None
+    if out is not None:
+        store = Store.open(Path(out), manifest, resume=resume, writer=process_index == 0)
+        _barrier("origami_jax.sweep.open", process_count)
+        if process_index != 0:
+            store = Store.open(Path(out), manifest, resume=True, writer=False)
+    done = store.done_mask(n_designs) if store is not None else np.zeros(n_designs, dtype=bool)
+    _barrier("origami_jax.sweep.scanned", process_count)
+
+    n_devices = len(devices)
+    if chunk_size is None:
+        largest = max(int((~done[g.indices]).sum()) for g in groups)
+        size = _default_chunk_size(max(largest, 1), n_devices, devices[0].platform)
+        auto = True
+    else:
+        size = math.ceil(int(chunk_size) / n_devices) * n_devices
+        auto = False
+
+    compile_seconds: list[float] = []
+
+    def compile_group(group: _Group, size: int) -> Callable:
+        args = {
+            n: jax.ShapeDtypeStruct((size,), encoded[n].dtype, sharding=sharding)
+            for n in dynamic_names
+        }
+        for name, shape in group.extra.items():
+            args[name] = jax.ShapeDtypeStruct((size, *shape.shape), shape.dtype, sharding=sharding)
+        batched = jax.vmap(member_fn(group.static_values))
+        jitted = jax.jit(batched, in_shardings=sharding, out_shardings=sharding)
+        start = time.perf_counter()
+        compiled = jitted.lower(args).compile()
+        compile_seconds.append(time.perf_counter() - start)
+        return compiled
+
+    # Work list: (group, design indices) chunks not stored yet, in design order within a group.
+    work: list[tuple[_Group, np.ndarray]] = []
+    for group in groups:
+        todo = group.indices[~done[group.indices]]
+        work += [(group, todo[i : i + size]) for i in range(0, len(todo), size)]
+    if auto and work:
+        size = _fit_memory(work[0][0], size, n_devices, devices[0], compile_group)
+        work = []
+        for group in groups:
+            todo = group.indices[~done[group.indices]]
+            work += [(group, todo[i : i + size]) for i in range(0, len(todo), size)]
+    mine = work[process_index::process_count]
+
+    from tqdm import tqdm
+
+    bar = tqdm(
+        total=n_designs,
+        initial=int(done.sum()),
+        unit="design",
+        desc=f"sweep {kernel.name}",
+        disable=not progress,
+        file=sys.stderr,
+        dynamic_ncols=True,
+    )
+    in_memory: list[xr.Dataset] = []
+    n_done = int(done.sum())
+    try:
+        for group, indices in mine:
+            if group.compiled is None:
+                group.compiled = compile_group(group, size)
+            padded = np.concatenate([indices, np.full(size - len(indices), indices[-1])])
+            inputs = {n: jax.device_put(encoded[n][padded], sharding) for n in dynamic_names}
+            for name, value in prepared(group, padded).items():
+                inputs[name] = jax.device_put(value, sharding)
+            try:
+                outputs = jax.device_get(group.compiled(inputs))
+            except Exception as error:
+                raise RuntimeError(
+                    f"model {kernel.name!r} raised while computing designs {int(indices[0])}.."
+                    f"{int(indices[-1])}: {error}\nA batch kernel must not throw: call solvers "
+                    "with throw=False and return their result code."
+                ) from error
+            chunk = _label_chunk(space, columns, indices, outputs, layout, kernel)
+            if store is not None:
+                store.write_chunk(chunk)
+            else:
+                in_memory.append(chunk)
+            n_done += len(indices)
+            bar.update(len(indices))
+            if on_chunk is not None:
+                on_chunk(n_done, n_designs)
+    finally:
+        bar.close()
+
+    _barrier("origami_jax.sweep.computed", process_count)
+    if store is not None:
+        if process_index == 0:
+            dataset = store.gather(write=False)
+            dataset = _finish(dataset, kernel, manifest, size, devices, compile_seconds)
+            gather([dataset], path=store.root / RESULT)
+        _barrier("origami_jax.sweep.gathered", process_count)
+        if process_index != 0:
+            dataset = xr.load_dataset(store.root / RESULT, engine="h5netcdf")
+        return dataset
+    return _finish(gather(in_memory), kernel, manifest, size, devices, compile_seconds)
+
+
+def _barrier(name: str, process_count: int) -> None:
+    if process_count > 1:
+        from jax.experimental import multihost_utils
+
+        multihost_utils.sync_global_devices(name)
+
+
+def _make_groups(
+    columns: Mapping[str, np.ndarray], static_names: Sequence[str], n_designs: int
+) -> list[_Group]:
+    if not static_names:
+        return [_Group({}, np.arange(n_designs))]
+    keys = list(zip(*(columns[n].tolist() for n in static_names), strict=True))
+    order: dict[tuple, list[int]] = {}
+    for i, key in enumerate(keys):
+        order.setdefault(key, []).append(i)
+    return [
+        _Group(
+            {n: _python_scalar(v) for n, v in zip(static_names, key, strict=True)},
+            np.asarray(idx, dtype=np.int64),
+        )
+        for key, idx in order.items()
+    ]
+
+
+def _output_layout(
+    kernel: Kernel, groups: Sequence[_Group]
+) -> dict[str, tuple[tuple[str, ...], tuple[int, ...], str]]:
+    """Per output: trailing dim names, their (largest over groups) sizes, and the common dtype."""
+    names = list(groups[0].shapes)
+    for group in groups[1:]:
+        if list(group.shapes) != names:
+            raise ValueError(
+                f"model {kernel.name!r} returns different outputs for different static values: "
+                f"{names} vs {list(group.shapes)}."
+            )
+    for name in names:
+        if name in (AXIS,) or name in {n for g in groups for n in g.static_values}:
+            raise ValueError(f"output name {name!r} clashes with a dimension or parameter.")
+    dim_sizes: dict[str, int] = {}
+    layout = {}
+    for name in names:
+        ndim = {g.shapes[name].ndim for g in groups}
+        if len(ndim) != 1:
+            raise ValueError(f"output {name!r} changes rank between static groups.")
+        (ndim,) = ndim
+        dims = tuple(kernel.output_dims.get(name, tuple(f"{name}_dim{k}" for k in range(ndim))))
+        if len(dims) != ndim:
+            raise ValueError(f"output {name!r} has {ndim} axes but output_dims names {dims}.")
+        for k, dim in enumerate(dims):
+            dim_sizes[dim] = max(
+                [dim_sizes.get(dim, 0)] + [g.shapes[name].shape[k] for g in groups]
+            )
+        dtype = np.result_type(*[g.shapes[name].dtype for g in groups])
+        layout[name] = (dims, dtype.name)
+    return {n: (d, tuple(dim_sizes[x] for x in d), dt) for n, (d, dt) in layout.items()}
+
+
+def _pad(values: np.ndarray, shape: tuple[int, ...], dtype: str) -> np.ndarray:
+    values = values.astype(dtype, copy=False)
+    if values.shape[1:] == shape:
+        return values
+    kind = np.dtype(dtype).kind
+    fill = np.nan if kind in "fc" else (-1 if kind in "iu" else False)
+    result = np.full((values.shape[0], *shape), fill, dtype=dtype)
+    result[(slice(None), *(slice(0, s) for s in values.shape[1:]))] = values
+    return result
+
+
+def _label_chunk(
+    space: DesignSpace,
+    columns: Mapping[str, np.ndarray],
+    indices: np.ndarray,
+    outputs: Mapping[str, np.ndarray],
+    layout: Mapping[str, tuple[tuple[str, ...], tuple[int, ...], str]],
+    kernel: Kernel,
+) -> xr.Dataset:
+    n = len(indices)
+    coords: dict[str, Any] = {AXIS: (AXIS, indices.astype(np.int64))}
+    for name in space.names:
+        coords[name] = (AXIS, columns[name][indices], {"units": space.unit(name)})
+    data_vars: dict[str, Any] = {}
+    for name, (dims, shape, dtype) in layout.items():
+        values = _pad(np.asarray(outputs[name])[:n], shape, dtype)
+        attrs = {"units": kernel.output_units.get(name, "")}
+        if name == kernel.result_key:
+            continue
+        data_vars[name] = ((AXIS, *dims), values, attrs)
+    if kernel.result_key in outputs:
+        code = np.asarray(outputs[kernel.result_key])[:n].astype(np.int32)
+        if code.ndim != 1:
+            raise ValueError(f"result code {kernel.result_key!r} must be a scalar per design.")
+    else:
+        code = np.zeros(n, dtype=np.int32)
+    attrs: dict[str, Any] = {"long_name": "result code (0 = success)"}
+    if kernel.result_messages:
+        codes = sorted(kernel.result_messages)
+        attrs["flag_values"] = np.asarray(codes, dtype=np.int32)
+        attrs["flag_meanings"] = " ".join(
+            "_".join(kernel.result_messages[c].split()) for c in codes
+        )
+    data_vars["result"] = ((AXIS,), code, attrs)
+    return xr.Dataset(data_vars, coords=coords)
+
+
+def _fit_memory(
+    group: _Group, size: int, n_devices: int, device: jax.Device, compile_group: Callable
+) -> int:
+    """Halve the chunk size until the compiled call's memory fits `MEMORY_FRACTION` of a device."""
+    budget = _device_memory(device)
+    while True:
+        compiled = compile_group(group, size)
+        needed = _compiled_bytes(compiled)
+        if budget is None or needed is None or needed <= MEMORY_FRACTION * budget:
+            group.compiled = compiled
+            return size
+        if size == n_devices:
+            raise ValueError(
+                f"one design per device needs {needed / 2**30:.1f} GiB, more than "
+                f"{MEMORY_FRACTION:.0%} of the {budget / 2**30:.1f} GiB the device has."
+            )
+        size = max(n_devices, (size // (2 * n_devices)) * n_devices)
+
+
+def _finish(
+    dataset: xr.Dataset,
+    kernel: Kernel,
+    manifest: Mapping[str, Any],
+    size: int,
+    devices: Sequence[jax.Device],
+    compile_seconds: Sequence[float],
+) -> xr.Dataset:
+    dataset.attrs.update(
+        {
+            "model": kernel.name,
+            "settings": json.dumps(manifest["settings"], sort_keys=True),
+            "space": json.dumps(manifest["space"], sort_keys=True),
+            "n_designs": int(dataset.sizes[AXIS]),
+            "n_failed": int((dataset["result"].values != 0).sum()),
+            "chunk_size": int(size),
+            "devices": ", ".join(str(d) for d in devices),
+            "jax_version": jax.__version__,
+            "compile_s": float(sum(compile_seconds)),
+        }
+    )
+    return dataset

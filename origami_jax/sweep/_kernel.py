@@ -1,0 +1,66 @@
+"""`Kernel`: a per-design function plus what a sweep needs to label and check its results."""
+
+import dataclasses
+from collections.abc import Callable, Mapping
+from typing import Any
+
+
+@dataclasses.dataclass(frozen=True)
+class Kernel:
+    """A function of one design, with the metadata that makes its sweep self-describing.
+
+    `fn` maps a dict of scalar parameters to a flat dict of outputs (JAX scalars or fixed-shape
+    arrays). It must be traceable (`jax.jit`, `jax.vmap`) in its non-static parameters and must not
+    raise on bad values: a batch kernel calls its solvers with `throw=False` and returns their result
+    code under `result_key` (0 = success, anything else = this member failed, see
+    `result_messages`). Non-static parameters arrive as JAX scalars (float, int, or an `int32`
+    category index for string-valued parameters); static ones as Python values.
+
+    **Arguments:**
+    - `fn`: `fn(params: dict[str, scalar]) -> dict[str, Array]`.
+    - `name`: the model's name, stored in the dataset and checked on resume.
+    - `settings`: JSON-able settings that change the answers (solver, tolerances, run length...);
+      stored in the manifest and checked on resume.
+    - `parameters`: accepted parameter names → units. `None` accepts any name.
+    - `static`: parameters that fix array shapes (e.g. `n_flaps`): always treated as static.
+    - `output_units`: output name → unit string.
+    - `output_dims`: output name → names of its trailing axes (e.g. `("joint",)`); outputs of
+      different static groups may differ in those sizes and are padded (NaN, or -1 for integers).
+    - `result_key`: the output that holds the result code.
+    - `result_messages`: result code → short explanation, stored as CF `flag_values` /
+      `flag_meanings`.
+    - `categories`: categorical parameter → the labels the kernel knows, in the order of the index it
+      receives (e.g. `{"fluid": ("air", "koh")}`). A categorical parameter not listed here is indexed
+      into the design space's sorted labels.
+    - `prepare`: optional host-side step, `prepare(columns, static) -> dict[str, ndarray]`, called
+      per chunk with the chunk's parameter values (NumPy, labels as strings) and the group's static
+      values; each returned array has a leading axis of one entry per design and reaches `fn` as an
+      extra entry of `params` (sliced per design). For inputs that cannot be traced, such as
+      random geometry drawn by rejection sampling from a seed.
+    """
+
+    fn: Callable[..., Any]
+    name: str
+    settings: Mapping[str, Any] = dataclasses.field(default_factory=dict)
+    parameters: Mapping[str, str] | None = None
+    static: tuple[str, ...] = ()
+    output_units: Mapping[str, str] = dataclasses.field(default_factory=dict)
+    output_dims: Mapping[str, tuple[str, ...]] = dataclasses.field(default_factory=dict)
+    result_key: str = "result"
+    result_messages: Mapping[int, str] = dataclasses.field(default_factory=dict)
+    categories: Mapping[str, tuple[str, ...]] = dataclasses.field(default_factory=dict)
+    prepare: Callable[..., Mapping[str, Any]] | None = None
+
+    def __call__(self, params: Mapping[str, Any]) -> Any:
+        return self.fn(params)
+
+
+def as_kernel(fn: Callable[..., Any] | Kernel) -> Kernel:
+    """Wrap a plain function in a `Kernel` named after it (module and qualified name)."""
+    if isinstance(fn, Kernel):
+        return fn
+    if not callable(fn):
+        raise ValueError(f"sweep needs a callable or a Kernel, got {type(fn).__name__}.")
+    module = getattr(fn, "__module__", None) or ""
+    qualname = getattr(fn, "__qualname__", None) or type(fn).__name__
+    return Kernel(fn=fn, name=f"{module}.{qualname}".lstrip("."))

@@ -1,0 +1,82 @@
+"""The physics adapters of the sweep (`accordion-step`), and the model registry."""
+
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from origami_jax.sweep import Grid, Table, available_models, get_model, sweep
+
+
+def test_registry_says_what_is_available():
+    status = available_models()
+    assert status["accordion-step"].startswith("available")
+    assert set(status) >= {"accordion-step", "vertex-unfold"}
+    with pytest.raises(ValueError, match="unknown model"):
+        get_model("no-such-model")
+    with pytest.raises(ValueError, match="fluid"):
+        get_model("accordion-step", fluid="water")
+    with pytest.raises(ValueError, match="bad settings"):
+        get_model("accordion-step", tolerance=1e-3)
+
+
+def test_accordion_refuses_unknown_parameters_and_fluids_before_compiling():
+    kernel = get_model("accordion-step")
+    with pytest.raises(ValueError, match="accepts"):
+        sweep(kernel, Grid({"hinge_thickness": [1.0]}), progress=False)
+    with pytest.raises(ValueError, match="knows"):
+        sweep(kernel, Grid({"fluid": ["air", "water"]}), progress=False)
+
+
+@pytest.mark.slow  # one compilation of the vmapped Kvaerno5 solve: minutes on a 2-core CPU
+def test_accordion_step_matches_a_direct_simulation():
+    from origami_jax.chain import KOH_SOLUTION, MICRO, HingeDesign
+    from origami_jax.simulation import Step, alternating_targets, response_metrics, simulate
+
+    kernel = get_model("accordion-step", t_end=1500.0, n_save=1501)
+    space = Table(
+        {
+            "hinge_width": [60.0, -5.0, 150.0],
+            "misfit_strain": [2.5e-3, 2.5e-3, 3e-3],
+            "fluid": ["air", "air", "koh"],
+        }
+    )
+    ds = sweep(kernel, space, chunk_size=3, progress=False)
+    assert ds["result"].values.tolist() == [0, -1, 0]
+    assert np.isnan(ds["rise_time"].values[1]).all()
+    for i, fluid in ((0, None), (2, KOH_SOLUTION)):
+        extra = {} if fluid is None else {"fluid": fluid}
+        design = HingeDesign.literature(
+            MICRO,
+            hinge_width=float(space.columns()["hinge_width"][i]),
+            misfit_strain=float(space.columns()["misfit_strain"][i]),
+            **extra,
+        )
+        trajectory = simulate(
+            design.accordion(3),
+            Step(alternating_targets(3)),
+            stiffness=design.stiffness(3),
+            drag=design.drag(3),
+            t1=1500.0,
+            n_save=1501,
+        )
+        metrics = response_metrics(trajectory)
+        np.testing.assert_allclose(ds["rise_time"].values[i], metrics.rise_time, rtol=1e-6)
+        np.testing.assert_allclose(ds["overshoot"].values[i], metrics.overshoot, atol=1e-6)
+        assert float(ds["stiffness"].values[i]) == pytest.approx(
+            float(jnp.asarray(design.stiffness(3))[0])
+        )
+
+
+@pytest.mark.slow  # compiles the descent kernel (~20 s) and draws vertices on the host
+def test_vertex_unfold_agrees_with_unfold():
+    import jax
+
+    from origami_jax.vertex import Verdict, random_vertex, unfold
+
+    kernel = get_model("vertex-unfold", max_steps=400)
+    ds = sweep(kernel, Grid({"n_creases": [4], "seed": [0, 1, 2]}), chunk_size=3, progress=False)
+    assert ds["result"].values.tolist() == [0, 0, 0]
+    for i, seed in enumerate((0, 1, 2)):
+        reference = unfold(random_vertex(jax.random.key(seed), 4, closed=True), energy="separable")
+        if reference.verdict == Verdict.FLAT_UNFOLDED and not reference.escapes:
+            assert bool(ds["flat_unfolded"].values[i]) and bool(ds["certified"].values[i])
