@@ -19,8 +19,8 @@ def results_markdown(results: list[Result], *, title: str, quick: bool) -> str:
         "",
         "Machine: " + ", ".join(f"{k} {v}" for k, v in machine.items() if k != "date"),
         "",
-        "| benchmark | ours per item | compile | peer | peer per item | peer / ours | max abs diff | FLOP per call | notes |",
-        "| --- | --- | --- | --- | --- | --- | --- | --- | --- |",
+        "| benchmark | ours per item | compile | peer | peer per item | peer / ours | max abs diff | FLOP per call | % of peak | notes |",
+        "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
     ]
     for r in results:
         lines.append(
@@ -36,6 +36,7 @@ def results_markdown(results: list[Result], *, title: str, quick: bool) -> str:
                     _cell(r.ratio, "{:.2f}x"),
                     _cell(r.max_abs_difference, "{:.1e}"),
                     _cell(r.flops, "{:.3g}"),
+                    _cell(None if r.peak_fraction is None else 100 * r.peak_fraction, "{:.2g}"),
                     r.notes.replace("|", "/"),
                 ]
             )

@@ -292,3 +292,40 @@ def test_array_path_for_long_chains_agrees():
     assert max_relative_error(mass, ours["mass"]) < PATH_RTOL
     assert max_relative_error(bias, ours["bias"]) < PATH_RTOL
     assert max_relative_error(acceleration, ours["acceleration"]) < ROUND_TRIP_RTOL
+
+
+@pytest.mark.parametrize("name", ["accordion3", "random5_gravity"])
+def test_scalar_forward_path_equals_array_path(name):
+    """`forward_dynamics` evaluates short chains on scalars and differentiates the array form (custom
+    JVP): values, forward- and reverse-mode derivatives must match the array path to PATH_RTOL."""
+    chain = CASES[name]()
+    n = chain.n_joints
+    theta, theta_dot, tau = as_jax(*random_states(n, N_STATES, SEED + 7))
+    k, b = jnp.linspace(1.0, 2.0, n), jnp.linspace(0.1, 0.3, n)
+
+    def acceleration(path):
+        def f(q, v, t, stiffness):
+            return oc.forward_dynamics(chain, q, v, t, stiffness=stiffness, drag=b, path=path)
+
+        return f
+
+    @quick_jit
+    def both(theta, theta_dot, tau):
+        out = {}
+        for path in ("auto", "arrays"):
+            f = acceleration(path)
+            value = jax.vmap(f, in_axes=(0, 0, 0, None))(theta, theta_dot, tau, k)
+            jac_q = jax.vmap(jax.jacfwd(f), in_axes=(0, 0, 0, None))(theta, theta_dot, tau, k)
+            grad_k = jax.vmap(
+                jax.grad(lambda q, v, t, s, f=f: jnp.sum(f(q, v, t, s) ** 2), argnums=3),
+                in_axes=(0, 0, 0, None),
+            )(theta, theta_dot, tau, k)
+            out[path] = (value, jac_q, grad_k)
+        return out
+
+    out = both(theta, theta_dot, tau)
+    for fast, reference in zip(out["auto"], out["arrays"], strict=True):
+        assert max_relative_error(fast, reference) < PATH_RTOL
+    # ValueError from the function; TypeError when the suite's runtime type checker sees it first.
+    with pytest.raises((ValueError, TypeError), match="path"):
+        oc.forward_dynamics(chain, theta[0], theta_dot[0], tau[0], stiffness=k, drag=b, path="x")

@@ -29,6 +29,12 @@ _SCALAR_MAX = 0
 # accordion state), but compiling its reverse-mode derivative at XLA's default optimisation level took
 # minutes in the test suite. Re-enable once gradient compile times are measured and bounded.
 
+# Forward dynamics, the simulator's right-hand side, is the exception: up to this many hinges its *value*
+# runs on scalars (4.6x faster vmapped over 10,000 accordion states on the CPU: 0.23 µs against 1.06 µs
+# per state), while its derivatives go through the array path by a custom JVP rule, so differentiating a
+# simulation compiles exactly what it compiled before.
+_SCALAR_FORWARD_MAX = 6
+
 # Above this size the unrolled Cholesky in `_solve_spd` would unroll O(n³) scalar operations into the
 # graph; LAPACK's is cheaper to compile then.
 _UNROLL_MAX = 8
@@ -289,6 +295,7 @@ def forward_dynamics(
     *,
     stiffness: Float[ArrayLike, "#n"] | Float[ArrayLike, ""],
     drag: Float[ArrayLike, "#n"] | Float[ArrayLike, ""],
+    path: Literal["auto", "arrays"] = "auto",
 ) -> Float[Array, " n"]:
     """Hinge accelerations ``θ̈ = M⁻¹ (τ − C θ̇ − N)`` (paper Eq. 11), the simulator's right-hand side.
 
@@ -297,18 +304,35 @@ def forward_dynamics(
     **Arguments:**
     - `theta` (rad), `theta_dot` (rad/time), `tau` (applied hinge torque): shape `(n,)`.
     - `stiffness` (torque/rad), `drag` (torque·time²/rad²): per hinge, shape `(n,)` or scalar.
+    - `path`: `"auto"` (default) evaluates chains of up to six hinges on scalars, ~4.6× faster under
+      `vmap` on the CPU, and differentiates the array form through a custom JVP; `"arrays"` always uses
+      the array form. Both give the same answer to rounding.
 
     **Returns:** ``θ̈``, shape `(n,)`, rad/time².
     """
     theta = jnp.asarray(theta)
     theta_dot = jnp.asarray(theta_dot)
     applied = jnp.asarray(tau) - hinge_torque(stiffness, drag, theta, theta_dot)
-    if chain.n_joints <= _SCALAR_MAX:
-        bodies = ScalarBodies(chain, theta)  # shared by M and the bias, so kinematics run once
-        bias = newton_euler_lists(bodies, chain.gravity, theta_dot, None)
-        rhs = [applied[..., i] - bias[i] for i in range(chain.n_joints)]
-        return _assemble(cholesky_solve_lists(mass_matrix_lists(bodies), rhs))
+    if path not in ("auto", "arrays"):
+        raise ValueError(f"path must be 'auto' or 'arrays', got {path!r}.")
+    if path == "auto" and chain.n_joints <= _SCALAR_FORWARD_MAX:
+        return _forward_dynamics_scalar(chain, theta, theta_dot, applied)
     return _forward_dynamics_arrays(chain, theta, theta_dot, applied)
+
+
+@jax.custom_jvp
+def _forward_dynamics_scalar(chain: Chain, theta: Array, theta_dot: Array, applied: Array) -> Array:
+    # Value on scalars; the JVP rule below differentiates the array path (same algorithm, same answer
+    # to rounding: tests hold the two to 1e-12 relative).
+    bodies = ScalarBodies(chain, theta)  # shared by M and the bias, so kinematics run once
+    bias = newton_euler_lists(bodies, chain.gravity, theta_dot, None)
+    rhs = [applied[..., i] - bias[i] for i in range(chain.n_joints)]
+    return _assemble(cholesky_solve_lists(mass_matrix_lists(bodies), rhs))
+
+
+@_forward_dynamics_scalar.defjvp
+def _forward_dynamics_scalar_jvp(primals, tangents):
+    return jax.jvp(_forward_dynamics_arrays, primals, tangents)
 
 
 def _forward_dynamics_arrays(chain: Chain, theta: Array, theta_dot: Array, applied: Array) -> Array:

@@ -54,7 +54,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument(
         "--t1", type=float, default=None, help="run length, s (default from the targets)"
     )
-    parser.add_argument("--starts", type=int, default=4, help="multi-start count (default 4)")
+    parser.add_argument("--starts", type=int, default=8, help="multi-start count (default 8)")
     parser.add_argument("--max-steps", type=int, default=48, help="optimiser steps per start")
     parser.add_argument(
         "--tolerance", type=float, default=0.05, help="relative miss counted as met"

@@ -13,17 +13,19 @@ from pathlib import Path
 from ._common import EXIT_NOT_IMPLEMENTED, EXIT_OK, add_out_argument, prepare_out
 
 HELP = (
-    "Reproduce the paper's examples (unfoldings of Fig. 3, step and ramp responses of Figs. 7-11)."
+    "Reproduce the paper's examples (unfoldings of Fig. 3, step and ramp responses of Figs. 7-11, "
+    "and a calibration of the hinges to Fig. 7)."
 )
 
 
 def _parts():
     # Imported lazily so that `origami-jax --help` stays fast.
-    from . import _paper_dynamics, _paper_unfolding
+    from . import _paper_calibration, _paper_dynamics, _paper_unfolding
 
     return (
         ("single-vertex unfolding", _paper_unfolding.run),
         ("accordion dynamics", _paper_dynamics.run),
+        ("hinge calibration to Fig. 7", _paper_calibration.run),
     )
 
 

@@ -146,7 +146,12 @@ def _solve(
         th_safe = jnp.where(ok, th, 0.0)
         thd_safe = jnp.where(ok, thd, 0.0)
         tau = inputs.torque(t, th_safe, thd_safe, chain=chain, stiffness=stiffness, drag=drag)
-        acc = forward_dynamics(chain, th_safe, thd_safe, tau, stiffness=stiffness, drag=drag)
+        # The array path here: with the scalar path's custom JVP, this vmap over samples failed XLA's
+        # verifier (operand layout mismatch) inside the design fit's vmapped forward-mode Jacobian on
+        # jax 0.10.2. Post-processing, not the hot loop, so the faster path is not needed.
+        acc = forward_dynamics(
+            chain, th_safe, thd_safe, tau, stiffness=stiffness, drag=drag, path="arrays"
+        )
         return jnp.where(ok, acc, jnp.inf), jnp.where(ok, tau, jnp.inf)
 
     theta_ddot, tau = jax.vmap(_sample)(solution.ts, theta, theta_dot)
