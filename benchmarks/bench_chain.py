@@ -112,4 +112,20 @@ def run(quick: bool) -> list[Result]:
         flush=True,
     )
     rows[1].extra["ours_per_state_over_pinocchio_single"] = ratio
+    rows[1].extra["throughput"] = _throughput(batched, chain, qs, vs, ts, quick)
+    rows[1].extra["peer_throughput"] = n_states / peer_loop.median
     return rows
+
+
+def _throughput(batched, chain, qs, vs, ts, quick: bool) -> dict[int, float]:
+    """States per second of the vmapped kernel against batch size (one compilation per size)."""
+    sizes = (1, 10, 100, 1_000) if quick else (1, 10, 100, 1_000, 10_000, 100_000)
+    rates = {}
+    for size in sizes:
+        reps = -(-size // qs.shape[0])  # tile the random states up to the size
+        q, v, t = (jnp.tile(x, (reps, 1))[:size] for x in (qs, vs, ts))
+        compiled, _, _ = compile_jitted(batched, chain, q, v, t)
+        args = (chain, q, v, t)
+        timing = time_calls(lambda c=compiled, a=args: c(*a), repeats=5 if quick else 20)
+        rates[size] = size / timing.median
+    return rates
