@@ -120,39 +120,26 @@ def run(args: argparse.Namespace) -> int:
     progress = diffrax.TqdmProgressMeter(refresh_steps=200)
     extra: dict = {}
     ramp = None
-    if args.input == "step":
-        inputs = sim.Step(targets)
-        t1 = 2000.0 if args.t1 is None else args.t1
+    if args.input in ("step", "fast-ramp"):
+        if args.input == "step":
+            inputs = sim.Step(targets)
+            default_t1, max_steps = 2000.0, 200_000
+        else:
+            ramp = inputs = sim.fast_ramp(targets, duration=MICRO.time(sim.FAST_RAMP_DURATION_SI))
+            default_t1, max_steps = 1.2 * float(ramp.duration), 500_000
         trajectory = sim.simulate(
             chain,
             inputs,
             stiffness=k,
             drag=b,
-            t1=t1,
+            t1=default_t1 if args.t1 is None else args.t1,
             n_save=args.n_save,
             solver=solver,
             rtol=rtol,
             atol=atol,
             throw=False,
             progress_meter=progress,
-            max_steps=200_000,
-        )
-    elif args.input == "fast-ramp":
-        ramp = inputs = sim.fast_ramp(targets, duration=MICRO.time(sim.FAST_RAMP_DURATION_SI))
-        t1 = 1.2 * float(ramp.duration) if args.t1 is None else args.t1
-        trajectory = sim.simulate(
-            chain,
-            inputs,
-            stiffness=k,
-            drag=b,
-            t1=t1,
-            n_save=args.n_save,
-            solver=solver,
-            rtol=rtol,
-            atol=atol,
-            throw=False,
-            progress_meter=progress,
-            max_steps=500_000,
+            max_steps=max_steps,
         )
     else:
         beta = MICRO.length(sim.KOH_ETCH_RATE_SI) / MICRO.time(1.0)
