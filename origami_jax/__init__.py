@@ -32,4 +32,13 @@ def __dir__() -> list[str]:
     return sorted({*globals(), *_SUBPACKAGES})
 
 
-__all__ = ["__version__", *_SUBPACKAGES]
+__all__ = [  # noqa: RUF022  (listed literally so type checkers can read it)
+    "__version__",
+    "chain",
+    "design",
+    "fold",
+    "plotting",
+    "simulation",
+    "sweep",
+    "vertex",
+]

@@ -12,7 +12,7 @@ origin (Featherstone's spatial vectors), so the composite inertia of a sub-chain
 All functions are unit-agnostic: torque comes out in mass·length²/time² of the chain's units.
 """
 
-from typing import Literal
+from typing import Any, Literal, cast
 
 import jax
 import jax.numpy as jnp
@@ -46,7 +46,7 @@ def _assemble(scalars: list[Array]) -> Array:
     # not vectorise: vmapped over 10,000 accordion states the bias took ~30 µs per state that way and
     # ~0.3 µs this way (an optimisation barrier did not help).
     eye = jnp.eye(len(scalars), dtype=jnp.result_type(*scalars))
-    return sum(x[..., None] * eye[i] for i, x in enumerate(scalars))
+    return cast(Array, sum(x[..., None] * eye[i] for i, x in enumerate(scalars)))
 
 
 def _cross(a: Array, b: Array) -> Array:
@@ -269,7 +269,7 @@ def _solve_spd(matrix: Array, rhs: Array) -> Array:
         return jax.scipy.linalg.cho_solve(jax.scipy.linalg.cho_factor(matrix), rhs)
     # Unrolled Cholesky on scalars: for a handful of hinges this is a few dozen fused flops, where a
     # LAPACK call (or jnp.linalg.solve) costs a custom call and pivoting logic per evaluation.
-    low = [[None] * n for _ in range(n)]
+    low: list[list[Any]] = [[None] * n for _ in range(n)]
     for j in range(n):
         diag = matrix[j, j] - sum((low[j][k] ** 2 for k in range(j)), start=0.0)
         low[j][j] = jnp.sqrt(diag)
@@ -278,10 +278,10 @@ def _solve_spd(matrix: Array, rhs: Array) -> Array:
             low[i][j] = (
                 matrix[i, j] - sum((low[i][k] * low[j][k] for k in range(j)), start=0.0)
             ) * inv
-    y = [None] * n
+    y: list[Any] = [None] * n
     for i in range(n):
         y[i] = (rhs[i] - sum((low[i][k] * y[k] for k in range(i)), start=0.0)) / low[i][i]
-    x = [None] * n
+    x: list[Any] = [None] * n
     for i in reversed(range(n)):
         x[i] = (y[i] - sum((low[k][i] * x[k] for k in range(i + 1, n)), start=0.0)) / low[i][i]
     return jnp.stack(x)

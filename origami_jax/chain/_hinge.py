@@ -255,6 +255,7 @@ class HingeDesign(eqx.Module):
         ):
             setattr(self, name, check_positive(as_float_array(value, name), name))
         if misfit_strain is None:
+            assert residual_stress is not None  # exactly one of the two was checked above
             stress = check_positive(
                 as_float_array(residual_stress, "residual_stress"), "residual_stress"
             )

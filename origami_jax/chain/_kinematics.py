@@ -6,6 +6,8 @@ tiny `dot`s slowly). `body_jacobians` follows SPEC's ``Ad⁻¹`` formula literal
 the paper's formulation and the reference the recursive dynamics are tested against.
 """
 
+from typing import Any
+
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
@@ -57,8 +59,8 @@ def joint_frames(
     rotations = _hinge_rotations(chain.axes, theta)
     # A rotation about the axis through q maps x to R(x − q) + q, so its translation is q − R q.
     translations = chain.points - matvec3(rotations, chain.points)
-    r_prefix = [None] * n
-    t_prefix = [None] * n
+    r_prefix: list[Any] = [None] * n
+    t_prefix: list[Any] = [None] * n
     r_cum, t_cum = rotations[0], translations[0]
     r_prefix[0], t_prefix[0] = r_cum, t_cum
     for i in range(1, n):

@@ -10,6 +10,8 @@ The algorithm is the one of `_dynamics` (composite rigid bodies for ``M``, Newto
 the inertial frame about its origin, with spatial vectors ordered ``(linear, angular)``.
 """
 
+from typing import cast
+
 import jax.numpy as jnp
 from jaxtyping import Array
 
@@ -89,6 +91,7 @@ class ScalarBodies:
                 w, p = axis, point
                 rotation_after, translation_after = rotation, translation
             else:
+                assert translation_before is not None  # set together with rotation_before
                 w = _matvec(rotation_before, axis)
                 p = _add(_matvec(rotation_before, point), translation_before)
                 rotation_after = _matmul(rotation_before, rotation)
@@ -135,14 +138,17 @@ def mass_matrix_lists(bodies: ScalarBodies) -> list[list[Array]]:
     """Composite-rigid-body ``M`` as an n×n nested list of scalars (symmetric, both halves filled)."""
     n = bodies.n
     out: list[list] = [[None] * n for _ in range(n)]
-    mass = moment = inertia = None
+    mass: Array | None = None
+    moment: Vec | None = None
+    inertia: Mat | None = None
     for k in reversed(range(n)):
         if mass is None:
             mass, moment, inertia = bodies.mass[k], bodies.moment[k], bodies.inertia[k]
         else:
+            assert moment is not None and inertia is not None  # set together with mass
             mass = mass + bodies.mass[k]
             moment = _add(moment, bodies.moment[k])
-            inertia = tuple(_add(inertia[r], bodies.inertia[k][r]) for r in range(3))
+            inertia = cast(Mat, tuple(_add(inertia[r], bodies.inertia[k][r]) for r in range(3)))
         force, torque = _apply_inertia(mass, moment, inertia, bodies.v[k], bodies.w[k])
         for j in range(k + 1):
             entry = _dot(bodies.v[j], force) + _dot(bodies.w[j], torque)

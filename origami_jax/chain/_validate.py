@@ -8,6 +8,7 @@ when the compiled function runs.
 
 import equinox as eqx
 import jax
+import jax.core  # noqa: F401  (explicit for the type checker; jax imports it anyway)
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike

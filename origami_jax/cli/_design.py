@@ -5,6 +5,7 @@ import json
 import math
 import sys
 import time
+from typing import overload
 
 from ._common import EXIT_FAILED, EXIT_OK, EXIT_USAGE, add_out_argument, prepare_out
 
@@ -75,6 +76,10 @@ def _floats(text: str | None, what: str) -> list[float] | None:
     return values
 
 
+@overload
+def _pad(values: list[float], n: int, what: str) -> list[float]: ...
+@overload
+def _pad(values: None, n: int, what: str) -> None: ...
 def _pad(values: list[float] | None, n: int, what: str) -> list[float] | None:
     if values is None:
         return None
@@ -130,6 +135,7 @@ def run(args: argparse.Namespace) -> int:
             table = np.loadtxt(args.curve, delimiter=",", skiprows=1, ndmin=2)
             curve = ojd.MeasuredCurve(units.time(table[:, 0]), table[:, 1:])
             n = n or curve.theta.shape[1]
+        assert n is not None  # from the targets or the curve, checked above
         to_time = lambda v: None if v is None else [units.time(x) for x in _pad(v, n, "time")]
         targets = ojd.Targets(
             rise_time=to_time(rise),

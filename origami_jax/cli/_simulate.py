@@ -106,7 +106,11 @@ def run(args: argparse.Namespace) -> int:
 
     fluid = {"air": AIR, "koh": KOH_SOLUTION}[args.fluid]
     try:
-        design = HingeDesign.literature(fluid=fluid, **params)
+        # A misplaced name such as units= is a runtime TypeError, reported below.
+        design = HingeDesign.literature(
+            fluid=fluid,
+            **params,  # pyright: ignore[reportArgumentType]
+        )
     except (TypeError, ValueError) as error:
         print(f"origami-jax simulate: bad --param: {error}", file=sys.stderr)
         return EXIT_USAGE

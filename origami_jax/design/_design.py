@@ -153,7 +153,7 @@ def _residual_fn(z, problem: _Problem):
 
 
 @eqx.filter_jit
-def _evaluate(problem: _Problem, z):
+def _evaluate(problem: _Problem, z) -> dict[str, Any]:
     x = problem.space.to_physical(z)
     hinge = problem.space.apply(problem.hinge, x)
     trajectory, metrics = response(hinge, problem.settings)
@@ -321,7 +321,7 @@ def residual_and_jacobian(result: DesignResult, x: Float[Array, " p"] | None = N
     from ._lstsq import evaluate_with_jacobian
 
     problem = result._problem
-    x = result.values if x is None else x
+    x = result.values if x is None else x  # pyright: ignore[reportAssignmentType] (host array)
     z = problem.space.to_unconstrained(jnp.asarray(np.asarray(x)))
     r, jac, _, _, _ = eqx.filter_jit(evaluate_with_jacobian)(_residual_fn, z, problem)
     return r, jac, z

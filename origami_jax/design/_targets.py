@@ -150,6 +150,7 @@ class Targets(eqx.Module):
         self.weights = weight_arrays
         self.curve = curve
         self.rows = tuple(rows)
+        assert n is not None  # from a target or the curve, checked above
         self.n_joints = int(n)
 
     @property

@@ -439,7 +439,7 @@ def fold_angles_from_coords(
         normals.append(normal / np.linalg.norm(normal))
         for u, w in zip(face, list(face[1:]) + [face[0]], strict=True):
             side_face[(u, w)] = f
-    out = np.full(len(edges), np.nan)
+    out = np.full(len(edges), np.nan)  # pyright: ignore[reportArgumentType] (a sequence)
     for e, (u, w) in enumerate(np.asarray(edges).tolist()):
         if (u, w) in side_face and (w, u) in side_face:
             nf, ng = normals[side_face[(u, w)]], normals[side_face[(w, u)]]

@@ -9,7 +9,7 @@ from __future__ import annotations
 import functools
 import importlib.resources
 import json
-from typing import Any
+from typing import Any, cast
 
 from ._errors import FoldFormatError
 
@@ -19,7 +19,8 @@ SCHEMA_FILE = "fold_schema.json"
 @functools.cache
 def fold_schema() -> dict[str, Any]:
     """The JSON schema (draft-07) for the FOLD 1.2 subset origami_jax reads and writes."""
-    text = importlib.resources.files(__package__).joinpath(SCHEMA_FILE).read_text(encoding="utf-8")
+    resource = importlib.resources.files(cast(str, __package__))  # set: a module of a package
+    text = resource.joinpath(SCHEMA_FILE).read_text(encoding="utf-8")
     return json.loads(text)
 
 

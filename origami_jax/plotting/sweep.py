@@ -8,12 +8,13 @@ Failed designs (`result != 0`) are drawn as red crosses on the parameter axis, n
 import re
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import matplotlib.pyplot as plt
 import numpy as np
 import xarray as xr
 
-_FAILED = {"marker": "x", "color": "tab:red", "linestyle": "none"}
+_FAILED: dict[str, Any] = {"marker": "x", "color": "tab:red", "linestyle": "none"}
 
 
 def _label(ds: xr.Dataset, name: str) -> str:

@@ -4,6 +4,8 @@ The stages read top to bottom: input torque → forward dynamics → diffrax sol
 The state is the pytree `(θ, θ̇)`; units are the chain's (default `MICRO`: µm, µs, ng).
 """
 
+from typing import cast
+
 import diffrax
 import equinox as eqx
 import jax
@@ -79,7 +81,7 @@ class Trajectory(eqx.Module):
         """Dense output: `(θ(t), θ̇(t))` anywhere in the solved interval (needs `dense=True`)."""
         if self.solution is None:
             raise ValueError("This trajectory has no dense output: simulate(..., dense=True).")
-        return self.solution.evaluate(t)
+        return self.solution.evaluate(t)  # pyright: ignore[reportArgumentType] (a real scalar)
 
 
 def _vector_field(t, y, args):
@@ -131,7 +133,7 @@ def _solve(
         throw=throw,
         progress_meter=progress_meter,
     )
-    theta, theta_dot = solution.ys
+    theta, theta_dot = cast(tuple[Array, Array], solution.ys)  # SaveAt(ts=...) always saves ys
     result = RESULTS.promote(solution.result)
     finite = jnp.all(jnp.isfinite(theta)) & jnp.all(jnp.isfinite(theta_dot))
     result = RESULTS.where(
@@ -159,7 +161,7 @@ def _solve(
     target = theta[-1] if target is None else jnp.asarray(target, dtype=theta.dtype)
     stats = {k: jnp.asarray(v) for k, v in solution.stats.items()}
     return Trajectory(
-        times=solution.ts,
+        times=cast(Array, solution.ts),
         theta=theta,
         theta_dot=theta_dot,
         theta_ddot=theta_ddot,

@@ -98,13 +98,18 @@ def simulate_slow_ramp(
         land_on_samples=True,
         progress_meter=progress_meter,
     )
-    window = 30.0 * period if window is None else jnp.asarray(window, dtype=float)
+    # From here `window` is an Array (the parameter's declared type is the caller's float).
+    window = (
+        30.0 * period  # pyright: ignore[reportAssignmentType]
+        if window is None
+        else jnp.asarray(window, dtype=float)
+    )
     resolved = simulate(
         chain,
         ramp,
         stiffness=stiffness,
         drag=drag,
-        t1=window,
+        t1=window,  # pyright: ignore[reportArgumentType]
         n_save=3001,
         rtol=window_rtol,
         atol=window_atol,

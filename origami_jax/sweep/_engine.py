@@ -80,7 +80,8 @@ def _default_chunk_size(n_designs: int, n_devices: int, platform: str) -> int:
     return per_device * n_devices
 
 
-def _device_memory(device: jax.Device) -> int | None:
+# `jax.Device` is re-exported as a plain assignment, which pyright does not take for a class.
+def _device_memory(device: jax.Device) -> int | None:  # pyright: ignore[reportInvalidTypeForm]
     try:
         stats = device.memory_stats()
     except Exception:  # CPU devices may not report; treated as unknown
@@ -123,7 +124,7 @@ def sweep(
     chunk_size: int | None = None,
     out: str | os.PathLike | None = None,
     resume: bool = False,
-    devices: Sequence[jax.Device] | None = None,
+    devices: Sequence[jax.Device] | None = None,  # pyright: ignore[reportInvalidTypeForm]
     progress: bool = True,
     on_chunk: Callable[[int, int], None] | None = None,
 ) -> xr.Dataset:
@@ -458,7 +459,11 @@ def _label_chunk(
 
 
 def _fit_memory(
-    group: _Group, size: int, n_devices: int, device: jax.Device, compile_group: Callable
+    group: _Group,
+    size: int,
+    n_devices: int,
+    device: jax.Device,  # pyright: ignore[reportInvalidTypeForm]
+    compile_group: Callable,
 ) -> int:
     """Halve the chunk size until the compiled call's memory fits `MEMORY_FRACTION` of a device."""
     budget = _device_memory(device)
@@ -481,7 +486,7 @@ def _finish(
     kernel: Kernel,
     manifest: Mapping[str, Any],
     size: int,
-    devices: Sequence[jax.Device],
+    devices: Sequence[jax.Device],  # pyright: ignore[reportInvalidTypeForm]
     compile_seconds: Sequence[float],
 ) -> xr.Dataset:
     dataset.attrs.update(

@@ -11,9 +11,8 @@ Each adapter imports its physics lazily (inside the builder), so `import origami
   every other parameter is batched.
 - `"vertex-unfold"`: random single vertices unfolded by charge-energy descent (`origami_jax.vertex`);
   the vertices are drawn on the host (`Kernel.prepare`), the descent is batched. It calls the vertex
-  package's per-vertex descent kernel (`origami_jax.vertex._unfold._kernel`, private: the vertex
-  package has no public traceable per-member entry point yet; `unfold_batch` is itself a batch
-  driver with host-side escapes).
+  package's traceable per-vertex descent, `origami_jax.vertex.unfold_kernel` (`unfold_batch` is
+  itself a batch driver with host-side escapes, so it cannot be vmapped again).
 """
 
 import dataclasses
@@ -121,7 +120,7 @@ def accordion_step(
         invalid = jnp.zeros((), dtype=bool)
         for value in values.values():
             invalid = invalid | ~(jnp.isfinite(value) & (value > 0))
-        safe = {k: jnp.where(invalid, defaults[k], v) for k, v in values.items()}
+        safe: dict[str, Any] = {k: jnp.where(invalid, defaults[k], v) for k, v in values.items()}
         density = jnp.asarray(densities)[params.get("fluid", FLUIDS.index(fluid))]
         design = HingeDesign(
             **safe,
@@ -257,7 +256,7 @@ def vertex_unfold(
 
     from ..vertex import DEFAULT_P, DescentSettings, random_vertex
     from ..vertex import _descent as descent
-    from ..vertex._unfold import _kernel as descend
+    from ..vertex import unfold_kernel as descend
 
     if energy not in DEFAULT_P:
         raise ValueError(f"energy must be one of {sorted(DEFAULT_P)}, got {energy!r}.")

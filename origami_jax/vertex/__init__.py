@@ -45,3 +45,4 @@ from ._unfold import Verdict as Verdict
 from ._unfold import certify_path as certify_path
 from ._unfold import unfold as unfold
 from ._unfold import unfold_batch as unfold_batch
+from ._unfold import unfold_kernel as unfold_kernel

@@ -43,7 +43,7 @@ def separable_energy(
 ) -> Float[Array, ""]:
     """Eq. 1: `U = Σ_{e, v∉e} d(v, e)^(−p)` (dimensionless; `x` unit node directions `(n, 3)`)."""
     d = charge_distances(x, closed)
-    return jnp.sum(d ** (-p))
+    return jnp.sum(d ** (-p))  # pyright: ignore[reportOperatorIssue] (p is real)
 
 
 def nonseparable_energy(

@@ -199,7 +199,22 @@ class UnfoldResult:
         return "\n".join(lines)
 
 
-def _kernel(x0, sectors, p, settings, *, closed, kind, max_steps, record):
+def unfold_kernel(x0, sectors, p, settings, *, closed, kind, max_steps, record=False):
+    """The traceable per-vertex descent behind `unfold` and `unfold_batch`, for your own `jit`/`vmap`
+    batch code (the sweep engine uses it). No validation, no escapes, no certificate re-check: give it
+    states that `SingleVertex` accepted.
+
+    **Arguments:**
+    - `x0`: `(n, 3)` unit crease directions of a valid folded state; `sectors`: `(a,)` sector angles
+      (rad; `a = n` closed, `n − 1` open).
+    - `p`: energy exponent; `settings`: a `DescentSettings` (its fields may be arrays).
+    - `closed`, `kind` (`"separable"` / `"nonseparable"`), `max_steps`, `record` (keep the path):
+      static.
+
+    **Returns:** the descent's output pytree: `status` (1 flat-unfolded, 2 flat-folded, 3 stalled,
+    4 step budget spent, 5 invalid, 6 stalled at a contact), the final state, fold angles, energy,
+    clearances, and the path when `record`.
+    """
     clearance, _ = arc_pair_clearances(x0, closed)
     # Pairs touching in the input cannot bound the step (clearance 0); see `_descent`.
     mask = clearance > CONTACT_TOL
@@ -211,7 +226,9 @@ def _kernel(x0, sectors, p, settings, *, closed, kind, max_steps, record):
 @functools.lru_cache(maxsize=64)
 def _compiled(n: int, closed: bool, kind: str, max_steps: int, record: bool, batch: int | None):
     """AOT-compiled kernel for one problem size; returns `(compiled, compile_seconds)`."""
-    fn = functools.partial(_kernel, closed=closed, kind=kind, max_steps=max_steps, record=record)
+    fn = functools.partial(
+        unfold_kernel, closed=closed, kind=kind, max_steps=max_steps, record=record
+    )
     if batch is not None:
         fn = jax.vmap(fn, in_axes=(0, 0, None, None))
     n_arcs = n if closed else n - 1
@@ -389,7 +406,7 @@ def unfold(
     1e-10 and the verdict thresholds are 1e-4.
     """
     check_energy(energy)
-    if not jax.config.jax_enable_x64:
+    if not jax.config.jax_enable_x64:  # pyright: ignore[reportAttributeAccessIssue] (a flag)
         raise RuntimeError(
             'unfold needs float64: call jax.config.update("jax_enable_x64", True) first'
         )
@@ -420,7 +437,8 @@ def unfold(
                 size = min(
                     0.02, 0.2 * float(jnp.min(clear, initial=np.pi)) * np.cos(np.max(sectors) / 2)
                 )
-                key, sub = jax.random.split(key)
+                # Unpacking an Array loses the narrowing of `key`; it is set before the loop.
+                key, sub = jax.random.split(key)  # pyright: ignore[reportArgumentType]
                 moved = np.asarray(
                     _perturb(
                         jnp.asarray(x_start),
