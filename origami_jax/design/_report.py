@@ -290,6 +290,17 @@ def build_report(*, problem, batch, best, start, before, tolerance, identify, me
                 "equally good solutions."
             )
             break
+    # Starts that stopped at a clearly higher cost: the landscape has other local minima, so the
+    # best of these starts need not be the best there is.
+    finite = np.isfinite(losses) & ~np.asarray(batch.nonfinite)
+    worse = finite & (losses > 1.5 * losses[best] + 1e-12)
+    multimodal = bool(np.any(worse))
+    if multimodal:
+        warnings.append(
+            f"{int(np.sum(worse))} of {losses.size} starts stopped in worse local minima (costs up to "
+            f"{float(np.max(losses[worse])):.3g} against {float(losses[best]):.3g}): the cost has "
+            "several minima, so a better one may exist; try more starts (n_starts)."
+        )
 
     missed = [row for row in rows if not row.met]
     if nonfinite:
@@ -313,6 +324,15 @@ def build_report(*, problem, batch, best, start, before, tolerance, identify, me
             verdict = (
                 f"Unreachable within the bounds: {len(missed)} of {len(rows)} targets missed ({misses}). "
                 f"{pinned}: the optimum lies beyond the bounds; widen them if that is physical."
+            )
+        elif multimodal or r.size <= ident.rank:
+            # As many independent directions as targets (or starts that disagree): an exact fit may
+            # well exist, so do not blame the targets.
+            verdict = (
+                f"Targets missed: {len(missed)} of {len(rows)} ({misses}), with no parameter at a "
+                "bound. The optimiser may have stopped in a local minimum"
+                + (" (the starts disagree)" if multimodal else "")
+                + "; try more starts (n_starts) before concluding that the targets conflict."
             )
         else:
             verdict = (
