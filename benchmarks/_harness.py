@@ -5,6 +5,7 @@ explicitly; every timed call waits on its *result* with ``jax.block_until_ready`
 over repeats with min and max; the peer runs in the same process; answers are compared before timing.
 """
 
+import functools
 import json
 import platform
 import statistics
@@ -115,22 +116,17 @@ def compile_jitted(fn: Callable, *args: Any, **kwargs: Any) -> tuple[Callable, f
     return compiled, seconds, flops
 
 
-_PEAK_FLOPS: float | None = None
-
-
+@functools.cache
 def machine_peak_flops() -> float:
     """The machine's practical peak, FLOP/s: a jitted 1024² float64 matmul (the dtype our kernels run in),
     best of 5, on the default device. Measured once per process."""
-    global _PEAK_FLOPS
-    if _PEAK_FLOPS is None:
-        import jax.numpy as jnp
+    import jax.numpy as jnp
 
-        n = 1024
-        a = jnp.ones((n, n), dtype=jnp.float64 if jax.config.jax_enable_x64 else jnp.float32)
-        matmul = jax.jit(lambda x: x @ x)
-        timing = time_calls(lambda: matmul(a), repeats=5)
-        _PEAK_FLOPS = 2.0 * n**3 / timing.minimum
-    return _PEAK_FLOPS
+    n = 1024
+    a = jnp.ones((n, n), dtype=jnp.float64 if jax.config.jax_enable_x64 else jnp.float32)
+    matmul = jax.jit(lambda x: x @ x)
+    timing = time_calls(lambda: matmul(a), repeats=5)
+    return 2.0 * n**3 / timing.minimum
 
 
 def machine_description() -> dict[str, str]:

@@ -123,18 +123,17 @@ def run(quick: bool) -> list[Result]:
         compile_s = float(ds.attrs["compile_s"])
         steady = max(wall - compile_s, 1e-9)
         if case is space:
-            ours_rise = ds["rise_time"].values[peer_ids]
-            difference = float(np.nanmax(np.abs(ours_rise - np.asarray(peer_rise))))
+            check_ids, peer_check = peer_ids, peer_rise
         else:
             # A sub-grid: check the answers on a few of its own designs against the peer too.
             case_columns = case.columns()
             check_ids = np.linspace(0, n_designs - 1, 4).round().astype(int)
-            check = [
+            peer_check = [
                 _pinocchio_peer({name: float(case_columns[name][i]) for name in case_columns})[0]
                 for i in check_ids
             ]
-            ours_rise = ds["rise_time"].values[check_ids]
-            difference = float(np.nanmax(np.abs(ours_rise - np.asarray(check))))
+        ours_rise = ds["rise_time"].values[check_ids]
+        difference = float(np.nanmax(np.abs(ours_rise - np.asarray(peer_check))))
         rows.append(
             Result(
                 name=f"sweep accordion-step ({solver}) {n_designs} designs",

@@ -271,7 +271,7 @@ def test_units_do_not_change_the_answer():
 
 
 def test_array_path_for_long_chains_agrees():
-    """Chains longer than `_SCALAR_MAX` run the same algorithm on (n, 3) arrays: same numbers."""
+    """The array form of the recursive algorithm (what long chains and all derivatives run): same numbers."""
     from origami_jax.chain import _dynamics
 
     chain, (theta, theta_dot, tau), ours = _case("random7")

@@ -22,17 +22,12 @@ from ._chain import Chain
 from ._kinematics import body_jacobians, joint_frames, matmul3, matvec3
 from ._scalar import ScalarBodies, cholesky_solve_lists, mass_matrix_lists, newton_euler_lists
 
-# Up to this many hinges the recursive path runs on scalars (`_scalar`), which vectorises well under `vmap`
-# on the CPU; above it the graph (O(n²) scalar operations) compiles slowly and the array form takes over.
-_SCALAR_MAX = 0
-# Disabled (0) for now: vmapped, the scalar path runs forward dynamics ~3x faster (2.4 µs vs 7.7 µs per
-# accordion state), but compiling its reverse-mode derivative at XLA's default optimisation level took
-# minutes in the test suite. Re-enable once gradient compile times are measured and bounded.
-
-# Forward dynamics, the simulator's right-hand side, is the exception: up to this many hinges its *value*
-# runs on scalars (4.6x faster vmapped over 10,000 accordion states on the CPU: 0.23 µs against 1.06 µs
-# per state), while its derivatives go through the array path by a custom JVP rule, so differentiating a
-# simulation compiles exactly what it compiled before.
+# Forward dynamics, the simulator's right-hand side, evaluates chains of up to this many hinges on scalars
+# (`_scalar`, 4.6x faster vmapped over 10,000 accordion states on the CPU: 0.23 µs against 1.06 µs per
+# state), while its derivatives go through the array form by a custom JVP rule, so differentiating a
+# simulation compiles what it compiled before. (Scalar graphs differentiated in reverse mode compiled
+# for minutes in the test suite.) `mass_matrix`, `bias_torque` and `inverse_dynamics` run on arrays;
+# the same custom-JVP wrapping is how to speed them up if they ever sit in a hot loop.
 _SCALAR_FORWARD_MAX = 6
 
 # Above this size the unrolled Cholesky in `_solve_spd` would unroll O(n³) scalar operations into the
@@ -160,13 +155,6 @@ def mass_matrix(
         return translational + rotational
     if method != "recursive":
         raise ValueError(f"method must be 'recursive' or 'jacobian', got {method!r}.")
-    if chain.n_joints <= _SCALAR_MAX:
-        rows = mass_matrix_lists(ScalarBodies(chain, theta))
-        n = chain.n_joints
-        # One flat stack of n² entries (measured ~0.6 µs per vmapped state; nested stacks ~45 µs, see
-        # `_assemble`): with that many operands XLA keeps the entries as separate vectorised loops.
-        flat = jnp.stack([entry for row in rows for entry in row], axis=-1)
-        return flat.reshape(flat.shape[:-1] + (n, n))
     return _composite_mass_matrix(_Bodies(chain, theta))
 
 
@@ -186,9 +174,6 @@ def inverse_dynamics(
     **Returns:** joint torques, shape `(n,)`, mass·length²/time².
     """
     theta, theta_dot, theta_ddot = (jnp.asarray(x) for x in (theta, theta_dot, theta_ddot))
-    if chain.n_joints <= _SCALAR_MAX:
-        bodies = ScalarBodies(chain, theta)
-        return _assemble(newton_euler_lists(bodies, chain.gravity, theta_dot, theta_ddot))
     return _newton_euler(_Bodies(chain, theta), chain.gravity, theta_dot, theta_ddot)
 
 
@@ -202,9 +187,6 @@ def bias_torque(
     **Returns:** shape `(n,)`, torque (mass·length²/time²).
     """
     theta, theta_dot = jnp.asarray(theta), jnp.asarray(theta_dot)
-    if chain.n_joints <= _SCALAR_MAX:
-        bodies = ScalarBodies(chain, theta)
-        return _assemble(newton_euler_lists(bodies, chain.gravity, theta_dot, None))
     return _newton_euler(_Bodies(chain, theta), chain.gravity, theta_dot, jnp.zeros_like(theta_dot))
 
 

@@ -279,8 +279,9 @@ def build_report(*, problem, batch, best, start, before, tolerance, identify, me
         warnings.append(f"Identifiability: {ident.verdict}")
     losses = np.asarray(batch.loss)
     zs = np.asarray(batch.z)
+    finite = np.isfinite(losses) & ~np.asarray(batch.nonfinite)
     for k in range(zs.shape[0]):
-        if k == best or not np.isfinite(losses[k]) or bool(batch.nonfinite[k]):
+        if k == best or not finite[k]:
             continue
         close_loss = losses[k] <= 1.01 * losses[best] + 1e-12
         far = np.max(np.abs(zs[k] - zs[best])) > 0.5
@@ -292,7 +293,6 @@ def build_report(*, problem, batch, best, start, before, tolerance, identify, me
             break
     # Starts that stopped at a clearly higher cost: the landscape has other local minima, so the
     # best of these starts need not be the best there is.
-    finite = np.isfinite(losses) & ~np.asarray(batch.nonfinite)
     worse = finite & (losses > 1.5 * losses[best] + 1e-12)
     multimodal = bool(np.any(worse))
     if multimodal:
