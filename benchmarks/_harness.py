@@ -116,6 +116,19 @@ def compile_jitted(fn: Callable, *args: Any, **kwargs: Any) -> tuple[Callable, f
     return compiled, seconds, flops
 
 
+def loop_flops(body: Callable, *args: Any, evaluations: float) -> float | None:
+    """FLOP estimate of a while-loop kernel: XLA's count for one loop-free `body` × `evaluations`.
+
+    XLA's cost analysis counts a while loop's body once, whatever the trip count, so for ODE solves and
+    iterative solvers the count of the whole kernel is meaningless. This counts the dominant loop-free
+    piece (e.g. the right-hand side) and multiplies by how often it ran (e.g. 6 per Tsit5 step × steps):
+    a lower bound, since the solver's own arithmetic (stage sums, error norms, step control) is left
+    out. Rows that use it say so in their notes.
+    """
+    _, _, flops = compile_jitted(body, *args)
+    return None if flops is None else flops * float(evaluations)
+
+
 @functools.cache
 def machine_peak_flops() -> float:
     """The machine's practical peak, FLOP/s: a jitted 1024² float64 matmul (the dtype our kernels run in),

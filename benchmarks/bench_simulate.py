@@ -3,11 +3,13 @@
 Peer: `scipy.integrate.solve_ivp(method="LSODA")` with a right-hand side from Pinocchio's articulated-body
 algorithm (`pin.aba`) plus the hinge springs and quadratic drag — what a robotics user would write. Same
 model (literature hinges in air, MICRO units), same tolerances, answers compared on the samples first.
+Ours with three solvers: the default (`StiffnessSwitching`: Tsit5, Kvaerno5 once stiff; in air it stays
+explicit), Kvaerno5 alone (`implicit_solver()`) and Tsit5 alone.
 """
 
 import numpy as np
 
-from ._harness import Result, compile_jitted, time_calls
+from ._harness import Result, compile_jitted, loop_flops, time_calls
 
 RTOL = 1e-8
 ATOL = 1e-10
@@ -49,12 +51,21 @@ def _pinocchio_rhs(chain, k, b, tau):
     return rhs
 
 
+def _switch_note(switch_time: float) -> str:
+    if np.isnan(switch_time):  # not a switching solver
+        return ""
+    if np.isinf(switch_time):
+        return "; explicit throughout (no stiffness detected)"
+    return f"; turned implicit at t = {switch_time:g} us"
+
+
 def run(quick: bool) -> list[Result]:
     import diffrax
+    import jax.numpy as jnp
     from scipy.integrate import solve_ivp
 
     import origami_jax.simulation as sim
-    from origami_jax.chain import HingeDesign
+    from origami_jax.chain import HingeDesign, forward_dynamics
 
     design = HingeDesign.literature()
     chain = design.accordion(3)
@@ -70,6 +81,12 @@ def run(quick: bool) -> list[Result]:
 
     rhs = _pinocchio_rhs(chain, k, b, np.asarray(k * inputs.theta_des))
 
+    def rhs_jax(y):  # our right-hand side on the flat state, as `simulate` evaluates it
+        theta, theta_dot = y[:3], y[3:]
+        tau = inputs.torque(0.0, theta, theta_dot, chain=chain, stiffness=k, drag=b)
+        acc = forward_dynamics(chain, theta, theta_dot, tau, stiffness=k, drag=b)
+        return jnp.concatenate([theta_dot, acc])
+
     def peer():
         return solve_ivp(
             rhs, (0.0, t1), np.zeros(6), method="LSODA", t_eval=ts, rtol=RTOL, atol=ATOL
@@ -81,7 +98,12 @@ def run(quick: bool) -> list[Result]:
     peer_timing = time_calls(peer, repeats=repeats, warmup=0)
 
     rows = []
-    for name, solver in (("kvaerno5", sim.default_solver()), ("tsit5", diffrax.Tsit5())):
+    solvers = (
+        ("default: tsit5 -> kvaerno5 when stiff", sim.default_solver()),
+        ("kvaerno5", sim.implicit_solver()),
+        ("tsit5", diffrax.Tsit5()),
+    )
+    for name, solver in solvers:
 
         def ours(stiffness, drag, solver=solver):
             trajectory = sim.simulate(
@@ -95,14 +117,22 @@ def run(quick: bool) -> list[Result]:
                 rtol=RTOL,
                 atol=ATOL,
             )
-            return trajectory.theta, trajectory.stats["num_steps"]
+            switch = trajectory.stats.get("switch_time", jnp.nan)
+            return trajectory.theta, trajectory.stats["num_steps"], switch
 
         compiled, compile_s, _ = compile_jitted(ours, k, b)
-        theta, steps = compiled(k, b)
+        theta, steps, switch = compiled(k, b)
         difference = float(np.max(np.abs(np.asarray(theta) - reference.y[:3].T)))
         if difference > SAME_ANSWER_RAD:
             raise RuntimeError(f"{name}: answers differ by {difference:.2e} rad; not timing")
         timing = time_calls(lambda compiled=compiled: compiled(k, b), repeats=repeats)
+        flops, flop_note = None, ""
+        if name != "kvaerno5" and not np.isfinite(float(switch)):
+            # Explicit throughout: 6 right-hand sides per Tsit5 step (FSAL), see `loop_flops`.
+            flops = loop_flops(rhs_jax, jnp.zeros(6), evaluations=6 * int(steps))
+            flop_note = (
+                "; FLOP = XLA count of one right-hand side x 6 per step x steps (lower bound)"
+            )
         rows.append(
             Result(
                 name=f"accordion step {t1:.0f} us ({name}, rtol {RTOL:g})",
@@ -111,7 +141,10 @@ def run(quick: bool) -> list[Result]:
                 peer=peer_timing,
                 compile_s=compile_s,
                 max_abs_difference=difference,
-                notes=f"{int(steps)} diffrax steps; LSODA {reference.nfev} RHS calls",
+                flops=flops,
+                notes=f"{int(steps)} diffrax steps; LSODA {reference.nfev} RHS calls"
+                + _switch_note(float(switch))
+                + flop_note,
             )
         )
     return rows

@@ -20,7 +20,7 @@ import time
 
 import numpy as np
 
-from ._harness import Result, Timing
+from ._harness import Result, Timing, loop_flops
 
 RTOL, ATOL = 1e-8, 1e-10  # the simulation's defaults, used for both
 T_END, N_SAVE = 2000.0, 2001  # µs, samples
@@ -37,6 +37,26 @@ def _grid(quick: bool, shape: tuple[int, int] | None = None):
         },
         units={"hinge_width": "um"},
     )
+
+
+def _literature_rhs():
+    """Our right-hand side of the literature accordion step on the flat state (for FLOP counts)."""
+    import jax.numpy as jnp
+
+    from origami_jax.chain import MICRO, HingeDesign, forward_dynamics
+    from origami_jax.simulation import alternating_targets
+
+    design = HingeDesign.literature(MICRO)
+    chain = design.accordion(3)
+    k, b = design.stiffness(3), design.drag(3)
+    tau = k * alternating_targets(3)
+
+    def rhs(y):
+        theta, theta_dot = y[:3], y[3:]
+        acc = forward_dynamics(chain, theta, theta_dot, tau, stiffness=k, drag=b)
+        return jnp.concatenate([theta_dot, acc])
+
+    return rhs
 
 
 def _pinocchio_peer(design_values: dict[str, float]):
@@ -132,6 +152,15 @@ def run(quick: bool) -> list[Result]:
                 _pinocchio_peer({name: float(case_columns[name][i]) for name in case_columns})[0]
                 for i in check_ids
             ]
+        flops, flop_note = None, ""
+        if solver == "tsit5":
+            # 6 right-hand sides per Tsit5 step (FSAL), summed over the designs' steps; see `loop_flops`.
+            total_steps = int(np.sum(ds["num_steps"].values))
+            flops = loop_flops(_literature_rhs(), np.zeros(6), evaluations=6 * total_steps)
+            flop_note = (
+                "; FLOP = XLA count of one right-hand side x 6 per step x all designs' steps "
+                "(lower bound: no solver arithmetic, metrics or saving)"
+            )
         ours_rise = ds["rise_time"].values[check_ids]
         difference = float(np.nanmax(np.abs(ours_rise - np.asarray(peer_check))))
         rows.append(
@@ -142,6 +171,7 @@ def run(quick: bool) -> list[Result]:
                 peer=Timing(peer_total, peer_total, peer_total, 1),
                 compile_s=compile_s,
                 max_abs_difference=difference,
+                flops=flops,
                 per_item=n_designs,
                 notes=(
                     f"peer timed on {len(peer_ids)} of the {space.size} grid designs, time per "
@@ -149,7 +179,7 @@ def run(quick: bool) -> list[Result]:
                     f"difference = max |rise time ours - peer| in µs on "
                     f"{'those designs' if case is space else '4 designs of this sub-grid'} (peer rise "
                     f"time from linear interpolation of 1 µs samples); failed designs "
-                    f"{int(ds.attrs['n_failed'])}; devices {ds.attrs['devices']}"
+                    f"{int(ds.attrs['n_failed'])}; devices {ds.attrs['devices']}{flop_note}"
                 ),
                 extra={
                     "designs_per_s_steady": n_designs / steady,

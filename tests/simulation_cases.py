@@ -1,6 +1,6 @@
 """Shared, cached simulation cases for tests/test_simulation_*.py.
 
-Every Kvaerno5 solve of the 3-flap accordion uses the same structure (input type, `n_save`, tolerances,
+Every default-solver solve of the 3-flap accordion uses the same structure (input type, `n_save`, tolerances,
 `max_steps`), so the whole suite compiles it once; cheap Tsit5 single-flap cases cover failure handling.
 """
 
@@ -24,13 +24,23 @@ def literature(fluid: str = "air", units=MICRO, **overrides):
     return design, chain, design.stiffness(3), design.drag(3)
 
 
-def step_simulation(fluid: str = "air", units=MICRO, t1_us: float = 1200.0, **overrides):
+def step_simulation(
+    fluid: str = "air", units=MICRO, t1_us: float = 1200.0, solver=None, **overrides
+):
     design, chain, k, b = literature(fluid, units, **overrides)
     inputs = sim.Step(sim.alternating_targets(3))
     t1 = units.time(t1_us * 1e-6)
     # θ is in rad in both unit systems; θ̇ is 1e6× larger in SI, where rtol dominates anyway.
     return sim.simulate(
-        chain, inputs, stiffness=k, drag=b, t1=t1, n_save=N_SAVE, rtol=RTOL, atol=ATOL
+        chain,
+        inputs,
+        stiffness=k,
+        drag=b,
+        t1=t1,
+        n_save=N_SAVE,
+        rtol=RTOL,
+        atol=ATOL,
+        solver=solver,
     )
 
 

@@ -19,9 +19,15 @@ SCIPY_AGREEMENT_RAD = 1e-6
 UNITS_AGREEMENT = 1e-6
 
 
-def test_step_matches_scipy_radau():
+@pytest.mark.parametrize("solver", ["default", "implicit"])
+def test_step_matches_scipy_radau(solver):
+    # "default" is StiffnessSwitching (explicit steps throughout in air); "implicit" is Kvaerno5 alone.
     t1 = 200.0
-    trajectory = step_simulation("air", t1_us=t1)
+    trajectory = step_simulation(
+        "air", t1_us=t1, solver=sim.implicit_solver() if solver == "implicit" else None
+    )
+    if solver == "default":
+        assert np.isinf(trajectory.stats["switch_time"])
     _, chain, k, b = literature("air")
     theta_des = sim.alternating_targets(3)
     tau = k * theta_des

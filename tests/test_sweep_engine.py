@@ -280,3 +280,23 @@ def test_killed_process_resumes_to_the_same_dataset(tmp_path):
     )
     reference = sweep(KERNEL, space, chunk_size=4, progress=False)
     same_sweep(resumed, reference)
+
+
+def test_cost_ordering_groups_similar_designs_and_changes_no_result(tmp_path):
+    # With a cost estimate, chunks are filled cheapest first: here the cost is ω, so each chunk of 6
+    # holds one ω of the grid (the grid runs ζ fastest) and chunk files are named by their first design.
+    import dataclasses
+
+    by_omega = dataclasses.replace(KERNEL, cost=lambda p: -p["omega"])  # largest ω first
+    space = Grid({"omega": [0.5, 2.0, 7.0], "zeta": [0.05, 0.2, 0.4, 0.7, 1.5, -0.2]})
+    plain = sweep(KERNEL, space, chunk_size=6, out=tmp_path / "plain", progress=False)
+    ordered = sweep(by_omega, space, chunk_size=6, out=tmp_path / "ordered", progress=False)
+    same_sweep(ordered, plain)  # bit for bit: every design's computation is unchanged
+    plain_parts = sorted(p.name for p in (tmp_path / "plain" / "chunks").glob("part-*.nc"))
+    assert plain_parts == [f"part-{i:09d}-000006.nc" for i in (0, 6, 12)]
+    for part in (tmp_path / "ordered" / "chunks").glob("part-*.nc"):
+        omegas = np.unique(xr.load_dataset(part)["omega"].values)
+        assert len(omegas) == 1, (part.name, omegas)
+    # A cost that cannot be evaluated for some designs (NaN) puts them last instead of failing.
+    nan_cost = dataclasses.replace(KERNEL, cost=lambda p: jnp.where(p["zeta"] < 0, jnp.nan, 1.0))
+    same_sweep(sweep(nan_cost, space, chunk_size=6, progress=False), plain)

@@ -80,3 +80,20 @@ def test_vertex_unfold_agrees_with_unfold():
         reference = unfold(random_vertex(jax.random.key(seed), 4, closed=True), energy="separable")
         if reference.verdict == Verdict.FLAT_UNFOLDED and not reference.escapes:
             assert bool(ds["flat_unfolded"].values[i]) and bool(ds["certified"].values[i])
+
+
+def test_accordion_cost_is_the_fastest_natural_frequency_times_the_run_length():
+    # ω_max = sqrt(λ_max(M⁻¹K)): scaling every hinge stiffness by 4 doubles it; the flaps (M) are
+    # untouched by k_scale. Checked against NumPy's generalized eigenvalues at the literature design.
+    from origami_jax.chain import MICRO, HingeDesign, mass_matrix
+
+    kernel = get_model("accordion-step", solver="tsit5", t_end=100.0)
+    base = float(kernel.cost({"k_scale": jnp.asarray(1.0)}))
+    assert float(kernel.cost({"k_scale": jnp.asarray(4.0)})) == pytest.approx(2 * base, rel=1e-12)
+    design = HingeDesign.literature(MICRO)
+    m = np.asarray(mass_matrix(design.accordion(3), jnp.zeros(3)))
+    omega = np.sqrt(
+        np.max(np.linalg.eigvals(np.linalg.solve(m, np.diag(design.stiffness(3)))).real)
+    )
+    assert base == pytest.approx(100.0 * omega, rel=1e-10)
+    assert np.isinf(float(kernel.cost({"hinge_width": jnp.asarray(-1.0)})))  # invalid: last

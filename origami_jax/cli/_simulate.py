@@ -35,7 +35,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument(
         "--t1", type=float, default=None, help="end time, µs (default: 2000 step, 1.2 T ramps)"
     )
-    parser.add_argument("--solver", choices=("kvaerno5", "tsit5"), default="kvaerno5")
+    parser.add_argument(
+        "--solver",
+        choices=("auto", "kvaerno5", "tsit5"),
+        default="auto",
+        help="auto (default): Tsit5, switching to Kvaerno5 when the problem turns stiff",
+    )
     parser.add_argument("--rtol", type=float, default=None, help="default 1e-7")
     parser.add_argument("--atol", type=float, default=None, help="default 1e-9")
     parser.add_argument("--n-save", type=int, default=2001, help="samples (default 2001)")
@@ -118,7 +123,11 @@ def run(args: argparse.Namespace) -> int:
     chain = design.accordion(n)
     k, b = design.stiffness(n), design.drag(n)
     targets = sim.alternating_targets(n, float(design.theta_final))
-    solver = diffrax.Tsit5() if args.solver == "tsit5" else sim.default_solver()
+    solver = {
+        "auto": sim.default_solver,
+        "kvaerno5": sim.implicit_solver,
+        "tsit5": diffrax.Tsit5,
+    }[args.solver]()
     rtol = sim.DEFAULT_RTOL if args.rtol is None else args.rtol
     atol = sim.DEFAULT_ATOL if args.atol is None else args.atol
     progress = diffrax.TqdmProgressMeter(refresh_steps=200)

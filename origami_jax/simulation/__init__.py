@@ -23,3 +23,5 @@ from ._simulate import default_solver as default_solver
 from ._simulate import simulate as simulate
 from ._slow_ramp import SlowRampResult as SlowRampResult
 from ._slow_ramp import simulate_slow_ramp as simulate_slow_ramp
+from ._switching import StiffnessSwitching as StiffnessSwitching
+from ._switching import implicit_solver as implicit_solver

@@ -27,7 +27,8 @@ from jaxtyping import Array, Float
 
 from ..chain import mass_matrix
 from ._inputs import EtchRamp
-from ._simulate import Trajectory, default_solver, simulate
+from ._simulate import Trajectory, simulate
+from ._switching import implicit_solver
 
 
 class SlowRampResult(eqx.Module):
@@ -91,7 +92,7 @@ def simulate_slow_ramp(
         drag=drag,
         t1=t1,
         n_save=n_save,
-        solver=default_solver(),
+        solver=implicit_solver(),  # hour-long steps need L-stability from the first step
         rtol=rtol,
         atol=atol,
         max_steps=max(20 * n_save, 4096),

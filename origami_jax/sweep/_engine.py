@@ -15,7 +15,9 @@ How a sweep runs:
    any vmapped batch). But lineax's linear solves inside diffrax's implicit solvers fail to trace
    under `shard_map` in jax 0.10.2 ("pytree does not match out_structure"), so the sharded `jit`
    is used for every kernel.
-3. Every chunk has the same size (a multiple of the device count), the last one padded by repeating
+3. Pending designs of a group are taken in the order of the kernel's `cost` estimate when it has one
+   (similar designs share a chunk, so fewer members wait on a slow one), else in design order.
+   Every chunk has the same size (a multiple of the device count), the last one padded by repeating
    its last design; padded members are discarded. Results are copied to the host, labelled and
    written to `out/chunks/` before the next chunk starts (see `_store.py`).
 4. At the end the chunks are gathered into one `xarray.Dataset` (written to `out/sweep.nc`).
@@ -286,16 +288,32 @@ def sweep(
         compile_seconds.append(time.perf_counter() - start)
         return compiled
 
-    # Work list: (group, design indices) chunks not stored yet, in design order within a group.
-    work: list[tuple[_Group, np.ndarray]] = []
-    for group in groups:
+    def pending(group: _Group) -> np.ndarray:
+        # Designs of this group not stored yet, cheapest first when the kernel estimates costs.
         todo = group.indices[~done[group.indices]]
+        estimate = kernel.cost
+        if estimate is None or len(todo) == 0:
+            return todo
+        inputs = {n: encoded[n][todo] for n in dynamic_names}
+        inputs.update(prepared(group, todo))
+        statics = group.static_values
+
+        def cost(params):
+            return jnp.asarray(estimate({**params, **statics}), dtype=float).reshape(())
+
+        costs = np.asarray(jax.jit(jax.vmap(cost))(inputs))
+        costs = np.where(np.isfinite(costs), costs, np.inf)
+        return todo[np.argsort(costs, kind="stable")]
+
+    # Work list: (group, design indices) chunks not stored yet.
+    todo_by_group = [(group, pending(group)) for group in groups]
+    work: list[tuple[_Group, np.ndarray]] = []
+    for group, todo in todo_by_group:
         work += [(group, todo[i : i + size]) for i in range(0, len(todo), size)]
     if auto and work:
         size = _fit_memory(work[0][0], size, n_devices, devices[0], compile_group)
         work = []
-        for group in groups:
-            todo = group.indices[~done[group.indices]]
+        for group, todo in todo_by_group:
             work += [(group, todo[i : i + size]) for i in range(0, len(todo), size)]
     mine = work[process_index::process_count]
 

@@ -37,6 +37,12 @@ class Kernel:
       values; each returned array has a leading axis of one entry per design and reaches `fn` as an
       extra entry of `params` (sliced per design). For inputs that cannot be traced, such as
       random geometry drawn by rejection sampling from a seed.
+    - `cost`: optional estimate of each design's relative work, `cost(params) -> scalar`, traced like
+      `fn` (same `params`) and evaluated vmapped over all pending designs before the first chunk.
+      Pending designs are then taken in increasing cost, so each chunk holds designs of similar cost:
+      a vmapped adaptive solver iterates until the slowest member of its chunk is done, so mixing a
+      stiff design with easy ones makes the easy ones pay the stiff one's steps. Only the order of
+      computation changes; every design's result is the same. Non-finite costs go last.
     """
 
     fn: Callable[..., Any]
@@ -50,6 +56,7 @@ class Kernel:
     result_messages: Mapping[int, str] = dataclasses.field(default_factory=dict)
     categories: Mapping[str, tuple[str, ...]] = dataclasses.field(default_factory=dict)
     prepare: Callable[..., Mapping[str, Any]] | None = None
+    cost: Callable[..., Any] | None = None
 
     def __call__(self, params: Mapping[str, Any]) -> Any:
         return self.fn(params)

@@ -78,7 +78,7 @@ def accordion_step(
     - `t_end`: simulated time, µs; `n_save`: samples over `[0, t_end]` the metrics are measured on.
     - `rtol`, `atol`, `max_steps`, `stiffness_model`, `drag_model`: passed to `simulate` /
       `HingeDesign` (`None` tolerances: the simulation's defaults).
-    - `solver`: `"kvaerno5"` (the simulation's default, implicit, safe for stiff hinges) or
+    - `solver`: `"kvaerno5"` (implicit, safe for stiff hinges: `simulation.implicit_solver()`) or
       `"tsit5"` (explicit; much cheaper per step on non-stiff designs, e.g. in air, but see SPEC
       "Numerics" on gradients at loose tolerances).
 
@@ -90,18 +90,21 @@ def accordion_step(
     import diffrax
     import jax.numpy as jnp
 
-    from ..chain import AIR, KOH_SOLUTION, MICRO, Fluid, HingeDesign
+    from ..chain import AIR, KOH_SOLUTION, MICRO, Fluid, HingeDesign, mass_matrix
     from ..simulation import (
         DEFAULT_ATOL,
         DEFAULT_RTOL,
         RESULTS,
         Step,
         alternating_targets,
+        implicit_solver,
         response_metrics,
         simulate,
     )
 
-    solvers = {"kvaerno5": None, "tsit5": diffrax.Tsit5()}
+    # Not the simulation's default (`StiffnessSwitching`): under `vmap` its switch would run both the
+    # explicit and the implicit step for every member; a sweep picks one.
+    solvers = {"kvaerno5": implicit_solver(), "tsit5": diffrax.Tsit5()}
     if solver not in solvers:
         raise ValueError(f"solver must be one of {sorted(solvers)}, got {solver!r}.")
     if fluid not in FLUIDS:
@@ -114,7 +117,7 @@ def accordion_step(
     defaults.update(k_scale=1.0, b_scale=1.0)
     densities = [float(f.to(MICRO).density) for f in (AIR, KOH_SOLUTION)]
 
-    def fn(params: Mapping[str, Any]) -> dict[str, Any]:
+    def design_of(params: Mapping[str, Any]):
         n = int(params.get("n_flaps", n_flaps))
         values = {k: jnp.asarray(params.get(k, d), dtype=float) for k, d in defaults.items()}
         invalid = jnp.zeros((), dtype=bool)
@@ -129,6 +132,20 @@ def accordion_step(
             drag_model=drag_model,
             units=MICRO,
         )
+        return design, n, invalid, safe
+
+    def cost(params: Mapping[str, Any]):
+        # Steps of an adaptive solve scale with the fastest natural frequency times the run length:
+        # ω_max² = λ_max(M(0)⁻¹ K), from the symmetric K^½ M⁻¹ K^½ (eigvalsh runs on every backend).
+        design, n, invalid, _ = design_of(params)
+        chain = design.accordion(n)
+        root_k = jnp.sqrt(design.stiffness(n))
+        m_inverse = jnp.linalg.inv(mass_matrix(chain, jnp.zeros(n)))
+        omega_max = jnp.sqrt(jnp.max(jnp.linalg.eigvalsh(root_k[:, None] * m_inverse * root_k)))
+        return jnp.where(invalid, jnp.inf, omega_max * t_end)
+
+    def fn(params: Mapping[str, Any]) -> dict[str, Any]:
+        design, n, invalid, safe = design_of(params)
         chain = design.accordion(n)
         stiffness, drag = design.stiffness(n), design.drag(n)
         targets = alternating_targets(n) * (safe["theta_final"] / math.pi)
@@ -217,6 +234,7 @@ def accordion_step(
             )
         },
         result_messages=messages,
+        cost=cost,
         categories={"fluid": FLUIDS},
     )
 

@@ -1,0 +1,121 @@
+"""StiffnessSwitching: the stiffness estimate, the switch, agreement with closed forms, vmap and gradients.
+
+The test problem is the scalar relaxation ``y' = −a (y − cos t)``, ``y(0) = 0``, whose solution is
+``y = (a² cos t + a sin t − a² e^{−a t}) / (a² + 1)``: stiff for large ``a`` (ρ = a), mild for small.
+"""
+
+import diffrax
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import origami_jax.simulation as sim
+from origami_jax.simulation._switching import _tsit5_stiffness
+
+T1 = 10.0
+RTOL, ATOL = 1e-8, 1e-10
+# |y − exact| at T1: the global error of a tolerance-1e-8 solve of a unit-size solution.
+EXACT_AGREEMENT = 1e-6
+
+
+def _exact(a, t):
+    return (a**2 * jnp.cos(t) + a * jnp.sin(t) - a**2 * jnp.exp(-a * t)) / (a**2 + 1)
+
+
+def _solve(a, solver, max_steps=100_000, adjoint=None):
+    solution = diffrax.diffeqsolve(
+        diffrax.ODETerm(lambda t, y, a: -a * (y - jnp.cos(t))),
+        solver,
+        0.0,
+        T1,
+        1e-6,
+        jnp.zeros(()),
+        a,
+        saveat=diffrax.SaveAt(t1=True, solver_state=isinstance(solver, sim.StiffnessSwitching)),
+        stepsize_controller=diffrax.PIDController(rtol=RTOL, atol=ATOL),
+        max_steps=max_steps,
+        throw=False,
+        adjoint=diffrax.RecursiveCheckpointAdjoint() if adjoint is None else adjoint,
+    )
+    switch_time = (
+        solution.solver_state[1].switch_time
+        if isinstance(solver, sim.StiffnessSwitching)
+        else jnp.inf
+    )
+    return solution.ys[-1], solution.stats["num_steps"], switch_time, solution.result
+
+
+_switching = jax.jit(lambda a: _solve(a, sim.StiffnessSwitching()))
+
+
+def test_stiffness_estimate_is_exact_for_a_linear_scalar_problem():
+    # For f = λ y the estimate ‖k₇ − k₆‖ / ‖y₁ − Y₆‖ is exactly |λ| h.
+    lam, h = -37.0, 0.05
+    term = diffrax.ODETerm(lambda t, y, args: lam * y)
+    tsit5 = diffrax.Tsit5()
+    y0 = jnp.ones(())
+    state = tsit5.init(term, 0.0, h, y0, None)
+    _, _, dense, _, _ = tsit5.step(term, jnp.array(0.0), jnp.array(h), y0, None, state, False)
+    np.testing.assert_allclose(_tsit5_stiffness(dense, tsit5), abs(lam) * h, rtol=1e-12)
+
+
+def test_switches_on_a_stiff_problem_and_matches_the_closed_form():
+    a = 1e5
+    y, steps, switch_time, result = _switching(a)
+    assert result == diffrax.RESULTS.successful
+    np.testing.assert_allclose(y, _exact(a, T1), atol=EXACT_AGREEMENT)
+    assert 0.0 < switch_time < 1e-2, (
+        switch_time
+    )  # the first stiff stretch: 15 steps after the layer
+    # Tsit5 alone is held to |h a| < 3.4 over the whole interval: ~3e5 steps. The switch solves it in
+    # a few hundred.
+    assert steps < 2_000, steps
+
+
+def test_stays_explicit_on_a_mild_problem_and_matches_the_closed_form():
+    a = 2.0
+    y, steps, switch_time, result = _switching(a)
+    assert result == diffrax.RESULTS.successful
+    assert np.isinf(switch_time)
+    np.testing.assert_allclose(y, _exact(a, T1), atol=EXACT_AGREEMENT)
+    # Same steps as Tsit5 alone, which it is until a switch.
+    _, tsit5_steps, _, _ = jax.jit(lambda a: _solve(a, diffrax.Tsit5()))(a)
+    assert int(steps) == int(tsit5_steps)
+
+
+def test_vmap_over_stiff_and_mild_members_matches_single_solves():
+    # Under vmap the switch flag is batched and both branches run; each member must still follow its own.
+    a = jnp.array([2.0, 1e5])
+    y, _, switch_time, _ = jax.jit(jax.vmap(lambda a: _solve(a, sim.StiffnessSwitching())))(a)
+    for i in range(2):
+        single_y, _, single_switch, _ = _switching(a[i])
+        np.testing.assert_allclose(y[i], single_y, rtol=1e-12)
+        np.testing.assert_array_equal(switch_time[i], single_switch)
+
+
+@pytest.mark.parametrize("mode", ["forward", "reverse"])
+def test_gradient_through_the_switch_matches_the_closed_form(mode):
+    # d y(T1) / d a: the derivative of the closed form, through a solve that switches (a = 1e3).
+    a = 1e3
+    if mode == "forward":
+        solver = sim.StiffnessSwitching().with_scan_kind("lax")
+        solve = lambda a: _solve(a, solver, adjoint=diffrax.ForwardMode())[0]  # noqa: E731
+        gradient = jax.jit(jax.jacfwd(solve))(a)
+    else:
+        gradient = jax.jit(jax.grad(lambda a: _solve(a, sim.StiffnessSwitching())[0]))(a)
+    exact = jax.grad(lambda a: _exact(a, T1))(a)
+    # |dy/da| ~ 1e-6 here; the solve's error in y (≤ 1e-6 relative to y ~ 1) differentiates to ~1e-9.
+    np.testing.assert_allclose(gradient, exact, rtol=1e-3, atol=1e-9)
+
+
+def test_start_implicit_and_bad_arguments():
+    y, _, switch_time, _ = jax.jit(
+        lambda a: _solve(a, sim.StiffnessSwitching(start_implicit=True))
+    )(2.0)
+    assert switch_time == 0.0
+    np.testing.assert_allclose(y, _exact(2.0, T1), atol=EXACT_AGREEMENT)
+    with pytest.raises(ValueError, match="threshold must be positive"):
+        sim.StiffnessSwitching(threshold=0.0)
+    with pytest.raises(ValueError, match="patience must be at least 1"):
+        sim.StiffnessSwitching(patience=0)
