@@ -21,7 +21,7 @@ import time
 
 import numpy as np
 
-from ._harness import Result, Timing, time_calls
+from ._harness import Result, Timing, loop_flops, time_calls
 from .bench_simulate import _pinocchio_rhs
 
 TRUTH = (2.5, 8.0)
@@ -74,6 +74,29 @@ def _peer_metrics(chain, design, k_scale, b_scale, ts, targets_theta):
     denom = a - 2 * c + d
     peak = c - 0.125 * (a - d) ** 2 / denom if denom != 0 else c
     return np.array(rise + [max(peak - 1.0, 0.0)]), sol.nfev
+
+
+def _fit_flops(hinge, t1: float, n_save: int, *, n_lanes: int, steps: int) -> float | None:
+    """Lower bound of the fit's FLOPs from one forward solve's step count; see `loop_flops`."""
+    import diffrax
+
+    import origami_jax.simulation as sim
+
+    from .bench_sweep import _literature_rhs
+
+    trajectory = sim.simulate(
+        hinge.accordion(3),
+        sim.Step(sim.alternating_targets(3)),
+        stiffness=hinge.stiffness(3),
+        drag=hinge.drag(3),
+        t1=t1,
+        n_save=n_save,
+        rtol=RTOL,
+        atol=ATOL,
+        solver=diffrax.Tsit5(),  # the design's default solver
+    )
+    solve_steps = int(trajectory.stats["num_steps"])
+    return loop_flops(_literature_rhs(), np.zeros(6), evaluations=6 * solve_steps * n_lanes * steps)
 
 
 def run(quick: bool) -> list[Result]:
@@ -159,6 +182,7 @@ def run(quick: bool) -> list[Result]:
     truth_error = float(np.max(np.abs(first.values - np.array(TRUTH)) / np.array(TRUTH)))
     if truth_error > 1e-3:
         raise RuntimeError(f"ours missed the known answer by {truth_error:.2e}: {first.summary()}")
+    flops = _fit_flops(truth_design, t1, n_save, n_lanes=1 + len(free), steps=first.iterations)
     return [
         Result(
             name="calibrate k_scale, b_scale to 4 targets (3-flap accordion, step, air)",
@@ -167,11 +191,14 @@ def run(quick: bool) -> list[Result]:
             peer=peer_timing,
             compile_s=compile_s,
             max_abs_difference=difference,
+            flops=flops,
             notes=(
                 f"ours {first.iterations} LM steps, found {first.values.round(6).tolist()}; peer "
                 f"{evaluations['nfev']} residual evaluations ({evaluations['rhs']} RHS calls), found "
                 f"{peer_scales.round(6).tolist()}; truth {list(TRUTH)}; max |diff| is the relative "
-                "parameter difference"
+                "parameter difference; FLOP = XLA count of one right-hand side x 6 per Tsit5 step x "
+                "steps of one solve x (1 + 2 tangent lanes) x LM steps (lower bound: tangent lanes "
+                "counted at the right-hand side's cost, no linear algebra)"
             ),
             extra={"ours_first_call_s": first_s, "truth_error": truth_error},
         )

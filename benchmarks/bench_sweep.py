@@ -18,6 +18,7 @@ the host work: NetCDF-free in-memory labelling, padding, transfers).
 
 import time
 
+import jax
 import numpy as np
 
 from ._harness import Result, Timing, loop_flops
@@ -152,15 +153,19 @@ def run(quick: bool) -> list[Result]:
                 _pinocchio_peer({name: float(case_columns[name][i]) for name in case_columns})[0]
                 for i in check_ids
             ]
-        flops, flop_note = None, ""
-        if solver == "tsit5":
-            # 6 right-hand sides per Tsit5 step (FSAL), summed over the designs' steps; see `loop_flops`.
-            total_steps = int(np.sum(ds["num_steps"].values))
-            flops = loop_flops(_literature_rhs(), np.zeros(6), evaluations=6 * total_steps)
-            flop_note = (
-                "; FLOP = XLA count of one right-hand side x 6 per step x all designs' steps "
-                "(lower bound: no solver arithmetic, metrics or saving)"
-            )
+        # 6 right-hand sides per step (Tsit5: FSAL; Kvaerno5: at least one chord iteration for each
+        # of its 6 implicit stages, plus one Jacobian), summed over the designs' steps; `loop_flops`.
+        total_steps = int(np.sum(ds["num_steps"].values))
+        rhs = _literature_rhs()
+        flops = loop_flops(rhs, np.zeros(6), evaluations=6 * total_steps)
+        if solver == "kvaerno5" and flops is not None:
+            jacobian = loop_flops(jax.jacfwd(rhs), np.zeros(6), evaluations=total_steps)
+            flops = None if jacobian is None else flops + jacobian
+        flop_note = (
+            "; FLOP = XLA count of one right-hand side x 6 per step"
+            + (" + one Jacobian per step" if solver == "kvaerno5" else "")
+            + " x all designs' steps (lower bound: no solver arithmetic, metrics or saving)"
+        )
         ours_rise = ds["rise_time"].values[check_ids]
         difference = float(np.nanmax(np.abs(ours_rise - np.asarray(peer_check))))
         rows.append(

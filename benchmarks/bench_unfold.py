@@ -8,7 +8,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from benchmarks._harness import Result, Timing, time_calls
+from benchmarks._harness import Result, Timing, loop_flops, time_calls
 from origami_jax import vertex
 from origami_jax.vertex._descent import DescentSettings
 from origami_jax.vertex._unfold import _compiled, _settings_arrays
@@ -108,9 +108,10 @@ def run(quick: bool) -> list[Result]:
                 peer_name="scipy SLSQP steps",
                 peer=Timing(peer_s, peer_s, peer_s, 1 if quick else 3),
                 compile_s=compile_s,
+                flops=_descent_flops(v.directions, v.closed, int(out.n_accepted)),
                 notes=(
                     f"ours: status {int(out.status)} (1 = flat) in {int(out.n_accepted)} steps; "
-                    f"SLSQP: flat={peer_flat} in {peer_steps} steps"
+                    f"SLSQP: flat={peer_flat} in {peer_steps} steps; {_FLOP_NOTE}"
                 ),
             )
         )
@@ -129,10 +130,27 @@ def run(quick: bool) -> list[Result]:
             ours=timing,
             compile_s=compile_s,
             per_item=count,
-            notes=f"flat without escapes: {flat:.1%}; whole batch {timing.median:.2f} s",
+            flops=_descent_flops(x[0], True, int(np.sum(np.asarray(out.n_accepted)))),
+            notes=(
+                f"flat without escapes: {flat:.1%}; whole batch {timing.median:.2f} s; {_FLOP_NOTE}"
+            ),
         )
     )
     return rows
+
+
+_FLOP_NOTE = "FLOP = XLA count of one energy value and gradient x accepted steps (lower bound)"
+
+
+def _descent_flops(directions, closed: bool, accepted_steps: int) -> float | None:
+    """Lower bound of a descent's FLOPs: one energy value-and-gradient per accepted step (the
+    projection, restoration and rejected steps are left out); see `loop_flops`."""
+    from origami_jax.vertex._energy import energy
+
+    def value_and_gradient(x):
+        return jax.value_and_grad(lambda y: energy(y, closed=closed, p=2.0))(x)
+
+    return loop_flops(value_and_gradient, jnp.asarray(directions), evaluations=accepted_steps)
 
 
 def _timed(fn, *args):
