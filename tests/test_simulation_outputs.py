@@ -59,7 +59,7 @@ def test_cli_simulate_writes_trajectory_and_metrics(tmp_path, capsys):
             "--flaps",
             "2",
             "--solver",
-            "tsit5",
+            "auto",
             "--t1",
             "300",
             "--n-save",
@@ -77,6 +77,8 @@ def test_cli_simulate_writes_trajectory_and_metrics(tmp_path, capsys):
     report = json.loads((tmp_path / "metrics.json").read_text())
     assert report["succeeded"] and report["params"] == {"k_scale": 2.0}
     assert len(report["metrics"]["rise_time"]) == 2
+    # The default solver stays explicit in air: no switch time (JSON null, not a crash on inf).
+    assert report["stats"]["switch_time"] is None and report["stats"]["num_steps"] > 0
 
 
 def test_cli_simulate_rejects_bad_params(tmp_path, capsys):

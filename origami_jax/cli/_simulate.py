@@ -181,7 +181,7 @@ def run(args: argparse.Namespace) -> int:
         "params": params,
         "result": "successful" if ok else sim.RESULTS[trajectory.result],
         "succeeded": ok,
-        "stats": {key: int(value) for key, value in trajectory.stats.items()},
+        "stats": _json_stats(trajectory.stats),
         **extra,
     }
     metrics = None
@@ -240,3 +240,18 @@ def write_figures(
         chain, trajectory, paths[2], n_frames=40, t_max=t_max, time_scale=scale, time_unit=unit
     )
     return paths
+
+
+def _json_stats(stats) -> dict:
+    """Solver statistics as JSON: counts as ints, `switch_time` (µs) as a float, `null` if never."""
+    import numpy as np
+
+    out = {}
+    for key, value in stats.items():
+        value = np.asarray(value)
+        if np.issubdtype(value.dtype, np.integer):
+            out[key] = int(value)
+        else:
+            out[key] = float(value) if bool(np.isfinite(value)) else None
+    return out
+

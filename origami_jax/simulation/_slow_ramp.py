@@ -15,7 +15,7 @@ What it costs in accuracy is checked, not assumed: the same model is solved at t
 the ringing, over a window at the start (`window`, default 30 periods of the slowest hinge), and the largest
 departure from `θ_des` there — the quasi-static error — is reported next to the large-step solution's own
 largest departure from `θ_des` at its samples. Measured on the literature accordion in KOH (T = 2.73 h,
-`n_save = 501`): 801 implicit steps; the resolved full model departs from `θ_des` by at most 2.0e-8 rad
+`n_save = 501`): 795 implicit steps; the resolved full model departs from `θ_des` by at most 2.0e-8 rad
 over its first 20 ms, and the large-step samples by 1.8e-15 rad — against folds of π. The stated error of
 the large-step answer is therefore the ringing it does not resolve, ≈ 2e-8 rad (relative 6e-9).
 """
