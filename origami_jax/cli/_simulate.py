@@ -254,4 +254,3 @@ def _json_stats(stats) -> dict:
         else:
             out[key] = float(value) if bool(np.isfinite(value)) else None
     return out
-
