@@ -48,4 +48,6 @@ run chain 90 --figure "$OUT/throughput_gpu.png"
 run sweep 170
 run unfold 90
 run simulate 90
+run chain_peers 60
+run design 150
 echo "done $(date +%T)"
