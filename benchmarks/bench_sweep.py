@@ -18,10 +18,10 @@ the host work: NetCDF-free in-memory labelling, padding, transfers).
 
 import time
 
-import jax
 import numpy as np
 
-from ._harness import Result, Timing, loop_flops
+from ._harness import Result, Timing
+from .bench_simulate import accordion_solve_flops
 
 RTOL, ATOL = 1e-8, 1e-10  # the simulation's defaults, used for both
 T_END, N_SAVE = 2000.0, 2001  # µs, samples
@@ -38,26 +38,6 @@ def _grid(quick: bool, shape: tuple[int, int] | None = None):
         },
         units={"hinge_width": "um"},
     )
-
-
-def _literature_rhs():
-    """Our right-hand side of the literature accordion step on the flat state (for FLOP counts)."""
-    import jax.numpy as jnp
-
-    from origami_jax.chain import MICRO, HingeDesign, forward_dynamics
-    from origami_jax.simulation import alternating_targets
-
-    design = HingeDesign.literature(MICRO)
-    chain = design.accordion(3)
-    k, b = design.stiffness(3), design.drag(3)
-    tau = k * alternating_targets(3)
-
-    def rhs(y):
-        theta, theta_dot = y[:3], y[3:]
-        acc = forward_dynamics(chain, theta, theta_dot, tau, stiffness=k, drag=b)
-        return jnp.concatenate([theta_dot, acc])
-
-    return rhs
 
 
 def _pinocchio_peer(design_values: dict[str, float]):
@@ -153,18 +133,12 @@ def run(quick: bool) -> list[Result]:
                 _pinocchio_peer({name: float(case_columns[name][i]) for name in case_columns})[0]
                 for i in check_ids
             ]
-        # 6 right-hand sides per step (Tsit5: FSAL; Kvaerno5: at least one chord iteration for each
-        # of its 6 implicit stages, plus one Jacobian), summed over the designs' steps; `loop_flops`.
-        total_steps = int(np.sum(ds["num_steps"].values))
-        rhs = _literature_rhs()
-        flops = loop_flops(rhs, np.zeros(6), evaluations=6 * total_steps)
-        if solver == "kvaerno5" and flops is not None:
-            jacobian = loop_flops(jax.jacfwd(rhs), np.zeros(6), evaluations=total_steps)
-            flops = None if jacobian is None else flops + jacobian
+        implicit = solver == "kvaerno5"
+        flops = accordion_solve_flops(int(np.sum(ds["num_steps"].values)), implicit=implicit)
         flop_note = (
-            "; FLOP = XLA count of one right-hand side x 6 per step"
-            + (" + one Jacobian per step" if solver == "kvaerno5" else "")
-            + " x all designs' steps (lower bound: no solver arithmetic, metrics or saving)"
+            "; FLOP = XLA count of one right-hand side x 6"
+            + (" + one Jacobian" if implicit else "")
+            + " per step x all designs' steps (lower bound: no solver arithmetic, metrics or saving)"
         )
         ours_rise = ds["rise_time"].values[check_ids]
         difference = float(np.nanmax(np.abs(ours_rise - np.asarray(peer_check))))

@@ -28,7 +28,8 @@ def run(out: Path) -> list[str]:
     out = Path(out)
     lines = [
         "3-flap accordion, literature defaults (200 nm SiNx, 100 nm Cr at 1 GPa, 200 µm square flaps, "
-        "C_D 1.17), default solver (Tsit5, Kvaerno5 once stiff), rtol 1e-7. Paper (Fig. 7): joint-1 overshoot ≈ 39 %, rise 37 / 101 / 38 µs.",
+        "C_D 1.17), default solver (Tsit5, Kvaerno5 once stiff), rtol 1e-7. "
+        "Paper (Fig. 7): joint-1 overshoot ≈ 39 %, rise 37 / 101 / 38 µs.",
     ]
     record: dict = {}
     for fluid in (AIR, KOH_SOLUTION):
