@@ -329,3 +329,57 @@ def test_scalar_forward_path_equals_array_path(name):
     # ValueError from the function; TypeError when the suite's runtime type checker sees it first.
     with pytest.raises((ValueError, TypeError), match="path"):
         oc.forward_dynamics(chain, theta[0], theta_dot[0], tau[0], stiffness=k, drag=b, path="x")
+
+
+def test_forward_dynamics_on_rows_of_states():
+    """`forward_dynamics` on a `(t, n)` stack of states (how `simulate` evaluates its samples): row by
+    row the single-state answer, with the same forward- and reverse-mode derivatives (its custom JVP
+    sits outside the loop over rows); non-finite rows give NaN rows and leave the others alone."""
+    chain = CASES["accordion3"]()
+    n = chain.n_joints
+    theta, theta_dot, tau = as_jax(*random_states(n, N_STATES, SEED + 9))
+    k, b = jnp.linspace(1.0, 2.0, n), jnp.linspace(0.1, 0.3, n)
+
+    def rows(scale, q):
+        return oc.forward_dynamics(chain, q * scale, theta_dot, tau, stiffness=k * scale, drag=b)
+
+    def one_by_one(scale, q):
+        def one(qi, vi, ti):
+            return oc.forward_dynamics(chain, qi * scale, vi, ti, stiffness=k * scale, drag=b)
+
+        return jax.vmap(one)(q, theta_dot, tau)
+
+    @quick_jit
+    def both(q):
+        out = []
+        for f in (rows, one_by_one):
+            value = f(1.3, q)
+            tangent = jax.jacfwd(f)(1.3, q)
+            gradient = jax.grad(lambda s, f=f: jnp.sum(f(s, q) ** 2))(1.3)
+            out.append((value, tangent, gradient))
+        return out
+
+    for fast, reference in zip(*both(theta), strict=True):
+        assert max_relative_error(fast, reference) < PATH_RTOL
+
+    @quick_jit
+    def value(q):
+        return rows(1.0, q)
+
+    broken = theta.at[1, 0].set(jnp.inf)
+    out = value(broken)
+    assert bool(jnp.all(jnp.isnan(out[1])))
+    keep = jnp.array([0, 2, 3])
+    assert max_relative_error(out[keep], value(theta)[keep]) < PATH_RTOL
+    assert bool(jnp.all(jnp.isnan(value(jnp.full_like(theta, jnp.nan)))))
+    # Angles beyond the polynomial sin/cos range (CPU) take jnp.sin/cos: still the array path's answer.
+    far = theta + 2.0e6 * jnp.pi
+    arrays = jax.vmap(
+        lambda q, v, t: oc.forward_dynamics(chain, q, v, t, stiffness=k, drag=b, path="arrays")
+    )(far, theta_dot, tau)
+    assert max_relative_error(value(far), arrays) < 1e-8  # 2e6·π carries ~1e-9 rad of rounding
+    # ValueError from the function; TypeError when the suite's runtime type checker sees it first.
+    with pytest.raises((ValueError, TypeError), match="shape"):
+        oc.forward_dynamics(
+            chain, theta[:, :2], theta_dot[:, :2], tau[:, :2], stiffness=k[:2], drag=b[:2]
+        )

@@ -147,3 +147,16 @@ def test_dense_output():
     np.testing.assert_allclose(theta_dot_at_sample, trajectory.theta_dot[7], atol=1e-8)
     with pytest.raises(ValueError, match="dense"):
         step_simulation("air", t1_us=10.0).evaluate(1.0)
+
+
+def test_default_controller_per_solver():
+    """Explicit Runge–Kutta solvers get diffrax's integral controller (fewer steps for Tsit5 on the
+    accordion), everything else the PID controller measured best for Kvaerno5 (issue #4)."""
+    from origami_jax.simulation import StiffnessSwitching, default_controller
+
+    explicit = default_controller(1e-8, 1e-10, diffrax.Tsit5())
+    assert (explicit.pcoeff, explicit.icoeff) == (0, 1)
+    for solver in (None, StiffnessSwitching(), diffrax.Kvaerno5()):
+        controller = default_controller(1e-8, 1e-10, solver)
+        assert (controller.pcoeff, controller.icoeff) == (0.3, 0.3)
+        assert (controller.rtol, controller.atol) == (1e-8, 1e-10)

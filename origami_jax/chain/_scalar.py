@@ -12,9 +12,12 @@ the inertial frame about its origin, with spatial vectors ordered ``(linear, ang
 
 from typing import cast
 
+import equinox.internal as eqxi
+import jax
 import jax.numpy as jnp
 from jaxtyping import Array
 
+from .._math import SIN_COS_REDUCTION_LIMIT, sin_cos_reduced
 from ._chain import Chain
 
 Vec = tuple[Array, Array, Array]
@@ -75,9 +78,10 @@ class ScalarBodies:
         self.inertia: list[Mat] = []  # rotational inertia about the origin, world frame
         rotation_before: Mat | None = None  # e^{ξ̂_1θ_1}⋯e^{ξ̂_{i−1}θ_{i−1}}; None is the identity
         translation_before: Vec | None = None
+        sines, cosines = _sin_cos_once(theta)
         for i in range(n):
             axis, point = _vec(chain.axes[i]), _vec(chain.points[i])
-            s, c = _sin_cos(theta[i])
+            s, c = sines[..., i], cosines[..., i]
             one_minus_c = 1 - c
             # Rodrigues for a unit axis: R = c I + s ω̂ + (1 − c) ω ωᵀ.
             x, y, z = axis
@@ -119,8 +123,40 @@ class ScalarBodies:
             rotation_before, translation_before = rotation_after, translation_after
 
 
-def _sin_cos(angle):
-    return jnp.sin(angle), jnp.cos(angle)
+def _sin_cos_once(theta: Array) -> tuple[Array, Array]:
+    """``(sin θ, cos θ)`` of the hinge angles; on the CPU evaluated once, by vectorised polynomials.
+
+    XLA:CPU has no multi-output fusion: every fused kernel re-evaluates the elementwise expressions it
+    reads, and the forward dynamics split into seven kernels (one per Cholesky pivot and the output),
+    each recomputing all the sines and cosines, which cost ~10 ns apiece in float64 (`jnp.sin`). On
+    the CPU they are therefore computed inside a conditional (a fusion boundary) by
+    `sin_cos_reduced` (fdlibm's polynomials, 2 ulp, ~1.7 ns). Vmapped over 128 accordion states the
+    right-hand side went from 47 to 20 µs per call. Other backends fuse differently, have fast
+    transcendentals, and pay a device-to-host copy for every conditional's branch index, so they get
+    plain `jnp.sin`/`jnp.cos` (`lax.platform_dependent` picks at lowering time).
+    """
+    return jax.lax.platform_dependent(
+        theta, cpu=_sin_cos_in_own_kernel, default=lambda x: (jnp.sin(x), jnp.cos(x))
+    )
+
+
+def _sin_cos_in_own_kernel(theta: Array) -> tuple[Array, Array]:
+    # `jnp.sin`/`jnp.cos` for angles beyond the polynomials' reduction range, NaN when no angle is
+    # finite (what sin/cos give). `unvmap_any` keeps the branch index unbatched under `vmap`, so the
+    # switch stays a branch and does not become a select that evaluates all three.
+    finite = jnp.isfinite(theta)
+    any_finite = eqxi.unvmap_any(jnp.any(finite))
+    beyond = eqxi.unvmap_any(jnp.any(finite & (jnp.abs(theta) > SIN_COS_REDUCTION_LIMIT)))
+    branch = jnp.where(any_finite, jnp.where(beyond, 1, 2), 0)
+    return jax.lax.switch(
+        branch,
+        [
+            lambda x: (jnp.full_like(x, jnp.nan), jnp.full_like(x, jnp.nan)),
+            lambda x: (jnp.sin(x), jnp.cos(x)),
+            sin_cos_reduced,
+        ],
+        theta,
+    )
 
 
 def _transpose(m: Mat) -> Mat:

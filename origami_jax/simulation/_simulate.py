@@ -37,9 +37,20 @@ def default_solver() -> diffrax.AbstractSolver:
     return StiffnessSwitching()
 
 
-def default_controller(rtol: float, atol: float) -> diffrax.PIDController:
-    """`PIDController(pcoeff=0.3, icoeff=0.3)`: measured 2.6× faster than the I-controller default for
-    Kvaerno5 on the accordion step (issue #4)."""
+def default_controller(
+    rtol: float, atol: float, solver: diffrax.AbstractSolver | None = None
+) -> diffrax.PIDController:
+    """The step-size controller `simulate` uses with `solver` (default: the default solver).
+
+    - Explicit Runge–Kutta solvers (`diffrax.Tsit5()`, ...): diffrax's integral controller
+      (`PIDController(rtol, atol)`). On the accordion step at rtol 1e-8 it takes 7–10 % fewer steps
+      than the PID below (678 against 753 over 2 ms at a 20 µm hinge, 1704 against 1826 at 200 µm):
+      more rejected steps, fewer in all.
+    - Everything else, the switching default included: `PIDController(pcoeff=0.3, icoeff=0.3)`,
+      measured 2.6× faster than the integral controller for Kvaerno5 on the accordion step (issue #4).
+    """
+    if isinstance(solver, diffrax.AbstractERK):
+        return diffrax.PIDController(rtol=rtol, atol=atol)
     return diffrax.PIDController(rtol=rtol, atol=atol, pcoeff=0.3, icoeff=0.3)
 
 
@@ -155,21 +166,23 @@ def _solve(
     if throw:
         theta = result.error_if(theta, result != RESULTS.successful)
 
-    def _sample(t, th, thd):
-        # Samples past a failure are inf; keep them out of the dynamics (their NaN gradients too).
-        ok = jnp.all(jnp.isfinite(th)) & jnp.all(jnp.isfinite(thd))
-        th_safe = jnp.where(ok, th, 0.0)
-        thd_safe = jnp.where(ok, thd, 0.0)
-        tau = inputs.torque(t, th_safe, thd_safe, chain=chain, stiffness=stiffness, drag=drag)
-        # The array path here: with the scalar path's custom JVP, this vmap over samples failed XLA's
-        # verifier (operand layout mismatch) inside the design fit's vmapped forward-mode Jacobian on
-        # jax 0.10.2. Post-processing, not the hot loop, so the faster path is not needed.
-        acc = forward_dynamics(
-            chain, th_safe, thd_safe, tau, stiffness=stiffness, drag=drag, path="arrays"
-        )
-        return jnp.where(ok, acc, jnp.inf), jnp.where(ok, tau, jnp.inf)
+    # Samples past a failure are inf; keep them out of the dynamics (their NaN gradients too).
+    finite_theta = jnp.all(jnp.isfinite(theta), axis=-1, keepdims=True)
+    ok = finite_theta & jnp.all(jnp.isfinite(theta_dot), axis=-1, keepdims=True)
+    theta_safe = jnp.where(ok, theta, 0.0)
+    theta_dot_safe = jnp.where(ok, theta_dot, 0.0)
 
-    theta_ddot, tau = jax.vmap(_sample)(solution.ts, theta, theta_dot)
+    tau = jax.vmap(
+        lambda t, th, thd: inputs.torque(t, th, thd, chain=chain, stiffness=stiffness, drag=drag)
+    )(solution.ts, theta_safe, theta_dot_safe)
+    # All samples in one call (the fast scalar path with its custom JVP outside the vmap over
+    # samples; see `forward_dynamics`). The array path used here before was ~7x slower per sample,
+    # a third of a vmapped sweep's time.
+    theta_ddot = forward_dynamics(
+        chain, theta_safe, theta_dot_safe, tau, stiffness=stiffness, drag=drag
+    )
+    theta_ddot = jnp.where(ok, theta_ddot, jnp.inf)
+    tau = jnp.where(ok, tau, jnp.inf)
     target = inputs.target
     target = theta[-1] if target is None else jnp.asarray(target, dtype=theta.dtype)
     stats = {k: jnp.asarray(v) for k, v in solution.stats.items()}
@@ -240,8 +253,9 @@ def simulate(
       gradients in stiff regimes at loose tolerances.
     - `rtol`, `atol`: step-size controller tolerances (default 1e-7 and 1e-9; see `DEFAULT_ATOL`). Metrics
       of the accordion step agree with rtol 1e-9 to about 1e-6 relative.
-    - `stepsize_controller`: overrides `PIDController(rtol, atol, pcoeff=0.3, icoeff=0.3)`. Input corners
-      are added as `jump_ts` in either case.
+    - `stepsize_controller`: overrides [`origami_jax.simulation.default_controller`][] (an integral
+      controller for explicit Runge–Kutta solvers, a PID controller otherwise). Input corners are added
+      as `jump_ts` in either case.
     - `dt0`: first step (default: diffrax's estimate).
     - `max_steps`: step budget; running out gives `RESULTS.max_steps_reached`.
     - `dense`: keep diffrax's dense output (`Trajectory.evaluate`).
@@ -284,7 +298,7 @@ def simulate(
         raise ValueError(f"ts must be one-dimensional, got shape {ts.shape}.")
     solver = default_solver() if solver is None else solver
     if stepsize_controller is None:
-        stepsize_controller = default_controller(rtol, atol)
+        stepsize_controller = default_controller(rtol, atol, solver)
     if dt0 is not None:
         dt0 = jnp.asarray(dt0, dtype=float)
     progress_meter = diffrax.NoProgressMeter() if progress_meter is None else progress_meter

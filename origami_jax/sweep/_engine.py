@@ -151,8 +151,10 @@ def sweep(
     row in `space.columns()`), every parameter as a coordinate along `design` (attribute `units`),
     every output as a variable (attribute `units`), and `result` (`int32`, 0 = success) with CF
     `flag_values`/`flag_meanings`. Attributes: `model`, `settings` and `space` (JSON), `n_designs`,
-    `n_failed`, `chunk_size`, `devices`, `compile_s` (seconds spent compiling in this call: the
-    one attribute that differs between runs of the same sweep).
+    `n_failed`, `chunk_size`, `devices`, `compile_s` (seconds spent compiling in this call) and
+    `run_s` (seconds spent computing, copying and storing chunks, compilation excluded: the
+    steady-state cost; with a resumed sweep, of this call's chunks only). The last two are the
+    attributes that differ between runs of the same sweep.
 
     **Raises:** `ValueError` for a wrong design space or kernel outputs (before any compute);
     `FileExistsError` / `ValueError` from the store (see `resume`); `RuntimeError` if a compiled
@@ -301,7 +303,10 @@ def sweep(
         def cost(params):
             return jnp.asarray(estimate({**params, **statics}), dtype=float).reshape(())
 
-        costs = np.asarray(jax.jit(jax.vmap(cost))(inputs))
+        start = time.perf_counter()
+        compiled_cost = jax.jit(jax.vmap(cost)).lower(inputs).compile()
+        compile_seconds.append(time.perf_counter() - start)
+        costs = np.asarray(compiled_cost(inputs))
         costs = np.where(np.isfinite(costs), costs, np.inf)
         return todo[np.argsort(costs, kind="stable")]
 
@@ -330,10 +335,12 @@ def sweep(
     )
     in_memory: list[xr.Dataset] = []
     n_done = int(done.sum())
+    run_seconds = 0.0
     try:
         for group, indices in mine:
             if group.compiled is None:
                 group.compiled = compile_group(group, size)
+            chunk_start = time.perf_counter()
             padded = np.concatenate([indices, np.full(size - len(indices), indices[-1])])
             inputs = {n: jax.device_put(encoded[n][padded], sharding) for n in dynamic_names}
             for name, value in prepared(group, padded).items():
@@ -351,6 +358,7 @@ def sweep(
                 store.write_chunk(chunk)
             else:
                 in_memory.append(chunk)
+            run_seconds += time.perf_counter() - chunk_start
             n_done += len(indices)
             bar.update(len(indices))
             if on_chunk is not None:
@@ -362,13 +370,15 @@ def sweep(
     if store is not None:
         if process_index == 0:
             dataset = store.gather(write=False)
-            dataset = _finish(dataset, kernel, manifest, size, devices, compile_seconds)
+            dataset = _finish(
+                dataset, kernel, manifest, size, devices, compile_seconds, run_seconds
+            )
             gather([dataset], path=store.root / RESULT)
         _barrier("origami_jax.sweep.gathered", process_count)
         if process_index != 0:
             dataset = xr.load_dataset(store.root / RESULT, engine="h5netcdf")
         return dataset
-    return _finish(gather(in_memory), kernel, manifest, size, devices, compile_seconds)
+    return _finish(gather(in_memory), kernel, manifest, size, devices, compile_seconds, run_seconds)
 
 
 def _barrier(name: str, process_count: int) -> None:
@@ -506,6 +516,7 @@ def _finish(
     size: int,
     devices: Sequence[jax.Device],  # pyright: ignore[reportInvalidTypeForm]
     compile_seconds: Sequence[float],
+    run_seconds: float,
 ) -> xr.Dataset:
     dataset.attrs.update(
         {
@@ -518,6 +529,7 @@ def _finish(
             "devices": ", ".join(str(d) for d in devices),
             "jax_version": jax.__version__,
             "compile_s": float(sum(compile_seconds)),
+            "run_s": float(run_seconds),
         }
     )
     return dataset

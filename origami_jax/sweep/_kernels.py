@@ -119,11 +119,15 @@ def accordion_step(
 
     def design_of(params: Mapping[str, Any]):
         n = int(params.get("n_flaps", n_flaps))
-        values = {k: jnp.asarray(params.get(k, d), dtype=float) for k, d in defaults.items()}
+        swept = {k: jnp.asarray(params[k], dtype=float) for k in defaults if k in params}
         invalid = jnp.zeros((), dtype=bool)
-        for value in values.values():
+        for value in swept.values():
             invalid = invalid | ~(jnp.isfinite(value) & (value > 0))
-        safe: dict[str, Any] = {k: jnp.where(invalid, defaults[k], v) for k, v in values.items()}
+        # Parameters not swept stay Python constants: XLA folds them into the compiled kernel (a
+        # chain whose geometry is not swept has constant masses and inertias, which made the
+        # width x strain benchmark sweep 2.2x faster than with every default traced per design).
+        safe: dict[str, Any] = dict(defaults)
+        safe.update({k: jnp.where(invalid, defaults[k], v) for k, v in swept.items()})
         density = jnp.asarray(densities)[params.get("fluid", FLUIDS.index(fluid))]
         design = HingeDesign(
             **safe,
