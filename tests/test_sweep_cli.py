@@ -43,7 +43,9 @@ def test_cli_sweep_writes_dataset_plots_and_resumes(tmp_path, monkeypatch, capsy
     assert ds["omega"].attrs["units"] == "rad/s"
     plots = sorted(p.name for p in (out / "plots").glob("*.png"))
     assert "rise_time_vs_zeta.png" in plots and "overshoot_map_zeta_omega.png" in plots
-    assert "result 1 (invalid_input): 3 designs" in (out / "summary.txt").read_text()
+    summary = (out / "summary.txt").read_text()
+    assert "result 1 (invalid_input): 3 designs" in summary
+    assert "computing and storing chunks" in summary
     assert main(argv) == 2  # refuses to overwrite
     assert "resume" in capsys.readouterr().err
     assert main(argv + ["--resume", "--no-plots"]) == 1

@@ -24,7 +24,7 @@ from ._scalar import ScalarBodies, cholesky_solve_lists, mass_matrix_lists, newt
 
 # Forward dynamics, the simulator's right-hand side, evaluates chains of up to this many hinges on scalars
 # (`_scalar`, 4.6x faster vmapped over 10,000 accordion states on the CPU: 0.23 µs against 1.06 µs per
-# state), while its derivatives go through the array form by a custom JVP rule, so differentiating a
+# state; 0.15 µs since the sines and cosines are computed once, see `_scalar._sin_cos_once`), while its derivatives go through the array form by a custom JVP rule, so differentiating a
 # simulation compiles what it compiled before. (Scalar graphs differentiated in reverse mode compiled
 # for minutes in the test suite.) `mass_matrix`, `bias_torque` and `inverse_dynamics` run on arrays;
 # the same custom-JVP wrapping is how to speed them up if they ever sit in a hot loop.

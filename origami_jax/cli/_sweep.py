@@ -99,6 +99,8 @@ def run(args: argparse.Namespace) -> int:
         f"model: {config.kernel.name}",
         f"designs: {n} ({failed} failed), parameters: {', '.join(config.space.names)}",
         f"wall time this run: {elapsed:.1f} s (compilation included)",
+        f"  of which compiling {dataset.attrs['compile_s']:.1f} s, computing and storing chunks "
+        f"{dataset.attrs['run_s']:.1f} s",
         f"dataset: {out / 'sweep.nc'}",
     ]
     if failed:
