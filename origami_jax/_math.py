@@ -60,7 +60,7 @@ def safe_divide(numerator: ArrayLike, denominator: ArrayLike, *, fill: float = 0
 _PIO2_1 = 1.57079632673412561417e00
 _PIO2_2 = 6.07710050630396597660e-11
 _PIO2_3 = 2.02226624871116645580e-21 + 8.47842766036889956997e-32
-# Beyond this |x| the split above is no longer exact; `sin_cos` falls back to jnp.sin / jnp.cos.
+# Beyond this |x| the split above is no longer exact; callers of `sin_cos_reduced` use jnp.sin/cos.
 SIN_COS_REDUCTION_LIMIT = 1.0e6
 # fdlibm's minimax polynomials for sin and cos on [−π/4, π/4] (k_sin.c, k_cos.c).
 _SIN = (

@@ -24,8 +24,8 @@ from ._scalar import ScalarBodies, cholesky_solve_lists, mass_matrix_lists, newt
 
 # Forward dynamics, the simulator's right-hand side, evaluates chains of up to this many hinges on scalars
 # (`_scalar`, 4.6x faster vmapped over 10,000 accordion states on the CPU: 0.23 µs against 1.06 µs per
-# state; 0.15 µs since the sines and cosines are computed once, see `_scalar._sin_cos_once`), while its derivatives go through the array form by a custom JVP rule, so differentiating a
-# simulation compiles what it compiled before. (Scalar graphs differentiated in reverse mode compiled
+# state; 0.15 µs since the sines and cosines are computed once, see `_scalar._sin_cos_once`), while its
+# derivatives go through the array form by a custom JVP rule, so differentiating a simulation compiles what it compiled before. (Scalar graphs differentiated in reverse mode compiled
 # for minutes in the test suite.) `mass_matrix`, `bias_torque` and `inverse_dynamics` run on arrays;
 # the same custom-JVP wrapping is how to speed them up if they ever sit in a hot loop.
 _SCALAR_FORWARD_MAX = 6
@@ -308,8 +308,7 @@ def forward_dynamics(
     if theta.ndim == 2:
         if scalar:
             return _forward_dynamics_scalar_samples(chain, theta, theta_dot, applied)
-        along = jax.vmap(_forward_dynamics_arrays, in_axes=_ALONG_SAMPLES)
-        return along(chain, theta, theta_dot, applied)
+        return _forward_dynamics_arrays_samples(chain, theta, theta_dot, applied)
     if scalar:
         return _forward_dynamics_scalar(chain, theta, theta_dot, applied)
     return _forward_dynamics_arrays(chain, theta, theta_dot, applied)
@@ -334,9 +333,6 @@ def _forward_dynamics_scalar_jvp(primals, tangents):
     return jax.jvp(_forward_dynamics_arrays, primals, tangents)
 
 
-_ALONG_SAMPLES = (None, 0, 0, 0)
-
-
 @jax.custom_jvp
 def _forward_dynamics_scalar_samples(
     chain: Chain, theta: Array, theta_dot: Array, applied: Array
@@ -345,15 +341,14 @@ def _forward_dynamics_scalar_samples(
     # `_forward_dynamics_scalar` differentiated by `jax.jacfwd` through a forward-mode diffrax solve
     # returned tangents with the sample and joint axes swapped (jax 0.10.2; "select cases must have
     # the same shapes, (301, 3) and (3, 301)"), which this ordering avoids.
-    return jax.vmap(_forward_dynamics_scalar_value, in_axes=_ALONG_SAMPLES)(
+    return jax.vmap(_forward_dynamics_scalar_value, in_axes=(None, 0, 0, 0))(
         chain, theta, theta_dot, applied
     )
 
 
 @_forward_dynamics_scalar_samples.defjvp
 def _forward_dynamics_scalar_samples_jvp(primals, tangents):
-    along = jax.vmap(_forward_dynamics_arrays, in_axes=_ALONG_SAMPLES)
-    return jax.jvp(along, primals, tangents)
+    return jax.jvp(_forward_dynamics_arrays_samples, primals, tangents)
 
 
 def _forward_dynamics_arrays(chain: Chain, theta: Array, theta_dot: Array, applied: Array) -> Array:
@@ -361,3 +356,7 @@ def _forward_dynamics_arrays(chain: Chain, theta: Array, theta_dot: Array, appli
     bodies = _Bodies(chain, theta)  # shared by M and the bias, so kinematics run once
     bias = _newton_euler(bodies, chain.gravity, theta_dot, jnp.zeros_like(theta_dot))
     return _solve_spd(_composite_mass_matrix(bodies), applied - bias)
+
+
+# Rows of states `(t, n)` of one chain.
+_forward_dynamics_arrays_samples = jax.vmap(_forward_dynamics_arrays, in_axes=(None, 0, 0, 0))

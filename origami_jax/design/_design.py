@@ -47,8 +47,9 @@ class SimulationSettings(eqx.Module):
       `HingeDesign -> AbstractInput` (e.g. an etch ramp whose radius follows the design).
     - `n_save`: samples of the response (static).
     - `solver`: diffrax solver. Default `Tsit5`: for the accordion in air it compiles ~6× and runs ~10×
-      faster than the simulation's default Kvaerno5 with derivatives matching finite differences (tests);
-      pass `diffrax.Kvaerno5()` for stiff cases (very stiff hinges, KOH at high drag).
+      faster than Kvaerno5 with derivatives matching finite differences (tests); pass
+      `origami_jax.simulation.implicit_solver()` for stiff cases (very stiff hinges, KOH at high drag).
+      Not the simulation's switching default: under the multi-start `vmap` it would run both branches.
     - `rtol`, `atol`: step-size tolerances (static).
     - `max_steps`: ODE step budget (static).
     """
