@@ -383,3 +383,64 @@ def test_forward_dynamics_on_rows_of_states():
         oc.forward_dynamics(
             chain, theta[:, :2], theta_dot[:, :2], tau[:, :2], stiffness=k[:2], drag=b[:2]
         )
+
+
+# The complex-step tangent is exact up to O(h²) with h = 1e-100 and shares no algebra with the array
+# form's autodiff (inverse dynamics + the primal's Cholesky factor vs differentiating M⁻¹ rhs), so
+# they agree to the solve's round-off, ~cond(M)·eps, as in ROUND_TRIP_RTOL.
+COMPLEX_STEP_RTOL = 1e-10
+
+
+@pytest.mark.parametrize(
+    "name", ["accordion3", pytest.param("random5_gravity", marks=pytest.mark.slow)]
+)
+def test_forward_mode_only_derivatives_equal_autodiff(name):
+    """`forward_mode_only=True` (the complex-step JVP `simulate` uses under `diffrax.ForwardMode`):
+    first derivatives in the state, torque, hinge parameters and every chain field (geometry, masses,
+    inertias, gravity), second derivatives (nested forward mode, as an implicit solver's Jacobian
+    inside a forward-mode solve takes them), and rows of states with some tangents zero, all equal to
+    the default path's autodiff."""
+    chain = CASES[name]()
+    n = chain.n_joints
+    theta, theta_dot, tau = as_jax(*random_states(n, N_STATES, SEED + 11))
+    k, b = jnp.linspace(1.0, 2.0, n), jnp.linspace(0.1, 0.3, n)
+    rng = np.random.default_rng(SEED + 12)
+    chain_direction = jax.tree_util.tree_map(
+        lambda x: jnp.asarray(rng.normal(size=x.shape)) * (jnp.abs(x).mean() + 1.0), chain
+    )
+    # Inertia tensors are symmetric; the two paths read an asymmetric one differently (M from its
+    # upper triangle against I·a in the inverse dynamics), so only symmetric directions are physical.
+    inertias = chain_direction.inertias
+    chain_direction = eqx.tree_at(
+        lambda c: c.inertias, chain_direction, inertias + jnp.swapaxes(inertias, -1, -2)
+    )
+
+    def accel(forward_mode_only):
+        def f(c, q, v, t, s):
+            return oc.forward_dynamics(
+                c, q, v, t, stiffness=s, drag=b, forward_mode_only=forward_mode_only
+            )
+
+        return f
+
+    @quick_jit
+    def derivatives(theta, theta_dot, tau):
+        out = {}
+        for flag in (True, False):
+            f = accel(flag)
+            q, v, t = theta[0], theta_dot[0], tau[0]
+            primals = (chain, q, v, t, k)
+            tangents = (chain_direction, theta_dot[1], theta[2], tau[3], k[::-1])
+            value, tangent = jax.jvp(f, primals, tangents)
+            jac_state = jax.jacfwd(f, argnums=(1, 2, 3, 4))(*primals)
+            hessian_q = jax.jacfwd(jax.jacfwd(f, argnums=1), argnums=1)(*primals)
+            # Rows: only θ and k carry tangents (θ̇, τ and the chain are zero tangents).
+            rows = jax.jacfwd(lambda s, f=f: f(chain, theta * s, theta_dot, tau, k * s))(1.3)
+            out[flag] = (value, tangent, jac_state, hessian_q, rows)
+        return out
+
+    out = derivatives(theta, theta_dot, tau)
+    for fast, reference in zip(
+        jax.tree_util.tree_leaves(out[True]), jax.tree_util.tree_leaves(out[False]), strict=True
+    ):
+        assert max_relative_error(fast, reference) < COMPLEX_STEP_RTOL

@@ -10,7 +10,7 @@ The algorithm is the one of `_dynamics` (composite rigid bodies for ``M``, Newto
 the inertial frame about its origin, with spatial vectors ordered ``(linear, angular)``.
 """
 
-from typing import cast
+from typing import NamedTuple, cast
 
 import equinox.internal as eqxi
 import jax
@@ -66,9 +66,13 @@ def _mat(array) -> Mat:
 
 
 class ScalarBodies:
-    """Hinge twists and per-flap spatial inertias about the origin at ``θ``, as scalars."""
+    """Hinge twists and per-flap spatial inertias about the origin at ``θ``, as scalars.
 
-    def __init__(self, chain: Chain, theta: Array):
+    `sin_cos`: ``(sin θ, cos θ)`` when the caller has them (the complex step of `_dynamics` passes
+    first-order complex ones); by default computed here.
+    """
+
+    def __init__(self, chain: Chain, theta: Array, sin_cos: tuple[Array, Array] | None = None):
         n = chain.n_joints
         self.n = n
         self.v: list[Vec] = []  # linear part of hinge twists at the origin, p × w
@@ -78,7 +82,7 @@ class ScalarBodies:
         self.inertia: list[Mat] = []  # rotational inertia about the origin, world frame
         rotation_before: Mat | None = None  # e^{ξ̂_1θ_1}⋯e^{ξ̂_{i−1}θ_{i−1}}; None is the identity
         translation_before: Vec | None = None
-        sines, cosines = _sin_cos_once(theta)
+        sines, cosines = sin_cos_once(theta) if sin_cos is None else sin_cos
         for i in range(n):
             axis, point = _vec(chain.axes[i]), _vec(chain.points[i])
             s, c = sines[..., i], cosines[..., i]
@@ -123,7 +127,7 @@ class ScalarBodies:
             rotation_before, translation_before = rotation_after, translation_after
 
 
-def _sin_cos_once(theta: Array) -> tuple[Array, Array]:
+def sin_cos_once(theta: Array) -> tuple[Array, Array]:
     """``(sin θ, cos θ)`` of the hinge angles; on the CPU evaluated once, by vectorised polynomials.
 
     XLA:CPU has no multi-output fusion: every fused kernel re-evaluates the elementwise expressions it
@@ -229,9 +233,16 @@ def newton_euler_lists(bodies: ScalarBodies, gravity: Array, theta_dot, theta_dd
     return out
 
 
-def cholesky_solve_lists(matrix: list[list[Array]], rhs: list[Array]) -> list[Array]:
-    """Solve ``M x = rhs`` for symmetric positive-definite ``M`` given as nested lists of scalars."""
-    n = len(rhs)
+class CholeskyLists(NamedTuple):
+    """Cholesky factor ``M = L Lᵀ`` as nested lists of scalars: the strict lower triangle and ``1/L_jj``."""
+
+    low: list[list[Array]]
+    inverse_diagonal: list[Array]
+
+
+def cholesky_lists(matrix: list[list[Array]]) -> CholeskyLists:
+    """Factor a symmetric positive-definite ``M`` given as nested lists of scalars."""
+    n = len(matrix)
     low: list[list] = [[None] * n for _ in range(n)]
     inverse_diagonal: list = [None] * n
     for j in range(n):
@@ -244,6 +255,13 @@ def cholesky_solve_lists(matrix: list[list[Array]], rhs: list[Array]) -> list[Ar
             for k in range(j):
                 entry = entry - low[i][k] * low[j][k]
             low[i][j] = entry * inverse_diagonal[j]
+    return CholeskyLists(low, inverse_diagonal)
+
+
+def cholesky_solve_factored(factor: CholeskyLists, rhs: list[Array]) -> list[Array]:
+    """Solve ``L Lᵀ x = rhs`` by forward and back substitution (`rhs` may carry extra batch axes)."""
+    low, inverse_diagonal = factor
+    n = len(rhs)
     y: list = [None] * n
     for i in range(n):
         entry = rhs[i]
@@ -257,3 +275,8 @@ def cholesky_solve_lists(matrix: list[list[Array]], rhs: list[Array]) -> list[Ar
             entry = entry - low[k][i] * x[k]
         x[i] = entry * inverse_diagonal[i]
     return x
+
+
+def cholesky_solve_lists(matrix: list[list[Array]], rhs: list[Array]) -> list[Array]:
+    """Solve ``M x = rhs`` for symmetric positive-definite ``M`` given as nested lists of scalars."""
+    return cholesky_solve_factored(cholesky_lists(matrix), rhs)
