@@ -398,8 +398,8 @@ def test_forward_mode_only_derivatives_equal_autodiff(name):
     """`forward_mode_only=True` (the complex-step JVP `simulate` uses under `diffrax.ForwardMode`):
     first derivatives in the state, torque, hinge parameters and every chain field (geometry, masses,
     inertias, gravity), second derivatives (nested forward mode, as an implicit solver's Jacobian
-    inside a forward-mode solve takes them), and rows of states with some tangents zero, all equal to
-    the default path's autodiff."""
+    inside a forward-mode solve takes them), and rows of states with some tangents zero (which keep
+    the default rule), all equal to the default path's autodiff."""
     chain = CASES[name]()
     n = chain.n_joints
     theta, theta_dot, tau = as_jax(*random_states(n, N_STATES, SEED + 11))

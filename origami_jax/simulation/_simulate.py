@@ -199,13 +199,7 @@ def _solve(
     # samples; see `forward_dynamics`). The array path used here before was ~7x slower per sample,
     # a third of a vmapped sweep's time.
     theta_ddot = forward_dynamics(
-        chain,
-        theta_safe,
-        theta_dot_safe,
-        tau,
-        stiffness=stiffness,
-        drag=drag,
-        forward_mode_only=forward_mode_only,
+        chain, theta_safe, theta_dot_safe, tau, stiffness=stiffness, drag=drag
     )
     theta_ddot = jnp.where(ok, theta_ddot, jnp.inf)
     tau = jnp.where(ok, tau, jnp.inf)
