@@ -102,6 +102,16 @@ def _fit_flops(hinge, t1: float, n_save: int, *, n_lanes: int, steps: int) -> fl
     return accordion_solve_flops(solve_steps * n_lanes * steps, implicit=False)
 
 
+def _time_peer(peer, *, runs: int):
+    """Run the (Python, uncompiled) peer `runs` times: its last answer and the timing."""
+    seconds = []
+    for _ in range(runs):
+        begin = time.perf_counter()
+        answer = peer()
+        seconds.append(time.perf_counter() - begin)
+    return answer, Timing(float(np.median(seconds)), min(seconds), max(seconds), len(seconds))
+
+
 def _sensitivity_row(quick: bool) -> Result:
     import diffrax
     import jax
@@ -156,14 +166,7 @@ def _sensitivity_row(quick: bool) -> Result:
         base = peer_angles(np.zeros(2))
         return np.stack([(peer_angles(step * e) - base) / step for e in np.eye(2)], axis=-1)
 
-    peer_runs = []
-    for _ in range(1 if quick else 3):
-        begin = time.perf_counter()
-        fd = peer()
-        peer_runs.append(time.perf_counter() - begin)
-    peer_timing = Timing(
-        float(np.median(peer_runs)), min(peer_runs), max(peer_runs), len(peer_runs)
-    )
+    fd, peer_timing = _time_peer(peer, runs=1 if quick else 3)
     scale = float(np.max(np.abs(ours)))
     difference = float(np.max(np.abs(ours - fd))) / scale
     if difference > 1e-2:  # one-sided differences at step 1e-4 agree to ~1e-3 (measured 1.4e-3)
@@ -254,14 +257,7 @@ def run(quick: bool) -> list[Result]:
             gtol=1e-10,
         )
 
-    peer_runs = []
-    for _ in range(1 if quick else 2):
-        begin = time.perf_counter()
-        answer = peer()
-        peer_runs.append(time.perf_counter() - begin)
-    peer_timing = Timing(
-        float(np.median(peer_runs)), min(peer_runs), max(peer_runs), len(peer_runs)
-    )
+    answer, peer_timing = _time_peer(peer, runs=1 if quick else 2)
     peer_scales = np.exp(answer.x)
     difference = float(np.max(np.abs(peer_scales - first.values) / first.values))
     truth_error = float(np.max(np.abs(first.values - np.array(TRUTH)) / np.array(TRUTH)))
