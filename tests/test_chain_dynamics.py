@@ -398,8 +398,8 @@ def test_forward_mode_only_derivatives_equal_autodiff(name):
     """`forward_mode_only=True` (the complex-step JVP `simulate` uses under `diffrax.ForwardMode`):
     first derivatives in the state, torque, hinge parameters and every chain field (geometry, masses,
     inertias, gravity), second derivatives (nested forward mode, as an implicit solver's Jacobian
-    inside a forward-mode solve takes them), and rows of states with some tangents zero (which keep
-    the default rule), all equal to the default path's autodiff."""
+    inside a forward-mode solve takes them), all equal to the default path's autodiff. (Rows of
+    states ignore the option; `test_forward_dynamics_on_rows_of_states` covers them.)"""
     chain = CASES[name]()
     n = chain.n_joints
     theta, theta_dot, tau = as_jax(*random_states(n, N_STATES, SEED + 11))
@@ -434,9 +434,7 @@ def test_forward_mode_only_derivatives_equal_autodiff(name):
             value, tangent = jax.jvp(f, primals, tangents)
             jac_state = jax.jacfwd(f, argnums=(1, 2, 3, 4))(*primals)
             hessian_q = jax.jacfwd(jax.jacfwd(f, argnums=1), argnums=1)(*primals)
-            # Rows: only θ and k carry tangents (θ̇, τ and the chain are zero tangents).
-            rows = jax.jacfwd(lambda s, f=f: f(chain, theta * s, theta_dot, tau, k * s))(1.3)
-            out[flag] = (value, tangent, jac_state, hessian_q, rows)
+            out[flag] = (value, tangent, jac_state, hessian_q)
         return out
 
     out = derivatives(theta, theta_dot, tau)

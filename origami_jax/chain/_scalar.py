@@ -275,8 +275,3 @@ def cholesky_solve_factored(factor: CholeskyLists, rhs: list[Array]) -> list[Arr
             entry = entry - low[k][i] * x[k]
         x[i] = entry * inverse_diagonal[i]
     return x
-
-
-def cholesky_solve_lists(matrix: list[list[Array]], rhs: list[Array]) -> list[Array]:
-    """Solve ``M x = rhs`` for symmetric positive-definite ``M`` given as nested lists of scalars."""
-    return cholesky_solve_factored(cholesky_lists(matrix), rhs)
