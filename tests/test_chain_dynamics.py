@@ -11,7 +11,15 @@ from jax.test_util import check_grads
 
 import origami_jax.chain as oc
 
-from .chain_cases import SEED, as_jax, quick_jit, random_chain, random_states, to_pinocchio
+from .chain_cases import (
+    SEED,
+    as_jax,
+    quick_jit,
+    random_chain,
+    random_planar_chain,
+    random_states,
+    to_pinocchio,
+)
 from .helpers import max_relative_error
 
 # Pinocchio is an independent C++ implementation (CRBA, RNEA, ABA) in float64; we see ~1e-15, and the
@@ -35,6 +43,7 @@ CASES = {
     "accordion3": lambda: oc.accordion(3),
     "random5_gravity": lambda: random_chain(5, SEED, gravity=True),
     "random7": lambda: random_chain(7, SEED + 1),
+    "planar4_gravity": lambda: random_planar_chain(4, SEED + 2, gravity=True),
 }
 # The Christoffel path compiles slowly (autodiff through O(n²) transforms): two cases cover it.
 REFERENCE_CASES = ("accordion3", "random5_gravity")
@@ -294,18 +303,38 @@ def test_array_path_for_long_chains_agrees():
     assert max_relative_error(acceleration, ours["acceleration"]) < ROUND_TRIP_RTOL
 
 
-@pytest.mark.parametrize("name", ["accordion3", "random5_gravity"])
+def _chain_direction(chain, seed, *, planar):
+    """A random tangent of every chain field (only the planar ones when `planar`: no axis tilt), with
+    symmetric inertia directions (the paths read an asymmetric inertia differently; not physical)."""
+    rng = np.random.default_rng(seed)
+    direction = jax.tree_util.tree_map(
+        lambda x: jnp.asarray(rng.normal(size=x.shape)) * (jnp.abs(x).mean() + 1.0), chain
+    )
+    inertias = direction.inertias
+    direction = eqx.tree_at(
+        lambda c: c.inertias, direction, inertias + jnp.swapaxes(inertias, -1, -2)
+    )
+    if planar:
+        direction = eqx.tree_at(lambda c: c.axes, direction, jnp.zeros_like(chain.axes))
+    return direction
+
+
+@pytest.mark.parametrize("name", ["accordion3", "random5_gravity", "planar4_gravity"])
 def test_scalar_forward_path_equals_array_path(name):
-    """`forward_dynamics` evaluates short chains on scalars and differentiates the array form (custom
-    JVP): values, forward- and reverse-mode derivatives must match the array path to PATH_RTOL."""
+    """`forward_dynamics` evaluates short chains on scalars (planar ones in two dimensions) and
+    differentiates them by a custom JVP (the planar form's autodiff in directions that keep a planar
+    chain planar, else the array form's): values, forward-mode derivatives in the state and in chain
+    directions with and without an axis tilt, and reverse-mode gradients in the stiffness and the
+    hinge points must match the array path to PATH_RTOL."""
     chain = CASES[name]()
     n = chain.n_joints
     theta, theta_dot, tau = as_jax(*random_states(n, N_STATES, SEED + 7))
     k, b = jnp.linspace(1.0, 2.0, n), jnp.linspace(0.1, 0.3, n)
+    directions = [_chain_direction(chain, SEED + 8, planar=p) for p in (True, False)]
 
     def acceleration(path):
-        def f(q, v, t, stiffness):
-            return oc.forward_dynamics(chain, q, v, t, stiffness=stiffness, drag=b, path=path)
+        def f(c, q, v, t, stiffness):
+            return oc.forward_dynamics(c, q, v, t, stiffness=stiffness, drag=b, path=path)
 
         return f
 
@@ -314,21 +343,64 @@ def test_scalar_forward_path_equals_array_path(name):
         out = {}
         for path in ("auto", "arrays"):
             f = acceleration(path)
-            value = jax.vmap(f, in_axes=(0, 0, 0, None))(theta, theta_dot, tau, k)
-            jac_q = jax.vmap(jax.jacfwd(f), in_axes=(0, 0, 0, None))(theta, theta_dot, tau, k)
-            grad_k = jax.vmap(
-                jax.grad(lambda q, v, t, s, f=f: jnp.sum(f(q, v, t, s) ** 2), argnums=3),
-                in_axes=(0, 0, 0, None),
-            )(theta, theta_dot, tau, k)
-            out[path] = (value, jac_q, grad_k)
+            states = (theta, theta_dot, tau)
+            value = jax.vmap(f, in_axes=(None, 0, 0, 0, None))(chain, *states, k)
+            jac_q = jax.vmap(jax.jacfwd(f, argnums=1), in_axes=(None, 0, 0, 0, None))(
+                chain, *states, k
+            )
+            chain_tangents = [
+                jax.vmap(
+                    lambda q, v, t, f=f, d=d: jax.jvp(lambda c: f(c, q, v, t, k), (chain,), (d,))[1]
+                )(*states)
+                for d in directions
+            ]
+
+            def loss(c, q, v, t, s, f=f):
+                return jnp.sum(f(c, q, v, t, s) ** 2)
+
+            grad_k = jax.vmap(jax.grad(loss, argnums=4), in_axes=(None, 0, 0, 0, None))(
+                chain, *states, k
+            )
+            grad_points = jax.vmap(
+                jax.grad(
+                    lambda p, q, v, t: loss(eqx.tree_at(lambda c: c.points, chain, p), q, v, t, k)
+                ),
+                in_axes=(None, 0, 0, 0),
+            )(chain.points, *states)
+            out[path] = (value, jac_q, chain_tangents, grad_k, grad_points)
         return out
 
     out = both(theta, theta_dot, tau)
-    for fast, reference in zip(out["auto"], out["arrays"], strict=True):
+    for fast, reference in zip(
+        jax.tree_util.tree_leaves(out["auto"]),
+        jax.tree_util.tree_leaves(out["arrays"]),
+        strict=True,
+    ):
         assert max_relative_error(fast, reference) < PATH_RTOL
     # ValueError from the function; TypeError when the suite's runtime type checker sees it first.
     with pytest.raises((ValueError, TypeError), match="path"):
         oc.forward_dynamics(chain, theta[0], theta_dot[0], tau[0], stiffness=k, drag=b, path="x")
+
+
+def test_planar_path_equals_spatial_scalar_path():
+    """The same planar chain with `planar=False` runs the spatial scalar path: same accelerations."""
+    planar = CASES["planar4_gravity"]()
+    spatial = oc.Chain(
+        planar.axes,
+        planar.points,
+        planar.cg_poses,
+        planar.masses,
+        planar.inertias,
+        planar.gravity,
+        planar=False,
+    )
+    theta, theta_dot, tau = as_jax(*random_states(planar.n_joints, N_STATES, SEED + 10))
+
+    @quick_jit
+    def accelerations(chain):
+        return oc.forward_dynamics(chain, theta, theta_dot, tau, stiffness=1.0, drag=0.2)
+
+    assert max_relative_error(accelerations(planar), accelerations(spatial)) < PATH_RTOL
 
 
 def test_forward_dynamics_on_rows_of_states():
@@ -392,28 +464,26 @@ COMPLEX_STEP_RTOL = 1e-10
 
 
 @pytest.mark.parametrize(
-    "name", ["accordion3", pytest.param("random5_gravity", marks=pytest.mark.slow)]
+    "name",
+    [
+        "accordion3",
+        pytest.param("planar4_gravity", marks=pytest.mark.slow),
+        pytest.param("random5_gravity", marks=pytest.mark.slow),
+    ],
 )
 def test_forward_mode_only_derivatives_equal_autodiff(name):
     """`forward_mode_only=True` (the complex-step JVP `simulate` uses under `diffrax.ForwardMode`):
     first derivatives in the state, torque, hinge parameters and every chain field (geometry, masses,
-    inertias, gravity), second derivatives (nested forward mode, as an implicit solver's Jacobian
+    inertias, gravity; for a planar chain both with an axis tilt, which takes the spatial complex
+    step, and without, which stays planar), second derivatives (nested forward mode, as an implicit solver's Jacobian
     inside a forward-mode solve takes them), all equal to the default path's autodiff. (Rows of
     states ignore the option; `test_forward_dynamics_on_rows_of_states` covers them.)"""
     chain = CASES[name]()
     n = chain.n_joints
     theta, theta_dot, tau = as_jax(*random_states(n, N_STATES, SEED + 11))
     k, b = jnp.linspace(1.0, 2.0, n), jnp.linspace(0.1, 0.3, n)
-    rng = np.random.default_rng(SEED + 12)
-    chain_direction = jax.tree_util.tree_map(
-        lambda x: jnp.asarray(rng.normal(size=x.shape)) * (jnp.abs(x).mean() + 1.0), chain
-    )
-    # Inertia tensors are symmetric; the two paths read an asymmetric one differently (M from its
-    # upper triangle against I·a in the inverse dynamics), so only symmetric directions are physical.
-    inertias = chain_direction.inertias
-    chain_direction = eqx.tree_at(
-        lambda c: c.inertias, chain_direction, inertias + jnp.swapaxes(inertias, -1, -2)
-    )
+    chain_direction = _chain_direction(chain, SEED + 12, planar=False)
+    planar_direction = _chain_direction(chain, SEED + 12, planar=True)
 
     def accel(forward_mode_only):
         def f(c, q, v, t, s):
@@ -432,9 +502,11 @@ def test_forward_mode_only_derivatives_equal_autodiff(name):
             primals = (chain, q, v, t, k)
             tangents = (chain_direction, theta_dot[1], theta[2], tau[3], k[::-1])
             value, tangent = jax.jvp(f, primals, tangents)
+            planar_tangents = (planar_direction, *tangents[1:])
+            _, planar_tangent = jax.jvp(f, primals, planar_tangents)
             jac_state = jax.jacfwd(f, argnums=(1, 2, 3, 4))(*primals)
             hessian_q = jax.jacfwd(jax.jacfwd(f, argnums=1), argnums=1)(*primals)
-            out[flag] = (value, tangent, jac_state, hessian_q)
+            out[flag] = (value, tangent, planar_tangent, jac_state, hessian_q)
         return out
 
     out = derivatives(theta, theta_dot, tau)

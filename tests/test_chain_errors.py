@@ -91,3 +91,45 @@ def test_traced_values_are_checked_inside_jit():
 
     with pytest.raises(_RUNTIME_ERRORS, match="unit vectors"):
         jax.block_until_ready(build(jnp.array([[0.0, 2.0, 0.0]])))
+
+
+def test_planar_flag_detected_asserted_and_checked():
+    """`Chain.planar` (every axis parallel: the dynamics run in two dimensions): detected from known
+    axes, also for an accordion built under `jit`; asserting it on bent axes fails clearly, in Python
+    and inside `jit`; a chain whose axes were replaced after it was built is caught instead of
+    silently using the planar algebra (Python error, NaN when traced)."""
+    assert oc.accordion(3).planar
+    assert not oc.Chain(**_with(axes=np.array([[1.0, 0.0, 0.0], [0.0, 0.6, 0.8]]))).planar
+    flipped = oc.Chain(**_with(axes=np.array([[0.0, 0.6, 0.8], [0.0, -0.6, -0.8]])))
+    assert flipped.planar  # antiparallel axes are parallel lines: the hinge turns the other way
+    assert not oc.Chain(**_parts(), planar=False).planar
+    planar_under_jit = jax.eval_shape(lambda length: oc.accordion(3, flap_length=length), 200.0)
+    assert planar_under_jit.planar
+
+    bent = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+    with pytest.raises(ValueError, match=r"planar=True but axes\[1\] is not parallel"):
+        oc.Chain(**_with(axes=bent), planar=True)
+    # ValueError from the function; TypeError when the suite's runtime type checker sees it first.
+    with pytest.raises((ValueError, TypeError), match="planar"):
+        oc.Chain(**_parts(), planar="yes")  # pyright: ignore[reportArgumentType]
+
+    parts = _parts()
+
+    @jax.jit
+    def build(axes):
+        chain = oc.Chain(**{**parts, "axes": axes}, planar=True)
+        assert chain.planar
+        return chain.axes
+
+    np.testing.assert_array_equal(build(jnp.asarray(_parts()["axes"])), _parts()["axes"])
+    with pytest.raises(_RUNTIME_ERRORS, match="planar=True but the hinge axes are not parallel"):
+        jax.block_until_ready(build(jnp.asarray(bent)))
+
+    chain = oc.accordion(2)
+    tilted = eqx.tree_at(lambda c: c.axes, chain, jnp.asarray(bent))
+    state = (jnp.array([0.3, -0.2]), jnp.array([0.01, 0.02]), jnp.array([5.0, -3.0]))
+    with pytest.raises(ValueError, match="marked planar but its hinge axes are not parallel"):
+        oc.forward_dynamics(tilted, *state, stiffness=1.0, drag=0.1)
+    traced = jax.jit(lambda c, q, v, t: oc.forward_dynamics(c, q, v, t, stiffness=1.0, drag=0.1))
+    assert bool(jnp.all(jnp.isnan(traced(tilted, *state))))
+    assert bool(jnp.all(jnp.isfinite(traced(chain, *state))))

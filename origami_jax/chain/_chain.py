@@ -34,6 +34,12 @@ class Chain(eqx.Module):
     - `inertias`: inertia of each flap about its CG, in its CG frame, shape `(n, 3, 3)`, mass·length².
     - `gravity`: acceleration of gravity, shape `(3,)`, length/time²; zero by default (negligible at the
       µm scale and absent in the paper).
+    - `planar` (static): every hinge axis is parallel to the first (within `PARALLEL_TOLERANCE`), so the
+      flaps move in parallel planes and the dynamics run in two dimensions (same answer to round-off,
+      ~20× fewer operations; see `_planar`). By default detected from `axes` when their values are
+      known, i.e. not traced (the builders pass constant axes, so an accordion built under `jit` is
+      planar too); `planar=True` asserts it (checked, with `eqx.error_if` when traced), `planar=False`
+      keeps the spatial algorithm.
 
     **Raises:** `ValueError` (before tracing) for wrong shapes or mismatched lengths, NaN/inf, zero or
     non-unit axes, non-positive masses, non-symmetric or non-positive-definite inertias, non-rigid CG poses.
@@ -46,6 +52,7 @@ class Chain(eqx.Module):
     masses: Float[Array, " n"]
     inertias: Float[Array, "n 3 3"]
     gravity: Float[Array, "3"]
+    planar: bool = eqx.field(static=True)
 
     def __init__(
         self,
@@ -55,7 +62,10 @@ class Chain(eqx.Module):
         masses: ArrayLike,
         inertias: ArrayLike,
         gravity: ArrayLike | None = None,
+        *,
+        planar: bool | None = None,
     ):
+        given_axes = axes
         axes = as_float_array(axes, "axes")
         points = as_float_array(points, "points")
         cg_poses = as_float_array(cg_poses, "cg_poses")
@@ -78,7 +88,8 @@ class Chain(eqx.Module):
 
         points = check_finite(points, "points")
         gravity = check_finite(gravity, "gravity")
-        self.axes = _check_axes(axes)
+        axes = _check_axes(axes)
+        self.axes, self.planar = _check_planar(given_axes, axes, planar)
         self.points = points
         self.cg_poses = _check_poses(cg_poses)
         self.masses = check_positive(masses, "masses", "mass units")
@@ -108,6 +119,63 @@ def _check_axes(axes: Array) -> Array:
                 "(e.g. origami_jax._math.normalise(axes)) so that θ is an angle in radians."
             )
     return axes
+
+
+PARALLEL_TOLERANCE = 1e-12
+"""A chain is planar when every ``|ω_i × ω_1| / |ω_1|`` is at most this (the sine of the angle between
+axes): the spatial and planar dynamics then differ by about this much relative, below what float64
+solves resolve. Axes typed as the same vector, or normalised from the same direction, pass."""
+
+
+def _check_planar(given_axes: ArrayLike, axes: Array, planar: bool | None) -> tuple[Array, bool]:
+    """The chain's static `planar` flag: detected from `given_axes` when known, else as asserted."""
+    if planar is not None and not isinstance(planar, bool):
+        raise ValueError(f"planar must be True, False or None (detect), got {planar!r}.")
+    if planar is False:
+        return axes, False
+    if is_traced(given_axes):
+        if planar is None:
+            return axes, False
+        too_far = axes_parallel_error(axes) > PARALLEL_TOLERANCE**2
+        return eqx.error_if(axes, too_far, "planar=True but the hinge axes are not parallel."), True
+    host = np.asarray(given_axes, dtype=float)
+    sines = np.linalg.norm(np.cross(host, host[0]), axis=-1) / np.linalg.norm(host[0])
+    parallel = bool(np.all(sines <= PARALLEL_TOLERANCE))
+    if planar and not parallel:
+        worst = int(np.argmax(sines))
+        raise ValueError(
+            f"planar=True but axes[{worst}] is not parallel to axes[0] (sine of the angle "
+            f"{sines[worst]:.3g}, tolerance {PARALLEL_TOLERANCE:g}); pass planar=None to detect it."
+        )
+    return axes, parallel
+
+
+def check_still_planar(chain: Chain) -> None:
+    """`ValueError` if `chain.planar` is set but its axes (when known) are no longer parallel: a chain
+    whose axes were replaced after it was built (`eqx.tree_at`). Traced axes are left to the guard in
+    the planar dynamics, which then returns NaN."""
+    if not getattr(chain, "planar", False) or is_traced(chain.axes):
+        return
+    host = np.asarray(chain.axes, dtype=float)
+    sines = np.linalg.norm(np.cross(host, host[0]), axis=-1) / np.linalg.norm(host[0])
+    if np.any(sines > PARALLEL_TOLERANCE):
+        raise ValueError(
+            "This chain is marked planar but its hinge axes are not parallel (were they replaced "
+            "after it was built, e.g. with eqx.tree_at?). Build it again with Chain(...) or "
+            "flap_chain(...), which detect planarity."
+        )
+
+
+def axes_parallel_error(axes: Float[Array, "n 3"]) -> Float[Array, ""]:
+    """``max_i |ω_i × ω_1|² / |ω_1|²``, zero for a planar chain. Written on scalars so that, inside the
+    planar dynamics' guard, it fuses with them."""
+    x0, y0, z0 = axes[0, 0], axes[0, 1], axes[0, 2]
+    worst = jnp.zeros((), axes.dtype)
+    for i in range(1, axes.shape[0]):
+        x, y, z = axes[i, 0], axes[i, 1], axes[i, 2]
+        normal = (y * z0 - z * y0, z * x0 - x * z0, x * y0 - y * x0)
+        worst = jnp.maximum(worst, normal[0] ** 2 + normal[1] ** 2 + normal[2] ** 2)
+    return worst / (x0 * x0 + y0 * y0 + z0 * z0)
 
 
 def _check_poses(poses: Array) -> Array:
@@ -193,6 +261,7 @@ def flap_chain(
     density: Float[ArrayLike, "*#n"],
     flap_rotations: Float[ArrayLike, "n 3 3"] | None = None,
     gravity: Float[ArrayLike, "3"] | None = None,
+    planar: bool | None = None,
 ) -> Chain:
     """A chain of thin rectangular flaps: mass and inertia computed from the plate geometry.
 
@@ -205,12 +274,14 @@ def flap_chain(
     - `flap_rotations`: orientation of each flap frame at ``θ = 0`` (columns: width, length and normal
       directions, see `plate_inertia`), shape `(n, 3, 3)`; identity by default.
     - `gravity`: shape `(3,)`, length/time²; zero by default.
+    - `planar`: see `Chain` (default: detected from `axes` when they are not traced).
 
     **Returns:** a `Chain`.
 
     **Raises:** `ValueError` for non-positive or non-finite dimensions or density, and everything `Chain`
     raises.
     """
+    given_axes = axes  # `Chain` detects planarity from the values as given, before tracing
     axes = as_float_array(axes, "axes")
     check_shape(axes, (None, 3), "axes", "Give one 3-vector per hinge.")
     n = axes.shape[0]
@@ -237,7 +308,8 @@ def flap_chain(
     )
     top = jnp.concatenate([rotations, cg_positions[:, :, None]], axis=-1)
     bottom = jnp.broadcast_to(jnp.array([0.0, 0.0, 0.0, 1.0], dtype=top.dtype), (n, 1, 4))
-    return Chain(axes, points, jnp.concatenate([top, bottom], axis=-2), masses, inertias, gravity)
+    poses = jnp.concatenate([top, bottom], axis=-2)
+    return Chain(given_axes, points, poses, masses, inertias, gravity, planar=planar)
 
 
 def accordion(
@@ -279,10 +351,11 @@ def accordion(
             "accordion's flap_length must be a scalar (all flaps alike); use flap_chain."
         )
     index = jnp.arange(n_flaps, dtype=length_array.dtype)
-    e_x = jnp.array([1.0, 0.0, 0.0], dtype=length_array.dtype)
     e_y = jnp.array([0.0, 1.0, 0.0], dtype=length_array.dtype)
+    # Host constants, so that the chain is known to be planar even when built under `jit`.
+    axes = np.broadcast_to(np.array([1.0, 0.0, 0.0]), (n_flaps, 3))
     return flap_chain(
-        jnp.broadcast_to(e_x, (n_flaps, 3)),
+        axes,
         (length_array * index)[:, None] * e_y,
         (length_array * (index + 0.5))[:, None] * e_y,
         flap_length=length_array,

@@ -19,9 +19,11 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
-from ._chain import Chain
+from ._chain import PARALLEL_TOLERANCE, Chain, axes_parallel_error, check_still_planar
 from ._kinematics import body_jacobians, joint_frames, matmul3, matvec3
+from ._planar import PlanarBodies, planar_inverse_dynamics_lists, planar_mass_matrix_lists
 from ._scalar import (
+    CholeskyLists,
     ScalarBodies,
     cholesky_lists,
     cholesky_solve_factored,
@@ -32,10 +34,12 @@ from ._scalar import (
 
 # Forward dynamics, the simulator's right-hand side, evaluates chains of up to this many hinges on scalars
 # (`_scalar`, 4.6x faster vmapped over 10,000 accordion states on the CPU: 0.23 µs against 1.06 µs per
-# state; 0.15 µs since the sines and cosines are computed once, see `_scalar.sin_cos_once`), while its
-# derivatives go through the array form by a custom JVP rule, so differentiating a simulation compiles
-# what it compiled before (scalar graphs differentiated in reverse mode compiled for minutes in the
-# test suite). Forward mode alone (`forward_mode_only=True`, what `simulate` uses under
+# state; 0.15 µs since the sines and cosines are computed once, see `_scalar.sin_cos_once`), in two
+# dimensions when the chain is planar (`_planar`, every axis parallel: the accordion). Its derivatives
+# go through a custom JVP rule: autodiff of the planar form for a planar chain in directions that keep
+# it planar, else of the array form, so differentiating a simulation compiles no more than the array
+# form did (spatial scalar graphs differentiated in reverse mode compiled for minutes in the test
+# suite; the planar ones are ~20x smaller and compile faster than the array form). Forward mode alone (`forward_mode_only=True`, what `simulate` uses under
 # `diffrax.ForwardMode`) takes a faster complex-step JVP through the scalar inverse dynamics
 # (`_forward_dynamics_scalar_and_tangent`). `mass_matrix`, `bias_torque` and `inverse_dynamics` run on
 # arrays; the same custom-JVP wrapping is how to speed them up if they ever sit in a hot loop.
@@ -293,15 +297,18 @@ def forward_dynamics(
 ) -> Float[Array, "*t n"]:
     """Hinge accelerations ``θ̈ = M⁻¹ (τ − C θ̇ − N)`` (paper Eq. 11), the simulator's right-hand side.
 
-    Recursive path: composite-rigid-body ``M``, Newton–Euler ``C θ̇ (+ G)``, a Cholesky solve.
+    Recursive path: composite-rigid-body ``M``, Newton–Euler ``C θ̇ (+ G)``, a Cholesky solve; in two
+    dimensions for a planar chain (`Chain.planar`: every hinge axis parallel, e.g. the accordion), which
+    is the same model with ~20× fewer operations.
 
     **Arguments:**
     - `theta` (rad), `theta_dot` (rad/time), `tau` (applied hinge torque): shape `(n,)`, or `(t, n)`
       for `t` states of the same chain (e.g. the samples of a trajectory), one row each.
     - `stiffness` (torque/rad), `drag` (torque·time²/rad²): per hinge, shape `(n,)` or scalar.
-    - `path`: `"auto"` (default) evaluates chains of up to six hinges on scalars, ~4.6× faster under
-      `vmap` on the CPU, and differentiates the array form through a custom JVP; `"arrays"` always uses
-      the array form. Both give the same answer to rounding.
+    - `path`: `"auto"` (default) evaluates chains of up to six hinges on scalars (planar ones in two
+      dimensions), ~4.6× faster under `vmap` on the CPU for a spatial chain, and differentiates
+      through a custom JVP (the planar form's autodiff in planar directions, else the array form's);
+      `"arrays"` always uses the spatial array form. Both give the same answer to rounding.
     - `forward_mode_only`: for a single state on the scalar path, differentiate by a complex step
       through the inverse dynamics instead of the array form (same derivatives to rounding, ~2×
       faster for a forward-mode solve of one trajectory; see `_forward_dynamics_scalar_and_tangent`).
@@ -315,6 +322,7 @@ def forward_dynamics(
     applied = jnp.asarray(tau) - hinge_torque(stiffness, drag, theta, theta_dot)
     if path not in ("auto", "arrays"):
         raise ValueError(f"path must be 'auto' or 'arrays', got {path!r}.")
+    check_still_planar(chain)
     n = chain.n_joints
     if theta.ndim not in (1, 2) or theta.shape[-1] != n or applied.shape != theta.shape:
         raise ValueError(
@@ -341,6 +349,19 @@ def _forward_dynamics_scalar_value(
     return _forward_dynamics_scalar_and_tangent(chain, theta, theta_dot, applied, None)[0]
 
 
+def _planar_solve(chain: Chain, sin_cos, theta_dot, applied) -> tuple[list[Array], CholeskyLists]:
+    """``θ̈`` of a planar chain (`_planar`) as n scalars, and the Cholesky factor of ``M``."""
+    n = chain.n_joints
+    bodies = PlanarBodies(chain, sin_cos[0], sin_cos)  # shared by M and the bias
+    factor = cholesky_lists(planar_mass_matrix_lists(bodies))
+    bias = planar_inverse_dynamics_lists(bodies, theta_dot, None)
+    acc = cholesky_solve_factored(factor, [applied[..., i] - bias[i] for i in range(n)])
+    # A chain whose axes were replaced after it was built (`eqx.tree_at`) may no longer be planar:
+    # NaN rather than a wrong answer (a few operations, fused with the rest).
+    bent = axes_parallel_error(chain.axes) > PARALLEL_TOLERANCE**2
+    return [jnp.where(bent, jnp.nan, x) for x in acc], factor
+
+
 def _forward_dynamics_scalar_and_tangent(chain, theta, theta_dot, applied, tangents):
     """``θ̈`` on scalars and, given `tangents` ``(d chain, dθ, dθ̇, d applied)``, its directional
     derivative ``dθ̈`` (else `None`).
@@ -356,13 +377,20 @@ def _forward_dynamics_scalar_and_tangent(chain, theta, theta_dot, applied, tange
     evaluation of the same scalar graph. XLA:CPU then fuses it into one kernel: measured in a loop on
     one accordion state with 2 tangent lanes, 2.9 µs per evaluation against 4.8 µs for forward-mode
     autodiff through the array form (114 kernels) and 8.5 µs through the scalar form (180 kernels).
+
+    A planar chain (`Chain.planar`) is solved and differentiated in two dimensions (`_planar`); a
+    tangent that tilts its axes leaves the planar chains, and is taken through the spatial inverse
+    dynamics (at the planar solution and with its factor, which are the spatial ones to round-off).
     """
     n = chain.n_joints
     sines, cosines = sin_cos_once(theta)
-    bodies = ScalarBodies(chain, theta, (sines, cosines))  # shared by M and the bias
-    factor = cholesky_lists(mass_matrix_lists(bodies))
-    bias = newton_euler_lists(bodies, chain.gravity, theta_dot, None)
-    acc = cholesky_solve_factored(factor, [applied[..., i] - bias[i] for i in range(n)])
+    if chain.planar:
+        acc, factor = _planar_solve(chain, (sines, cosines), theta_dot, applied)
+    else:
+        bodies = ScalarBodies(chain, theta, (sines, cosines))  # shared by M and the bias
+        factor = cholesky_lists(mass_matrix_lists(bodies))
+        bias = newton_euler_lists(bodies, chain.gravity, theta_dot, None)
+        acc = cholesky_solve_factored(factor, [applied[..., i] - bias[i] for i in range(n)])
     if tangents is None:
         return _assemble(acc), None
     d_chain, d_theta, d_theta_dot, d_applied = tangents
@@ -377,9 +405,14 @@ def _forward_dynamics_scalar_and_tangent(chain, theta, theta_dot, applied, tange
     else:
         d = step * d_theta
         sin_cos = (jax.lax.complex(sines, d * cosines), jax.lax.complex(cosines, -d * sines))
-    bodies_c = ScalarBodies(chain_c, theta, sin_cos)
     theta_dot_c = _complex_step(theta_dot, d_theta_dot)
-    id_c = newton_euler_lists(bodies_c, chain_c.gravity, theta_dot_c, acc)
+    # A tangent that tilts the axes leaves the planar chains: differentiate the spatial algebra then.
+    if chain.planar and (d_chain is None or _is_zero(d_chain.axes)):
+        planar_c = PlanarBodies(chain_c, theta, sin_cos)
+        id_c = planar_inverse_dynamics_lists(planar_c, theta_dot_c, acc)
+    else:
+        bodies_c = ScalarBodies(chain_c, theta, sin_cos)
+        id_c = newton_euler_lists(bodies_c, chain_c.gravity, theta_dot_c, acc)
     d_id = [jnp.imag(x) / step for x in id_c]
     if not _is_zero(d_applied):
         d_id = [d_applied[..., i] - d_id[i] for i in range(n)]
@@ -408,10 +441,12 @@ def _complex_step(x, dx):
 _forward_dynamics_scalar = jax.custom_jvp(_forward_dynamics_scalar_value)
 
 
-# The default rule: forward-mode autodiff of the array form, which reverse mode can transpose.
-@_forward_dynamics_scalar.defjvp
+# The default rule (see `_planar_or_arrays_jvp`).
 def _forward_dynamics_scalar_jvp(primals, tangents):
-    return jax.jvp(_forward_dynamics_arrays, primals, tangents)
+    return _planar_or_arrays_jvp(primals, tangents, rows=False)
+
+
+_forward_dynamics_scalar.defjvp(_forward_dynamics_scalar_jvp, symbolic_zeros=True)
 
 
 def _scalar_rows(chain: Chain, theta: Array, theta_dot: Array, applied: Array) -> Array:
@@ -427,9 +462,55 @@ def _scalar_rows(chain: Chain, theta: Array, theta_dot: Array, applied: Array) -
 _forward_dynamics_scalar_samples = jax.custom_jvp(_scalar_rows)
 
 
-@_forward_dynamics_scalar_samples.defjvp
 def _forward_dynamics_scalar_samples_jvp(primals, tangents):
-    return jax.jvp(_forward_dynamics_arrays_samples, primals, tangents)
+    return _planar_or_arrays_jvp(primals, tangents, rows=True)
+
+
+def _planar_or_arrays_jvp(primals, tangents, *, rows: bool):
+    """The default rule: forward-mode autodiff (which reverse mode can transpose) of the planar form
+    for a planar chain in directions that keep it planar, else of the array form.
+
+    The planar form has ~20x fewer operations than the array form. It is differentiated in
+    ``sin θ`` and ``cos θ``, whose tangents are taken by hand (the CPU's polynomial sine and cosine
+    are accurate to 2 ulp, their derivatives less so), and only chain fields with a tangent are
+    differentiated; the rest stay constants.
+    """
+    filled, zero, treedef = _split_zeros(primals, tangents)
+    chain, theta, theta_dot, applied = primals
+    if not (chain.planar and _is_zero(tangents[0].axes)):
+        arrays = _forward_dynamics_arrays_samples if rows else _forward_dynamics_arrays
+        return jax.jvp(arrays, primals, treedef.unflatten(filled))
+    chain_leaves, chain_tree = jax.tree_util.tree_flatten(chain)
+    n_chain = len(chain_leaves)
+    live = [not z for z in zero[:n_chain]]
+    d_live = [t for t, keep in zip(filled[:n_chain], live, strict=True) if keep]
+    live_leaves = [x for x, keep in zip(chain_leaves, live, strict=True) if keep]
+    d_theta, d_theta_dot, d_applied = filled[n_chain:]
+
+    def planar(live_leaves, sines, cosines, theta_dot, applied):
+        given = iter(live_leaves)
+        rebuilt = chain_tree.unflatten(
+            [next(given) if keep else x for x, keep in zip(chain_leaves, live, strict=True)]
+        )
+
+        def one(sines, cosines, theta_dot, applied):
+            return _assemble(_planar_solve(rebuilt, (sines, cosines), theta_dot, applied)[0])
+
+        return (
+            jax.vmap(one)(sines, cosines, theta_dot, applied)
+            if rows
+            else one(sines, cosines, theta_dot, applied)
+        )
+
+    sines, cosines = sin_cos_once(theta)
+    return jax.jvp(
+        planar,
+        (live_leaves, sines, cosines, theta_dot, applied),
+        (d_live, cosines * d_theta, -sines * d_theta, d_theta_dot, d_applied),
+    )
+
+
+_forward_dynamics_scalar_samples.defjvp(_forward_dynamics_scalar_samples_jvp, symbolic_zeros=True)
 
 
 # Forward mode only (`forward_mode_only=True`): the complex-step rule. Its tangent is not linear in

@@ -13,6 +13,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
 from ..chain import forward_dynamics
+from ..chain._chain import check_still_planar
 from ._inputs import AbstractInput
 from ._results import RESULTS
 from ._switching import StiffnessSwitching
@@ -297,6 +298,7 @@ def simulate(
         raise ValueError(
             f"inputs must be a Step, EtchRamp, UserTorque (an AbstractInput), got {type(inputs)}."
         )
+    check_still_planar(chain)
     n = int(chain.n_joints)
     target = inputs.target
     if target is not None and jnp.shape(target) != (n,):
