@@ -227,7 +227,7 @@ def design(
     - `n_starts`: starting points: `hinge`'s values plus Latin-hypercube points inside the bounds, all
       solved in one vmapped batch; the best is reported, every start is listed.
     - `key`: PRNG key for the extra starts (default: a fixed seed, so results are reproducible).
-    - `solver`: optimistix least-squares solver (default `LevenbergMarquardt(1e-6, 1e-8)`), or a
+    - `solver`: optimistix least-squares solver (default `LevenbergMarquardt(1e-6, 1e-6)`), or a
       minimiser such as `optimistix.BFGS`.
     - `max_steps`: optimiser steps per start.
     - `tolerance`: relative miss below which a target counts as met.
@@ -258,6 +258,7 @@ def design(
     z0s = _starts(space, start, n_starts, key)
     before = _evaluate(problem, z0s[0])
     batch = fit_batch(_residual_fn, z0s, problem, solver=solver, max_steps=max_steps)
+    batch = jax.device_get(batch)  # the report reads it on the host
     best = batch.best()
     ok = bool(~batch.nonfinite[best]) and bool(batch.aux["simulation_ok"][best])
     if throw and not ok:

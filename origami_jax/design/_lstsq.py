@@ -22,6 +22,7 @@ from typing import Any
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import numpy as np
 import optimistix as optx
 from jaxtyping import Array, Bool, Float, Int
 
@@ -108,13 +109,21 @@ class FitBatch(eqx.Module):
 
     def best(self) -> int:
         """Index of the start with the smallest loss among those with finite residuals (else 0)."""
-        loss = jnp.where(self.nonfinite, jnp.inf, self.loss)
-        return int(jnp.argmin(loss)) if bool(jnp.any(jnp.isfinite(loss))) else 0
+        loss = np.where(np.asarray(self.nonfinite), np.inf, np.asarray(self.loss))
+        return int(np.argmin(loss)) if bool(np.any(np.isfinite(loss))) else 0
 
 
-def default_solver(rtol: float = 1e-6, atol: float = 1e-8) -> optx.AbstractLeastSquaresSolver:
+def default_solver(rtol: float = 1e-6, atol: float = 1e-6) -> optx.AbstractLeastSquaresSolver:
     """`optimistix.LevenbergMarquardt(rtol, atol)`: robust to the poor conditioning that
-    non-identifiable parameter combinations cause (its damping keeps the step finite along them)."""
+    non-identifiable parameter combinations cause (its damping keeps the step finite along them).
+
+    It stops once an accepted step changes `z` by less than ``atol + rtol |z|`` and every residual
+    row by less than ``atol + rtol |r|``. Residual rows are relative metric errors, so ``atol = 1e-6``
+    is four orders of magnitude below a 1 % measurement, and two above the ~1e-8 relative accuracy
+    of the simulated metrics at the default ODE tolerance (rtol 1e-8): a tighter `atol` would ask
+    the stopping test to resolve the simulation's own error. (1e-8, the earlier default, cost one
+    more full step on the accordion calibration, 8 against 7, at the same answer to ~1e-12.)
+    """
     return optx.LevenbergMarquardt(rtol=rtol, atol=atol)
 
 
@@ -172,7 +181,7 @@ def fit_batch(
       calls to reuse the compilation.
     - `z0s`: starting points, unconstrained, shape `(s, p)`.
     - `args`: pytree passed to `fn` (its arrays are traced: new values do not recompile).
-    - `solver`: an optimistix least-squares solver (default `LevenbergMarquardt(1e-6, 1e-8)`) or a
+    - `solver`: an optimistix least-squares solver (default `LevenbergMarquardt(1e-6, 1e-6)`) or a
       minimiser such as `optx.BFGS` (applied to ``½‖r‖²``).
     - `max_steps`: optimiser step budget per start (steps, not function evaluations).
 
