@@ -225,7 +225,8 @@ def run(quick: bool) -> list[Result]:
     begin = time.perf_counter()
     first = ours()
     first_s = time.perf_counter() - begin
-    repeats = 2 if quick else 5
+    # Ten warm fits and three peer fits: on this shared machine single fits vary by ±20 %.
+    repeats = 2 if quick else 10
     timing = time_calls(ours, repeats=repeats, warmup=0)
     compile_s = max(first_s - timing.median, 0.0)
 
@@ -257,7 +258,7 @@ def run(quick: bool) -> list[Result]:
             gtol=1e-10,
         )
 
-    answer, peer_timing = _time_peer(peer, runs=1 if quick else 2)
+    answer, peer_timing = _time_peer(peer, runs=1 if quick else 3)
     peer_scales = np.exp(answer.x)
     difference = float(np.max(np.abs(peer_scales - first.values) / first.values))
     truth_error = float(np.max(np.abs(first.values - np.array(TRUTH)) / np.array(TRUTH)))
