@@ -96,6 +96,36 @@ def test_fit_batch_closed_form(solver):
     np.testing.assert_allclose(batch.extra_jacobian[0, 0], [0.7, 2.0], rtol=1e-6)
 
 
+def test_default_solver_stops_on_the_next_step():
+    """`GaussNewtonStepStop` (the default): the same answer as optimistix's Levenberg–Marquardt at the
+    same tolerances, within them, in one step fewer (optimistix's last step only confirms
+    convergence), with a zero residual at the optimum and with a non-zero one (the least-squares
+    optimum scipy finds)."""
+    from scipy.optimize import least_squares
+
+    t = jnp.linspace(0.0, 3.0, 25)
+    noise = 0.05 * jnp.sin(7.0 * t)  # inconsistent data: the optimum keeps a residual
+    z0s = jnp.array([[1.0, 0.1], [5.0, 2.0]])
+    for y in (2.0 * jnp.exp(-0.7 * t), 2.0 * jnp.exp(-0.7 * t) + noise):
+        data = (t, y)
+        ours = ojd.fit_batch(_exponential_fit, z0s, data, max_steps=200)
+        theirs = ojd.fit_batch(
+            _exponential_fit, z0s, data, solver=optx.LevenbergMarquardt(1e-6, 1e-6), max_steps=200
+        )
+        reference = least_squares(
+            lambda z, y=y: np.asarray(_exponential_fit(jnp.asarray(z), (t, y))[0]),
+            [1.0, 0.1],
+            xtol=1e-14,
+            ftol=1e-14,
+            gtol=1e-14,
+        ).x
+        # Tolerances 1e-6 (the default's atol and rtol) on steps of z ~ 1: answers within ~1e-6.
+        np.testing.assert_allclose(ours.z, np.tile(reference, (2, 1)), rtol=2e-6)
+        np.testing.assert_allclose(theirs.z, np.tile(reference, (2, 1)), rtol=2e-6)
+        assert bool(jnp.all(ours.result._value == ojd.RESULTS.successful._value))
+        assert bool(jnp.all(ours.num_steps < theirs.num_steps))
+
+
 def test_fit_batch_reports_nonfinite_start_without_raising():
     def fn(z, _):
         r = jnp.where(z[0] > 10.0, jnp.nan, z - jnp.array([1.0, 2.0]))

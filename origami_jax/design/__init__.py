@@ -14,7 +14,8 @@ print(result.summary())
   Levenberg–Marquardt from several starts in one vmapped batch; a `DesignResult` with the metrics next to
   the targets, sensitivities, an identifiability verdict and a report of unreachable targets.
 - `Targets`, `MeasuredCurve`: what to aim at. `ParameterSpace` / `parameter_space`: free parameters.
-- `fit_batch`: the multi-start least-squares driver over any residual function.
+- `fit_batch`: the multi-start least-squares driver over any residual function; `default_solver`
+  (`GaussNewtonStepStop`, a Levenberg–Marquardt that also stops on a negligible next step).
 - `identifiability`: rank and (non-)determined combinations of a sensitivity matrix.
 - Plots: `origami_jax.design.plot_response` (imports matplotlib when called).
 """
@@ -34,6 +35,8 @@ from ._identify import Identifiability as Identifiability
 from ._identify import identifiability as identifiability
 from ._lstsq import RESULTS as RESULTS
 from ._lstsq import FitBatch as FitBatch
+from ._lstsq import GaussNewtonStepStop as GaussNewtonStepStop
+from ._lstsq import default_solver as default_solver
 from ._lstsq import fit_batch as fit_batch
 from ._plot import plot_response as plot_response
 from ._report import DesignResult as DesignResult

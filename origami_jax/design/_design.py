@@ -227,7 +227,7 @@ def design(
     - `n_starts`: starting points: `hinge`'s values plus Latin-hypercube points inside the bounds, all
       solved in one vmapped batch; the best is reported, every start is listed.
     - `key`: PRNG key for the extra starts (default: a fixed seed, so results are reproducible).
-    - `solver`: optimistix least-squares solver (default `LevenbergMarquardt(1e-6, 1e-6)`), or a
+    - `solver`: optimistix least-squares solver (default: Levenberg–Marquardt, `origami_jax.design.default_solver`), or a
       minimiser such as `optimistix.BFGS`.
     - `max_steps`: optimiser steps per start.
     - `tolerance`: relative miss below which a target counts as met.
