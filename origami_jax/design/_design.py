@@ -192,9 +192,9 @@ def _check_free(space: ParameterSpace, settings: SimulationSettings) -> None:
 
 def _starts(space: ParameterSpace, start: Array, n_starts: int, key) -> Array:
     """The given start plus `n_starts − 1` Latin-hypercube points in the inner 90 % of the z-box."""
-    z0 = space.to_unconstrained(start)[None, :]
+    z0 = space.to_unconstrained(np.asarray(start), xp=np)[None, :]
     if n_starts <= 1:
-        return z0
+        return jnp.asarray(z0)
     p = space.size
     m = n_starts - 1
     k1, k2 = jax.random.split(key)

@@ -16,7 +16,7 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
-from jaxtyping import Array, Float
+from jaxtyping import Array, ArrayLike, Float
 
 from ..chain import HingeDesign
 
@@ -104,10 +104,11 @@ class ParameterSpace(eqx.Module):
     def size(self) -> int:
         return len(self.names)
 
-    def _ends(self):
-        log = jnp.asarray(self.log)
-        lo = jnp.where(log, jnp.log(jnp.where(log, self.lower, 1.0)), self.lower)
-        hi = jnp.where(log, jnp.log(jnp.where(log, self.upper, 1.0)), self.upper)
+    def _ends(self, xp=jnp):
+        log = xp.asarray(self.log)
+        lower, upper = xp.asarray(self.lower), xp.asarray(self.upper)
+        lo = xp.where(log, xp.log(xp.where(log, lower, 1.0)), lower)
+        hi = xp.where(log, xp.log(xp.where(log, upper, 1.0)), upper)
         return log, lo, hi
 
     def to_physical(self, z: Float[Array, " p"]) -> Float[Array, " p"]:
@@ -116,17 +117,22 @@ class ParameterSpace(eqx.Module):
         u = lo + (hi - lo) * jax.nn.sigmoid(z)
         return jnp.where(log, jnp.exp(jnp.where(log, u, 0.0)), u)
 
-    def to_unconstrained(self, x: Float[Array, " p"]) -> Float[Array, " p"]:
-        """Parameter values (inside or on the bounds) → ``z``; values on a bound are nudged inside."""
-        log, lo, hi = self._ends()
-        u = jnp.where(log, jnp.log(jnp.where(log, x, 1.0)), x)
-        s = jnp.clip((u - lo) / (hi - lo), _INSIDE, 1 - _INSIDE)
-        return jnp.log(s) - jnp.log1p(-s)
+    def to_unconstrained(
+        self, x: Float[ArrayLike, " p"], xp=jnp
+    ) -> Float[Array, " p"] | Float[np.ndarray, " p"]:
+        """Parameter values (inside or on the bounds) → ``z``; values on a bound are nudged inside.
+        `xp=numpy` computes on the host (no device round trips for a handful of numbers)."""
+        log, lo, hi = self._ends(xp)
+        u = xp.where(log, xp.log(xp.where(log, x, 1.0)), x)
+        s = xp.clip((u - lo) / (hi - lo), _INSIDE, 1 - _INSIDE)
+        return xp.log(s) - xp.log1p(-s)
 
-    def fraction(self, x: Float[Array, " p"]) -> Float[Array, " p"]:
+    def fraction(
+        self, x: Float[ArrayLike, " p"], xp=jnp
+    ) -> Float[Array, " p"] | Float[np.ndarray, " p"]:
         """Where each value sits between its bounds, 0 (lower) to 1 (upper), in the sigmoid's scale."""
-        log, lo, hi = self._ends()
-        u = jnp.where(log, jnp.log(jnp.where(log, x, 1.0)), x)
+        log, lo, hi = self._ends(xp)
+        u = xp.where(log, xp.log(xp.where(log, x, 1.0)), x)
         return (u - lo) / (hi - lo)
 
     def at_bound(self, x, gradient=None) -> np.ndarray:
@@ -135,7 +141,7 @@ class ParameterSpace(eqx.Module):
         `gradient`: the cost's gradient with respect to each parameter's sigmoid variable (optional); a
         parameter within 3 % of a bound whose gradient points outwards counts as pinned there too.
         """
-        s = np.asarray(self.fraction(jnp.asarray(x)))
+        s = self.fraction(np.asarray(x), xp=np)
         lower = s < _AT_BOUND
         upper = s > 1 - _AT_BOUND
         if gradient is not None:
