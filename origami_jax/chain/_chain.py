@@ -36,7 +36,7 @@ class Chain(eqx.Module):
       µm scale and absent in the paper).
     - `planar` (static): every hinge axis is parallel to the first (within `PARALLEL_TOLERANCE`), so the
       flaps move in parallel planes and the dynamics run in two dimensions (same answer to round-off,
-      ~20× fewer operations; see `_planar`). By default detected from `axes` when their values are
+      ~5× fewer operations; see `_planar`). By default detected from `axes` when their values are
       known, i.e. not traced (the builders pass constant axes, so an accordion built under `jit` is
       planar too); `planar=True` asserts it (checked, with `eqx.error_if` when traced), `planar=False`
       keeps the spatial algorithm.

@@ -39,9 +39,9 @@ from ._scalar import (
 # go through a custom JVP rule: autodiff of the planar form for a planar chain in directions that keep
 # it planar, else of the array form, so differentiating a simulation compiles no more than the array
 # form did (spatial scalar graphs differentiated in reverse mode compiled for minutes in the test
-# suite; the planar ones are ~20x smaller and compile faster than the array form). Forward mode alone (`forward_mode_only=True`, what `simulate` uses under
-# `diffrax.ForwardMode`) takes a faster complex-step JVP through the scalar inverse dynamics
-# (`_forward_dynamics_scalar_and_tangent`). `mass_matrix`, `bias_torque` and `inverse_dynamics` run on
+# suite; the planar ones are ~5x smaller and compile faster than the array form). Forward mode alone
+# (`forward_mode_only=True`, what `simulate` uses under `diffrax.ForwardMode`) takes a faster
+# complex-step JVP through the scalar inverse dynamics (`_forward_dynamics_scalar_and_tangent`). `mass_matrix`, `bias_torque` and `inverse_dynamics` run on
 # arrays; the same custom-JVP wrapping is how to speed them up if they ever sit in a hot loop.
 _SCALAR_FORWARD_MAX = 6
 
@@ -299,7 +299,7 @@ def forward_dynamics(
 
     Recursive path: composite-rigid-body ``M``, Newton–Euler ``C θ̇ (+ G)``, a Cholesky solve; in two
     dimensions for a planar chain (`Chain.planar`: every hinge axis parallel, e.g. the accordion), which
-    is the same model with ~20× fewer operations.
+    is the same model with ~5× fewer operations.
 
     **Arguments:**
     - `theta` (rad), `theta_dot` (rad/time), `tau` (applied hinge torque): shape `(n,)`, or `(t, n)`
@@ -470,7 +470,7 @@ def _planar_or_arrays_jvp(primals, tangents, *, rows: bool):
     """The default rule: forward-mode autodiff (which reverse mode can transpose) of the planar form
     for a planar chain in directions that keep it planar, else of the array form.
 
-    The planar form has ~20x fewer operations than the array form. It is differentiated in
+    The planar form has ~5x fewer operations than the array form. It is differentiated in
     ``sin θ`` and ``cos θ``, whose tangents are taken by hand (the CPU's polynomial sine and cosine
     are accurate to 2 ulp, their derivatives less so), and only chain fields with a tangent are
     differentiated; the rest stay constants.

@@ -9,8 +9,8 @@ motion are those of the spatial chain restricted to the plane, so nothing is app
 - positions and forces enter through their components in the plane (the offset along ``e`` of a point,
   and gravity along ``e``, give no torque about ``e``).
 The result equals the spatial path's to round-off (tests: 1e-12 relative, and Pinocchio on random
-planar chains) at ~20× fewer floating-point operations: the 3-flap accordion's forward dynamics take
-~300 operations against ~5,900.
+planar chains) at ~5× fewer floating-point operations: the 3-flap accordion's forward dynamics take
+1,120 per state against 5,860 (XLA's counts, vmapped over 10,000 states).
 
 Coordinates: an orthonormal basis ``(u, v)`` of the plane with ``u × v = e``, ``e = ω_1 / |ω_1|``;
 a rotation by ``φ`` about ``e`` maps ``(x, y) ↦ (x cos φ − y sin φ, x sin φ + y cos φ)``. Every 2-vector
