@@ -27,6 +27,26 @@ def random_chain(n: int, seed: int, *, gravity: bool = False) -> oc.Chain:
     rng = np.random.default_rng(seed)
     axes = rng.normal(size=(n, 3))
     axes /= np.linalg.norm(axes, axis=1, keepdims=True)
+    return _random_flaps(rng, axes, gravity)
+
+
+def random_planar_chain(n: int, seed: int, *, gravity: bool = False) -> oc.Chain:
+    """A planar chain in general position: every axis along one random direction, with random signs
+    (some hinges turn the other way), hinge points, CGs and flap frames anywhere in space (offsets along
+    the axis included), asymmetric flaps with tilted frames, gravity in any direction."""
+    rng = np.random.default_rng(seed)
+    direction = rng.normal(size=3)
+    direction /= np.linalg.norm(direction)
+    signs = np.where(rng.uniform(size=n) < 0.5, -1.0, 1.0)
+    signs[0] = 1.0
+    chain = _random_flaps(rng, signs[:, None] * direction, gravity)
+    assert chain.planar
+    return chain
+
+
+def _random_flaps(rng, axes: np.ndarray, gravity: bool) -> oc.Chain:
+    # Hinge points, CGs, flap frames, plate sizes and gravity drawn after the axes.
+    n = axes.shape[0]
     points = np.cumsum(rng.uniform(-150, 150, size=(n, 3)), axis=0)
     cg = points + rng.uniform(-100, 100, size=(n, 3))
     rotations = Rotation.random(n, random_state=rng).as_matrix()
@@ -41,34 +61,6 @@ def random_chain(n: int, seed: int, *, gravity: bool = False) -> oc.Chain:
         flap_rotations=rotations,
         gravity=rng.normal(size=3) * 9.8e-6 if gravity else None,
     )
-
-
-def random_planar_chain(n: int, seed: int, *, gravity: bool = False) -> oc.Chain:
-    """A planar chain in general position: every axis along one random direction, with random signs
-    (some hinges turn the other way), hinge points, CGs and flap frames anywhere in space (offsets along
-    the axis included), asymmetric flaps with tilted frames, gravity in any direction."""
-    rng = np.random.default_rng(seed)
-    direction = rng.normal(size=3)
-    direction /= np.linalg.norm(direction)
-    signs = np.where(rng.uniform(size=n) < 0.5, -1.0, 1.0)
-    signs[0] = 1.0
-    axes = signs[:, None] * direction
-    points = np.cumsum(rng.uniform(-150, 150, size=(n, 3)), axis=0)
-    cg = points + rng.uniform(-100, 100, size=(n, 3))
-    rotations = Rotation.random(n, random_state=rng).as_matrix()
-    chain = oc.flap_chain(
-        axes,
-        points,
-        cg,
-        flap_length=rng.uniform(100, 300, size=n),
-        flap_width=rng.uniform(100, 300, size=n),
-        thickness=rng.uniform(0.1, 20, size=n),
-        density=rng.uniform(2e-3, 8e-3, size=n),
-        flap_rotations=rotations,
-        gravity=rng.normal(size=3) * 9.8e-6 if gravity else None,
-    )
-    assert chain.planar
-    return chain
 
 
 def to_pinocchio(chain: oc.Chain) -> pin.Model:
