@@ -56,16 +56,27 @@ def _hermite_crossing(t, y, v, level):
     return t[k] + 0.5 * (lo + hi) * h
 
 
-def _peer_metrics(chain, design, k_scale, b_scale, ts, targets_theta):
+def _peer_step_response(chain, k, b, ts, targets_theta):
+    """The peer's step response at samples `ts`: DOP853 over the Pinocchio model, τ = k θ_target."""
     from scipy.integrate import solve_ivp
 
+    rhs = _pinocchio_rhs(chain, k, b, k * targets_theta)
+    return solve_ivp(
+        rhs,
+        (ts[0], ts[-1]),
+        np.zeros(2 * chain.n_joints),
+        method="DOP853",
+        t_eval=ts,
+        rtol=RTOL,
+        atol=ATOL,
+    )
+
+
+def _peer_metrics(chain, design, k_scale, b_scale, ts, targets_theta):
     n = chain.n_joints
     k = np.asarray(design.stiffness(n)) * k_scale / float(design.k_scale)
     b = np.asarray(design.drag(n)) * b_scale / float(design.b_scale)
-    rhs = _pinocchio_rhs(chain, k, b, k * targets_theta)
-    sol = solve_ivp(
-        rhs, (ts[0], ts[-1]), np.zeros(2 * n), method="DOP853", t_eval=ts, rtol=RTOL, atol=ATOL
-    )
+    sol = _peer_step_response(chain, k, b, ts, targets_theta)
     y = sol.y[:n].T / targets_theta
     v = sol.y[n:].T / targets_theta
     rise = [
@@ -116,7 +127,6 @@ def _sensitivity_row(quick: bool) -> Result:
     import diffrax
     import jax
     import jax.numpy as jnp
-    from scipy.integrate import solve_ivp
 
     import origami_jax.simulation as sim
     from origami_jax.chain import HingeDesign
@@ -154,11 +164,7 @@ def _sensitivity_row(quick: bool) -> Result:
 
     def peer_angles(log_scales):
         k_i, b_i = k_np * np.exp(log_scales[0]), b_np * np.exp(log_scales[1])
-        rhs = _pinocchio_rhs(chain, k_i, b_i, k_i * thetas)  # step input: τ = k θ_target
-        sol = solve_ivp(
-            rhs, (0.0, t1), np.zeros(6), method="DOP853", t_eval=ts, rtol=RTOL, atol=ATOL
-        )
-        return sol.y[:3].T
+        return _peer_step_response(chain, k_i, b_i, ts, thetas).y[:3].T
 
     step = 1e-4
 

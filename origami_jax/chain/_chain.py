@@ -138,8 +138,7 @@ def _check_planar(given_axes: ArrayLike, axes: Array, planar: bool | None) -> tu
             return axes, False
         too_far = axes_parallel_error(axes) > PARALLEL_TOLERANCE**2
         return eqx.error_if(axes, too_far, "planar=True but the hinge axes are not parallel."), True
-    host = np.asarray(given_axes, dtype=float)
-    sines = np.linalg.norm(np.cross(host, host[0]), axis=-1) / np.linalg.norm(host[0])
+    sines = _sines_to_first_axis(given_axes)
     parallel = bool(np.all(sines <= PARALLEL_TOLERANCE))
     if planar and not parallel:
         worst = int(np.argmax(sines))
@@ -150,15 +149,20 @@ def _check_planar(given_axes: ArrayLike, axes: Array, planar: bool | None) -> tu
     return axes, parallel
 
 
+def _sines_to_first_axis(axes: ArrayLike) -> np.ndarray:
+    """``|ω_i × ω_1| / |ω_1|`` per hinge (the sine of the angle to the first axis for unit axes), on
+    the host (known axes only)."""
+    host = np.asarray(axes, dtype=float)
+    return np.linalg.norm(np.cross(host, host[0]), axis=-1) / np.linalg.norm(host[0])
+
+
 def check_still_planar(chain: Chain) -> None:
     """`ValueError` if `chain.planar` is set but its axes (when known) are no longer parallel: a chain
     whose axes were replaced after it was built (`eqx.tree_at`). Traced axes are left to the guard in
     the planar dynamics, which then returns NaN."""
     if not getattr(chain, "planar", False) or is_traced(chain.axes):
         return
-    host = np.asarray(chain.axes, dtype=float)
-    sines = np.linalg.norm(np.cross(host, host[0]), axis=-1) / np.linalg.norm(host[0])
-    if np.any(sines > PARALLEL_TOLERANCE):
+    if np.any(_sines_to_first_axis(chain.axes) > PARALLEL_TOLERANCE):
         raise ValueError(
             "This chain is marked planar but its hinge axes are not parallel (were they replaced "
             "after it was built, e.g. with eqx.tree_at?). Build it again with Chain(...) or "

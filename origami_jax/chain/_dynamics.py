@@ -41,8 +41,9 @@ from ._scalar import (
 # form did (spatial scalar graphs differentiated in reverse mode compiled for minutes in the test
 # suite; the planar ones are ~5x smaller and compile faster than the array form). Forward mode alone
 # (`forward_mode_only=True`, what `simulate` uses under `diffrax.ForwardMode`) takes a faster
-# complex-step JVP through the scalar inverse dynamics (`_forward_dynamics_scalar_and_tangent`). `mass_matrix`, `bias_torque` and `inverse_dynamics` run on
-# arrays; the same custom-JVP wrapping is how to speed them up if they ever sit in a hot loop.
+# complex-step JVP through the scalar inverse dynamics (`_forward_dynamics_scalar_and_tangent`).
+# `mass_matrix`, `bias_torque` and `inverse_dynamics` run on arrays; the same custom-JVP wrapping is
+# how to speed them up if they ever sit in a hot loop.
 _SCALAR_FORWARD_MAX = 6
 
 # Above this size the unrolled Cholesky in `_solve_spd` would unroll O(n³) scalar operations into the
@@ -310,8 +311,8 @@ def forward_dynamics(
       through a custom JVP (the planar form's autodiff in planar directions, else the array form's);
       `"arrays"` always uses the spatial array form. Both give the same answer to rounding.
     - `forward_mode_only`: for a single state on the scalar path, differentiate by a complex step
-      through the inverse dynamics instead of the array form (same derivatives to rounding, ~2×
-      faster for a forward-mode solve of one trajectory; see `_forward_dynamics_scalar_and_tangent`).
+      through the inverse dynamics instead of autodiff (same derivatives to rounding, ~2× faster for
+      a forward-mode solve of one trajectory; see `_forward_dynamics_scalar_and_tangent`).
       Only forward mode (`jax.jvp`, `jax.jacfwd`) is then available: reverse mode fails. `simulate`
       sets it for its right-hand side under `diffrax.ForwardMode`. Rows of states ignore it.
 
@@ -332,9 +333,9 @@ def forward_dynamics(
     scalar = path == "auto" and n <= _SCALAR_FORWARD_MAX
     if theta.ndim == 2:
         if scalar:
-            # Rows keep the array form's JVP even with `forward_mode_only`: vmapped over a
-            # trajectory's samples the complex-step kernel doubled the design fit's compile time
-            # (5.5 → 13.7 s) to save ~4 ms per forward-mode solve.
+            # Rows keep the default (autodiff) rule even with `forward_mode_only`: vmapped over a
+            # trajectory's samples the spatial complex-step kernel doubled the design fit's compile
+            # time (5.5 → 13.7 s) to save ~4 ms per forward-mode solve.
             return _forward_dynamics_scalar_samples(chain, theta, theta_dot, applied)
         return _forward_dynamics_arrays_samples(chain, theta, theta_dot, applied)
     if scalar:
@@ -352,7 +353,7 @@ def _forward_dynamics_scalar_value(
 def _planar_solve(chain: Chain, sin_cos, theta_dot, applied) -> tuple[list[Array], CholeskyLists]:
     """``θ̈`` of a planar chain (`_planar`) as n scalars, and the Cholesky factor of ``M``."""
     n = chain.n_joints
-    bodies = PlanarBodies(chain, sin_cos[0], sin_cos)  # shared by M and the bias
+    bodies = PlanarBodies(chain, sin_cos)  # shared by M and the bias
     factor = cholesky_lists(planar_mass_matrix_lists(bodies))
     bias = planar_inverse_dynamics_lists(bodies, theta_dot, None)
     acc = cholesky_solve_factored(factor, [applied[..., i] - bias[i] for i in range(n)])
@@ -408,7 +409,7 @@ def _forward_dynamics_scalar_and_tangent(chain, theta, theta_dot, applied, tange
     theta_dot_c = _complex_step(theta_dot, d_theta_dot)
     # A tangent that tilts the axes leaves the planar chains: differentiate the spatial algebra then.
     if chain.planar and (d_chain is None or _is_zero(d_chain.axes)):
-        planar_c = PlanarBodies(chain_c, theta, sin_cos)
+        planar_c = PlanarBodies(chain_c, sin_cos)
         id_c = planar_inverse_dynamics_lists(planar_c, theta_dot_c, acc)
     else:
         bodies_c = ScalarBodies(chain_c, theta, sin_cos)
@@ -513,11 +514,6 @@ def _planar_or_arrays_jvp(primals, tangents, *, rows: bool):
 _forward_dynamics_scalar_samples.defjvp(_forward_dynamics_scalar_samples_jvp, symbolic_zeros=True)
 
 
-# Forward mode only (`forward_mode_only=True`): the complex-step rule. Its tangent is not linear in
-# the input tangents as traced (complex products of perturbed values), so it cannot be transposed.
-# Differentiated once more (nested forward mode: an implicit solver's Jacobian inside a forward-mode
-# solve), it goes through the array form's second derivatives instead: forward mode through the
-# complex scalar graph compiled 6× slower (29 s against 4.7 s for the accordion's Hessian).
 def _split_zeros(primals, tangents):
     """Tangent leaves with symbolic zeros instantiated, which leaves were zero, and the tree."""
     leaves, treedef = jax.tree_util.tree_flatten(tangents, is_leaf=_is_zero)
@@ -534,6 +530,11 @@ def _marked(zero, treedef, leaves):
     return treedef.unflatten([None if z else t for z, t in zip(zero, leaves, strict=True)])
 
 
+# Forward mode only (`forward_mode_only=True`): the complex-step rule. Its tangent is not linear in
+# the input tangents as traced (complex products of perturbed values), so it cannot be transposed.
+# Differentiated once more (nested forward mode: an implicit solver's Jacobian inside a forward-mode
+# solve), it goes through the array form's second derivatives instead: forward mode through the
+# complex scalar graph compiled 6× slower (29 s against 4.7 s for the accordion's Hessian).
 @functools.partial(jax.custom_jvp, nondiff_argnums=(0, 1))
 def _complex_step_jvp(zero, treedef, primals, tangent_leaves):
     chain, theta, theta_dot, applied = primals

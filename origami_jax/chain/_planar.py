@@ -21,7 +21,7 @@ import jax.numpy as jnp
 from jaxtyping import Array
 
 from ._chain import Chain
-from ._scalar import Vec, _cross, _dot, _mat, _matvec, _transpose, _vec, sin_cos_once
+from ._scalar import Vec, _cross, _dot, _mat, _matvec, _transpose, _vec
 
 Vec2 = tuple[Array, Array]
 
@@ -81,11 +81,11 @@ class PlanarBodies:
     """Per flap at ``θ``, in plane coordinates: the hinge point ``P_i`` (on the axis of hinge ``i``), the
     CG ``C_i``, the mass, ``J_i``, the sign ``s_i`` of the hinge axis along ``e``, and gravity.
 
-    `sin_cos`: ``(sin θ, cos θ)`` when the caller has them (the complex step passes first-order complex
-    ones); by default computed here.
+    `sin_cos`: ``(sin θ, cos θ)`` of the hinge angles (`_scalar.sin_cos_once`; the complex step
+    passes first-order complex ones).
     """
 
-    def __init__(self, chain: Chain, theta: Array, sin_cos: tuple[Array, Array] | None = None):
+    def __init__(self, chain: Chain, sin_cos: tuple[Array, Array]):
         n = chain.n_joints
         self.n = n
         first = _vec(chain.axes[0])
@@ -96,7 +96,7 @@ class PlanarBodies:
         def in_plane(x: Vec) -> Vec2:
             return (_dot(x, u), _dot(x, v))
 
-        sines, cosines = sin_cos_once(theta) if sin_cos is None else sin_cos
+        sines, cosines = sin_cos
         self.sign: list[Array] = []
         self.hinge: list[Vec2] = []  # P_i
         self.cg: list[Vec2] = []  # C_i

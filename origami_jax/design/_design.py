@@ -172,7 +172,7 @@ def _evaluate(problem: _Problem, z) -> dict[str, Any]:
 def _fit_and_start(problem: _Problem, z0s, solver, max_steps: int):
     """Every start's fit and the first start's evaluation (the report's "before"), in one program:
     they are independent, and XLA:CPU runs independent parts of a program side by side (measured on
-    2 cores, paired with the two run one after the other: 12–16 % less wall time for a single-start
+    2 cores, paired with the two run one after the other: 5–16 % less wall time for a single-start
     calibration of the accordion)."""
     batch = fit_batch(_residual_fn, z0s, problem, solver=solver, max_steps=max_steps)
     return batch, _evaluate(problem, z0s[0])
@@ -237,8 +237,8 @@ def design(
     - `n_starts`: starting points: `hinge`'s values plus Latin-hypercube points inside the bounds, all
       solved in one vmapped batch; the best is reported, every start is listed.
     - `key`: PRNG key for the extra starts (default: a fixed seed, so results are reproducible).
-    - `solver`: optimistix least-squares solver (default: Levenberg–Marquardt, `origami_jax.design.default_solver`), or a
-      minimiser such as `optimistix.BFGS`.
+    - `solver`: optimistix least-squares solver (default: a Levenberg–Marquardt,
+      `origami_jax.design.default_solver`), or a minimiser such as `optimistix.BFGS`.
     - `max_steps`: optimiser steps per start.
     - `tolerance`: relative miss below which a target counts as met.
     - `throw`: raise a `RuntimeError` when no start produced a usable answer (every simulation failed).

@@ -211,8 +211,8 @@ def fit_batch(
       calls to reuse the compilation.
     - `z0s`: starting points, unconstrained, shape `(s, p)`.
     - `args`: pytree passed to `fn` (its arrays are traced: new values do not recompile).
-    - `solver`: an optimistix least-squares solver (default `GaussNewtonStepStop(1e-6, 1e-6)`, a Levenberg–Marquardt) or a
-      minimiser such as `optx.BFGS` (applied to ``½‖r‖²``).
+    - `solver`: an optimistix least-squares solver (default `GaussNewtonStepStop(1e-6, 1e-6)`, a
+      Levenberg–Marquardt) or a minimiser such as `optx.BFGS` (applied to ``½‖r‖²``).
     - `max_steps`: optimiser step budget per start (steps, not function evaluations).
 
     **Returns:** a [`origami_jax.design.FitBatch`][]; read `result` for each start.
