@@ -129,7 +129,7 @@ def _sensitivity_row(quick: bool) -> Result:
     import jax.numpy as jnp
 
     import origami_jax.simulation as sim
-    from origami_jax.chain import HingeDesign
+    from origami_jax.system import HingeDesign
 
     design = HingeDesign.literature(k_scale=TRUTH[0], b_scale=TRUTH[1])
     chain = design.accordion(3)
@@ -197,7 +197,7 @@ def run(quick: bool) -> list[Result]:
     from scipy.optimize import least_squares
 
     import origami_jax.design as ojd
-    from origami_jax.chain import HingeDesign
+    from origami_jax.system import HingeDesign
     from origami_jax.simulation import alternating_targets
 
     literature = HingeDesign.literature()

@@ -56,7 +56,9 @@ def _literature_rhs():
     evaluates it (torque ``K θ_des``), for FLOP counts."""
     import jax.numpy as jnp
 
-    from origami_jax.chain import MICRO, HingeDesign, forward_dynamics
+    from origami_jax.chain import forward_dynamics
+
+    from origami_jax.system import MICRO, HingeDesign
     from origami_jax.simulation import alternating_targets
 
     design = HingeDesign.literature(MICRO)
@@ -100,7 +102,7 @@ def run(quick: bool) -> list[Result]:
     from scipy.integrate import solve_ivp
 
     import origami_jax.simulation as sim
-    from origami_jax.chain import HingeDesign
+    from origami_jax.system import HingeDesign
 
     design = HingeDesign.literature()
     chain = design.accordion(3)

@@ -46,7 +46,7 @@ def _pinocchio_peer(design_values: dict[str, float]):
     import pinocchio as pin
     from scipy.integrate import solve_ivp
 
-    from origami_jax.chain import MICRO, HingeDesign
+    from origami_jax.system import MICRO, HingeDesign
     from origami_jax.simulation import alternating_targets
 
     design = HingeDesign.literature(MICRO, **design_values)

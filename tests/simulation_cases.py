@@ -9,7 +9,7 @@ import functools
 import numpy as np
 
 import origami_jax.simulation as sim
-from origami_jax.chain import AIR, KOH_SOLUTION, MICRO, HingeDesign
+from origami_jax.system import AIR, KOH_SOLUTION, MICRO, HingeDesign
 
 # One structure for every default-solver accordion solve in the tests (one compilation).
 N_SAVE = 1201

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import origami_jax.design as ojd
-from origami_jax.chain import HingeDesign
+from origami_jax.system import HingeDesign
 from origami_jax.design._design import _evaluate, _Problem
 
 TRUTH = {"k_scale": 2.0, "b_scale": 5.0}

@@ -10,7 +10,7 @@ import optimistix as optx
 import pytest
 
 import origami_jax.design as ojd
-from origami_jax.chain import HingeDesign
+from origami_jax.system import HingeDesign
 
 NAN = math.nan
 

@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 import origami_jax.simulation as sim
-from origami_jax.chain import MICRO, forward_dynamics
+from origami_jax.chain import forward_dynamics
+from origami_jax.system import MICRO
 
 from .simulation_cases import literature
 

@@ -9,7 +9,8 @@ import pytest
 from scipy.integrate import solve_ivp
 
 import origami_jax.simulation as sim
-from origami_jax.chain import SI, accordion, forward_dynamics
+from origami_jax.chain import accordion, forward_dynamics
+from origami_jax.system import SI
 
 from .simulation_cases import air_step_metrics, literature, step_simulation
 

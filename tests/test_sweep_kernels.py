@@ -29,7 +29,7 @@ def test_accordion_refuses_unknown_parameters_and_fluids_before_compiling():
 
 @pytest.mark.slow  # one compilation of the vmapped Kvaerno5 solve: minutes on a 2-core CPU
 def test_accordion_step_matches_a_direct_simulation():
-    from origami_jax.chain import KOH_SOLUTION, MICRO, HingeDesign
+    from origami_jax.system import KOH_SOLUTION, MICRO, HingeDesign
     from origami_jax.simulation import (
         Step,
         alternating_targets,
@@ -92,7 +92,8 @@ def test_vertex_unfold_agrees_with_unfold():
 def test_accordion_cost_is_the_fastest_natural_frequency_times_the_run_length():
     # ω_max = sqrt(λ_max(M⁻¹K)): scaling every hinge stiffness by 4 doubles it; the flaps (M) are
     # untouched by k_scale. Checked against NumPy's generalized eigenvalues at the literature design.
-    from origami_jax.chain import MICRO, HingeDesign, mass_matrix
+    from origami_jax.chain import mass_matrix
+    from origami_jax.system import MICRO, HingeDesign
 
     kernel = get_model("accordion-step", solver="tsit5", t_end=100.0)
     base = float(kernel.cost({"k_scale": jnp.asarray(1.0)}))

@@ -1,7 +1,9 @@
-"""Hinged-flap chains: kinematics, dynamics and bilayer-hinge physics (SPEC Part B, issue #3).
+"""Hinged-flap chains (paper Eqs. 8–11): the serial chain mechanism, its kinematics and dynamics.
 
-Kernels are unit-agnostic; builders, materials and `HingeDesign` convert their SI constants into a
-`UnitSystem`, `MICRO` (µm, µs, ng) by default.
+[`origami_jax.chain.Chain`][] implements [`origami_jax.system.AbstractMechanism`][];
+[`origami_jax.chain.accordion_system`][] builds the paper's accordion as a
+[`origami_jax.system.FoldingSystem`][] from a [`origami_jax.system.HingeDesign`][]. Kernels are
+unit-agnostic; the builders take their constants in a `UnitSystem` (`MICRO`: µm, µs, ng, by default).
 """
 
 from ._chain import Chain as Chain
@@ -16,15 +18,6 @@ from ._dynamics import inverse_dynamics as inverse_dynamics
 from ._dynamics import kinetic_energy as kinetic_energy
 from ._dynamics import mass_matrix as mass_matrix
 from ._dynamics import potential_energy as potential_energy
-from ._hinge import AIR as AIR
-from ._hinge import CR as CR
-from ._hinge import KOH_SOLUTION as KOH_SOLUTION
-from ._hinge import SINX as SINX
-from ._hinge import Fluid as Fluid
-from ._hinge import HingeDesign as HingeDesign
-from ._hinge import Material as Material
-from ._hinge import biaxial_modulus as biaxial_modulus
-from ._hinge import bilayer_curvature as bilayer_curvature
 from ._kinematics import body_jacobians as body_jacobians
 from ._kinematics import forward_kinematics as forward_kinematics
 from ._kinematics import spatial_jacobians as spatial_jacobians
@@ -39,6 +32,6 @@ from ._se3 import revolute_twist as revolute_twist
 from ._se3 import twist_hat as twist_hat
 from ._se3 import twist_vee as twist_vee
 from ._se3 import vee as vee
-from ._units import MICRO as MICRO
-from ._units import SI as SI
-from ._units import UnitSystem as UnitSystem
+from ._system import Accordion as Accordion
+from ._system import accordion_system as accordion_system
+from ._system import alternating_targets as alternating_targets

@@ -2,7 +2,7 @@
 
 A `Chain` holds, at the reference configuration ``θ = 0`` and in the inertial frame: each hinge's unit axis
 ``ω_i`` and a point ``q_i`` on it, each flap's centre-of-gravity pose, its mass and its inertia about the CG
-(in the flap frame). Flap ``i`` is carried by hinges ``1..i`` (SPEC Part B). The kernels never look at units;
+(in the flap frame). Flap ``i`` is carried by hinges ``1..i`` (paper Eq. 8). The kernels never look at units;
 any consistent system works (see `UnitSystem`; the builders default to `MICRO`: µm, µs, ng).
 """
 
@@ -11,20 +11,24 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
-from ._units import MICRO, UnitSystem
-from ._validate import as_float_array, check_finite, check_positive, check_shape, is_traced
+from .._validate import as_float_array, check_finite, check_positive, check_shape, is_traced
+from ..system._mechanism import AbstractMechanism
+from ..system._units import MICRO, UnitSystem
 
 # Relative tolerance on |ω| = 1 and on RᵀR = I. Inputs typed by hand or stored in float32 carry ~1e-7
 # relative error; anything beyond 1e-6 is a wrong input, not round-off.
 _UNIT_TOLERANCE = 1e-6
 
 # SiNx density, kg/m³: 3100 (LPCVD low-stress silicon nitride; e.g. Petersen, "Silicon as a mechanical
-# material", Proc. IEEE 70 (1982); SPEC Part B "Materials"). Used as the accordion's default flap density.
+# material", Proc. IEEE 70 (1982)). Used as the accordion's default flap density.
 _SINX_DENSITY_SI = 3100.0
 
 
-class Chain(eqx.Module):
+class Chain(AbstractMechanism):
     """A serial chain of ``n`` rigid flaps joined by revolute hinges (any consistent units).
+
+    The first implementation of [`origami_jax.system.AbstractMechanism`][]: its state is the hinge
+    angles ``q = θ`` and rates ``v = θ̇``; flap ``i`` is carried by hinges ``1..i``.
 
     **Fields** (all at ``θ = 0``, inertial frame):
     - `axes`: unit hinge axes ``ω_i``, shape `(n, 3)`, dimensionless.
@@ -100,6 +104,67 @@ class Chain(eqx.Module):
     def n_joints(self) -> int:
         """Number of hinges (= flaps), a static Python int."""
         return self.axes.shape[0]
+
+    # ---- AbstractMechanism ----
+    # The kernels live in `_dynamics` and `_kinematics` (which import this module), hence the imports
+    # inside the methods.
+
+    @property
+    def n_hinges(self) -> int:
+        return self.axes.shape[0]
+
+    @property
+    def n_bodies(self) -> int:
+        return self.axes.shape[0]
+
+    def mass_matrix(self, q):
+        from ._dynamics import mass_matrix
+
+        return mass_matrix(self, q)
+
+    def bias_force(self, q, v):
+        from ._dynamics import bias_torque
+
+        return bias_torque(self, q, v)
+
+    def forward_dynamics(self, q, v, force, *, forward_mode_only: bool = False):
+        from ._dynamics import forward_dynamics
+
+        return forward_dynamics(self, q, v, force, forward_mode_only=forward_mode_only)
+
+    def inverse_dynamics(self, q, v, a):
+        from ._dynamics import inverse_dynamics
+
+        return inverse_dynamics(self, q, v, a)
+
+    def kinetic_energy(self, q, v):
+        from ._dynamics import kinetic_energy
+
+        return kinetic_energy(self, q, v)
+
+    def potential_energy(self, q):
+        from ._dynamics import potential_energy
+
+        return potential_energy(self, q)
+
+    def body_poses(self, q):
+        from ._kinematics import forward_kinematics
+
+        return forward_kinematics(self, q)
+
+    def outlines(self) -> list[np.ndarray]:
+        """Each flap as a rectangle in its CG frame's x–y plane (x along the hinge), `(4, 3)` each.
+
+        Length and width come from the plate inertia about the CG, ``I_xx = m(L² + t²)/12`` and
+        ``I_yy = m(w² + t²)/12`` (`plate_inertia`; the thickness term is below drawing accuracy)."""
+        masses = np.asarray(self.masses)
+        inertias = np.asarray(self.inertias)
+        length = np.sqrt(np.maximum(12 * inertias[:, 0, 0] / masses, 0.0))
+        width = np.sqrt(np.maximum(12 * inertias[:, 1, 1] / masses, 0.0))
+        return [
+            np.array([[-w / 2, -l / 2, 0.0], [w / 2, -l / 2, 0.0], [w / 2, l / 2, 0.0], [-w / 2, l / 2, 0.0]])
+            for l, w in zip(length, width, strict=True)
+        ]
 
 
 def _check_axes(axes: Array) -> Array:
@@ -329,9 +394,9 @@ def accordion(
     """The paper's accordion: ``n_flaps`` flaps in a row along ``y``, all hinges along ``x``.
 
     Hinge ``i`` (1-based) passes through ``(0, L(i − 1), 0)`` and flap ``i``'s CG sits at
-    ``(0, L/2 + L(i − 1), 0)`` with the identity orientation (SPEC Part B; paper Eq. 9 for n = 3).
+    ``(0, L/2 + L(i − 1), 0)`` with the identity orientation (paper Eq. 9 for n = 3).
 
-    **Arguments** (in `units`; a `None` takes the SPEC/Fig. 4 default converted into `units`):
+    **Arguments** (in `units`; a `None` takes the Fig. 4 default converted into `units`):
     - `n_flaps`: number of flaps (= hinges), any ``n ≥ 1``.
     - `flap_length`: ``L``, default 200 µm (the paper).
     - `flap_width`: default 200 µm (not given in the paper: a parameter; square flaps by default).

@@ -1,15 +1,37 @@
-"""Equations of motion ``M(θ) θ̈ + C(θ, θ̇) θ̇ + N(θ, θ̇) = τ`` of a flap chain (paper Eq. 11).
+"""Equations of motion ``M(θ) θ̈ + C(θ, θ̇) θ̇ + G(θ) = f`` of a flap chain (paper Eq. 11): every kernel.
 
-Two paths that must agree (tests: 1e-12 relative in float64):
-- **Recursive** (the fast path the simulator runs): composite-rigid-body mass matrix and a recursive
-  Newton–Euler bias, both in the inertial frame about its origin, O(n) and O(n²) work written as a few
-  fused broadcast-and-sum operations and cumulative sums.
-- **Reference** (the paper's formulation): ``M = Σ J_iᵀ 𝕄_i J_i`` from the body Jacobians and ``C`` from
-  the Christoffel symbols of ``M`` by automatic differentiation. Exact but ~30× the FLOPs (issue #3).
+**Evaluation paths** (all the same model; tests hold them to each other at 1e-12 relative and to
+Pinocchio at 1e-10):
+- *Arrays* (`_Bodies`, `_composite_mass_matrix`, `_newton_euler`): composite-rigid-body mass matrix
+  and recursive Newton–Euler bias in the inertial frame about its origin, on `(n, 3)` arrays; any
+  chain length. `mass_matrix`, `bias_torque` and `inverse_dynamics` use it.
+- *Scalar* (`_scalar`): the same algorithm with every 3-vector a tuple of arrays and a Python loop
+  over the hinges; under `vmap` one fused elementwise pass per operation (4.6× faster for a spatial
+  chain). Used by `forward_dynamics` for chains of up to `_SCALAR_FORWARD_MAX` hinges.
+- *Planar* (`_planar`): a chain whose hinge axes are all parallel (`Chain.planar`, the accordion) is
+  a planar linkage; the scalar algorithm in two dimensions, ~5× fewer operations.
+- *Reference* (`mass_matrix(..., method="jacobian")`, `coriolis_matrix`): the paper's
+  ``Σ J_iᵀ 𝕄_i J_i`` and Christoffel symbols by autodiff, ~30× the FLOPs; for tests.
+One unrolled Cholesky (`_scalar.cholesky_lists`) factors ``M`` on every path up to `_UNROLL_MAX` hinges.
 
-Spatial vectors are ordered ``(linear, angular)`` like the twists; motion vectors are taken at the world
-origin (Featherstone's spatial vectors), so the composite inertia of a sub-chain is a plain sum.
+**Derivative rules of `forward_dynamics`** (the contract; each is a `jax.custom_jvp` whose tangent is
+exact to rounding and agrees with plain autodiff of the array path):
+1. *Default rule* (`_planar_or_arrays_jvp`), for the scalar path's value: forward-mode autodiff of
+   the planar form when the chain is planar and the tangent does not tilt an axis, else of the array
+   form. Being autodiff of a JAX function, it is linear in the tangents, so reverse mode transposes
+   it: `jax.grad` through `simulate` works. The planar form is differentiated in ``sin θ`` and
+   ``cos θ`` with their tangents by hand; chain fields without a tangent stay constants.
+2. *Rows* (`_forward_dynamics_scalar_samples`): `(t, n)` stacks of states of one chain, the rule of
+   1 applied outside the `vmap` over rows (inside it, `jacfwd` through a forward-mode diffrax solve
+   returned transposed tangents in jax 0.10.2).
+3. *Complex step* (`forward_mode_only=True`, `_complex_step_jvp`): ``M dθ̈ = d f − d ID`` with
+   ``d ID`` the imaginary part of one complex evaluation of the (polynomial) inverse dynamics at step
+   1e-100, exact in floating point, fused by XLA into one kernel (~2× faster for a forward-mode
+   solve). Not linear in the tangents as traced, so forward mode only; differentiated again (an
+   implicit solver's Jacobian inside a forward-mode solve) it falls back to rule 1's array form.
 All functions are unit-agnostic: torque comes out in mass·length²/time² of the chain's units.
+Spatial vectors are ordered ``(linear, angular)`` like the twists; motion vectors are taken at the
+world origin (Featherstone's spatial vectors), so the composite inertia of a sub-chain is a plain sum.
 """
 
 import functools
@@ -32,18 +54,8 @@ from ._scalar import (
     sin_cos_once,
 )
 
-# Forward dynamics, the simulator's right-hand side, evaluates chains of up to this many hinges on scalars
-# (`_scalar`, 4.6x faster vmapped over 10,000 accordion states on the CPU: 0.23 µs against 1.06 µs per
-# state; 0.15 µs since the sines and cosines are computed once, see `_scalar.sin_cos_once`), in two
-# dimensions when the chain is planar (`_planar`, every axis parallel: the accordion). Its derivatives
-# go through a custom JVP rule: autodiff of the planar form for a planar chain in directions that keep
-# it planar, else of the array form, so differentiating a simulation compiles no more than the array
-# form did (spatial scalar graphs differentiated in reverse mode compiled for minutes in the test
-# suite; the planar ones are ~5x smaller and compile faster than the array form). Forward mode alone
-# (`forward_mode_only=True`, what `simulate` uses under `diffrax.ForwardMode`) takes a faster
-# complex-step JVP through the scalar inverse dynamics (`_forward_dynamics_scalar_and_tangent`).
-# `mass_matrix`, `bias_torque` and `inverse_dynamics` run on arrays; the same custom-JVP wrapping is
-# how to speed them up if they ever sit in a hot loop.
+# Chains of up to this many hinges take the scalar (or planar) path in `forward_dynamics` (module
+# docstring); longer ones the array path, whose graph grows linearly instead of with the unrolled loops.
 _SCALAR_FORWARD_MAX = 6
 
 # Above this size the unrolled Cholesky in `_solve_spd` would unroll O(n³) scalar operations into the
@@ -265,47 +277,33 @@ def _solve_spd(matrix: Array, rhs: Array) -> Array:
     n = matrix.shape[0]
     if n > _UNROLL_MAX:
         return jax.scipy.linalg.cho_solve(jax.scipy.linalg.cho_factor(matrix), rhs)
-    # Unrolled Cholesky on scalars: for a handful of hinges this is a few dozen fused flops, where a
+    # The scalar path's unrolled Cholesky: for a handful of hinges a few dozen fused flops, where a
     # LAPACK call (or jnp.linalg.solve) costs a custom call and pivoting logic per evaluation.
-    low: list[list[Any]] = [[None] * n for _ in range(n)]
-    for j in range(n):
-        diag = matrix[j, j] - sum((low[j][k] ** 2 for k in range(j)), start=0.0)
-        low[j][j] = jnp.sqrt(diag)
-        inv = 1.0 / low[j][j]
-        for i in range(j + 1, n):
-            low[i][j] = (
-                matrix[i, j] - sum((low[i][k] * low[j][k] for k in range(j)), start=0.0)
-            ) * inv
-    y: list[Any] = [None] * n
-    for i in range(n):
-        y[i] = (rhs[i] - sum((low[i][k] * y[k] for k in range(i)), start=0.0)) / low[i][i]
-    x: list[Any] = [None] * n
-    for i in reversed(range(n)):
-        x[i] = (y[i] - sum((low[k][i] * x[k] for k in range(i + 1, n)), start=0.0)) / low[i][i]
-    return jnp.stack(x)
+    entries = [[matrix[i, j] for j in range(n)] for i in range(n)]
+    return jnp.stack(cholesky_solve_factored(cholesky_lists(entries), [rhs[i] for i in range(n)]))
 
 
 def forward_dynamics(
     chain: Chain,
     theta: Float[ArrayLike, "*t n"],
     theta_dot: Float[ArrayLike, "*t n"],
-    tau: Float[ArrayLike, "*t n"],
+    force: Float[ArrayLike, "*t n"],
     *,
-    stiffness: Float[ArrayLike, "#n"] | Float[ArrayLike, ""],
-    drag: Float[ArrayLike, "#n"] | Float[ArrayLike, ""],
     path: Literal["auto", "arrays"] = "auto",
     forward_mode_only: bool = False,
 ) -> Float[Array, "*t n"]:
-    """Hinge accelerations ``θ̈ = M⁻¹ (τ − C θ̇ − N)`` (paper Eq. 11), the simulator's right-hand side.
+    """Hinge accelerations ``θ̈ = M⁻¹ (f − C θ̇ − G)`` (paper Eq. 11), the simulator's right-hand side.
+
+    ``f`` is every torque but inertia: for the paper's model ``f = τ − K θ − B θ̇|θ̇|`` (input, hinge
+    springs, drag; see `hinge_torque` and `origami_jax.system.FoldingSystem.generalized_force`).
 
     Recursive path: composite-rigid-body ``M``, Newton–Euler ``C θ̇ (+ G)``, a Cholesky solve; in two
     dimensions for a planar chain (`Chain.planar`: every hinge axis parallel, e.g. the accordion), which
     is the same model with ~5× fewer operations.
 
     **Arguments:**
-    - `theta` (rad), `theta_dot` (rad/time), `tau` (applied hinge torque): shape `(n,)`, or `(t, n)`
+    - `theta` (rad), `theta_dot` (rad/time), `force` (torque per hinge): shape `(n,)`, or `(t, n)`
       for `t` states of the same chain (e.g. the samples of a trajectory), one row each.
-    - `stiffness` (torque/rad), `drag` (torque·time²/rad²): per hinge, shape `(n,)` or scalar.
     - `path`: `"auto"` (default) evaluates chains of up to six hinges on scalars (planar ones in two
       dimensions), ~4.6× faster under `vmap` on the CPU for a spatial chain, and differentiates
       through a custom JVP (the planar form's autodiff in planar directions, else the array form's);
@@ -320,15 +318,20 @@ def forward_dynamics(
     """
     theta = jnp.asarray(theta)
     theta_dot = jnp.asarray(theta_dot)
-    applied = jnp.asarray(tau) - hinge_torque(stiffness, drag, theta, theta_dot)
+    applied = jnp.asarray(force)
     if path not in ("auto", "arrays"):
         raise ValueError(f"path must be 'auto' or 'arrays', got {path!r}.")
     check_still_planar(chain)
     n = chain.n_joints
-    if theta.ndim not in (1, 2) or theta.shape[-1] != n or applied.shape != theta.shape:
+    if (
+        theta.ndim not in (1, 2)
+        or theta.shape[-1] != n
+        or applied.shape != theta.shape
+        or theta_dot.shape != theta.shape
+    ):
         raise ValueError(
-            f"theta, theta_dot and tau must have shape ({n},) or (t, {n}) for this {n}-hinge "
-            f"chain, got {theta.shape}, {theta_dot.shape} and {jnp.shape(tau)}."
+            f"theta, theta_dot and force must have shape ({n},) or (t, {n}) for this {n}-hinge "
+            f"chain, got {theta.shape}, {theta_dot.shape} and {jnp.shape(force)}."
         )
     scalar = path == "auto" and n <= _SCALAR_FORWARD_MAX
     if theta.ndim == 2:

@@ -2,7 +2,7 @@
 
 `forward_kinematics` and the internal `joint_frames` are the fast path (closed-form Rodrigues per hinge,
 one sequential composition, 3×3 products written as broadcast-and-sum because XLA on the CPU runs many
-tiny `dot`s slowly). `body_jacobians` follows SPEC's ``Ad⁻¹`` formula literally, column by column; it is
+tiny `dot`s slowly). `body_jacobians` follows the ``Ad⁻¹`` formula of the paper's appendix literally, column by column; it is
 the paper's formulation and the reference the recursive dynamics are tested against.
 """
 
@@ -105,7 +105,7 @@ def spatial_jacobians(chain: Chain, theta: Float[ArrayLike, " n"]) -> Float[Arra
 
 
 def body_jacobians(chain: Chain, theta: Float[ArrayLike, " n"]) -> Float[Array, "n 6 n"]:
-    """Body Jacobian of every flap by SPEC's formula (the paper's printed ``J_3`` is wrong).
+    """Body Jacobian of every flap by the appendix's formula (the paper's printed ``J_3`` is wrong: its second column is shifted down a row).
 
     Column ``j ≤ i`` of flap ``i`` is ``ξ_j^† = Ad⁻¹_{(e^{ξ̂_j θ_j} ⋯ e^{ξ̂_i θ_i} g_{sl_i}(0))} ξ_j``; columns
     ``j > i`` are zero. Body velocity of flap ``i`` (in its CG frame) is ``J_i θ̇``. This is the paper's

@@ -126,7 +126,7 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
 
     import origami_jax.design as ojd
-    from origami_jax.chain import AIR, KOH_SOLUTION, MICRO, HingeDesign
+    from origami_jax.system import AIR, KOH_SOLUTION, MICRO, HingeDesign
 
     units = MICRO
     try:

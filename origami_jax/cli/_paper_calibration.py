@@ -12,14 +12,14 @@ import json
 import math
 from pathlib import Path
 
-N_STARTS = 8  # the fit's cost landscape has several local minima (SPEC: joint 2's rise is near-discontinuous)
+N_STARTS = 8  # the fit's cost landscape has several local minima (joint 2's rise is near-discontinuous)
 
 
 def run(out: Path) -> list[str]:
     import matplotlib.pyplot as plt
 
     import origami_jax.design as ojd
-    from origami_jax.chain import HingeDesign
+    from origami_jax.system import HingeDesign
 
     nan = math.nan
     targets = ojd.Targets(rise_time=[37.0, 101.0, 38.0], overshoot=[0.39, nan, nan])

@@ -3,7 +3,7 @@
 Built-in literature defaults only (`HingeDesign.literature()`: 200 nm SiNx, 100 nm Cr at 1 GPa, 200 µm
 square flaps, C_D = 1.17), in air and in the KOH bath; nothing is tuned to match the paper. The paper does
 not give its width, drag coefficient or residual strain, so its numbers (joint 1 overshoot ≈ 39 %, rise
-times 37 / 101 / 38 µs) are quoted for comparison only; matching them is a calibration task (issue #6).
+times 37 / 101 / 38 µs) are quoted for comparison only; matching them is a calibration task (the paper job's calibration part).
 """
 
 import json
@@ -21,7 +21,8 @@ def run(out: Path) -> list[str]:
     import matplotlib.pyplot as plt
 
     import origami_jax.simulation as sim
-    from origami_jax.chain import AIR, KOH_SOLUTION, MICRO, HingeDesign
+    from origami_jax.chain import accordion_system
+    from origami_jax.system import AIR, KOH_SOLUTION, MICRO, HingeDesign
 
     from ._simulate import write_figures, write_trajectory
 
@@ -34,18 +35,13 @@ def run(out: Path) -> list[str]:
     record: dict = {}
     for fluid in (AIR, KOH_SOLUTION):
         tag = "air" if fluid is AIR else "koh"
-        design = HingeDesign.literature(fluid=fluid)
-        chain = design.accordion(3)
-        k, b = design.stiffness(3), design.drag(3)
-        targets = sim.alternating_targets(3)
+        system = accordion_system(HingeDesign.literature(fluid=fluid), 3)
 
         # Step (Figs. 7, 8).
-        step = sim.simulate(
-            chain, sim.Step(targets), stiffness=k, drag=b, t1=2000.0, max_steps=100_000
-        )
+        step = sim.simulate(system, sim.Step(), t1=2000.0, max_steps=100_000)
         m = sim.response_metrics(step)
         write_trajectory(step, out / f"fig7_step_{tag}_trajectory")
-        write_figures(chain, step, m, out, name=f"fig7_8_step_{tag}")
+        write_figures(system, step, m, out, name=f"fig7_8_step_{tag}")
         record[f"step_{tag}"] = m.as_dict()
         flags = []
         if bool(m.rise_ill_conditioned.any()):
@@ -62,45 +58,40 @@ def run(out: Path) -> list[str]:
         )
 
         # The paper's fast ramp, 0.1 s (Figs. 10, 11).
-        ramp = sim.fast_ramp(targets, duration=MICRO.time(sim.FAST_RAMP_DURATION_SI))
+        ramp = sim.fast_ramp(system.hinges.target, duration=MICRO.time(sim.FAST_RAMP_DURATION_SI))
         fast = sim.simulate(
-            chain,
+            system,
             ramp,
-            stiffness=k,
-            drag=b,
-            t1=1.2 * float(ramp.duration),
+            t1=1.2 * float(ramp.duration(system)),
             n_save=4001,
             max_steps=400_000,
         )
         mr = sim.response_metrics(fast)
         write_trajectory(fast, out / f"fig10_fast_ramp_{tag}_trajectory")
-        write_figures(chain, fast, mr, out, ramp=ramp, name=f"fig10_11_fast_ramp_{tag}")
+        write_figures(system, fast, mr, out, ramp=ramp, name=f"fig10_11_fast_ramp_{tag}")
         record[f"fast_ramp_{tag}"] = mr.as_dict()
         lines.append(
             f"fast ramp 0.1 s, {tag}: overshoot {_fmt(mr.overshoot, '.3f')} %, max tracking error "
-            f"{float(abs(fast.theta - _desired(ramp, fast)).max()):.2e} rad, "
+            f"{float(abs(fast.theta - _desired(system, ramp, fast)).max()):.2e} rad, "
             f"rise {_fmt(mr.rise_time * 1e-3, '.2f')} ms ({int(fast.stats['num_steps'])} steps)"
         )
         plt.close("all")
 
     # The real ramp in the KOH bath, β = 1.5 µm/min (T ≈ 2.7 h): large steps, validated on a window.
-    design = HingeDesign.literature(fluid=KOH_SOLUTION)
-    chain = design.accordion(3)
+    system = accordion_system(HingeDesign.literature(fluid=KOH_SOLUTION), 3)
     beta = MICRO.length(sim.KOH_ETCH_RATE_SI) / MICRO.time(1.0)
-    ramp = sim.EtchRamp(beta, design.radius(), sim.alternating_targets(3))
-    slow = sim.simulate_slow_ramp(
-        chain, ramp, stiffness=design.stiffness(3), drag=design.drag(3), n_save=501
-    )
+    ramp = sim.EtchRamp(beta)
+    slow = sim.simulate_slow_ramp(system, ramp, n_save=501)
     write_trajectory(slow.trajectory, out / "slow_ramp_koh_trajectory")
     record["slow_ramp_koh"] = {
-        "duration_hours": float(ramp.duration) * 1e-6 / 3600,
+        "duration_hours": float(ramp.duration(system)) * 1e-6 / 3600,
         "steps": int(slow.trajectory.stats["num_steps"]),
         "quasi_static_error_rad": slow.quasi_static_error.tolist(),
         "large_step_error_rad": slow.large_step_error.tolist(),
         "window_us": float(slow.window.times[-1]),
     }
     lines.append(
-        f"real ramp, KOH, β = 1.5 µm/min: T = {float(ramp.duration) * 1e-6 / 3600:.2f} h in "
+        f"real ramp, KOH, β = 1.5 µm/min: T = {float(ramp.duration(system)) * 1e-6 / 3600:.2f} h in "
         f"{int(slow.trajectory.stats['num_steps'])} implicit steps; max |θ − θ_des| "
         f"{float(slow.large_step_error.max()):.1e} rad (large steps), "
         f"{float(slow.quasi_static_error.max()):.1e} rad (full model resolved over the first "
@@ -110,13 +101,13 @@ def run(out: Path) -> list[str]:
         "Comparison: with literature values in air joint 1 is the slowest riser (the paper has joint 2 "
         "slowest) and every joint overshoots 75-107 % (paper: 39 % on joint 1); in KOH the fold is "
         "overdamped (rise ≈ 0.4 ms, overshoot < 1 %). The paper's figures need calibrated k and b "
-        "(SPEC: k × 3.07, b × 18.6 reach 36 % and 38 / 96 / 39 µs), which is issue #6's job, not a default."
+        "(k × 3.07, b × 18.6 reach 36 % and 38 / 96 / 39 µs; see the calibration below), never a default."
     )
     (out / "dynamics_metrics.json").write_text(json.dumps(record, indent=2))
     return lines
 
 
-def _desired(ramp, trajectory):
+def _desired(system, ramp, trajectory):
     import jax
 
-    return jax.vmap(lambda t: ramp.desired(t)[0])(trajectory.times)
+    return jax.vmap(lambda t: ramp.desired(t, system)[0])(trajectory.times)

@@ -107,7 +107,8 @@ def run(args: argparse.Namespace) -> int:
     import jax.numpy as jnp
 
     import origami_jax.simulation as sim
-    from origami_jax.chain import AIR, KOH_SOLUTION, MICRO, HingeDesign
+    from origami_jax.chain import accordion_system
+    from origami_jax.system import AIR, KOH_SOLUTION, MICRO, HingeDesign
 
     fluid = {"air": AIR, "koh": KOH_SOLUTION}[args.fluid]
     try:
@@ -120,9 +121,8 @@ def run(args: argparse.Namespace) -> int:
         print(f"origami-jax simulate: bad --param: {error}", file=sys.stderr)
         return EXIT_USAGE
     n = args.flaps
-    chain = design.accordion(n)
-    k, b = design.stiffness(n), design.drag(n)
-    targets = sim.alternating_targets(n, float(design.theta_final))
+    system = accordion_system(design, n)
+    k, b = system.hinges.stiffness, system.drag.coefficient
     solver = {
         "auto": sim.default_solver,
         "kvaerno5": sim.implicit_solver,
@@ -135,16 +135,16 @@ def run(args: argparse.Namespace) -> int:
     ramp = None
     if args.input in ("step", "fast-ramp"):
         if args.input == "step":
-            inputs = sim.Step(targets)
+            inputs = sim.Step()
             default_t1, max_steps = 2000.0, 200_000
         else:
-            ramp = inputs = sim.fast_ramp(targets, duration=MICRO.time(sim.FAST_RAMP_DURATION_SI))
-            default_t1, max_steps = 1.2 * float(ramp.duration), 500_000
+            ramp = inputs = sim.fast_ramp(
+                system.hinges.target, duration=MICRO.time(sim.FAST_RAMP_DURATION_SI)
+            )
+            default_t1, max_steps = 1.2 * float(ramp.duration(system)), 500_000
         trajectory = sim.simulate(
-            chain,
+            system,
             inputs,
-            stiffness=k,
-            drag=b,
             t1=default_t1 if args.t1 is None else args.t1,
             n_save=args.n_save,
             solver=solver,
@@ -156,14 +156,14 @@ def run(args: argparse.Namespace) -> int:
         )
     else:
         beta = MICRO.length(sim.KOH_ETCH_RATE_SI) / MICRO.time(1.0)
-        ramp = inputs = sim.EtchRamp(beta, design.radius(), targets)
+        ramp = inputs = sim.EtchRamp(beta)
         slow = sim.simulate_slow_ramp(
-            chain, ramp, stiffness=k, drag=b, n_save=args.n_save, progress_meter=progress
+            system, ramp, n_save=args.n_save, progress_meter=progress
         )
         trajectory = slow.trajectory
         extra = {
-            "ramp_duration_us": float(ramp.duration),
-            "ramp_duration_hours": float(ramp.duration) * 1e-6 / 3600,
+            "ramp_duration_us": float(ramp.duration(system)),
+            "ramp_duration_hours": float(ramp.duration(system)) * 1e-6 / 3600,
             "validation_window_us": float(slow.window.times[-1]),
             "quasi_static_error_rad": jnp.asarray(slow.quasi_static_error).tolist(),
             "large_step_error_rad": jnp.asarray(slow.large_step_error).tolist(),
@@ -202,12 +202,12 @@ def run(args: argparse.Namespace) -> int:
         print(f"origami-jax simulate: solve failed: {report['result']}", file=sys.stderr)
         return EXIT_FAILED
     if not args.no_figures:
-        write_figures(chain, trajectory, metrics, out, ramp=ramp, name=args.input)
+        write_figures(system, trajectory, metrics, out, ramp=ramp, name=args.input)
     return EXIT_OK
 
 
 def write_figures(
-    chain, trajectory, metrics, out: Path, *, ramp=None, name: str = "step"
+    system, trajectory, metrics, out: Path, *, ramp=None, name: str = "step"
 ) -> list[Path]:
     """Joint angles (PNG), frames strip (PNG) and animation (GIF) into `out`."""
     import matplotlib.pyplot as plt
@@ -216,7 +216,7 @@ def write_figures(
 
     long_run = float(trajectory.times[-1]) > 1e5
     scale, label, unit = (1e-6, "time [s]", "s") if long_run else (1.0, "time [µs]", "µs")
-    desired = None if ramp is None else (lambda t: ramp.desired(t)[0])
+    desired = None if ramp is None else (lambda t: ramp.desired(t, system)[0])
     fig = chain_plots.plot_joint_angles(
         trajectory,
         metrics,
@@ -233,11 +233,11 @@ def write_figures(
         # Show the fold itself, not the long ringing tail.
         t_max = 3.0 * float(max(metrics.peak_time.max(), metrics.t90.max()))
     fig = chain_plots.chain_frames(
-        chain, trajectory, paths[1], n_frames=6, t_max=t_max, time_scale=scale, time_unit=unit
+        system.mechanism, trajectory, paths[1], n_frames=6, t_max=t_max, time_scale=scale, time_unit=unit
     )
     plt.close(fig)
     chain_plots.animate_chain(
-        chain, trajectory, paths[2], n_frames=40, t_max=t_max, time_scale=scale, time_unit=unit
+        system.mechanism, trajectory, paths[2], n_frames=40, t_max=t_max, time_scale=scale, time_unit=unit
     )
     return paths
 

@@ -1,8 +1,8 @@
-"""Gradient-based hinge design and calibration to measured responses (issue #6).
+"""Gradient-based hinge design and calibration to measured responses.
 
 ```python
 import origami_jax.design as ojd
-from origami_jax.chain import HingeDesign
+from origami_jax.system import HingeDesign
 
 targets = ojd.Targets(rise_time=[37.0, 101.0, 38.0], overshoot=[0.39, nan, nan])   # µs, fraction
 result = ojd.calibrate(HingeDesign.literature(), targets, ["k_scale", "b_scale"],

@@ -1,7 +1,7 @@
 """`design` and `calibrate`: hinge parameters that make a folding chain meet targets, through the simulation.
 
-Stages: unconstrained ``z`` → bounded parameters (`ParameterSpace`) → `HingeDesign` → chain, stiffness,
-drag → `simulate` (forward-mode sensitivities, `diffrax.ForwardMode`) → `response_metrics` → dimensionless
+Stages: unconstrained ``z`` → bounded parameters (`ParameterSpace`) → `HingeDesign` → `FoldingSystem`
+(the settings' layout, e.g. `origami_jax.chain.Accordion`) → `simulate` (forward-mode sensitivities, `diffrax.ForwardMode`) → `response_metrics` → dimensionless
 residual rows (`Targets`) → Levenberg–Marquardt from several starts at once (`fit_batch`) → the best start,
 its metrics next to the targets, the sensitivity of every metric to every parameter, an identifiability
 verdict and, for targets that are not met, how far off they are and why.
@@ -18,8 +18,9 @@ import numpy as np
 import optimistix as optx
 from jaxtyping import Array, Float
 
-from ..chain import Chain, HingeDesign
-from ..simulation import AbstractInput, Step, alternating_targets, response_metrics, simulate
+from ..chain import Accordion
+from ..simulation import AbstractInput, Step, response_metrics, simulate
+from ..system import AbstractLayout, HingeDesign
 from ._identify import identifiability
 from ._lstsq import fit_batch
 from ._report import DesignResult, build_report
@@ -40,11 +41,10 @@ class SimulationSettings(eqx.Module):
 
     **Fields:**
     - `t1`: run length (time units). Rise times, peaks and settling must happen well inside it.
-    - `n_flaps`: flaps of the accordion built from the design (static), when `chain` is `None`.
-    - `chain`: a fixed `Chain` instead of `design.accordion(n_flaps)`; then the flap geometry and density
-      of the design do not reach the dynamics, and freeing them is refused.
-    - `inputs`: the input (default the step `Step(alternating_targets(n))`, paper Eq. 12), or a function
-      `HingeDesign -> AbstractInput` (e.g. an etch ramp whose radius follows the design).
+    - `layout`: what the design builds (static), an [`origami_jax.system.AbstractLayout`][]; default
+      the accordion with `n_flaps` flaps ([`origami_jax.chain.Accordion`][]).
+    - `inputs`: the input (default the step `Step()` to the system's hinge targets, paper Eq. 12), or
+      a function `HingeDesign -> AbstractInput`.
     - `n_save`: samples of the response (static).
     - `solver`: diffrax solver. Default `Tsit5`: for the accordion in air it compiles ~6× and runs ~10×
       faster than Kvaerno5 with derivatives matching finite differences (tests); pass
@@ -55,8 +55,7 @@ class SimulationSettings(eqx.Module):
     """
 
     t1: Float[Array, ""]
-    n_flaps: int = eqx.field(static=True)
-    chain: Chain | None
+    layout: AbstractLayout = eqx.field(static=True)
     inputs: AbstractInput | Callable | None
     n_save: int = eqx.field(static=True)
     solver: diffrax.AbstractSolver
@@ -69,7 +68,7 @@ class SimulationSettings(eqx.Module):
         t1: float,
         *,
         n_flaps: int = 3,
-        chain: Chain | None = None,
+        layout: AbstractLayout | None = None,
         inputs: AbstractInput | Callable | None = None,
         n_save: int = DEFAULT_N_SAVE,
         solver: diffrax.AbstractSolver | None = None,
@@ -82,8 +81,7 @@ class SimulationSettings(eqx.Module):
         if n_save < 16:
             raise ValueError(f"n_save must be at least 16 to resolve the response, got {n_save}.")
         self.t1 = jnp.asarray(float(t1))
-        self.n_flaps = int(chain.n_joints if chain is not None else n_flaps)
-        self.chain = chain
+        self.layout = Accordion(int(n_flaps)) if layout is None else layout
         self.inputs = inputs
         self.n_save = int(n_save)
         self.solver = diffrax.Tsit5() if solver is None else solver
@@ -91,22 +89,23 @@ class SimulationSettings(eqx.Module):
         self.atol = float(atol)
         self.max_steps = int(max_steps)
 
+    @property
+    def n_hinges(self) -> int:
+        return self.layout.n_hinges
+
 
 def response(hinge: HingeDesign, settings: SimulationSettings):
     """Simulate `hinge` as `settings` say: `(Trajectory, ResponseMetrics)` (not jitted; composes)."""
-    n = settings.n_flaps
-    chain = hinge.accordion(n) if settings.chain is None else settings.chain
+    system = settings.layout(hinge)
     if settings.inputs is None:
-        inputs = Step(alternating_targets(n))
+        inputs = Step()
     elif isinstance(settings.inputs, AbstractInput):
         inputs = settings.inputs
     else:
         inputs = settings.inputs(hinge)
     trajectory = simulate(
-        chain,
+        system,
         inputs,
-        stiffness=hinge.stiffness(n),
-        drag=hinge.drag(n),
         t1=settings.t1,
         n_save=settings.n_save,
         solver=settings.solver,
@@ -178,18 +177,6 @@ def _fit_and_start(problem: _Problem, z0s, solver, max_steps: int):
     return batch, _evaluate(problem, z0s[0])
 
 
-def _check_free(space: ParameterSpace, settings: SimulationSettings) -> None:
-    if settings.chain is None:
-        return
-    geometric = {"flap_length", "flap_width", "t_structural", "structural.density"}
-    clash = geometric.intersection(space.names)
-    if clash:
-        raise ValueError(
-            f"{sorted(clash)} change the flaps' mass and inertia, but a fixed `chain` was given; "
-            "leave `chain=None` so the accordion is rebuilt from each candidate design."
-        )
-
-
 def _starts(space: ParameterSpace, start: Array, n_starts: int, key) -> Array:
     """The given start plus `n_starts − 1` Latin-hypercube points in the inner 90 % of the z-box."""
     z0 = space.to_unconstrained(np.asarray(start), xp=np)[None, :]
@@ -224,7 +211,7 @@ def design(
     simulation, from several starts at once.
 
     **Arguments:**
-    - `hinge`: a [`origami_jax.chain.HingeDesign`][]: fixed values, and the first start of the free ones.
+    - `hinge`: a [`origami_jax.system.HingeDesign`][]: fixed values, and the first start of the free ones.
     - `targets`: [`origami_jax.design.Targets`][] (per-joint metrics and/or a measured curve), in the
       design's units (MICRO: µs).
     - `free`: names of the free parameters, e.g. ``["k_scale", "b_scale"]`` or
@@ -255,11 +242,10 @@ def design(
         if horizon is None:
             raise ValueError("Give t1 (run length): the targets hold no time to derive it from.")
         settings = SimulationSettings(horizon, n_flaps=n_flaps or targets.n_joints)
-    if settings.n_flaps != targets.n_joints:
+    if settings.n_hinges != targets.n_joints:
         raise ValueError(
-            f"targets are for {targets.n_joints} joints but the chain has {settings.n_flaps}."
+            f"targets are for {targets.n_joints} hinges but the system has {settings.n_hinges}."
         )
-    _check_free(space, settings)
     if n_starts < 1:
         raise ValueError(f"n_starts must be at least 1, got {n_starts}.")
     key = jax.random.key(0) if key is None else key

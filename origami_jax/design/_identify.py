@@ -6,7 +6,7 @@ bound range), the right singular vectors with non-negligible singular values are
 ``Π x_j^{v_j}`` that the targets pin down; those with (near-)zero singular values are moves along which
 the targets do not change at all, and any point along them fits equally well.
 
-SPEC Part B ("Where the paper's formulas are questionable"): with the hinge as wide as the flap, the
+docs/physics.md ("What a step response identifies"): with the hinge as wide as the flap, the
 width cancels; stiffness, hinge length, moduli and stress only set the time scale; only ``b/m`` changes the
 shape. So e.g. ``hinge_width`` and ``k_scale`` enter only through their product, and a design with both
 free has rank 1 in that pair. The report says so rather than presenting an arbitrary point as determined.
@@ -145,7 +145,7 @@ def identifiability(
         verdict = (
             f"Only {rank} of {p} parameter combinations are determined ({'; '.join(determined)}); "
             f"the targets do not change under {'; '.join(undetermined)} — any point along these directions fits equally well, "
-            "and the reported values are just where the optimiser stopped (SPEC: width cancels; k, l, "
+            "and the reported values are just where the optimiser stopped (width cancels; k, l, "
             "E and stress only set the time scale; only b/m shapes the response)."
         )
     return Identifiability(names, s, vt, rank, determined, undetermined, weak, verdict)

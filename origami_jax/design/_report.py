@@ -13,7 +13,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..chain import HingeDesign
+from ..system import HingeDesign
 from ._identify import Identifiability
 from ._lstsq import RESULTS
 from ._space import parameter_unit

@@ -6,7 +6,7 @@ its ``z`` between its bounds — in log space for positive quantities (``x = exp
 σ(z)``). The bounds can therefore never be violated, and no gradient is cut as a clip would cut it; a
 parameter pushed to a bound shows up as ``σ(z)`` close to 0 or 1 (see `ParameterSpace.at_bound`).
 
-Parameters are named by their field in `origami_jax.chain.HingeDesign`, with a dot for the fields of its
+Parameters are named by their field in `origami_jax.system.HingeDesign`, with a dot for the fields of its
 materials and fluid (``"fluid.density"``, ``"hinge.youngs_modulus"``).
 """
 
@@ -18,7 +18,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
-from ..chain import HingeDesign
+from ..system import HingeDesign
 
 # Scalar fields of `HingeDesign` that may be freed, with their physical unit (in the design's `units`).
 _TOP_LEVEL = {

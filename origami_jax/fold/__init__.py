@@ -1,4 +1,4 @@
-"""FOLD format (spec 1.2, Demaine, Ku and Lang) input and output (issue #8).
+"""FOLD format (spec 1.2, Demaine, Ku and Lang) input and output.
 
 Read crease patterns and folded states written by Origami Simulator, Rabbit Ear, crease-pattern
 editors or by hand; build a single-vertex origami or an accordion from them; write our single-vertex

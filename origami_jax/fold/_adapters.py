@@ -88,7 +88,7 @@ def vertex_from_geometry(geometry: VertexGeometry) -> Any:
         if folded:
             raise FoldFormatError(
                 f"{where}: creases {folded} are fully folded (±180°, the default for M and V "
-                "without edges_foldAngle). A flat-folded state is outside the charge model (SPEC "
+                "without edges_foldAngle). A flat-folded state is outside the charge model (docs/physics.md, "
                 "Part A): give edges_foldAngle of a slightly opened state, e.g. ±170°"
             )
     vertex = _import(

@@ -6,7 +6,7 @@
   across a strip of paper, in order along the strip, with flap lengths and widths.
 
 Neither imports the physics packages; `load_single_vertex` / `load_chain` adapt these to their
-objects. Conventions: fold angles in radians, valley +, mountain − (FOLD's sign, SPEC Part A).
+objects. Conventions: fold angles in radians, valley +, mountain − (FOLD's sign).
 """
 
 from __future__ import annotations
@@ -56,7 +56,7 @@ class VertexInfo:
 
 @dataclasses.dataclass(frozen=True, eq=False)
 class VertexGeometry:
-    """A single-vertex origami read from a FOLD frame (SPEC Part A's "nodes" are the rays here).
+    """A single-vertex origami read from a FOLD frame (the charge model's "nodes" are the rays here).
 
     **Fields:**
     - `vertex_index`: the FOLD vertex.

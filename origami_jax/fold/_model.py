@@ -35,7 +35,7 @@ ASSIGNMENTS = {
 }
 SUPPORTED_ASSIGNMENTS = frozenset("BMVFU")
 
-# Default fold angle (degrees) for an edge that has an assignment but no fold angle (issue #8).
+# Default fold angle (degrees) for an edge that has an assignment but no fold angle.
 # "U" is free: NaN, which becomes `null` in the file.
 DEFAULT_FOLD_ANGLE_DEG = {"M": -180.0, "V": 180.0, "F": 0.0, "B": 0.0, "U": math.nan}
 

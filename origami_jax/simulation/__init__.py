@@ -1,6 +1,6 @@
-"""Folding simulation of hinged-flap chains: inputs, `simulate`, response metrics (issue #4).
+"""Folding simulation of hinged-flap chains: inputs, `simulate`, response metrics.
 
-Paper sections "Open Loop Control Law", "Step Input", "Ramp Input", Figs. 7–11; SPEC Part B "Inputs",
+Paper sections "Open Loop Control Law", "Step Input", "Ramp Input", Figs. 7–11; docs/physics.md, "Inputs",
 "Results to reproduce", "Numerics".
 """
 
@@ -10,7 +10,6 @@ from ._inputs import AbstractInput as AbstractInput
 from ._inputs import EtchRamp as EtchRamp
 from ._inputs import Step as Step
 from ._inputs import UserTorque as UserTorque
-from ._inputs import alternating_targets as alternating_targets
 from ._inputs import fast_ramp as fast_ramp
 from ._metrics import ResponseMetrics as ResponseMetrics
 from ._metrics import response_metrics as response_metrics

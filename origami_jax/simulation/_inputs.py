@@ -1,11 +1,13 @@
 """Open-loop inputs of a folding simulation (paper Eqs. 12–13): step, etch-rate ramp, user torque.
 
 An input is an `equinox.Module` (a pytree: it can be batched with `vmap` and differentiated) with a
-method `torque(t, theta, theta_dot, *, chain, stiffness, drag)` giving the joint torques, a `target`
-(the final angles the response is measured against) and `jump_times` (corners of the input, handed to
-the step-size controller so that it steps onto them instead of through them).
+method `torque(t, theta, theta_dot, system)` giving the hinge torques, `target(system)` (the final
+angles the response is measured against) and `jump_times(system)` (corners of the input, handed to the
+step-size controller so that it steps onto them instead of through them). Inputs read what they need
+(stiffness, fold targets, release times, bending radii) from the
+[`origami_jax.system.FoldingSystem`][] they drive.
 
-All quantities are in the chain's unit system (default `MICRO`: µm, µs, ng, torque pN·m).
+All quantities are in the system's unit system (default `MICRO`: µm, µs, ng, torque pN·m).
 """
 
 import abc
@@ -16,7 +18,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
-from ..chain import bias_torque, hinge_torque
+from ..system import FoldingSystem
 
 # β of the paper: the KOH front advances along the hinge at 1.5 µm/min (paper, "Ramp Input").
 KOH_ETCH_RATE_SI = 1.5e-6 / 60.0
@@ -26,183 +28,208 @@ FAST_RAMP_DURATION_SI = 0.1
 """Duration of the paper's fast ramp, s (θ_des = 10π t per joint, paper Fig. 10)."""
 
 
-def alternating_targets(n_joints: int, angle: float = float(np.pi)) -> Float[Array, " n"]:
-    """The accordion's fold targets `(angle, −angle, angle, …)`, rad, shape `(n_joints,)`."""
-    if n_joints < 1:
-        raise ValueError(f"n_joints must be at least 1, got {n_joints}.")
-    signs = np.where(np.arange(n_joints) % 2 == 0, 1.0, -1.0)
-    return jnp.asarray(angle * signs)
-
-
 class AbstractInput(eqx.Module):
-    """An open-loop joint-torque input `τ(t, θ, θ̇)`."""
+    """An open-loop hinge-torque input ``τ(t, θ, θ̇)`` that sees the folding system it drives.
+
+    Subclass it for your own law: the fields of a subclass are pytree leaves, so a new value (a new
+    gain, a new target) reuses the compiled simulation; a new Python function each time does not (see
+    `UserTorque`).
+    """
 
     @abc.abstractmethod
     def torque(
         self,
         t: Float[ArrayLike, ""],
-        theta: Float[Array, " n"],
-        theta_dot: Float[Array, " n"],
-        *,
-        chain,
-        stiffness: Float[Array, " n"],
-        drag: Float[Array, " n"],
-    ) -> Float[Array, " n"]:
-        """Joint torques at time `t` (torque units of the chain), shape `(n,)`."""
+        theta: Float[Array, " h"],
+        theta_dot: Float[Array, " h"],
+        system: FoldingSystem,
+    ) -> Float[Array, " h"]:
+        """Hinge torques at time `t` (torque units of the system), shape `(h,)`."""
 
-    @property
-    @abc.abstractmethod
-    def target(self) -> Float[Array, " n"] | None:
-        """Final angles the response settles to (rad), or `None` when unknown (metrics then use the
-        last sample)."""
+    def target(self, system: FoldingSystem) -> Float[Array, " h"] | None:
+        """Final angles the response is measured against (rad), or `None` for the last sample.
+        Default: the system's hinge targets."""
+        return system.hinges.target
 
-    @property
-    @abc.abstractmethod
-    def jump_times(self) -> Float[Array, " k"] | None:
+    def jump_times(self, system: FoldingSystem) -> Float[Array, " k"] | None:
         """Times where the input has a corner or a jump (time units), or `None`."""
+        del system
+        return None
 
 
 class Step(AbstractInput):
-    """The etch releases every hinge at once (paper Eq. 12): `τ = K θ_des` for `t ≥ 0`.
+    """The etch releases the hinges (paper Eq. 12): ``τ = K θ_des`` from each hinge's release on.
 
     **Fields:**
-    - `theta_des`: target angles, rad, shape `(n,)`; the accordion's are `(π, −π, π)`
-      ([`origami_jax.simulation.alternating_targets`][]).
+    - `theta_des`: target angles, rad, shape `(h,)`, or `None` (default) for the system's hinge
+      targets (`system.hinges.target`, e.g. the accordion's ``(θ_final, −θ_final, …)``).
+
+    Hinges with a release time (`Hinges.release_time`) feel ``K θ_des`` from that time on; the release
+    times are handed to the step-size controller as jumps.
     """
 
-    theta_des: Float[Array, " n"]
+    theta_des: Float[Array, " h"] | None = None
 
-    def __init__(self, theta_des: Float[ArrayLike, " n"]):
-        self.theta_des = jnp.asarray(theta_des, dtype=float)
+    def __init__(self, theta_des: Float[ArrayLike, " h"] | None = None):
+        self.theta_des = None if theta_des is None else jnp.asarray(theta_des, dtype=float)
 
     def __check_init__(self):
-        if self.theta_des.ndim != 1:
-            raise ValueError(f"Step.theta_des must have shape (n,), got {self.theta_des.shape}.")
+        if self.theta_des is not None and self.theta_des.ndim != 1:
+            raise ValueError(f"Step.theta_des must have shape (h,), got {self.theta_des.shape}.")
 
-    def torque(self, t, theta, theta_dot, *, chain, stiffness, drag):
-        del t, theta, theta_dot, chain, drag
-        return stiffness * self.theta_des
+    def target(self, system):
+        return system.hinges.target if self.theta_des is None else self.theta_des
 
-    @property
-    def target(self):
-        return self.theta_des
+    def torque(self, t, theta, theta_dot, system):
+        del theta, theta_dot
+        torque = system.hinges.stiffness * self.target(system)
+        if system.hinges.release_time is None:
+            return torque
+        return torque * system.hinges.released(t)
 
-    @property
-    def jump_times(self):
-        return None
+    def jump_times(self, system):
+        return system.hinges.release_time
 
 
 class EtchRamp(AbstractInput):
     """The etch front advances along each hinge at rate β (paper Eq. 13).
 
-    The hinge of joint `i` bends at constant curvature `1/ρ_i`, so its desired angle grows at
-    `β/ρ_i` until `θ_final_i`, reached at `T_i = ρ_i |θ_final_i| / β = l_i / β`. The open-loop torque is the
-    computed torque along the desired trajectory,
-    `τ = M(θ_des) θ̈_des + C(θ_des, θ̇_des) θ̇_des + K θ_des + B θ̇_des |θ̇_des|`,
-    with `θ̈_des = 0` between the corners (the impulses at `t = 0` and `t = T_i` are not applied: the
-    paper's law has none either). The corners `T_i` are handed to the step controller.
+    The hinge of joint ``i`` bends at constant curvature ``1/ρ_i``, so its desired angle grows at
+    ``β/ρ_i`` from its release until ``θ_final_i``, reached ``T_i = ρ_i |θ_final_i| / β = l_i / β``
+    later. The open-loop torque is the computed torque along the desired trajectory,
+    ``τ = M(θ_des) θ̈_des + C(θ_des, θ̇_des) θ̇_des + K θ_des + B θ̇_des |θ̇_des|`` (the drag term is the
+    system's drag model at the desired motion), with ``θ̈_des = 0`` between the corners (the
+    impulses at the corners are not applied: the paper's law has none either). The corners are handed
+    to the step controller. Needs a mechanism whose coordinates are its hinge angles (chains, trees).
 
     **Fields:**
     - `etch_rate`: β, length/time (MICRO: µm/µs; 1.5 µm/min = 2.5e-8 µm/µs), scalar.
-    - `radius`: ρ, bending radius of each hinge, length, shape `(n,)`.
-    - `theta_final`: signed final angles, rad, shape `(n,)`.
+    - `radius`: ρ per hinge (length), or `None` for the system's (`system.hinges.radius`).
+    - `theta_final`: signed final angles (rad), or `None` for the system's hinge targets.
     """
 
     etch_rate: Float[Array, ""]
-    radius: Float[Array, " n"]
-    theta_final: Float[Array, " n"]
+    radius: Float[Array, " h"] | None
+    theta_final: Float[Array, " h"] | None
 
     def __init__(
         self,
         etch_rate: Float[ArrayLike, ""],
-        radius: Float[ArrayLike, "..."],
-        theta_final: Float[ArrayLike, " n"],
+        radius: Float[ArrayLike, "..."] | None = None,
+        theta_final: Float[ArrayLike, " h"] | None = None,
     ):
-        self.theta_final = jnp.asarray(theta_final, dtype=float)
         self.etch_rate = jnp.asarray(etch_rate, dtype=float)
-        self.radius = jnp.broadcast_to(jnp.asarray(radius, dtype=float), self.theta_final.shape)
+        self.theta_final = None if theta_final is None else jnp.asarray(theta_final, dtype=float)
+        if radius is None:
+            self.radius = None
+        else:
+            radius = jnp.asarray(radius, dtype=float)
+            self.radius = (
+                radius if self.theta_final is None else jnp.broadcast_to(radius, self.theta_final.shape)
+            )
 
     def __check_init__(self):
-        if self.theta_final.ndim != 1:
+        if self.theta_final is not None and self.theta_final.ndim != 1:
             raise ValueError(
-                f"EtchRamp.theta_final must have shape (n,), got {self.theta_final.shape}."
+                f"EtchRamp.theta_final must have shape (h,), got {self.theta_final.shape}."
             )
         if self.etch_rate.ndim != 0:
             raise ValueError(f"EtchRamp.etch_rate must be a scalar, got {self.etch_rate.shape}.")
 
-    @property
-    def rate(self) -> Float[Array, " n"]:
-        """`β/ρ`, rad per time unit, shape `(n,)`."""
-        return self.etch_rate / self.radius
+    def _final(self, system) -> Float[Array, " h"]:
+        return system.hinges.target if self.theta_final is None else self.theta_final
 
-    @property
-    def durations(self) -> Float[Array, " n"]:
-        """`T_i = ρ_i |θ_final_i| / β`, time units, shape `(n,)`."""
-        return jnp.abs(self.theta_final) / self.rate
+    def rate(self, system) -> Float[Array, " h"]:
+        """``β/ρ``, rad per time unit, shape `(h,)`."""
+        radius = system.hinges.radius if self.radius is None else self.radius
+        return jnp.broadcast_to(self.etch_rate / radius, self._final(system).shape)
 
-    @property
-    def duration(self) -> Float[Array, ""]:
-        """The longest `T_i`, time units."""
-        return jnp.max(self.durations)
+    def durations(self, system) -> Float[Array, " h"]:
+        """``T_i = ρ_i |θ_final_i| / β``, time units, shape `(h,)`: each hinge's ramp, from its release."""
+        return jnp.abs(self._final(system)) / self.rate(system)
 
-    def desired(self, t: Float[ArrayLike, ""]) -> tuple[Float[Array, " n"], Float[Array, " n"]]:
-        """Desired angles (rad) and rates (rad/time) at time `t`, each shape `(n,)`."""
-        t = jnp.maximum(jnp.asarray(t, dtype=float), 0.0)
-        sign = jnp.sign(self.theta_final)
-        theta_des = sign * jnp.minimum(self.rate * t, jnp.abs(self.theta_final))
-        theta_dot_des = jnp.where(t < self.durations, sign * self.rate, 0.0)
+    def duration(self, system) -> Float[Array, ""]:
+        """When the last hinge reaches its final angle (time units), release times included."""
+        end = self.durations(system)
+        if system.hinges.release_time is not None:
+            end = end + system.hinges.release_time
+        return jnp.max(end)
+
+    def desired(
+        self, t: Float[ArrayLike, ""], system
+    ) -> tuple[Float[Array, " h"], Float[Array, " h"]]:
+        """Desired angles (rad) and rates (rad/time) at time `t`, each shape `(h,)`."""
+        t = jnp.asarray(t, dtype=float)
+        if system.hinges.release_time is not None:
+            t = t - system.hinges.release_time
+            started = t >= 0
+        else:
+            started = True
+        t = jnp.maximum(t, 0.0)
+        final = self._final(system)
+        sign = jnp.sign(final)
+        rate = self.rate(system)
+        theta_des = sign * jnp.minimum(rate * t, jnp.abs(final))
+        theta_dot_des = jnp.where(started & (t < self.durations(system)), sign * rate, 0.0)
         return theta_des, theta_dot_des
 
-    def torque(self, t, theta, theta_dot, *, chain, stiffness, drag):
+    def torque(self, t, theta, theta_dot, system):
         del theta, theta_dot
-        theta_des, theta_dot_des = self.desired(t)
-        return bias_torque(chain, theta_des, theta_dot_des) + hinge_torque(
-            stiffness, drag, theta_des, theta_dot_des
+        theta_des, theta_dot_des = self.desired(t, system)
+        mechanism = system.mechanism
+        return (
+            mechanism.bias_force(theta_des, theta_dot_des)
+            + system.hinges.stiffness * theta_des
+            - system.drag.force(mechanism, theta_des, theta_dot_des)
         )
 
-    @property
-    def target(self):
-        return self.theta_final
+    def target(self, system):
+        return self._final(system)
 
-    @property
-    def jump_times(self):
-        return self.durations
+    def jump_times(self, system):
+        corners = self.durations(system)
+        if system.hinges.release_time is not None:
+            return jnp.concatenate([system.hinges.release_time, corners + system.hinges.release_time])
+        return corners
 
 
-def fast_ramp(theta_final: Float[ArrayLike, " n"], *, duration: float) -> EtchRamp:
-    """The paper's fast ramp (Fig. 10): `θ_des = sign(θ_final) (π/duration) t` until `θ_final`.
+def fast_ramp(theta_final: Float[ArrayLike, " h"], *, duration: float) -> EtchRamp:
+    """The paper's fast ramp (Fig. 10): ``θ_des = sign(θ_final) (π/duration) t`` until ``θ_final``.
 
-    The paper uses `duration = 0.1 s` (`θ_des = 10π t`); pass it in the chain's time units
-    (`MICRO.time(0.1)` = 1e5 µs). β and ρ enter only through their ratio: this sets `ρ = 1` length unit and
-    `β = max|θ_final| / duration`.
+    The paper uses `duration = 0.1 s` (``θ_des = 10π t``); pass it in the system's time units
+    (`MICRO.time(0.1)` = 1e5 µs). β and ρ enter only through their ratio: this sets ``ρ = 1`` length
+    unit and ``β = max|θ_final| / duration``.
     """
     theta_final = jnp.asarray(theta_final, dtype=float)
-    if duration <= 0:
+    if not duration > 0:
         raise ValueError(f"fast_ramp: duration must be positive, got {duration}.")
     return EtchRamp(jnp.max(jnp.abs(theta_final)) / duration, 1.0, theta_final)
 
 
 class UserTorque(AbstractInput):
-    """Any user torque law `τ = fn(t, θ, θ̇)`, torque units of the chain, shape `(n,)`.
+    """Any user torque law ``τ = fn(t, θ, θ̇)``, torque units of the system, shape `(h,)`.
 
     **Fields:**
-    - `fn`: the law; it must be a JAX-traceable function of `(t, theta, theta_dot)`.
-    - `theta_target`: angles the response is measured against (rad, `(n,)`), or `None` for the last sample.
+    - `fn`: the law; a JAX-traceable function of `(t, theta, theta_dot)`. A new function object
+      compiles a new simulation; to change only numbers, subclass `AbstractInput` with the numbers
+      as fields (or pass an `equinox.Module` as `fn`, whose array fields are then leaves).
+    - `theta_target`: angles the response is measured against (rad, `(h,)`), or `None` for the last
+      sample.
     - `jumps`: times of corners or jumps in `fn`, or `None`.
     """
 
     fn: Callable
-    theta_target: Float[Array, " n"] | None = None
+    theta_target: Float[Array, " h"] | None = None
     jumps: Float[Array, " k"] | None = None
 
-    def torque(self, t, theta, theta_dot, *, chain, stiffness, drag):
-        del chain, stiffness, drag
+    def torque(self, t, theta, theta_dot, system):
+        del system
         return jnp.asarray(self.fn(t, theta, theta_dot))
 
-    @property
-    def target(self):
+    def target(self, system):
+        del system
         return self.theta_target
 
-    @property
-    def jump_times(self):
+    def jump_times(self, system):
+        del system
         return self.jumps

@@ -10,8 +10,8 @@ theorem (`θ̇ = 0` at the peak) and so need no correction.
 
 The response is normalised per joint, `y = θ / θ_target`, so a fold to −π rises from 0 to 1 as well.
 
-Two situations make a metric jump with the parameters; they are flagged, not hidden (SPEC "Results to
-reproduce"):
+Two situations make a metric jump with the parameters; they are flagged, not hidden (docs/physics.md,
+"Response metrics"):
 - **Rise time, grazing peak.** The first crossing of the 90 % (or 10 %) level jumps by a whole oscillation
   when a local peak grazes the level. Flagged when a local maximum up to the first one past the crossing
   lies within `graze_tol` of a level and is followed by a dip deeper than `graze_tol` (small ringing

@@ -1,7 +1,9 @@
-"""Integrate the chain's equations of motion under an open-loop input: `simulate` and `Trajectory`.
+"""Integrate a folding system's equations of motion under an open-loop input: `simulate`, `Trajectory`.
 
-The stages read top to bottom: input torque → forward dynamics → diffrax solve → samples and result code.
-The state is the pytree `(θ, θ̇)`; units are the chain's (default `MICRO`: µm, µs, ng).
+The stages read top to bottom: input torque → generalized force (hinge springs, drag, contact) →
+forward dynamics → diffrax solve → samples and result code. The state is the pytree ``(q, v)`` of the
+system's mechanism (hinge angles and rates for chains and trees); units are the system's (default
+`MICRO`: µm, µs, ng).
 """
 
 from typing import cast
@@ -12,8 +14,7 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
-from ..chain import forward_dynamics
-from ..chain._chain import check_still_planar
+from ..system import FoldingSystem
 from ._inputs import AbstractInput
 from ._results import RESULTS
 from ._switching import StiffnessSwitching
@@ -48,7 +49,7 @@ def default_controller(
       than the PID below (678 against 753 over 2 ms at a 20 µm hinge, 1704 against 1826 at 200 µm):
       more rejected steps, fewer in all.
     - Everything else, the switching default included: `PIDController(pcoeff=0.3, icoeff=0.3)`,
-      measured 2.6× faster than the integral controller for Kvaerno5 on the accordion step (issue #4).
+      measured 2.6× faster than the integral controller for Kvaerno5 on the accordion step.
     """
     if isinstance(solver, diffrax.AbstractERK):
         return diffrax.PIDController(rtol=rtol, atol=atol)
@@ -56,11 +57,11 @@ def default_controller(
 
 
 class Trajectory(eqx.Module):
-    """A simulated folding: samples of the state, the input torque, solver statistics, the result code.
+    """A simulated folding: samples of the hinges, the input torque, solver statistics, the result code.
 
     **Fields:**
     - `times`: sample times, time units, shape `(t,)`.
-    - `theta`: joint angles, rad, shape `(t, n)`.
+    - `theta`: hinge angles, rad, shape `(t, n)`.
     - `theta_dot`: joint rates, rad/time, shape `(t, n)`.
     - `theta_ddot`: joint accelerations from the equations of motion, rad/time², shape `(t, n)`.
     - `tau`: the input torque, torque units, shape `(t, n)`.
@@ -71,6 +72,8 @@ class Trajectory(eqx.Module):
       solver turned implicit (`inf` if it never did).
     - `result`: a [`origami_jax.simulation.RESULTS`][] code; samples after a failure are `inf`.
     - `solution`: the diffrax solution with dense output when `simulate(..., dense=True)`, else `None`.
+    - `state`: the mechanism's samples ``(q, v)`` when its coordinates are not its hinge angles (else
+      `None`: they are `theta` and `theta_dot`).
     """
 
     times: Float[Array, " t"]
@@ -82,6 +85,7 @@ class Trajectory(eqx.Module):
     stats: dict[str, Array]
     result: RESULTS
     solution: diffrax.Solution | None = None
+    state: tuple[Array, Array] | None = None
 
     @property
     def n_joints(self) -> int:
@@ -107,112 +111,119 @@ class Trajectory(eqx.Module):
 def _make_vector_field(forward_mode_only: bool):
     @eqx.filter_jit
     def vector_field(t, y, args):
-        chain, inputs, stiffness, drag = args
-        theta, theta_dot = y
-        tau = inputs.torque(t, theta, theta_dot, chain=chain, stiffness=stiffness, drag=drag)
-        theta_ddot = forward_dynamics(
-            chain,
-            theta,
-            theta_dot,
-            tau,
-            stiffness=stiffness,
-            drag=drag,
-            forward_mode_only=forward_mode_only,
-        )
-        return theta_dot, theta_ddot
+        system, inputs = args
+        q, v = y
+        mechanism = system.mechanism
+        theta, theta_dot = mechanism.hinge_angles(q), mechanism.hinge_rates(q, v)
+        tau = inputs.torque(t, theta, theta_dot, system)
+        return v, system.accelerations(q, v, tau, forward_mode_only=forward_mode_only)
 
     return vector_field
 
 
 _vector_field = _make_vector_field(False)
-# Under `diffrax.ForwardMode` only forward-mode derivatives are taken, so the dynamics use their
-# faster complex-step JVP (`forward_dynamics(..., forward_mode_only=True)`): a forward-mode solve of
-# the accordion with 2 tangents took 9–10 ms instead of 22 ms.
+# Under `diffrax.ForwardMode` only forward-mode derivatives are taken, so the dynamics may use a faster
+# forward-only rule (the chain's complex-step JVP): a forward-mode solve of the accordion with 2
+# tangents took 9–10 ms instead of 22 ms.
 _vector_field_forward_mode = _make_vector_field(True)
 
 
-def _solve(
-    chain,
-    inputs,
-    stiffness,
-    drag,
-    t0,
-    t1,
-    theta0,
-    theta_dot0,
-    ts,
-    solver,
-    controller,
-    dt0,
-    max_steps,
-    dense,
-    throw,
-    progress_meter,
-    adjoint,
-    land_on_samples,
-):
-    args = (chain, inputs, stiffness, drag)
-    if isinstance(solver, StiffnessSwitching) and isinstance(adjoint, diffrax.ForwardMode):
+class _Integration(eqx.Module):
+    """How `simulate` integrates: everything but the system, the input and the time span."""
+
+    solver: diffrax.AbstractSolver
+    controller: diffrax.AbstractStepSizeController
+    dt0: Array | None
+    progress_meter: diffrax.AbstractProgressMeter
+    adjoint: diffrax.AbstractAdjoint
+    max_steps: int = eqx.field(static=True)
+    dense: bool = eqx.field(static=True)
+    throw: bool = eqx.field(static=True)
+    land_on_samples: bool = eqx.field(static=True)
+
+
+def _samples(system: FoldingSystem, inputs: AbstractInput, times, q, v):
+    """Hinge angles, rates and accelerations and the input torque at the samples; rows past a failure
+    are inf (and their NaN gradients kept out)."""
+    ok = jnp.all(jnp.isfinite(q), axis=-1, keepdims=True) & jnp.all(
+        jnp.isfinite(v), axis=-1, keepdims=True
+    )
+    q_safe = jnp.where(ok, q, 0.0)
+    v_safe = jnp.where(ok, v, 0.0)
+    mechanism = system.mechanism
+    if mechanism.coordinates_are_hinge_angles:
+        theta, theta_dot = q, v
+        theta_safe, theta_dot_safe = q_safe, v_safe
+    else:
+        theta_safe = jax.vmap(mechanism.hinge_angles)(q_safe)
+        theta_dot_safe = jax.vmap(mechanism.hinge_rates)(q_safe, v_safe)
+        theta = jnp.where(ok, theta_safe, jnp.inf)
+        theta_dot = jnp.where(ok, theta_dot_safe, jnp.inf)
+    tau = jax.vmap(lambda t, th, thd: inputs.torque(t, th, thd, system))(
+        times, theta_safe, theta_dot_safe
+    )
+    force = jax.vmap(system.generalized_force)(q_safe, v_safe, tau)
+    # All samples in one call: a mechanism's rows path (the chain's runs on scalars with its custom
+    # JVP outside the vmap over samples; its array path was ~7x slower per sample, a third of a
+    # vmapped sweep's time).
+    acceleration = mechanism.forward_dynamics(q_safe, v_safe, force)
+    if mechanism.coordinates_are_hinge_angles:
+        theta_ddot = acceleration
+    else:
+        # θ̈ = d/dt θ̇(q, v) along (q̇, v̇) = (v, v̇).
+        theta_ddot = jax.vmap(
+            lambda q, v, a: jax.jvp(mechanism.hinge_rates, (q, v), (v, a))[1]
+        )(q_safe, v_safe, acceleration)
+    return theta, theta_dot, jnp.where(ok, theta_ddot, jnp.inf), jnp.where(ok, tau, jnp.inf)
+
+
+def _solve(system: FoldingSystem, inputs: AbstractInput, span, y0, ts, how: _Integration):
+    t0, t1 = span
+    solver, controller = how.solver, how.controller
+    if isinstance(solver, StiffnessSwitching) and isinstance(how.adjoint, diffrax.ForwardMode):
         solver = solver.with_scan_kind("lax")  # what diffrax does for its own Runge–Kutta solvers
-    jumps = inputs.jump_times
+    jumps = inputs.jump_times(system)
     jump_ts = None if jumps is None else jnp.atleast_1d(jumps)
-    step_ts = ts if land_on_samples else None
+    step_ts = ts if how.land_on_samples else None
     if jump_ts is not None or step_ts is not None:
         controller = diffrax.ClipStepSizeController(controller, step_ts=step_ts, jump_ts=jump_ts)
-    forward_mode_only = isinstance(adjoint, diffrax.ForwardMode)
+    forward_mode_only = isinstance(how.adjoint, diffrax.ForwardMode)
     vector_field = _vector_field_forward_mode if forward_mode_only else _vector_field
+    switching = isinstance(solver, StiffnessSwitching)
     solution = diffrax.diffeqsolve(
         diffrax.ODETerm(vector_field),
         solver,
         t0,
         t1,
-        dt0,
-        (theta0, theta_dot0),
-        args,
-        saveat=diffrax.SaveAt(
-            ts=ts, dense=dense, solver_state=isinstance(solver, StiffnessSwitching)
-        ),
+        how.dt0,
+        y0,
+        (system, inputs),
+        saveat=diffrax.SaveAt(ts=ts, dense=how.dense, solver_state=switching),
         stepsize_controller=controller,
-        adjoint=adjoint,
-        max_steps=max_steps,
-        throw=throw,
-        progress_meter=progress_meter,
+        adjoint=how.adjoint,
+        max_steps=how.max_steps,
+        throw=how.throw,
+        progress_meter=how.progress_meter,
     )
-    theta, theta_dot = cast(tuple[Array, Array], solution.ys)  # SaveAt(ts=...) always saves ys
+    q, v = cast(tuple[Array, Array], solution.ys)  # SaveAt(ts=...) always saves ys
     result = RESULTS.promote(solution.result)
-    finite = jnp.all(jnp.isfinite(theta)) & jnp.all(jnp.isfinite(theta_dot))
+    finite = jnp.all(jnp.isfinite(q)) & jnp.all(jnp.isfinite(v))
     result = RESULTS.where(
         (result == RESULTS.successful) & ~finite, RESULTS.nonfinite_state, result
     )
-    if throw:
-        theta = result.error_if(theta, result != RESULTS.successful)
-
-    # Samples past a failure are inf; keep them out of the dynamics (their NaN gradients too).
-    finite_theta = jnp.all(jnp.isfinite(theta), axis=-1, keepdims=True)
-    ok = finite_theta & jnp.all(jnp.isfinite(theta_dot), axis=-1, keepdims=True)
-    theta_safe = jnp.where(ok, theta, 0.0)
-    theta_dot_safe = jnp.where(ok, theta_dot, 0.0)
-
-    tau = jax.vmap(
-        lambda t, th, thd: inputs.torque(t, th, thd, chain=chain, stiffness=stiffness, drag=drag)
-    )(solution.ts, theta_safe, theta_dot_safe)
-    # All samples in one call (the fast scalar path with its custom JVP outside the vmap over
-    # samples; see `forward_dynamics`). The array path used here before was ~7x slower per sample,
-    # a third of a vmapped sweep's time.
-    theta_ddot = forward_dynamics(
-        chain, theta_safe, theta_dot_safe, tau, stiffness=stiffness, drag=drag
-    )
-    theta_ddot = jnp.where(ok, theta_ddot, jnp.inf)
-    tau = jnp.where(ok, tau, jnp.inf)
-    target = inputs.target
+    if how.throw:
+        q = result.error_if(q, result != RESULTS.successful)
+    times = cast(Array, solution.ts)
+    theta, theta_dot, theta_ddot, tau = _samples(system, inputs, times, q, v)
+    target = inputs.target(system)
     target = theta[-1] if target is None else jnp.asarray(target, dtype=theta.dtype)
-    stats = {k: jnp.asarray(v) for k, v in solution.stats.items()}
-    if isinstance(solver, StiffnessSwitching):
+    stats = {k: jnp.asarray(val) for k, val in solution.stats.items()}
+    if switching:
         # Time at which the solver turned implicit (inf: it never did); see `StiffnessSwitching`.
         _, switch = cast(tuple, solution.solver_state)  # saved: SaveAt(solver_state=True) above
         stats["switch_time"] = switch.switch_time
     return Trajectory(
-        times=cast(Array, solution.ts),
+        times=times,
         theta=theta,
         theta_dot=theta_dot,
         theta_ddot=theta_ddot,
@@ -220,7 +231,8 @@ def _solve(
         target=target,
         stats=stats,
         result=result,
-        solution=solution if dense else None,
+        solution=solution if how.dense else None,
+        state=None if system.mechanism.coordinates_are_hinge_angles else (q, v),
     )
 
 
@@ -228,11 +240,9 @@ _solve_jit = eqx.filter_jit(_solve)
 
 
 def simulate(
-    chain,
+    system: FoldingSystem,
     inputs: AbstractInput,
     *,
-    stiffness: Float[ArrayLike, "..."],
-    drag: Float[ArrayLike, "..."],
     t1: Float[ArrayLike, ""],
     t0: Float[ArrayLike, ""] = 0.0,
     theta0: Float[ArrayLike, " n"] | None = None,
@@ -251,29 +261,31 @@ def simulate(
     adjoint: diffrax.AbstractAdjoint | None = None,
     land_on_samples: bool = False,
 ) -> Trajectory:
-    """Simulate the folding of `chain` under `inputs`: `M θ̈ + C θ̇ + K θ + B θ̇|θ̇| = τ(t, θ, θ̇)`.
+    """Simulate the folding of `system` under `inputs`:
+    ``M v̇ + C v + G = J_hᵀ (τ(t, θ, θ̇) − K θ) + f_drag + f_contact``.
 
-    Works under `jax.jit`, `jax.vmap` (batch the chain, the hinge parameters or the input) and `jax.grad`
-    (reverse mode through diffrax's checkpointed adjoint). The compiled solve is cached per structure
-    (`n`, `n_save`, solver, `dense`, `throw`, `max_steps`), not per value: times and parameters are traced.
+    Works under `jax.jit`, `jax.vmap` (batch the system or the input) and `jax.grad` (reverse mode
+    through diffrax's checkpointed adjoint). The compiled solve is cached per structure (mechanism
+    size, `n_save`, solver, `dense`, `throw`, `max_steps`), not per value: times, tolerances and every
+    physical number are traced.
 
     **Arguments:**
-    - `chain`: a [`origami_jax.chain.Chain`][]; its unit system fixes every other unit below.
-    - `inputs`: a [`origami_jax.simulation.Step`][], [`origami_jax.simulation.EtchRamp`][] or
-      [`origami_jax.simulation.UserTorque`][].
-    - `stiffness`, `drag`: per-joint `k` (torque/rad) and quadratic drag `b` (torque·time²/rad²), shape
-      `(n,)` or scalar (e.g. from [`origami_jax.chain.HingeDesign`][]).
+    - `system`: a [`origami_jax.system.FoldingSystem`][] (e.g. from
+      [`origami_jax.chain.accordion_system`][]); its units fix every other unit below.
+    - `inputs`: a [`origami_jax.simulation.Step`][], [`origami_jax.simulation.EtchRamp`][],
+      [`origami_jax.simulation.UserTorque`][] or your own `AbstractInput`.
     - `t1`, `t0`: time span, time units (MICRO: µs).
-    - `theta0`, `theta_dot0`: initial state (rad, rad/time), default flat and at rest.
+    - `theta0`, `theta_dot0`: initial coordinates and velocities (hinge angles in rad and rates in
+      rad/time for chains and trees), default the mechanism's flat rest state.
     - `ts`: sample times (within `[t0, t1]`), or `n_save` evenly spaced samples including both ends.
       Metrics refine crossings between samples with cubic Hermite interpolation of `(θ, θ̇)`, so keep
       several samples per oscillation period.
-    - `solver`: any diffrax ODE solver; default [`origami_jax.simulation.default_solver`][] (Tsit5 switching to
-      Kvaerno5 when the problem turns stiff).
-      Explicit solvers (`diffrax.Tsit5()`) are faster on the non-stiff fast ramp in air but can give wrong
-      gradients in stiff regimes at loose tolerances.
-    - `rtol`, `atol`: step-size controller tolerances (default 1e-7 and 1e-9; see `DEFAULT_ATOL`). Metrics
-      of the accordion step agree with rtol 1e-9 to about 1e-6 relative.
+    - `solver`: any diffrax ODE solver; default [`origami_jax.simulation.default_solver`][] (Tsit5
+      switching to Kvaerno5 when the problem turns stiff). Explicit solvers (`diffrax.Tsit5()`) are
+      faster on the non-stiff fast ramp in air but can give wrong gradients in stiff regimes at loose
+      tolerances.
+    - `rtol`, `atol`: step-size controller tolerances (default 1e-7 and 1e-9; see `DEFAULT_ATOL`).
+      Metrics of the accordion step agree with rtol 1e-9 to about 1e-6 relative.
     - `stepsize_controller`: overrides [`origami_jax.simulation.default_controller`][] (an integral
       controller for explicit Runge–Kutta solvers, a PID controller otherwise). Input corners are added
       as `jump_ts` in either case.
@@ -284,9 +296,9 @@ def simulate(
     - `progress_meter`: e.g. `diffrax.TqdmProgressMeter()` for long runs.
     - `adjoint`: diffrax adjoint (default `RecursiveCheckpointAdjoint`; `diffrax.ForwardMode()` for
       `jax.jvp`/`jax.jacfwd`).
-    - `land_on_samples`: make every sample time a step end (`step_ts`). Needed when steps are far longer
-      than the dynamics (the slow etch ramp): interpolating inside a step of hours with end rates that carry
-      unresolved µs ringing would be wrong by up to `h·|Δθ̇|/4`; see
+    - `land_on_samples`: make every sample time a step end (`step_ts`). Needed when steps are far
+      longer than the dynamics (the slow etch ramp): interpolating inside a step of hours with end
+      rates that carry unresolved µs ringing would be wrong by up to `h·|Δθ̇|/4`; see
       [`origami_jax.simulation.simulate_slow_ramp`][].
 
     **Returns:** a [`origami_jax.simulation.Trajectory`][].
@@ -294,54 +306,51 @@ def simulate(
     **Raises:** `ValueError` for inconsistent shapes; with `throw=True`, a runtime error carrying the
     result message when the solve fails (steps exhausted, step size collapsed, non-finite state).
     """
+    if not isinstance(system, FoldingSystem):
+        raise ValueError(
+            f"system must be a FoldingSystem (e.g. origami_jax.chain.accordion_system(design)), "
+            f"got {type(system).__name__}."
+        )
     if not isinstance(inputs, AbstractInput):
         raise ValueError(
             f"inputs must be a Step, EtchRamp, UserTorque (an AbstractInput), got {type(inputs)}."
         )
-    check_still_planar(chain)
-    n = int(chain.n_joints)
-    target = inputs.target
+    mechanism = system.mechanism
+    target = inputs.target(system)
+    n = system.n_hinges
     if target is not None and jnp.shape(target) != (n,):
         raise ValueError(
-            f"the input is for {jnp.shape(target)} joints but the chain has {n} joints."
+            f"the input is for {jnp.shape(target)} hinges but the system has {n} hinges."
         )
     if n_save < 2 and ts is None:
         raise ValueError(f"n_save must be at least 2, got {n_save}.")
-    stiffness = jnp.broadcast_to(jnp.asarray(stiffness, dtype=float), (n,))
-    drag = jnp.broadcast_to(jnp.asarray(drag, dtype=float), (n,))
     t0 = jnp.asarray(t0, dtype=float)
     t1 = jnp.asarray(t1, dtype=float)
-    theta0 = jnp.zeros(n) if theta0 is None else jnp.asarray(theta0, dtype=float)
-    theta_dot0 = jnp.zeros(n) if theta_dot0 is None else jnp.asarray(theta_dot0, dtype=float)
-    if theta0.shape != (n,) or theta_dot0.shape != (n,):
-        raise ValueError(f"theta0 and theta_dot0 must have shape ({n},).")
+    q_rest, v_rest = mechanism.rest_state()
+    q0 = q_rest if theta0 is None else jnp.asarray(theta0, dtype=float)
+    v0 = v_rest if theta_dot0 is None else jnp.asarray(theta_dot0, dtype=float)
+    if q0.shape != q_rest.shape or v0.shape != v_rest.shape:
+        raise ValueError(
+            f"theta0 and theta_dot0 must have shapes {q_rest.shape} and {v_rest.shape}."
+        )
     ts = jnp.linspace(t0, t1, n_save) if ts is None else jnp.asarray(ts, dtype=float)
     if ts.ndim != 1:
         raise ValueError(f"ts must be one-dimensional, got shape {ts.shape}.")
     solver = default_solver() if solver is None else solver
     if stepsize_controller is None:
-        stepsize_controller = default_controller(rtol, atol, solver)
-    if dt0 is not None:
-        dt0 = jnp.asarray(dt0, dtype=float)
-    progress_meter = diffrax.NoProgressMeter() if progress_meter is None else progress_meter
-    adjoint = diffrax.RecursiveCheckpointAdjoint() if adjoint is None else adjoint
-    return _solve_jit(
-        chain,
-        inputs,
-        stiffness,
-        drag,
-        t0,
-        t1,
-        theta0,
-        theta_dot0,
-        ts,
-        solver,
-        stepsize_controller,
-        dt0,
-        max_steps,
-        dense,
-        throw,
-        progress_meter,
-        adjoint,
-        land_on_samples,
+        # Tolerances as arrays, so a new value does not compile a new solve.
+        stepsize_controller = default_controller(
+            jnp.asarray(rtol, dtype=float), jnp.asarray(atol, dtype=float), solver
+        )
+    how = _Integration(
+        solver=solver,
+        controller=stepsize_controller,
+        dt0=None if dt0 is None else jnp.asarray(dt0, dtype=float),
+        progress_meter=diffrax.NoProgressMeter() if progress_meter is None else progress_meter,
+        adjoint=diffrax.RecursiveCheckpointAdjoint() if adjoint is None else adjoint,
+        max_steps=max_steps,
+        dense=dense,
+        throw=throw,
+        land_on_samples=land_on_samples,
     )
+    return _solve_jit(system, inputs, (t0, t1), (q0, v0), ts, how)

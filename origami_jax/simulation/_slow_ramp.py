@@ -25,7 +25,7 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
-from ..chain import mass_matrix
+from ..system import FoldingSystem
 from ._inputs import EtchRamp
 from ._simulate import Trajectory, simulate
 from ._switching import implicit_solver
@@ -49,17 +49,15 @@ class SlowRampResult(eqx.Module):
     period: Float[Array, ""]
 
 
-def _departure(ramp: EtchRamp, trajectory: Trajectory) -> Array:
-    theta_des = jax.vmap(lambda t: ramp.desired(t)[0])(trajectory.times)
+def _departure(system: FoldingSystem, ramp: EtchRamp, trajectory: Trajectory) -> Array:
+    theta_des = jax.vmap(lambda t: ramp.desired(t, system)[0])(trajectory.times)
     return jnp.max(jnp.abs(trajectory.theta - theta_des), axis=0)
 
 
 def simulate_slow_ramp(
-    chain,
+    system: FoldingSystem,
     ramp: EtchRamp,
     *,
-    stiffness,
-    drag,
     n_save: int = 1001,
     tail: float = 0.2,
     window: float | None = None,
@@ -72,7 +70,8 @@ def simulate_slow_ramp(
     """Simulate an etch ramp of hours with the full model and check it against a resolved window.
 
     **Arguments:**
-    - `chain`, `ramp`, `stiffness`, `drag`: as for [`origami_jax.simulation.simulate`][].
+    - `system`, `ramp`: as for [`origami_jax.simulation.simulate`][] (a mechanism whose coordinates
+      are its hinge angles).
     - `n_save`: samples over `[0, (1 + tail) T]`; each is a step end.
     - `tail`: run on after the ramp ends, as a fraction of `T`.
     - `window`: length of the resolved check at the start, time units (default 30 periods).
@@ -80,16 +79,13 @@ def simulate_slow_ramp(
 
     **Returns:** a [`origami_jax.simulation.SlowRampResult`][].
     """
-    n = chain.n_joints
-    stiffness = jnp.broadcast_to(jnp.asarray(stiffness, dtype=float), (n,))
-    inertia = jnp.diag(mass_matrix(chain, jnp.zeros(n)))
-    period = jnp.max(2 * jnp.pi * jnp.sqrt(inertia / stiffness))
-    t1 = (1.0 + tail) * ramp.duration
+    q_rest, _ = system.mechanism.rest_state()
+    inertia = jnp.diag(system.mechanism.mass_matrix(q_rest))
+    period = jnp.max(2 * jnp.pi * jnp.sqrt(inertia / system.hinges.stiffness))
+    t1 = (1.0 + tail) * ramp.duration(system)
     trajectory = simulate(
-        chain,
+        system,
         ramp,
-        stiffness=stiffness,
-        drag=drag,
         t1=t1,
         n_save=n_save,
         solver=implicit_solver(),  # hour-long steps need L-stability from the first step
@@ -106,10 +102,8 @@ def simulate_slow_ramp(
         else jnp.asarray(window, dtype=float)
     )
     resolved = simulate(
-        chain,
+        system,
         ramp,
-        stiffness=stiffness,
-        drag=drag,
         t1=window,  # pyright: ignore[reportArgumentType]
         n_save=3001,
         rtol=window_rtol,
@@ -119,7 +113,7 @@ def simulate_slow_ramp(
     return SlowRampResult(
         trajectory=trajectory,
         window=resolved,
-        quasi_static_error=_departure(ramp, resolved),
-        large_step_error=_departure(ramp, trajectory),
+        quasi_static_error=_departure(system, ramp, resolved),
+        large_step_error=_departure(system, ramp, trajectory),
         period=period,
     )

@@ -4,7 +4,7 @@ Why: a folding chain in air is not stiff at the accuracy users ask for (the 3-fl
 ~740 steps with Tsit5 and with Kvaerno5 alike at rtol 1e-8), and there an implicit step costs ~10× an
 explicit one (a Jacobian and chord iterations on a 6×6 system). In a viscous etchant or with very stiff
 hinges the explicit solver's step is bounded by stability, not accuracy, and its gradients can have the
-wrong sign at loose tolerance (issue #4). This solver takes explicit steps while they are cheap and
+wrong sign at loose tolerance. This solver takes explicit steps while they are cheap and
 safe, and switches for good to the L-stable implicit solver once the stiffness test has fired.
 
 Stiffness test (Hairer & Wanner, *Solving ODEs II*, §IV.2, as in DOPRI5): Tsit5's stages 6 and 7 are

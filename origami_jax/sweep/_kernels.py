@@ -17,7 +17,6 @@ Each adapter imports its physics lazily (inside the builder), so `import origami
 
 import dataclasses
 import importlib
-import math
 from collections.abc import Callable, Mapping
 from typing import Any
 
@@ -66,11 +65,12 @@ def accordion_step(
     drag_model: str = "paper",
     solver: str = "kvaerno5",
 ) -> Kernel:
-    """Sweep kernel: step response metrics of the accordion (SPEC Part B, paper Fig. 7).
+    """Sweep kernel: step response metrics of the accordion (paper Fig. 7).
 
     Parameters not swept take `HingeDesign.literature()` values (200 nm SiNx, 100 nm Cr at 1 GPa,
     200 µm square flaps, hinge as wide as the flap, `C_D = 1.17`, `θ_final = π`); lengths are in µm.
-    The step targets are `(θ_final, −θ_final, θ_final, ...)`. Swept parameters: see
+    The system is `origami_jax.chain.accordion_system(design, n_flaps)`, stepped to its hinge targets
+    `(θ_final, −θ_final, θ_final, ...)`. Swept parameters: see
     `ACCORDION_PARAMETERS`; `fluid` is `"air"` or `"koh"` (30 wt% KOH solution); `n_flaps` is static.
 
     **Arguments (settings, fixed for the whole sweep and checked on resume):**
@@ -79,8 +79,8 @@ def accordion_step(
     - `rtol`, `atol`, `max_steps`, `stiffness_model`, `drag_model`: passed to `simulate` /
       `HingeDesign` (`None` tolerances: the simulation's defaults).
     - `solver`: `"kvaerno5"` (implicit, safe for stiff hinges: `simulation.implicit_solver()`) or
-      `"tsit5"` (explicit; much cheaper per step on non-stiff designs, e.g. in air, but see SPEC
-      "Numerics" on gradients at loose tolerances).
+      `"tsit5"` (explicit; much cheaper per step on non-stiff designs, e.g. in air, but see docs/physics.md,
+      "Numerics", on gradients at loose tolerances).
 
     **Outputs** per design: per joint (dim `joint`) `rise_time`, `t10`, `t90`, `overshoot` (%),
     `peak_time`, `settling_time` (µs), `final_error` (rad), flags `rise_ill_conditioned`,
@@ -90,17 +90,17 @@ def accordion_step(
     import diffrax
     import jax.numpy as jnp
 
-    from ..chain import AIR, KOH_SOLUTION, MICRO, Fluid, HingeDesign, mass_matrix
+    from ..chain import accordion_system
     from ..simulation import (
         DEFAULT_ATOL,
         DEFAULT_RTOL,
         RESULTS,
         Step,
-        alternating_targets,
         implicit_solver,
         response_metrics,
         simulate,
     )
+    from ..system import AIR, KOH_SOLUTION, MICRO, Fluid, HingeDesign
 
     # Not the simulation's default (`StiffnessSwitching`): under `vmap` its switch would run both the
     # explicit and the implicit step for every member; a sweep picks one.
@@ -142,22 +142,19 @@ def accordion_step(
         # Steps of an adaptive solve scale with the fastest natural frequency times the run length:
         # ω_max² = λ_max(M(0)⁻¹ K), from the symmetric K^½ M⁻¹ K^½ (eigvalsh runs on every backend).
         design, n, invalid, _ = design_of(params)
-        chain = design.accordion(n)
-        root_k = jnp.sqrt(design.stiffness(n))
-        m_inverse = jnp.linalg.inv(mass_matrix(chain, jnp.zeros(n)))
+        system = accordion_system(design, n)
+        root_k = jnp.sqrt(system.hinges.stiffness)
+        m_inverse = jnp.linalg.inv(system.mechanism.mass_matrix(jnp.zeros(n)))
         omega_max = jnp.sqrt(jnp.max(jnp.linalg.eigvalsh(root_k[:, None] * m_inverse * root_k)))
         return jnp.where(invalid, jnp.inf, omega_max * t_end)
 
     def fn(params: Mapping[str, Any]) -> dict[str, Any]:
-        design, n, invalid, safe = design_of(params)
-        chain = design.accordion(n)
-        stiffness, drag = design.stiffness(n), design.drag(n)
-        targets = alternating_targets(n) * (safe["theta_final"] / math.pi)
+        design, n, invalid, _ = design_of(params)
+        system = accordion_system(design, n)
+        stiffness, drag = system.hinges.stiffness, system.drag.coefficient
         trajectory = simulate(
-            chain,
-            Step(targets),
-            stiffness=stiffness,
-            drag=drag,
+            system,
+            Step(),
             t1=t_end,
             n_save=n_save,
             rtol=rtol,
@@ -255,7 +252,7 @@ def vertex_unfold(
     max_steps: int = 1000,
     max_fold_deg: float = 150.0,
 ) -> Kernel:
-    """Sweep kernel: unfolding verdicts of random single vertices (SPEC Part A).
+    """Sweep kernel: unfolding verdicts of random single vertices (paper Eqs. 1–6).
 
     Each design is one random valid folded vertex, `origami_jax.vertex.random_vertex(key(seed),
     n_creases, closed=closed, max_fold=max_fold_deg°)`, drawn on the host (rejection sampling, so it

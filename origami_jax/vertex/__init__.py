@@ -1,6 +1,6 @@
 """Single-vertex origami: charge-energy unfolding with a collision-free path and a verdict.
 
-SPEC Part A (paper Eqs. 1–6, Figs. 2–3). Build a `SingleVertex` (from fold angles, directions or
+Paper Eqs. 1–6, Figs. 2–3; docs/physics.md, "Single-vertex unfolding". Build a `SingleVertex` (from fold angles, directions or
 spherical coordinates, or from the catalogue), then `unfold` it::
 
     result = unfold(corner_cube(), energy="separable")

@@ -1,4 +1,4 @@
-"""Example vertices the package ships (SPEC Part A) and a seeded generator of random valid ones."""
+"""Example vertices the package ships (the paper's Fig. 3 and more) and a seeded generator of random valid ones."""
 
 import functools
 from collections.abc import Sequence

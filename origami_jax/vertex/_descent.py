@@ -1,6 +1,6 @@
 """The descent kernel: small constrained steps down the charge energy, as one `lax.while_loop`.
 
-Each iteration (SPEC Part A, "Unfolding"):
+Each iteration (docs/physics.md, "Unfolding by constrained descent"):
 1. gradient `g = ∇U(x)` by autodiff;
 2. projection onto the tangent space of the constraints `G(x) = 0` *and* orthogonal to the three
    rigid rotations (the gauge freedom: `U` and `G` are rotation invariant, so removing rotations
@@ -60,10 +60,10 @@ class DescentSettings(eqx.Module):
     - `clearance_fraction`: step ≤ this × clearance × cos(α_max/2); must be < 1/`CERT_MARGIN`.
     - `flat_fraction`: step ≤ this × planarity (distance to flat), so steps cannot overshoot flat.
     - `fold_step`: largest fold-angle change per step (radians).
-    - `planar_tol`, `fold_tol`: verdict thresholds (SPEC: 1e-4 and 1°).
+    - `planar_tol`, `fold_tol`: verdict thresholds (1e-4 and 1°).
     - `min_step`: a trust step below this means the energy no longer decreases: stalled.
     - `contact_tol`: clearance or `π − |fold angle|` (radians) below which the descent is running
-      into a self-contact (the energy is no collision barrier, SPEC): stop, stalled.
+      into a self-contact (the energy is no collision barrier): stop, stalled.
     - `stationary_tol`: projected gradient norm relative to `1 + |∇U|` below which the state is a
       critical point on the constraint manifold: stalled (if not flat).
     """

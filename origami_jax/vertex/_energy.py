@@ -1,11 +1,11 @@
-"""Charge energies of a single vertex (paper Eqs. 1–2, SPEC Part A).
+"""Charge energies of a single vertex (paper Eqs. 1–2; docs/physics.md, "Single-vertex unfolding").
 
 Unit charges sit on every node `x_i` and every arc midpoint `m_e = normalise(x_i + x_{i+1})`. For
 every node `v` and every arc `e` not incident to `v`, `d(v, e)` is the geodesic distance from `v` to
 `m_e`, computed as `atan2(|a × b|, a · b)`: `arccos` loses precision and has an infinite derivative
 near 0 and π.
 
-Neither energy is a collision barrier (SPEC): they see only node-to-midpoint distances, so arcs can
+Neither energy is a collision barrier (docs/physics.md): they see only node-to-midpoint distances, so arcs can
 cross with every distance finite. Collisions are excluded by the explicit checks in `unfold`.
 """
 

@@ -89,7 +89,7 @@ def fold_angles_of(x: Float[Array, "n 3"], closed: bool) -> Float[Array, " m"]:
 def constraints(
     x: Float[Array, "n 3"], sector_angles: Float[Array, " a"], closed: bool
 ) -> Float[Array, " c"]:
-    """Residuals `G(x)` of SPEC Eq. 4: `|x_i|² − 1` then `x_i · x_{i+1} − cos α_i`."""
+    """Residuals `G(x)` of the paper's Eq. 4: `|x_i|² − 1` then `x_i · x_{i+1} − cos α_i`."""
     arcs = topology(x.shape[0], closed).arcs
     unit = jnp.sum(x * x, axis=-1) - 1.0
     arc = jnp.sum(x[arcs[:, 0]] * x[arcs[:, 1]], axis=-1) - jnp.cos(sector_angles)

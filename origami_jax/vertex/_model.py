@@ -1,4 +1,4 @@
-"""The `SingleVertex` model, its constructors and its validation (SPEC Part A, "Geometry").
+"""The `SingleVertex` model, its constructors and its validation (docs/physics.md, "Single-vertex geometry").
 
 A folded state is stored as unit crease directions in R³ (the robust internal representation);
 sector angles are stored alongside because they are the rigid data of the paper the constraints
@@ -27,7 +27,7 @@ from ._geometry import (
 PLANAR_TOL = 1e-4
 """Smallest singular value of the node matrix below which the nodes count as one great circle."""
 FLAT_FOLD_TOL = float(np.deg2rad(1.0))
-"""|fold angle| below which a crease counts as unfolded (SPEC: 1° worked)."""
+"""|fold angle| below which a crease counts as unfolded (1° separates chatter from folding)."""
 LENGTH_TOL = 1e-7
 """Tolerance (radians, and on |x| − 1) for arc lengths matching sector angles."""
 CLOSURE_TOL = 1e-8

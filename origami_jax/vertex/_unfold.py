@@ -387,7 +387,7 @@ def unfold(
     settings: DescentSettings | None = None,
 ) -> UnfoldResult:
     """Unfold a folded single vertex by steepest descent of a charge energy on the constraint
-    manifold, with a collision-free certificate and a verdict (SPEC Part A, Eqs. 1–6).
+    manifold, with a collision-free certificate and a verdict (paper Eqs. 1–6).
 
     **Arguments:**
     - `vertex`: a `SingleVertex` (validated here again).

@@ -1,4 +1,4 @@
-"""Hinge physics: materials, fluids, the Timoshenko bilayer, hinge stiffness and drag (SPEC Part B).
+"""Hinge physics: materials, fluids, the Timoshenko bilayer, hinge stiffness and drag (paper Eqs. 7, 11).
 
 A stressed chromium film on a silicon-nitride membrane curls the hinge to radius ``ρ`` (Timoshenko); the
 hinge length that folds the flap by ``θ_final`` is ``l = ρ θ_final``; the hinge is a spring of stiffness
@@ -14,9 +14,9 @@ import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
-from ._chain import Chain, accordion
+
+from .._validate import as_float_array, check_finite, check_positive, is_traced
 from ._units import MICRO, SI, UnitSystem
-from ._validate import as_float_array, check_finite, check_positive, is_traced
 
 
 class Material(eqx.Module):
@@ -94,7 +94,7 @@ class Fluid(eqx.Module):
         )
 
 
-# Sources (SPEC Part B "Materials"):
+# Sources:
 # - SiNx (LPCVD low-stress silicon nitride): E ≈ 250 GPa, ν ≈ 0.23, ρ ≈ 3100 kg/m³. Petersen, "Silicon as a
 #   mechanical material", Proc. IEEE 70 (1982) 420 (E); MEMSnet/MatWeb LPCVD Si3N4 data (ν, ρ); the 200 nm
 #   membranes of the paper's Fig. 4.
@@ -108,14 +108,14 @@ CR = Material(279e9, 0.21, 7190.0)
 
 # - Air at 20 °C and 1 atm: 1.204 kg/m³ (ideal gas, 28.96 g/mol; CRC Handbook, "Properties of dry air").
 # - KOH etch bath, 30 wt% aqueous KOH at 20 °C: 1.29 g/cm³ (CRC Handbook, "Concentrative properties of
-#   aqueous solutions", KOH). The fold happens while the hinge is released in this bath (SPEC Part B); at
+#   aqueous solutions", KOH). The fold happens while the hinge is released in this bath; at
 #   the usual 80 °C the density is ~2 % lower, well inside the uncertainty of C_D.
 AIR = Fluid(1.204, SI, "air")
 """Air at 20 °C, 1 atm (SI)."""
 KOH_SOLUTION = Fluid(1290.0, SI, "30 wt% KOH solution")
 """30 wt% aqueous KOH at 20 °C (SI)."""
 
-# Literature defaults (SPEC Part B, Fig. 4): 200 nm SiNx, 100 nm Cr, ~1 GPa tensile residual stress in the
+# Literature defaults (paper Fig. 4): 200 nm SiNx, 100 nm Cr, ~1 GPa tensile residual stress in the
 # evaporated Cr. The paper gives neither the flap/hinge width nor C_D: square 200 µm flaps with the hinge
 # spanning the width, and C_D = 1.17 for a flat plate broadside to the flow (Hoerner, Fluid-Dynamic Drag,
 # 1965, ch. 3), are our choices, not the paper's.
@@ -143,7 +143,7 @@ def bilayer_curvature(
     thickness_2: ArrayLike,
     misfit_strain: ArrayLike,
 ) -> Array:
-    """Timoshenko curvature of a bilayer with misfit strain ``ε`` (SPEC; the paper's Eq. 7 is misprinted).
+    """Timoshenko curvature of a bilayer with misfit strain ``ε`` (the paper's Eq. 7 is misprinted; docs/physics.md).
 
     ``κ = 6 E₁' E₂' t₁ t₂ (t₁ + t₂) ε / (E₁'² t₁⁴ + E₂'² t₂⁴ + 2 E₁' E₂' t₁ t₂ (2t₁² + 3t₁t₂ + 2t₂²))``.
     As ``t₂ → 0`` it tends to Stoney's ``6 E₂' t₂ ε / (E₁' t₁²)``.
@@ -171,7 +171,7 @@ class HingeDesign(eqx.Module):
 
     Every numeric field is a pytree leaf (scalar, or shape `(n,)` for per-hinge values) in the units of
     `units` (default `MICRO`: lengths µm, stresses MPa, densities ng/µm³), so `jax.grad` reaches any of them.
-    Build the SPEC/Fig. 4 defaults with `HingeDesign.literature()`.
+    Build the Fig. 4 defaults with `HingeDesign.literature()`.
 
     **Fields:**
     - `hinge_width` ``w``, `flap_length` ``L``, `flap_width` (length).
@@ -183,7 +183,7 @@ class HingeDesign(eqx.Module):
     - `structural`, `hinge`: `Material`s (converted into `units`); `fluid`: `Fluid` (converted).
     - `k_scale`, `b_scale`: dimensionless factors on ``k`` and ``b`` (calibration knobs), default 1.
     - `stiffness_model` (static): `"paper"` ``k = w (E₁'t₁³ + E₂'t₂³) / (3 l)`` (default) or `"plate"`,
-      pure plate bending, ``/(12 l)`` — a factor 4 softer (SPEC "questionable formulas").
+      pure plate bending, ``/(12 l)`` — a factor 4 softer (docs/physics.md, "Where the paper's formulas are questionable").
     - `drag_model` (static): `"paper"` ``b = C_D ν A L³ / 16`` (default) or `"strip"`, quadratic drag
       integrated along the plate, ``/8``.
     - `units` (static).
@@ -270,7 +270,7 @@ class HingeDesign(eqx.Module):
 
     @classmethod
     def literature(cls, units: UnitSystem = MICRO, **overrides) -> "HingeDesign":
-        """SPEC/Fig. 4 defaults in `units`: 200 nm SiNx, 100 nm Cr at 1 GPa residual stress, 200 µm square
+        """Fig. 4 defaults in `units`: 200 nm SiNx, 100 nm Cr at 1 GPa residual stress, 200 µm square
         flaps with hinges as wide as the flaps, ``θ_final = π``, ``C_D = 1.17``, air.
 
         `overrides` replace any constructor argument, in `units` (e.g. ``fluid=KOH_SOLUTION``,
@@ -336,15 +336,3 @@ class HingeDesign(eqx.Module):
             / denominator
         )
         return jnp.broadcast_to(b, (n_joints,))
-
-    def accordion(self, n_flaps: int = 3, *, gravity: ArrayLike | None = None) -> Chain:
-        """The accordion chain with this design's flaps (length, width, ``t₁``, structural density)."""
-        return accordion(
-            n_flaps,
-            flap_length=self.flap_length,
-            flap_width=self.flap_width,
-            thickness=self.t_structural,
-            density=self.structural.density,
-            gravity=gravity,
-            units=self.units,
-        )

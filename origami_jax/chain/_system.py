@@ -1,0 +1,91 @@
+"""`accordion_system`: the one builder of the accordion's folding system from a `HingeDesign`.
+
+The command line, the paper job, `design` and the sweep kernels all build their accordion here, so they
+simulate the same model: the flaps of the design's geometry, the design's stiffness and drag on every
+hinge, and fold targets ``(θ_final, −θ_final, θ_final, …)`` (paper Eq. 12 with ``θ_final = π``).
+"""
+
+import equinox as eqx
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, ArrayLike, Float
+
+from ..system import AbstractLayout, FoldingSystem, HingeDesign, HingeDrag, Hinges
+from ._chain import accordion
+
+
+def alternating_targets(
+    n_joints: int, angle: Float[ArrayLike, ""] = float(np.pi)
+) -> Float[Array, " n"]:
+    """The accordion's fold targets `(angle, −angle, angle, …)`, rad, shape `(n_joints,)`.
+
+    `angle` may be traced (a design's `theta_final` under `jit` or `grad`)."""
+    if not isinstance(n_joints, int | np.integer) or n_joints < 1:
+        raise ValueError(f"n_joints must be an integer >= 1, got {n_joints!r}.")
+    signs = np.where(np.arange(int(n_joints)) % 2 == 0, 1.0, -1.0)
+    return jnp.asarray(angle) * signs
+
+
+def accordion_system(
+    design: HingeDesign,
+    n_flaps: int = 3,
+    *,
+    targets: Float[ArrayLike, " n"] | None = None,
+    release_times: Float[ArrayLike, " n"] | None = None,
+    gravity: Float[ArrayLike, "3"] | None = None,
+) -> FoldingSystem:
+    """The paper's accordion as a [`origami_jax.system.FoldingSystem`][], from a hinge design.
+
+    **Arguments** (in the design's units, `MICRO` by default: µm, µs, ng):
+    - `design`: a [`origami_jax.system.HingeDesign`][]: flap geometry and density, hinge films, fluid.
+    - `n_flaps`: number of flaps (= hinges), static.
+    - `targets`: signed fold target per hinge (rad); default ``(θ_final, −θ_final, …)`` from the
+      design (`alternating_targets`).
+    - `release_times`: per-hinge release time (time units); default every hinge at ``t = 0``.
+    - `gravity`: shape `(3,)`, length/time²; zero by default.
+
+    **Returns:** a `FoldingSystem` with a [`origami_jax.chain.Chain`][], the design's stiffness
+    ``k`` and bending radius ``ρ`` on every hinge, and the paper's hinge drag ``b``
+    ([`origami_jax.system.HingeDrag`][]).
+    """
+    if not isinstance(design, HingeDesign):
+        raise ValueError(f"design must be a HingeDesign, got {type(design).__name__}.")
+    chain = accordion(
+        n_flaps,
+        flap_length=design.flap_length,
+        flap_width=design.flap_width,
+        thickness=design.t_structural,
+        density=design.structural.density,
+        gravity=gravity,
+        units=design.units,
+    )
+    n = chain.n_hinges
+    if targets is None:
+        targets = alternating_targets(n, design.theta_final)
+    hinges = Hinges(
+        stiffness=design.stiffness(n),
+        target=targets,
+        radius=design.radius(),
+        release_time=release_times,
+    )
+    return FoldingSystem(chain, hinges, HingeDrag(design.drag(n)), units=design.units)
+
+
+class Accordion(AbstractLayout):
+    """The accordion layout: ``Accordion(n_flaps)(design)`` is ``accordion_system(design, n_flaps)``.
+
+    **Fields** (static): `n_flaps`, the number of flaps (= hinges).
+    """
+
+    n_flaps: int = eqx.field(static=True)
+
+    def __check_init__(self):
+        if not isinstance(self.n_flaps, int) or isinstance(self.n_flaps, bool) or self.n_flaps < 1:
+            raise ValueError(f"n_flaps must be an integer >= 1, got {self.n_flaps!r}.")
+
+    @property
+    def n_hinges(self) -> int:
+        return self.n_flaps
+
+    def __call__(self, design: HingeDesign) -> FoldingSystem:
+        return accordion_system(design, self.n_flaps)

@@ -1,0 +1,31 @@
+"""The folding system: one model object for every engine, and the physics every mechanism shares.
+
+- [`origami_jax.system.FoldingSystem`][]: mechanism + hinges + drag + contact, the one object that
+  `simulate`, `design` and `sweep` take. Builders: [`origami_jax.chain.accordion_system`][].
+- [`origami_jax.system.AbstractMechanism`][]: the contract a mechanism implements (state layout, mass
+  matrix and forward dynamics, hinge angles, energy, geometry); the serial chain is the first.
+- [`origami_jax.system.Hinges`][], [`origami_jax.system.HingeDrag`][] and the abstract drag and
+  contact models.
+- Hinge physics shared by every mechanism: [`origami_jax.system.HingeDesign`][] (bilayer films,
+  Timoshenko curvature, stiffness and drag, paper Eqs. 7 and 11), materials, fluids, unit systems.
+"""
+
+from ._drag import AbstractDrag as AbstractDrag
+from ._drag import HingeDrag as HingeDrag
+from ._hinge import AIR as AIR
+from ._hinge import CR as CR
+from ._hinge import KOH_SOLUTION as KOH_SOLUTION
+from ._hinge import SINX as SINX
+from ._hinge import Fluid as Fluid
+from ._hinge import HingeDesign as HingeDesign
+from ._hinge import Material as Material
+from ._hinge import biaxial_modulus as biaxial_modulus
+from ._hinge import bilayer_curvature as bilayer_curvature
+from ._hinges import Hinges as Hinges
+from ._mechanism import AbstractMechanism as AbstractMechanism
+from ._system import AbstractContact as AbstractContact
+from ._system import AbstractLayout as AbstractLayout
+from ._system import FoldingSystem as FoldingSystem
+from ._units import MICRO as MICRO
+from ._units import SI as SI
+from ._units import UnitSystem as UnitSystem

@@ -1,0 +1,144 @@
+"""`FoldingSystem`: the one model object that `simulate`, `design` and `sweep` take.
+
+A folding device is a mechanism (rigid panels and hinges, [`origami_jax.system.AbstractMechanism`][]),
+the physics of its hinges ([`origami_jax.system.Hinges`][]: stiffness, fold targets, release times),
+the fluid it folds in ([`origami_jax.system.AbstractDrag`][]) and, where panels can meet, a contact
+model ([`origami_jax.system.AbstractContact`][]). Its equations of motion are
+
+    M(q) v̇ + C(q, v) v + G(q) = J_hᵀ (τ − K θ) + f_drag(q, v) + f_contact(q, v),
+
+with ``θ`` the hinge angles, ``K θ`` the hinge springs about the flat state and ``τ`` the input torque
+(the release: ``K θ_target`` for the paper's step, Eq. 12). Build one with a builder such as
+[`origami_jax.chain.accordion_system`][]; everything in it is a pytree leaf or static metadata, so a
+batch of systems is a `vmap` away and `jax.grad` reaches every physical number.
+"""
+
+import abc
+
+import equinox as eqx
+import jax.numpy as jnp
+from jaxtyping import Array, Float
+
+from ._drag import AbstractDrag
+from ._hinges import Hinges
+from ._mechanism import AbstractMechanism
+from ._units import MICRO, UnitSystem
+
+
+class AbstractContact(eqx.Module):
+    """A contact model between bodies of a mechanism (and its fixed base): a smooth generalized force.
+
+    Contract: `force` is the negative gradient of `potential` plus a dissipative part, so contact never
+    adds energy (``vᵀ (force + ∇potential) ≤ 0``).
+    """
+
+    @abc.abstractmethod
+    def force(
+        self, mechanism: AbstractMechanism, q: Float[Array, " nq"], v: Float[Array, " nv"]
+    ) -> Float[Array, " nv"]:
+        """Generalized contact force at ``(q, v)``."""
+
+    @abc.abstractmethod
+    def potential(self, mechanism: AbstractMechanism, q: Float[Array, " nq"]) -> Float[Array, ""]:
+        """Stored contact energy at ``q`` (energy units)."""
+
+
+class FoldingSystem(eqx.Module):
+    """A folding device: mechanism, hinges, fluid and contact (module docstring for the equations).
+
+    **Fields:**
+    - `mechanism`: an [`origami_jax.system.AbstractMechanism`][] (e.g. a [`origami_jax.chain.Chain`][]).
+    - `hinges`: [`origami_jax.system.Hinges`][], one entry per hinge of the mechanism.
+    - `drag`: an [`origami_jax.system.AbstractDrag`][] (the paper's `HingeDrag` for the accordion).
+    - `contact`: an [`origami_jax.system.AbstractContact`][], or `None` (panels pass through each
+      other: the paper's model).
+    - `units` (static): the unit system of every number in the system (default `MICRO`: µm, µs, ng).
+
+    **Raises:** `ValueError` when the hinge count of `hinges` is not the mechanism's.
+    """
+
+    mechanism: AbstractMechanism
+    hinges: Hinges
+    drag: AbstractDrag
+    contact: AbstractContact | None = None
+    units: UnitSystem = eqx.field(static=True, default=MICRO)
+
+    def __check_init__(self):
+        if not isinstance(self.mechanism, AbstractMechanism):
+            raise ValueError(
+                f"mechanism must be an AbstractMechanism (e.g. a Chain), got {type(self.mechanism)}."
+            )
+        if self.hinges.n_hinges != self.mechanism.n_hinges:
+            raise ValueError(
+                f"the hinges describe {self.hinges.n_hinges} hinges but the mechanism has "
+                f"{self.mechanism.n_hinges}; give one stiffness, target and radius per hinge."
+            )
+
+    @property
+    def n_hinges(self) -> int:
+        """Number of hinges (static)."""
+        return self.mechanism.n_hinges
+
+    def generalized_force(
+        self,
+        q: Float[Array, " nq"],
+        v: Float[Array, " nv"],
+        tau: Float[Array, " h"],
+    ) -> Float[Array, " nv"]:
+        """Everything but inertia: ``J_hᵀ (τ − K θ) + f_drag + f_contact`` at ``(q, v)`` under input ``τ``."""
+        mechanism = self.mechanism
+        theta = mechanism.hinge_angles(q)
+        force = mechanism.hinge_force(q, tau - self.hinges.stiffness * theta)
+        force = force + self.drag.force(mechanism, q, v)
+        if self.contact is not None:
+            force = force + self.contact.force(mechanism, q, v)
+        return force
+
+    def accelerations(
+        self,
+        q: Float[Array, " nq"],
+        v: Float[Array, " nv"],
+        tau: Float[Array, " h"],
+        *,
+        forward_mode_only: bool = False,
+    ) -> Float[Array, " nv"]:
+        """``v̇`` under input torque ``τ`` (see `AbstractMechanism.forward_dynamics`)."""
+        return self.mechanism.forward_dynamics(
+            q, v, self.generalized_force(q, v, tau), forward_mode_only=forward_mode_only
+        )
+
+    def energy(self, q: Float[Array, " nq"], v: Float[Array, " nv"]) -> Float[Array, ""]:
+        """Kinetic + hinge spring (``½ Σ k θ²``) + gravity + contact energy (energy units).
+
+        With a step input the input's potential ``−Σ k θ_target θ`` adds to this to give a conserved
+        quantity in the absence of drag (see `origami_jax.simulation.input_energy`)."""
+        mechanism = self.mechanism
+        theta = mechanism.hinge_angles(q)
+        total = (
+            mechanism.kinetic_energy(q, v)
+            + 0.5 * jnp.sum(self.hinges.stiffness * theta**2)
+            + mechanism.potential_energy(q)
+        )
+        if self.contact is not None:
+            total = total + self.contact.potential(mechanism, q)
+        return total
+
+
+class AbstractLayout(eqx.Module):
+    """What a device is made of, apart from its hinge parameters: a callable
+    ``layout(design) -> FoldingSystem`` (e.g. [`origami_jax.chain.Accordion`][]).
+
+    `design` and `sweep` vary a [`origami_jax.system.HingeDesign`][] and rebuild the system through
+    the layout for every candidate, so the command line, the paper job, the fit and the sweep share one
+    builder. A layout's fields are static (its equality decides when a compiled fit or sweep is
+    reused).
+    """
+
+    @property
+    @abc.abstractmethod
+    def n_hinges(self) -> int:
+        """Hinges of the systems this layout builds (static)."""
+
+    @abc.abstractmethod
+    def __call__(self, design) -> FoldingSystem:
+        """The folding system of `design` (a `HingeDesign`) in this layout."""
