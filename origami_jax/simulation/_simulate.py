@@ -40,7 +40,9 @@ def default_solver() -> diffrax.AbstractSolver:
 
 
 def default_controller(
-    rtol: float, atol: float, solver: diffrax.AbstractSolver | None = None
+    rtol: float | Float[ArrayLike, ""],
+    atol: float | Float[ArrayLike, ""],
+    solver: diffrax.AbstractSolver | None = None,
 ) -> diffrax.PIDController:
     """The step-size controller `simulate` uses with `solver` (default: the default solver).
 
