@@ -13,9 +13,9 @@ import origami_jax.chain as oc
 import origami_jax.system as osys
 
 from .chain_cases import (
-    forward_dynamics,
     SEED,
     as_jax,
+    forward_dynamics,
     quick_jit,
     random_chain,
     random_planar_chain,

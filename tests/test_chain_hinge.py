@@ -6,7 +6,6 @@ import numpy as np
 import pytest
 from jax.test_util import check_grads
 
-import origami_jax.chain as oc
 import origami_jax.system as osys
 
 # Closed forms evaluated two ways in float64: round-off only.

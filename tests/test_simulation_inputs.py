@@ -27,7 +27,9 @@ def test_step_torque_is_k_theta_des():
     tau = sim.Step().torque(1.0, jnp.zeros(3), jnp.zeros(3), system)
     np.testing.assert_allclose(tau, k * alternating_targets(3))
     explicit = sim.Step(jnp.array([1.0, 2.0, 3.0]))
-    np.testing.assert_allclose(explicit.torque(1.0, jnp.zeros(3), jnp.zeros(3), system), k * jnp.array([1.0, 2.0, 3.0]))
+    np.testing.assert_allclose(
+        explicit.torque(1.0, jnp.zeros(3), jnp.zeros(3), system), k * jnp.array([1.0, 2.0, 3.0])
+    )
     assert sim.Step().jump_times(system) is None
     # A ValueError without run-time type checking; jaxtyping's TypeError (a TypeCheckError) with it.
     with pytest.raises((ValueError, TypeError)):
@@ -39,12 +41,17 @@ def test_step_with_release_times():
     _, system = literature()
     release = jnp.array([0.0, 50.0, 100.0])
     staged = make_system(
-        system.mechanism, system.hinges.stiffness, system.drag.coefficient, system.hinges.target,
+        system.mechanism,
+        system.hinges.stiffness,
+        system.drag.coefficient,
+        system.hinges.target,
         release_time=release,
     )
     step = sim.Step()
     k, target = staged.hinges.stiffness, staged.hinges.target
-    np.testing.assert_allclose(step.torque(60.0, jnp.zeros(3), jnp.zeros(3), staged), k * target * jnp.array([1, 1, 0]))
+    np.testing.assert_allclose(
+        step.torque(60.0, jnp.zeros(3), jnp.zeros(3), staged), k * target * jnp.array([1, 1, 0])
+    )
     np.testing.assert_allclose(step.jump_times(staged), release)
 
 

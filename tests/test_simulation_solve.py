@@ -40,7 +40,10 @@ def test_step_matches_scipy_radau(solver):
         theta, theta_dot = y[:3], y[3:]
         acc = jnp.linalg.solve(
             chain.mass_matrix(theta),
-            tau - k * theta - b * theta_dot * jnp.abs(theta_dot) - chain.bias_force(theta, theta_dot),
+            tau
+            - k * theta
+            - b * theta_dot * jnp.abs(theta_dot)
+            - chain.bias_force(theta, theta_dot),
         )
         return jnp.concatenate([theta_dot, acc])
 

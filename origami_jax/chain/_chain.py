@@ -162,8 +162,15 @@ class Chain(AbstractMechanism):
         length = np.sqrt(np.maximum(12 * inertias[:, 0, 0] / masses, 0.0))
         width = np.sqrt(np.maximum(12 * inertias[:, 1, 1] / masses, 0.0))
         return [
-            np.array([[-w / 2, -l / 2, 0.0], [w / 2, -l / 2, 0.0], [w / 2, l / 2, 0.0], [-w / 2, l / 2, 0.0]])
-            for l, w in zip(length, width, strict=True)
+            np.array(
+                [
+                    [-w / 2, -h / 2, 0.0],
+                    [w / 2, -h / 2, 0.0],
+                    [w / 2, h / 2, 0.0],
+                    [-w / 2, h / 2, 0.0],
+                ]
+            )
+            for h, w in zip(length, width, strict=True)
         ]
 
 

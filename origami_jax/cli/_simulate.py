@@ -157,9 +157,7 @@ def run(args: argparse.Namespace) -> int:
     else:
         beta = MICRO.length(sim.KOH_ETCH_RATE_SI) / MICRO.time(1.0)
         ramp = inputs = sim.EtchRamp(beta)
-        slow = sim.simulate_slow_ramp(
-            system, ramp, n_save=args.n_save, progress_meter=progress
-        )
+        slow = sim.simulate_slow_ramp(system, ramp, n_save=args.n_save, progress_meter=progress)
         trajectory = slow.trajectory
         extra = {
             "ramp_duration_us": float(ramp.duration(system)),

@@ -11,7 +11,6 @@ import numpy as np
 from matplotlib.animation import FuncAnimation, PillowWriter
 from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
-
 _COLOURS = plt.rcParams["axes.prop_cycle"].by_key()["color"]
 
 
