@@ -368,6 +368,16 @@ def test_cli_view_fold_file(tmp_path, capsys):
     assert "4 panels, 4 hinges, 2 frames" in out
 
 
+def test_cli_view_open_hands_the_page_to_the_web_browser(tmp_path, capsys, monkeypatch):
+    import webbrowser
+
+    opened = []
+    monkeypatch.setattr(webbrowser, "open", lambda url: opened.append(url) or True)
+    page = tmp_path / "x.html"
+    assert run_cli("view", DATA / "frames.fold", "--out", page, "--open") == 0
+    assert opened == [page.resolve().as_uri()]
+
+
 def test_cli_view_simulate_output(tmp_path, capsys, accordion):
     from origami_jax.cli._simulate import write_trajectory
 
@@ -411,17 +421,59 @@ def test_cli_view_sweep_without_member(tmp_path, capsys):
 
 
 @pytest.mark.slow
-def test_cli_view_sweep_member_simulates_it_again(tmp_path, capsys):
-    """A real two-design sweep; the viewed member's rebuilt hinges are the stored ones."""
-    import origami_jax.sweep as ojs
+def test_cli_view_sweep_member_simulates_it_again(tmp_path):
+    """A real two-design sweep from the command line; the viewed member's rebuilt hinges are the
+    ones the sweep stored. (The sweep runs in its own process, as users run it.)"""
+    import os
+    import subprocess
 
-    kernel = ojs.get_model("accordion-step", n_flaps=2, t_end=300.0, n_save=301, solver="tsit5")
-    dataset = ojs.sweep(kernel, ojs.Grid({"hinge_width": [100.0, 200.0]}), out=tmp_path / "sw")
+    import xarray as xr
+
+    config = tmp_path / "sweep.toml"
+    config.write_text(
+        '[model]\nname = "accordion"\ninput = "step"\nn_flaps = 2\nt_end = 300.0\n'
+        'n_save = 301\nsolver = "tsit5"\n[sweep]\nkind = "grid"\n'
+        "[parameters]\nhinge_width = { values = [100.0, 200.0] }\n"
+    )
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parent.parent)}
+    subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "origami_jax",
+            "sweep",
+            str(config),
+            "--out",
+            str(tmp_path / "sw"),
+            "--no-plots",
+            "--no-progress",
+        ],
+        check=True,
+        env=env,
+        capture_output=True,
+    )
+    with xr.open_dataset(tmp_path / "sw" / "sweep.nc") as stored:
+        dataset = stored.load()
     system, *_ = view.sweep_member_system(dataset, 1)
-    stored = float(dataset["stiffness"].sel(design=1))
-    assert float(system.hinges.stiffness[0]) == pytest.approx(stored, rel=1e-12)
-    assert run_cli("view", tmp_path / "sw" / "sweep.nc", "--member", "1") == 0
-    assert "3 panels, 2 hinges" in capsys.readouterr().out
+    for name, value in (("stiffness", system.hinges.stiffness), ("drag", system.drag.coefficient)):
+        assert float(value[0]) == pytest.approx(float(dataset[name].sel(design=1)), rel=1e-12)
+    viewed = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "origami_jax",
+            "view",
+            str(tmp_path / "sw" / "sweep.nc"),
+            "--member",
+            "1",
+        ],
+        check=True,
+        env=env,
+        capture_output=True,
+        text=True,
+    )
+    assert "3 panels, 2 hinges" in viewed.stdout
+    assert (tmp_path / "sw" / "sweep_member_1.html").is_file()
 
 
 # ---------------------------------------------------------------- a real browser

@@ -249,7 +249,8 @@ def scene_from_trajectory(
     else:
         from ..simulation import RESULTS
 
-        text, level = f"solve failed: {RESULTS[result]}", "fail"
+        message = RESULTS[result]  # pyright: ignore[reportInvalidTypeArguments] (an enum lookup)
+        text, level = f"solve failed: {message}", "fail"
     units = getattr(system, "units", None)
     return scene.replace(
         verdict=text,

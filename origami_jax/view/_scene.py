@@ -11,7 +11,6 @@ trajectories and sweep members; `origami_jax.view.write_html` draws one.
 
 from __future__ import annotations
 
-import dataclasses
 from collections.abc import Sequence
 
 import numpy as np
@@ -21,7 +20,29 @@ DEFAULT_MAX_FRAMES = 300
 VERDICT_LEVELS = ("ok", "warn", "fail")
 
 
-@dataclasses.dataclass(frozen=True, eq=False)
+_FIELDS = (
+    "vertices",
+    "offsets",
+    "times",
+    "hinges",
+    "fold_angles",
+    "hinge_names",
+    "thickness",
+    "fixed_panels",
+    "highlight_panels",
+    "highlight_hinges",
+    "contact_frames",
+    "contact_points",
+    "verdict",
+    "verdict_level",
+    "title",
+    "length_unit",
+    "time_unit",
+    "time_label",
+    "notes",
+)
+
+
 class Scene:
     """Frames of rigid panels, hinges with fold angles, contacts and a verdict (host numpy).
 
@@ -39,38 +60,56 @@ class Scene:
     - `title`, `length_unit`, `time_unit`, `time_label` (the slider's quantity, e.g. "time" or
       "path length"), `notes` (lines shown under the legend: resampling, exaggerations, skipped data).
 
-    Build with the adapters or by hand; `__post_init__` checks shapes and values.
+    Build with the adapters or by hand; the constructor checks shapes and values.
     """
 
-    # Annotated as what the constructor accepts; `__post_init__` stores numpy arrays.
-    vertices: ArrayLike
-    offsets: ArrayLike
-    times: ArrayLike
-    hinges: ArrayLike
-    fold_angles: ArrayLike
-    hinge_names: Sequence[str] = ()
-    thickness: float | None = None
-    fixed_panels: ArrayLike | None = None
-    highlight_panels: ArrayLike | None = None
-    highlight_hinges: ArrayLike | None = None
-    contact_frames: ArrayLike | None = None
-    contact_points: ArrayLike | None = None
-    verdict: str | None = None
-    verdict_level: str = "ok"
-    title: str = "origami_jax"
-    length_unit: str = ""
-    time_unit: str = ""
-    time_label: str = "time"
-    notes: Sequence[str] = ()
+    vertices: np.ndarray
+    offsets: np.ndarray
+    times: np.ndarray
+    hinges: np.ndarray
+    fold_angles: np.ndarray
+    hinge_names: tuple[str, ...]
+    thickness: float | None
+    fixed_panels: np.ndarray
+    highlight_panels: np.ndarray
+    highlight_hinges: np.ndarray
+    contact_frames: np.ndarray
+    contact_points: np.ndarray
+    verdict: str | None
+    verdict_level: str
+    title: str
+    length_unit: str
+    time_unit: str
+    time_label: str
+    notes: tuple[str, ...]
 
-    def __post_init__(self) -> None:
-        def put(name, value):
-            object.__setattr__(self, name, value)
-
-        vertices = np.asarray(self.vertices, dtype=float)
+    def __init__(
+        self,
+        vertices: ArrayLike,
+        offsets: ArrayLike,
+        times: ArrayLike,
+        hinges: ArrayLike,
+        fold_angles: ArrayLike,
+        *,
+        hinge_names: Sequence[str] = (),
+        thickness: float | None = None,
+        fixed_panels: ArrayLike | None = None,
+        highlight_panels: ArrayLike | None = None,
+        highlight_hinges: ArrayLike | None = None,
+        contact_frames: ArrayLike | None = None,
+        contact_points: ArrayLike | None = None,
+        verdict: str | None = None,
+        verdict_level: str = "ok",
+        title: str = "origami_jax",
+        length_unit: str = "",
+        time_unit: str = "",
+        time_label: str = "time",
+        notes: Sequence[str] = (),
+    ) -> None:
+        vertices = np.asarray(vertices, dtype=float)
         if vertices.ndim != 3 or vertices.shape[2] != 3 or vertices.shape[0] < 1:
             raise ValueError(
-                f"vertices must have shape (frames, vertices, 3), not {np.shape(self.vertices)}"
+                f"vertices must have shape (frames, vertices, 3), not {np.shape(vertices)}"
             )
         if not np.all(np.isfinite(vertices)):
             bad = np.unique(np.nonzero(~np.isfinite(vertices))[0])
@@ -79,7 +118,7 @@ class Scene:
                 "before building the scene"
             )
         n_frames, n_vertices, _ = vertices.shape
-        offsets = np.asarray(self.offsets, dtype=np.int64)
+        offsets = np.asarray(offsets, dtype=np.int64)
         if (
             offsets.ndim != 1
             or len(offsets) < 2
@@ -92,26 +131,26 @@ class Scene:
                 f"got {offsets.tolist()[:8]}... for {n_vertices} vertices"
             )
         n_panels = len(offsets) - 1
-        times = np.asarray(self.times, dtype=float)
+        times = np.asarray(times, dtype=float)
         if (
             times.shape != (n_frames,)
             or np.any(np.diff(times) < 0)
             or not np.all(np.isfinite(times))
         ):
             raise ValueError(f"times must be ({n_frames},) finite and non-decreasing")
-        hinges = np.asarray(self.hinges, dtype=np.int64).reshape(-1, 2)
+        hinges = np.asarray(hinges, dtype=np.int64).reshape(-1, 2)
         if np.any(hinges < 0) or np.any(hinges >= n_vertices):
             raise ValueError(f"hinges must index the {n_vertices} vertices")
         n_hinges = len(hinges)
-        angles = np.asarray(self.fold_angles, dtype=float)
+        angles = np.asarray(fold_angles, dtype=float)
         if angles.size == 0:
             angles = angles.reshape(n_frames, 0)
         if angles.shape != (n_frames, n_hinges):
             raise ValueError(
                 f"fold_angles must have shape ({n_frames}, {n_hinges}), one per frame and hinge, "
-                f"not {np.shape(self.fold_angles)}"
+                f"not {np.shape(fold_angles)}"
             )
-        names = tuple(self.hinge_names) or tuple(f"hinge {i + 1}" for i in range(n_hinges))
+        names = tuple(hinge_names) or tuple(f"hinge {i + 1}" for i in range(n_hinges))
         if len(names) != n_hinges:
             raise ValueError(f"hinge_names needs {n_hinges} labels, got {len(names)}")
 
@@ -121,18 +160,18 @@ class Scene:
                 raise ValueError(f"{name} must have shape ({n},), not {out.shape}")
             return out
 
-        frames = np.zeros(0, np.int64) if self.contact_frames is None else self.contact_frames
+        frames = np.zeros(0, np.int64) if contact_frames is None else contact_frames
         frames = np.asarray(frames, dtype=np.int64).reshape(-1)
-        points = np.zeros((0, 3)) if self.contact_points is None else self.contact_points
+        points = np.zeros((0, 3)) if contact_points is None else contact_points
         points = np.asarray(points, dtype=float).reshape(-1, 3)
         if len(frames) != len(points) or np.any((frames < 0) | (frames >= n_frames)):
             raise ValueError(
                 "contact_frames (K,) must index frames and match contact_points (K, 3)"
             )
-        if self.verdict_level not in VERDICT_LEVELS:
+        if verdict_level not in VERDICT_LEVELS:
             raise ValueError(f"verdict_level must be one of {VERDICT_LEVELS}")
-        if self.thickness is not None and not (np.isfinite(self.thickness) and self.thickness >= 0):
-            raise ValueError(f"thickness must be finite and >= 0, got {self.thickness}")
+        if thickness is not None and not (np.isfinite(thickness) and thickness >= 0):
+            raise ValueError(f"thickness must be finite and >= 0, got {thickness}")
         for name, value in (
             ("vertices", vertices),
             ("offsets", offsets),
@@ -140,14 +179,21 @@ class Scene:
             ("hinges", hinges),
             ("fold_angles", angles),
             ("hinge_names", names),
-            ("fixed_panels", mask(self.fixed_panels, n_panels, "fixed_panels")),
-            ("highlight_panels", mask(self.highlight_panels, n_panels, "highlight_panels")),
-            ("highlight_hinges", mask(self.highlight_hinges, n_hinges, "highlight_hinges")),
+            ("fixed_panels", mask(fixed_panels, n_panels, "fixed_panels")),
+            ("highlight_panels", mask(highlight_panels, n_panels, "highlight_panels")),
+            ("highlight_hinges", mask(highlight_hinges, n_hinges, "highlight_hinges")),
             ("contact_frames", frames),
             ("contact_points", points),
-            ("notes", tuple(self.notes)),
+            ("notes", tuple(notes)),
+            ("thickness", None if thickness is None else float(thickness)),
+            ("verdict", verdict),
+            ("verdict_level", verdict_level),
+            ("title", title),
+            ("length_unit", length_unit),
+            ("time_unit", time_unit),
+            ("time_label", time_label),
         ):
-            put(name, value)
+            setattr(self, name, value)
 
     @property
     def n_frames(self) -> int:
@@ -170,7 +216,14 @@ class Scene:
         return [self.panel(p, frame) for p in range(self.n_panels)]
 
     def replace(self, **changes) -> Scene:
-        return dataclasses.replace(self, **changes)
+        """A copy with some fields changed (checked again)."""
+        return Scene(**{**{name: getattr(self, name) for name in _FIELDS}, **changes})
+
+    def __repr__(self) -> str:
+        return (
+            f"Scene({self.title!r}: {self.n_panels} panels, {self.n_hinges} hinges, "
+            f"{self.n_frames} frames)"
+        )
 
 
 def scene_from_polygons(

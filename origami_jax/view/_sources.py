@@ -60,7 +60,7 @@ def scene_from(
     **Raises:** `ValueError` with what is missing (a trajectory without its system, a sweep without
     a member, an unknown file type).
     """
-    kwargs = {} if title is None else {"title": title}
+    kwargs: dict[str, Any] = {} if title is None else {"title": title}
     if isinstance(obj, Scene):
         scene = obj if title is None else obj.replace(title=title)
     elif isinstance(obj, str | os.PathLike):

@@ -106,33 +106,33 @@ function computeFrame(f) {
     else if (kk === 1) { normals[q] = -panelNormal[n]; normals[q + 1] = -panelNormal[n + 1]; normals[q + 2] = -panelNormal[n + 2]; }
     else { const e = 3 * edgeOf[k]; normals[q] = sideNormal[e]; normals[q + 1] = sideNormal[e + 1]; normals[q + 2] = sideNormal[e + 2]; }
   }
+  // Panel outlines on both faces; hinges on both faces of their panel, coloured by fold sign.
+  // Plain loops over typed arrays: no allocation per frame.
   let o = 0;
-  for (let v = 0; v < V; v++) {  // panel outlines on both faces
-    const n = 3 * panelOf[v];
-    for (const sign of [half, -half]) {
-      for (const s of [v, nextOf[v]]) {
-        const a = base + 3 * s;
-        outlinePos[o++] = verts[a] + sign * panelNormal[n];
-        outlinePos[o++] = verts[a + 1] + sign * panelNormal[n + 1];
-        outlinePos[o++] = verts[a + 2] + sign * panelNormal[n + 2];
-      }
+  for (let v = 0; v < V; v++) {
+    const n = 3 * panelOf[v], a = base + 3 * v, b = base + 3 * nextOf[v];
+    for (let side = 0; side < 2; side++) {
+      const sign = side ? -half : half;
+      const dx = sign * panelNormal[n], dy = sign * panelNormal[n + 1], dz = sign * panelNormal[n + 2];
+      outlinePos[o] = verts[a] + dx; outlinePos[o + 1] = verts[a + 1] + dy; outlinePos[o + 2] = verts[a + 2] + dz;
+      outlinePos[o + 3] = verts[b] + dx; outlinePos[o + 4] = verts[b + 1] + dy; outlinePos[o + 5] = verts[b + 2] + dz;
+      o += 6;
     }
   }
   o = 0;
-  for (let h = 0; h < H; h++) {  // hinges on both faces of their panel, coloured by fold sign
+  for (let h = 0; h < H; h++) {
     const angle = angles[f * H + h];
     const c = highlightHinges.has(h) ? COLORS.hingeHighlight
       : !(Math.abs(angle) > 0.05) ? COLORS.flat : angle > 0 ? COLORS.valley : COLORS.mountain;
-    const n = 3 * panelOf[data.hinges[2 * h]];
-    for (const sign of [half * 1.02, -half * 1.02]) {
-      for (const s of [data.hinges[2 * h], data.hinges[2 * h + 1]]) {
-        const a = base + 3 * s;
-        hingePos[o] = verts[a] + sign * panelNormal[n];
-        hingePos[o + 1] = verts[a + 1] + sign * panelNormal[n + 1];
-        hingePos[o + 2] = verts[a + 2] + sign * panelNormal[n + 2];
-        hingeCol[o] = c.r; hingeCol[o + 1] = c.g; hingeCol[o + 2] = c.b;
-        o += 3;
-      }
+    const p0 = data.hinges[2 * h], p1 = data.hinges[2 * h + 1];
+    const n = 3 * panelOf[p0], a = base + 3 * p0, b = base + 3 * p1;
+    for (let side = 0; side < 2; side++) {
+      const sign = (side ? -half : half) * 1.02;
+      const dx = sign * panelNormal[n], dy = sign * panelNormal[n + 1], dz = sign * panelNormal[n + 2];
+      hingePos[o] = verts[a] + dx; hingePos[o + 1] = verts[a + 1] + dy; hingePos[o + 2] = verts[a + 2] + dz;
+      hingePos[o + 3] = verts[b] + dx; hingePos[o + 4] = verts[b + 1] + dy; hingePos[o + 5] = verts[b + 2] + dz;
+      for (let k = 0; k < 6; k += 3) { hingeCol[o + k] = c.r; hingeCol[o + k + 1] = c.g; hingeCol[o + k + 2] = c.b; }
+      o += 6;
     }
   }
 }
@@ -257,6 +257,7 @@ for (const note of data.notes) { const li = document.createElement('li'); li.tex
 if (!H) $('.plot-box').style.display = 'none';
 
 let current = 0;
+function unitSuffix(unit) { return !unit ? '' : unit === '°' ? '°' : ` ${unit}`; }
 function fmt(x) { if (Number.isInteger(x) && Math.abs(x) < 1e6) return String(x); return Math.abs(x) >= 1e4 || (Math.abs(x) < 1e-3 && x !== 0) ? x.toExponential(3) : x.toPrecision(4); }
 function setFrame(f) {
   current = Math.max(0, Math.min(T - 1, f | 0));
@@ -268,7 +269,7 @@ function setFrame(f) {
   contactMesh.count = list.length;
   contactMesh.instanceMatrix.needsUpdate = true;
   if (String(current) !== slider.value) slider.value = String(current);
-  readout.textContent = `${data.timeLabel} ${fmt(times[current])}${data.timeUnit ? ' ' + data.timeUnit : ''}` +
+  readout.textContent = `${data.timeLabel} ${fmt(times[current])}${unitSuffix(data.timeUnit)}` +
     `  (frame ${current + 1}/${T})${list.length ? `  · ${list.length} contact(s)` : ''}`;
   drawCursor();
   requestRender();
