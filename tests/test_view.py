@@ -13,6 +13,7 @@ import json
 import math
 import re
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -558,6 +559,13 @@ def test_page_renders_and_the_slider_moves_the_panels(browser, tmp_path, accordi
     assert page.evaluate("document.querySelector('.slider').value") == "39"
     after = page.evaluate("window.__origami.vertexSample(48)")
     assert np.max(np.abs(np.subtract(after, before))) > 1.0  # µm: the flaps moved
+    # Play runs the animation from the start (30 frames a second at 1x); pause stops it.
+    page.evaluate("document.querySelector('.play').click()")
+    page.wait_for("window.__origami.frame > 3", timeout=10)
+    page.evaluate("document.querySelector('.play').click()")
+    stopped = page.evaluate("window.__origami.frame")
+    time.sleep(0.3)
+    assert page.evaluate("window.__origami.frame") == stopped
     assert page.problems() == []
     remote = [u for u in page.requests() if not u.startswith(("file:", "blob:", "data:"))]
     assert remote == []
