@@ -152,6 +152,24 @@ class Chain(AbstractMechanism):
 
         return forward_kinematics(self, q)
 
+    def spatial_velocities(self, q, v):
+        """``V_i = Σ_{j ≤ i} S_j θ̇_j`` with ``S_j = (p_j × ω_j, ω_j)`` hinge ``j``'s world twist."""
+        from ._kinematics import joint_frames
+
+        w, p, _, _ = joint_frames(self, q)
+        twists = jnp.concatenate([jnp.cross(p, w), w], axis=-1) * v[:, None]
+        return jnp.cumsum(twists, axis=0)
+
+    def apply_wrenches(self, q, wrenches):
+        """``f_j = S_j · Σ_{i ≥ j} W_i``: hinge ``j`` carries every flap from ``j`` on."""
+        from ._kinematics import joint_frames
+
+        w, p, _, _ = joint_frames(self, q)
+        carried = jnp.flip(jnp.cumsum(jnp.flip(wrenches, axis=0), axis=0), axis=0)
+        return jnp.sum(jnp.cross(p, w) * carried[:, :3], axis=-1) + jnp.sum(
+            w * carried[:, 3:], axis=-1
+        )
+
     def hinge_layout(self) -> HingeLayout:
         """Hinge ``i`` joins flap ``i − 1`` (the base for the first) and flap ``i``; its crease is as wide
         as the child flap (`outlines`), centred on the flap's CG along the axis."""

@@ -14,52 +14,42 @@ import numpy as np
 
 @dataclasses.dataclass(frozen=True, eq=False)
 class ContactTables:
-    """The static geometry of `PanelContact` (host NumPy arrays; body index `n_bodies` is the base).
+    """The static geometry of `PanelContact`, laid out densely by body (host NumPy arrays; body index
+    `n_bodies` is the fixed base when there is one).
 
     **Fields:**
-    - `n_bodies`: moving bodies; the fixed base, when there is one, is body `n_bodies`.
+    - `n_bodies`: moving bodies; `has_base`: whether a fixed base takes part.
     - `base_pose`: `(4, 4)` world pose of the base's face frame (identity if there is no base).
-    - `points`: `(p, 3)` sample points in their body's frame (the rim of each panel: corners and
-      points along every edge; and a grid inside it, so that two panels of the same outline stacked
-      on each other meet where their rims coincide with each other's edges); `point_body`: `(p,)`
-      their body.
-    - `face_body`: `(f,)` the body of each face (one per panel, the base last); `face_edges`:
-      `(f, e, 3)` inward half-planes ``a x + b y + c ≥ 0`` of each face's convex outline in its body
-      frame (``(a, b)`` a unit normal, `c` in length units), padded with always-true rows.
-    - `pair_point`, `pair_face`: `(k,)` the (point, face) pairs that are checked.
-    - `half_thickness`: `(n_bodies + 1,)` half of each body's thickness (the base last), length.
-    - `scale`: a length of the geometry's size (the largest panel's diameter).
+    - `points`: `(n, p, 3)` sample points of every body (moving bodies, then the base) in its body
+      frame, padded to the same count `p` (`_sample_points`: the rim moved slightly inwards, and the
+      centre).
+    - `face_edges`: `(n, e, 3)` inward half-planes ``a x + b y + c ≥ 0`` of each body's face (the
+      convex hull of its outline) in its body frame (``(a, b)`` a unit normal, `c` a length), padded
+      with always-true rows.
+    - `pairs`: `(n, n, p)` booleans: point `i` of body `a` is checked against the face of body `b`
+      (never its own; padding and points near a crease the two share are left out).
+    - `half_thickness`: `(n,)` half of each body's thickness, length.
+    - `scale`: the largest panel's diameter (length).
     """
 
     n_bodies: int
+    has_base: bool
     base_pose: np.ndarray
     points: np.ndarray
-    point_body: np.ndarray
-    face_body: np.ndarray
     face_edges: np.ndarray
-    pair_point: np.ndarray
-    pair_face: np.ndarray
+    pairs: np.ndarray
     half_thickness: np.ndarray
     scale: float
     digest: str = dataclasses.field(default="", repr=False)
 
     def __post_init__(self):
         h = hashlib.sha256()
-        for name in (
-            "base_pose",
-            "points",
-            "point_body",
-            "face_body",
-            "face_edges",
-            "pair_point",
-            "pair_face",
-            "half_thickness",
-        ):
+        for name in ("base_pose", "points", "face_edges", "pairs", "half_thickness"):
             array = np.ascontiguousarray(getattr(self, name))
             h.update(name.encode())
             h.update(str(array.shape).encode())
             h.update(array.tobytes())
-        h.update(repr((self.n_bodies, self.scale)).encode())
+        h.update(repr((self.n_bodies, self.has_base, self.scale)).encode())
         object.__setattr__(self, "digest", h.hexdigest())
 
     def __hash__(self) -> int:
@@ -70,7 +60,8 @@ class ContactTables:
 
     @property
     def n_pairs(self) -> int:
-        return int(self.pair_point.shape[0])
+        """How many (point, face) pairs are checked."""
+        return int(self.pairs.sum())
 
 
 def plane_frame(polygon: np.ndarray) -> np.ndarray:
@@ -131,27 +122,39 @@ def _convex_hull(xy: np.ndarray) -> np.ndarray:
     return np.asarray(lower[:-1] + upper[:-1])
 
 
-def _rim_points(outline: np.ndarray, spacing: float) -> np.ndarray:
-    """Corners and points along every edge, about `spacing` apart."""
-    points = []
-    for a, b in zip(outline, np.roll(outline, -1, axis=0), strict=True):
-        n = max(1, int(np.ceil(np.linalg.norm(b - a) / spacing)))
-        for s in np.arange(n) / n:
-            points.append(a + s * (b - a))
-    return np.asarray(points)
-
-
-def _interior_points(outline: np.ndarray, spacing: float) -> np.ndarray:
-    """Points of a square grid of `spacing` strictly inside a convex polygon (in its x–y plane), at
-    least half a spacing from its rim."""
+def _inset_polygon(outline: np.ndarray, inset: float) -> np.ndarray:
+    """The convex hull of `outline` (x–y plane) with every edge moved `inset` inwards; its corners are
+    the intersections of neighbouring moved edges. The vertex mean if the inset swallows the polygon."""
     planes = _half_planes(outline)
-    lo, hi = outline[:, :2].min(axis=0), outline[:, :2].max(axis=0)
-    xs = np.arange(lo[0] + spacing / 2, hi[0], spacing)
-    ys = np.arange(lo[1] + spacing / 2, hi[1], spacing)
-    grid = np.stack(np.meshgrid(xs, ys, indexing="ij"), axis=-1).reshape(-1, 2)
-    inside = np.all(grid @ planes[:, :2].T + planes[:, 2] >= spacing / 2 - 1e-12, axis=1)
-    grid = grid[inside]
-    return np.concatenate([grid, np.zeros((len(grid), 1))], axis=1)
+    moved = planes.copy()
+    moved[:, 2] -= inset
+    corners = []
+    for (a1, b1, c1), (a2, b2, c2) in zip(moved, np.roll(moved, -1, axis=0), strict=True):
+        det = a1 * b2 - a2 * b1
+        if abs(det) < 1e-12:
+            continue
+        corners.append([(b1 * c2 - b2 * c1) / det, (a2 * c1 - a1 * c2) / det, 0.0])
+    corners = np.asarray(corners)
+    if len(corners) < 3 or np.any(corners[:, :2] @ planes[:, :2].T + planes[:, 2] < inset - 1e-9):
+        return np.asarray(outline, dtype=float).mean(axis=0, keepdims=True)
+    return corners
+
+
+def _sample_points(outline: np.ndarray, inset: float, per_edge: int) -> np.ndarray:
+    """Points on the rim of the panel moved `inset` inwards (corners, and `per_edge` points along the
+    longest edge, proportionally fewer on shorter ones), and the vertex mean.
+
+    Inset, so that a panel stacked on another of the same outline lies over its face (a rim point on
+    the other's edge would have no coverage); `inset` is twice the coverage ramp's width."""
+    inner = _inset_polygon(outline, inset)
+    points = [np.asarray(outline, dtype=float).mean(axis=0)]
+    if len(inner) >= 3:
+        lengths = np.linalg.norm(inner - np.roll(inner, -1, axis=0), axis=-1)
+        spacing = lengths.max() / max(per_edge, 1)
+        for a, b, length in zip(inner, np.roll(inner, -1, axis=0), lengths, strict=True):
+            n = max(1, int(np.ceil(length / spacing - 1e-9)))
+            points += [a + s * (b - a) for s in np.arange(n) / n]
+    return np.asarray(points)
 
 
 def _distance_to_segment(points: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -170,8 +173,9 @@ def build_tables(
     crease_child: np.ndarray,
     crease_ends: np.ndarray,
     *,
-    points_per_edge: int = 8,
-    crease_clearance: float = 0.1,
+    inset: float,
+    points_per_edge: int = 4,
+    crease_clearance: float = 0.5,
 ) -> ContactTables:
     """The contact geometry of panels given by their body-frame outlines.
 
@@ -181,11 +185,14 @@ def build_tables(
     - `base_outline`: the fixed base's polygon in world coordinates, or `None`.
     - `thickness`: `(b,)` panel thicknesses; `base_thickness` (length).
     - `crease_parent`, `crease_child`, `crease_ends`: the hinge layout (`(h,)`, `(h,)`, `(h, 2, 3)`
-      world, flat state): rim points of two panels that share a crease and lie within
-      `crease_clearance` × (the smaller panel's size) of it are not paired with each other's face (the
-      hinge keeps the two apart there; the barrier would fight it).
-    - `points_per_edge`: samples along the longest edge (the spacing of rim and interior points);
-      shorter edges get proportionally fewer (at least the corners).
+      world, flat state): points of two panels that share a crease and lie within
+      `crease_clearance` × (the smaller panel's size) of it are not paired with each other's face. A
+      point hinge holds the two together there (folded flat onto each other, their surfaces would
+      overlap for any angle short of π·(1 − t/r) at a distance r from the crease), so only their far
+      halves meet.
+    - `inset`: how far inside each panel's rim its sample points lie (length; see `_sample_points`).
+    - `points_per_edge`: samples along each panel's longest edge; shorter edges get proportionally
+      fewer (at least the corners).
     """
     n = len(outlines)
     outlines = [np.asarray(o, dtype=float) for o in outlines]
@@ -207,16 +214,11 @@ def build_tables(
         world_outlines.append(base_outline)
     sizes = [float(np.max(np.ptp(w, axis=0))) for w in world_outlines]
     scale = max(sizes)
-    longest = max(
-        float(np.max(np.linalg.norm(f - np.roll(f, -1, axis=0), axis=-1))) for f in faces
-    )
-    spacing = longest / max(points_per_edge, 1)
 
-    points, point_body, world_points = [], [], []
+    points, world_points = [], []
     for body, face in enumerate(faces):
-        rim = np.concatenate([_rim_points(face, spacing), _interior_points(face, spacing)])
+        rim = _sample_points(face, inset, points_per_edge)
         points.append(rim)
-        point_body.append(np.full(len(rim), body))
         pose = base_pose if body == n else rest_poses[body]
         world_points.append(rim @ pose[:3, :3].T + pose[:3, 3])
     planes = [_half_planes(f) for f in faces]
@@ -228,10 +230,13 @@ def build_tables(
 
     crease_parent = np.where(np.asarray(crease_parent) < 0, n, np.asarray(crease_parent))
     crease_child = np.asarray(crease_child)
-    pair_point, pair_face = [], []
-    offset = 0
-    for body, rim_world in enumerate(world_points):
-        for face in range(len(faces)):
+    n_all = len(faces)
+    width = max(len(p) for p in points)
+    padded = np.zeros((n_all, width, 3))
+    pairs = np.zeros((n_all, n_all, width), bool)
+    for body, (rim, rim_world) in enumerate(zip(points, world_points, strict=True)):
+        padded[body, : len(rim)] = rim
+        for face in range(n_all):
             if face == body:
                 continue
             keep = np.ones(len(rim_world), bool)
@@ -239,20 +244,15 @@ def build_tables(
                 if {int(crease_parent[h]), int(crease_child[h])} == {body, face}:
                     near = _distance_to_segment(rim_world, *crease_ends[h])
                     keep &= near > crease_clearance * min(sizes[body], sizes[face])
-            index = offset + np.nonzero(keep)[0]
-            pair_point.append(index)
-            pair_face.append(np.full(len(index), face))
-        offset += len(rim_world)
-    half = np.concatenate([np.asarray(thickness, float), [float(base_thickness)]]) / 2
+            pairs[body, face, : len(rim)] = keep
+    half = np.concatenate([np.asarray(thickness, float), [float(base_thickness)]])[:n_all] / 2
     return ContactTables(
         n_bodies=n,
+        has_base=base_outline is not None,
         base_pose=base_pose,
-        points=np.concatenate(points),
-        point_body=np.concatenate(point_body),
-        face_body=np.arange(len(faces)),
+        points=padded,
         face_edges=face_edges,
-        pair_point=np.concatenate(pair_point).astype(np.int64),
-        pair_face=np.concatenate(pair_face).astype(np.int64),
+        pairs=pairs,
         half_thickness=half,
         scale=scale,
     )

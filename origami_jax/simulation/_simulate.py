@@ -15,6 +15,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
 from ..system import FoldingSystem
+from ._guard import ContactGuard
 from ._inputs import AbstractInput
 from ._results import RESULTS
 from ._switching import StiffnessSwitching
@@ -184,6 +185,10 @@ def _solve(system: FoldingSystem, inputs: AbstractInput, span, y0, ts, how: _Int
     solver, controller = how.solver, how.controller
     if isinstance(solver, StiffnessSwitching) and isinstance(how.adjoint, diffrax.ForwardMode):
         solver = solver.with_scan_kind("lax")  # what diffrax does for its own Runge–Kutta solvers
+    if system.contact is not None and isinstance(
+        controller, diffrax.AbstractAdaptiveStepSizeController
+    ):
+        controller = ContactGuard(controller)
     jumps = inputs.jump_times(system)
     jump_ts = None if jumps is None else jnp.atleast_1d(jumps)
     step_ts = ts if how.land_on_samples else None

@@ -19,7 +19,8 @@ forces and torques in mass·length²/time² per radian of the mechanism's units.
 1. `hinge_angles(q)`, `hinge_rates(q, v)`: the hinge state the springs, inputs and metrics see;
 2. `hinge_force(q, tau)`: the generalized force of hinge torques ``τ`` (``J_hᵀ τ``);
 3. `forward_dynamics(q, v, force)`: ``v̇ = M(q)⁻¹ (force − bias(q, v))``.
-Fluid and contact models read the bodies through `body_poses` and `body_velocities`.
+Fluid and contact models read the bodies through `body_poses` and `spatial_velocities`, and hand
+their forces back as per-body wrenches through `apply_wrenches`.
 
 **Derivatives.** Every method is a pure function of the module's array fields and its arguments, so
 `jax.jit`, `jax.vmap` and `jax.grad` (forward and reverse) apply without change. An implementation may
@@ -179,6 +180,31 @@ class AbstractMechanism(eqx.Module):
         w_hat = jnp.einsum("bij,bkj->bik", rotation_rate, rotations)
         omega = jnp.stack([w_hat[:, 2, 1], w_hat[:, 0, 2], w_hat[:, 1, 0]], axis=-1)
         return velocity, omega
+
+    def spatial_velocities(
+        self, q: Float[Array, " nq"], v: Float[Array, " nv"]
+    ) -> Float[Array, "b 6"]:
+        """Each moving body's spatial velocity in the world frame, taken at the world origin:
+        ``(v_O, ω)`` with ``v_O`` the velocity of the body point passing through the origin (so a
+        point ``x`` of the body moves at ``v_O + ω × x``), shape `(b, 6)`.
+
+        Default: from `body_velocities`. Chains and trees override it with the recursive sum of
+        hinge twists."""
+        velocity, omega = self.body_velocities(q, v)
+        origins = self.body_poses(q)[:, :3, 3]
+        return jnp.concatenate([velocity - jnp.cross(omega, origins), omega], axis=-1)
+
+    def apply_wrenches(
+        self, q: Float[Array, " nq"], wrenches: Float[Array, "b 6"]
+    ) -> Float[Array, " nv"]:
+        """Generalized force of world wrenches on the bodies, ``Σ_b J_bᵀ W_b``: `wrenches[b]` is
+        ``(F, M)``, a force and its moment about the world origin (``M = Σ x × F`` for forces ``F`` at
+        points ``x``), the dual of `spatial_velocities` (power ``Σ_b W_b · V_b = fᵀ v``).
+
+        Default: autodiff of that power in ``v``. Chains and trees override it with the backward
+        pass of Newton–Euler."""
+        v = jnp.zeros(self.n_velocities, wrenches.dtype)
+        return jax.grad(lambda v: jnp.sum(wrenches * self.spatial_velocities(q, v)))(v)
 
     @abc.abstractmethod
     def outlines(self) -> list[np.ndarray]:

@@ -1,0 +1,172 @@
+"""Panel contact: the barrier, forces from the energy, stacking, rebound, no energy gain, gradients.
+
+The folding cases share one compiled solve per structure (Tsit5, fixed `n_save`, the accordion with
+contact; a single flap for the rebound), run under the contact guard that `simulate` adds.
+"""
+
+import functools
+
+import diffrax
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import origami_jax.simulation as sim
+from origami_jax.chain import accordion, accordion_system
+from origami_jax.contact import PanelContact, barrier
+from origami_jax.system import KOH_SOLUTION, FoldingSystem, HingeDesign, HingeDrag, Hinges
+
+N_SAVE = 601
+# Energy may rise by no more than the integrator's error between samples (relative to the energy
+# the hinges release): rtol 1e-8 local errors over ~1e3 steps.
+ENERGY_RTOL = 1e-6
+# Forward-mode sensitivities through contact against central differences (relative): the finite
+# differences carry the solver's tolerance-level noise divided by the step.
+GRADIENT_RTOL = 1e-4
+
+
+def _solve(system, t1, theta0=None, theta_dot0=None, inputs=None):
+    return sim.simulate(
+        system,
+        sim.Step() if inputs is None else inputs,
+        t1=t1,
+        n_save=N_SAVE,
+        theta0=theta0,
+        theta_dot0=theta_dot0,
+        solver=diffrax.Tsit5(),
+        rtol=1e-8,
+        atol=1e-10,
+        max_steps=200_000,
+    )
+
+
+@functools.cache
+def _accordion(fluid: str):
+    design = HingeDesign.literature(**({"fluid": KOH_SOLUTION} if fluid == "koh" else {}))
+    system = accordion_system(design, 3, contact=True)
+    return system, _solve(system, 1500.0)
+
+
+def _step_energy(system, trajectory):
+    """Mechanical energy with the step's potential ``−Σ k θ_target θ``: conserved without drag and
+    contact damping, so it may only fall."""
+    k, target = system.hinges.stiffness, system.hinges.target
+    energy = jax.vmap(system.energy)(trajectory.theta, trajectory.theta_dot)
+    return energy - trajectory.theta @ (k * target)
+
+
+def test_barrier_is_smooth_and_finite():
+    x = jnp.linspace(-2.0, 1.5, 7001)
+    values = jax.vmap(barrier)(x)
+    first = jax.vmap(jax.grad(barrier))(x)
+    second = jax.vmap(jax.grad(jax.grad(barrier)))(x)
+    assert bool(jnp.all(jnp.isfinite(values) & jnp.isfinite(first) & jnp.isfinite(second)))
+    assert bool(jnp.all(values >= 0)) and bool(jnp.all(first <= 1e-12))
+    assert float(barrier(1.0)) == 0.0 and float(barrier(2.0)) == 0.0
+    # C² at the activation gap (x = 1) and where the Taylor continuation starts (x = 0.1).
+    for x0 in (1.0, 0.1):
+        for f in (barrier, jax.grad(barrier), jax.grad(jax.grad(barrier))):
+            np.testing.assert_allclose(f(x0 - 1e-9), f(x0 + 1e-9), rtol=1e-6, atol=1e-6)
+    # The IPC barrier itself in between.
+    np.testing.assert_allclose(barrier(0.5), -(0.25) * np.log(0.5), rtol=1e-14)
+
+
+def test_elastic_force_is_minus_the_energy_gradient_and_damping_dissipates():
+    system = accordion_system(HingeDesign.literature(), 3, contact=True)
+    contact, chain = system.contact, system.mechanism
+    q = jnp.array([np.pi - 0.005, -np.pi + 0.01, np.pi - 0.01])  # flaps pressed onto each other
+    v = jnp.array([0.01, -0.02, 0.03])
+    elastic = contact.force(chain, q, jnp.zeros(3))
+    reference = -jax.grad(lambda q: contact.potential(chain, q))(q)
+    assert float(jnp.max(jnp.abs(elastic))) > 0  # in contact
+    np.testing.assert_allclose(elastic, reference, rtol=1e-10)
+    assert float(v @ (contact.force(chain, q, v) - elastic)) < 0
+    # Flat, every flap beside the others: no contact at all.
+    np.testing.assert_array_equal(contact.force(chain, jnp.zeros(3), jnp.zeros(3)), 0.0)
+
+
+def test_flap_rebounds_from_the_base_without_gaining_energy():
+    # One flap, no drag, a weak hinge holding it at 90°, launched towards the base (θ → π).
+    chain = accordion(1)
+    design = HingeDesign.literature()
+    hinges = Hinges(10.0, jnp.array([np.pi / 2]), design.radius())
+    free = FoldingSystem(chain, hinges, HingeDrag(jnp.zeros(1)))
+    base = _mirror(chain)
+    contact = PanelContact.for_system(
+        chain, jnp.array([1e4]), jnp.array([np.pi]), thickness=0.2, base_outline=base
+    )
+    system = eqx.tree_at(lambda s: s.contact, free, contact, is_leaf=lambda x: x is None)
+    trajectory = _solve(
+        system, 60.0, theta0=jnp.array([np.pi / 2]), theta_dot0=jnp.array([0.1])
+    )
+    theta, rate = np.asarray(trajectory.theta[:, 0]), np.asarray(trajectory.theta_dot[:, 0])
+    assert theta.max() < np.pi  # stopped by the base, never through it
+    assert rate[0] > 0 and rate.min() < -0.05  # it came back, at half its speed or more
+    energy = np.asarray(_step_energy(system, trajectory))
+    scale = abs(energy[0])
+    assert np.max(np.diff(energy)) <= ENERGY_RTOL * scale
+    assert energy[-1] < energy[0]  # the contact's damping took some out
+    report = jax.vmap(lambda q: contact.report(chain, q))(trajectory.theta)
+    assert float(jnp.max(report["penetration"])) == 0.0
+
+
+def _mirror(chain):
+    """The base: the first flap mirrored across its hinge (what `accordion_system` uses)."""
+    from origami_jax.chain._system import _base_rectangle
+
+    return _base_rectangle(chain)
+
+
+@pytest.mark.parametrize("fluid", ["air", "koh"])
+def test_accordion_with_contact_stacks_without_penetration_or_energy_gain(fluid):
+    system, trajectory = _accordion(fluid)
+    assert bool(trajectory.succeeded)
+    theta = np.asarray(trajectory.theta)
+    # No hinge passes π: each flap stops on the one below (the paper's model overshoots to 1.8π).
+    assert np.all(np.abs(theta) < np.pi)
+    report = jax.vmap(lambda q: system.contact.report(system.mechanism, q))(trajectory.theta)
+    assert float(jnp.max(report["penetration"])) == 0.0
+    energy = np.asarray(_step_energy(system, trajectory))
+    released = float(jnp.sum(0.5 * system.hinges.stiffness * system.hinges.target**2))
+    assert np.max(np.diff(energy)) <= ENERGY_RTOL * released
+    if fluid == "koh":
+        # Overdamped: the stack settles where the barrier, which rises from zero at the activation
+        # gap ĝ, holds the hinges' last few pN·m: a standoff of about ĝ (0.5 % of the flap length),
+        # a fraction of a degree per hinge.
+        final_gap = float(report["min_gap"][-1])
+        assert 0.0 < final_gap < 1.05 * float(system.contact.activation)
+        np.testing.assert_allclose(np.abs(theta[-1]), np.pi, atol=0.02)
+
+
+def test_metric_gradients_through_contact_match_finite_differences():
+    """Response metrics of the accordion in KOH with contact (the peaks are the stack's standoff,
+    set by the barrier), differentiated in forward mode through the contact solve, against central
+    differences. Overdamped, so the metrics are away from contact onset: every peak is a contact."""
+    base, _ = _accordion("koh")
+
+    def metrics(log_k, adjoint=None):
+        system = eqx.tree_at(
+            lambda s: s.hinges.stiffness, base, base.hinges.stiffness * jnp.exp(log_k)
+        )
+        trajectory = sim.simulate(
+            system,
+            sim.Step(),
+            t1=600.0,
+            n_save=401,
+            solver=diffrax.Tsit5(),
+            rtol=1e-8,
+            atol=1e-10,
+            max_steps=200_000,
+            adjoint=adjoint,
+        )
+        m = sim.response_metrics(trajectory)
+        return jnp.stack([m.rise_time[0], m.peak_value[0], m.peak_value[1]])
+
+    derivative = jax.jit(jax.jacfwd(lambda x: metrics(x, diffrax.ForwardMode())))(0.0)
+    f = jax.jit(metrics)
+    h = 1e-4
+    fd = (f(h) - f(-h)) / (2 * h)
+    assert float(jnp.min(jnp.abs(fd[1:]))) > 1e-3  # the standoff depends on the stiffness
+    np.testing.assert_allclose(derivative, fd, rtol=GRADIENT_RTOL)
