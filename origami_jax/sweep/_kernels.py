@@ -264,17 +264,16 @@ def vertex_unfold(
     (perturbation, energy switch, continuation in `p`) are tried, and the path is not stored, only
     the online certificate (every accepted step passed the clearance bound and the crossing test).
 
-    **Outputs:** `verdict` (1 flat-unfolded, 2 flat-folded, 3 stalled, 4 step budget exhausted,
-    5 invalid), `flat_unfolded`, `certified`, `accepted_steps`, `energy`, `min_clearance` (rad),
-    `max_abs_fold` (rad), `max_residual`, per crease (dim `crease`) `sign_changes`, and `result`
+    **Outputs:** `verdict` (the code of `origami_jax.vertex.RESULTS`: 1 flat-unfolded, 2 flat-folded,
+    3 stalled, 4 step budget exhausted, 5 invalid, 6 stalled at a contact), `flat_unfolded`,
+    `certified`, `accepted_steps`, `energy`, `min_clearance` (rad), `max_abs_fold` (rad), `max_residual`, per crease (dim `crease`) `sign_changes`, and `result`
     (0 = a verdict was reached, 1 = step budget exhausted, −1 = invalid input).
     """
     import jax
     import jax.numpy as jnp
     import numpy as np
 
-    from ..vertex import DEFAULT_P, DescentSettings, random_vertex
-    from ..vertex import _descent as descent
+    from ..vertex import DEFAULT_P, RESULTS, DescentSettings, random_vertex
     from ..vertex import unfold_kernel as descend
 
     if energy not in DEFAULT_P:
@@ -307,13 +306,15 @@ def vertex_unfold(
             max_steps=max_steps,
             record=False,
         )
-        status = out.status.astype(jnp.int32)
+        status = out.status
         result = jnp.where(
-            status == descent.INVALID, INVALID_INPUT, jnp.where(status == descent.MAX_STEPS, 1, 0)
+            status == RESULTS.invalid,
+            INVALID_INPUT,
+            jnp.where(status == RESULTS.max_steps_reached, 1, 0),
         )
         return {
-            "verdict": status,
-            "flat_unfolded": status == descent.FLAT_UNFOLDED,
+            "verdict": status._value.astype(jnp.int32),
+            "flat_unfolded": status == RESULTS.flat_unfolded,
             "certified": out.certified,
             "accepted_steps": out.n_accepted.astype(jnp.int32),
             "energy": out.energy,

@@ -16,6 +16,8 @@ from ._catalogue import random_vertices as random_vertices
 from ._catalogue import stack_vertices as stack_vertices
 from ._catalogue import waterbomb_base as waterbomb_base
 from ._descent import CERT_MARGIN as CERT_MARGIN
+from ._descent import RESULTS as RESULTS
+from ._descent import DescentOutput as DescentOutput
 from ._descent import DescentSettings as DescentSettings
 from ._energy import DEFAULT_P as DEFAULT_P
 from ._energy import charge_distances as charge_distances
