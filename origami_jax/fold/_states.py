@@ -20,7 +20,7 @@ import math
 import numpy as np
 from jaxtyping import ArrayLike
 
-from .. import __version__
+from .._version import __version__
 from ._errors import FoldFormatError
 from ._geometry import vertex_fold_angles
 from ._model import WRITTEN_SPEC, FoldFile, FoldFrame
