@@ -1,28 +1,21 @@
 """FOLD format (spec 1.2, Demaine, Ku and Lang) input and output.
 
 Read crease patterns and folded states written by Origami Simulator, Rabbit Ear, crease-pattern
-editors or by hand; build a single-vertex origami or an accordion from them; write our single-vertex
-states, unfolding paths and chain trajectories as FOLD animations (`file_frames`) that those tools load.
+editors or by hand; write single-vertex states, unfolding paths and chain trajectories as FOLD
+animations (`file_frames`) that those tools load. This package is plain NumPy and knows no physics:
+the physics packages build their objects from it (`origami_jax.vertex.load_single_vertex`,
+`origami_jax.chain.load_chain`) and feed it their results (`origami_jax.vertex.unfolding_to_fold`,
+`origami_jax.vertex.single_vertex_to_fold`, `origami_jax.chain.trajectory_to_fold`).
 
 - Reading: `read_fold` → `FoldFile` (frames of `FoldFrame`), checked by `check_fold` and, when
   `jsonschema` is installed, by the shipped schema (`fold_schema()`); errors are `FoldFormatError`.
 - Geometry (plain arrays, radians): `list_vertices`, `single_vertex_geometry`, `chain_geometry`.
-- Physics objects (lazy imports): `load_single_vertex`, `load_chain`.
-- Writing: `write_fold`, `normalise_fold`; `single_vertex_fold` / `chain_fold` from plain arrays,
-  `unfolding_to_fold` / `single_vertex_to_fold` / `trajectory_to_fold` from our result objects.
+- Writing: `write_fold`, `normalise_fold`; `single_vertex_fold` / `chain_fold` from plain arrays.
 
 Conventions: FOLD stores fold angles in degrees (valley +, mountain −); the model keeps them so
 (`FoldFrame.edges_fold_angle_deg`), geometry and physics use radians.
 """
 
-from ._adapters import accordion_dimensions as accordion_dimensions
-from ._adapters import chain_from_geometry as chain_from_geometry
-from ._adapters import load_chain as load_chain
-from ._adapters import load_single_vertex as load_single_vertex
-from ._adapters import single_vertex_to_fold as single_vertex_to_fold
-from ._adapters import trajectory_to_fold as trajectory_to_fold
-from ._adapters import unfolding_to_fold as unfolding_to_fold
-from ._adapters import vertex_from_geometry as vertex_from_geometry
 from ._chain_geometry import ChainGeometry as ChainGeometry
 from ._chain_geometry import chain_geometry as chain_geometry
 from ._checks import check_fold as check_fold
@@ -37,6 +30,7 @@ from ._geometry import paper_plane as paper_plane
 from ._geometry import pick_vertex as pick_vertex
 from ._geometry import single_vertex_geometry as single_vertex_geometry
 from ._geometry import vertex_fold_angles as vertex_fold_angles
+from ._model import FRAME_UNITS_M as FRAME_UNITS_M
 from ._model import FoldFile as FoldFile
 from ._model import FoldFrame as FoldFrame
 from ._read import fold_from_dict as fold_from_dict
