@@ -724,7 +724,9 @@ def unfold_batch(
             idx = stalled[ok]
             reached = np.zeros(len(escape), bool)
             reached[idx] = True
-            status = RESULTS.where(jnp.asarray(reached), RESULTS.flat_unfolded, status)
+            status = jax.vmap(lambda r, s: RESULTS.where(r, RESULTS.flat_unfolded, s))(
+                jnp.asarray(reached), status
+            )
             fields["final"][idx] = np.asarray(o.x)[ok]
             fields["certified"][idx] = np.asarray(o.certified)[ok] & fields["certified"][idx]
             for name, value, combine in (
