@@ -10,6 +10,7 @@ import numpy as np
 import pinocchio as pin
 
 import origami_jax.chain as oc
+import origami_jax.system as osys
 
 from ._harness import Result, compile_jitted, time_calls
 
@@ -39,16 +40,15 @@ def _pinocchio_model(chain: oc.Chain) -> pin.Model:
 def run(quick: bool) -> list[Result]:
     n_states = 1_000 if quick else 10_000
     repeats = 5 if quick else 20
-    design = oc.HingeDesign.literature()
-    chain = design.accordion(3)
+    design = osys.HingeDesign.literature()
+    chain = oc.accordion_system(design, 3).mechanism
     rng = np.random.default_rng(0)
     theta = rng.uniform(-np.pi, np.pi, size=(n_states, 3))
     theta_dot = rng.normal(scale=0.05, size=(n_states, 3))
     tau = rng.normal(scale=1e3, size=(n_states, 3))
-    zeros = jnp.zeros(3)
 
     def single(chain, q, v, t):
-        return oc.forward_dynamics(chain, q, v, t, stiffness=zeros, drag=zeros)
+        return oc.forward_dynamics(chain, q, v, t)
 
     def batched(chain, q, v, t):
         return jax.vmap(single, in_axes=(None, 0, 0, 0))(chain, q, v, t)

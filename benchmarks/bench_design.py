@@ -96,12 +96,11 @@ def _fit_flops(hinge, t1: float, n_save: int, *, n_lanes: int, steps: int) -> fl
     import diffrax
 
     import origami_jax.simulation as sim
+    from origami_jax.chain import accordion_system
 
     trajectory = sim.simulate(
-        hinge.accordion(3),
-        sim.Step(sim.alternating_targets(3)),
-        stiffness=hinge.stiffness(3),
-        drag=hinge.drag(3),
+        accordion_system(hinge, 3),
+        sim.Step(),
         t1=t1,
         n_save=n_save,
         rtol=RTOL,
@@ -125,24 +124,28 @@ def _time_peer(peer, *, runs: int):
 
 def _sensitivity_row(quick: bool) -> Result:
     import diffrax
+    import equinox as eqx
     import jax
     import jax.numpy as jnp
 
     import origami_jax.simulation as sim
+    from origami_jax.chain import accordion_system
     from origami_jax.system import HingeDesign
 
     design = HingeDesign.literature(k_scale=TRUTH[0], b_scale=TRUTH[1])
-    chain = design.accordion(3)
-    inputs = sim.Step(sim.alternating_targets(3))
-    k, b = design.stiffness(3), design.drag(3)
+    system = accordion_system(design, 3)
+    k, b = system.hinges.stiffness, system.drag.coefficient
     t1, n_save = 400.0, 601
 
     def angles(log_scales):
+        scaled = eqx.tree_at(
+            lambda s: (s.hinges.stiffness, s.drag.coefficient),
+            system,
+            (k * jnp.exp(log_scales[0]), b * jnp.exp(log_scales[1])),
+        )
         trajectory = sim.simulate(
-            chain,
-            inputs,
-            stiffness=k * jnp.exp(log_scales[0]),
-            drag=b * jnp.exp(log_scales[1]),
+            scaled,
+            sim.Step(),
             t1=t1,
             n_save=n_save,
             rtol=RTOL,
@@ -159,12 +162,12 @@ def _sensitivity_row(quick: bool) -> Result:
     timing = time_calls(lambda: compiled(x), repeats=5 if quick else 20)
 
     ts = np.linspace(0.0, t1, n_save)
-    thetas = np.asarray(sim.alternating_targets(3))
+    thetas = np.asarray(system.hinges.target)
     k_np, b_np = np.asarray(k), np.asarray(b)
 
     def peer_angles(log_scales):
         k_i, b_i = k_np * np.exp(log_scales[0]), b_np * np.exp(log_scales[1])
-        return _peer_step_response(chain, k_i, b_i, ts, thetas).y[:3].T
+        return _peer_step_response(system.mechanism, k_i, b_i, ts, thetas).y[:3].T
 
     step = 1e-4
 
@@ -197,11 +200,11 @@ def run(quick: bool) -> list[Result]:
     from scipy.optimize import least_squares
 
     import origami_jax.design as ojd
+    from origami_jax.chain import accordion_system, alternating_targets
     from origami_jax.system import HingeDesign
-    from origami_jax.simulation import alternating_targets
 
     literature = HingeDesign.literature()
-    chain = literature.accordion(3)
+    chain = accordion_system(literature, 3).mechanism
     n_save = 601
     t1 = 400.0
     settings = ojd.SimulationSettings(t1, n_flaps=3, n_save=n_save, rtol=RTOL, atol=ATOL)

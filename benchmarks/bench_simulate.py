@@ -56,19 +56,15 @@ def _literature_rhs():
     evaluates it (torque ``K θ_des``), for FLOP counts."""
     import jax.numpy as jnp
 
-    from origami_jax.chain import forward_dynamics
-
+    from origami_jax.chain import accordion_system
     from origami_jax.system import MICRO, HingeDesign
-    from origami_jax.simulation import alternating_targets
 
-    design = HingeDesign.literature(MICRO)
-    chain = design.accordion(3)
-    k, b = design.stiffness(3), design.drag(3)
-    tau = k * alternating_targets(3)
+    system = accordion_system(HingeDesign.literature(MICRO), 3)
+    tau = system.hinges.stiffness * system.hinges.target
 
     def rhs(y):
         theta, theta_dot = y[:3], y[3:]
-        acc = forward_dynamics(chain, theta, theta_dot, tau, stiffness=k, drag=b)
+        acc = system.accelerations(theta, theta_dot, tau)
         return jnp.concatenate([theta_dot, acc])
 
     return rhs
@@ -98,16 +94,17 @@ def _switch_note(switch_time: float) -> str:
 
 def run(quick: bool) -> list[Result]:
     import diffrax
+    import equinox as eqx
     import jax.numpy as jnp
     from scipy.integrate import solve_ivp
 
     import origami_jax.simulation as sim
+    from origami_jax.chain import accordion_system
     from origami_jax.system import HingeDesign
 
-    design = HingeDesign.literature()
-    chain = design.accordion(3)
-    k, b = design.stiffness(3), design.drag(3)
-    inputs = sim.Step(sim.alternating_targets(3))
+    system = accordion_system(HingeDesign.literature(), 3)
+    chain, k, b = system.mechanism, system.hinges.stiffness, system.drag.coefficient
+    inputs = sim.Step()
     # Past ~0.5 ms the three coupled flaps ring so irregularly that two correct solvers at rtol 1e-8
     # drift apart by ~1e-4 rad (local errors amplified); 500 µs covers the fold, the peaks and the first
     # ringing, where the answers agree to ~1e-6 rad.
@@ -116,7 +113,7 @@ def run(quick: bool) -> list[Result]:
     ts = np.linspace(0.0, t1, n_save)
     repeats = 3 if quick else 10
 
-    rhs = _pinocchio_rhs(chain, k, b, np.asarray(k * inputs.theta_des))
+    rhs = _pinocchio_rhs(chain, k, b, np.asarray(k * system.hinges.target))
 
     def peer():
         return solve_ivp(
@@ -137,11 +134,12 @@ def run(quick: bool) -> list[Result]:
     for name, solver in solvers:
 
         def ours(stiffness, drag, solver=solver):
+            scaled = eqx.tree_at(
+                lambda s: (s.hinges.stiffness, s.drag.coefficient), system, (stiffness, drag)
+            )
             trajectory = sim.simulate(
-                chain,
+                scaled,
                 inputs,
-                stiffness=stiffness,
-                drag=drag,
                 t1=t1,
                 n_save=n_save,
                 solver=solver,

@@ -46,14 +46,14 @@ def _pinocchio_peer(design_values: dict[str, float]):
     import pinocchio as pin
     from scipy.integrate import solve_ivp
 
+    from origami_jax.chain import accordion_system
     from origami_jax.system import MICRO, HingeDesign
-    from origami_jax.simulation import alternating_targets
 
-    design = HingeDesign.literature(MICRO, **design_values)
+    system = accordion_system(HingeDesign.literature(MICRO, **design_values), 3)
     n = 3
-    chain = design.accordion(n)
-    k = np.asarray(design.stiffness(n))
-    b = np.asarray(design.drag(n))
+    chain = system.mechanism
+    k = np.asarray(system.hinges.stiffness)
+    b = np.asarray(system.drag.coefficient)
     points = np.asarray(chain.points)
     cg = np.asarray(chain.cg_poses)[:, :3, 3]
     assert np.allclose(np.asarray(chain.axes), [1.0, 0.0, 0.0])
@@ -70,7 +70,7 @@ def _pinocchio_peer(design_values: dict[str, float]):
         model.appendBodyToJoint(joint, inertia, pin.SE3.Identity())
         parent, previous = joint, points[i]
     data = model.createData()
-    target = np.asarray(alternating_targets(n))
+    target = np.asarray(system.hinges.target)
 
     def rhs(t, y):
         q, v = y[:n], y[n:]

@@ -16,10 +16,10 @@ from ._version import __version__ as __version__
 
 # Subpackages load on first use so that `origami-jax --help` and `import origami_jax` stay fast;
 # `origami_jax.chain`, `origami_jax.simulation`, ... behave as ordinary attributes.
-_SUBPACKAGES = ("chain", "design", "fold", "plotting", "simulation", "sweep", "vertex")
+_SUBPACKAGES = ("chain", "design", "fold", "plotting", "simulation", "sweep", "vertex", "view")
 
 if _TYPE_CHECKING:
-    from . import chain, design, fold, plotting, simulation, sweep, vertex  # noqa: F401
+    from . import chain, design, fold, plotting, simulation, sweep, vertex, view  # noqa: F401
 
 
 def __getattr__(name: str):
@@ -41,4 +41,5 @@ __all__ = [  # noqa: RUF022  (listed literally so type checkers can read it)
     "simulation",
     "sweep",
     "vertex",
+    "view",
 ]

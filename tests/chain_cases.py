@@ -1,4 +1,4 @@
-"""Shared chains and a Pinocchio twin for the tests of `origami_jax.chain` (issue #3)."""
+"""Shared chains and a Pinocchio twin for the tests of `origami_jax.chain`."""
 
 import functools
 
@@ -104,3 +104,11 @@ def random_states(n: int, count: int, seed: int) -> tuple[np.ndarray, np.ndarray
 
 def as_jax(*arrays):
     return tuple(jnp.asarray(a) for a in arrays)
+
+
+def forward_dynamics(chain, theta, theta_dot, tau, *, stiffness, drag, **options):
+    """The paper's Eq. 11 right-hand side: `oc.forward_dynamics` with the generalized force
+    ``τ − K θ − B θ̇|θ̇|`` (what `FoldingSystem.generalized_force` assembles for a chain)."""
+    applied = jnp.asarray(tau) - oc.hinge_torque(stiffness, drag, theta, theta_dot)
+    applied = jnp.broadcast_to(applied, jnp.shape(theta))
+    return oc.forward_dynamics(chain, theta, theta_dot, applied, **options)

@@ -36,3 +36,17 @@ def max_relative_error(actual, expected, *, floor: float = 0.0) -> float:
         scale = max(float(jnp.max(jnp.abs(e))), floor)
         errors.append(float(jnp.max(jnp.abs(a - e))) / (scale if scale > 0 else 1.0))
     return max(errors, default=0.0)
+
+
+def make_system(chain, stiffness, drag, target=None, radius=1.0, release_time=None):
+    """A `FoldingSystem` around a bare chain: per-hinge stiffness, the paper's hinge drag, fold targets
+    (default: π on every hinge), bending radius (only the etch ramp reads it)."""
+    from origami_jax.system import FoldingSystem, HingeDrag, Hinges
+
+    n = chain.n_hinges
+    target = jnp.full(n, jnp.pi) if target is None else jnp.asarray(target, dtype=float)
+    hinges = Hinges(
+        jnp.broadcast_to(jnp.asarray(stiffness, dtype=float), (n,)), target, radius, release_time
+    )
+    drag = jnp.broadcast_to(jnp.asarray(drag, dtype=float), (n,))
+    return FoldingSystem(chain, hinges, HingeDrag(drag))

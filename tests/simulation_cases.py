@@ -9,6 +9,7 @@ import functools
 import numpy as np
 
 import origami_jax.simulation as sim
+from origami_jax.chain import accordion_system
 from origami_jax.system import AIR, KOH_SOLUTION, MICRO, HingeDesign
 
 # One structure for every default-solver accordion solve in the tests (one compilation).
@@ -19,23 +20,20 @@ FLUIDS = {"air": AIR, "koh": KOH_SOLUTION}
 
 
 def literature(fluid: str = "air", units=MICRO, **overrides):
+    """The literature design and its 3-flap accordion system."""
     design = HingeDesign.literature(units=units, fluid=FLUIDS[fluid], **overrides)
-    chain = design.accordion(3)
-    return design, chain, design.stiffness(3), design.drag(3)
+    return design, accordion_system(design, 3)
 
 
 def step_simulation(
     fluid: str = "air", units=MICRO, t1_us: float = 1200.0, solver=None, **overrides
 ):
-    design, chain, k, b = literature(fluid, units, **overrides)
-    inputs = sim.Step(sim.alternating_targets(3))
+    _, system = literature(fluid, units, **overrides)
     t1 = units.time(t1_us * 1e-6)
     # θ is in rad in both unit systems; θ̇ is 1e6× larger in SI, where rtol dominates anyway.
     return sim.simulate(
-        chain,
-        inputs,
-        stiffness=k,
-        drag=b,
+        system,
+        sim.Step(),
         t1=t1,
         n_save=N_SAVE,
         rtol=RTOL,

@@ -10,10 +10,12 @@ import pytest
 from jax.test_util import check_grads
 
 import origami_jax.chain as oc
+import origami_jax.system as osys
 
 from .chain_cases import (
     SEED,
     as_jax,
+    forward_dynamics,
     quick_jit,
     random_chain,
     random_planar_chain,
@@ -54,7 +56,7 @@ def _recursive(chain, theta, theta_dot, tau):
     """The fast path, vmapped over states: one compilation per chain size."""
 
     def one(q, v, t):
-        acceleration = oc.forward_dynamics(chain, q, v, t, stiffness=0.0, drag=0.0)
+        acceleration = forward_dynamics(chain, q, v, t, stiffness=0.0, drag=0.0)
         return dict(
             mass=oc.mass_matrix(chain, q),
             mass_dot=jax.jvp(lambda x: oc.mass_matrix(chain, x), (q,), (v,))[1],
@@ -149,12 +151,12 @@ def test_mass_matrix_symmetric_positive_definite(case):
 
 def test_energy_conserved_without_drag():
     chain = oc.accordion(3)
-    design = oc.HingeDesign.literature()
+    design = osys.HingeDesign.literature()
     k = design.stiffness(3)
 
     def field(t, y, args):
         q, v = y
-        return v, oc.forward_dynamics(chain, q, v, jnp.zeros(3), stiffness=k, drag=0.0)
+        return v, forward_dynamics(chain, q, v, jnp.zeros(3), stiffness=k, drag=0.0)
 
     def energy(q, v):
         return oc.kinetic_energy(chain, q, v) + 0.5 * jnp.sum(k * q**2)
@@ -185,9 +187,9 @@ def test_energy_conserved_without_drag():
 def _accordion_acceleration(scales, theta, theta_dot, tau):
     # Design parameters enter as relative scale factors so that the finite-difference step (1e-4 in
     # check_grads) is a relative perturbation of every physical parameter, whatever its size.
-    base = oc.HingeDesign.literature(fluid=oc.KOH_SOLUTION)
-    design = oc.HingeDesign.literature(
-        fluid=oc.KOH_SOLUTION,
+    base = osys.HingeDesign.literature(fluid=osys.KOH_SOLUTION)
+    design = osys.HingeDesign.literature(
+        fluid=osys.KOH_SOLUTION,
         flap_length=base.flap_length * scales[0],
         flap_width=base.flap_width * scales[1],
         hinge_width=base.hinge_width * scales[2],
@@ -197,8 +199,8 @@ def _accordion_acceleration(scales, theta, theta_dot, tau):
         drag_coefficient=base.drag_coefficient * scales[6],
         theta_final=base.theta_final * scales[7],
     )
-    chain = design.accordion(3)
-    return oc.forward_dynamics(
+    chain = oc.accordion_system(design, 3).mechanism
+    return forward_dynamics(
         chain, theta, theta_dot, tau, stiffness=design.stiffness(3), drag=design.drag(3)
     )
 
@@ -213,7 +215,7 @@ def test_gradients_wrt_state_and_hinges():
     def mass_and_acceleration(theta, theta_dot, tau, stiffness, drag):
         return (
             oc.mass_matrix(chain, theta) / 1e6,
-            oc.forward_dynamics(chain, theta, theta_dot, tau, stiffness=stiffness, drag=drag),
+            forward_dynamics(chain, theta, theta_dot, tau, stiffness=stiffness, drag=drag),
         )
 
     args = as_jax(
@@ -268,11 +270,11 @@ def test_units_do_not_change_the_answer():
     theta = jnp.array([0.4, -1.1, 2.0])
     rate_si = jnp.array([3e4, -2e4, 5e4])  # rad/s
     results = {}
-    for units in (oc.SI, oc.MICRO):
-        design = oc.HingeDesign.literature(units=units)
-        chain = design.accordion(3)
+    for units in (osys.SI, osys.MICRO):
+        design = osys.HingeDesign.literature(units=units)
+        chain = oc.accordion_system(design, 3).mechanism
         rate = rate_si * units.second_per_time
-        accel = oc.forward_dynamics(
+        accel = forward_dynamics(
             chain, theta, rate, jnp.zeros(3), stiffness=design.stiffness(3), drag=design.drag(3)
         )
         results[units.name] = accel / units.second_per_time**2  # rad/s²
@@ -334,7 +336,7 @@ def test_scalar_forward_path_equals_array_path(name):
 
     def acceleration(path):
         def f(c, q, v, t, stiffness):
-            return oc.forward_dynamics(c, q, v, t, stiffness=stiffness, drag=b, path=path)
+            return forward_dynamics(c, q, v, t, stiffness=stiffness, drag=b, path=path)
 
         return f
 
@@ -379,7 +381,7 @@ def test_scalar_forward_path_equals_array_path(name):
         assert max_relative_error(fast, reference) < PATH_RTOL
     # ValueError from the function; TypeError when the suite's runtime type checker sees it first.
     with pytest.raises((ValueError, TypeError), match="path"):
-        oc.forward_dynamics(chain, theta[0], theta_dot[0], tau[0], stiffness=k, drag=b, path="x")
+        forward_dynamics(chain, theta[0], theta_dot[0], tau[0], stiffness=k, drag=b, path="x")
 
 
 def test_planar_path_equals_spatial_scalar_path():
@@ -398,7 +400,7 @@ def test_planar_path_equals_spatial_scalar_path():
 
     @quick_jit
     def accelerations(chain):
-        return oc.forward_dynamics(chain, theta, theta_dot, tau, stiffness=1.0, drag=0.2)
+        return forward_dynamics(chain, theta, theta_dot, tau, stiffness=1.0, drag=0.2)
 
     assert max_relative_error(accelerations(planar), accelerations(spatial)) < PATH_RTOL
 
@@ -413,11 +415,11 @@ def test_forward_dynamics_on_rows_of_states():
     k, b = jnp.linspace(1.0, 2.0, n), jnp.linspace(0.1, 0.3, n)
 
     def rows(scale, q):
-        return oc.forward_dynamics(chain, q * scale, theta_dot, tau, stiffness=k * scale, drag=b)
+        return forward_dynamics(chain, q * scale, theta_dot, tau, stiffness=k * scale, drag=b)
 
     def one_by_one(scale, q):
         def one(qi, vi, ti):
-            return oc.forward_dynamics(chain, qi * scale, vi, ti, stiffness=k * scale, drag=b)
+            return forward_dynamics(chain, qi * scale, vi, ti, stiffness=k * scale, drag=b)
 
         return jax.vmap(one)(q, theta_dot, tau)
 
@@ -447,12 +449,12 @@ def test_forward_dynamics_on_rows_of_states():
     # Angles beyond the polynomial sin/cos range (CPU) take jnp.sin/cos: still the array path's answer.
     far = theta + 2.0e6 * jnp.pi
     arrays = jax.vmap(
-        lambda q, v, t: oc.forward_dynamics(chain, q, v, t, stiffness=k, drag=b, path="arrays")
+        lambda q, v, t: forward_dynamics(chain, q, v, t, stiffness=k, drag=b, path="arrays")
     )(far, theta_dot, tau)
     assert max_relative_error(value(far), arrays) < 1e-8  # 2e6·π carries ~1e-9 rad of rounding
     # ValueError from the function; TypeError when the suite's runtime type checker sees it first.
     with pytest.raises((ValueError, TypeError), match="shape"):
-        oc.forward_dynamics(
+        forward_dynamics(
             chain, theta[:, :2], theta_dot[:, :2], tau[:, :2], stiffness=k[:2], drag=b[:2]
         )
 
@@ -487,7 +489,7 @@ def test_forward_mode_only_derivatives_equal_autodiff(name):
 
     def accel(forward_mode_only):
         def f(c, q, v, t, s):
-            return oc.forward_dynamics(
+            return forward_dynamics(
                 c, q, v, t, stiffness=s, drag=b, forward_mode_only=forward_mode_only
             )
 

@@ -8,6 +8,8 @@ import pytest
 
 import origami_jax.chain as oc
 
+from .chain_cases import forward_dynamics
+
 # eqx.error_if surfaces as EquinoxRuntimeError, or wrapped by the CPU callback as a ValueError/
 # JaxRuntimeError depending on the JAX version; the message is what the user reads.
 _RUNTIME_ERRORS = (eqx.EquinoxRuntimeError, ValueError, jax.errors.JaxRuntimeError)
@@ -129,7 +131,7 @@ def test_planar_flag_detected_asserted_and_checked():
     tilted = eqx.tree_at(lambda c: c.axes, chain, jnp.asarray(bent))
     state = (jnp.array([0.3, -0.2]), jnp.array([0.01, 0.02]), jnp.array([5.0, -3.0]))
     with pytest.raises(ValueError, match="marked planar but its hinge axes are not parallel"):
-        oc.forward_dynamics(tilted, *state, stiffness=1.0, drag=0.1)
-    traced = jax.jit(lambda c, q, v, t: oc.forward_dynamics(c, q, v, t, stiffness=1.0, drag=0.1))
+        forward_dynamics(tilted, *state, stiffness=1.0, drag=0.1)
+    traced = jax.jit(lambda c, q, v, t: forward_dynamics(c, q, v, t, stiffness=1.0, drag=0.1))
     assert bool(jnp.all(jnp.isnan(traced(tilted, *state))))
     assert bool(jnp.all(jnp.isfinite(traced(chain, *state))))

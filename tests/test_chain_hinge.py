@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from jax.test_util import check_grads
 
-import origami_jax.chain as oc
+import origami_jax.system as osys
 
 # Closed forms evaluated two ways in float64: round-off only.
 FORMULA_RTOL = 1e-13
@@ -14,17 +14,17 @@ FORMULA_RTOL = 1e-13
 
 def test_bilayer_curvature_hand_checked():
     # E1' = E2' = t1 = t2 = ε = 1: κ = 6·2 / (1 + 1 + 2·(2 + 3 + 2)) = 12/16 by hand.
-    assert float(oc.bilayer_curvature(1.0, 1.0, 1.0, 1.0, 1.0)) == pytest.approx(0.75, rel=1e-15)
+    assert float(osys.bilayer_curvature(1.0, 1.0, 1.0, 1.0, 1.0)) == pytest.approx(0.75, rel=1e-15)
     # E1' = 2, t1 = 1, E2' = 1, t2 = 2, ε = 0.01 (hand): numerator 6·2·1·1·2·3·0.01 = 0.72;
     # denominator 4·1 + 1·16 + 2·2·1·1·2·(2 + 6 + 8) = 20 + 128 = 148.
-    assert float(oc.bilayer_curvature(2.0, 1.0, 1.0, 2.0, 0.01)) == pytest.approx(
+    assert float(osys.bilayer_curvature(2.0, 1.0, 1.0, 2.0, 0.01)) == pytest.approx(
         0.72 / 148, rel=1e-15
     )
 
 
 def test_literature_radius_and_stiffness():
     """SPEC: with literature values ρ ≈ 78 µm and l = ρπ ≈ 246 µm; k by hand in µN·µm."""
-    design = oc.HingeDesign.literature()
+    design = osys.HingeDesign.literature()
     e1 = 250e3 / (1 - 0.23)  # MPa
     e2 = 279e3 / (1 - 0.21)
     strain = 1e3 / e2  # 1 GPa residual stress
@@ -54,12 +54,12 @@ def test_literature_radius_and_stiffness():
 
 
 def test_documented_alternatives():
-    paper = oc.HingeDesign.literature()
-    plate = oc.HingeDesign.literature(stiffness_model="plate")
-    strip = oc.HingeDesign.literature(drag_model="strip")
+    paper = osys.HingeDesign.literature()
+    plate = osys.HingeDesign.literature(stiffness_model="plate")
+    strip = osys.HingeDesign.literature(drag_model="strip")
     np.testing.assert_allclose(paper.stiffness(2) / plate.stiffness(2), 4.0, rtol=FORMULA_RTOL)
     np.testing.assert_allclose(strip.drag(2) / paper.drag(2), 2.0, rtol=FORMULA_RTOL)
-    scaled = oc.HingeDesign.literature(k_scale=3.07, b_scale=18.6, fluid=oc.KOH_SOLUTION)
+    scaled = osys.HingeDesign.literature(k_scale=3.07, b_scale=18.6, fluid=osys.KOH_SOLUTION)
     np.testing.assert_allclose(scaled.stiffness(1), 3.07 * paper.stiffness(1), rtol=FORMULA_RTOL)
     np.testing.assert_allclose(
         scaled.drag(1), 18.6 * paper.drag(1) * 1290.0 / 1.204, rtol=FORMULA_RTOL
@@ -71,36 +71,36 @@ def test_thin_hinge_limit_is_stoney():
     e1, e2, t1, eps = 324.7, 353.2, 0.2, 2.8e-3
     for t2 in (1e-3, 1e-5, 1e-7):
         stoney = 6 * e2 * t2 * eps / (e1 * t1**2)
-        ratio = float(oc.bilayer_curvature(e1, t1, e2, t2, eps)) / stoney
+        ratio = float(osys.bilayer_curvature(e1, t1, e2, t2, eps)) / stoney
         assert abs(ratio - 1) < 20 * t2 / t1
-    assert float(oc.bilayer_curvature(e1, t1, e2, 0.0, eps)) == 0.0
+    assert float(osys.bilayer_curvature(e1, t1, e2, 0.0, eps)) == 0.0
     # The derivative at t₂ = 0 is Stoney's slope, finite.
-    slope = jax.grad(oc.bilayer_curvature, argnums=3)(e1, t1, e2, 0.0, eps)
+    slope = jax.grad(osys.bilayer_curvature, argnums=3)(e1, t1, e2, 0.0, eps)
     assert float(slope) == pytest.approx(6 * e2 * eps / (e1 * t1**2), rel=1e-14)
 
 
 def test_units_convert_consistently():
-    micro = oc.HingeDesign.literature()
-    si = oc.HingeDesign.literature(units=oc.SI)
+    micro = osys.HingeDesign.literature()
+    si = osys.HingeDesign.literature(units=osys.SI)
     np.testing.assert_allclose(si.stiffness(1), micro.stiffness(1) * 1e-12, rtol=FORMULA_RTOL)
     np.testing.assert_allclose(si.drag(1), micro.drag(1) * 1e-12 * 1e-12, rtol=FORMULA_RTOL)
     np.testing.assert_allclose(si.radius(), micro.radius() * 1e-6, rtol=FORMULA_RTOL)
-    assert oc.MICRO.stress(1e6) == pytest.approx(1.0)
-    assert oc.MICRO.density(1e6) == pytest.approx(1.0)
-    assert oc.MICRO.torque(1e-12) == pytest.approx(1.0)
-    sinx = oc.SINX.to(oc.MICRO)
+    assert osys.MICRO.stress(1e6) == pytest.approx(1.0)
+    assert osys.MICRO.density(1e6) == pytest.approx(1.0)
+    assert osys.MICRO.torque(1e-12) == pytest.approx(1.0)
+    sinx = osys.SINX.to(osys.MICRO)
     assert float(sinx.youngs_modulus) == pytest.approx(250e3)
     assert float(sinx.biaxial_modulus) == pytest.approx(250e3 / 0.77)
 
 
 def test_stiffness_gradients_wrt_design():
-    base = oc.HingeDesign.literature()
+    base = osys.HingeDesign.literature()
     names = ("hinge_width", "t_structural", "t_hinge", "misfit_strain", "theta_final")
 
     def stiffness(scales):
         # Relative scale factors, so check_grads' step is a relative perturbation of each parameter.
         overrides = {name: getattr(base, name) * s for name, s in zip(names, scales, strict=True)}
-        return oc.HingeDesign.literature(**overrides).stiffness(2)
+        return osys.HingeDesign.literature(**overrides).stiffness(2)
 
     check_grads(jax.jit(stiffness), (jnp.ones(len(names)),), order=1, modes=["fwd", "rev"])
     # k ∝ w and k ∝ 1/θ_final exactly: logarithmic sensitivities 1 and −1.
@@ -111,23 +111,23 @@ def test_stiffness_gradients_wrt_design():
 
 
 def test_per_hinge_parameters():
-    design = oc.HingeDesign.literature(hinge_width=jnp.array([100.0, 200.0, 300.0]))
+    design = osys.HingeDesign.literature(hinge_width=jnp.array([100.0, 200.0, 300.0]))
     k = design.stiffness(3)
     np.testing.assert_allclose(k / k[0], [1.0, 2.0, 3.0], rtol=FORMULA_RTOL)
 
 
 def test_hinge_errors():
     with pytest.raises(ValueError, match="t_hinge must be positive"):
-        oc.HingeDesign.literature(t_hinge=-0.1)
+        osys.HingeDesign.literature(t_hinge=-0.1)
     with pytest.raises(ValueError, match="hinge_width must be positive"):
-        oc.HingeDesign.literature(hinge_width=0.0)
+        osys.HingeDesign.literature(hinge_width=0.0)
     with pytest.raises(ValueError, match="exactly one of misfit_strain"):
-        oc.HingeDesign.literature(misfit_strain=1e-3, residual_stress=1e3)
+        osys.HingeDesign.literature(misfit_strain=1e-3, residual_stress=1e3)
     with pytest.raises(ValueError, match="stiffness_model"):
-        oc.HingeDesign.literature(stiffness_model="wrong")
+        osys.HingeDesign.literature(stiffness_model="wrong")
     with pytest.raises(ValueError, match="poisson_ratio"):
-        oc.Material(1e9, 0.6, 1000.0)
+        osys.Material(1e9, 0.6, 1000.0)
     with pytest.raises(ValueError, match="density must be positive"):
-        oc.Fluid(-1.0)
+        osys.Fluid(-1.0)
     with pytest.raises(ValueError, match="NaN"):
-        oc.HingeDesign.literature(flap_length=float("nan"))
+        osys.HingeDesign.literature(flap_length=float("nan"))

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 import origami_jax.design as ojd
-from origami_jax.system import HingeDesign
 from origami_jax.design._design import _evaluate, _Problem
+from origami_jax.system import HingeDesign
 
 TRUTH = {"k_scale": 2.0, "b_scale": 5.0}
 FREE = ["k_scale", "b_scale"]

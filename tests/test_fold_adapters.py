@@ -199,8 +199,8 @@ def test_cli_export_normalises_a_fold_file(tmp_path, capsys):
 
 
 def test_cli_export_errors(tmp_path, capsys):
-    assert main(["export", str(DATA / "errors" / "cut_edge.fold"), "--out", str(tmp_path)]) == 2
-    assert "'C' (cut edge)" in capsys.readouterr().err
+    assert main(["export", str(DATA / "errors" / "join_edge.fold"), "--out", str(tmp_path)]) == 2
+    assert "'J' (join edge)" in capsys.readouterr().err
     assert main(["export", str(tmp_path / "missing.fold"), "--out", str(tmp_path)]) == 2
     assert "no such file" in capsys.readouterr().err
     assert main(["export", "teapot", "--out", str(tmp_path)]) == 2

@@ -1,6 +1,7 @@
 """Response metrics: closed-form second-order values, flags, gradients against finite differences."""
 
 import diffrax
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -10,6 +11,7 @@ from scipy.optimize import brentq
 import origami_jax.simulation as sim
 from origami_jax.chain import accordion, mass_matrix
 
+from .helpers import make_system
 from .simulation_cases import ATOL, N_SAVE, RTOL, literature
 
 # Closed-form second-order values against simulated + root-found metrics (relative).
@@ -40,10 +42,8 @@ def test_linear_single_flap_matches_closed_form():
     inputs = sim.UserTorque(lambda t, th, thd: k * target - c * thd, theta_target=target)
     t1 = 12 * 2 * np.pi / omega
     trajectory = sim.simulate(
-        chain,
+        make_system(chain, k, 0.0, target),
         inputs,
-        stiffness=k,
-        drag=0.0,
         t1=t1,
         n_save=2001,
         solver=diffrax.Tsit5(),
@@ -143,17 +143,20 @@ def test_metric_gradients_on_closed_forms():
 def test_metric_gradients_match_finite_differences_in_koh():
     # KOH bath: drag ~1000× air, overdamped and stiff. Default solver (Kvaerno5), forward mode. Marked
     # slow: compiling the forward-mode Kvaerno5 solve takes ~1-5 min on a shared 2-core machine.
-    design, chain, _, _ = literature("koh")
-    inputs = sim.Step(sim.alternating_targets(3))
+    design, system = literature("koh")
 
     def metrics(log_scales, adjoint=None):
-        k = design.stiffness(3) * jnp.exp(log_scales[0])
-        b = design.drag(3) * jnp.exp(log_scales[1])
+        scaled = eqx.tree_at(
+            lambda s: (s.hinges.stiffness, s.drag.coefficient),
+            system,
+            (
+                system.hinges.stiffness * jnp.exp(log_scales[0]),
+                system.drag.coefficient * jnp.exp(log_scales[1]),
+            ),
+        )
         trajectory = sim.simulate(
-            chain,
-            inputs,
-            stiffness=k,
-            drag=b,
+            scaled,
+            sim.Step(),
             t1=1500.0,
             n_save=N_SAVE,
             rtol=RTOL,
@@ -179,14 +182,19 @@ def test_metric_gradients_match_finite_differences_in_koh():
 
 @pytest.mark.slow
 def test_metric_gradients_reverse_mode_in_koh():
-    design, chain, _, _ = literature("koh")
-    inputs = sim.Step(sim.alternating_targets(3))
+    design, system = literature("koh")
 
     def rise(log_scales):
-        k = design.stiffness(3) * jnp.exp(log_scales[0])
-        b = design.drag(3) * jnp.exp(log_scales[1])
+        scaled = eqx.tree_at(
+            lambda s: (s.hinges.stiffness, s.drag.coefficient),
+            system,
+            (
+                system.hinges.stiffness * jnp.exp(log_scales[0]),
+                system.drag.coefficient * jnp.exp(log_scales[1]),
+            ),
+        )
         trajectory = sim.simulate(
-            chain, inputs, stiffness=k, drag=b, t1=1500.0, n_save=N_SAVE, rtol=RTOL, atol=ATOL
+            scaled, sim.Step(), t1=1500.0, n_save=N_SAVE, rtol=RTOL, atol=ATOL
         )
         return jnp.sum(sim.response_metrics(trajectory).rise_time)
 

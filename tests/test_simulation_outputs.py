@@ -7,7 +7,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 import origami_jax.simulation as sim
-from origami_jax.chain import accordion
+from origami_jax.chain import accordion, alternating_targets
 from origami_jax.cli import main
 from origami_jax.plotting import chain as chain_plots
 
@@ -15,7 +15,7 @@ from origami_jax.plotting import chain as chain_plots
 def _fake_trajectory(n_t=40):
     times = jnp.linspace(0.0, 100.0, n_t)
     y = 1 - jnp.exp(-times / 20.0) * jnp.cos(times / 10.0)
-    target = sim.alternating_targets(3)
+    target = alternating_targets(3)
     theta = y[:, None] * target
     v = jnp.gradient(y, times)[:, None] * target
     return sim.Trajectory(
@@ -37,13 +37,13 @@ def test_figures_and_animation(tmp_path):
     fig = chain_plots.plot_joint_angles(trajectory, metrics, title="test")
     fig.savefig(tmp_path / "angles.png")
     plt.close(fig)
-    fig = chain_plots.chain_frames(chain, trajectory, tmp_path / "frames.png", n_frames=3)
+    fig = chain_plots.folding_frames(chain, trajectory, tmp_path / "frames.png", n_frames=3)
     plt.close(fig)
-    gif = chain_plots.animate_chain(chain, trajectory, tmp_path / "fold.gif", n_frames=4)
+    gif = chain_plots.animate_folding(chain, trajectory, tmp_path / "fold.gif", n_frames=4)
     for name in ("angles.png", "frames.png", "fold.gif"):
         assert (tmp_path / name).stat().st_size > 1000
     assert gif.suffix == ".gif"
-    corners = chain_plots.flap_corners(chain, np.zeros(3))
+    corners = np.stack(chain.panel_polygons(np.zeros(3)))
     # Flat accordion: three 200 µm × 200 µm flaps side by side along y.
     # (The length comes from the plate inertia, sqrt(L² + t²): 1e-4 µm long for t = 0.2 µm.)
     np.testing.assert_allclose(corners[:, :, 1].min(), 0.0, atol=1e-3)

@@ -29,14 +29,9 @@ def test_accordion_refuses_unknown_parameters_and_fluids_before_compiling():
 
 @pytest.mark.slow  # one compilation of the vmapped Kvaerno5 solve: minutes on a 2-core CPU
 def test_accordion_step_matches_a_direct_simulation():
+    from origami_jax.chain import accordion_system
+    from origami_jax.simulation import Step, implicit_solver, response_metrics, simulate
     from origami_jax.system import KOH_SOLUTION, MICRO, HingeDesign
-    from origami_jax.simulation import (
-        Step,
-        alternating_targets,
-        implicit_solver,
-        response_metrics,
-        simulate,
-    )
 
     kernel = get_model("accordion-step", t_end=1500.0, n_save=1501)
     space = Table(
@@ -58,10 +53,8 @@ def test_accordion_step_matches_a_direct_simulation():
             **extra,
         )
         trajectory = simulate(
-            design.accordion(3),
-            Step(alternating_targets(3)),
-            stiffness=design.stiffness(3),
-            drag=design.drag(3),
+            accordion_system(design, 3),
+            Step(),
             t1=1500.0,
             n_save=1501,
             solver=implicit_solver(),  # the kernel's "kvaerno5", not the default switching solver
@@ -92,14 +85,14 @@ def test_vertex_unfold_agrees_with_unfold():
 def test_accordion_cost_is_the_fastest_natural_frequency_times_the_run_length():
     # ω_max = sqrt(λ_max(M⁻¹K)): scaling every hinge stiffness by 4 doubles it; the flaps (M) are
     # untouched by k_scale. Checked against NumPy's generalized eigenvalues at the literature design.
-    from origami_jax.chain import mass_matrix
+    from origami_jax.chain import accordion_system, mass_matrix
     from origami_jax.system import MICRO, HingeDesign
 
     kernel = get_model("accordion-step", solver="tsit5", t_end=100.0)
     base = float(kernel.cost({"k_scale": jnp.asarray(1.0)}))
     assert float(kernel.cost({"k_scale": jnp.asarray(4.0)})) == pytest.approx(2 * base, rel=1e-12)
     design = HingeDesign.literature(MICRO)
-    m = np.asarray(mass_matrix(design.accordion(3), jnp.zeros(3)))
+    m = np.asarray(mass_matrix(accordion_system(design, 3).mechanism, jnp.zeros(3)))
     omega = np.sqrt(
         np.max(np.linalg.eigvals(np.linalg.solve(m, np.diag(design.stiffness(3)))).real)
     )

@@ -12,7 +12,7 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from .._validate import as_float_array, check_finite, check_positive, check_shape, is_traced
-from ..system._mechanism import AbstractMechanism
+from ..system._mechanism import AbstractMechanism, HingeLayout
 from ..system._units import MICRO, UnitSystem
 
 # Relative tolerance on |ω| = 1 and on RᵀR = I. Inputs typed by hand or stored in float32 carry ~1e-7
@@ -152,6 +152,19 @@ class Chain(AbstractMechanism):
 
         return forward_kinematics(self, q)
 
+    def hinge_layout(self) -> HingeLayout:
+        """Hinge ``i`` joins flap ``i − 1`` (the base for the first) and flap ``i``; its crease is as wide
+        as the child flap (`outlines`), centred on the flap's CG along the axis."""
+        axes = np.asarray(self.axes, dtype=float)
+        points = np.asarray(self.points, dtype=float)
+        cg = np.asarray(self.cg_poses, dtype=float)[:, :3, 3]
+        half = np.array([np.abs(outline[:, 0]).max() for outline in self.outlines()])
+        # The crease's centre: the point of the axis closest to the child's CG.
+        centre = points + np.sum((cg - points) * axes, axis=-1, keepdims=True) * axes
+        ends = np.stack([centre - half[:, None] * axes, centre + half[:, None] * axes], axis=1)
+        n = self.n_hinges
+        return HingeLayout(np.arange(n) - 1, np.arange(n), axes, ends)
+
     def outlines(self) -> list[np.ndarray]:
         """Each flap as a rectangle in its CG frame's x–y plane (x along the hinge), `(4, 3)` each.
 
@@ -162,8 +175,15 @@ class Chain(AbstractMechanism):
         length = np.sqrt(np.maximum(12 * inertias[:, 0, 0] / masses, 0.0))
         width = np.sqrt(np.maximum(12 * inertias[:, 1, 1] / masses, 0.0))
         return [
-            np.array([[-w / 2, -l / 2, 0.0], [w / 2, -l / 2, 0.0], [w / 2, l / 2, 0.0], [-w / 2, l / 2, 0.0]])
-            for l, w in zip(length, width, strict=True)
+            np.array(
+                [
+                    [-w / 2, -h / 2, 0.0],
+                    [w / 2, -h / 2, 0.0],
+                    [w / 2, h / 2, 0.0],
+                    [-w / 2, h / 2, 0.0],
+                ]
+            )
+            for h, w in zip(length, width, strict=True)
         ]
 
 

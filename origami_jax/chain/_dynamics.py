@@ -35,7 +35,7 @@ world origin (Featherstone's spatial vectors), so the composite inertia of a sub
 """
 
 import functools
-from typing import Any, Literal, cast
+from typing import Literal, cast
 
 import jax
 import jax.numpy as jnp

@@ -33,6 +33,7 @@ def accordion_system(
     targets: Float[ArrayLike, " n"] | None = None,
     release_times: Float[ArrayLike, " n"] | None = None,
     gravity: Float[ArrayLike, "3"] | None = None,
+    contact: bool = False,
 ) -> FoldingSystem:
     """The paper's accordion as a [`origami_jax.system.FoldingSystem`][], from a hinge design.
 
@@ -43,6 +44,10 @@ def accordion_system(
       design (`alternating_targets`).
     - `release_times`: per-hinge release time (time units); default every hinge at ``t = 0``.
     - `gravity`: shape `(3,)`, length/time²; zero by default.
+    - `contact`: panels of thickness `t_structural` meet instead of passing through each other
+      ([`origami_jax.contact.PanelContact`][] with its defaults): flap 1 lands on the base (the
+      membrane still on the substrate, a flap-sized rectangle before the first hinge) and each flap
+      on the one before. `False` (default) is the paper's model, where they pass through.
 
     **Returns:** a `FoldingSystem` with a [`origami_jax.chain.Chain`][], the design's stiffness
     ``k`` and bending radius ``ρ`` on every hinge, and the paper's hinge drag ``b``
@@ -68,7 +73,33 @@ def accordion_system(
         radius=design.radius(),
         release_time=release_times,
     )
-    return FoldingSystem(chain, hinges, HingeDrag(design.drag(n)), units=design.units)
+    contact_model = None
+    if contact:
+        from ..contact import PanelContact
+
+        contact_model = PanelContact.for_system(
+            chain,
+            hinges.stiffness,
+            hinges.target,
+            thickness=np.asarray(design.t_structural),
+            base_outline=_base_rectangle(chain),
+        )
+    return FoldingSystem(
+        chain, hinges, HingeDrag(design.drag(n)), contact=contact_model, units=design.units
+    )
+
+
+def _base_rectangle(chain) -> np.ndarray:
+    """The membrane before the first hinge, a flap-sized rectangle (world, flat state)."""
+    first = chain.outlines()[0]
+    pose = np.asarray(chain.body_poses(chain.rest_state()[0]))[0]
+    world = first @ pose[:3, :3].T + pose[:3, 3]
+    layout = chain.hinge_layout()
+    # Mirror the first flap across its hinge line.
+    axis, point = layout.axis[0], layout.ends[0, 0]
+    relative = world - point
+    along = (relative @ axis)[:, None] * axis
+    return point + along - (relative - along)
 
 
 class Accordion(AbstractLayout):

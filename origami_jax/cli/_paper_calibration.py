@@ -12,7 +12,9 @@ import json
 import math
 from pathlib import Path
 
-N_STARTS = 8  # the fit's cost landscape has several local minima (joint 2's rise is near-discontinuous)
+N_STARTS = (
+    8  # the fit's cost landscape has several local minima (joint 2's rise is near-discontinuous)
+)
 
 
 def run(out: Path) -> list[str]:

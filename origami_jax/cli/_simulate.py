@@ -157,9 +157,7 @@ def run(args: argparse.Namespace) -> int:
     else:
         beta = MICRO.length(sim.KOH_ETCH_RATE_SI) / MICRO.time(1.0)
         ramp = inputs = sim.EtchRamp(beta)
-        slow = sim.simulate_slow_ramp(
-            system, ramp, n_save=args.n_save, progress_meter=progress
-        )
+        slow = sim.simulate_slow_ramp(system, ramp, n_save=args.n_save, progress_meter=progress)
         trajectory = slow.trajectory
         extra = {
             "ramp_duration_us": float(ramp.duration(system)),
@@ -232,12 +230,12 @@ def write_figures(
     if metrics is not None and ramp is None:
         # Show the fold itself, not the long ringing tail.
         t_max = 3.0 * float(max(metrics.peak_time.max(), metrics.t90.max()))
-    fig = chain_plots.chain_frames(
-        system.mechanism, trajectory, paths[1], n_frames=6, t_max=t_max, time_scale=scale, time_unit=unit
+    fig = chain_plots.folding_frames(
+        system, trajectory, paths[1], n_frames=6, t_max=t_max, time_scale=scale, time_unit=unit
     )
     plt.close(fig)
-    chain_plots.animate_chain(
-        system.mechanism, trajectory, paths[2], n_frames=40, t_max=t_max, time_scale=scale, time_unit=unit
+    chain_plots.animate_folding(
+        system, trajectory, paths[2], n_frames=40, t_max=t_max, time_scale=scale, time_unit=unit
     )
     return paths
 

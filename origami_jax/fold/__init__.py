@@ -9,13 +9,18 @@ the physics packages build their objects from it (`origami_jax.vertex.load_singl
 
 - Reading: `read_fold` → `FoldFile` (frames of `FoldFrame`), checked by `check_fold` and, when
   `jsonschema` is installed, by the shipped schema (`fold_schema()`); errors are `FoldFormatError`.
-- Geometry (plain arrays, radians): `list_vertices`, `single_vertex_geometry`, `chain_geometry`.
+- Geometry (plain arrays, radians): `list_vertices`, `single_vertex_geometry`, `chain_geometry`,
+  `net_geometry` (a net of rigid panels joined by creases into a tree: polyhedra, corner cubes).
+- Catalogue of shipped nets: `catalogue_names`, `catalogue_path` (accordion, corner cube, the eleven
+  cube nets, tetrahedron, octahedron).
 - Writing: `write_fold`, `normalise_fold`; `single_vertex_fold` / `chain_fold` from plain arrays.
 
 Conventions: FOLD stores fold angles in degrees (valley +, mountain −); the model keeps them so
 (`FoldFrame.edges_fold_angle_deg`), geometry and physics use radians.
 """
 
+from ._catalogue import catalogue_names as catalogue_names
+from ._catalogue import catalogue_path as catalogue_path
 from ._chain_geometry import ChainGeometry as ChainGeometry
 from ._chain_geometry import chain_geometry as chain_geometry
 from ._checks import check_fold as check_fold
@@ -33,6 +38,9 @@ from ._geometry import vertex_fold_angles as vertex_fold_angles
 from ._model import FRAME_UNITS_M as FRAME_UNITS_M
 from ._model import FoldFile as FoldFile
 from ._model import FoldFrame as FoldFrame
+from ._net_geometry import NetGeometry as NetGeometry
+from ._net_geometry import Seams as Seams
+from ._net_geometry import net_geometry as net_geometry
 from ._read import fold_from_dict as fold_from_dict
 from ._read import loads_fold as loads_fold
 from ._read import read_fold as read_fold

@@ -79,6 +79,12 @@ def chain_geometry(fold: FoldFile | str | os.PathLike[str], *, frame: int = 0) -
             f"{where}: a chain is read from a flat crease pattern, and this frame is folded in 3D"
         )
     edges = resolved.edges_vertices.tolist()  # type: ignore[union-attr]
+    cuts = [e for e, a in enumerate(assignment) if a == "C"]
+    if cuts:
+        raise FoldFormatError(
+            f"{where}: cut (C) edges {cuts}; a chain (accordion) is a strip crossed by creases "
+            "only: read the pattern with net_geometry"
+        )
     creases = [e for e, a in enumerate(assignment) if a != "B"]
     if not creases:
         raise FoldFormatError(f"{where}: no creases (every edge is a boundary B edge)")

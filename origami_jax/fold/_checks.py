@@ -25,7 +25,7 @@ def check_fold(fold: FoldFile) -> None:
     `edges_...` arrays as long as `edges_vertices`; vertex ids in range; in a frame lying in the xy
     plane every face counter-clockwise (positive signed area); faces consistently oriented (no side
     run in the same direction by two faces); fold angles whose sign matches the assignment
-    (M ≤ 0 ≤ V, B and F at 0); frame-parent links that exist and form no cycle. A flat frame whose
+    (M ≤ 0 ≤ V, B and F at 0; a cut C joins nothing and may take any angle); frame-parent links that exist and form no cycle. A flat frame whose
     `frame_classes` include `"foldedForm"` is a flat-folded state: its flipped faces are allowed to
     run clockwise.
     """

@@ -6,7 +6,8 @@
   across a strip of paper, in order along the strip, with flap lengths and widths.
 
 Neither imports the physics packages; `origami_jax.vertex.load_single_vertex` and
-`origami_jax.chain.load_chain` build their objects from these. Conventions: fold angles in radians, valley +, mountain − (FOLD's sign).
+`origami_jax.chain.load_chain` build their objects from these. Conventions: fold angles in radians,
+valley +, mountain − (FOLD's sign).
 """
 
 from __future__ import annotations
@@ -33,7 +34,7 @@ class VertexInfo:
     """One vertex of a crease pattern, as listed for the user to pick from.
 
     **Fields:** `index`; `coords` (3,); `degree` (incident edges); `n_creases` (incident M/V/F/U
-    edges); `boundary` (`True` if an incident edge is a boundary `B` edge).
+    edges); `boundary` (`True` if an incident edge is a boundary `B` or cut `C` edge).
     """
 
     index: int
@@ -159,8 +160,8 @@ def list_vertices(
     for (u, v), a in zip(resolved.edges_vertices.tolist(), assignment, strict=True):  # type: ignore[union-attr]
         for w in (u, v):
             degree[w] += 1
-            creases[w] += a != "B"
-            boundary[w] |= a == "B"
+            creases[w] += a not in "BC"
+            boundary[w] |= a in "BC"
     return tuple(
         VertexInfo(
             index=i,
@@ -260,6 +261,12 @@ def single_vertex_geometry(
     for e, vec in vectors.items():
         if np.linalg.norm(vec) == 0:
             raise FoldFormatError(f"{where}: edge {e} has zero length (its ends coincide)")
+    cuts = [e for e in incident if assignment[e] == "C"]
+    if cuts:
+        raise FoldFormatError(
+            f"{where}: vertex {v} has cut (C) edges {cuts}; a single-vertex origami reads creases "
+            "and boundary edges only: read the pattern with net_geometry, or pick another vertex"
+        )
     boundary = [e for e in incident if assignment[e] == "B"]
     if len(boundary) not in (0, 2):
         raise FoldFormatError(

@@ -33,11 +33,13 @@ ASSIGNMENTS = {
     "C": "cut",
     "J": "join",
 }
-SUPPORTED_ASSIGNMENTS = frozenset("BMVFU")
+# "C" (cut) edges separate the faces on either side (`net_geometry` reads them; the single-vertex
+# and chain readers refuse them); "J" (join) edges are rejected on reading.
+SUPPORTED_ASSIGNMENTS = frozenset("BMVFUC")
 
 # Default fold angle (degrees) for an edge that has an assignment but no fold angle.
-# "U" is free: NaN, which becomes `null` in the file.
-DEFAULT_FOLD_ANGLE_DEG = {"M": -180.0, "V": 180.0, "F": 0.0, "B": 0.0, "U": math.nan}
+# "U" is free: NaN, which becomes `null` in the file. A cut "C" joins nothing: 0, like a boundary.
+DEFAULT_FOLD_ANGLE_DEG = {"M": -180.0, "V": 180.0, "F": 0.0, "B": 0.0, "C": 0.0, "U": math.nan}
 
 # frame_unit values defined by FOLD 1.2, with their length in metres ("unit": no physical meaning).
 FRAME_UNITS_M = {
@@ -75,7 +77,7 @@ class FoldFrame:
     **Fields:**
     - `vertices_coords`: float64 `(V, d)`, `d` = 2 or 3, in `frame_unit`.
     - `edges_vertices`: int64 `(E, 2)`.
-    - `edges_assignment`: one of `B M V F U` per edge (`C`, `J` are rejected on reading).
+    - `edges_assignment`: one of `B M V F U C` per edge (`J` is rejected on reading).
     - `edges_fold_angle_deg`: float64 `(E,)`, **degrees**, valley +, mountain −; NaN where the file
       has `null`. `None` when the file gives no fold angles: see `FoldFile.fold_angles_deg`.
     - `faces_vertices`: vertex ids of each face, counter-clockwise.
@@ -220,7 +222,7 @@ class FoldFile:
     def fold_angles_deg(self, index: int = 0) -> np.ndarray:
         """Fold angles of frame `index` in degrees, with defaults from the assignment where missing.
 
-        `edges_foldAngle` wins where it is given; elsewhere M → −180, V → +180, F and B → 0 and
+        `edges_foldAngle` wins where it is given; elsewhere M → −180, V → +180, F, B and C → 0 and
         U → NaN (free). An edge with neither an angle nor an assignment is NaN.
         """
         frame = self.frame(index)

@@ -40,7 +40,7 @@ def read_fold(path: str | os.PathLike[str]) -> FoldFile:
     assignments against fold angles) and, when `jsonschema` is installed, against the shipped schema.
 
     **Raises:** `FoldFormatError` for anything unreadable or unsupported (bad JSON, missing keys,
-    `C`/`J` edges, a newer spec version, ...). A missing file raises `FileNotFoundError`.
+    `J` (join) edges, a newer spec version, ...). A missing file raises `FileNotFoundError`.
     """
     path = Path(path)
     try:
@@ -190,14 +190,10 @@ def _assignments(value: Any, where: str) -> tuple[str, ...]:
             )
         a = a.upper()
         if a not in SUPPORTED_ASSIGNMENTS:
-            hint = (
-                "split the cut into two boundary (B) edges, one per face"
-                if a == "C"
-                else "merge the faces on either side into one face and drop the edge"
-            )
             raise FoldFormatError(
                 f"{where}: edges_assignment[{i}] is {a!r} ({ASSIGNMENTS[a]} edge), which "
-                f"origami_jax does not support: {hint}"
+                "origami_jax does not support: merge the faces on either side into one face and "
+                "drop the edge"
             )
         out.append(a)
     return tuple(out)

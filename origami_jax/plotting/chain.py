@@ -1,5 +1,5 @@
-"""Figures of a folding flap chain: joint angles with metrics (paper Figs. 7, 10) and the chain in 3D as an
-animation and a strip of frames (Figs. 8, 11).
+"""Figures of a folding: hinge angles with metrics (paper Figs. 7, 10) and the panels in 3D as an
+animation and a strip of frames (Figs. 8, 11), for any mechanism (chains, panel trees).
 
 Matplotlib only; imported explicitly (`from origami_jax.plotting import chain as chain_plots`).
 """
@@ -10,8 +10,6 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.animation import FuncAnimation, PillowWriter
 from mpl_toolkits.mplot3d.art3d import Poly3DCollection
-
-from ..chain import forward_kinematics
 
 _COLOURS = plt.rcParams["axes.prop_cycle"].by_key()["color"]
 
@@ -95,49 +93,38 @@ def plot_joint_angles(
     return fig
 
 
-def _flap_size(chain) -> tuple[np.ndarray, np.ndarray]:
-    # Plate inertia about the CG: I_xx = m(L² + t²)/12 (length L), I_yy = m(w² + t²)/12 (width w).
-    masses = np.asarray(chain.masses)
-    inertias = np.asarray(chain.inertias)
-    length = np.sqrt(np.maximum(12 * inertias[:, 0, 0] / masses, 0.0))
-    width = np.sqrt(np.maximum(12 * inertias[:, 1, 1] / masses, 0.0))
-    return length, width
+def _mechanism(obj):
+    """The mechanism of a `FoldingSystem`, or the mechanism itself."""
+    return getattr(obj, "mechanism", obj)
 
 
-def flap_corners(chain, theta) -> np.ndarray:
-    """Corners of each flap (a rectangle in its CG frame's x–y plane), shape `(n, 4, 3)`, length units."""
-    poses = np.asarray(forward_kinematics(chain, np.asarray(theta)))
-    length, width = _flap_size(chain)
-    local = np.stack(
-        [
-            np.stack([-width / 2, -length / 2, 0 * width], -1),
-            np.stack([width / 2, -length / 2, 0 * width], -1),
-            np.stack([width / 2, length / 2, 0 * width], -1),
-            np.stack([-width / 2, length / 2, 0 * width], -1),
-        ],
-        axis=1,
-    )  # (n, 4, 3)
-    return np.einsum("nij,nkj->nki", poses[:, :3, :3], local) + poses[:, None, :3, 3]
+def _polygons(mechanism, q) -> list[np.ndarray]:
+    polygons = list(mechanism.panel_polygons(np.asarray(q)))
+    base = mechanism.base_outline()
+    return polygons if base is None else [np.asarray(base), *polygons]
 
 
-def _limits(chain, thetas) -> tuple[np.ndarray, float]:
-    corners = np.concatenate([flap_corners(chain, th).reshape(-1, 3) for th in thetas])
-    centre = 0.5 * (corners.max(0) + corners.min(0))
-    half = 0.55 * float(np.max(corners.max(0) - corners.min(0)))
+def _limits(mechanism, states) -> tuple[np.ndarray, float]:
+    points = np.concatenate([np.concatenate(_polygons(mechanism, q)) for q in states])
+    centre = 0.5 * (points.max(0) + points.min(0))
+    half = 0.55 * float(np.max(points.max(0) - points.min(0)))
     return centre, half
 
 
-def draw_chain(chain, theta, *, ax, centre=None, half=None, alpha: float = 0.8):
-    """Draw the flaps at angles `theta` (rad) on a 3D axis."""
-    corners = flap_corners(chain, theta)
-    colours = [_COLOURS[i % len(_COLOURS)] for i in range(len(corners))]
+def draw_state(system, q, *, ax, centre=None, half=None, alpha: float = 0.8):
+    """Draw every panel of a folding system (or mechanism) at coordinates `q` on a 3D axis (the fixed
+    base, if the mechanism has one, in grey)."""
+    mechanism = _mechanism(system)
+    polygons = _polygons(mechanism, q)
+    has_base = mechanism.base_outline() is not None
+    colours = [_COLOURS[i % len(_COLOURS)] for i in range(len(polygons) - has_base)]
+    if has_base:
+        colours = ["0.8", *colours]
     ax.add_collection3d(
-        Poly3DCollection(
-            list(corners), facecolors=colours, edgecolors="k", linewidths=0.5, alpha=alpha
-        )
+        Poly3DCollection(polygons, facecolors=colours, edgecolors="k", linewidths=0.5, alpha=alpha)
     )
     if centre is None:
-        centre, half = _limits(chain, [theta])
+        centre, half = _limits(mechanism, [q])
     for setter, c in zip((ax.set_xlim, ax.set_ylim, ax.set_zlim), centre, strict=True):
         setter(c - half, c + half)
     ax.set_box_aspect((1, 1, 1))
@@ -146,14 +133,19 @@ def draw_chain(chain, theta, *, ax, centre=None, half=None, alpha: float = 0.8):
     ax.set_zlabel("z [µm]")
 
 
+def _states(trajectory, indices) -> np.ndarray:
+    q = trajectory.theta if trajectory.state is None else trajectory.state[0]
+    return np.asarray(q)[indices]
+
+
 def _frame_indices(trajectory, n_frames: int, t_max: float | None) -> np.ndarray:
     times = np.asarray(trajectory.times)
     last = len(times) - 1 if t_max is None else int(np.searchsorted(times, t_max))
     return np.unique(np.linspace(0, min(last, len(times) - 1), n_frames).round().astype(int))
 
 
-def chain_frames(
-    chain,
+def folding_frames(
+    system,
     trajectory,
     path: str | Path | None = None,
     *,
@@ -162,17 +154,22 @@ def chain_frames(
     time_scale: float = 1.0,
     time_unit: str = "µs",
 ):
-    """A strip of 3D frames of the folding chain (paper Figs. 8, 11); saved as PNG when `path` is given.
+    """A strip of 3D frames of a folding (paper Figs. 8, 11); saved as PNG when `path` is given.
+
+    **Arguments:** `system`: the `FoldingSystem` (or its mechanism) that was simulated; `trajectory`:
+    its `Trajectory`; `n_frames` frames evenly spread over the samples up to `t_max` (time units);
+    `time_scale`, `time_unit`: how titles show times.
 
     **Returns:** the `Figure`.
     """
+    mechanism = _mechanism(system)
     indices = _frame_indices(trajectory, n_frames, t_max)
-    thetas = np.asarray(trajectory.theta)[indices]
-    centre, half = _limits(chain, thetas)
+    states = _states(trajectory, indices)
+    centre, half = _limits(mechanism, states)
     fig = plt.figure(figsize=(2.6 * len(indices), 3.0), constrained_layout=True)
-    for i, (index, theta) in enumerate(zip(indices, thetas, strict=True)):
+    for i, (index, q) in enumerate(zip(indices, states, strict=True)):
         ax = fig.add_subplot(1, len(indices), i + 1, projection="3d")
-        draw_chain(chain, theta, ax=ax, centre=centre, half=half)
+        draw_state(mechanism, q, ax=ax, centre=centre, half=half)
         ax.set_title(
             f"t = {float(trajectory.times[index]) * time_scale:.3g} {time_unit}", fontsize=9
         )
@@ -183,8 +180,8 @@ def chain_frames(
     return fig
 
 
-def animate_chain(
-    chain,
+def animate_folding(
+    system,
     trajectory,
     path: str | Path,
     *,
@@ -194,20 +191,22 @@ def animate_chain(
     time_scale: float = 1.0,
     time_unit: str = "µs",
 ) -> Path:
-    """Save a GIF of the folding chain (paper Figs. 8, 11) with matplotlib's `PillowWriter`.
+    """Save a GIF of a folding (paper Figs. 8, 11) with matplotlib's `PillowWriter`; arguments as for
+    `folding_frames`.
 
     **Returns:** the path written.
     """
     path = Path(path)
+    mechanism = _mechanism(system)
     indices = _frame_indices(trajectory, n_frames, t_max)
-    thetas = np.asarray(trajectory.theta)[indices]
-    centre, half = _limits(chain, thetas)
+    states = _states(trajectory, indices)
+    centre, half = _limits(mechanism, states)
     fig = plt.figure(figsize=(4.5, 4.5))
     ax = fig.add_subplot(projection="3d")
 
     def update(i):
         ax.cla()
-        draw_chain(chain, thetas[i], ax=ax, centre=centre, half=half)
+        draw_state(mechanism, states[i], ax=ax, centre=centre, half=half)
         ax.view_init(elev=20, azim=-30)
         ax.set_title(f"t = {float(trajectory.times[indices[i]]) * time_scale:.4g} {time_unit}")
         return ()

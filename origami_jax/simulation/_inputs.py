@@ -15,7 +15,6 @@ from collections.abc import Callable
 
 import equinox as eqx
 import jax.numpy as jnp
-import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from ..system import FoldingSystem
@@ -125,7 +124,9 @@ class EtchRamp(AbstractInput):
         else:
             radius = jnp.asarray(radius, dtype=float)
             self.radius = (
-                radius if self.theta_final is None else jnp.broadcast_to(radius, self.theta_final.shape)
+                radius
+                if self.theta_final is None
+                else jnp.broadcast_to(radius, self.theta_final.shape)
             )
 
     def __check_init__(self):
@@ -189,7 +190,9 @@ class EtchRamp(AbstractInput):
     def jump_times(self, system):
         corners = self.durations(system)
         if system.hinges.release_time is not None:
-            return jnp.concatenate([system.hinges.release_time, corners + system.hinges.release_time])
+            return jnp.concatenate(
+                [system.hinges.release_time, corners + system.hinges.release_time]
+            )
         return corners
 
 

@@ -40,7 +40,9 @@ def default_solver() -> diffrax.AbstractSolver:
 
 
 def default_controller(
-    rtol: float, atol: float, solver: diffrax.AbstractSolver | None = None
+    rtol: float | Float[ArrayLike, ""],
+    atol: float | Float[ArrayLike, ""],
+    solver: diffrax.AbstractSolver | None = None,
 ) -> diffrax.PIDController:
     """The step-size controller `simulate` uses with `solver` (default: the default solver).
 
@@ -171,9 +173,9 @@ def _samples(system: FoldingSystem, inputs: AbstractInput, times, q, v):
         theta_ddot = acceleration
     else:
         # θ̈ = d/dt θ̇(q, v) along (q̇, v̇) = (v, v̇).
-        theta_ddot = jax.vmap(
-            lambda q, v, a: jax.jvp(mechanism.hinge_rates, (q, v), (v, a))[1]
-        )(q_safe, v_safe, acceleration)
+        theta_ddot = jax.vmap(lambda q, v, a: jax.jvp(mechanism.hinge_rates, (q, v), (v, a))[1])(
+            q_safe, v_safe, acceleration
+        )
     return theta, theta_dot, jnp.where(ok, theta_ddot, jnp.inf), jnp.where(ok, tau, jnp.inf)
 
 

@@ -23,6 +23,7 @@ from ._hinge import biaxial_modulus as biaxial_modulus
 from ._hinge import bilayer_curvature as bilayer_curvature
 from ._hinges import Hinges as Hinges
 from ._mechanism import AbstractMechanism as AbstractMechanism
+from ._mechanism import HingeLayout as HingeLayout
 from ._system import AbstractContact as AbstractContact
 from ._system import AbstractLayout as AbstractLayout
 from ._system import FoldingSystem as FoldingSystem

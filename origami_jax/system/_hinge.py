@@ -14,7 +14,6 @@ import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
-
 from .._validate import as_float_array, check_finite, check_positive, is_traced
 from ._units import MICRO, SI, UnitSystem
 

@@ -29,6 +29,7 @@ give `forward_dynamics` a custom JVP for speed; it must then keep reverse mode w
 """
 
 import abc
+import dataclasses
 from typing import ClassVar
 
 import equinox as eqx
@@ -36,6 +37,21 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
+
+
+@dataclasses.dataclass(frozen=True)
+class HingeLayout:
+    """Where the hinges of a mechanism are, in the flat state ``q = 0`` (host NumPy arrays).
+
+    **Fields:** `parent`, `child`: body index on either side of each hinge, shape `(h,)` (−1 is the
+    fixed base); `axis`: unit crease direction, `(h, 3)`; `ends`: the crease's two end points in the
+    world frame, `(h, 2, 3)` (length units).
+    """
+
+    parent: np.ndarray
+    child: np.ndarray
+    axis: np.ndarray
+    ends: np.ndarray
 
 
 class AbstractMechanism(eqx.Module):
@@ -168,6 +184,11 @@ class AbstractMechanism(eqx.Module):
     def outlines(self) -> list[np.ndarray]:
         """Each moving body's outline as a polygon in its body frame, a list of `b` host arrays of
         shape `(k_i, 3)` (length units), counter-clockwise seen from the body's +z (its normal)."""
+
+    @abc.abstractmethod
+    def hinge_layout(self) -> "HingeLayout":
+        """Which bodies each hinge joins and where its crease lies in the flat state (host data), for
+        contact models (panels that share a crease touch along it by construction) and plotting."""
 
     def base_outline(self) -> np.ndarray | None:
         """The fixed base (substrate panel) as a world-frame polygon `(k, 3)`, or `None`."""

@@ -1,0 +1,94 @@
+"""`origami-jax view`: an interactive 3D view of a result, as one self-contained HTML page."""
+
+import argparse
+import sys
+from pathlib import Path
+
+from ._common import EXIT_OK, EXIT_USAGE
+
+HELP = "Write an interactive 3D view of a result (one offline HTML page) and open it if asked."
+DESCRIPTION = """\
+Write an interactive 3D view of a result as one self-contained HTML page: panels with thickness and
+hinges in 3D, a time slider with play/pause, the fold angles plotted against time with a cursor
+linked to the slider, contacts and the verdict highlighted, camera presets. The page bundles its 3D
+library and works offline.
+
+RESULT is one of:
+  FILE.fold                     a FOLD file; its frames are the animation (Origami Simulator, Rabbit
+                                Ear, `origami-jax export`); flat crease-pattern frames are folded by
+                                their fold angles
+  OUT/path.npz                  the unfolding path written by `origami-jax unfold`
+  OUT/trajectory.csv|.npz       the trajectory written by `origami-jax simulate` (its metrics.json
+                                beside it gives the design)
+  OUT/sweep.nc --member K       design K of an accordion `origami-jax sweep`, simulated again
+"""
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    parser = subparsers.add_parser(
+        "view",
+        help=HELP,
+        description=DESCRIPTION,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument("result", type=Path, metavar="RESULT", help="the result to view (above)")
+    parser.add_argument(
+        "--out",
+        type=Path,
+        default=None,
+        help="the page to write (FILE.html), or a folder for it (default: beside RESULT, "
+        "RESULT's name with .html; a sweep member: sweep_member_K.html)",
+    )
+    parser.add_argument(
+        "--frames",
+        type=int,
+        default=None,
+        help="at most this many frames, evenly spaced in time (default 300; 0 keeps every sample)",
+    )
+    parser.add_argument("--member", type=int, default=None, help="design index in a sweep.nc")
+    parser.add_argument("--title", default=None, help="the page's title")
+    parser.add_argument("--open", action="store_true", help="open the page in the web browser")
+    parser.set_defaults(func=run)
+
+
+def _target(args: argparse.Namespace) -> Path:
+    result: Path = args.result
+    name = f"{result.stem}.html"
+    if result.suffix.lower() == ".nc" and args.member is not None:
+        name = f"{result.stem}_member_{args.member}.html"
+    if args.out is None:
+        return result.with_name(name)
+    if args.out.suffix.lower() in (".html", ".htm"):
+        return args.out
+    return args.out / name
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..view import DEFAULT_MAX_FRAMES, load_scene, open_in_browser, resample, write_html
+
+    if args.frames is not None and args.frames < 0 or args.frames == 1:
+        print("origami-jax view: --frames must be 0 (all samples) or at least 2", file=sys.stderr)
+        return EXIT_USAGE
+    max_frames = DEFAULT_MAX_FRAMES if args.frames is None else (args.frames or None)
+    if args.member is not None and args.result.suffix.lower() != ".nc":
+        print("origami-jax view: --member only applies to a sweep.nc", file=sys.stderr)
+        return EXIT_USAGE
+    try:
+        scene = load_scene(args.result, member=args.member, title=args.title)
+        samples = scene.n_frames
+        scene = resample(scene, max_frames)
+        target = write_html(scene, _target(args))
+    except (ValueError, OSError, KeyError) as error:
+        message = str(error).splitlines()[0] if str(error) else type(error).__name__
+        print(f"origami-jax view: {message}", file=sys.stderr)
+        return EXIT_USAGE
+    shown = f"{scene.n_frames} frames" + (
+        f" of {samples} samples" if samples > scene.n_frames else ""
+    )
+    print(
+        f"wrote {target}: {scene.n_panels} panels, {scene.n_hinges} hinges, {shown}"
+        + (f"; {scene.verdict}" if scene.verdict else "")
+    )
+    if args.open and not open_in_browser(target):
+        print(f"no web browser could be started: open {target} yourself", file=sys.stderr)
+    return EXIT_OK

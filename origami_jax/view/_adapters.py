@@ -1,0 +1,393 @@
+"""Scenes from what the package produces: unfolding paths, trajectories, mechanisms, sweep members.
+
+`scene_from(obj, ...)` dispatches on the type; each adapter is also public. Physics packages are
+imported inside the adapters, so `import origami_jax.view` stays light.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+import os
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ._scene import Scene
+
+# Sector arcs of a single vertex are drawn with one corner per this angle (rad) at least.
+ARC_STEP = math.pi / 24
+# Adjacent flaps of a planar chain lie on each other when |θ| reaches π; a contact is marked from
+# this distance to π (rad), the drawing resolution of a fold-flat hinge.
+FLAT_CONTACT_TOL = 1e-3
+# Single-vertex arcs closer than this (rad of arc) are marked as touching.
+ARC_CONTACT_TOL = 1e-6
+
+_LENGTH_NAMES = {1.0: "m", 1e-3: "mm", 1e-6: "µm", 1e-9: "nm"}
+_TIME_NAMES = {1.0: "s", 1e-3: "ms", 1e-6: "µs", 1e-9: "ns"}
+
+
+def _unit_name(value: float, names: dict[float, str]) -> str:
+    for scale, name in names.items():
+        if math.isclose(value, scale, rel_tol=1e-12):
+            return name
+    return f"{value:g} {names[1.0]}"
+
+
+# ---------------------------------------------------------------- single vertex
+
+
+def scene_from_vertex_path(
+    path: np.ndarray,
+    sector_angles: np.ndarray,
+    *,
+    closed: bool,
+    fold_angles: np.ndarray | None = None,
+    path_length: np.ndarray | None = None,
+    verdict: str | None = None,
+    reason: str | None = None,
+    sign_changes: np.ndarray | None = None,
+    title: str = "single vertex",
+) -> Scene:
+    """A single-vertex path as a scene: each sector a flat wedge of the unit sphere's radius.
+
+    **Arguments:** `path` `(k, n, 3)` crease directions (or `(n, 3)`); `sector_angles` `(n,)`
+    closed or `(n − 1,)` open, radians; `fold_angles` `(k, m)` (default computed from the path);
+    `path_length` `(k,)` the slider's quantity (default the state index); `verdict`, `reason` the
+    banner; `sign_changes` `(m,)` creases to highlight (those that changed sign).
+
+    Sector `i` runs from ray `i` to ray `i + 1` through ``cos(sα) u_i + sin(sα) w`` with
+    ``w = (u_{i+1} − cos α u_i) / sin α``, which follows the sector's own angle α (reflex sectors
+    included) rather than the shorter arc. Contacts: touching or crossing arcs (`arc_pair_clearances`)
+    marked where they meet, their sectors highlighted.
+    """
+    from ..fold import vertex_fold_angles
+
+    path = np.asarray(path, dtype=float)
+    if path.ndim == 2:
+        path = path[None]
+    sectors = np.asarray(sector_angles, dtype=float)
+    k, n, _ = path.shape
+    n_sectors = n if closed else n - 1
+    if path.shape[2] != 3 or sectors.shape != (n_sectors,):
+        raise ValueError(
+            f"path must be (k, n, 3) and sector_angles ({n_sectors},) for a "
+            f"{'closed' if closed else 'open'} vertex of {n} creases; got {path.shape}, "
+            f"{sectors.shape}"
+        )
+    if np.any(np.abs(np.sin(sectors)) < 1e-9):
+        raise ValueError("a sector angle of 0 or π cannot be drawn as a wedge")
+    creases = np.arange(n) if closed else np.arange(1, n - 1)
+    if fold_angles is None:
+        fold_angles = np.stack([vertex_fold_angles(state, closed=closed) for state in path])
+    fold_angles = np.asarray(fold_angles, dtype=float).reshape(k, len(creases))
+    steps = [max(2, math.ceil(abs(a) / ARC_STEP)) for a in sectors]
+    frames = []
+    for state in path:
+        state = state / np.linalg.norm(state, axis=1, keepdims=True)
+        panels = []
+        for i, (alpha, m) in enumerate(zip(sectors, steps, strict=True)):
+            u, v = state[i], state[(i + 1) % n]
+            w = (v - math.cos(alpha) * u) / math.sin(alpha)
+            s = np.linspace(0.0, alpha, m + 1)[:, None]
+            arc = np.cos(s) * u + np.sin(s) * w
+            panels.append(np.concatenate([np.zeros((1, 3)), arc], axis=0))
+        frames.append(panels)
+    offsets = np.concatenate([[0], np.cumsum([m + 2 for m in steps])]).astype(np.int64)
+    # Crease c is the first ray of sector c: corners 0 (apex) and 1 of that panel.
+    hinges = np.array([[offsets[c], offsets[c] + 1] for c in creases], dtype=np.int64)
+    contact_frames, contact_points, touching = _arc_contacts(path, closed)
+    highlight = np.zeros(n_sectors, bool)
+    highlight[list(touching)] = True
+    level = "ok"
+    if verdict is not None:
+        level = {"flat-unfolded": "ok", "flat-folded": "warn"}.get(str(verdict), "fail")
+    banner = None if verdict is None else f"verdict: {verdict}" + (f" ({reason})" if reason else "")
+    notes = ["sectors drawn as wedges of the unit sphere's radius"]
+    if sign_changes is not None and np.any(np.asarray(sign_changes) > 0):
+        notes.append("highlighted creases change sign along the path")
+    return Scene(
+        vertices=np.stack([np.concatenate(p, axis=0) for p in frames]),
+        offsets=offsets,
+        times=np.arange(k, dtype=float) if path_length is None else np.asarray(path_length, float),
+        hinges=hinges,
+        fold_angles=fold_angles,
+        hinge_names=tuple(f"crease {int(c)}" for c in creases),
+        highlight_panels=highlight,
+        highlight_hinges=None if sign_changes is None else np.asarray(sign_changes) > 0,
+        contact_frames=contact_frames,
+        contact_points=contact_points,
+        verdict=banner,
+        verdict_level=level,
+        title=title,
+        length_unit="",
+        time_unit="rad" if path_length is not None else "",
+        time_label="path length" if path_length is not None else "state",
+        notes=tuple(notes),
+    )
+
+
+def _arc_contacts(path: np.ndarray, closed: bool) -> tuple[np.ndarray, np.ndarray, set[int]]:
+    """Frames and points where two non-adjacent sector arcs touch or cross (the vertex package's
+    `arc_pair_clearances`), and the sectors involved. A crossing is marked where the two great
+    circles meet on the arcs; a touching pair at the arc end nearest the other arc."""
+    import jax
+    import jax.numpy as jnp
+
+    from ..vertex import arc_pair_clearances, topology
+    from ..vertex._geometry import point_arc_distance
+
+    top = topology(path.shape[1], closed)
+    pairs = np.asarray(top.arc_pairs)
+    if len(pairs) == 0:
+        return np.zeros(0, np.int64), np.zeros((0, 3)), set()
+    x = path / np.linalg.norm(path, axis=-1, keepdims=True)
+    clearance, crossing = jax.vmap(lambda s: arc_pair_clearances(s, closed))(jnp.asarray(x))
+    clearance, crossing = np.asarray(clearance), np.asarray(crossing)
+    frames, index = np.nonzero(crossing | (clearance < ARC_CONTACT_TOL))
+    if len(frames) == 0:
+        return np.zeros(0, np.int64), np.zeros((0, 3)), set()
+    arcs = np.asarray(top.arcs)
+    a1, a2 = x[frames, arcs[pairs[index, 0], 0]], x[frames, arcs[pairs[index, 0], 1]]
+    b1, b2 = x[frames, arcs[pairs[index, 1], 0]], x[frames, arcs[pairs[index, 1], 1]]
+    meet = np.cross(np.cross(a1, a2), np.cross(b1, b2))
+    meet = meet / np.maximum(np.linalg.norm(meet, axis=-1, keepdims=True), 1e-300)
+    meet = np.where(np.sum(meet * (a1 + a2), axis=-1, keepdims=True) < 0, -meet, meet)
+    ends = np.stack([a1, a2, b1, b2])
+    distance = np.stack(
+        [
+            np.asarray(point_arc_distance(jnp.asarray(p), jnp.asarray(q1), jnp.asarray(q2)))
+            for p, q1, q2 in ((a1, b1, b2), (a2, b1, b2), (b1, a1, a2), (b2, a1, a2))
+        ]
+    )
+    nearest = ends[np.argmin(distance, axis=0), np.arange(len(frames))]
+    points = np.where(crossing[frames, index][:, None], meet, nearest)
+    touching = {int(s) for s in pairs[np.unique(index)].ravel()}
+    return frames.astype(np.int64), points, touching
+
+
+def scene_from_unfolding(result: Any, *, title: str | None = None) -> Scene:
+    """A scene of `origami_jax.vertex.unfold`'s `UnfoldResult`: its path over its path length,
+    the verdict as a banner, creases that change sign highlighted, contacts marked."""
+    vertex = result.vertex
+    return scene_from_vertex_path(
+        np.asarray(result.path),
+        np.asarray(vertex.sector_angles),
+        closed=bool(vertex.closed),
+        fold_angles=np.asarray(result.fold_angles),
+        path_length=np.asarray(result.path_length),
+        verdict=str(result.verdict.value),
+        reason=result.reason,
+        sign_changes=np.asarray(result.crease_report.sign_changes),
+        title=title or "single-vertex unfolding",
+    )
+
+
+def scene_from_unfold_npz(path: str | os.PathLike) -> Scene:
+    """A scene of the `path.npz` that `origami-jax unfold` writes."""
+    with np.load(path, allow_pickle=False) as data:
+        return scene_from_vertex_path(
+            data["directions"],
+            data["sector_angles_rad"],
+            closed=bool(data["closed"]),
+            fold_angles=data["fold_angles_rad"],
+            path_length=data["path_length_rad"],
+            verdict=str(data["verdict"]),
+            title=f"single-vertex unfolding ({Path(path).name})",
+        )
+
+
+# ---------------------------------------------------------------- mechanisms and trajectories
+
+
+def scene_from_trajectory(
+    trajectory: Any,
+    system: Any,
+    *,
+    thickness: float | None = None,
+    title: str = "folding trajectory",
+) -> Scene:
+    """A scene of a simulated trajectory of `system` (a `FoldingSystem` or a mechanism).
+
+    Panels are the mechanism's body outlines moved by `body_poses`, evaluated for all samples in
+    one jitted `vmap`; a serial chain also gets its fixed base drawn (flap 1 turned flat about hinge
+    1) and its hinges (the edge of each flap on its hinge axis). Contacts: hinges of a planar chain
+    at |θ| ≥ π − 1e-3 rad, where adjacent flaps lie on each other (beyond π they pass through one
+    another: panels do not collide in the model unless the system has a contact model).
+    Samples after a failed solve (non-finite) are dropped and the failure is the verdict.
+
+    **Arguments:** `trajectory` an `origami_jax.simulation.Trajectory` (one member, not a batch);
+    `thickness` panel thickness in the system's length unit (default: not drawn to scale).
+    """
+    times = np.asarray(trajectory.times, dtype=float)
+    q = np.asarray(trajectory.state[0] if trajectory.state is not None else trajectory.theta)
+    if q.ndim != 2:
+        raise ValueError(
+            f"a batched trajectory ({q.shape}): pick one member first, e.g. "
+            "jax.tree_util.tree_map(lambda x: x[i], trajectory) for array fields"
+        )
+    finite = np.all(np.isfinite(q), axis=1)
+    result = trajectory.result
+    ok = bool(np.all(np.asarray(trajectory.succeeded)))
+    notes = []
+    if not np.all(finite):
+        notes.append(f"{int(np.sum(~finite))} samples after the failure dropped")
+    q, times = q[finite], times[finite]
+    if len(q) == 0:
+        raise ValueError("the trajectory has no finite sample to draw")
+    scene = scene_from_mechanism(system, q, times=times, thickness=thickness, title=title)
+    if ok:
+        target = np.asarray(trajectory.target, dtype=float)
+        error = np.abs(scene.fold_angles[-1] - target) if len(target) == scene.n_hinges else None
+        text = "solve successful"
+        if error is not None:
+            text += f"; final |θ − target| ≤ {np.rad2deg(np.max(error)):.3g}°"
+        level = "warn" if len(scene.contact_frames) else "ok"
+        if len(scene.contact_frames):
+            text += "; adjacent flaps reach each other (|θ| ≥ π): contacts marked"
+    else:
+        from ..simulation import RESULTS
+
+        message = RESULTS[result]  # pyright: ignore[reportInvalidTypeArguments] (an enum lookup)
+        text, level = f"solve failed: {message}", "fail"
+    units = getattr(system, "units", None)
+    return scene.replace(
+        verdict=text,
+        verdict_level=level,
+        time_unit=scene.time_unit
+        if units is None
+        else _unit_name(units.second_per_time, _TIME_NAMES),
+        notes=(*scene.notes, *notes),
+    )
+
+
+def scene_from_mechanism(
+    mechanism: Any,
+    q: np.ndarray | None = None,
+    *,
+    times: np.ndarray | None = None,
+    thickness: float | None = None,
+    title: str = "mechanism",
+) -> Scene:
+    """A scene of a mechanism (or `FoldingSystem`) at states `q` `(T, n_coordinates)` (default the
+    rest state), see `scene_from_trajectory`."""
+    import jax.numpy as jnp
+
+    units = getattr(mechanism, "units", None)
+    mechanism = getattr(mechanism, "mechanism", mechanism)
+    if q is None:
+        q = np.asarray(mechanism.rest_state()[0])[None]
+    q = np.asarray(q, dtype=float)
+    if q.ndim == 1:
+        q = q[None]
+    if q.shape[1] != mechanism.n_coordinates:
+        raise ValueError(
+            f"states must have {mechanism.n_coordinates} coordinates per row, got {q.shape}"
+        )
+    poses, angles = _poses_and_angles(mechanism, jnp.asarray(q))
+    poses, angles = np.asarray(poses), np.asarray(angles)
+    outlines = [np.asarray(o, dtype=float) for o in mechanism.outlines()]
+    sizes = [len(o) for o in outlines]
+    # World polygons of every body and frame in one product: (T, b, k, 3) per body size group.
+    world = [
+        outline @ poses[:, b, :3, :3].transpose(0, 2, 1) + poses[:, b, None, :3, 3]
+        for b, outline in enumerate(outlines)
+    ]
+    panels = list(world)
+    fixed = [False] * len(outlines)
+    base = mechanism.base_outline()
+    rest_poses = np.asarray(mechanism.body_poses(jnp.zeros(mechanism.n_coordinates)))
+    notes = []
+    if base is None and hasattr(mechanism, "axes") and len(outlines):
+        base = _chain_base(mechanism, outlines[0], rest_poses[0])
+        notes.append("fixed base drawn as flap 1 turned flat about hinge 1")
+    if base is not None:
+        base = np.asarray(base, dtype=float)
+        panels.insert(0, np.broadcast_to(base, (len(q), *base.shape)))
+        fixed.insert(0, True)
+        sizes.insert(0, len(base))
+    offsets = np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64)
+    vertices = np.concatenate(panels, axis=1)
+    first_body = 1 if base is not None else 0
+    hinges = _chain_hinges(mechanism, outlines, rest_poses, offsets[first_body:])
+    if hinges is None:
+        hinges = np.zeros((0, 2), np.int64)
+        angles = angles[:, :0]
+        notes.append("hinge positions unknown for this mechanism: fold angles not plotted")
+    contact_frames, contact_points = _flat_contacts(mechanism, vertices, hinges, angles)
+    return Scene(
+        vertices=vertices,
+        offsets=offsets,
+        times=np.arange(len(q), dtype=float) if times is None else np.asarray(times, dtype=float),
+        hinges=hinges,
+        fold_angles=angles,
+        hinge_names=tuple(f"hinge {i + 1}" for i in range(len(hinges))),
+        thickness=thickness,
+        fixed_panels=np.array(fixed),
+        contact_frames=contact_frames,
+        contact_points=contact_points,
+        title=title,
+        length_unit="" if units is None else _unit_name(units.metre_per_length, _LENGTH_NAMES),
+        time_unit="",
+        time_label="time" if times is not None else "state",
+        notes=tuple(notes),
+    )
+
+
+def _poses_and_angles(mechanism, q):
+    """Body poses `(T, b, 4, 4)` and hinge angles `(T, h)` of all states in one compiled call."""
+    return _batched_kinematics()(mechanism, q)
+
+
+@functools.cache
+def _batched_kinematics():
+    # Built once (JAX imported on first use), so that the compiled call is cached per mechanism
+    # structure across scenes.
+    import equinox as eqx
+    import jax
+
+    @eqx.filter_jit
+    def run(mechanism, q):
+        return jax.vmap(mechanism.body_poses)(q), jax.vmap(mechanism.hinge_angles)(q)
+
+    return run
+
+
+def _chain_base(chain, outline: np.ndarray, pose: np.ndarray) -> np.ndarray:
+    """Flap 1 at rest turned by π about hinge 1: the fixed base a chain's first hinge sits on."""
+    from ._fold_scene import _rotation
+
+    axis = np.asarray(chain.axes[0], dtype=float)
+    point = np.asarray(chain.points[0], dtype=float)
+    rest = outline @ pose[:3, :3].T + pose[:3, 3]
+    turn = _rotation(axis / np.linalg.norm(axis), math.pi)
+    return ((rest - point) @ turn.T + point)[::-1].copy()
+
+
+def _chain_hinges(mechanism, outlines, rest_poses, offsets) -> np.ndarray | None:
+    """Hinge `i` of a serial chain: the two corners of flap `i` nearest its axis (at rest)."""
+    if not (hasattr(mechanism, "axes") and hasattr(mechanism, "points")):
+        return None
+    if mechanism.n_hinges != len(outlines):
+        return None
+    axes = np.asarray(mechanism.axes, dtype=float)
+    points = np.asarray(mechanism.points, dtype=float)
+    out = []
+    for i, outline in enumerate(outlines):
+        rest = outline @ rest_poses[i, :3, :3].T + rest_poses[i, :3, 3]
+        rel = rest - points[i]
+        distance = np.linalg.norm(rel - np.outer(rel @ axes[i], axes[i]), axis=1)
+        nearest = np.sort(np.argsort(distance, kind="stable")[:2])
+        out.append([offsets[i] + nearest[0], offsets[i] + nearest[1]])
+    return np.array(out, dtype=np.int64).reshape(-1, 2)
+
+
+def _flat_contacts(mechanism, vertices, hinges, angles):
+    """Hinges of a planar chain folded to |θ| ≥ π: adjacent flaps on each other (frames, points
+    at the hinges' midpoints)."""
+    if not getattr(mechanism, "planar", False) or len(hinges) == 0:
+        return np.zeros(0, np.int64), np.zeros((0, 3))
+    frames, index = np.nonzero(np.abs(angles) >= math.pi - FLAT_CONTACT_TOL)
+    ends = vertices[frames[:, None], hinges[index]]  # (K, 2, 3)
+    return frames.astype(np.int64), ends.mean(axis=1)

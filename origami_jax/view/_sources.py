@@ -1,0 +1,275 @@
+"""`scene_from`: one entry point from any object or result file of the package to a `Scene`.
+
+Objects: `Scene`, `FoldFile`, `UnfoldResult`, `SingleVertex`, `Trajectory` (with its system),
+`SlowRampResult`, `FoldingSystem` or a mechanism (with states), a sweep dataset (with a member).
+Files: `.fold` (any FOLD file with frames), the `path.npz` of `origami-jax unfold`, the
+`trajectory.csv`/`.npz` of `origami-jax simulate` (its `metrics.json` beside it gives the design),
+the `sweep.nc` of an "accordion-step" `origami-jax sweep` (a member is rebuilt and simulated).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ._adapters import (
+    scene_from_mechanism,
+    scene_from_trajectory,
+    scene_from_unfold_npz,
+    scene_from_unfolding,
+    scene_from_vertex_path,
+)
+from ._fold_scene import scene_from_fold
+from ._scene import DEFAULT_MAX_FRAMES, Scene, resample
+
+
+def _is(obj: Any, module: str, name: str) -> bool:
+    """`isinstance(obj, module.name)` without importing `module` (an instance means it is loaded)."""
+    loaded = sys.modules.get(module)
+    cls = getattr(loaded, name, None) if loaded is not None else None
+    return cls is not None and isinstance(obj, cls)
+
+
+def scene_from(
+    obj: Any,
+    *,
+    system: Any = None,
+    states: Any = None,
+    member: int | None = None,
+    thickness: float | None = None,
+    max_frames: int | None = DEFAULT_MAX_FRAMES,
+    title: str | None = None,
+) -> Scene:
+    """A `Scene` of `obj`, with at most `max_frames` frames (`None`: all).
+
+    **Arguments:**
+    - `obj`: a `Scene`, `FoldFile`, `UnfoldResult`, `SingleVertex`, `Trajectory`, `SlowRampResult`,
+      `FoldingSystem`/mechanism, sweep `xarray.Dataset`, or a path to a result file (module doc).
+    - `system`: the `FoldingSystem` (or mechanism) a `Trajectory` was simulated with.
+    - `states`: `(T, n_coordinates)` states of a `FoldingSystem`/mechanism (default its rest state).
+    - `member`: the design index of a sweep dataset or `sweep.nc`.
+    - `thickness`: panel thickness of a mechanism, its length unit (files give their own).
+    - `title`: the page's title.
+
+    **Raises:** `ValueError` with what is missing (a trajectory without its system, a sweep without
+    a member, an unknown file type).
+    """
+    kwargs: dict[str, Any] = {} if title is None else {"title": title}
+    if isinstance(obj, Scene):
+        scene = obj if title is None else obj.replace(title=title)
+    elif isinstance(obj, str | os.PathLike):
+        scene = load_scene(Path(obj), member=member, **kwargs)
+    elif _is(obj, "origami_jax.fold._model", "FoldFile"):
+        scene = scene_from_fold(obj, **kwargs)
+    elif _is(obj, "origami_jax.vertex._unfold", "UnfoldResult"):
+        scene = scene_from_unfolding(obj, **kwargs)
+    elif _is(obj, "origami_jax.vertex._unfold", "BatchResult"):
+        raise ValueError(
+            "unfold_batch keeps end states only, not paths: unfold(vertex) the member you want to "
+            "see and view that result"
+        )
+    elif _is(obj, "origami_jax.vertex._model", "SingleVertex"):
+        scene = scene_from_vertex_path(
+            np.asarray(obj.directions),
+            np.asarray(obj.sector_angles),
+            closed=bool(obj.closed),
+            **kwargs,
+        )
+    elif _is(obj, "origami_jax.simulation._slow_ramp", "SlowRampResult"):
+        return scene_from(
+            obj.trajectory, system=system, thickness=thickness, max_frames=max_frames, title=title
+        )
+    elif _is(obj, "origami_jax.simulation._simulate", "Trajectory"):
+        if system is None:
+            raise ValueError(
+                "a Trajectory does not hold its system: pass system=, the FoldingSystem it was "
+                "simulated with"
+            )
+        scene = scene_from_trajectory(obj, system, thickness=thickness, **kwargs)
+    elif _is(obj, "origami_jax.system._system", "FoldingSystem") or _is(
+        obj, "origami_jax.system._mechanism", "AbstractMechanism"
+    ):
+        scene = scene_from_mechanism(obj, states, thickness=thickness, **kwargs)
+    elif _is(obj, "xarray.core.dataset", "Dataset"):
+        scene = scene_from_sweep_member(obj, member, **kwargs)
+    else:
+        raise ValueError(
+            f"cannot view a {type(obj).__name__}: give a FOLD file or FoldFile, an UnfoldResult, "
+            "a Trajectory with system=, a FoldingSystem, a sweep dataset with member=, or a Scene"
+        )
+    return resample(scene, max_frames)
+
+
+def load_scene(path: Path, *, member: int | None = None, title: str | None = None) -> Scene:
+    """A scene of a result file (see the module docstring); `ValueError` for what cannot be read."""
+    if not path.is_file():
+        raise ValueError(f"no such file: {path}")
+    suffix = path.suffix.lower()
+    kwargs = {} if title is None else {"title": title}
+    if suffix == ".fold":
+        from ..fold import FoldFormatError
+
+        try:
+            return scene_from_fold(path, **kwargs)
+        except FoldFormatError as error:
+            raise ValueError(f"{path}: {error}") from error
+    if suffix == ".nc":
+        import xarray as xr
+
+        with xr.open_dataset(path) as dataset:
+            return scene_from_sweep_member(dataset.load(), member, **kwargs)
+    if suffix == ".npz":
+        with np.load(path, allow_pickle=False) as data:
+            keys = set(data.files)
+        if "directions" in keys:
+            scene = scene_from_unfold_npz(path)
+            return scene if title is None else scene.replace(title=title)
+        if "theta" in keys:
+            with np.load(path, allow_pickle=False) as data:
+                return _simulated_file(path, data["times"], data["theta"], **kwargs)
+    if suffix == ".csv":
+        with path.open(encoding="utf-8") as handle:
+            header = handle.readline()
+        if header.startswith("time"):
+            columns = header.strip().split(",")
+            data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+            theta = [i for i, c in enumerate(columns) if c.startswith("theta_") and "dot" not in c]
+            return _simulated_file(path, data[:, 0], data[:, theta], **kwargs)
+    raise ValueError(
+        f"cannot view {path.name}: give a .fold file, the path.npz of `origami-jax unfold`, the "
+        "trajectory.csv/.npz of `origami-jax simulate` or a sweep.nc with --member"
+    )
+
+
+def _simulated_file(path: Path, times, theta, *, title: str | None = None) -> Scene:
+    """A trajectory file of `origami-jax simulate`: the accordion rebuilt from `metrics.json`."""
+    from ..chain import accordion_system
+    from ..system import AIR, KOH_SOLUTION, HingeDesign
+
+    theta = np.asarray(theta, dtype=float)
+    metrics_path = path.with_name("metrics.json")
+    notes = []
+    report: dict[str, Any] = {}
+    if metrics_path.is_file():
+        report = json.loads(metrics_path.read_text(encoding="utf-8"))
+    else:
+        notes.append(f"no {metrics_path.name} beside the file: literature design assumed")
+    flaps = int(report.get("flaps", theta.shape[1]))
+    if flaps != theta.shape[1]:
+        raise ValueError(f"{metrics_path} says {flaps} flaps but {path.name} has {theta.shape[1]}")
+    fluid = KOH_SOLUTION if "KOH" in str(report.get("fluid", "")) else AIR
+    design = HingeDesign.literature(fluid=fluid, **report.get("params", {}))
+    system = accordion_system(design, flaps)
+    scene = scene_from_mechanism(
+        system,
+        theta,
+        times=np.asarray(times, dtype=float),
+        thickness=float(design.t_structural),
+        title=title or f"{flaps}-flap accordion ({path.name})",
+    )
+    if report:
+        ok = bool(report.get("succeeded", True))
+        text = f"solve {report.get('result', 'successful')}"
+        level = "ok" if ok else "fail"
+        if ok and len(scene.contact_frames):
+            text += "; adjacent flaps reach each other (|θ| ≥ π): contacts marked"
+            level = "warn"
+        scene = scene.replace(verdict=text, verdict_level=level)
+    return scene.replace(time_unit="µs", notes=(*scene.notes, *notes))
+
+
+def sweep_member_system(dataset: Any, member: int | None) -> tuple[Any, Any, dict, str]:
+    """Rebuild design `member` of an "accordion-step" sweep dataset as the sweep kernel did.
+
+    **Returns:** `(system, design, settings, description)`. **Raises:** `ValueError` for another
+    model, a missing or out-of-range member.
+    """
+    from ..chain import accordion_system
+    from ..sweep._kernels import ACCORDION_PARAMETERS, FLUIDS
+    from ..system import AIR, KOH_SOLUTION, MICRO, Fluid, HingeDesign
+
+    model = dataset.attrs.get("model")
+    if model != "accordion-step":
+        raise ValueError(
+            f"only accordion-step sweeps can be viewed (this one is {model!r}); a vertex-unfold "
+            "member can be unfolded again with origami_jax.vertex.unfold"
+        )
+    designs = np.asarray(dataset["design"].values)
+    if member is None:
+        raise ValueError(
+            f"give the member to view (--member K): the sweep has {len(designs)} designs, "
+            f"numbered {designs.min()} to {designs.max()}"
+        )
+    if member not in designs:
+        raise ValueError(
+            f"member {member} is not in the sweep: its designs are numbered "
+            f"{designs.min()} to {designs.max()}"
+        )
+    row = dataset.sel(design=member)
+    settings = json.loads(dataset.attrs["settings"])
+    values = dict(settings["defaults"])
+    values.update(k_scale=values.get("k_scale", 1.0), b_scale=values.get("b_scale", 1.0))
+    swept = {}
+    for name in ACCORDION_PARAMETERS:
+        if name in row.coords:
+            value = row.coords[name].values.item()
+            swept[name] = value
+            if name not in ("n_flaps", "fluid"):
+                values[name] = float(value)
+    n_flaps = int(swept.get("n_flaps", settings["n_flaps"]))
+    fluid_name = swept.get("fluid", settings["fluid"])
+    if not isinstance(fluid_name, str):
+        fluid_name = FLUIDS[int(fluid_name)]
+    base_fluid = {"air": AIR, "koh": KOH_SOLUTION}[fluid_name]
+    for name, value in values.items():
+        if not (math.isfinite(value) and value > 0):
+            raise ValueError(f"member {member} has {name} = {value}: outside the model's domain")
+    design = HingeDesign(
+        **values,
+        fluid=Fluid(base_fluid.to(MICRO).density, MICRO, fluid_name),
+        stiffness_model=settings["stiffness_model"],
+        drag_model=settings["drag_model"],
+        units=MICRO,
+    )
+    system = accordion_system(design, n_flaps)
+    description = ", ".join(
+        f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}" for k, v in swept.items()
+    )
+    return system, design, settings, f"sweep member {member}: {n_flaps} flaps, {description}"
+
+
+def scene_from_sweep_member(dataset: Any, member: int | None, *, title: str | None = None) -> Scene:
+    """Design `member` of an "accordion-step" sweep, rebuilt and simulated again (a step input,
+    the sweep's settings: end time, samples, tolerances, solver), as a scene."""
+    import diffrax
+
+    from ..simulation import Step, implicit_solver, simulate
+
+    system, design, settings, description = sweep_member_system(dataset, member)
+    solver = {"kvaerno5": implicit_solver, "tsit5": diffrax.Tsit5}[settings["solver"]]()
+    trajectory = simulate(
+        system,
+        Step(),
+        t1=settings["t_end_us"],
+        n_save=settings["n_save"],
+        rtol=settings["rtol"],
+        atol=settings["atol"],
+        max_steps=settings["max_steps"],
+        solver=solver,
+        throw=False,
+    )
+    scene = scene_from_trajectory(
+        trajectory, system, thickness=float(design.t_structural), title=title or description
+    )
+    stored = int(dataset["result"].sel(design=member).values)
+    if stored != 0:
+        scene = scene.replace(
+            notes=(*scene.notes, f"the sweep stored result code {stored} for this member")
+        )
+    return scene

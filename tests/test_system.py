@@ -1,0 +1,122 @@
+"""The folding system: one model object, one builder, the same model through every entry point."""
+
+import json
+
+import diffrax
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import origami_jax.design as ojd
+import origami_jax.simulation as sim
+from origami_jax.chain import Accordion, accordion, accordion_system
+from origami_jax.cli import main
+from origami_jax.sweep import get_model
+from origami_jax.system import FoldingSystem, HingeDesign, HingeDrag, Hinges
+
+# Every entry point integrates the same ODE at rtol 1e-9; their samples agree to the solvers' accuracy.
+SAME_MODEL_RAD = 1e-6
+THETA_FINAL = 2.5  # rad: not π, so a builder that ignores θ_final is caught
+T1, N_SAVE, RTOL, ATOL = 300.0, 301, 1e-9, 1e-11
+
+
+def _reference():
+    design = HingeDesign.literature(theta_final=THETA_FINAL)
+    system = accordion_system(design, 3)
+    trajectory = sim.simulate(
+        system, sim.Step(), t1=T1, n_save=N_SAVE, solver=diffrax.Tsit5(), rtol=RTOL, atol=ATOL
+    )
+    return design, system, trajectory
+
+
+def test_builder_targets_follow_theta_final():
+    design, system, _ = _reference()
+    np.testing.assert_allclose(system.hinges.target, [THETA_FINAL, -THETA_FINAL, THETA_FINAL])
+    np.testing.assert_allclose(system.hinges.stiffness, design.stiffness(3))
+    np.testing.assert_allclose(system.drag.coefficient, design.drag(3))
+    np.testing.assert_allclose(system.hinges.radius, design.radius())
+    assert Accordion(3)(design).hinges.target.shape == (3,)
+
+
+def test_same_design_through_every_entry_point(tmp_path):
+    """CLI `simulate`, `design`'s forward model and the sweep kernel build the same system from the
+    same design, with θ_final free: their responses agree with a direct `simulate` to solver accuracy."""
+    _, _, reference = _reference()
+    metrics = sim.response_metrics(reference)
+
+    # 1. The command line (in-process; the same solve structure as the reference: compiled once).
+    code = main(
+        [
+            "simulate",
+            "--flaps", "3",
+            "--solver", "tsit5",
+            "--param", f"theta_final={THETA_FINAL}",
+            "--t1", str(T1),
+            "--n-save", str(N_SAVE),
+            "--rtol", str(RTOL),
+            "--atol", str(ATOL),
+            "--no-figures",
+            "--out", str(tmp_path),
+        ]
+    )  # fmt: skip
+    assert code == 0
+    table = np.loadtxt(tmp_path / "trajectory.csv", delimiter=",", skiprows=1)
+    np.testing.assert_allclose(table[:, 1:4], reference.theta, atol=SAME_MODEL_RAD)
+    report = json.loads((tmp_path / "metrics.json").read_text())
+    np.testing.assert_allclose(report["metrics"]["rise_time"], metrics.rise_time, rtol=1e-6)
+
+    # 2. `design`'s forward model, θ_final a free parameter set through its parameter space.
+    hinge = HingeDesign.literature()
+    space = ojd.parameter_space(hinge, ["theta_final"], {"theta_final": (1.0, 3.2)})
+    candidate = space.apply(hinge, jnp.array([THETA_FINAL]))
+    settings = ojd.SimulationSettings(T1, n_flaps=3, n_save=N_SAVE, rtol=RTOL, atol=ATOL)
+    trajectory, _ = ojd.response(candidate, settings)
+    np.testing.assert_allclose(trajectory.theta, reference.theta, atol=SAME_MODEL_RAD)
+
+    # 3. The sweep kernel, θ_final swept.
+    kernel = get_model(
+        "accordion-step", solver="tsit5", t_end=T1, n_save=N_SAVE, rtol=RTOL, atol=ATOL
+    )
+    out = jax.jit(kernel.fn)({"theta_final": jnp.asarray(THETA_FINAL)})
+    assert int(out["result"]) == 0
+    np.testing.assert_allclose(out["rise_time"], metrics.rise_time, rtol=1e-6)
+    np.testing.assert_allclose(out["overshoot"], metrics.overshoot, atol=1e-5)
+
+
+def test_generalized_force_is_the_papers_equation_11():
+    _, system, _ = _reference()
+    q = jnp.array([0.3, -0.7, 1.1])
+    v = jnp.array([0.02, -0.05, 0.01])
+    tau = jnp.array([10.0, -20.0, 30.0])
+    k, b = system.hinges.stiffness, system.drag.coefficient
+    np.testing.assert_allclose(
+        system.generalized_force(q, v, tau), tau - k * q - b * v * jnp.abs(v), rtol=1e-14
+    )
+    # Drag only takes energy out.
+    assert float(system.drag.dissipation(system.mechanism, q, v)) > 0
+    energy = system.energy(q, v)
+    np.testing.assert_allclose(
+        energy,
+        system.mechanism.kinetic_energy(q, v) + 0.5 * jnp.sum(k * q**2),
+        rtol=1e-14,
+    )
+
+
+def test_bad_systems_are_refused():
+    chain = accordion(3)
+    with pytest.raises(ValueError, match="3"):
+        FoldingSystem(chain, Hinges(1.0, jnp.zeros(2), 1.0), HingeDrag(jnp.zeros(3)))
+    # A ValueError without run-time type checking; jaxtyping's TypeError (a TypeCheckError) with it.
+    with pytest.raises((ValueError, TypeError), match="AbstractMechanism"):
+        FoldingSystem("chain", Hinges(1.0, jnp.zeros(3), 1.0), HingeDrag(jnp.zeros(3)))  # pyright: ignore[reportArgumentType]
+    with pytest.raises(ValueError, match="stiffness must be positive"):
+        Hinges(-1.0, jnp.zeros(3), 1.0)
+    with pytest.raises(ValueError, match="release_time"):
+        Hinges(1.0, jnp.zeros(3), 1.0, release_time=-1.0)
+    with pytest.raises(ValueError, match="shape"):
+        Hinges(jnp.ones(2), jnp.zeros(3), 1.0)
+    with pytest.raises((ValueError, TypeError), match="HingeDesign"):
+        accordion_system(chain, 3)  # pyright: ignore[reportArgumentType]
+    with pytest.raises(ValueError, match="n_flaps"):
+        Accordion(0)
