@@ -110,7 +110,7 @@ def run(quick: bool) -> list[Result]:
                 compile_s=compile_s,
                 flops=_descent_flops(v.directions, v.closed, int(out.n_accepted)),
                 notes=(
-                    f"ours: status {int(out.status)} (1 = flat) in {int(out.n_accepted)} steps; "
+                    f"ours: status {int(out.status._value)} (1 = flat) in {int(out.n_accepted)} steps; "
                     f"SLSQP: flat={peer_flat} in {peer_steps} steps; {_FLOP_NOTE}"
                 ),
             )
@@ -120,7 +120,7 @@ def run(quick: bool) -> list[Result]:
     compiled, compile_s = _compiled(6, True, "separable", 500, False, count)
     x, s = jnp.asarray(batch.directions), jnp.asarray(batch.sector_angles)
     out = compiled(x, s, jnp.asarray(2.0), settings)
-    flat = float(np.mean(np.asarray(out.status) == 1))
+    flat = float(np.mean(np.asarray(out.status == vertex.RESULTS.flat_unfolded)))
     timing = time_calls(
         lambda: compiled(x, s, jnp.asarray(2.0), settings), repeats=1 if not quick else 2
     )

@@ -9,10 +9,10 @@ The library never changes JAX's global configuration. Physical quantities are fl
 call ``jax.config.update("jax_enable_x64", True)`` before using it (the CLI does this for you).
 """
 
-__version__ = "0.1.0"
-
 import importlib as _importlib
 from typing import TYPE_CHECKING as _TYPE_CHECKING
+
+from ._version import __version__ as __version__
 
 # Subpackages load on first use so that `origami-jax --help` and `import origami_jax` stay fast;
 # `origami_jax.chain`, `origami_jax.simulation`, ... behave as ordinary attributes.

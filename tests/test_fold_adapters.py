@@ -1,7 +1,8 @@
-"""Adapters to the physics packages (stubbed, and real where they exist) and `origami-jax export`."""
+"""FOLD in and out of the physics packages (`origami_jax.vertex`, `origami_jax.chain`) and
+`origami-jax export`."""
 
-import importlib
 import json
+import subprocess
 import sys
 import types
 from pathlib import Path
@@ -9,21 +10,26 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import origami_jax
+from origami_jax import vertex as vertex_module
+from origami_jax.chain import (
+    Chain,
+    accordion,
+    accordion_dimensions,
+    accordion_system,
+    flap_chain,
+    load_chain,
+    trajectory_to_fold,
+)
 from origami_jax.cli import main
 from origami_jax.fold import (
     FoldFormatError,
-    accordion_dimensions,
     chain_geometry,
     fold_from_dict,
-    load_chain,
-    load_single_vertex,
     read_fold,
     single_vertex_geometry,
-    single_vertex_to_fold,
-    trajectory_to_fold,
-    unfolding_to_fold,
 )
+from origami_jax.system import MICRO, HingeDesign
+from origami_jax.vertex import load_single_vertex, single_vertex_to_fold, unfolding_to_fold
 
 from .test_fold_geometry import folded_directions
 from .test_fold_write import origami_simulator_import_problems
@@ -32,62 +38,21 @@ DATA = Path(__file__).parent / "data" / "fold"
 DEG = np.pi / 180
 
 
-class _StubVertex:
-    """Stands in for `origami_jax.vertex.SingleVertex`: records how it was built."""
-
-    def __init__(self, directions, sector_angles, closed, how):
-        self.directions = np.asarray(directions)
-        self.sector_angles = np.asarray(sector_angles)
-        self.closed = closed
-        self.how = how
-
-    @classmethod
-    def from_fold_angles(cls, sector_angles, fold_angles, *, closed):
-        x = folded_directions(np.asarray(sector_angles), np.asarray(fold_angles), closed=closed)
-        return cls(x, sector_angles, closed, ("from_fold_angles", np.asarray(fold_angles)))
-
-    @classmethod
-    def from_directions(cls, directions, sector_angles=None, *, closed):
-        x = np.asarray(directions)
-        if sector_angles is None:
-            nxt = np.roll(x, -1, axis=0)
-            sector_angles = np.arctan2(np.linalg.norm(np.cross(x, nxt), axis=1), np.sum(x * nxt, 1))
-            sector_angles = sector_angles if closed else sector_angles[:-1]
-        return cls(x, sector_angles, closed, ("from_directions", None))
-
-
-def _stub_fold_angles(vertex):
-    from origami_jax.fold import vertex_fold_angles
-
-    return vertex_fold_angles(vertex.directions, closed=vertex.closed)
-
-
-@pytest.fixture
-def stub_vertex(monkeypatch):
-    module = types.ModuleType("origami_jax.vertex")
-    module.SingleVertex = _StubVertex
-    module.fold_angles = _stub_fold_angles
-    module.corner_cube = lambda: _StubVertex.from_fold_angles(
-        single_vertex_geometry(DATA / "corner_cube.fold").sector_angles,
-        single_vertex_geometry(DATA / "corner_cube.fold").fold_angles,
-        closed=True,
+def test_fold_package_is_plain_numpy():
+    # Layers point one way: the physics packages build on the FOLD package, never the reverse, and
+    # reading or writing a file needs neither JAX nor physics.
+    code = (
+        "import sys, origami_jax.fold; "
+        "print(sorted(m for m in sys.modules if m.split('.')[0] in ('jax', 'equinox') "
+        "or m.startswith(('origami_jax.vertex', 'origami_jax.chain', 'origami_jax.system'))))"
     )
-    monkeypatch.setitem(sys.modules, "origami_jax.vertex", module)
-    monkeypatch.setattr(origami_jax, "vertex", module, raising=False)
-    return module
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True
+    ).stdout
+    assert out.strip() == "[]"
 
 
-@pytest.mark.parametrize("name", ["degree4", "corner_cube", "waterbomb", "boundary_vertex"])
-def test_load_single_vertex_builds_from_fold_angles(stub_vertex, name):
-    geometry = single_vertex_geometry(DATA / f"{name}.fold")
-    vertex = load_single_vertex(DATA / f"{name}.fold")
-    assert vertex.how[0] == "from_fold_angles"
-    np.testing.assert_allclose(vertex.how[1], geometry.fold_angles)
-    np.testing.assert_allclose(vertex.sector_angles, geometry.sector_angles)
-    assert vertex.closed == geometry.closed
-
-
-def test_load_single_vertex_picks_and_reports(stub_vertex):
+def test_load_single_vertex_picks_and_reports():
     with pytest.raises(FoldFormatError, match="vertex_index="):
         load_single_vertex(DATA / "two_vertex.fold")
     with pytest.raises(FoldFormatError, match=r"creases \[0\] have no fold angle"):
@@ -98,23 +63,7 @@ def test_load_single_vertex_picks_and_reports(stub_vertex):
         load_single_vertex(fold_from_dict(data))
 
 
-def test_load_single_vertex_from_a_folded_frame(stub_vertex):
-    geometry = single_vertex_geometry(DATA / "waterbomb.fold")
-    x = folded_directions(geometry.sector_angles, geometry.fold_angles, closed=True)
-    fold = unfolding_to_fold(directions=x[None], closed=True)
-    vertex = load_single_vertex(fold, frame=1)
-    assert vertex.how[0] == "from_directions"
-    np.testing.assert_allclose(vertex.directions, x, atol=1e-12)
-
-
-def test_missing_vertex_package_is_a_clear_import_error(monkeypatch):
-    empty = types.ModuleType("origami_jax.vertex")
-    monkeypatch.setitem(sys.modules, "origami_jax.vertex", empty)
-    with pytest.raises(ImportError, match="has no SingleVertex yet.*single_vertex_geometry"):
-        load_single_vertex(DATA / "degree4.fold")
-
-
-def test_single_vertex_to_fold_and_unfolding_to_fold(stub_vertex):
+def test_single_vertex_to_fold_and_unfolding_to_fold():
     vertex = load_single_vertex(DATA / "boundary_vertex.fold")
     fold = single_vertex_to_fold(vertex, title="boundary")
     assert fold.key_frame.extra["frame_title"] == "boundary"
@@ -152,16 +101,6 @@ def test_single_vertex_to_fold_and_unfolding_to_fold(stub_vertex):
         unfolding_to_fold(closed=True)
 
 
-def _real_vertex_module():
-    try:
-        module = importlib.import_module("origami_jax.vertex")
-    except ImportError:
-        module = None
-    if module is None or not hasattr(module, "SingleVertex") or not hasattr(module, "fold_angles"):
-        pytest.skip("origami_jax.vertex (issue #5) does not export SingleVertex / fold_angles yet")
-    return module
-
-
 @pytest.mark.parametrize(
     "name",
     [
@@ -172,11 +111,14 @@ def _real_vertex_module():
         pytest.param("waterbomb", marks=pytest.mark.slow),
     ],
 )
-def test_real_single_vertex_round_trip(name, tmp_path):
-    vertex_module = _real_vertex_module()
+def test_single_vertex_round_trip(name):
+    # A flat crease pattern builds the vertex from its sector and fold angles: the vertex's own fold
+    # angles (computed from its directions) agree with the file's to rounding.
     geometry = single_vertex_geometry(DATA / f"{name}.fold")
     vertex = load_single_vertex(DATA / f"{name}.fold")
     assert isinstance(vertex, vertex_module.SingleVertex)
+    assert vertex.closed == geometry.closed
+    np.testing.assert_allclose(vertex.sector_angles, geometry.sector_angles, atol=1e-12)
     np.testing.assert_allclose(vertex_module.fold_angles(vertex), geometry.fold_angles, atol=1e-9)
     # Written with the vertex package's own fold angles: the writer's sign check passes, and the
     # folded frame reads back as the same vertex.
@@ -186,36 +128,34 @@ def test_real_single_vertex_round_trip(name, tmp_path):
 
 
 def test_accordion_dimensions_and_trajectory_to_fold():
-    chain_module = pytest.importorskip("origami_jax.chain")
-    if not hasattr(chain_module, "accordion"):
-        pytest.skip("origami_jax.chain has no accordion yet")
-    chain = chain_module.accordion(3)
+    chain = accordion(3)
     lengths, width = accordion_dimensions(chain)
     np.testing.assert_allclose(lengths, 200.0, rtol=1e-12)
     assert width == pytest.approx(200.0, rel=1e-9)
     theta = np.array([[0.0, 0.0, 0.0], [1.0, -1.0, 1.0], [np.pi, -np.pi, np.pi], [np.inf] * 3])
     trajectory = types.SimpleNamespace(times=np.array([0.0, 1.0, 2.0, 3.0]), theta=theta)
-    fold = trajectory_to_fold(trajectory, chain)
+    fold = trajectory_to_fold(chain, trajectory)
     assert fold.n_frames == 4  # the non-finite sample after a failed solve is dropped
     assert fold.key_frame.extra["origami_jax:dropped_samples"] == 1
     assert fold.key_frame.extra["origami_jax:time_unit"] == "us"
     geometry = chain_geometry(fold)
     np.testing.assert_allclose(geometry.flap_lengths, 200.0)
     assert origami_simulator_import_problems(json.dumps(fold.to_dict())) == []
+    # A folding system writes the same file as its chain (the literature design: 200 µm flaps).
+    system = accordion_system(HingeDesign.literature(MICRO), 3)
+    assert isinstance(system.mechanism, Chain)
+    assert trajectory_to_fold(system, trajectory).to_dict() == fold.to_dict()
     thinned = trajectory_to_fold(hinge_angles=theta[:3], flap_lengths=lengths, width=width, every=2)
     assert thinned.n_frames == 3  # samples 0 and 2 (the last is always kept)
-    with pytest.raises(FoldFormatError, match="chain= or both"):
-        trajectory_to_fold(trajectory)
+    with pytest.raises(FoldFormatError, match="needs the system"):
+        trajectory_to_fold(trajectory=trajectory)
     with pytest.raises(FoldFormatError, match="no finite samples"):
         trajectory_to_fold(hinge_angles=theta[3:], flap_lengths=lengths, width=width)
 
 
 def test_load_chain_matches_the_papers_accordion():
-    chain_module = pytest.importorskip("origami_jax.chain")
-    if not hasattr(chain_module, "accordion"):
-        pytest.skip("origami_jax.chain has no accordion yet")
     chain, geometry = load_chain(DATA / "accordion.fold")
-    reference = chain_module.accordion(3)
+    reference = accordion(3)
     for field in ("axes", "points", "cg_poses", "masses", "inertias"):
         np.testing.assert_allclose(getattr(chain, field), getattr(reference, field), rtol=1e-12)
     np.testing.assert_allclose(geometry.fold_angles, [np.pi, -np.pi, np.pi])
@@ -228,12 +168,15 @@ def test_load_chain_matches_the_papers_accordion():
 
 
 def test_accordion_dimensions_rejects_non_parallel_hinges():
-    chain = types.SimpleNamespace(
-        axes=np.array([[1.0, 0, 0], [0, 1.0, 0]]),
-        points=np.zeros((2, 3)),
-        cg_poses=np.tile(np.eye(4), (2, 1, 1)),
-        masses=np.ones(2),
-        inertias=np.tile(np.eye(3), (2, 1, 1)),
+    e_x, e_y = np.array([1.0, 0, 0]), np.array([0, 1.0, 0])
+    chain = flap_chain(
+        np.stack([e_x, e_y]),
+        np.stack([0 * e_y, 200 * e_y]),
+        np.stack([100 * e_y, 300 * e_y]),
+        flap_length=200.0,
+        flap_width=200.0,
+        thickness=0.2,
+        density=3.1e-3,
     )
     with pytest.raises(FoldFormatError, match="parallel hinges"):
         accordion_dimensions(chain)
@@ -268,32 +211,22 @@ def test_cli_export_errors(tmp_path, capsys):
     assert "refusing to overwrite" in capsys.readouterr().err
 
 
-def test_cli_export_catalogue_vertex(tmp_path, capsys, stub_vertex):
+def test_cli_export_catalogue_vertex(tmp_path):
     assert main(["export", "corner-cube", "--format", "fold", "--out", str(tmp_path)]) == 0
     written = tmp_path / "corner-cube.fold"
     assert origami_simulator_import_problems(written.read_text()) == []
+    # The catalogue's corner cube is the one in tests/data (read by the FOLD reader alone).
     geometry = single_vertex_geometry(written, frame=1)
     np.testing.assert_allclose(
         geometry.fold_angles,
         single_vertex_geometry(DATA / "corner_cube.fold").fold_angles,
         atol=1e-9,
     )
-    # A catalogue entry the stub lacks: honest "not implemented", nothing written.
-    assert main(["export", "waterbomb", "--out", str(tmp_path)]) == 3
-    assert "no builder named" in capsys.readouterr().err
-    assert not (tmp_path / "waterbomb.fold").exists()
-
-
-def test_cli_export_catalogue_without_vertex_package(tmp_path, capsys, monkeypatch):
-    monkeypatch.setitem(sys.modules, "origami_jax.vertex", None)  # import fails
-    assert main(["export", "degree4", "--out", str(tmp_path)]) == 3
-    assert "not available yet" in capsys.readouterr().err
 
 
 @pytest.mark.slow
 def test_real_unfolding_written_as_fold(tmp_path):
     """Read a crease pattern, unfold it with the vertex package, write the path, read it back."""
-    vertex_module = _real_vertex_module()
     vertex = load_single_vertex(DATA / "corner_cube.fold")
     result = vertex_module.unfold(vertex)
     path = tmp_path / "corner_cube_unfolding.fold"

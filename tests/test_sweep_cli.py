@@ -27,7 +27,7 @@ metrics = ["rise_time", "overshoot"]
 
 
 def _register(monkeypatch):
-    model = _kernels._Model("test fixture", (), 0, lambda: KERNEL)
+    model = _kernels._Model("test fixture", lambda: KERNEL)
     monkeypatch.setitem(_kernels.MODELS, "test-oscillator", model)
 
 

@@ -212,3 +212,19 @@ def test_nonconvex_open_chains_never_flat_unfolded_by_separable_descent():
     batch = unfold_batch(vertices, escapes=False)
     verdicts = set(batch.verdicts())
     assert verdicts <= {Verdict.STALLED, Verdict.FLAT_FOLDED}, verdicts
+    # The batch escapes (the other energy, then other exponents) rerun the stalled members only:
+    # members they bring to flat are flat and certified; every other member is left untouched.
+    escaped = unfold_batch(vertices)
+    used = np.asarray(escaped.escape) > 0
+    assert used.any()  # 2 of the first 4 reach flat by switching energy (measured)
+    flat = np.array([v == Verdict.FLAT_UNFOLDED for v in escaped.verdicts()])
+    np.testing.assert_array_equal(flat, used)
+    assert bool(np.all(np.asarray(escaped.certified)[used]))
+    final = np.asarray(escaped.final)
+    # Flat: all crease directions in one plane (smallest singular value), every fold angle < 1°.
+    assert np.all(np.linalg.svd(final[used], compute_uv=False)[:, -1] < 1e-4)
+    assert np.all(np.abs(np.asarray(escaped.fold_angles))[used] < np.deg2rad(1.0))
+    np.testing.assert_array_equal(final[~used], np.asarray(batch.final)[~used])
+    assert [v for v, u in zip(escaped.verdicts(), used, strict=True) if not u] == [
+        v for v, u in zip(batch.verdicts(), used, strict=True) if not u
+    ]

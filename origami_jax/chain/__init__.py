@@ -4,6 +4,8 @@
 [`origami_jax.chain.accordion_system`][] builds the paper's accordion as a
 [`origami_jax.system.FoldingSystem`][] from a [`origami_jax.system.HingeDesign`][]. Kernels are
 unit-agnostic; the builders take their constants in a `UnitSystem` (`MICRO`: µm, µs, ng, by default).
+FOLD files in and out: `load_chain` (an accordion crease pattern) and `trajectory_to_fold` (a
+simulated folding as a FOLD animation).
 """
 
 from ._chain import Chain as Chain
@@ -18,6 +20,10 @@ from ._dynamics import inverse_dynamics as inverse_dynamics
 from ._dynamics import kinetic_energy as kinetic_energy
 from ._dynamics import mass_matrix as mass_matrix
 from ._dynamics import potential_energy as potential_energy
+from ._fold import accordion_dimensions as accordion_dimensions
+from ._fold import chain_from_geometry as chain_from_geometry
+from ._fold import load_chain as load_chain
+from ._fold import trajectory_to_fold as trajectory_to_fold
 from ._kinematics import body_jacobians as body_jacobians
 from ._kinematics import forward_kinematics as forward_kinematics
 from ._kinematics import spatial_jacobians as spatial_jacobians

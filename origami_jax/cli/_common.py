@@ -1,18 +1,16 @@
-"""Pieces every subcommand shares: the output folder, float64, and an honest 'not implemented'."""
+"""Pieces every subcommand shares: the output folder, float64, the exit codes."""
 
 import argparse
 import os
-import sys
 from pathlib import Path
 
 DEFAULT_OUT = Path("origami_out")
 
 # Exit codes of the CLI. 0 success; 1 the computation ran but its answer is negative or failed
-# (e.g. a vertex that stalls, a solver that failed); 2 bad usage or bad input; 3 not implemented yet.
+# (e.g. a vertex that stalls, a solver that failed); 2 bad usage or bad input.
 EXIT_OK = 0
 EXIT_FAILED = 1
 EXIT_USAGE = 2
-EXIT_NOT_IMPLEMENTED = 3
 
 
 def add_out_argument(parser: argparse.ArgumentParser, default: Path = DEFAULT_OUT) -> None:
@@ -40,12 +38,3 @@ def setup_runtime() -> None:
     import jax
 
     jax.config.update("jax_enable_x64", True)
-
-
-def not_implemented(what: str, issue: int) -> int:
-    """Say plainly that a subcommand does not exist yet, and return the matching exit code."""
-    print(
-        f"origami-jax {what}: not implemented yet (tracked in issue #{issue}). Nothing was computed.",
-        file=sys.stderr,
-    )
-    return EXIT_NOT_IMPLEMENTED

@@ -7,23 +7,15 @@
 """
 
 import argparse
-import importlib
 import sys
 from pathlib import Path
 
-from ._common import EXIT_NOT_IMPLEMENTED, EXIT_OK, EXIT_USAGE, add_out_argument, prepare_out
+from ._common import EXIT_OK, EXIT_USAGE, add_out_argument, prepare_out
+from ._unfold import EXAMPLES as CATALOGUE
+from ._unfold import catalogue_vertex
 
 HELP = "Export geometry or results to other formats (FOLD)."
 FORMATS = ("fold",)
-
-# Catalogue names on the command line -> candidate builder names in origami_jax.vertex, tried in
-# order (the vertex package names them; the first that exists is used).
-CATALOGUE = {
-    "corner-cube": ("corner_cube",),
-    "waterbomb": ("waterbomb_base", "waterbomb"),
-    "degree4": ("degree4_vertex", "degree4"),
-    "open-chain": ("open_chain_vertex",),
-}
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -113,31 +105,11 @@ def _export_file(args: argparse.Namespace) -> int:
 
 
 def _export_catalogue(args: argparse.Namespace) -> int:
-    from origami_jax.fold import single_vertex_to_fold, write_fold
+    # Imported here so that `origami-jax --help` does not load JAX.
+    from ..fold import write_fold
+    from ..vertex import single_vertex_to_fold
 
-    try:
-        vertex_module = importlib.import_module("origami_jax.vertex")
-    except ImportError as error:
-        print(
-            f"origami-jax export {args.source}: the single-vertex catalogue (origami_jax.vertex, "
-            f"issue #5) is not available yet ({error}). Nothing was written.",
-            file=sys.stderr,
-        )
-        return EXIT_NOT_IMPLEMENTED
-    builder = None
-    for name in CATALOGUE[args.source]:
-        builder = getattr(vertex_module, name, None)
-        if builder is not None:
-            break
-    if builder is None:
-        print(
-            f"origami-jax export {args.source}: origami_jax.vertex has no builder named "
-            f"{' or '.join(CATALOGUE[args.source])}. Nothing was written.",
-            file=sys.stderr,
-        )
-        return EXIT_NOT_IMPLEMENTED
-    vertex = builder()
-    fold = single_vertex_to_fold(vertex, title=args.source)
+    fold = single_vertex_to_fold(catalogue_vertex(args.source), title=args.source)
     out = prepare_out(Path(args.out))
     target = write_fold(out / f"{args.name or args.source}.fold", fold)
     print(f"wrote {target}: {args.source}, {fold.n_frames} frame(s) (crease pattern + state)")

@@ -4,7 +4,7 @@ import argparse
 import sys
 from collections.abc import Sequence
 
-from .. import __version__
+from .._version import __version__
 from . import _design, _export, _paper, _simulate, _sweep, _unfold, _view
 from ._common import EXIT_USAGE, setup_runtime
 

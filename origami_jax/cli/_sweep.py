@@ -5,14 +5,7 @@ import sys
 import time
 from pathlib import Path
 
-from ._common import (
-    EXIT_FAILED,
-    EXIT_NOT_IMPLEMENTED,
-    EXIT_OK,
-    EXIT_USAGE,
-    add_out_argument,
-    prepare_out,
-)
+from ._common import EXIT_FAILED, EXIT_OK, EXIT_USAGE, add_out_argument, prepare_out
 
 DESCRIPTION = """\
 Run a batch sweep over designs from a TOML config, chunked, resumable.
@@ -21,8 +14,7 @@ The config names the model (and its input), its settings, the design space (grid
 uniform samples or a table) and the parameters with their ranges; see examples/sweep_*.toml.
 Writes OUT/sweep.nc (NetCDF, parameters as coordinates, units as attributes), OUT/chunks/ (one file
 per finished chunk: an interrupted sweep continues with --resume), OUT/plots/ and OUT/summary.txt.
-Exit codes: 0 all designs succeeded, 1 some designs failed (marked in `result`), 2 bad config,
-3 model not available yet.
+Exit codes: 0 all designs succeeded, 1 some designs failed (marked in `result`), 2 bad config.
 """
 
 
@@ -39,7 +31,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--no-plots", action="store_true", help="skip the summary plots")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     parser.add_argument(
-        "--list-models", action="store_true", help="list the models and whether they are available"
+        "--list-models", action="store_true", help="list the models the sweep knows"
     )
     parser.set_defaults(func=run)
 
@@ -47,8 +39,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def _list_models() -> None:
     from ..sweep import available_models
 
-    for name, status in available_models().items():
-        print(f"{name}: {status}")
+    for name, description in available_models().items():
+        print(f"{name}: {description}")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -62,14 +54,6 @@ def run(args: argparse.Namespace) -> int:
 
     try:
         config = load_config(args.config)
-    except NotImplementedError as error:
-        print(f"origami-jax sweep: {error}", file=sys.stderr)
-        print("models:", file=sys.stderr)
-        from ..sweep import available_models
-
-        for name, status in available_models().items():
-            print(f"  {name}: {status}", file=sys.stderr)
-        return EXIT_NOT_IMPLEMENTED
     except (ValueError, OSError) as error:
         print(f"origami-jax sweep: bad config {args.config}: {error}", file=sys.stderr)
         return EXIT_USAGE

@@ -36,8 +36,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.set_defaults(func=run)
 
 
-def load_target(target: str, vertex_index: int | None = None):
-    """The `SingleVertex` named by `target` (catalogue name or FOLD file)."""
+def catalogue_vertex(name: str):
+    """The `SingleVertex` of a catalogue example (one of `EXAMPLES`)."""
     from .. import vertex
 
     makers = {
@@ -46,18 +46,19 @@ def load_target(target: str, vertex_index: int | None = None):
         "degree4": vertex.degree4_vertex,
         "open-chain": vertex.open_chain_vertex,
     }
-    if target in makers:
-        return makers[target]()
+    return makers[name]()
+
+
+def load_target(target: str, vertex_index: int | None = None):
+    """The `SingleVertex` named by `target` (catalogue name or FOLD file)."""
+    if target in EXAMPLES:
+        return catalogue_vertex(target)
     if not target.endswith(".fold"):
         raise ValueError(
             f"unknown example {target!r}: choose {', '.join(EXAMPLES)} or a .fold file"
         )
-    try:
-        from ..fold import load_single_vertex
-    except ImportError as error:  # the FOLD reader lands separately
-        raise ValueError(
-            f"reading FOLD files needs origami_jax.fold, not available: {error}"
-        ) from error
+    from ..vertex import load_single_vertex
+
     return load_single_vertex(Path(target), vertex_index=vertex_index)
 
 

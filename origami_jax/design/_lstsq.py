@@ -113,10 +113,17 @@ class FitBatch(eqx.Module):
         return int(np.argmin(loss)) if bool(np.any(np.isfinite(loss))) else 0
 
 
-class GaussNewtonStepStop(optx.LevenbergMarquardt):
-    """optimistix's Levenberg–Marquardt that also stops when the full Gauss–Newton step from the
-    current point is below the tolerances: it would change `z` by less than ``atol + rtol |z|`` and,
-    by its linear prediction, every residual row by less than ``atol + rtol |r|``.
+def _quiet(**kwargs: Any) -> None:
+    """optimistix's per-step report (`verbose`), switched off."""
+    del kwargs
+
+
+class GaussNewtonStepStop(optx.AbstractGaussNewton):
+    """Levenberg–Marquardt, composed as optimistix composes its own (`optx.AbstractGaussNewton` with
+    a `DampedNewtonDescent` and a `ClassicalTrustRegion`), that also stops when the full
+    Gauss–Newton step from the current point is below the tolerances: it would change `z` by less
+    than ``atol + rtol |z|`` and, by its linear prediction, every residual row by less than
+    ``atol + rtol |r|``.
 
     optimistix stops when the step *just taken* was that small, which costs one more evaluation once
     the iteration has converged: with an exact Jacobian the step before it already lands within
@@ -124,10 +131,26 @@ class GaussNewtonStepStop(optx.LevenbergMarquardt):
     non-zero-residual optimum the Gauss–Newton step vanishes with the gradient ``Jᵀr``. This is
     MINPACK's test on the computed step. The point returned is the last accepted one, whose residual
     and Jacobian the report shows. On the accordion calibration: 6 evaluations instead of 7.
+
+    **Arguments:** `rtol`, `atol` (see above and `optx.LevenbergMarquardt`); `norm` for optimistix's
+    own test on the step taken (default `optx.max_norm`). The damped step is solved by lineax's
+    automatic choice, QR for the (tall) damped system, as `optx.LevenbergMarquardt` does.
     """
 
-    def __init__(self, rtol: float, atol: float, **kwargs):
-        super().__init__(rtol=rtol, atol=atol, **kwargs)
+    rtol: float
+    atol: float
+    norm: Callable[..., Array]
+    descent: optx.DampedNewtonDescent
+    search: optx.ClassicalTrustRegion
+    verbose: Callable[..., None]
+
+    def __init__(self, rtol: float, atol: float, norm: Callable[..., Array] = optx.max_norm):
+        self.rtol = rtol
+        self.atol = atol
+        self.norm = norm
+        self.descent = optx.DampedNewtonDescent()
+        self.search = optx.ClassicalTrustRegion()
+        self.verbose = _quiet
 
     def terminate(self, fn, y, args, options, state, tags):
         done, result = super().terminate(fn, y, args, options, state, tags)

@@ -66,7 +66,8 @@ class DesignResult:
     - `metric_labels`, `metrics`, `metrics_before`: every metric of every joint (rise, overshoot as a
       fraction, peak time, settling time, final angle) at the solution and at the start.
     - `sensitivity`: ``∂metric/∂log x``, shape `(metrics, p)`: change of each metric per unit relative
-      change of each parameter (per unit change for linearly scaled ones) at the solution.
+      change of each parameter at the solution (for linearly scaled ones, per change by the whole
+      range ``upper − lower``).
     - `jacobian`: ``∂metric/∂x``, shape `(metrics, p)`, in metric units per parameter unit.
     - `identifiability`: [`origami_jax.design.Identifiability`][] of the targets' residuals.
     - `reached`: every target met within `tolerance`; `verdict`: one paragraph; `warnings`: list.
@@ -192,13 +193,9 @@ def build_report(*, problem, batch, best, start, before, tolerance, identify, me
     z = np.asarray(batch.z[best])
     x = np.asarray(batch.aux["x"][best])  # the physical values at `z`, from the fit
     lower, upper = np.asarray(space.lower), np.asarray(space.upper)
-    log = np.asarray(space.log)
-    sig = 1.0 / (1.0 + np.exp(-z))
-    dsig = sig * (1.0 - sig)
-    span = np.where(log, np.log(upper) - np.log(lower), upper - lower)
-    # ∂u/∂z with u = log x (log-scaled) or x / (upper − lower) (linear): the sensitivity's variable.
-    du_dz = np.where(log, span * dsig, dsig)
-    dx_dz = np.where(log, x * span * dsig, span * dsig)
+    dx_dz = space.to_physical_jacobian(z, xp=np)
+    # The sensitivity's variable: u = log x (log-scaled parameters) or x / (upper − lower) (linear).
+    du_dz = dx_dz * np.where(np.asarray(space.log), 1.0 / x, 1.0 / (upper - lower))
     with np.errstate(divide="ignore", invalid="ignore"):
         jac_r = np.asarray(batch.jacobian[best])
         sens_r = jac_r / du_dz

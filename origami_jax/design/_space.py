@@ -117,6 +117,21 @@ class ParameterSpace(eqx.Module):
         u = lo + (hi - lo) * jax.nn.sigmoid(z)
         return jnp.where(log, jnp.exp(jnp.where(log, u, 0.0)), u)
 
+    def to_physical_jacobian(
+        self, z: Float[ArrayLike, " p"], xp=jnp
+    ) -> Float[Array, " p"] | Float[np.ndarray, " p"]:
+        """``∂x/∂z`` of `to_physical` at `z`: the map acts parameter by parameter, so its Jacobian is
+        diagonal and this returns the diagonal, shape `(p,)`. `xp=numpy` computes on the host.
+
+        With ``σ = σ(z)`` and the (log) range ``Δ = hi − lo``: ``Δ σ (1 − σ)`` for a linearly scaled
+        parameter, ``x Δ σ (1 − σ)`` for a log-scaled one.
+        """
+        log, lo, hi = self._ends(xp)
+        sigma = 1.0 / (1.0 + xp.exp(-xp.asarray(z)))
+        du_dz = (hi - lo) * sigma * (1.0 - sigma)
+        u = lo + (hi - lo) * sigma
+        return xp.where(log, xp.exp(xp.where(log, u, 0.0)) * du_dz, du_dz)
+
     def to_unconstrained(
         self, x: Float[ArrayLike, " p"], xp=jnp
     ) -> Float[Array, " p"] | Float[np.ndarray, " p"]:

@@ -1,8 +1,11 @@
 """FOLD format (spec 1.2, Demaine, Ku and Lang) input and output.
 
 Read crease patterns and folded states written by Origami Simulator, Rabbit Ear, crease-pattern
-editors or by hand; build a single-vertex origami or an accordion from them; write our single-vertex
-states, unfolding paths and chain trajectories as FOLD animations (`file_frames`) that those tools load.
+editors or by hand; write single-vertex states, unfolding paths and chain trajectories as FOLD
+animations (`file_frames`) that those tools load. This package is plain NumPy and knows no physics:
+the physics packages build their objects from it (`origami_jax.vertex.load_single_vertex`,
+`origami_jax.chain.load_chain`) and feed it their results (`origami_jax.vertex.unfolding_to_fold`,
+`origami_jax.vertex.single_vertex_to_fold`, `origami_jax.chain.trajectory_to_fold`).
 
 - Reading: `read_fold` → `FoldFile` (frames of `FoldFrame`), checked by `check_fold` and, when
   `jsonschema` is installed, by the shipped schema (`fold_schema()`); errors are `FoldFormatError`.
@@ -10,22 +13,12 @@ states, unfolding paths and chain trajectories as FOLD animations (`file_frames`
   `net_geometry` (a net of rigid panels joined by creases into a tree: polyhedra, corner cubes).
 - Catalogue of shipped nets: `catalogue_names`, `catalogue_path` (accordion, corner cube, the eleven
   cube nets, tetrahedron, octahedron).
-- Physics objects (lazy imports): `load_single_vertex`, `load_chain`.
-- Writing: `write_fold`, `normalise_fold`; `single_vertex_fold` / `chain_fold` from plain arrays,
-  `unfolding_to_fold` / `single_vertex_to_fold` / `trajectory_to_fold` from our result objects.
+- Writing: `write_fold`, `normalise_fold`; `single_vertex_fold` / `chain_fold` from plain arrays.
 
 Conventions: FOLD stores fold angles in degrees (valley +, mountain −); the model keeps them so
 (`FoldFrame.edges_fold_angle_deg`), geometry and physics use radians.
 """
 
-from ._adapters import accordion_dimensions as accordion_dimensions
-from ._adapters import chain_from_geometry as chain_from_geometry
-from ._adapters import load_chain as load_chain
-from ._adapters import load_single_vertex as load_single_vertex
-from ._adapters import single_vertex_to_fold as single_vertex_to_fold
-from ._adapters import trajectory_to_fold as trajectory_to_fold
-from ._adapters import unfolding_to_fold as unfolding_to_fold
-from ._adapters import vertex_from_geometry as vertex_from_geometry
 from ._catalogue import catalogue_names as catalogue_names
 from ._catalogue import catalogue_path as catalogue_path
 from ._chain_geometry import ChainGeometry as ChainGeometry
@@ -42,6 +35,7 @@ from ._geometry import paper_plane as paper_plane
 from ._geometry import pick_vertex as pick_vertex
 from ._geometry import single_vertex_geometry as single_vertex_geometry
 from ._geometry import vertex_fold_angles as vertex_fold_angles
+from ._model import FRAME_UNITS_M as FRAME_UNITS_M
 from ._model import FoldFile as FoldFile
 from ._model import FoldFrame as FoldFrame
 from ._net_geometry import NetGeometry as NetGeometry

@@ -1,7 +1,7 @@
 """An accordion (hinged flap chain) out of a FOLD crease pattern, as plain numpy arrays (radians).
 
 Parallel creases across a strip of paper, in order along the strip, with flap lengths and widths;
-`load_chain` adapts this to `origami_jax.chain.Chain`.
+`origami_jax.chain.load_chain` builds an `origami_jax.chain.Chain` from it.
 """
 
 from __future__ import annotations

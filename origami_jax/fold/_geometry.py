@@ -5,8 +5,9 @@
 - `chain_geometry` (in `_chain_geometry`): an accordion / hinged chain, i.e. parallel creases
   across a strip of paper, in order along the strip, with flap lengths and widths.
 
-Neither imports the physics packages; `load_single_vertex` / `load_chain` adapt these to their
-objects. Conventions: fold angles in radians, valley +, mountain − (FOLD's sign).
+Neither imports the physics packages; `origami_jax.vertex.load_single_vertex` and
+`origami_jax.chain.load_chain` build their objects from these. Conventions: fold angles in radians,
+valley +, mountain − (FOLD's sign).
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ import os
 from pathlib import Path
 
 import numpy as np
-from jaxtyping import ArrayLike
+from numpy.typing import ArrayLike
 
 from ._errors import FoldFormatError
 from ._model import FoldFile, FoldFrame

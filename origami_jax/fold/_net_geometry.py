@@ -22,7 +22,7 @@ import functools
 import os
 
 import numpy as np
-from jaxtyping import ArrayLike
+from numpy.typing import ArrayLike
 
 from ._errors import FoldFormatError
 from ._geometry import PARALLEL_TOL, _as_fold, _assignment, paper_plane

@@ -1,7 +1,8 @@
 """Writing our results as FOLD: single-vertex states and unfolding paths, chain trajectories.
 
-Both writers take plain arrays, so they work without the physics packages; `unfolding_to_fold` and
-`trajectory_to_fold` (in `_adapters`) feed them from `UnfoldResult` / `Trajectory`.
+Both writers take plain arrays, so they work without the physics packages;
+`origami_jax.vertex.unfolding_to_fold` and `origami_jax.chain.trajectory_to_fold` feed them from an
+`UnfoldResult` / a simulated `Trajectory`.
 
 Layout of a written file (FOLD 1.2):
 - the **key frame** is the flat crease pattern (`frame_classes: ["creasePattern"]`), with
@@ -18,9 +19,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from jaxtyping import ArrayLike
+from numpy.typing import ArrayLike
 
-from .. import __version__
+from .._version import __version__
 from ._errors import FoldFormatError
 from ._geometry import vertex_fold_angles
 from ._model import WRITTEN_SPEC, FoldFile, FoldFrame

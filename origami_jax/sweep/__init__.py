@@ -14,7 +14,7 @@ ds = ojs.sweep(kernel, space, out="sweep_out", resume=True)   # xarray.Dataset
 - Models the command line knows (`origami-jax sweep CONFIG.toml`): `available_models()`,
   `get_model(name, **options)`: `"accordion-step"` (step-response metrics of the n-flap accordion)
   and `"vertex-unfold"` (unfolding verdicts of random single vertices); kernels import the physics
-  lazily. `load_config(path)` reads a sweep TOML file.
+  when built. `load_config(path)` reads a sweep TOML file.
 
 **Several devices, several hosts.** On one host the batch axis is sharded over
 `jax.local_devices()` (on CPU, `XLA_FLAGS=--xla_force_host_platform_device_count=N` set before

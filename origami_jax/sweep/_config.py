@@ -91,8 +91,7 @@ def _grid_axis(name: str, spec: Mapping[str, Any]) -> np.ndarray | list:
 def load_config(path: str | Path) -> SweepConfig:
     """Read a sweep TOML file (format: see the module docstring).
 
-    **Raises:** `ValueError` for an unknown model, kind or key, or a malformed parameter;
-    `NotImplementedError` for a model whose physics is pending.
+    **Raises:** `ValueError` for an unknown model, kind or key, or a malformed parameter.
     """
     path = Path(path)
     with path.open("rb") as file:

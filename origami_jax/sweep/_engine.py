@@ -2,25 +2,27 @@
 
 How a sweep runs:
 
-1. The design space is expanded on the host into one column per parameter. Designs are grouped by
-   their *static* parameters (shape-fixing ones such as a flap count); each group is one compiled
-   function, so a sweep compiles once per distinct static value, never once per chunk.
-2. The kernel is `jax.vmap`-ed over designs and `jax.jit`-ed with its inputs and outputs sharded
-   along the batch axis (`NamedSharding` over a 1-D `Mesh` of the devices, `jax.local_devices()`
-   unless given); XLA's SPMD partitioner splits the batch, each device computing its slice.
-   Trade-off, measured on this code base: `jax.shard_map` would let each device leave an adaptive
-   while-loop (ODE solver, Newton) as soon as *its* members are done, whereas under SPMD
-   partitioning the vmapped loop's condition is reduced over the whole batch, so every device
-   iterates until the slowest member of the chunk finishes (the same holds within one device for
-   any vmapped batch). But lineax's linear solves inside diffrax's implicit solvers fail to trace
-   under `shard_map` in jax 0.10.2 ("pytree does not match out_structure"), so the sharded `jit`
-   is used for every kernel.
-3. Pending designs of a group are taken in the order of the kernel's `cost` estimate when it has one
-   (similar designs share a chunk, so fewer members wait on a slow one), else in design order.
-   Every chunk has the same size (a multiple of the device count), the last one padded by repeating
-   its last design; padded members are discarded. Results are copied to the host, labelled and
-   written to `out/chunks/` before the next chunk starts (see `_store.py`).
-4. At the end the chunks are gathered into one `xarray.Dataset` (written to `out/sweep.nc`).
+1. Plan (`_plan`): the design space is expanded on the host into one column per parameter. Designs
+   are grouped by their *static* parameters (shape-fixing ones such as a flap count); each group is
+   one compiled function, so a sweep compiles once per distinct static value, never once per chunk.
+2. Compile (`_Compiler`): the kernel is `jax.vmap`-ed over designs and `jax.jit`-ed with its
+   inputs and outputs sharded along the batch axis (`NamedSharding` over a 1-D `Mesh` of the
+   devices, `jax.local_devices()` unless given); XLA's SPMD partitioner splits the batch, each device
+   computing its slice. Trade-off, measured on this code base: `jax.shard_map` would let each device
+   leave an adaptive while-loop (ODE solver, Newton) as soon as *its* members are done, whereas
+   under SPMD partitioning the vmapped loop's condition is reduced over the whole batch, so every
+   device iterates until the slowest member of the chunk finishes (the same holds within one device
+   for any vmapped batch). But lineax's linear solves inside diffrax's implicit solvers fail to trace
+   under `shard_map` in jax 0.10.2 ("pytree does not match out_structure"), so the sharded `jit` is
+   used for every kernel.
+3. Run chunks (`_schedule`, `_run_chunks`): pending designs of a group are taken in the order of the
+   kernel's `cost` estimate when it has one (similar designs share a chunk, so fewer members wait on
+   a slow one), else in design order. Every chunk has the same size (a multiple of the device
+   count), the last one padded by repeating its last design; padded members are discarded. Results
+   are copied to the host, labelled and written to `out/chunks/` before the next chunk starts (see
+   `_store.py`).
+4. Gather (`_gather`): at the end the chunks are gathered into one `xarray.Dataset` (written to
+   `out/sweep.nc`).
 
 **Multi-host.** Call `jax.distributed.initialize()` in every process before `sweep` (on SLURM or
 TPU pods it finds its peers from the environment; elsewhere pass `coordinator_address`,
@@ -31,6 +33,7 @@ the end, where process 0 gathers `sweep.nc` and the others read it back. `resume
 way. (This path has not been run on more than one host in this repository's tests.)
 """
 
+import dataclasses
 import json
 import math
 import os
@@ -119,6 +122,60 @@ class _Group:
         self.compiled: Callable | None = None
 
 
+@dataclasses.dataclass
+class _Plan:
+    """What a sweep computes, settled on the host before anything compiles: the design columns
+    (categories encoded as indices), the static groups with their output shapes, the dataset's
+    output layout and the store's manifest."""
+
+    kernel: Kernel
+    space: DesignSpace
+    columns: dict[str, np.ndarray]
+    static_names: list[str]
+    dynamic_names: list[str]
+    encoded: dict[str, np.ndarray]
+    groups: list[_Group]
+    layout: dict[str, tuple[tuple[str, ...], tuple[int, ...], str]]
+    manifest: dict[str, Any]
+
+    @property
+    def n_designs(self) -> int:
+        return self.space.size
+
+    def member_fn(self, static_values: dict[str, Any]) -> Callable:
+        """The kernel of one design of the group with `static_values`, outputs checked."""
+        kernel = self.kernel
+
+        def member(params: dict[str, Any]) -> dict[str, Any]:
+            outputs = kernel.fn({**params, **static_values})
+            if not isinstance(outputs, Mapping):
+                raise ValueError(
+                    f"model {kernel.name!r} must return a flat dict of arrays, got "
+                    f"{type(outputs).__name__}."
+                )
+            return {str(k): jnp.asarray(v) for k, v in outputs.items()}
+
+        return member
+
+    def prepared(self, group: _Group, indices: np.ndarray) -> dict[str, np.ndarray]:
+        """Host-side per-design inputs (e.g. random geometry drawn by NumPy), see
+        `Kernel.prepare`."""
+        kernel = self.kernel
+        if kernel.prepare is None:
+            return {}
+        host = {n: self.columns[n][indices] for n in self.dynamic_names}
+        extra = {
+            str(k): np.asarray(v) for k, v in kernel.prepare(host, group.static_values).items()
+        }
+        for name, value in extra.items():
+            if name in self.encoded or value.shape[:1] != (len(indices),):
+                raise ValueError(
+                    f"prepare() of {kernel.name!r} returned {name!r} with shape {value.shape}; "
+                    f"expected a new name and a leading axis of {len(indices)} designs."
+                )
+        return extra
+
+
 def sweep(
     fn: Callable[..., Any] | Kernel,
     space: DesignSpace,
@@ -161,6 +218,45 @@ def sweep(
     chunk raises (a kernel that throws instead of returning a result code).
     """
     kernel = as_kernel(fn)
+    if chunk_size is not None and int(chunk_size) < 1:
+        raise ValueError(f"chunk_size must be >= 1, got {chunk_size}.")
+    plan = _plan(kernel, space)
+    devices = list(devices) if devices is not None else jax.local_devices()
+    if not devices:
+        raise ValueError("no devices to run on.")
+    sharding = NamedSharding(Mesh(np.array(devices), (AXIS,)), P(AXIS))
+    process_index, process_count = jax.process_index(), jax.process_count()
+    store = _open_store(out, plan.manifest, resume, process_index, process_count)
+    done = (
+        store.done_mask(plan.n_designs)
+        if store is not None
+        else np.zeros(plan.n_designs, dtype=bool)
+    )
+    _barrier("origami_jax.sweep.scanned", process_count)
+    compiler = _Compiler(plan, sharding)
+    size, work = _schedule(plan, done, chunk_size, devices, compiler)
+    chunks, run_seconds = _run_chunks(
+        plan,
+        work[process_index::process_count],
+        size,
+        sharding,
+        compiler,
+        store,
+        n_done=int(done.sum()),
+        progress=progress,
+        on_chunk=on_chunk,
+    )
+    _barrier("origami_jax.sweep.computed", process_count)
+    return _gather(plan, store, chunks, size, devices, compiler.seconds, run_seconds)
+
+
+def _plan(kernel: Kernel, space: DesignSpace) -> _Plan:
+    """Stage 1: check the space against the kernel, expand it into columns, encode categories,
+    group the designs by static values and trace each group once for its output shapes.
+
+    **Raises:** `ValueError` for unknown parameters, unknown category labels, or kernel outputs
+    that are not a flat dict of arrays with consistent names and ranks.
+    """
     if not isinstance(space, DesignSpace):
         raise ValueError(f"space must be a Grid, Samples, Table or Product, got {type(space)}.")
     if kernel.parameters is not None:
@@ -170,13 +266,52 @@ def sweep(
                 f"model {kernel.name!r} has no parameter(s) {unknown}; it accepts "
                 f"{sorted(kernel.parameters)}."
             )
-    if chunk_size is not None and int(chunk_size) < 1:
-        raise ValueError(f"chunk_size must be >= 1, got {chunk_size}.")
-
     columns = space.columns()
-    n_designs = space.size
     static_names = [n for n in space.names if n in space.static or n in kernel.static]
     dynamic_names = [n for n in space.names if n not in static_names]
+    encoded = _encode(kernel, space, columns, dynamic_names)
+    plan = _Plan(
+        kernel=kernel,
+        space=space,
+        columns=columns,
+        static_names=static_names,
+        dynamic_names=dynamic_names,
+        encoded=encoded,
+        groups=_make_groups(columns, static_names, space.size),
+        layout={},
+        manifest={},
+    )
+    example = {n: jnp.zeros((), encoded[n].dtype) for n in dynamic_names}
+    for group in plan.groups:
+        group.extra = {
+            k: jax.ShapeDtypeStruct(v.shape[1:], v.dtype)
+            for k, v in plan.prepared(group, group.indices[:1]).items()
+        }
+        shapes = jax.eval_shape(plan.member_fn(group.static_values), {**example, **group.extra})
+        for name, shape in shapes.items():
+            if not isinstance(shape, jax.ShapeDtypeStruct):
+                raise ValueError(f"output {name!r} of {kernel.name!r} is not an array.")
+        group.shapes = shapes
+    plan.layout = _output_layout(kernel, plan.groups)
+    plan.manifest = {
+        "format": 1,
+        "model": kernel.name,
+        "settings": dict(kernel.settings),
+        "space": space.to_config(),
+        "static": static_names,
+        "outputs": {n: [list(d), dt] for n, (d, _, dt) in plan.layout.items()},
+    }
+    return plan
+
+
+def _encode(
+    kernel: Kernel,
+    space: DesignSpace,
+    columns: Mapping[str, np.ndarray],
+    dynamic_names: Sequence[str],
+) -> dict[str, np.ndarray]:
+    """The batched (dynamic) columns as arrays: labels as `int32` indices into the kernel's (else
+    the space's sorted) categories, numbers in JAX's canonical float or int type."""
     categories = {}
     for name in dynamic_names:
         if columns[name].dtype.kind == "U":
@@ -198,106 +333,59 @@ def sweep(
             encoded[name] = np.array([lookup[v] for v in columns[name]], dtype=np.int32)
         else:
             encoded[name] = _canonical(columns[name])
+    return encoded
 
-    groups = _make_groups(columns, static_names, n_designs)
-    devices = list(devices) if devices is not None else jax.local_devices()
-    if not devices:
-        raise ValueError("no devices to run on.")
-    mesh = Mesh(np.array(devices), (AXIS,))
-    sharding = NamedSharding(mesh, P(AXIS))
 
-    def member_fn(static_values: dict[str, Any]) -> Callable:
-        def member(params: dict[str, Any]) -> dict[str, Any]:
-            outputs = kernel.fn({**params, **static_values})
-            if not isinstance(outputs, Mapping):
-                raise ValueError(
-                    f"model {kernel.name!r} must return a flat dict of arrays, got "
-                    f"{type(outputs).__name__}."
-                )
-            return {str(k): jnp.asarray(v) for k, v in outputs.items()}
+def _open_store(
+    out: str | os.PathLike | None,
+    manifest: Mapping[str, Any],
+    resume: bool,
+    process_index: int,
+    process_count: int,
+) -> Store | None:
+    """The sweep's folder (`None`: in memory): process 0 creates or checks it, the others open it
+    for reading once it exists."""
+    if out is None:
+        return None
+    store = Store.open(Path(out), manifest, resume=resume, writer=process_index == 0)
+    _barrier("origami_jax.sweep.open", process_count)
+    if process_index != 0:
+        store = Store.open(Path(out), manifest, resume=True, writer=False)
+    return store
 
-        return member
 
-    def prepared(group: _Group, indices: np.ndarray) -> dict[str, np.ndarray]:
-        # Host-side per-design inputs (e.g. random geometry drawn by NumPy), see `Kernel.prepare`.
-        if kernel.prepare is None:
-            return {}
-        host = {n: columns[n][indices] for n in dynamic_names}
-        extra = {
-            str(k): np.asarray(v) for k, v in kernel.prepare(host, group.static_values).items()
-        }
-        for name, value in extra.items():
-            if name in encoded or value.shape[:1] != (len(indices),):
-                raise ValueError(
-                    f"prepare() of {kernel.name!r} returned {name!r} with shape {value.shape}; "
-                    f"expected a new name and a leading axis of {len(indices)} designs."
-                )
-        return extra
+class _Compiler:
+    """Stage 2: compiles the vmapped kernel of a group for a chunk size, sharded along the batch
+    axis, and the cost estimate; keeps the seconds spent compiling."""
 
-    example = {n: jnp.zeros((), encoded[n].dtype) for n in dynamic_names}
-    for group in groups:
-        group.extra = {
-            k: jax.ShapeDtypeStruct(v.shape[1:], v.dtype)
-            for k, v in prepared(group, group.indices[:1]).items()
-        }
-        shapes = jax.eval_shape(member_fn(group.static_values), {**example, **group.extra})
-        for name, shape in shapes.items():
-            if not isinstance(shape, jax.ShapeDtypeStruct):
-                raise ValueError(f"output {name!r} of {kernel.name!r} is not an array.")
-        group.shapes = shapes
-    layout = _output_layout(kernel, groups)
+    def __init__(self, plan: _Plan, sharding: NamedSharding):
+        self.plan = plan
+        self.sharding = sharding
+        self.seconds: list[float] = []
 
-    process_index, process_count = jax.process_index(), jax.process_count()
-    manifest = {
-        "format": 1,
-        "model": kernel.name,
-        "settings": dict(kernel.settings),
-        "space": space.to_config(),
-        "static": static_names,
-        "outputs": {n: [list(d), dt] for n, (d, _, dt) in layout.items()},
-    }
-    store = None
-    if out is not None:
-        store = Store.open(Path(out), manifest, resume=resume, writer=process_index == 0)
-        _barrier("origami_jax.sweep.open", process_count)
-        if process_index != 0:
-            store = Store.open(Path(out), manifest, resume=True, writer=False)
-    done = store.done_mask(n_designs) if store is not None else np.zeros(n_designs, dtype=bool)
-    _barrier("origami_jax.sweep.scanned", process_count)
-
-    n_devices = len(devices)
-    if chunk_size is None:
-        largest = max(int((~done[g.indices]).sum()) for g in groups)
-        size = _default_chunk_size(max(largest, 1), n_devices, devices[0].platform)
-        auto = True
-    else:
-        size = math.ceil(int(chunk_size) / n_devices) * n_devices
-        auto = False
-
-    compile_seconds: list[float] = []
-
-    def compile_group(group: _Group, size: int) -> Callable:
+    def group(self, group: _Group, size: int) -> Callable:
+        """The compiled `(size,)`-batch kernel of `group` (not cached: see `_run_chunks`)."""
+        plan, sharding = self.plan, self.sharding
         args = {
-            n: jax.ShapeDtypeStruct((size,), encoded[n].dtype, sharding=sharding)
-            for n in dynamic_names
+            n: jax.ShapeDtypeStruct((size,), plan.encoded[n].dtype, sharding=sharding)
+            for n in plan.dynamic_names
         }
         for name, shape in group.extra.items():
             args[name] = jax.ShapeDtypeStruct((size, *shape.shape), shape.dtype, sharding=sharding)
-        batched = jax.vmap(member_fn(group.static_values))
+        batched = jax.vmap(plan.member_fn(group.static_values))
         jitted = jax.jit(batched, in_shardings=sharding, out_shardings=sharding)
         start = time.perf_counter()
         compiled = jitted.lower(args).compile()
-        compile_seconds.append(time.perf_counter() - start)
+        self.seconds.append(time.perf_counter() - start)
         return compiled
 
-    def pending(group: _Group) -> np.ndarray:
-        # Designs of this group not stored yet, cheapest first when the kernel estimates costs.
-        todo = group.indices[~done[group.indices]]
-        estimate = kernel.cost
-        if estimate is None or len(todo) == 0:
-            return todo
-        inputs = {n: encoded[n][todo] for n in dynamic_names}
-        inputs.update(prepared(group, todo))
+    def costs(self, group: _Group, todo: np.ndarray) -> np.ndarray:
+        """The kernel's cost estimate of the designs `todo` of `group` (non-finite → `inf`)."""
+        plan = self.plan
+        estimate = plan.kernel.cost
+        assert estimate is not None
+        inputs = {n: plan.encoded[n][todo] for n in plan.dynamic_names}
+        inputs.update(plan.prepared(group, todo))
         statics = group.static_values
 
         def cost(params):
@@ -305,28 +393,76 @@ def sweep(
 
         start = time.perf_counter()
         compiled_cost = jax.jit(jax.vmap(cost)).lower(inputs).compile()
-        compile_seconds.append(time.perf_counter() - start)
+        self.seconds.append(time.perf_counter() - start)
         costs = np.asarray(compiled_cost(inputs))
-        costs = np.where(np.isfinite(costs), costs, np.inf)
-        return todo[np.argsort(costs, kind="stable")]
+        return np.where(np.isfinite(costs), costs, np.inf)
 
-    # Work list: (group, design indices) chunks not stored yet.
-    todo_by_group = [(group, pending(group)) for group in groups]
-    work: list[tuple[_Group, np.ndarray]] = []
-    for group, todo in todo_by_group:
-        work += [(group, todo[i : i + size]) for i in range(0, len(todo), size)]
-    if auto and work:
-        size = _fit_memory(work[0][0], size, n_devices, devices[0], compile_group)
-        work = []
+
+def _schedule(
+    plan: _Plan,
+    done: np.ndarray,
+    chunk_size: int | None,
+    devices: Sequence[jax.Device],  # pyright: ignore[reportInvalidTypeForm]
+    compiler: _Compiler,
+) -> tuple[int, list[tuple[_Group, np.ndarray]]]:
+    """Stage 3a: the chunk size and the work list, `(group, design indices)` chunks not stored yet,
+    in the order of the kernel's cost estimate within each group (see `Kernel.cost`). A chunk size
+    chosen here (not given) is then fitted to the device's memory, which compiles the first group
+    for it."""
+    n_devices = len(devices)
+    if chunk_size is None:
+        largest = max(int((~done[g.indices]).sum()) for g in plan.groups)
+        size = _default_chunk_size(max(largest, 1), n_devices, devices[0].platform)
+    else:
+        size = math.ceil(int(chunk_size) / n_devices) * n_devices
+    todo_by_group = [(group, _pending(plan, group, done, compiler)) for group in plan.groups]
+
+    def chunks(size: int) -> list[tuple[_Group, np.ndarray]]:
+        work: list[tuple[_Group, np.ndarray]] = []
         for group, todo in todo_by_group:
             work += [(group, todo[i : i + size]) for i in range(0, len(todo), size)]
-    mine = work[process_index::process_count]
+        return work
 
+    work = chunks(size)
+    if chunk_size is None and work:
+        size = _fit_memory(work[0][0], size, n_devices, devices[0], compiler.group)
+        work = chunks(size)
+    return size, work
+
+
+def _pending(plan: _Plan, group: _Group, done: np.ndarray, compiler: _Compiler) -> np.ndarray:
+    """Designs of `group` not stored yet, cheapest first when the kernel estimates costs."""
+    todo = group.indices[~done[group.indices]]
+    if plan.kernel.cost is None or len(todo) == 0:
+        return todo
+    return todo[np.argsort(compiler.costs(group, todo), kind="stable")]
+
+
+def _run_chunks(
+    plan: _Plan,
+    work: Sequence[tuple[_Group, np.ndarray]],
+    size: int,
+    sharding: NamedSharding,
+    compiler: _Compiler,
+    store: Store | None,
+    *,
+    n_done: int,
+    progress: bool,
+    on_chunk: Callable[[int, int], None] | None,
+) -> tuple[list[xr.Dataset], float]:
+    """Stage 3b: each chunk padded to `size` (repeating its last design), put on the devices,
+    computed, copied back, labelled and stored before the next one starts; a group compiles on
+    its first chunk.
+
+    **Returns:** the chunks kept in memory (none with a store) and the seconds spent on them,
+    compilation excluded.
+    """
     from tqdm import tqdm
 
+    kernel = plan.kernel
     bar = tqdm(
-        total=n_designs,
-        initial=int(done.sum()),
+        total=plan.n_designs,
+        initial=n_done,
         unit="design",
         desc=f"sweep {kernel.name}",
         disable=not progress,
@@ -334,16 +470,17 @@ def sweep(
         dynamic_ncols=True,
     )
     in_memory: list[xr.Dataset] = []
-    n_done = int(done.sum())
     run_seconds = 0.0
     try:
-        for group, indices in mine:
+        for group, indices in work:
             if group.compiled is None:
-                group.compiled = compile_group(group, size)
+                group.compiled = compiler.group(group, size)
             chunk_start = time.perf_counter()
             padded = np.concatenate([indices, np.full(size - len(indices), indices[-1])])
-            inputs = {n: jax.device_put(encoded[n][padded], sharding) for n in dynamic_names}
-            for name, value in prepared(group, padded).items():
+            inputs = {
+                n: jax.device_put(plan.encoded[n][padded], sharding) for n in plan.dynamic_names
+            }
+            for name, value in plan.prepared(group, padded).items():
                 inputs[name] = jax.device_put(value, sharding)
             try:
                 outputs = jax.device_get(group.compiled(inputs))
@@ -353,7 +490,7 @@ def sweep(
                     f"{int(indices[-1])}: {error}\nA batch kernel must not throw: call solvers "
                     "with throw=False and return their result code."
                 ) from error
-            chunk = _label_chunk(space, columns, indices, outputs, layout, kernel)
+            chunk = _label_chunk(plan.space, plan.columns, indices, outputs, plan.layout, kernel)
             if store is not None:
                 store.write_chunk(chunk)
             else:
@@ -362,23 +499,38 @@ def sweep(
             n_done += len(indices)
             bar.update(len(indices))
             if on_chunk is not None:
-                on_chunk(n_done, n_designs)
+                on_chunk(n_done, plan.n_designs)
     finally:
         bar.close()
+    return in_memory, run_seconds
 
-    _barrier("origami_jax.sweep.computed", process_count)
-    if store is not None:
-        if process_index == 0:
-            dataset = store.gather(write=False)
-            dataset = _finish(
-                dataset, kernel, manifest, size, devices, compile_seconds, run_seconds
-            )
-            gather([dataset], path=store.root / RESULT)
-        _barrier("origami_jax.sweep.gathered", process_count)
-        if process_index != 0:
-            dataset = xr.load_dataset(store.root / RESULT, engine="h5netcdf")
-        return dataset
-    return _finish(gather(in_memory), kernel, manifest, size, devices, compile_seconds, run_seconds)
+
+def _gather(
+    plan: _Plan,
+    store: Store | None,
+    chunks: list[xr.Dataset],
+    size: int,
+    devices: Sequence[jax.Device],  # pyright: ignore[reportInvalidTypeForm]
+    compile_seconds: Sequence[float],
+    run_seconds: float,
+) -> xr.Dataset:
+    """Stage 4: the chunks as one dataset with the sweep's attributes; with a store, process 0
+    writes it to `sweep.nc` and the other processes read it back."""
+    if store is None:
+        return _finish(
+            gather(chunks), plan.kernel, plan.manifest, size, devices, compile_seconds, run_seconds
+        )
+    process_count = jax.process_count()
+    if jax.process_index() == 0:
+        dataset = store.gather(write=False)
+        dataset = _finish(
+            dataset, plan.kernel, plan.manifest, size, devices, compile_seconds, run_seconds
+        )
+        gather([dataset], path=store.root / RESULT)
+    _barrier("origami_jax.sweep.gathered", process_count)
+    if jax.process_index() != 0:
+        dataset = xr.load_dataset(store.root / RESULT, engine="h5netcdf")
+    return dataset
 
 
 def _barrier(name: str, process_count: int) -> None:

@@ -1,8 +1,7 @@
 """Model adapters: the physics of the other sub-packages as sweep `Kernel`s.
 
-Each adapter imports its physics lazily (inside the builder), so `import origami_jax.sweep` and
-`origami-jax sweep --help` stay fast and the sweep engine works while a physics package is missing.
-`available_models()` says which adapters can be built here and why not.
+Each adapter imports its physics inside the builder, so that `import origami_jax.sweep` and
+`origami-jax sweep --help` stay fast. `available_models()` lists them with a description.
 
 - `"accordion-step"`: step response of the `n`-flap accordion (`origami_jax.chain` +
   `origami_jax.simulation`): per-joint rise time, overshoot, peak and settling time, with the
@@ -16,7 +15,6 @@ Each adapter imports its physics lazily (inside the builder), so `import origami
 """
 
 import dataclasses
-import importlib
 from collections.abc import Callable, Mapping
 from typing import Any
 
@@ -47,8 +45,6 @@ FLUIDS = ("air", "koh")
 @dataclasses.dataclass(frozen=True)
 class _Model:
     description: str
-    requires: tuple[str, ...]
-    issue: int
     build: Callable[..., Kernel]
 
 
@@ -264,17 +260,16 @@ def vertex_unfold(
     (perturbation, energy switch, continuation in `p`) are tried, and the path is not stored, only
     the online certificate (every accepted step passed the clearance bound and the crossing test).
 
-    **Outputs:** `verdict` (1 flat-unfolded, 2 flat-folded, 3 stalled, 4 step budget exhausted,
-    5 invalid), `flat_unfolded`, `certified`, `accepted_steps`, `energy`, `min_clearance` (rad),
-    `max_abs_fold` (rad), `max_residual`, per crease (dim `crease`) `sign_changes`, and `result`
+    **Outputs:** `verdict` (the code of `origami_jax.vertex.RESULTS`: 1 flat-unfolded, 2 flat-folded,
+    3 stalled, 4 step budget exhausted, 5 invalid, 6 stalled at a contact), `flat_unfolded`,
+    `certified`, `accepted_steps`, `energy`, `min_clearance` (rad), `max_abs_fold` (rad), `max_residual`, per crease (dim `crease`) `sign_changes`, and `result`
     (0 = a verdict was reached, 1 = step budget exhausted, −1 = invalid input).
     """
     import jax
     import jax.numpy as jnp
     import numpy as np
 
-    from ..vertex import DEFAULT_P, DescentSettings, random_vertex
-    from ..vertex import _descent as descent
+    from ..vertex import DEFAULT_P, RESULTS, DescentSettings, random_vertex
     from ..vertex import unfold_kernel as descend
 
     if energy not in DEFAULT_P:
@@ -307,13 +302,15 @@ def vertex_unfold(
             max_steps=max_steps,
             record=False,
         )
-        status = out.status.astype(jnp.int32)
+        status = out.status
         result = jnp.where(
-            status == descent.INVALID, INVALID_INPUT, jnp.where(status == descent.MAX_STEPS, 1, 0)
+            status == RESULTS.invalid,
+            INVALID_INPUT,
+            jnp.where(status == RESULTS.max_steps_reached, 1, 0),
         )
         return {
-            "verdict": status,
-            "flat_unfolded": status == descent.FLAT_UNFOLDED,
+            "verdict": status._value.astype(jnp.int32),
+            "flat_unfolded": status == RESULTS.flat_unfolded,
             "certified": out.certified,
             "accepted_steps": out.n_accepted.astype(jnp.int32),
             "energy": out.energy,
@@ -349,50 +346,28 @@ def vertex_unfold(
 MODELS: dict[str, _Model] = {
     "accordion-step": _Model(
         "step response metrics of the n-flap accordion over hinge and fluid parameters",
-        ("origami_jax.chain", "origami_jax.simulation"),
-        4,
         accordion_step,
     ),
     "vertex-unfold": _Model(
         "unfolding verdicts of random single-vertex origami",
-        ("origami_jax.vertex",),
-        5,
         vertex_unfold,
     ),
 }
 
 
-def _missing(model: _Model) -> str | None:
-    for module in model.requires:
-        try:
-            importlib.import_module(module)
-        except ImportError as error:
-            return f"pending: {module} is not available ({error}; issue #{model.issue})"
-    return None
-
-
 def available_models() -> dict[str, str]:
-    """Every model the sweep knows → `"available: <description>"` or `"pending: <why>"`."""
-    status = {}
-    for name, model in MODELS.items():
-        why = _missing(model)
-        status[name] = why if why is not None else f"available: {model.description}"
-    return status
+    """Every model the sweep knows → its description."""
+    return {name: model.description for name, model in MODELS.items()}
 
 
 def get_model(name: str, **options: Any) -> Kernel:
     """Build the sweep `Kernel` of a named model with its `options` (settings).
 
-    **Raises:** `ValueError` for an unknown model or option; `NotImplementedError` for a model whose
-    physics is not available yet (the message says which issue tracks it).
+    **Raises:** `ValueError` for an unknown model or option.
     """
     if name not in MODELS:
         raise ValueError(f"unknown model {name!r}; the sweep knows {sorted(MODELS)}.")
-    model = MODELS[name]
-    why = _missing(model)
-    if why is not None:
-        raise NotImplementedError(f"model {name!r}: {why}")
     try:
-        return model.build(**options)
+        return MODELS[name].build(**options)
     except TypeError as error:
         raise ValueError(f"model {name!r}: bad settings {sorted(options)}: {error}") from error

@@ -5,6 +5,9 @@ spherical coordinates, or from the catalogue), then `unfold` it::
 
     result = unfold(corner_cube(), energy="separable")
     result.verdict  # Verdict.FLAT_UNFOLDED
+
+FOLD files in and out: `load_single_vertex` (a crease pattern or folded state at one of its
+vertices), `single_vertex_to_fold` and `unfolding_to_fold` (an unfolding path as a FOLD animation).
 """
 
 from ._catalogue import close_loop as close_loop
@@ -16,12 +19,18 @@ from ._catalogue import random_vertices as random_vertices
 from ._catalogue import stack_vertices as stack_vertices
 from ._catalogue import waterbomb_base as waterbomb_base
 from ._descent import CERT_MARGIN as CERT_MARGIN
+from ._descent import RESULTS as RESULTS
+from ._descent import DescentOutput as DescentOutput
 from ._descent import DescentSettings as DescentSettings
 from ._energy import DEFAULT_P as DEFAULT_P
 from ._energy import charge_distances as charge_distances
 from ._energy import energy as energy
 from ._energy import nonseparable_energy as nonseparable_energy
 from ._energy import separable_energy as separable_energy
+from ._fold import load_single_vertex as load_single_vertex
+from ._fold import single_vertex_to_fold as single_vertex_to_fold
+from ._fold import unfolding_to_fold as unfolding_to_fold
+from ._fold import vertex_from_geometry as vertex_from_geometry
 from ._geometry import Topology as Topology
 from ._geometry import arc_pair_clearances as arc_pair_clearances
 from ._geometry import arcs_cross as arcs_cross

@@ -22,16 +22,11 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
-from jaxtyping import Array, Float, PRNGKeyArray
+from jaxtyping import Array, ArrayLike, Float, PRNGKeyArray
 
 from ._descent import (
     CERT_MARGIN,
-    CONTACT,
-    FLAT_FOLDED,
-    FLAT_UNFOLDED,
-    INVALID,
-    MAX_STEPS,
-    STALLED,
+    RESULTS,
     DescentOutput,
     DescentSettings,
     descend,
@@ -57,22 +52,28 @@ class Verdict(enum.StrEnum):
     """The input failed validation (see `UnfoldResult.reason`)."""
 
 
-_STATUS_VERDICT = {
-    FLAT_UNFOLDED: Verdict.FLAT_UNFOLDED,
-    FLAT_FOLDED: Verdict.FLAT_FOLDED,
-    STALLED: Verdict.STALLED,
-    MAX_STEPS: Verdict.STALLED,
-    INVALID: Verdict.INVALID,
-    CONTACT: Verdict.STALLED,
+def _code(item: RESULTS) -> np.ndarray:
+    # The integer code(s) of a concrete result (host-side lookups, also over whole batches).
+    return np.asarray(item._value)
+
+
+def _is(status: RESULTS, items: tuple[RESULTS, ...]) -> bool:
+    """Whether a concrete scalar descent result is one of `items`."""
+    return int(_code(status)) in {int(_code(item)) for item in items}
+
+
+_VERDICT_OF_CODE = {
+    int(_code(RESULTS.flat_unfolded)): Verdict.FLAT_UNFOLDED,
+    int(_code(RESULTS.flat_folded)): Verdict.FLAT_FOLDED,
+    int(_code(RESULTS.stalled)): Verdict.STALLED,
+    int(_code(RESULTS.max_steps_reached)): Verdict.STALLED,
+    int(_code(RESULTS.invalid)): Verdict.INVALID,
+    int(_code(RESULTS.contact)): Verdict.STALLED,
 }
-_STATUS_REASON = {
-    FLAT_UNFOLDED: "reached flat: planarity < tol and every |fold angle| < tol",
-    FLAT_FOLDED: "reached a planar state with flaps lying on each other",
-    STALLED: "energy stopped decreasing away from flat (local minimum or critical point)",
-    MAX_STEPS: "step budget exhausted before a verdict",
-    INVALID: "input crosses itself, violates the constraints or is not finite",
-    CONTACT: "descent runs into a self-contact (the energy is no collision barrier)",
-}
+# The stalls the escapes try to get out of.
+_STALLS = (RESULTS.stalled, RESULTS.max_steps_reached, RESULTS.contact)
+# The results that end an escape's sequence of runs.
+_FINAL = (RESULTS.flat_unfolded, RESULTS.flat_folded, RESULTS.invalid)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -211,9 +212,9 @@ def unfold_kernel(x0, sectors, p, settings, *, closed, kind, max_steps, record=F
     - `closed`, `kind` (`"separable"` / `"nonseparable"`), `max_steps`, `record` (keep the path):
       static.
 
-    **Returns:** the descent's output pytree: `status` (1 flat-unfolded, 2 flat-folded, 3 stalled,
-    4 step budget spent, 5 invalid, 6 stalled at a contact), the final state, fold angles, energy,
-    clearances, and the path when `record`.
+    **Returns:** the descent's `DescentOutput`: `status` (a `RESULTS` item: `flat_unfolded`,
+    `flat_folded`, `stalled`, `max_steps_reached`, `invalid` or `contact`), the final state, fold
+    angles, energy, clearances, and the path when `record`.
     """
     clearance, _ = arc_pair_clearances(x0, closed)
     # Pairs touching in the input cannot bound the step (clearance 0); see `_descent`.
@@ -263,13 +264,150 @@ def _run(x0, sectors, closed, kind, p, settings, max_steps, record=True):
     return out, (compile_s if fresh else 0.0), time.perf_counter() - start
 
 
-def _segment(out: DescentOutput) -> dict[str, np.ndarray]:
-    k = int(out.n_accepted) + 1
-    return dict(
-        path=np.asarray(out.path[:k]),
-        folds=np.asarray(out.path_folds[:k]),
-        energy=np.asarray(out.path_energy[:k]),
+@dataclasses.dataclass(frozen=True)
+class _Segment:
+    """Consecutive states of a path (host arrays): `(k, n, 3)`, fold angles `(k, m)`, energy `(k,)`."""
+
+    path: np.ndarray
+    folds: np.ndarray
+    energy: np.ndarray
+
+    @classmethod
+    def of(cls, out: DescentOutput) -> "_Segment":
+        k = int(out.n_accepted) + 1
+        return cls(
+            np.asarray(out.path[:k]),
+            np.asarray(out.path_folds[:k]),
+            np.asarray(out.path_energy[:k]),
+        )
+
+    @property
+    def end(self) -> np.ndarray:
+        return self.path[-1]
+
+
+@dataclasses.dataclass
+class _Runner:
+    """Runs recorded descents of one vertex from host states, adding up what `UnfoldResult`
+    reports over all of them: compile and run seconds, iterations, accepted steps and the crease
+    counts (escape attempts that fail included)."""
+
+    sectors: np.ndarray
+    closed: bool
+    settings: DescentSettings
+    max_steps: int
+    compile_s: float = 0.0
+    run_s: float = 0.0
+    iterations: int = 0
+    accepted: int = 0
+    counts: tuple[np.ndarray, ...] = ()
+
+    def __call__(
+        self, x0: Float[ArrayLike, "n 3"], kind: str, p: float
+    ) -> tuple[_Segment, RESULTS]:
+        out, compile_s, run_s = _run(
+            x0, self.sectors, self.closed, kind, p, self.settings, self.max_steps
+        )
+        self.compile_s += compile_s
+        self.run_s += run_s
+        self.iterations += int(out.n_iterations)
+        self.accepted += int(out.n_accepted)
+        counts = tuple(np.asarray(a) for a in (out.sign_changes, out.reversals, out.opening_steps))
+        self.counts = (
+            counts
+            if not self.counts
+            else tuple(a + b for a, b in zip(self.counts, counts, strict=True))
+        )
+        return _Segment.of(out), out.status
+
+
+@dataclasses.dataclass(frozen=True)
+class _Attempt:
+    """What one escape did: its segments (from the stalled state on), how its last run ended,
+    and the energy of that run."""
+
+    name: str
+    segments: tuple[_Segment, ...]
+    status: RESULTS
+    kind: str
+    p: float
+
+
+def _run_sequence(runner: _Runner, name: str, x: np.ndarray, runs) -> _Attempt:
+    """Descend with each `(kind, p)` of `runs` in turn, each from where the previous one stopped,
+    until one ends flat or invalid."""
+    segments = []
+    status, kind, p = RESULTS.stalled, "", float("nan")
+    for kind, p in runs:
+        segment, status = runner(x, kind, p)
+        segments.append(segment)
+        x = segment.end
+        if _is(status, _FINAL):
+            break
+    return _Attempt(name, tuple(segments), status, kind, p)
+
+
+def _switch_energy_runs(kind: str) -> tuple[tuple[str, float], ...]:
+    other = "nonseparable" if kind == "separable" else "separable"
+    return ((other, DEFAULT_P[other]),)
+
+
+def _continuation_runs(kind: str, p: float) -> tuple[tuple[str, float], ...]:
+    ladder = (1.0, 4.0, 8.0) if kind == "separable" else (2.0, 8.0)
+    return tuple((kind, q) for q in ladder if q != p)
+
+
+def _escape_perturbation(runner: _Runner, x: np.ndarray, kind: str, p: float, key) -> _Attempt:
+    """Escape 1: a small random certified move in the tangent space of the constraints (a fifth
+    of the clearance bound, at most 0.02), then the same descent again."""
+    clear, _ = arc_pair_clearances(jnp.asarray(x), runner.closed)
+    size = min(
+        0.02, 0.2 * float(jnp.min(clear, initial=np.pi)) * np.cos(np.max(runner.sectors) / 2)
     )
+    _, sub = jax.random.split(key)
+    moved = np.asarray(
+        _perturb(
+            jnp.asarray(x), jnp.asarray(runner.sectors), closed=runner.closed, key=sub, size=size
+        )
+    )
+    folds = np.asarray(fold_angles_of(jnp.asarray(moved), runner.closed))
+    start = _Segment(moved[None], folds[None], np.full(1, np.nan))
+    attempt = _run_sequence(runner, "perturbation", moved, ((kind, p),))
+    return dataclasses.replace(attempt, segments=(start, *attempt.segments))
+
+
+def _escape_switch_energy(runner: _Runner, x: np.ndarray, kind: str, p: float, key) -> _Attempt:
+    """Escape 2: descend with the other energy (Eq. 1 ↔ Eq. 2) at its default `p`."""
+    del p, key
+    return _run_sequence(runner, "switch-energy", x, _switch_energy_runs(kind))
+
+
+def _escape_continuation_p(runner: _Runner, x: np.ndarray, kind: str, p: float, key) -> _Attempt:
+    """Escape 3: the same energy at a ladder of other exponents, each from where the previous one
+    stopped."""
+    del key
+    return _run_sequence(runner, "continuation-p", x, _continuation_runs(kind, p))
+
+
+_ESCAPES = (_escape_perturbation, _escape_switch_energy, _escape_continuation_p)
+"""Tried in this order after a stall (see the module docstring)."""
+
+
+def _try_escapes(
+    runner: _Runner, x: np.ndarray, kind: str, p: float, key
+) -> tuple[tuple[tuple[str, str], ...], _Attempt | None]:
+    """Each escape from the stalled state `x` until one reaches flat-unfolded.
+
+    **Returns:** `((name, verdict), ...)` of the escapes tried, and the one that reached flat
+    (or `None`).
+    """
+    tried = []
+    for escape in _ESCAPES:
+        attempt = escape(runner, x, kind, p, key)
+        tried.append((attempt.name, _VERDICT_OF_CODE[int(_code(attempt.status))].value))
+        if _is(attempt.status, (RESULTS.flat_unfolded,)):
+            return tuple(tried), attempt
+    return tuple(tried), None
 
 
 @functools.partial(jax.jit, static_argnames="closed")
@@ -420,83 +558,29 @@ def unfold(
         return _invalid_result(vertex, energy, p, str(error))
     closed = vertex.closed
     sectors = np.asarray(vertex.sector_angles)
-    out, compile_s, run_s = _run(vertex.directions, sectors, closed, energy, p, settings, max_steps)
-    segments = [_segment(out)]
-    status = int(out.status)
-    iterations, accepted = int(out.n_iterations), int(out.n_accepted)
-    counts = [np.asarray(a) for a in (out.sign_changes, out.reversals, out.opening_steps)]
+    runner = _Runner(sectors, closed, settings, max_steps)
+    main, status = runner(vertex.directions, energy, p)
+    segments = [main]
     end_kind, end_p = energy, p
-    tried: list[tuple[str, str]] = []
+    tried: tuple[tuple[str, str], ...] = ()
     used = None
-    if escapes and status in (STALLED, MAX_STEPS, CONTACT):
-        for name, attempt in _escape_plan(energy, p):
-            x_start = segments[-1]["path"][-1]
-            prefix = []
-            if name == "perturbation":
-                clear, _ = arc_pair_clearances(jnp.asarray(x_start), closed)
-                size = min(
-                    0.02, 0.2 * float(jnp.min(clear, initial=np.pi)) * np.cos(np.max(sectors) / 2)
-                )
-                # Unpacking an Array loses the narrowing of `key`; it is set before the loop.
-                key, sub = jax.random.split(key)  # pyright: ignore[reportArgumentType]
-                moved = np.asarray(
-                    _perturb(
-                        jnp.asarray(x_start),
-                        jnp.asarray(sectors),
-                        closed=closed,
-                        key=sub,
-                        size=size,
-                    )
-                )
-                prefix = [moved]
-                x_start = moved
-            result_status = status
-            escape_segments = []
-            for kind_i, p_i in attempt:
-                o, c_s, r_s = _run(x_start, sectors, closed, kind_i, p_i, settings, max_steps)
-                compile_s += c_s
-                run_s += r_s
-                iterations += int(o.n_iterations)
-                accepted += int(o.n_accepted)
-                counts = [
-                    a + np.asarray(b)
-                    for a, b in zip(
-                        counts, (o.sign_changes, o.reversals, o.opening_steps), strict=True
-                    )
-                ]
-                seg = _segment(o)
-                escape_segments.append(seg)
-                x_start = seg["path"][-1]
-                result_status = int(o.status)
-                end_kind, end_p = kind_i, p_i
-                if result_status in (FLAT_UNFOLDED, FLAT_FOLDED, INVALID):
-                    break
-            tried.append((name, _STATUS_VERDICT[result_status].value))
-            if prefix:
-                folds = np.asarray(fold_angles_of(jnp.asarray(prefix[0]), closed))[None]
-                escape_segments.insert(
-                    0, dict(path=np.asarray(prefix), folds=folds, energy=np.full(1, np.nan))
-                )
-            if result_status == FLAT_UNFOLDED:
-                segments += escape_segments
-                status = result_status
-                used = name
-                break
-    path = np.concatenate([s["path"] for s in segments])
-    folds = np.concatenate([s["folds"] for s in segments])
-    energies = np.concatenate([s["energy"] for s in segments])
-    # Each segment after the first starts where the previous one ended: drop repeated states.
-    path, folds, energies = _dedupe(path, folds, energies)
+    if escapes and _is(status, _STALLS):
+        tried, attempt = _try_escapes(runner, main.end, energy, p, key)
+        if attempt is not None:
+            segments += attempt.segments
+            status, end_kind, end_p, used = attempt.status, attempt.kind, attempt.p, attempt.name
+    path, folds, energies = _join(segments)
     steps = (
         np.max(np.linalg.norm(np.diff(path, axis=0), axis=-1), axis=-1)
         if len(path) > 1
         else np.zeros(0)
     )
     path_length = np.concatenate([[0.0], np.cumsum(steps)])
+    # KKT multipliers of the energy whose descent produced the end state.
     lam, kkt = _multipliers(jnp.asarray(path[-1]), jnp.asarray(sectors), closed, end_kind, end_p)
     certificate = certify_path(path, sectors, closed=closed, contact_pairs=report.contact_mask)
-    verdict = _STATUS_VERDICT[status]
-    reason = _STATUS_REASON[status]
+    verdict = _VERDICT_OF_CODE[int(_code(status))]
+    reason = RESULTS[status]
     if used is not None:
         reason += f" (after escape '{used}')"
     if verdict == Verdict.FLAT_UNFOLDED and not certificate.ok:
@@ -517,14 +601,27 @@ def unfold(
         multipliers=np.asarray(lam),
         kkt_residual=float(kkt),
         certificate=certificate,
-        crease_report=CreaseReport(top.creases.copy(), *counts),
-        iterations=iterations,
-        accepted_steps=accepted,
-        timings={"compile": compile_s, "run": run_s, "total": time.perf_counter() - t_start},
-        escapes=tuple(tried),
+        crease_report=CreaseReport(top.creases.copy(), *runner.counts),
+        iterations=runner.iterations,
+        accepted_steps=runner.accepted,
+        timings={
+            "compile": runner.compile_s,
+            "run": runner.run_s,
+            "total": time.perf_counter() - t_start,
+        },
+        escapes=tried,
         escape_used=used,
         warnings=report.contacts + certificate.warnings,
     )
+
+
+def _join(segments: list[_Segment]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """One path from consecutive segments; each starts where the previous one ended, so repeated
+    states are dropped."""
+    path = np.concatenate([s.path for s in segments])
+    folds = np.concatenate([s.folds for s in segments])
+    energies = np.concatenate([s.energy for s in segments])
+    return _dedupe(path, folds, energies)
 
 
 def _dedupe(path, folds, energies):
@@ -533,20 +630,10 @@ def _dedupe(path, folds, energies):
     return path[keep], folds[keep], energies[keep]
 
 
-def _escape_plan(kind: str, p: float):
-    other = "nonseparable" if kind == "separable" else "separable"
-    ladder = (1.0, 4.0, 8.0) if kind == "separable" else (2.0, 8.0)
-    return (
-        ("perturbation", ((kind, p),)),
-        ("switch-energy", ((other, DEFAULT_P[other]),)),
-        ("continuation-p", tuple((kind, q) for q in ladder if q != p)),
-    )
-
-
 class BatchResult(eqx.Module):
     """Results of `unfold_batch` for `b` vertices (arrays with a leading batch axis).
 
-    - `status`: kernel status codes; `verdicts()` turns them into `Verdict`s.
+    - `status`: the descent's `RESULTS`, batched; `verdicts()` turns them into `Verdict`s.
     - `final`: `(b, n, 3)` end states; `fold_angles`: `(b, m)` at the end.
     - `certified`: the online certificate (every accepted step passed the bound and the crossing
       test; the path itself is not stored).
@@ -555,7 +642,7 @@ class BatchResult(eqx.Module):
     - `escape`: per member, 0 none, 1 switch-energy, 2 continuation-p (which reached flat).
     """
 
-    status: Array
+    status: RESULTS
     final: Array
     fold_angles: Array
     certified: Array
@@ -569,7 +656,7 @@ class BatchResult(eqx.Module):
     escape: Array
 
     def verdicts(self) -> list[Verdict]:
-        return [_STATUS_VERDICT[int(s)] for s in np.asarray(self.status)]
+        return [_VERDICT_OF_CODE[int(code)] for code in _code(self.status)]
 
 
 def unfold_batch(
@@ -603,8 +690,8 @@ def unfold_batch(
         return compiled(xb, sb, jnp.asarray(p_value, jnp.float64), settings)
 
     out = run(x, sectors, energy, p)
+    status = out.status
     fields = {
-        "status": np.array(out.status),
         "final": np.array(out.x),
         "certified": np.array(out.certified),
         "accepted_steps": np.array(out.n_accepted),
@@ -615,10 +702,12 @@ def unfold_batch(
         "sign_changes": np.array(out.sign_changes),
         "reversals": np.array(out.reversals),
     }
-    escape = np.zeros(len(fields["status"]), np.int32)
+    escape = np.zeros(len(fields["final"]), np.int32)
+    batch_escapes = (_switch_energy_runs(energy), _continuation_runs(energy, p))
+    stall_codes = [int(_code(item)) for item in _STALLS]
     if escapes:
-        for code, (_, attempt) in enumerate(_escape_plan(energy, p)[1:], start=1):
-            stalled = np.flatnonzero(np.isin(fields["status"], (STALLED, MAX_STEPS, CONTACT)))
+        for number, runs in enumerate(batch_escapes, start=1):
+            stalled = np.flatnonzero(np.isin(_code(status), stall_codes))
             if len(stalled) == 0:
                 break
             # Pad the stalled subset to a power of two (repeating its first member) so that the
@@ -626,32 +715,30 @@ def unfold_batch(
             size = 1 << int(np.ceil(np.log2(len(stalled))))
             padded = np.concatenate([stalled, np.full(size - len(stalled), stalled[0])])
             xs = jnp.asarray(fields["final"][padded])
-            for kind_i, p_i in attempt:
+            for kind_i, p_i in runs:
                 o = run(xs, sectors[padded], kind_i, p_i)
                 xs = o.x
             count = len(stalled)
             o = jax.tree.map(lambda leaf, k=count: leaf[:k], o)
-            ok = np.asarray(o.status) == FLAT_UNFOLDED
+            ok = _code(o.status) == int(_code(RESULTS.flat_unfolded))
             idx = stalled[ok]
-            for name, value in (
-                ("status", o.status),
-                ("final", o.x),
-                ("certified", o.certified),
-                ("min_clearance", o.min_clearance),
-                ("max_abs_fold", o.max_abs_fold),
-                ("max_residual", o.max_residual),
+            reached = np.zeros(len(escape), bool)
+            reached[idx] = True
+            status = jax.vmap(lambda r, s: RESULTS.where(r, RESULTS.flat_unfolded, s))(
+                jnp.asarray(reached), status
+            )
+            fields["final"][idx] = np.asarray(o.x)[ok]
+            fields["certified"][idx] = np.asarray(o.certified)[ok] & fields["certified"][idx]
+            for name, value, combine in (
+                ("min_clearance", o.min_clearance, np.minimum),
+                ("max_abs_fold", o.max_abs_fold, np.maximum),
+                ("max_residual", o.max_residual, np.maximum),
             ):
-                arr = np.asarray(value)[ok]
-                if name in ("min_clearance",):
-                    arr = np.minimum(arr, fields[name][idx])
-                elif name in ("max_abs_fold", "max_residual"):
-                    arr = np.maximum(arr, fields[name][idx])
-                elif name == "certified":
-                    arr = arr & fields[name][idx]
-                fields[name][idx] = arr
-            escape[idx] = code
+                fields[name][idx] = combine(np.asarray(value)[ok], fields[name][idx])
+            escape[idx] = number
     folds = jax.vmap(lambda y: fold_angles_of(y, closed))(jnp.asarray(fields["final"]))
     return BatchResult(
+        status=status,
         fold_angles=folds,
         escape=jnp.asarray(escape),
         **{k: jnp.asarray(v) for k, v in fields.items()},
