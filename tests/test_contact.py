@@ -98,9 +98,7 @@ def test_flap_rebounds_from_the_base_without_gaining_energy():
         chain, jnp.array([1e4]), jnp.array([np.pi]), thickness=0.2, base_outline=base
     )
     system = eqx.tree_at(lambda s: s.contact, free, contact, is_leaf=lambda x: x is None)
-    trajectory = _solve(
-        system, 60.0, theta0=jnp.array([np.pi / 2]), theta_dot0=jnp.array([0.1])
-    )
+    trajectory = _solve(system, 60.0, theta0=jnp.array([np.pi / 2]), theta_dot0=jnp.array([0.1]))
     theta, rate = np.asarray(trajectory.theta[:, 0]), np.asarray(trajectory.theta_dot[:, 0])
     assert theta.max() < np.pi  # stopped by the base, never through it
     assert rate[0] > 0 and rate.min() < -0.05  # it came back, at half its speed or more
@@ -170,3 +168,45 @@ def test_metric_gradients_through_contact_match_finite_differences():
     fd = (f(h) - f(-h)) / (2 * h)
     assert float(jnp.min(jnp.abs(fd[1:]))) > 1e-3  # the standoff depends on the stiffness
     np.testing.assert_allclose(derivative, fd, rtol=GRADIENT_RTOL)
+
+
+def _held(system, theta, result=None):
+    """A synthetic trajectory that sits at `theta` (rad) for 11 samples."""
+    theta = jnp.broadcast_to(jnp.asarray(theta), (11, system.n_hinges))
+    zeros = jnp.zeros_like(theta)
+    return sim.Trajectory(
+        times=jnp.linspace(0.0, 100.0, 11),
+        theta=theta,
+        theta_dot=zeros,
+        theta_ddot=zeros,
+        tau=zeros,
+        target=system.hinges.target,
+        stats={},
+        result=sim.RESULTS.successful if result is None else result,
+    )
+
+
+def test_verdicts():
+    system, koh = _accordion("koh")
+    folded = sim.assess(system, koh)
+    assert folded.verdict == "folded" and folded.settled and folded.time_to_fold is not None
+    assert folded.max_penetration == 0.0 and folded.contacts > 0
+    assert "folded" in folded.summary() and folded.to_dict()["verdict"] == "folded"
+    _, air = _accordion("air")
+    assert sim.assess(system, air).verdict == "unfinished"  # still rattling after 1.5 ms in air
+    stacked = jnp.array([np.pi - 0.005, -np.pi + 0.01, np.pi - 0.01])
+    # Held in contact short of where it should be: jammed. The same angles without contact to
+    # explain them (wrong sign on one crease): misfolded.
+    jammed = sim.assess(system, _held(system, stacked), intended_angles=jnp.array([3.3, -3.3, 3.3]))
+    assert jammed.verdict == "jammed", jammed.reason
+    wrong = sim.assess(system, _held(system, jnp.array([1.0, 1.0, 1.0])))
+    assert wrong.verdict == "misfolded" and "crease 1" in wrong.reason
+    moving = _held(system, jnp.zeros(3))
+    moving = eqx.tree_at(lambda t: t.theta, moving, moving.theta.at[-1].set(1.0))
+    assert sim.assess(system, moving).verdict == "unfinished"
+    failed = _held(system, jnp.zeros(3), result=sim.RESULTS.nonfinite_state)
+    assert sim.assess(system, failed).verdict == "invalid"
+    # Seams: angles right but a seam open is not folded.
+    closed = sim.assess(system, koh, seam_gaps=lambda theta: np.array([0.0]))
+    opened = sim.assess(system, koh, seam_gaps=lambda theta: np.array([50.0]))
+    assert closed.verdict == "folded" and opened.verdict == "misfolded"

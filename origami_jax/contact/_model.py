@@ -224,7 +224,9 @@ class PanelContact(AbstractContact):
         half_sum = half[:, None, None] + half[None, :, None]
         half_sum = jnp.broadcast_to(half_sum, shape)
         flat = [a.reshape(-1, *a.shape[3:]) for a in (local[..., 0], local[..., 1], local[..., 2])]
-        energy, _ = jax.vmap(one)(*flat, edges_b.reshape(-1, *edges.shape[1:]), half_sum.reshape(-1))
+        energy, _ = jax.vmap(one)(
+            *flat, edges_b.reshape(-1, *edges.shape[1:]), half_sum.reshape(-1)
+        )
         (gx, gy, gz), (gap, dgap_dz, coverage) = jax.vmap(grad)(
             *flat, edges_b.reshape(-1, *edges.shape[1:]), half_sum.reshape(-1)
         )
@@ -295,15 +297,14 @@ class PanelContact(AbstractContact):
 
     def report(self, mechanism, q) -> dict[str, Array]:
         """Contact state at ``q``: the smallest gap over pairs whose point lies over the face
-        (coverage > ½; length, `inf` if none), how many such pairs are engaged (``g < ĝ``), and the
-        penetration ``max(0, −g)`` (length)."""
+        (coverage > ½; length, `inf` if none), how many such pairs touch (``g < 1.1 ĝ``: a panel
+        resting on another hovers at the edge of the activation layer, where the barrier's force
+        rises from zero), and the penetration ``max(0, −g)`` (length)."""
         gap, coverage = self.gaps(mechanism, q)
         covered = coverage > 0.5
         smallest = jnp.min(jnp.where(covered, gap, jnp.inf))
         return {
             "min_gap": smallest,
-            "engaged": jnp.sum(covered & (gap < self.activation)),
+            "engaged": jnp.sum(covered & (gap < 1.1 * self.activation)),
             "penetration": jnp.maximum(-smallest, 0.0),
         }
-
-

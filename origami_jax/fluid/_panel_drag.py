@@ -51,7 +51,12 @@ class PanelQuadrature(eqx.Module):
         points = np.concatenate(points)
         normals = np.zeros_like(points)
         normals[:, 2] = 1.0  # outlines lie in their body frame's x–y plane
-        return cls(jnp.asarray(points), jnp.asarray(np.concatenate(weights)), jnp.asarray(normals), tuple(body))
+        return cls(
+            jnp.asarray(points),
+            jnp.asarray(np.concatenate(weights)),
+            jnp.asarray(normals),
+            tuple(body),
+        )
 
 
 class PanelDrag(AbstractDrag):
@@ -86,7 +91,9 @@ class PanelDrag(AbstractDrag):
         ``subdivisions²`` triangles of 7 quadrature points each."""
         coefficient = check_positive(as_float_array(coefficient, "coefficient"), "coefficient")
         density = check_positive(as_float_array(density, "density"), "density")
-        if coefficient.ndim > 1 or (coefficient.ndim == 1 and coefficient.shape[0] != mechanism.n_bodies):
+        if coefficient.ndim > 1 or (
+            coefficient.ndim == 1 and coefficient.shape[0] != mechanism.n_bodies
+        ):
             raise ValueError(
                 f"coefficient must be a scalar or one C_D per panel ({mechanism.n_bodies}), got "
                 f"shape {tuple(coefficient.shape)}."
@@ -111,7 +118,9 @@ class PanelDrag(AbstractDrag):
         coefficient = jnp.broadcast_to(self.coefficient, (mechanism.n_bodies,))[
             np.asarray(self.quadrature.body)
         ]
-        pressure = -0.5 * self.scale * coefficient * self.density * normal_speed * jnp.abs(normal_speed)
+        pressure = (
+            -0.5 * self.scale * coefficient * self.density * normal_speed * jnp.abs(normal_speed)
+        )
         point_force = (pressure * self.quadrature.weights)[:, None] * normals
         (generalized,) = vjp((point_force, jnp.zeros_like(normals)))
         return generalized

@@ -1,4 +1,4 @@
-"""Folding simulation of hinged-flap chains: inputs, `simulate`, response metrics.
+"""Folding simulation: inputs, `simulate`, response metrics, fold verdicts.
 
 Paper sections "Open Loop Control Law", "Step Input", "Ramp Input", Figs. 7–11; docs/physics.md, "Inputs",
 "Results to reproduce", "Numerics".
@@ -24,3 +24,6 @@ from ._slow_ramp import SlowRampResult as SlowRampResult
 from ._slow_ramp import simulate_slow_ramp as simulate_slow_ramp
 from ._switching import StiffnessSwitching as StiffnessSwitching
 from ._switching import implicit_solver as implicit_solver
+from ._verdict import FoldReport as FoldReport
+from ._verdict import FoldVerdict as FoldVerdict
+from ._verdict import assess as assess
