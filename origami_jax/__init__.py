@@ -16,10 +16,10 @@ from typing import TYPE_CHECKING as _TYPE_CHECKING
 
 # Subpackages load on first use so that `origami-jax --help` and `import origami_jax` stay fast;
 # `origami_jax.chain`, `origami_jax.simulation`, ... behave as ordinary attributes.
-_SUBPACKAGES = ("chain", "design", "fold", "plotting", "simulation", "sweep", "vertex")
+_SUBPACKAGES = ("chain", "design", "fold", "net", "plotting", "simulation", "sweep", "vertex")
 
 if _TYPE_CHECKING:
-    from . import chain, design, fold, plotting, simulation, sweep, vertex  # noqa: F401
+    from . import chain, design, fold, net, plotting, simulation, sweep, vertex  # noqa: F401
 
 
 def __getattr__(name: str):
@@ -37,6 +37,7 @@ __all__ = [  # noqa: RUF022  (listed literally so type checkers can read it)
     "chain",
     "design",
     "fold",
+    "net",
     "plotting",
     "simulation",
     "sweep",
