@@ -76,7 +76,17 @@ def _single(tree, q, v, force):
 
 @_single.defjvp
 def _single_jvp(primals, tangents):
-    return jax.jvp(_plain, primals, tangents)
+    out, d_out = jax.jvp(_plain, primals, tangents)
+    return _batch_axis_first(out), _batch_axis_first(d_out)
+
+
+def _batch_axis_first(x: Array) -> Array:
+    """`x` unchanged, but under `vmap` with its batch axis first (a reshape's batching rule moves
+    it there). jax 0.10.2 batches a `custom_jvp` around a `custom_vmap` inside `jit` assuming the
+    rule's outputs are batched where the `custom_vmap` rule's are (first); the plain algorithm's
+    outputs may be batched along another axis, and `jax.jvp(jax.vmap(jax.jit(f)))` then returned
+    them transposed."""
+    return jax.lax.reshape(jax.lax.reshape(x, (*x.shape, 1)), x.shape)
 
 
 def single(tree, q: Float[Array, " n"], v: Float[Array, " n"], force: Float[Array, " n"]):

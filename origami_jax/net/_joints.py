@@ -13,8 +13,9 @@ fabricated pattern). A joint model gives, for every hinge at once,
 
 The tree (`origami_jax.net._dynamics`) composes the displacements along the tree and moves every
 ``S`` into the world with its parent's displacement, so a new hinge model is one more subclass.
-Vectors and matrices are returned by component (`_soa`: a 3-vector is a tuple of three `(n,)`
-arrays, a matrix a tuple of three rows), the layout the tree algorithms compute in.
+Vectors and matrices are returned by component (`_soa`: a 3-vector is a tuple of three arrays
+shaped like ``q``, `(n, *batch)`, a matrix a tuple of three rows), the layout the tree algorithms
+compute in.
 
 **Revolute** (`RevoluteJoints`): a rotation by ``q`` about the unit axis ``ω`` through the point
 ``p``; ``S = (p × ω, ω)`` is constant.
@@ -31,7 +32,7 @@ Hence ``R`` is the same rotation as the revolute joint's and
 
 At ``q = 0`` the instantaneous axis is the strip's midline, ``p + l d / 2``, and ``l → 0`` gives the
 revolute joint. ``f₁``, ``f₂`` and ``sin q / q`` are evaluated by their Taylor series for ``|q| < 1``
-(truncated after ``q¹⁷``, remainder below 1e-19) and in closed form beyond, each branch fed a safe
+(through ``q¹⁶``, remainder below 1e-17 relative) and in closed form beyond, each branch fed a safe
 argument, so values and derivatives of every order are exact to rounding at and near ``q = 0``.
 The strip is massless here (its mass belongs to the adjacent panels).
 """

@@ -66,6 +66,13 @@ class PanelTree(AbstractMechanism):
       its body frame about the body frame's origin, acting on body twists ordered ``(linear,
       angular)``, added to the rigid one (fluid added mass), `(n, 6, 6)`; or `None`. It has no weight.
     - `gravity`: `(3,)`, length/time²; zero by default.
+    - `panel_outlines`, `base_polygon` (static): the drawing geometry behind `outlines()` and
+      `base_outline()`, as tuples.
+
+    Bodies may be numbered in any order (the algorithms run in a topological order and permute
+    back). Many states of one tree, as `(t, n)` rows or under `jax.vmap`, run in a layout with the
+    states contiguous and in cache-sized chunks (`origami_jax.net._batching`): for a 20-panel tree
+    on the CPU, faster per state than Pinocchio's ABA called in a loop.
 
     **Raises:** `ValueError` (before tracing) for bad `parents` (out of range, self-parent, cycles),
     shape mismatches, NaN/inf, non-unit axes, non-rigid frames, non-positive masses, inertias that
