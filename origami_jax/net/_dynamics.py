@@ -48,6 +48,7 @@ import numpy as np
 from jaxtyping import Array, Float
 
 from . import _soa as soa
+from ._joints import AbstractJoints
 from ._soa import Mat, Vec
 from ._topology import Topology, topology
 
@@ -64,7 +65,7 @@ class _Ordered(NamedTuple):
     identity: bool  # the tree is already numbered in topological order
     extra: int
     ancestors: Array  # (n, n): A[j, i] = 1 if j is an ancestor-or-self of i
-    joints: object
+    joints: AbstractJoints
     frames: Array
     masses: Array
     cgs: Array
@@ -77,8 +78,8 @@ def _ordered(tree, extra: int = 0) -> _Ordered:
     identity = topo.order == tuple(range(len(topo.order)))
     order = np.asarray(topo.order)
 
-    def take(x):
-        return x if identity or x is None else x[order]
+    def take(x: Array) -> Array:
+        return x if identity else x[order]
 
     a = np.asarray(topo.ancestors)[np.ix_(order, order)]
     return _Ordered(
@@ -91,7 +92,7 @@ def _ordered(tree, extra: int = 0) -> _Ordered:
         soa.expand(take(tree.masses), extra),
         take(tree.cgs),
         take(tree.inertias),
-        take(tree.added_inertias),
+        None if tree.added_inertias is None else take(tree.added_inertias),
     )
 
 
@@ -206,7 +207,7 @@ def frames(data: _Ordered, q: Float[Array, " n *batch"]) -> Frames:
         rotation = soa.matmul(r_p, r_j)
         translation = soa.add(soa.matvec(r_p, t_j), t_p)
         s_w = _adjoint(r_p, t_p, *s_j)
-        ds_w = _adjoint(r_p, t_p, *ds_j) if moving else None
+        ds_w = None if ds_j is None else _adjoint(r_p, t_p, *ds_j)
         pieces.append((rotation, translation, s_w, ds_w))
     if len(pieces) == 1:
         rotation, translation, (s_lin, s_ang), ds = pieces[0]
@@ -335,15 +336,21 @@ def mass_matrix(tree, q: Float[Array, " n"]) -> Float[Array, "n n"]:
     body, _ = inertias(data, kin)
     force, torque = _composite_forces(data, kin, body)
     # P[j, k] = S_j · F_k, the entry for j an ancestor-or-self of k.
-    p = sum(
-        s[:, None] * f[None, :] for s, f in zip(kin.s_lin + kin.s_ang, force + torque, strict=True)
-    )
+    p = _outer_sum(kin.s_lin + kin.s_ang, force + torque)
     a = data.ancestors > 0
     m = jnp.where(a, p, jnp.where(a.T, p.T, 0.0))
     if data.identity:
         return m
     position = data.topo.position
     return m[position][:, position]
+
+
+def _outer_sum(s: tuple, f: tuple) -> Array:
+    """``P[j, k] = Σ_c s_c[j] f_c[k]``, `(n, n, *batch)`."""
+    out = s[0][:, None] * f[0][None, :]
+    for a, b in zip(s[1:], f[1:], strict=True):
+        out = out + a[:, None] * b[None, :]
+    return out
 
 
 def _newton_euler(tree, data: _Ordered, kin: Frames, body: Inertias, v, a) -> Array:
@@ -469,7 +476,7 @@ def forward_dynamics(tree, q, v, force) -> Float[Array, " n *batch"]:
     f_lin, f_ang = _composite_forces(data, kin, body)
     s, f = kin.s_lin + kin.s_ang, f_lin + f_ang
     if sum(d * d for d in topo.depth) > _UNROLL_MAX_WORK:
-        p = sum(a[:, None] * b[None, :] for a, b in zip(s, f, strict=True))
+        p = _outer_sum(s, f)
         a = (data.ancestors > 0).reshape(data.ancestors.shape + (1,) * data.extra)
         m = jnp.moveaxis(
             jnp.where(a, p, jnp.where(jnp.swapaxes(a, 0, 1), jnp.swapaxes(p, 0, 1), 0.0)),

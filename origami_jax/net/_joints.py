@@ -51,9 +51,24 @@ from . import _soa as soa
 from ._soa import Mat, Vec
 
 
+@jax.custom_jvp
+def sin_cos(q: Array) -> tuple[Array, Array]:
+    """``(sin q, cos q)`` by `origami_jax.chain._scalar.sin_cos_once` (on the CPU computed once, by
+    vectorised polynomials), with the exact derivatives ``(cos q dq, −sin q dq)`` rather than the
+    polynomials' own (less accurate than their values)."""
+    return sin_cos_once(q)
+
+
+@sin_cos.defjvp
+def _sin_cos_jvp(primals, tangents):
+    (q,), (dq,) = primals, tangents
+    s, c = sin_cos(q)
+    return (s, c), (c * dq, -s * dq)
+
+
 def axis_rotations(axes: Vec, q: Float[Array, " n *batch"]) -> Mat:
     """Rotations by ``q`` about unit `axes` (Rodrigues, ``R = c I + s ω̂ + (1 − c) ω ωᵀ``)."""
-    s, c = sin_cos_once(q)
+    s, c = sin_cos(q)
     one_minus_c = 1 - c
     x, y, z = axes
     return (

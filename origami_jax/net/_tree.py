@@ -43,7 +43,7 @@ from ._topology import check_parents
 _IN_PLANE_TOLERANCE = 1e-6
 
 
-def _as_polygon_tuple(polygon, name: str) -> tuple[tuple[float, float, float], ...]:
+def _as_polygon_tuple(polygon, name: str) -> tuple[tuple[float, ...], ...]:
     host = np.asarray(polygon, dtype=float)
     if host.ndim != 2 or host.shape[1] != 3 or host.shape[0] < 3:
         raise ValueError(f"{name} must be a polygon of shape (k, 3) with k ≥ 3, got {host.shape}.")
