@@ -16,10 +16,36 @@ from ._version import __version__ as __version__
 
 # Subpackages load on first use so that `origami-jax --help` and `import origami_jax` stay fast;
 # `origami_jax.chain`, `origami_jax.simulation`, ... behave as ordinary attributes.
-_SUBPACKAGES = ("chain", "design", "fold", "plotting", "simulation", "sweep", "vertex", "view")
+_SUBPACKAGES = (
+    "chain",
+    "contact",
+    "design",
+    "fluid",
+    "fold",
+    "net",
+    "plotting",
+    "simulation",
+    "sweep",
+    "system",
+    "vertex",
+    "view",
+)
 
 if _TYPE_CHECKING:
-    from . import chain, design, fold, plotting, simulation, sweep, vertex, view  # noqa: F401
+    from . import (  # noqa: F401
+        chain,
+        contact,
+        design,
+        fluid,
+        fold,
+        net,
+        plotting,
+        simulation,
+        sweep,
+        system,
+        vertex,
+        view,
+    )
 
 
 def __getattr__(name: str):
@@ -35,11 +61,15 @@ def __dir__() -> list[str]:
 __all__ = [  # noqa: RUF022  (listed literally so type checkers can read it)
     "__version__",
     "chain",
+    "contact",
     "design",
+    "fluid",
     "fold",
+    "net",
     "plotting",
     "simulation",
     "sweep",
+    "system",
     "vertex",
     "view",
 ]

@@ -72,3 +72,76 @@ def check_positive(array: Array, name: str, unit: str = "") -> Array:
             "thicknesses, lengths, widths, densities and masses are magnitudes."
         )
     return array
+
+
+# Relative tolerance on |ω| = 1 and on RᵀR = I: inputs typed by hand or stored in float32 carry ~1e-7
+# relative error; anything beyond 1e-6 is a wrong input, not round-off.
+UNIT_TOLERANCE = 1e-6
+
+
+def check_unit_vectors(array: Array, name: str, what: str = "vector") -> Array:
+    """Rows of `array` (shape `(n, 3)`) are unit vectors: `ValueError` if concrete, `eqx.error_if`
+    if traced."""
+    array = check_finite(array, name)
+    norms = jnp.linalg.norm(array, axis=-1)
+    if is_traced(array):
+        bad = jnp.any(jnp.abs(norms - 1) > UNIT_TOLERANCE)
+        return eqx.error_if(array, bad, f"{name} must be unit vectors.")
+    for i, norm in enumerate(np.asarray(norms)):
+        if norm == 0:
+            raise ValueError(f"{name}[{i}] is the zero vector; a {what} needs a direction.")
+        if abs(norm - 1) > UNIT_TOLERANCE:
+            raise ValueError(
+                f"{name}[{i}] has norm {norm:.6g}, not 1; pass unit vectors "
+                "(e.g. origami_jax._math.normalise) so that angles are in radians."
+            )
+    return array
+
+
+def check_rigid_transforms(poses: Array, name: str) -> Array:
+    """Every `poses[i]` (shape `(n, 4, 4)`) is ``[[R, p], [0, 0, 0, 1]]`` with ``R`` a rotation."""
+    poses = check_finite(poses, name)
+    rotation = poses[..., :3, :3]
+    orthogonality = jnp.max(
+        jnp.abs(jnp.swapaxes(rotation, -1, -2) @ rotation - jnp.eye(3, dtype=poses.dtype))
+    )
+    bottom = jnp.max(jnp.abs(poses[..., 3, :] - jnp.array([0.0, 0.0, 0.0, 1.0], poses.dtype)))
+    determinant = jnp.linalg.det(rotation)
+    bad = (orthogonality > UNIT_TOLERANCE) | (bottom > 0) | jnp.any(determinant <= 0)
+    if is_traced(poses):
+        return eqx.error_if(poses, bad, f"{name} must be rigid transforms [[R, p], [0, 1]].")
+    if bool(bad):
+        raise ValueError(
+            f"{name} must be rigid transforms [[R, p], [0, 0, 0, 1]] with R a rotation "
+            f"(max |RᵀR − I| = {float(orthogonality):.3g}, max bottom-row error {float(bottom):.3g}, "
+            f"min det R = {float(jnp.min(determinant)):.3g})."
+        )
+    return poses
+
+
+def check_symmetric_positive(
+    matrices: Array, name: str, *, definite: bool = True, hint: str = ""
+) -> Array:
+    """Every `matrices[i]` (shape `(n, k, k)`) is symmetric and positive definite (`definite`) or
+    semi-definite, to 1e-9 of its largest entry: `ValueError` if concrete, `eqx.error_if` if traced."""
+    matrices = check_finite(matrices, name)
+    scale = jnp.max(jnp.abs(matrices), axis=(-1, -2))
+    asymmetry = jnp.max(jnp.abs(matrices - jnp.swapaxes(matrices, -1, -2)), axis=(-1, -2))
+    kind = "positive definite" if definite else "positive semi-definite"
+    if is_traced(matrices):
+        symmetric = 0.5 * (matrices + jnp.swapaxes(matrices, -1, -2))
+        lowest = jnp.linalg.eigvalsh(symmetric)[..., 0]
+        bad = (asymmetry > 1e-9 * scale) | ((lowest <= 0) if definite else (lowest < -1e-9 * scale))
+        return eqx.error_if(matrices, jnp.any(bad), f"{name} must be symmetric {kind}.")
+    host = np.asarray(matrices)
+    for i in range(host.shape[0]):
+        if float(asymmetry[i]) > 1e-9 * float(scale[i]):
+            raise ValueError(f"{name}[{i}] is not symmetric; an inertia is. {hint}".strip())
+        eigenvalues = np.linalg.eigvalsh(host[i])
+        low = eigenvalues.min()
+        if (low <= 0) if definite else (low < -1e-9 * float(scale[i])):
+            raise ValueError(
+                f"{name}[{i}] is not {kind} (eigenvalues {np.array2string(eigenvalues, precision=3)})."
+                f" {hint}".strip()
+            )
+    return matrices

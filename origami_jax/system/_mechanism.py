@@ -58,7 +58,8 @@ class HingeLayout:
 class AbstractMechanism(eqx.Module):
     """Rigid panels joined by hinges: kinematics and inertia (module docstring: the contract).
 
-    Implementations: [`origami_jax.chain.Chain`][] (a serial chain of flaps). Shapes below: ``nq`` =
+    Implementations: [`origami_jax.chain.Chain`][] (a serial chain of flaps),
+    [`origami_jax.net.PanelTree`][] (panels hinged in a tree). Shapes below: ``nq`` =
     `n_coordinates`, ``nv`` = `n_velocities`, ``h`` = `n_hinges`, ``b`` = `n_bodies`.
     """
 

@@ -1,0 +1,17 @@
+"""Nets of rigid panels: panel trees and their dynamics.
+
+A net's panels joined by its creases form a tree once its seams are cut.
+[`origami_jax.net.PanelTree`][] implements [`origami_jax.system.AbstractMechanism`][] for any such
+tree with Featherstone's algorithms in the world frame (CRBA, RNEA, the tree-sparse ``LᵀL`` solve);
+[`origami_jax.net.panel_tree`][] builds one from a flat pattern of polygonal plates
+([`origami_jax.net.polygon_plate`][]). Hinges are point creases ([`origami_jax.net.RevoluteJoints`][])
+or bending arcs ([`origami_jax.net.ArcJoints`][]). Fold angles are valley positive.
+"""
+
+from ._joints import AbstractJoints as AbstractJoints
+from ._joints import ArcJoints as ArcJoints
+from ._joints import RevoluteJoints as RevoluteJoints
+from ._plate import Plate as Plate
+from ._plate import polygon_plate as polygon_plate
+from ._tree import PanelTree as PanelTree
+from ._tree import panel_tree as panel_tree
