@@ -2,9 +2,9 @@
 
 Strip theory: each area element ``dA`` of a panel moving with normal velocity ``v_n = n · v(p)`` through a
 fluid of density ``ρ_f`` feels the pressure force ``dF = −½ C_D ρ_f |v_n| v_n n dA``. Summed over a
-panel by quadrature (`polygon_quadrature`) and mapped to the mechanism's coordinates by the transpose of
-the point Jacobians (``f = Σ_p (∂x_p/∂q)ᵀ F_p``, one reverse-mode product through the kinematics), it
-gives the generalized drag of any panel shape moving in any way: rotation about its own crease, and
+panel by quadrature (`polygon_quadrature`; point velocities from the bodies' spatial velocities) into
+one wrench per panel and mapped to the mechanism's coordinates (`apply_wrenches`, the transpose of
+the point Jacobians, ``f = Σ_p (∂x_p/∂q)ᵀ F_p``), it gives the generalized drag of any panel shape moving in any way: rotation about its own crease, and
 the translation and rotation its parents impose. For a single flap of length ``L`` rotating about its
 hinge it is ``b θ̇|θ̇|`` with ``b = C_D ρ_f A L³ / 8`` (the "strip" formula; the paper's Eq. 11 has
 ``/16``, which `scale=0.5` reproduces). Where the paper's hinge drag (`HingeDrag`) uses each hinge's own
@@ -41,7 +41,7 @@ class PanelQuadrature(eqx.Module):
     body: tuple[int, ...] = eqx.field(static=True)
 
     @classmethod
-    def from_outlines(cls, outlines: list[np.ndarray], subdivisions: int = 3) -> "PanelQuadrature":
+    def from_outlines(cls, outlines: list[np.ndarray], subdivisions: int = 2) -> "PanelQuadrature":
         points, weights, body = [], [], []
         for index, outline in enumerate(outlines):
             p, w = polygon_quadrature(np.asarray(outline, dtype=float), subdivisions)
@@ -84,7 +84,7 @@ class PanelDrag(AbstractDrag):
         coefficient: Float[ArrayLike, "..."],
         density: Float[ArrayLike, ""],
         scale: float = 1.0,
-        subdivisions: int = 3,
+        subdivisions: int = 2,
     ) -> "PanelDrag":
         """Drag on `mechanism`'s panels (`outlines()`), with ``C_D`` = `coefficient` in a fluid of
         `density` (the mechanism's units). `subdivisions`: each fan triangle of a panel is split into
@@ -103,24 +103,20 @@ class PanelDrag(AbstractDrag):
         quadrature = PanelQuadrature.from_outlines(mechanism.outlines(), subdivisions)
         return cls(quadrature, coefficient, check_finite(density, "density"), float(scale))
 
-    def _positions(self, mechanism, q):
+    def force(self, mechanism, q, v):
         poses = mechanism.body_poses(q)
         body = np.asarray(self.quadrature.body)
         rotations, origins = poses[body, :3, :3], poses[body, :3, 3]
         positions = jnp.einsum("pij,pj->pi", rotations, self.quadrature.points) + origins
         normals = jnp.einsum("pij,pj->pi", rotations, self.quadrature.normals)
-        return positions, normals
-
-    def force(self, mechanism, q, v):
-        (positions, normals), vjp = jax.vjp(lambda q: self._positions(mechanism, q), q)
-        _, (velocity, _) = jax.jvp(lambda q: self._positions(mechanism, q), (q,), (v,))
+        twist = mechanism.spatial_velocities(q, v)[body]  # (p, 6): (v_O, ω) of each point's body
+        velocity = twist[:, :3] + jnp.cross(twist[:, 3:], positions)
         normal_speed = jnp.sum(velocity * normals, axis=-1)
-        coefficient = jnp.broadcast_to(self.coefficient, (mechanism.n_bodies,))[
-            np.asarray(self.quadrature.body)
-        ]
+        coefficient = jnp.broadcast_to(self.coefficient, (mechanism.n_bodies,))[body]
         pressure = (
             -0.5 * self.scale * coefficient * self.density * normal_speed * jnp.abs(normal_speed)
         )
         point_force = (pressure * self.quadrature.weights)[:, None] * normals
-        (generalized,) = vjp((point_force, jnp.zeros_like(normals)))
-        return generalized
+        wrench = jnp.concatenate([point_force, jnp.cross(positions, point_force)], axis=-1)
+        per_body = jax.ops.segment_sum(wrench, body, num_segments=mechanism.n_bodies)
+        return mechanism.apply_wrenches(q, per_body)

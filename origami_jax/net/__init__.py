@@ -11,6 +11,9 @@ or bending arcs ([`origami_jax.net.ArcJoints`][]). Fold angles are valley positi
 from ._joints import AbstractJoints as AbstractJoints
 from ._joints import ArcJoints as ArcJoints
 from ._joints import RevoluteJoints as RevoluteJoints
+from ._net import Net as Net
+from ._net import NetLayout as NetLayout
+from ._net import load_net as load_net
 from ._plate import Plate as Plate
 from ._plate import polygon_plate as polygon_plate
 from ._tree import PanelTree as PanelTree

@@ -33,7 +33,7 @@ from .._validate import (
     check_unit_vectors,
     is_traced,
 )
-from ..system._mechanism import AbstractMechanism
+from ..system._mechanism import AbstractMechanism, HingeLayout
 from . import _batching, _dynamics
 from ._joints import AbstractJoints, ArcJoints, RevoluteJoints
 from ._plate import polygon_plate
@@ -260,6 +260,24 @@ class PanelTree(AbstractMechanism):
 
     def base_outline(self) -> np.ndarray | None:
         return None if self.base_polygon is None else np.array(self.base_polygon)
+
+    def hinge_layout(self) -> HingeLayout:
+        """Hinge ``i`` joins body ``parents[i]`` (−1: the base) and body ``i``; its crease is the part
+        of the hinge axis the child's outline runs along in the flat state (for an arc hinge, the
+        parent's edge), or the child's whole extent along the axis when no outline edge lies on it."""
+        axes = np.asarray(self.axes, dtype=float)
+        points = np.asarray(self.points, dtype=float)
+        frames = np.asarray(self.frames, dtype=float)
+        ends = np.empty((self.n_hinges, 2, 3))
+        for i, (outline, frame) in enumerate(zip(self.outlines(), frames, strict=True)):
+            world = outline @ frame[:3, :3].T + frame[:3, 3]
+            along = (world - points[i]) @ axes[i]
+            off = world - points[i] - along[:, None] * axes[i]
+            size = float(np.max(np.ptp(world, axis=0)))
+            on_axis = np.linalg.norm(off, axis=-1) < 1e-6 * size
+            span = along[on_axis] if np.count_nonzero(on_axis) >= 2 else along
+            ends[i] = points[i] + np.outer([span.min(), span.max()], axes[i])
+        return HingeLayout(np.asarray(self.parents), np.arange(self.n_hinges), axes, ends)
 
 
 # Compiled once per tree shape: the algorithms are many small array operations, slow to dispatch one

@@ -1,0 +1,377 @@
+"""A self-folding net from a FOLD crease pattern: its folding system, its verdict, its FOLD frames.
+
+`load_net("cube_net_01")` (a catalogue name or a `.fold` path) reads the crease pattern's tree of faces
+(`origami_jax.fold.net_geometry`); `net.system(design)` builds the [`origami_jax.system.FoldingSystem`][]:
+
+- the root face is the fixed base (it stays on the substrate); every other face is a rigid plate of
+  the design's structural film (thickness ``t₁``, its density), hinged to its parent along their crease
+  ([`origami_jax.net.PanelTree`][]), point creases or bending arcs;
+- each crease's hinge is the design's bilayer, made to fold to that crease's angle: stiffness
+  ``k = w (E₁'t₁³ + E₂'t₂³) / (c l)`` with hinge length ``l = ρ |θ_target|`` per crease, bending radius ``ρ``
+  from the films (`HingeDesign`, paper Eqs. 7 and 11); the targets are the pattern's fold angles unless
+  given;
+- drag on every panel from its own motion ([`origami_jax.fluid.PanelDrag`][], ``C_D`` and the fluid of
+  the design; the paper's ``/16`` normalisation when the design's `drag_model` is `"paper"`), or the
+  paper's per-hinge drag;
+- contact between panels and with the base ([`origami_jax.contact.PanelContact`][]), on by default.
+
+`net.assess(system, trajectory)` judges the folding against the *pattern's* fold angles and seams (a net
+whose hinges aim at 80° is not a folded cube); `net.to_fold(trajectory)` writes it as FOLD frames.
+Lengths: the FOLD file's `frame_unit` is converted into the design's unit system.
+"""
+
+import dataclasses
+import os
+
+import equinox as eqx
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, ArrayLike, Float
+
+from ..fold import FoldFile, FoldFrame, net_geometry
+from ..fold._catalogue import catalogue_names, catalogue_path
+from ..fold._model import FRAME_UNITS_M
+from ..fold._net_geometry import NetGeometry
+from ..system import AbstractLayout, FoldingSystem, HingeDesign, HingeDrag, Hinges
+from ._tree import PanelTree, panel_tree
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Net:
+    """A flat net of panels read from FOLD, ready to become folding systems (module docstring).
+
+    **Fields:** `geometry` (the `NetGeometry`, lengths in the FOLD file's unit), `name`,
+    `length_scale` (design length units per FOLD length unit), `key_frame` (the crease pattern as a
+    FOLD frame) and `crease_edge_ids` (its edges on each crease). `seams`: those that close at the
+    pattern's fold angles.
+
+    Hinge ``j`` of the systems it builds is the geometry's crease ``j``; body ``j`` is face
+    ``geometry.order[j + 1]``; the root face is the fixed base.
+    """
+
+    geometry: NetGeometry
+    name: str
+    length_scale: float
+    key_frame: FoldFrame
+    crease_edge_ids: tuple[tuple[int, ...], ...]
+
+    @property
+    def n_creases(self) -> int:
+        return self.geometry.n_creases
+
+    @property
+    def intended_angles(self) -> np.ndarray:
+        """The pattern's fold angles (rad, `(m,)`): the shape a correct folding reaches."""
+        return np.asarray(self.geometry.targets, dtype=float)
+
+    @property
+    def seams(self):
+        return self.geometry.target_seams
+
+    def tree(
+        self,
+        design: HingeDesign,
+        *,
+        hinges: str = "point",
+        targets: Float[ArrayLike, " m"] | None = None,
+    ) -> PanelTree:
+        """The panels as a `PanelTree` in the design's units (plates of thickness ``t₁``)."""
+        g = self.geometry
+        scale = self.length_scale
+        order = np.asarray(g.order)
+        body_parents = np.asarray(g.body_parents)[1:] - 1  # the root is the fixed base
+        outlines = [g.face_coords[f][g.corner_mask[f]] * scale for f in order[1:]]
+        base = g.face_coords[order[0]][g.corner_mask[order[0]]] * scale
+        hinge_lengths = None
+        if hinges == "arc":
+            angles = self.intended_angles if targets is None else np.asarray(targets, float)
+            hinge_lengths = np.asarray(design.radius()) * np.abs(angles)
+        elif hinges != "point":
+            raise ValueError(f"hinges must be 'point' or 'arc', got {hinges!r}.")
+        return panel_tree(
+            tuple(int(p) for p in body_parents),
+            g.hinge_axes,
+            g.hinge_points * scale,
+            outlines,
+            thickness=design.t_structural,
+            density=design.structural.density,
+            base_outline=base,
+            hinge_lengths=hinge_lengths,
+        )
+
+    def system(
+        self,
+        design: HingeDesign | None = None,
+        *,
+        targets: Float[ArrayLike, " m"] | None = None,
+        release_times: Float[ArrayLike, " m"] | None = None,
+        contact: bool = True,
+        drag: str = "panel",
+        hinges: str = "point",
+    ) -> FoldingSystem:
+        """The folding system of this net with the hinges, films and fluid of `design`.
+
+        **Arguments** (the design's units, `MICRO` by default: µm, µs, ng):
+        - `design`: a `HingeDesign` (default `HingeDesign.literature()`); its `hinge_width` is each
+          hinge's width (scalar or one per crease), its `theta_final` is not used: each crease's
+          hinge folds to its own target.
+        - `targets`: fold target per crease (rad); default the pattern's angles.
+        - `release_times`: per-crease release time (time units); default all at ``t = 0``.
+        - `contact`: panels meet instead of passing through each other (default) or not.
+        - `drag`: `"panel"` (each panel's own motion, `PanelDrag`; default) or `"hinge"` (the paper's
+          ``−b θ̇|θ̇|`` per hinge with ``b`` from the child panel's area and its reach from the crease).
+        - `hinges`: `"point"` creases (the paper's model) or bending `"arc"`s of length ``ρ|θ_target|``.
+        """
+        from ..contact import PanelContact
+        from ..fluid import PanelDrag
+
+        design = HingeDesign.literature() if design is None else design
+        m = self.n_creases
+        targets = self.intended_angles if targets is None else targets
+        targets = jnp.asarray(targets, dtype=jnp.result_type(float))
+        if targets.shape != (m,):
+            raise ValueError(
+                f"targets must have one fold angle per crease ({m}), got shape {targets.shape}."
+            )
+        if not np.all(np.isfinite(np.asarray(targets))) if not _traced(targets) else False:
+            raise ValueError(
+                "every crease needs a finite target: give edges_foldAngle in the FOLD file or "
+                "targets= (rad)."
+            )
+        tree = self.tree(design, hinges=hinges, targets=targets)
+        # Each crease's bilayer folds to its own target: hinge length ρ |θ_target|.
+        per_crease = eqx.tree_at(lambda d: d.theta_final, design, jnp.abs(targets) + 0.0)
+        stiffness = per_crease.stiffness(m)
+        hinges_ = Hinges(stiffness, targets, design.radius(), release_times)
+        if drag == "panel":
+            drag_model = PanelDrag.for_mechanism(
+                tree,
+                coefficient=design.drag_coefficient * design.b_scale,
+                density=design.fluid.density,
+                scale=0.5 if design.drag_model == "paper" else 1.0,
+            )
+        elif drag == "hinge":
+            drag_model = HingeDrag(_hinge_drag(tree, design))
+        else:
+            raise ValueError(f"drag must be 'panel' or 'hinge', got {drag!r}.")
+        contact_model = None
+        if contact:
+            contact_model = PanelContact.for_system(
+                tree,
+                np.asarray(stiffness),
+                np.asarray(targets),
+                thickness=np.asarray(design.t_structural),
+                base_thickness=float(np.asarray(design.t_structural)),
+            )
+        return FoldingSystem(tree, hinges_, drag_model, contact=contact_model, units=design.units)
+
+    def seam_gaps(self, angles: ArrayLike) -> np.ndarray:
+        """Largest end-to-end gap of each seam with the creases at `angles` (rad), in design length
+        units (host)."""
+        positions = self.geometry.fold(np.asarray(angles, dtype=float))
+        return self.geometry.seam_gaps(positions, self.seams) * self.length_scale
+
+    def assess(self, system: FoldingSystem, trajectory, **kwargs):
+        """The verdict on a folding of this net against the pattern's angles and seams
+        (`origami_jax.simulation.assess`; keyword arguments go there)."""
+        from ..simulation import assess
+
+        kwargs.setdefault("intended_angles", self.intended_angles)
+        return assess(system, trajectory, seam_gaps=self.seam_gaps, **kwargs)
+
+    def to_fold(self, trajectory=None, *, angles=None, times=None, every: int = 1) -> FoldFile:
+        """The folding as a FOLD animation: the crease pattern, then one frame per kept sample with
+        every vertex where the folded panels put it (in the FOLD file's unit) and the fold angles.
+
+        Give a `Trajectory` (its `theta`, `times`) or `angles` `(k, m)` (rad) and optional `times`.
+        """
+        if trajectory is not None:
+            angles, times = np.asarray(trajectory.theta), np.asarray(trajectory.times)
+        if angles is None:
+            raise ValueError("to_fold needs a trajectory or angles=(k, m).")
+        angles = np.atleast_2d(np.asarray(angles, dtype=float))
+        keep = np.arange(0, len(angles), max(int(every), 1))
+        if keep[-1] != len(angles) - 1:
+            keep = np.append(keep, len(angles) - 1)
+        keep = keep[np.all(np.isfinite(angles[keep]), axis=1)]
+        g = self.geometry
+        first_face, first_corner = _vertex_corners(g)
+        base = self.key_frame
+        n_edges = int(np.asarray(base.edges_vertices).shape[0])
+        frames = [base]
+        for s in keep:
+            corners = g.fold(angles[s])
+            degrees = np.zeros(n_edges)
+            for j, edges in enumerate(self.crease_edge_ids):
+                degrees[list(edges)] = np.degrees(
+                    np.arctan2(np.sin(angles[s, j]), np.cos(angles[s, j]))
+                )
+            extra = {"origami_jax:hinge_angles": [float(x) for x in angles[s]]}
+            if times is not None:
+                extra["origami_jax:time"] = float(np.asarray(times)[s])
+            frames.append(
+                FoldFrame(
+                    vertices_coords=corners[first_face, first_corner],
+                    edges_fold_angle_deg=degrees,
+                    frame_classes=("foldedForm",),
+                    frame_attributes=("3D",),
+                    frame_parent=0,
+                    frame_inherit=True,
+                    extra=extra,
+                )
+            )
+        return FoldFile(
+            frames=tuple(frames),
+            file_metadata={
+                "file_creator": "origami_jax",
+                "file_classes": ["singleModel", "animation"],
+                "file_title": self.name,
+            },
+        )
+
+
+def _traced(x) -> bool:
+    import jax
+
+    return isinstance(x, jax.core.Tracer)
+
+
+def _vertex_corners(g: NetGeometry) -> tuple[np.ndarray, np.ndarray]:
+    """For every FOLD vertex, a (face, corner) that holds it (folded positions agree across a
+    crease, and a vertex on a seam only belongs to one face's side of it)."""
+    n = len(g.vertices_coords)
+    face_of = np.full(n, -1)
+    corner_of = np.full(n, -1)
+    for f, vertices in enumerate(g.faces):
+        for k, v in enumerate(vertices):
+            if face_of[v] < 0:
+                face_of[v], corner_of[v] = f, k
+    return np.maximum(face_of, 0), np.maximum(corner_of, 0)
+
+
+def _key_frame(g: NetGeometry, name: str) -> tuple[FoldFrame, tuple[tuple[int, ...], ...]]:
+    """A crease-pattern frame built from the faces (when no FOLD file is at hand), and the edges on
+    each crease: a side shared by a crease's two faces."""
+    sides: dict[tuple[int, int], set[int]] = {}
+    for f, vertices in enumerate(g.faces):
+        for a, b in zip(vertices, vertices[1:] + vertices[:1], strict=True):
+            sides.setdefault((min(a, b), max(a, b)), set()).add(f)
+    edges = sorted(sides)
+    crease_of = {}
+    for j, (child, parent) in enumerate(zip(g.crease_child, g.crease_parent, strict=True)):
+        crease_of[frozenset((int(child), int(parent)))] = j
+    on_crease: list[list[int]] = [[] for _ in range(g.n_creases)]
+    assignment, degrees = [], []
+    for e, pair in enumerate(edges):
+        j = crease_of.get(frozenset(sides[pair])) if len(sides[pair]) == 2 else None
+        if j is None:
+            assignment.append("B")
+            degrees.append(0.0)
+        else:
+            on_crease[j].append(e)
+            angle = float(np.degrees(g.targets[j]))
+            assignment.append("V" if angle > 0 else "M" if angle < 0 else "F")
+            degrees.append(angle)
+    frame = FoldFrame(
+        vertices_coords=g.vertices_coords,
+        edges_vertices=np.array(edges),
+        edges_assignment=tuple(assignment),
+        edges_fold_angle_deg=np.array(degrees),
+        faces_vertices=tuple(tuple(int(v) for v in f) for f in g.faces),
+        frame_unit=g.unit,
+        frame_classes=("creasePattern",),
+        frame_attributes=("2D",),
+        extra={"frame_title": name},
+    )
+    return frame, tuple(tuple(e) for e in on_crease)
+
+
+def _hinge_drag(tree: PanelTree, design: HingeDesign) -> Array:
+    """The paper's ``b = C_D ν A L³ / c`` per hinge, for a polygonal child panel: ``A`` its area and
+    ``L`` its farthest reach from the crease."""
+    layout = tree.hinge_layout()
+    b = []
+    for i, outline in enumerate(tree.outlines()):
+        frame = np.asarray(tree.frames[i])
+        world = outline @ frame[:3, :3].T + frame[:3, 3]
+        axis, point = layout.axis[i], layout.ends[i, 0]
+        rel = world - point
+        reach = float(np.max(np.linalg.norm(rel - np.outer(rel @ axis, axis), axis=-1)))
+        xy = outline[:, :2]
+        area = 0.5 * abs(
+            float(np.dot(xy[:, 0], np.roll(xy[:, 1], -1)) - np.dot(xy[:, 1], np.roll(xy[:, 0], -1)))
+        )
+        b.append(area * reach**3)
+    denominator = 16.0 if design.drag_model == "paper" else 8.0
+    factor = design.b_scale * design.drag_coefficient * design.fluid.density / denominator
+    return factor * jnp.asarray(b)
+
+
+def load_net(
+    net: str | os.PathLike | FoldFile | NetGeometry,
+    *,
+    root: int | None = None,
+    length_scale: float | None = None,
+    units=None,
+    name: str | None = None,
+) -> Net:
+    """Read a net: a catalogue name (`origami_jax.fold.catalogue_names()`, e.g. ``"cube_net_01"``), a
+    `.fold` path, a `FoldFile` or a `NetGeometry`.
+
+    **Arguments:** `root`: the fixed face (default: the largest); `length_scale`: design length units
+    per FOLD length unit (default from the file's `frame_unit` and `units`, `MICRO` by default);
+    `name`: a label (default the catalogue name or file stem).
+
+    **Raises:** `FoldFormatError` for a file that is not a net (closed loops, disconnected or
+    overlapping faces, a crease without a target); `ValueError` for a unitless file without
+    `length_scale`.
+    """
+    from ..fold import read_fold
+    from ..system import MICRO
+
+    units = MICRO if units is None else units
+    label = name
+    key = None
+    if isinstance(net, NetGeometry):
+        geometry = net
+    else:
+        source = net
+        if isinstance(net, str) and net in catalogue_names():
+            source = catalogue_path(net)
+            label = label or net
+        elif isinstance(net, str | os.PathLike):
+            label = label or os.path.splitext(os.path.basename(os.fspath(net)))[0]
+        fold = source if isinstance(source, FoldFile) else read_fold(source)
+        geometry = net_geometry(fold, root=root)
+        key = fold.frame(0)
+    if length_scale is None:
+        metres = FRAME_UNITS_M.get(geometry.unit or "unit")
+        if metres is None:
+            raise ValueError(
+                f"the FOLD file's frame_unit is {geometry.unit!r}, which has no physical length: give "
+                "length_scale= (the design's length units per FOLD unit, e.g. 1.0 for µm)."
+            )
+        length_scale = metres / units.metre_per_length
+    label = label or "net"
+    if key is None or key.edges_vertices is None:
+        key, crease_edges = _key_frame(geometry, label)
+    else:
+        crease_edges = tuple(tuple(int(e) for e in edges) for edges in geometry.crease_edges)
+    return Net(geometry, label, float(length_scale), key, crease_edges)
+
+
+class NetLayout(AbstractLayout):
+    """The net layout for `design` and `sweep`: ``NetLayout(net)(design)`` is ``net.system(design,
+    ...)`` with the layout's options (static fields: `net`, `contact`, `drag`, `hinges`)."""
+
+    net: Net = eqx.field(static=True)
+    contact: bool = eqx.field(static=True, default=True)
+    drag: str = eqx.field(static=True, default="panel")
+    hinges: str = eqx.field(static=True, default="point")
+
+    @property
+    def n_hinges(self) -> int:
+        return self.net.n_creases
+
+    def __call__(self, design: HingeDesign) -> FoldingSystem:
+        return self.net.system(design, contact=self.contact, drag=self.drag, hinges=self.hinges)
