@@ -207,6 +207,6 @@ def test_verdicts():
     failed = _held(system, jnp.zeros(3), result=sim.RESULTS.nonfinite_state)
     assert sim.assess(system, failed).verdict == "invalid"
     # Seams: angles right but a seam open is not folded.
-    closed = sim.assess(system, koh, seam_gaps=lambda theta: np.array([0.0]))
-    opened = sim.assess(system, koh, seam_gaps=lambda theta: np.array([50.0]))
+    closed = sim.assess(system, koh, seam_gaps=lambda q: jnp.zeros(1))
+    opened = sim.assess(system, koh, seam_gaps=lambda q: jnp.full(1, 50.0))
     assert closed.verdict == "folded" and opened.verdict == "misfolded"

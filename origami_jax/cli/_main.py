@@ -5,10 +5,10 @@ import sys
 from collections.abc import Sequence
 
 from .._version import __version__
-from . import _design, _export, _paper, _simulate, _sweep, _unfold, _view
+from . import _design, _export, _fold, _paper, _simulate, _sweep, _unfold, _view
 from ._common import EXIT_USAGE, setup_runtime
 
-SUBCOMMANDS = (_paper, _unfold, _simulate, _design, _sweep, _export, _view)
+SUBCOMMANDS = (_paper, _unfold, _simulate, _fold, _design, _sweep, _export, _view)
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -156,8 +156,8 @@ class PanelContact(AbstractContact):
     def for_system(
         cls,
         mechanism: AbstractMechanism,
-        hinge_stiffness: Float[Array, " h"],
-        hinge_target: Float[Array, " h"],
+        hinge_stiffness: Float[ArrayLike, " h"],
+        hinge_target: Float[ArrayLike, " h"],
         *,
         thickness: float | np.ndarray,
         damping_ratio: float = 0.5,

@@ -10,6 +10,7 @@ Parameters are named by their field in `origami_jax.system.HingeDesign`, with a 
 materials and fluid (``"fluid.density"``, ``"hinge.youngs_modulus"``).
 """
 
+import re
 from collections.abc import Mapping, Sequence
 
 import equinox as eqx
@@ -56,18 +57,28 @@ _NEAR_BOUND = 0.03
 _INSIDE = 1e-6
 
 
+def _split(name: str) -> tuple[str, int | None]:
+    """``"hinge_width[2]"`` → ``("hinge_width", 2)``; ``"k_scale"`` → ``("k_scale", None)``."""
+    match = re.fullmatch(r"(.+)\[(\d+)\]", name.strip())
+    if match is None:
+        return name.strip(), None
+    return match.group(1), int(match.group(2))
+
+
 def _canonical(name: str) -> str:
-    name = _ALIASES.get(name, name)
-    if name not in _TOP_LEVEL and name not in _NESTED:
+    field, index = _split(name)
+    field = _ALIASES.get(field, field)
+    if field not in _TOP_LEVEL and field not in _NESTED:
         raise ValueError(
             f"{name!r} is not a free parameter of HingeDesign. Choose among: "
-            f"{', '.join(PARAMETER_NAMES)} (alias: fluid_density)."
+            f"{', '.join(PARAMETER_NAMES)} (alias: fluid_density), or one hinge's entry of a "
+            "per-hinge field as NAME[i] (e.g. hinge_width[2])."
         )
-    return name
+    return field if index is None else f"{field}[{index}]"
 
 
-def _getter(name: str):
-    parts = name.split(".")
+def _field_getter(field: str):
+    parts = field.split(".")
 
     def get(hinge):
         value = hinge
@@ -78,10 +89,18 @@ def _getter(name: str):
     return get
 
 
+def _getter(name: str):
+    field, index = _split(name)
+    get = _field_getter(field)
+    if index is None:
+        return get
+    return lambda hinge: get(hinge)[index]
+
+
 def parameter_unit(name: str) -> str:
     """The kind of unit of a parameter (``"length"``, ``"stress"``, ``""`` for dimensionless, …)."""
-    name = _canonical(name)
-    return _TOP_LEVEL.get(name, _NESTED.get(name, ""))
+    field, _ = _split(_canonical(name))
+    return _TOP_LEVEL.get(field, _NESTED.get(field, ""))
 
 
 class ParameterSpace(eqx.Module):
@@ -170,13 +189,18 @@ class ParameterSpace(eqx.Module):
         return jnp.stack([jnp.asarray(_getter(n)(hinge), dtype=float) for n in self.names])
 
     def apply(self, hinge: HingeDesign, x: Float[Array, " p"]) -> HingeDesign:
-        """`hinge` with its free parameters replaced by `x` (shape `(p,)`); differentiable in `x`."""
-        getters = [_getter(n) for n in self.names]
-        return eqx.tree_at(
-            lambda h: tuple(g(h) for g in getters),
-            hinge,
-            tuple(x[i] for i in range(len(getters))),
-        )
+        """`hinge` with its free parameters replaced by `x` (shape `(p,)`); differentiable in `x`.
+        Entries of a per-hinge field (``"hinge_width[2]"``) replace that hinge's value only."""
+        fields: dict[str, object] = {}
+        for i, name in enumerate(self.names):
+            field, index = _split(name)
+            if index is None:
+                fields[field] = x[i]
+            else:
+                current = fields.get(field, _field_getter(field)(hinge))
+                fields[field] = jnp.asarray(current).at[index].set(x[i])
+        getters = [_field_getter(f) for f in fields]
+        return eqx.tree_at(lambda h: tuple(g(h) for g in getters), hinge, tuple(fields.values()))
 
 
 def parameter_space(
@@ -190,7 +214,9 @@ def parameter_space(
 
     **Arguments:**
     - `hinge`: the design that supplies every fixed value and the start of the free ones.
-    - `free`: names of the free parameters (see `PARAMETER_NAMES`), e.g. ``["k_scale", "b_scale"]``.
+    - `free`: names of the free parameters (see `PARAMETER_NAMES`), e.g. ``["k_scale", "b_scale"]``,
+      or single hinges' entries of a per-hinge field, ``"hinge_width[0]"`` … (the field must then hold
+      one value per hinge).
     - `bounds`: ``{name: (lower, upper)}`` in the design's units (MICRO: µm, MPa, ng/µm³); a parameter not
       listed gets a factor of 100 either side of its value in `hinge`.
     - `scale`: ``{name: "log" | "linear"}``; default log when the lower bound is positive.
@@ -214,12 +240,20 @@ def parameter_space(
             )
     lower, upper, log = [], [], []
     for name in names:
-        value = np.asarray(_getter(name)(hinge), dtype=float)
-        if value.ndim != 0:
+        field, index = _split(name)
+        whole = np.asarray(_field_getter(field)(hinge), dtype=float)
+        if index is not None and (whole.ndim != 1 or index >= whole.shape[0]):
             raise ValueError(
-                f"{name} has shape {value.shape} in this HingeDesign; only scalar (all-hinges-alike) "
-                "fields can be free."
+                f"{name}: {field} has shape {whole.shape} in this HingeDesign; give it one value "
+                f"per hinge (e.g. HingeDesign.literature({field}=jnp.full(n, value))) to free "
+                "single hinges' entries."
             )
+        if index is None and whole.ndim != 0:
+            raise ValueError(
+                f"{name} has shape {whole.shape} in this HingeDesign; free single hinges' entries "
+                f"as {name}[i], or give it one scalar value."
+            )
+        value = np.asarray(_getter(name)(hinge), dtype=float)
         start = float(value)
         lo, hi = bounds.get(name, (start / _DEFAULT_FACTOR, start * _DEFAULT_FACTOR))
         lo, hi = float(lo), float(hi)

@@ -167,9 +167,42 @@ class Net:
 
     def seam_gaps(self, angles: ArrayLike) -> np.ndarray:
         """Largest end-to-end gap of each seam with the creases at `angles` (rad), in design length
-        units (host)."""
+        units (host, rigid folding of the flat pattern)."""
         positions = self.geometry.fold(np.asarray(angles, dtype=float))
         return self.geometry.seam_gaps(positions, self.seams) * self.length_scale
+
+    def seam_gap_function(self, system: FoldingSystem):
+        """A traceable ``q ↦`` gap of each seam (design length units, `(s,)`) for a system this net
+        built: the larger distance between the two sides' corners at either end of the seam, from
+        the mechanism's body poses."""
+        g = self.geometry
+        seams = self.seams
+        width = g.face_coords.shape[1]
+        position = {int(f): i - 1 for i, f in enumerate(np.asarray(g.order))}
+        body = np.zeros((len(seams), 2, 2), dtype=np.int64)
+        local = np.zeros((len(seams), 2, 2, 3))
+        outlines = system.mechanism.outlines()
+        for s_ in range(len(seams)):
+            for e in range(2):
+                for side in range(2):
+                    f, k = divmod(int(seams.corners[s_, e, side]), width)
+                    b = position[f]
+                    body[s_, e, side] = b
+                    local[s_, e, side] = (
+                        g.face_coords[f, k] * self.length_scale if b < 0 else outlines[b][k]
+                    )
+
+        def gaps(q):
+            poses = system.mechanism.body_poses(q)
+            base = jnp.eye(4, dtype=poses.dtype)[None]
+            poses = jnp.concatenate([poses, base], axis=0)  # body −1 is the base (world frame)
+            chosen = poses[jnp.asarray(body)]
+            points = jnp.einsum("seaij,seaj->seai", chosen[..., :3, :3], jnp.asarray(local))
+            points = points + chosen[..., :3, 3]
+            distance = jnp.linalg.norm(points[:, :, 0] - points[:, :, 1], axis=-1)
+            return jnp.max(distance, axis=-1)
+
+        return gaps
 
     def assess(self, system: FoldingSystem, trajectory, **kwargs):
         """The verdict on a folding of this net against the pattern's angles and seams
@@ -177,7 +210,14 @@ class Net:
         from ..simulation import assess
 
         kwargs.setdefault("intended_angles", self.intended_angles)
-        return assess(system, trajectory, seam_gaps=self.seam_gaps, **kwargs)
+        return assess(system, trajectory, seam_gaps=self.seam_gap_function(system), **kwargs)
+
+    def outcome(self, system: FoldingSystem, trajectory, **kwargs):
+        """`assess`'s verdict as arrays, traceable (`origami_jax.simulation.fold_outcome`)."""
+        from ..simulation import fold_outcome
+
+        kwargs.setdefault("intended_angles", jnp.asarray(self.intended_angles))
+        return fold_outcome(system, trajectory, seam_gaps=self.seam_gap_function(system), **kwargs)
 
     def to_fold(self, trajectory=None, *, angles=None, times=None, every: int = 1) -> FoldFile:
         """The folding as a FOLD animation: the crease pattern, then one frame per kept sample with
@@ -305,6 +345,29 @@ def _hinge_drag(tree: PanelTree, design: HingeDesign) -> Array:
     denominator = 16.0 if design.drag_model == "paper" else 8.0
     factor = design.b_scale * design.drag_coefficient * design.fluid.density / denominator
     return factor * jnp.asarray(b)
+
+
+def release_times_from_front(net: Net, direction, speed: float) -> np.ndarray:
+    """Release times (time units) of an etch front that sweeps the die at `speed` (design length units
+    per time unit) along `direction` (2 components in the pattern's plane basis `geometry.plane`, or 3
+    in the world): it starts at the pattern's first point along that direction at ``t = 0`` and
+    releases each crease when it reaches the crease's midpoint. Shape `(m,)`."""
+    g = net.geometry
+    direction = np.asarray(direction, dtype=float)
+    if direction.shape == (2,):
+        direction = direction @ g.plane
+    if direction.shape != (3,) or not np.linalg.norm(direction) > 0:
+        raise ValueError("the etch front's direction must be a non-zero 2- or 3-vector.")
+    if not (np.isfinite(speed) and speed > 0):
+        raise ValueError(f"the etch front's speed must be positive, got {speed}.")
+    direction = direction / np.linalg.norm(direction)
+    start = float(np.min(g.vertices_coords @ direction))
+    mids = []
+    for j in range(g.n_creases):
+        ends = g.hinge_points[j], g.hinge_points[j] + g.crease_lengths[j] * g.hinge_axes[j]
+        mids.append(0.5 * (ends[0] + ends[1]))
+    along = (np.asarray(mids) @ direction - start) * net.length_scale
+    return along / float(speed)
 
 
 def load_net(

@@ -13,28 +13,38 @@
 
 "Intended" angles default to the system's hinge targets; for a net they are the crease pattern's fold
 angles (a net whose hinges aim elsewhere, 80° instead of 90° say, is judged against the shape it should
-take, not against its hinges). Host-side (NumPy) after the compiled simulation.
+take, not against its hinges). `fold_outcome` is the traceable core (batches, sweeps and yield
+estimates run it under `vmap`); `assess` wraps it with the reasons and numbers for people.
 """
 
 import dataclasses
 import enum
 from collections.abc import Callable
 
+import equinox as eqx
 import jax
+import jax.numpy as jnp
 import numpy as np
+from jaxtyping import Array, Bool, Float, Int
 
 from ._results import RESULTS
 from ._simulate import Trajectory
 
 
 class FoldVerdict(enum.StrEnum):
-    """Outcome of a folding (a `str`: `report.verdict == "folded"` works)."""
+    """Outcome of a folding (a `str`: `report.verdict == "folded"` works). `VERDICT_CODES` gives the
+    integer `fold_outcome` returns for each."""
 
     FOLDED = "folded"
     JAMMED = "jammed"
     MISFOLDED = "misfolded"
     UNFINISHED = "unfinished"
     INVALID = "invalid"
+
+
+VERDICT_CODES = {v: i for i, v in enumerate(FoldVerdict)}
+"""`FoldVerdict` → the integer code of `FoldOutcome.code` (folded 0, jammed 1, misfolded 2,
+unfinished 3, invalid 4)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -113,12 +123,109 @@ class FoldReport:
         return "\n".join(lines)
 
 
+class FoldOutcome(eqx.Module):
+    """The traceable verdict of one folding (arrays; a batch under `vmap` gives one per member).
+
+    **Fields:** `code` (`VERDICT_CODES`); `time_to_fold` (time units, `inf` if it never got there);
+    `settled`; `short` per crease (stopped short of its angle, same sign); `max_seam_gap` at the end
+    (length, 0 without seams); `engaged` contact pairs at the end; `min_gap` over the run (`inf`
+    without contact); `penetration`, the largest over the run (length).
+    """
+
+    code: Int[Array, ""]
+    time_to_fold: Float[Array, ""]
+    settled: Bool[Array, ""]
+    short: Bool[Array, " h"]
+    max_seam_gap: Float[Array, ""]
+    engaged: Int[Array, ""]
+    min_gap: Float[Array, ""]
+    penetration: Float[Array, ""]
+
+
+def fold_outcome(
+    system,
+    trajectory: Trajectory,
+    *,
+    intended_angles=None,
+    seam_gaps: Callable | None = None,
+    angle_tolerance: float = float(np.radians(3.0)),
+    seam_tolerance=None,
+) -> FoldOutcome:
+    """The verdict of `assess` as arrays, traceable (`jit`, `vmap`): see `assess` for the arguments;
+    `seam_gaps` must be traceable here (a function of the mechanism's coordinates ``q``)."""
+    times, theta = trajectory.times, trajectory.theta
+    q = theta if trajectory.state is None else trajectory.state[0]
+    intended = system.hinges.target if intended_angles is None else jnp.asarray(intended_angles)
+    dtype = theta.dtype
+    finite = jnp.all(jnp.isfinite(theta), axis=-1)
+    q_safe = jnp.where(finite[:, None], q, 0.0)
+    contact = system.contact
+    if contact is not None:
+        report = jax.vmap(lambda q: contact.report(system.mechanism, q))(q_safe)
+        min_gap = jnp.min(jnp.where(finite, report["min_gap"], jnp.inf))
+        penetration = jnp.max(jnp.where(finite, report["penetration"], 0.0))
+        engaged = jnp.where(finite[-1], report["engaged"][-1], 0).astype(jnp.int32)
+        if seam_tolerance is None:
+            seam_tolerance = 0.01 * contact.tables.scale
+    else:
+        min_gap = jnp.asarray(jnp.inf, dtype)
+        penetration = jnp.zeros((), dtype)
+        engaged = jnp.zeros((), jnp.int32)
+    seam_tolerance = 1.0 if seam_tolerance is None else seam_tolerance
+    within = jnp.all(jnp.abs(theta - intended) < angle_tolerance, axis=-1) & finite
+    max_gap = jnp.zeros((), dtype)
+    if seam_gaps is not None:
+        gaps = jax.vmap(seam_gaps)(q_safe)  # (t, s)
+        if gaps.shape[-1]:
+            within = within & jnp.all(gaps < seam_tolerance, axis=-1)
+            max_gap = jnp.max(gaps[-1])
+    final = theta[-1]
+    tail = max(2, theta.shape[0] // 10)
+    settled = jnp.max(jnp.abs(theta[-tail:] - final)) < angle_tolerance / 2
+    # Stays within from sample k on: a reversed cumulative AND.
+    stays = jnp.flip(jnp.cumprod(jnp.flip(within).astype(jnp.int32))).astype(bool)
+    first = jnp.argmax(stays)
+    time_to_fold = jnp.where(within[-1], times[first], jnp.inf)
+    short = (jnp.abs(final) < jnp.abs(intended) - angle_tolerance) & (
+        jnp.sign(final) * jnp.sign(intended) >= 0
+    )
+    codes = VERDICT_CODES
+    code = jnp.where(
+        within[-1],
+        codes[FoldVerdict.FOLDED],
+        jnp.where(
+            ~settled,
+            codes[FoldVerdict.UNFINISHED],
+            jnp.where(
+                jnp.any(short) & (engaged > 0),
+                codes[FoldVerdict.JAMMED],
+                codes[FoldVerdict.MISFOLDED],
+            ),
+        ),
+    )
+    ok = trajectory.result == RESULTS.successful
+    out_of_steps = trajectory.result == RESULTS.max_steps_reached
+    code = jnp.where(
+        ok, code, jnp.where(out_of_steps, codes[FoldVerdict.UNFINISHED], codes[FoldVerdict.INVALID])
+    )
+    return FoldOutcome(
+        code=code.astype(jnp.int32),
+        time_to_fold=time_to_fold,
+        settled=settled,
+        short=short,
+        max_seam_gap=max_gap,
+        engaged=engaged,
+        min_gap=min_gap,
+        penetration=penetration,
+    )
+
+
 def assess(
     system,
     trajectory: Trajectory,
     *,
     intended_angles=None,
-    seam_gaps: Callable[[np.ndarray], np.ndarray] | None = None,
+    seam_gaps: Callable | None = None,
     angle_tolerance: float = float(np.radians(3.0)),
     seam_tolerance: float | None = None,
     thickness: float | None = None,
@@ -130,8 +237,8 @@ def assess(
       batched).
     - `intended_angles`: the fold angle each crease should reach (rad, `(h,)`); default the system's
       hinge targets.
-    - `seam_gaps`: a function of the hinge angles `(h,)` returning each seam's gap (length, `(s,)`),
-      e.g. from a net's geometry; `None` for a device without seams.
+    - `seam_gaps`: a traceable function of the mechanism's coordinates ``q`` returning each seam's gap
+      (length, `(s,)`), e.g. `Net.seam_gap_function`; `None` for a device without seams.
     - `angle_tolerance`: rad (default 3°); `seam_tolerance`: length (default 1 % of the largest panel,
       or 1 length unit without contact geometry).
     - `thickness`: panel thickness for `penetration_fraction` (default: twice the contact model's
@@ -141,99 +248,77 @@ def assess(
     """
     if trajectory.theta.ndim != 2:
         raise ValueError(
-            "assess takes one trajectory; for a batch, assess each member (or use the sweep's "
-            "verdict outputs)."
+            "assess takes one trajectory; for a batch, use fold_outcome under jax.vmap (or the "
+            "sweep's verdict outputs)."
         )
-    times = np.asarray(trajectory.times)
-    theta = np.asarray(trajectory.theta)
     intended = np.asarray(
         system.hinges.target if intended_angles is None else intended_angles, dtype=float
     )
-    if intended.shape != theta.shape[-1:]:
+    if intended.shape != trajectory.theta.shape[-1:]:
         raise ValueError(
-            f"intended_angles must have shape {theta.shape[-1:]}, got {intended.shape}."
+            f"intended_angles must have shape {trajectory.theta.shape[-1:]}, got {intended.shape}."
         )
-    result = RESULTS[trajectory.result]
+    outcome = jax.device_get(
+        fold_outcome(
+            system,
+            trajectory,
+            intended_angles=intended,
+            seam_gaps=seam_gaps,
+            angle_tolerance=angle_tolerance,
+            seam_tolerance=seam_tolerance,
+        )
+    )
     contact = system.contact
-    min_gap, penetration, engaged, fraction = np.inf, 0.0, 0, 0.0
-    if contact is not None:
-        finite = np.all(np.isfinite(theta), axis=-1)
-        q = trajectory.theta if trajectory.state is None else trajectory.state[0]
-        report = jax.device_get(jax.vmap(lambda q: contact.report(system.mechanism, q))(q))
-        gaps = np.where(finite, report["min_gap"], np.inf)
-        min_gap = float(np.min(gaps))
-        penetration = float(np.max(np.where(finite, report["penetration"], 0.0)))
-        engaged = int(np.asarray(report["engaged"])[-1]) if finite[-1] else 0
-        if thickness is None:
-            thickness = 2 * float(np.min(contact.tables.half_thickness))
-        fraction = penetration / thickness if thickness else 0.0
-        if seam_tolerance is None:
-            seam_tolerance = 0.01 * contact.tables.scale
     if seam_tolerance is None:
-        seam_tolerance = 1.0
+        seam_tolerance = 0.01 * contact.tables.scale if contact is not None else 1.0
+    if thickness is None and contact is not None:
+        thickness = 2 * float(np.min(contact.tables.half_thickness))
+    theta = np.asarray(trajectory.theta)
     final = theta[-1]
     errors = final - intended
-    gaps_final = (
-        np.zeros(0) if seam_gaps is None or not np.all(np.isfinite(final)) else seam_gaps(final)
-    )
-    gaps_final = np.asarray(gaps_final, dtype=float)
-
-    def report(verdict, reason, settled=False, time_to_fold=None):
-        return FoldReport(
-            verdict=verdict,
-            reason=reason,
-            final_angles=final,
-            intended_angles=intended,
-            angle_errors=errors,
-            seam_gaps=gaps_final,
-            angle_tolerance=float(angle_tolerance),
-            seam_tolerance=float(seam_tolerance),
-            time_to_fold=time_to_fold,
-            settled=settled,
-            contacts=engaged,
-            min_gap=min_gap,
-            max_penetration=penetration,
-            penetration_fraction=float(fraction),
-            result="successful" if result == "" else str(result),
-        )
-
+    gaps_final = np.zeros(0)
+    if seam_gaps is not None and np.all(np.isfinite(final)):
+        q = trajectory.theta if trajectory.state is None else trajectory.state[0]
+        gaps_final = np.asarray(seam_gaps(q[-1]), dtype=float)
+    verdict = list(FoldVerdict)[int(outcome.code)]
+    result = RESULTS[trajectory.result]
     if not bool(trajectory.succeeded):
-        code = trajectory.result
-        if code == RESULTS.max_steps_reached:
-            return report(FoldVerdict.UNFINISHED, f"the solver ran out of steps ({result})")
-        return report(FoldVerdict.INVALID, f"the simulation failed: {result}")
-
-    within = np.all(np.abs(theta - intended) < angle_tolerance, axis=-1)
-    if seam_gaps is not None:
-        closed = np.array([np.all(np.asarray(seam_gaps(t)) < seam_tolerance) for t in theta])
-        within &= closed
-    tail = max(2, len(times) // 10)
-    settled = bool(np.max(np.abs(theta[-tail:] - final)) < angle_tolerance / 2)
-    time_to_fold = None
-    if within[-1]:
-        first = len(within) - int(np.argmin(within[::-1])) if not np.all(within) else 0
-        time_to_fold = float(times[min(first, len(times) - 1)])
-    if within[-1]:
-        return report(
-            FoldVerdict.FOLDED,
-            "every crease at its angle, every seam closed",
-            settled,
-            time_to_fold,
+        reason = (
+            f"the solver ran out of steps ({result})"
+            if verdict == FoldVerdict.UNFINISHED
+            else f"the simulation failed: {result}"
         )
-    if not settled:
-        return report(FoldVerdict.UNFINISHED, "still moving at the end of the run", settled)
-    short = (np.abs(final) < np.abs(intended) - angle_tolerance) & (
-        np.sign(final) * np.sign(intended) >= 0
-    )
-    if np.any(short) and engaged > 0:
-        creases = ", ".join(str(i) for i in np.nonzero(short)[0])
-        return report(FoldVerdict.JAMMED, f"contact stops crease(s) {creases} short", settled)
-    worst = int(np.argmax(np.abs(errors)))
-    if np.all(np.abs(errors) < angle_tolerance):
-        why = "creases at their angles but seams open"
+    elif verdict == FoldVerdict.FOLDED:
+        reason = "every crease at its angle, every seam closed"
+    elif verdict == FoldVerdict.UNFINISHED:
+        reason = "still moving at the end of the run"
+    elif verdict == FoldVerdict.JAMMED:
+        creases = ", ".join(str(i) for i in np.nonzero(outcome.short)[0])
+        reason = f"contact stops crease(s) {creases} short"
+    elif np.all(np.abs(errors) < angle_tolerance):
+        reason = "creases at their angles but seams open"
     else:
-        why = (
+        worst = int(np.argmax(np.abs(errors)))
+        reason = (
             f"crease {worst} at {np.degrees(final[worst]):.1f}° instead of "
             f"{np.degrees(intended[worst]):.1f}°"
         )
-    return report(FoldVerdict.MISFOLDED, why, settled)
+    time_to_fold = float(outcome.time_to_fold)
+    penetration = float(outcome.penetration)
+    return FoldReport(
+        verdict=verdict,
+        reason=reason,
+        final_angles=final,
+        intended_angles=intended,
+        angle_errors=errors,
+        seam_gaps=gaps_final,
+        angle_tolerance=float(angle_tolerance),
+        seam_tolerance=float(seam_tolerance),
+        time_to_fold=time_to_fold if np.isfinite(time_to_fold) else None,
+        settled=bool(outcome.settled),
+        contacts=int(outcome.engaged),
+        min_gap=float(outcome.min_gap),
+        max_penetration=penetration,
+        penetration_fraction=penetration / thickness if thickness else 0.0,
+        result="successful" if result == "" else str(result),
+    )

@@ -343,6 +343,181 @@ def vertex_unfold(
     )
 
 
+# Fields of `HingeDesign` a net sweep may vary for every crease at once (scalar parameter `name`) or
+# for one crease (`name[j]`); lengths in µm, the package's MICRO unit system.
+NET_PARAMETERS = {
+    "hinge_width": "um",
+    "t_hinge": "um",
+    "misfit_strain": "1",
+    "k_scale": "1",
+}
+NET_GLOBAL_PARAMETERS = {
+    "t_structural": "um",
+    "drag_coefficient": "1",
+    "b_scale": "1",
+}
+
+
+def net_fold(
+    *,
+    net: str = "cube_net_01",
+    fluid: str = "koh",
+    t_end: float = 1500.0,
+    n_save: int = 301,
+    rtol: float | None = None,
+    atol: float | None = None,
+    max_steps: int = 200_000,
+    contact: bool = True,
+    drag: str = "panel",
+    hinges: str = "point",
+    angle_tolerance_deg: float = 3.0,
+) -> Kernel:
+    """Sweep kernel: does a net of panels fold? Verdict and numbers per design (explicit Tsit5 under
+    the contact guard; `origami_jax.net.load_net(net).system(design, ...)` with the literature design
+    for what is not swept, in MICRO units).
+
+    **Parameters** (swept): `hinge_width`, `t_hinge`, `misfit_strain`, `k_scale` for every crease, or
+    per crease as `name[j]` (e.g. `misfit_strain[3]`: the film stress scatter of one hinge);
+    `t_structural`, `drag_coefficient`, `b_scale` for the whole net; `release[j]`: crease `j`'s release
+    time (µs, default 0).
+
+    **Outputs:** `verdict` (0 folded, 1 jammed, 2 misfolded, 3 unfinished, 4 invalid;
+    `origami_jax.simulation.VERDICT_CODES`), `folded`, `time_to_fold` (µs, NaN if never),
+    `final_angle` (rad, per crease), `max_seam_gap` (µm), `min_gap`, `penetration` (µm), `num_steps`,
+    `result` (the solver's code; −1 invalid input).
+    """
+    import diffrax
+    import jax.numpy as jnp
+    import numpy as np
+
+    from ..net import load_net
+    from ..simulation import DEFAULT_ATOL, DEFAULT_RTOL, RESULTS, Step, fold_outcome, simulate
+    from ..system import AIR, KOH_SOLUTION, HingeDesign
+
+    if fluid not in FLUIDS:
+        raise ValueError(f"fluid must be one of {FLUIDS}, got {fluid!r}.")
+    the_net = load_net(net)
+    m = the_net.n_creases
+    base = HingeDesign.literature(fluid=AIR if fluid == "air" else KOH_SOLUTION)
+    rtol = DEFAULT_RTOL if rtol is None else float(rtol)
+    atol = DEFAULT_ATOL if atol is None else float(atol)
+    parameters = {**NET_PARAMETERS, **NET_GLOBAL_PARAMETERS}
+    parameters.update(
+        {f"{name}[{j}]": unit for name, unit in NET_PARAMETERS.items() for j in range(m)}
+    )
+    parameters.update({f"release[{j}]": "us" for j in range(m)})
+    intended = jnp.asarray(the_net.intended_angles)
+    tolerance = float(np.radians(angle_tolerance_deg))
+
+    def design_of(params):
+        invalid = jnp.zeros((), dtype=bool)
+        values = {}
+        for name in (*NET_PARAMETERS, *NET_GLOBAL_PARAMETERS):
+            default = jnp.asarray(getattr(base, name), dtype=float)
+            value = jnp.asarray(params.get(name, default), dtype=float)
+            if name in NET_PARAMETERS:
+                entries = [params.get(f"{name}[{j}]") for j in range(m)]
+                if any(e is not None for e in entries):
+                    value = jnp.stack(
+                        [value if e is None else jnp.asarray(e, dtype=float) for e in entries]
+                    )
+            invalid = invalid | jnp.any(~(jnp.isfinite(value) & (value > 0)))
+            values[name] = jnp.where(invalid, default, value)
+        release = [params.get(f"release[{j}]") for j in range(m)]
+        times = None
+        if any(r is not None for r in release):
+            times = jnp.stack(
+                [jnp.zeros(()) if r is None else jnp.asarray(r, float) for r in release]
+            )
+            invalid = invalid | jnp.any(~(jnp.isfinite(times) & (times >= 0)))
+            times = jnp.where(invalid, 0.0, times)
+        design = eqx_tree_at_fields(base, values)
+        return design, times, invalid
+
+    def fn(params):
+        design, times, invalid = design_of(params)
+        system = the_net.system(
+            design, release_times=times, contact=contact, drag=drag, hinges=hinges
+        )
+        trajectory = simulate(
+            system,
+            Step(),
+            t1=t_end,
+            n_save=n_save,
+            rtol=rtol,
+            atol=atol,
+            max_steps=max_steps,
+            solver=diffrax.Tsit5(),
+            throw=False,
+        )
+        outcome = fold_outcome(
+            system,
+            trajectory,
+            intended_angles=intended,
+            seam_gaps=the_net.seam_gap_function(system),
+            angle_tolerance=tolerance,
+        )
+        result = jnp.where(invalid, INVALID_INPUT, trajectory.result._value).astype(jnp.int32)
+        failed = result != 0
+
+        def masked(x):
+            return jnp.where(failed, jnp.nan, x)
+
+        return {
+            "verdict": jnp.where(invalid, 4, outcome.code).astype(jnp.int32),
+            "folded": (outcome.code == 0) & ~invalid,
+            "time_to_fold": masked(
+                jnp.where(jnp.isfinite(outcome.time_to_fold), outcome.time_to_fold, jnp.nan)
+            ),
+            "final_angle": masked(trajectory.theta[-1]),
+            "max_seam_gap": masked(outcome.max_seam_gap),
+            "min_gap": masked(outcome.min_gap),
+            "penetration": masked(outcome.penetration),
+            "num_steps": jnp.asarray(trajectory.stats["num_steps"], dtype=jnp.int32),
+            "result": result,
+        }
+
+    messages = {INVALID_INPUT: "invalid input"}
+    messages.update({int(item._value): name for name, item in RESULTS._name_to_item.items()})
+    return Kernel(
+        fn=fn,
+        name="net-fold",
+        settings={
+            "net": the_net.name,
+            "fluid": fluid,
+            "t_end_us": t_end,
+            "n_save": n_save,
+            "rtol": rtol,
+            "atol": atol,
+            "max_steps": max_steps,
+            "contact": contact,
+            "drag": drag,
+            "hinges": hinges,
+            "angle_tolerance_deg": angle_tolerance_deg,
+        },
+        parameters=parameters,
+        output_units={
+            "time_to_fold": "us",
+            "final_angle": "rad",
+            "max_seam_gap": "um",
+            "min_gap": "um",
+            "penetration": "um",
+        },
+        output_dims={"final_angle": ("crease",)},
+        result_messages=messages,
+    )
+
+
+def eqx_tree_at_fields(design, values: Mapping[str, Any]):
+    """`design` with the named top-level fields replaced (traced values welcome)."""
+    import equinox as eqx
+
+    names = list(values)
+    return eqx.tree_at(
+        lambda d: tuple(getattr(d, n) for n in names), design, tuple(values[n] for n in names)
+    )
+
+
 MODELS: dict[str, _Model] = {
     "accordion-step": _Model(
         "step response metrics of the n-flap accordion over hinge and fluid parameters",
@@ -351,6 +526,10 @@ MODELS: dict[str, _Model] = {
     "vertex-unfold": _Model(
         "unfolding verdicts of random single-vertex origami",
         vertex_unfold,
+    ),
+    "net-fold": _Model(
+        "fold verdicts of a net of panels (FOLD) over hinge parameters and release times",
+        net_fold,
     ),
 }
 

@@ -1,0 +1,229 @@
+"""`origami-jax fold`: fold a net of panels from a FOLD crease pattern under its stressed hinges.
+
+Writes `result.json` (the verdict and the numbers behind it), `trajectory.csv` (hinge angles against
+time), `trajectory.fold` (the folding as FOLD frames: `origami-jax view` plays it), and unless
+`--no-figures` the angle plot, a strip of 3D frames and an animation.
+"""
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from ._common import EXIT_FAILED, EXIT_OK, EXIT_USAGE, add_out_argument, prepare_out
+
+HELP = "Fold a net of panels (FOLD file or catalogue name) under its hinges; say whether it closes."
+DESCRIPTION = (
+    HELP
+    + """
+
+NET is a FOLD file whose faces form a tree through their creases (a net: cut seams allowed), or the
+name of a shipped net (origami-jax fold --list). The largest face stays on the substrate; every crease
+is a bilayer hinge of the literature design (200 nm SiNx, 100 nm Cr at 1 GPa; override any HingeDesign
+field with --param NAME=VALUE in MICRO units: µm, µs, ng, MPa) folding to the crease's
+edges_foldAngle. Panels have the membrane's thickness and meet (contact) unless --no-contact; drag
+acts on every panel from its own motion (--drag hinge: the paper's per-hinge drag).
+
+Verdicts: folded (every crease within tolerance, every seam closed), jammed (contact stops a crease
+short), misfolded (another final state), unfinished (time ran out), invalid (the simulation failed).
+Exit codes: 0 folded, 1 any other verdict, 2 bad input.
+"""
+)
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    parser = subparsers.add_parser(
+        "fold",
+        help=HELP,
+        description=DESCRIPTION,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument("net", nargs="?", help="FOLD file or catalogue name")
+    parser.add_argument("--list", action="store_true", help="list the shipped nets and exit")
+    parser.add_argument("--fluid", choices=("air", "koh"), default="air", help="default air")
+    parser.add_argument(
+        "--param",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="override a HingeDesign field (MICRO units), repeatable",
+    )
+    parser.add_argument("--t1", type=float, default=1000.0, help="end time, µs (default 1000)")
+    parser.add_argument("--n-save", type=int, default=501, help="samples (default 501)")
+    parser.add_argument(
+        "--targets", default=None, help="fold target per crease, degrees, comma-separated"
+    )
+    parser.add_argument(
+        "--release", default=None, help="release time per crease, µs, comma-separated (default 0)"
+    )
+    parser.add_argument(
+        "--etch-front",
+        default=None,
+        metavar="DX,DY,SPEED",
+        help="release each crease when an etch front moving along (DX, DY) at SPEED µm/µs passes it",
+    )
+    parser.add_argument("--no-contact", action="store_true", help="panels pass through each other")
+    parser.add_argument("--drag", choices=("panel", "hinge"), default="panel", help="default panel")
+    parser.add_argument(
+        "--hinges", choices=("point", "arc"), default="point", help="point creases or bending arcs"
+    )
+    parser.add_argument("--root", type=int, default=None, help="the fixed face (default: largest)")
+    parser.add_argument(
+        "--tolerance", type=float, default=3.0, help="crease angle tolerance, degrees (default 3)"
+    )
+    parser.add_argument("--no-figures", action="store_true", help="skip figures and animation")
+    add_out_argument(parser)
+    parser.set_defaults(func=run)
+
+
+def _floats(text: str | None, what: str) -> list[float] | None:
+    if text is None:
+        return None
+    try:
+        return [float(x) for x in text.split(",") if x.strip()]
+    except ValueError as error:
+        raise ValueError(f"{what}: {error}") from None
+
+
+def _params(items: list[str]) -> dict[str, float]:
+    out = {}
+    for item in items:
+        name, sep, value = item.partition("=")
+        if not sep:
+            raise ValueError(f"--param expects NAME=VALUE, got {item!r}.")
+        out[name.strip()] = float(value)
+    return out
+
+
+def run(args: argparse.Namespace) -> int:
+    from origami_jax.fold import FoldFormatError, catalogue_names
+
+    if args.list:
+        for name in catalogue_names():
+            print(name)
+        return EXIT_OK
+    if args.net is None:
+        print(
+            "origami-jax fold: give a NET (FOLD file or catalogue name; --list).", file=sys.stderr
+        )
+        return EXIT_USAGE
+    try:
+        params = _params(args.param)
+        targets_deg = _floats(args.targets, "--targets")
+        release = _floats(args.release, "--release")
+        front = _floats(args.etch_front, "--etch-front")
+        if front is not None and len(front) != 3:
+            raise ValueError("--etch-front expects DX,DY,SPEED")
+        if not (args.t1 > 0) or args.n_save < 2:
+            raise ValueError("--t1 must be positive and --n-save at least 2")
+    except ValueError as error:
+        print(f"origami-jax fold: {error}", file=sys.stderr)
+        return EXIT_USAGE
+
+    import jax.numpy as jnp
+    import numpy as np
+
+    import origami_jax.simulation as sim
+    from origami_jax.net import load_net, release_times_from_front
+    from origami_jax.system import AIR, KOH_SOLUTION, HingeDesign
+
+    try:
+        net = load_net(args.net, root=args.root)
+        design = HingeDesign.literature(
+            fluid={"air": AIR, "koh": KOH_SOLUTION}[args.fluid], **params
+        )
+        m = net.n_creases
+        targets = None
+        if targets_deg is not None:
+            if len(targets_deg) != m:
+                raise ValueError(f"--targets: {len(targets_deg)} values for {m} creases")
+            targets = np.radians(targets_deg)
+        if release is not None and len(release) != m:
+            raise ValueError(f"--release: {len(release)} values for {m} creases")
+        if front is not None:
+            release = release_times_from_front(net, front[:2], front[2])
+        system = net.system(
+            design,
+            targets=targets,
+            release_times=release,
+            contact=not args.no_contact,
+            drag=args.drag,
+            hinges=args.hinges,
+        )
+    except (FoldFormatError, ValueError, TypeError, OSError) as error:
+        print(f"origami-jax fold: {args.net}: {error}", file=sys.stderr)
+        return EXIT_USAGE
+
+    out = prepare_out(Path(args.out))
+    print(
+        f"[fold] {net.name}: {m} creases, {system.mechanism.n_bodies} moving panels, contact "
+        f"{'on' if system.contact is not None else 'off'}; compiling and folding for {args.t1:g} µs ...",
+        flush=True,
+    )
+    import diffrax
+
+    trajectory = sim.simulate(
+        system,
+        sim.Step(),
+        t1=args.t1,
+        n_save=args.n_save,
+        throw=False,
+        max_steps=500_000,
+        progress_meter=diffrax.TqdmProgressMeter(refresh_steps=200),
+    )
+    report = net.assess(system, trajectory, angle_tolerance=float(np.radians(args.tolerance)))
+    result = report.to_dict()
+    result.update(
+        net=net.name,
+        creases=m,
+        units={"time": "us", "length": "um", "angle": "rad"},
+        params=params,
+        fluid=args.fluid,
+        contact=not args.no_contact,
+        drag=args.drag,
+        hinges=args.hinges,
+        release_times=None if release is None else [float(x) for x in release],
+        stats={
+            k: (int(v) if np.asarray(v).dtype.kind in "iu" else float(v))
+            for k, v in trajectory.stats.items()
+        },
+        final_angles_deg=[float(x) for x in np.degrees(report.final_angles)],
+    )
+    result["stats"] = {
+        k: (v if not isinstance(v, float) or np.isfinite(v) else None)
+        for k, v in result["stats"].items()
+    }
+    (out / "result.json").write_text(json.dumps(result, indent=2))
+    times = np.asarray(trajectory.times)
+    theta = np.asarray(trajectory.theta)
+    header = "time [us]," + ",".join(f"theta_{j + 1} [rad]" for j in range(m))
+    np.savetxt(
+        out / "trajectory.csv",
+        np.column_stack([times, theta]),
+        delimiter=",",
+        header=header,
+        comments="",
+        fmt="%.12g",
+    )
+    from origami_jax.fold import write_fold
+
+    write_fold(out / "trajectory.fold", net.to_fold(trajectory, every=max(1, len(times) // 200)))
+    print(report.summary())
+    print(f"wrote {out / 'result.json'}, trajectory.csv, trajectory.fold")
+    if not args.no_figures and bool(trajectory.succeeded):
+        _figures(system, trajectory, out, net.name)
+    del jnp
+    return EXIT_OK if report.verdict == "folded" else EXIT_FAILED
+
+
+def _figures(system, trajectory, out: Path, name: str) -> None:
+    import matplotlib.pyplot as plt
+
+    from origami_jax.plotting import chain as plots
+
+    fig = plots.plot_joint_angles(trajectory, None, title=f"{name}: fold angles")
+    fig.savefig(out / "angles.png", dpi=120)
+    plt.close(fig)
+    fig = plots.folding_frames(system, trajectory, out / "frames.png", n_frames=6)
+    plt.close(fig)
+    plots.animate_folding(system, trajectory, out / "animation.gif", n_frames=40)

@@ -1,0 +1,115 @@
+"""Nets from FOLD: the panel tree they build, its agreement with the chain engine and with the
+pattern's own geometry, the cube folding closed, verdicts, bad input."""
+
+import functools
+
+import diffrax
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import origami_jax.simulation as sim
+from origami_jax.chain import accordion_system
+from origami_jax.fold import FoldFormatError
+from origami_jax.net import load_net, release_times_from_front
+from origami_jax.system import KOH_SOLUTION, HingeDesign
+
+# The tree built from the FOLD accordion and the chain engine's accordion are the same model
+# computed two ways: float64 round-off.
+ENGINES_RTOL = 1e-12
+KOH = HingeDesign.literature(fluid=KOH_SOLUTION)
+
+
+def test_fold_accordion_is_the_chain_engines_accordion():
+    net = load_net("accordion")
+    tree_system = net.system(KOH, contact=False, drag="hinge")
+    chain_system = accordion_system(KOH, 3)
+    tree, chain = tree_system.mechanism, chain_system.mechanism
+    np.testing.assert_allclose(tree_system.hinges.target, chain_system.hinges.target)
+    np.testing.assert_allclose(tree_system.hinges.stiffness, chain_system.hinges.stiffness, rtol=1e-14)
+    np.testing.assert_allclose(tree_system.drag.coefficient, chain_system.drag.coefficient, rtol=1e-12)
+    rng = np.random.default_rng(3)
+    for _ in range(3):
+        q = jnp.asarray(rng.uniform(-3, 3, 3))
+        v = jnp.asarray(rng.normal(scale=0.05, size=3))
+        scale = float(jnp.max(jnp.abs(chain.mass_matrix(q))))
+        np.testing.assert_allclose(tree.mass_matrix(q), chain.mass_matrix(q), atol=ENGINES_RTOL * scale)
+        bias = chain.bias_force(q, v)
+        np.testing.assert_allclose(
+            tree.bias_force(q, v), bias, atol=ENGINES_RTOL * float(jnp.max(jnp.abs(bias)))
+        )
+        tau = jnp.asarray(rng.normal(scale=100.0, size=3))
+        np.testing.assert_allclose(
+            tree_system.accelerations(q, v, tau),
+            chain_system.accelerations(q, v, tau),
+            rtol=1e-10,
+        )
+
+
+@pytest.mark.parametrize("name", ["cube_net_01", "cube_net_11", "corner_cube", "tetrahedron", "octahedron"])
+def test_tree_kinematics_match_the_patterns_geometry(name):
+    """Panel poses from the tree (JAX) against the FOLD geometry's own rigid folding (NumPy): the seam
+    gaps of both, closed at the pattern's angles and open elsewhere."""
+    net = load_net(name)
+    system = net.system(contact=False)
+    gaps = jax.jit(net.seam_gap_function(system))
+    rng = np.random.default_rng(7)
+    for angles in (np.zeros(net.n_creases), net.intended_angles, rng.uniform(-2, 2, net.n_creases)):
+        np.testing.assert_allclose(gaps(jnp.asarray(angles)), net.seam_gaps(angles), atol=1e-9)
+    assert float(jnp.max(gaps(jnp.asarray(net.intended_angles)))) < 1e-9
+    # Panel outlines folded by the tree equal the geometry's folded faces.
+    polygons = system.mechanism.panel_polygons(net.intended_angles)
+    folded = net.geometry.fold(net.intended_angles)
+    g = net.geometry
+    for body, face in enumerate(np.asarray(g.order)[1:]):
+        np.testing.assert_allclose(polygons[body], folded[face][g.corner_mask[face]], atol=1e-9)
+
+
+def test_release_from_an_etch_front():
+    net = load_net("accordion")
+    times = release_times_from_front(net, (0.0, 1.0), 2.0)  # along +y at 2 µm/µs
+    # Creases at y = 0, 200, 400 (the base is y < 0): midpoints reached at (y + 200) / 2.
+    np.testing.assert_allclose(times, [100.0, 200.0, 300.0], atol=1e-9)
+    with pytest.raises(ValueError, match="speed"):
+        release_times_from_front(net, (0.0, 1.0), 0.0)
+
+
+def test_bad_nets_are_refused(tmp_path):
+    with pytest.raises(FoldFormatError, match="loop"):
+        load_net("tests/data/fold/degree4.fold")
+    net = load_net("cube_net_01")
+    with pytest.raises(ValueError, match="one fold angle per crease"):
+        net.system(targets=jnp.zeros(3))
+    with pytest.raises(ValueError, match="drag"):
+        net.system(drag="water")
+    with pytest.raises(ValueError, match="release_time"):
+        net.system(release_times=-jnp.ones(5))
+
+
+@functools.cache
+def _cube(targets_deg: float):
+    net = load_net("cube_net_01")
+    system = net.system(KOH, targets=jnp.full(5, np.radians(targets_deg)))
+    trajectory = sim.simulate(
+        system, sim.Step(), t1=1500.0, n_save=301, solver=diffrax.Tsit5(), max_steps=200_000
+    )
+    return net, system, trajectory
+
+
+def test_cube_net_folds_closed():
+    net, system, trajectory = _cube(90.0)
+    report = net.assess(system, trajectory)
+    assert report.verdict == "folded", report.summary()
+    edge = 200.0
+    assert float(np.max(report.seam_gaps)) < 0.01 * edge
+    assert report.max_penetration == 0.0
+    assert report.time_to_fold is not None and report.time_to_fold < 1500.0
+
+
+def test_cube_net_aimed_at_80_degrees_is_not_folded():
+    net, system, trajectory = _cube(80.0)
+    report = net.assess(system, trajectory)
+    assert report.verdict != "folded"
+    assert report.verdict == "misfolded", report.summary()
+    assert float(np.min(report.seam_gaps)) > 10.0  # µm: every seam stays open
