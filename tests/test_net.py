@@ -27,14 +27,20 @@ def test_fold_accordion_is_the_chain_engines_accordion():
     chain_system = accordion_system(KOH, 3)
     tree, chain = tree_system.mechanism, chain_system.mechanism
     np.testing.assert_allclose(tree_system.hinges.target, chain_system.hinges.target)
-    np.testing.assert_allclose(tree_system.hinges.stiffness, chain_system.hinges.stiffness, rtol=1e-14)
-    np.testing.assert_allclose(tree_system.drag.coefficient, chain_system.drag.coefficient, rtol=1e-12)
+    np.testing.assert_allclose(
+        tree_system.hinges.stiffness, chain_system.hinges.stiffness, rtol=1e-14
+    )
+    np.testing.assert_allclose(
+        tree_system.drag.coefficient, chain_system.drag.coefficient, rtol=1e-12
+    )
     rng = np.random.default_rng(3)
     for _ in range(3):
         q = jnp.asarray(rng.uniform(-3, 3, 3))
         v = jnp.asarray(rng.normal(scale=0.05, size=3))
         scale = float(jnp.max(jnp.abs(chain.mass_matrix(q))))
-        np.testing.assert_allclose(tree.mass_matrix(q), chain.mass_matrix(q), atol=ENGINES_RTOL * scale)
+        np.testing.assert_allclose(
+            tree.mass_matrix(q), chain.mass_matrix(q), atol=ENGINES_RTOL * scale
+        )
         bias = chain.bias_force(q, v)
         np.testing.assert_allclose(
             tree.bias_force(q, v), bias, atol=ENGINES_RTOL * float(jnp.max(jnp.abs(bias)))
@@ -47,7 +53,9 @@ def test_fold_accordion_is_the_chain_engines_accordion():
         )
 
 
-@pytest.mark.parametrize("name", ["cube_net_01", "cube_net_11", "corner_cube", "tetrahedron", "octahedron"])
+@pytest.mark.parametrize(
+    "name", ["cube_net_01", "cube_net_11", "corner_cube", "tetrahedron", "octahedron"]
+)
 def test_tree_kinematics_match_the_patterns_geometry(name):
     """Panel poses from the tree (JAX) against the FOLD geometry's own rigid folding (NumPy): the seam
     gaps of both, closed at the pattern's angles and open elsewhere."""

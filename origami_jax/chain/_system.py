@@ -81,7 +81,7 @@ def accordion_system(
             chain,
             hinges.stiffness,
             hinges.target,
-            thickness=np.asarray(design.t_structural),
+            thickness=design.t_structural,
             base_outline=_base_rectangle(chain),
         )
     return FoldingSystem(

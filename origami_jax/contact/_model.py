@@ -42,6 +42,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
+from .._validate import is_traced
 from ..system import AbstractContact, AbstractMechanism
 from ._tables import ContactTables, build_tables
 
@@ -50,6 +51,8 @@ _LOG_X_MIN = float(np.log(_X_MIN))
 _B_MIN = -((_X_MIN - 1) ** 2) * _LOG_X_MIN
 _DB_MIN = -2 * (_X_MIN - 1) * _LOG_X_MIN - (_X_MIN - 1) ** 2 / _X_MIN
 _D2B_MIN = -2 * _LOG_X_MIN - 4 * (_X_MIN - 1) / _X_MIN + (_X_MIN - 1) ** 2 / _X_MIN**2
+# B''(½), the contact's curvature half-way into the activation gap (default damping).
+_D2B_HALF = -2 * float(np.log(0.5)) - 4 * (0.5 - 1) / 0.5 + (0.5 - 1) ** 2 / 0.5**2
 
 
 def barrier(x: Float[ArrayLike, "..."]) -> Float[Array, "..."]:
@@ -79,6 +82,7 @@ class PanelContact(AbstractContact):
     - `activation`: ``ĝ``, the gap at which contact switches on, length.
     - `damping`: ``c``, force·time/length, per (point, face) pair in contact.
     - `edge_width`: ``δ``, the width of the coverage ramp at a face's edge, length.
+    - `half_thickness`: half of each body's thickness, the base last, `(n,)`, length.
 
     Build it with [`origami_jax.contact.PanelContact.for_system`][] (defaults from the hinges and
     panels) or `PanelContact.from_mechanism`.
@@ -89,20 +93,22 @@ class PanelContact(AbstractContact):
     activation: Float[Array, ""]
     damping: Float[Array, ""]
     edge_width: Float[Array, ""]
+    half_thickness: Float[Array, " n"]
 
     @classmethod
     def from_mechanism(
         cls,
         mechanism: AbstractMechanism,
         *,
-        thickness: float | np.ndarray,
-        stiffness: float,
-        damping: float,
-        activation: float | None = None,
-        edge_width: float | None = None,
+        thickness: Float[ArrayLike, "*#b"],
+        stiffness: Float[ArrayLike, ""],
+        damping: Float[ArrayLike, ""],
+        activation: Float[ArrayLike, ""] | None = None,
+        edge_width: Float[ArrayLike, ""] | None = None,
         base_outline: np.ndarray | None = None,
-        base_thickness: float | None = None,
+        base_thickness: Float[ArrayLike, ""] | None = None,
         points_per_edge: int = 4,
+        tables: ContactTables | None = None,
     ) -> "PanelContact":
         """Contact of `mechanism`'s panels (their `outlines()`) with each other and with its base.
 
@@ -110,46 +116,86 @@ class PanelContact(AbstractContact):
         ``κ``, `damping` ``c``, `activation` ``ĝ`` (default: the largest of the thickness and 0.5 %
         of the largest panel), `edge_width` ``δ`` (default ``ĝ``), `base_outline` (world polygon; default
         the mechanism's `base_outline()`), `base_thickness` (default the largest panel thickness),
-        `points_per_edge` (samples along a panel's rim, see `ContactTables`).
+        `points_per_edge` (samples along a panel's rim, see `ContactTables`), `tables` (the geometry,
+        from `tables_for`, when it is at hand: under `jit` the mechanism's own arrays are traced and
+        cannot give it). The numbers may be traced (a fit or a sweep over the thickness or the
+        hinges); the geometry may not.
 
-        **Raises:** `ValueError` for non-positive values or degenerate outlines.
+        **Raises:** `ValueError` for non-positive values (when known) or degenerate outlines.
         """
         n = mechanism.n_bodies
-        thickness = np.broadcast_to(np.asarray(thickness, dtype=float), (n,))
-        if not np.all(np.isfinite(thickness)) or np.any(thickness <= 0):
-            raise ValueError(f"contact thickness must be positive, got {thickness}.")
-        for name, value in (("stiffness", stiffness), ("damping", damping)):
-            if not (np.isfinite(value) and value >= 0):
-                raise ValueError(f"contact {name} must be finite and >= 0, got {value}.")
-        base = mechanism.base_outline() if base_outline is None else base_outline
-        rest = np.asarray(mechanism.body_poses(mechanism.rest_state()[0]))
-        if activation is None:
-            size = max(float(np.max(np.ptp(o, axis=0))) for o in mechanism.outlines())
-            activation = max(float(np.max(thickness)), 0.005 * size)
-        activation = float(activation)
-        edge_width = activation if edge_width is None else float(edge_width)
-        if not (activation > 0 and edge_width > 0):
-            raise ValueError("contact activation and edge_width must be positive lengths.")
-        layout = mechanism.hinge_layout()
-        tables = build_tables(
-            mechanism.outlines(),
-            rest,
-            base,
-            thickness,
-            float(np.max(thickness)) if base_thickness is None else float(base_thickness),
-            layout.parent,
-            layout.child,
-            layout.ends,
-            inset=2 * edge_width,
-            points_per_edge=points_per_edge,
-        )
         dtype = jnp.result_type(float)
+        thickness = jnp.broadcast_to(jnp.asarray(thickness, dtype), (n,))
+        base_thickness = jnp.max(thickness) if base_thickness is None else base_thickness
+        base = mechanism.base_outline() if base_outline is None else base_outline
+        half = jnp.concatenate([thickness, jnp.asarray(base_thickness, dtype)[None]]) / 2
+        size = max(float(np.max(np.ptp(o, axis=0))) for o in mechanism.outlines())
+        if activation is None:
+            activation = jnp.maximum(jnp.max(thickness), 0.005 * size)
+        activation = jnp.asarray(activation, dtype)
+        edge_width = activation if edge_width is None else jnp.asarray(edge_width, dtype)
+        for name, value, low in (
+            ("thickness", thickness, 0.0),
+            ("stiffness", stiffness, -1.0),
+            ("damping", damping, -1.0),
+            ("activation", activation, 0.0),
+            ("edge_width", edge_width, 0.0),
+        ):
+            if not is_traced(value):
+                host = np.asarray(value)
+                if not (np.all(np.isfinite(host)) and np.all(host > low) and np.all(host >= 0)):
+                    raise ValueError(
+                        f"contact {name} must be finite and {'> 0' if low == 0 else '>= 0'}, got "
+                        f"{host}."
+                    )
+        if tables is None:
+            # Sample points sit inside each rim by twice the coverage ramp (host geometry: the
+            # nominal ramp when the thickness is traced).
+            ramp = float(edge_width) if not is_traced(edge_width) else 0.005 * size
+            tables = cls.tables_for(
+                mechanism, base_outline=base, inset=2 * ramp, points_per_edge=points_per_edge
+            )
         return cls(
             tables=tables,
             stiffness=jnp.asarray(stiffness, dtype),
-            activation=jnp.asarray(activation, dtype),
+            activation=activation,
             damping=jnp.asarray(damping, dtype),
-            edge_width=jnp.asarray(edge_width, dtype),
+            edge_width=edge_width,
+            half_thickness=half[: tables.points.shape[0]],
+        )
+
+    @staticmethod
+    def tables_for(
+        mechanism: AbstractMechanism,
+        *,
+        base_outline: np.ndarray | None = None,
+        inset: float | None = None,
+        points_per_edge: int = 4,
+    ) -> ContactTables:
+        """The contact geometry of a mechanism whose arrays are known (host; see `ContactTables`):
+        its outlines, rest poses and hinge layout. `inset` defaults to twice 0.5 % of the largest
+        panel (the default coverage ramp of a thin panel)."""
+        outlines = mechanism.outlines()
+        size = max(float(np.max(np.ptp(o, axis=0))) for o in outlines)
+        base = mechanism.base_outline() if base_outline is None else base_outline
+        try:
+            rest = np.asarray(mechanism.body_poses(mechanism.rest_state()[0]))
+        except jax.errors.TracerArrayConversionError as error:
+            raise ValueError(
+                "contact needs the panels' geometry before compilation, but this mechanism was built "
+                "from traced values (under jit, vmap or grad): build its ContactTables outside "
+                "(PanelContact.tables_for) and pass tables=, or vary hinge parameters only."
+            ) from error
+        layout = mechanism.hinge_layout()
+        return build_tables(
+            outlines,
+            rest,
+            base,
+            layout.parent,
+            layout.child,
+            layout.ends,
+            inset=0.01 * size if inset is None else float(inset),
+            points_per_edge=points_per_edge,
         )
 
     @classmethod
@@ -159,7 +205,7 @@ class PanelContact(AbstractContact):
         hinge_stiffness: Float[ArrayLike, " h"],
         hinge_target: Float[ArrayLike, " h"],
         *,
-        thickness: float | np.ndarray,
+        thickness: Float[ArrayLike, "*#b"],
         damping_ratio: float = 0.5,
         **kwargs,
     ) -> "PanelContact":
@@ -168,21 +214,21 @@ class PanelContact(AbstractContact):
         ``κ = Σ ½ k θ_target²``; ``c = 2 ζ sqrt(k_c m)`` with ``k_c = κ B''(½)/ĝ²`` the contact's
         stiffness half-way into the activation gap, ``m`` the lightest panel's mass (the smallest
         diagonal entry of ``M(0)``, divided by its squared lever arm, the panel size) and ``ζ`` =
-        `damping_ratio`. Other keyword arguments go to `from_mechanism`.
+        `damping_ratio`. Other keyword arguments go to `from_mechanism`. Traceable in the hinges,
+        the thickness and the mechanism's masses.
         """
-        k = np.asarray(hinge_stiffness, dtype=float)
-        target = np.asarray(hinge_target, dtype=float)
-        energy = float(np.sum(0.5 * k * target**2))
+        k = jnp.asarray(hinge_stiffness)
+        target = jnp.asarray(hinge_target)
+        energy = jnp.sum(0.5 * k * target**2)
         probe = cls.from_mechanism(
             mechanism, thickness=thickness, stiffness=energy, damping=0.0, **kwargs
         )
-        gap = float(probe.activation)
-        curvature = float(jax.grad(jax.grad(barrier))(0.5))
-        contact_stiffness = energy * curvature / gap**2
-        inertia = np.diag(np.asarray(mechanism.mass_matrix(mechanism.rest_state()[0])))
-        mass = float(np.min(inertia)) / probe.tables.scale**2
-        damping = 2 * damping_ratio * np.sqrt(contact_stiffness * mass)
-        return eqx.tree_at(lambda c: c.damping, probe, jnp.asarray(damping, probe.damping.dtype))
+        curvature = _D2B_HALF
+        contact_stiffness = energy * curvature / probe.activation**2
+        inertia = jnp.diag(mechanism.mass_matrix(mechanism.rest_state()[0]))
+        mass = jnp.min(inertia) / probe.tables.scale**2
+        damping = 2 * damping_ratio * jnp.sqrt(contact_stiffness * mass)
+        return eqx.tree_at(lambda c: c.damping, probe, damping.astype(probe.damping.dtype))
 
     # ---- kernels ----
 
@@ -205,7 +251,7 @@ class PanelContact(AbstractContact):
         along the face normal, and the coverage."""
         t = self.tables
         edges = jnp.asarray(t.face_edges, local.dtype)  # (b, e, 3)
-        half = jnp.asarray(t.half_thickness, local.dtype)
+        half = self.half_thickness.astype(local.dtype)
         allowed = jnp.asarray(t.pairs)
         tiny = 1e-6 * self.activation
 

@@ -28,7 +28,6 @@ class ContactTables:
       with always-true rows.
     - `pairs`: `(n, n, p)` booleans: point `i` of body `a` is checked against the face of body `b`
       (never its own; padding and points near a crease the two share are left out).
-    - `half_thickness`: `(n,)` half of each body's thickness, length.
     - `scale`: the largest panel's diameter (length).
     """
 
@@ -38,13 +37,12 @@ class ContactTables:
     points: np.ndarray
     face_edges: np.ndarray
     pairs: np.ndarray
-    half_thickness: np.ndarray
     scale: float
     digest: str = dataclasses.field(default="", repr=False)
 
     def __post_init__(self):
         h = hashlib.sha256()
-        for name in ("base_pose", "points", "face_edges", "pairs", "half_thickness"):
+        for name in ("base_pose", "points", "face_edges", "pairs"):
             array = np.ascontiguousarray(getattr(self, name))
             h.update(name.encode())
             h.update(str(array.shape).encode())
@@ -167,8 +165,6 @@ def build_tables(
     outlines: list[np.ndarray],
     rest_poses: np.ndarray,
     base_outline: np.ndarray | None,
-    thickness: np.ndarray,
-    base_thickness: float,
     crease_parent: np.ndarray,
     crease_child: np.ndarray,
     crease_ends: np.ndarray,
@@ -183,7 +179,6 @@ def build_tables(
     - `outlines`: each moving body's polygon in its body frame, lying in the frame's x–y plane
       (the mechanism's `outlines()`); `rest_poses`: `(b, 4, 4)` body poses in the flat state.
     - `base_outline`: the fixed base's polygon in world coordinates, or `None`.
-    - `thickness`: `(b,)` panel thicknesses; `base_thickness` (length).
     - `crease_parent`, `crease_child`, `crease_ends`: the hinge layout (`(h,)`, `(h,)`, `(h, 2, 3)`
       world, flat state): points of two panels that share a crease and lie within
       `crease_clearance` × (the smaller panel's size) of it are not paired with each other's face. A
@@ -245,7 +240,6 @@ def build_tables(
                     near = _distance_to_segment(rim_world, *crease_ends[h])
                     keep &= near > crease_clearance * min(sizes[body], sizes[face])
             pairs[body, face, : len(rim)] = keep
-    half = np.concatenate([np.asarray(thickness, float), [float(base_thickness)]])[:n_all] / 2
     return ContactTables(
         n_bodies=n,
         has_base=base_outline is not None,
@@ -253,6 +247,5 @@ def build_tables(
         points=padded,
         face_edges=face_edges,
         pairs=pairs,
-        half_thickness=half,
         scale=scale,
     )

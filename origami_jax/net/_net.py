@@ -54,6 +54,7 @@ class Net:
     length_scale: float
     key_frame: FoldFrame
     crease_edge_ids: tuple[tuple[int, ...], ...]
+    _tables: dict = dataclasses.field(default_factory=dict, repr=False)
 
     @property
     def n_creases(self) -> int:
@@ -158,12 +159,26 @@ class Net:
         if contact:
             contact_model = PanelContact.for_system(
                 tree,
-                np.asarray(stiffness),
-                np.asarray(targets),
-                thickness=np.asarray(design.t_structural),
-                base_thickness=float(np.asarray(design.t_structural)),
+                stiffness,
+                targets,
+                thickness=design.t_structural,
+                base_thickness=design.t_structural,
+                tables=self.contact_tables(hinges),
             )
         return FoldingSystem(tree, hinges_, drag_model, contact=contact_model, units=design.units)
+
+    def contact_tables(self, hinges: str = "point"):
+        """The panels' contact geometry (`origami_jax.contact.ContactTables`), computed once on the
+        host from the pattern (it depends on the geometry only, not on the design's numbers)."""
+        import jax
+
+        from ..contact import PanelContact
+
+        if hinges not in self._tables:
+            with jax.ensure_compile_time_eval():
+                tree = self.tree(HingeDesign.literature(), hinges=hinges)
+                self._tables[hinges] = PanelContact.tables_for(tree)
+        return self._tables[hinges]
 
     def seam_gaps(self, angles: ArrayLike) -> np.ndarray:
         """Largest end-to-end gap of each seam with the creases at `angles` (rad), in design length

@@ -350,19 +350,24 @@ def panel_tree(
     """
     parents = check_parents(parents)
     n = len(parents)
-    axes = as_float_array(hinge_axes, "hinge_axes")
-    points = as_float_array(hinge_points, "hinge_points")
-    check_shape(axes, (n, 3), "hinge_axes", f"parents has {n} panels.")
-    check_shape(points, (n, 3), "hinge_points", f"parents has {n} panels.")
-    if len(outlines) != n:
-        raise ValueError(f"outlines has {len(outlines)} polygons but parents has {n} panels.")
     thickness = _per_panel(thickness, "thickness", n)
     density = _per_panel(density, "density", n)
-    plates = [
-        polygon_plate(outline, thickness=thickness[i], density=density[i], x_axis=axes[i])
-        for i, outline in enumerate(outlines)
-    ]
-    frames = jnp.stack([p.frame for p in plates])
+    # The geometry (axes, points, frames) is known even when the thickness or density is traced (a
+    # design fit or a sweep over them under `jit`, where `jnp.asarray` of a host array is staged):
+    # evaluate what can be evaluated now, so the host-side checks below and the static outlines see
+    # concrete values.
+    with jax.ensure_compile_time_eval():
+        axes = as_float_array(hinge_axes, "hinge_axes")
+        points = as_float_array(hinge_points, "hinge_points")
+        check_shape(axes, (n, 3), "hinge_axes", f"parents has {n} panels.")
+        check_shape(points, (n, 3), "hinge_points", f"parents has {n} panels.")
+        if len(outlines) != n:
+            raise ValueError(f"outlines has {len(outlines)} polygons but parents has {n} panels.")
+        plates = [
+            polygon_plate(outline, thickness=thickness[i], density=density[i], x_axis=axes[i])
+            for i, outline in enumerate(outlines)
+        ]
+        frames = jnp.stack([p.frame for p in plates])
     host_frames = np.asarray(frames)
     host_axes, host_points = np.asarray(axes), np.asarray(points)
     for i in range(n):

@@ -272,7 +272,7 @@ def assess(
     if seam_tolerance is None:
         seam_tolerance = 0.01 * contact.tables.scale if contact is not None else 1.0
     if thickness is None and contact is not None:
-        thickness = 2 * float(np.min(contact.tables.half_thickness))
+        thickness = 2 * float(np.min(contact.half_thickness))
     theta = np.asarray(trajectory.theta)
     final = theta[-1]
     errors = final - intended
