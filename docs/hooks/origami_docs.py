@@ -26,6 +26,14 @@ EXTERNAL = (
 )
 
 
+def on_config(config):
+    # `mkdocs serve` rebuilds when these change too.
+    for folder in {folder for folder, _, _ in EXTERNAL} | {"origami_jax"}:
+        if str(ROOT / folder) not in config.watch:
+            config.watch.append(str(ROOT / folder))
+    return config
+
+
 @event_priority(100)  # before mkdocs-jupyter turns .ipynb files into pages
 def on_files(files: Files, config) -> Files:
     for folder, pattern, target in EXTERNAL:

@@ -12,6 +12,7 @@ includes both; commit the changed files.
 import argparse
 import json
 import math
+import os
 import subprocess
 import sys
 import tempfile
@@ -112,7 +113,9 @@ def main(argv=None) -> int:
             out = Path(scratch) / "paper"
             command = [sys.executable, "-m", "origami_jax", "paper", "--out", str(out)]
             print("running:", " ".join(command), flush=True)
-            subprocess.run(command, check=True, cwd=ROOT)
+            # This checkout's package, whatever is installed.
+            path = os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")]))
+            subprocess.run(command, check=True, cwd=ROOT, env=dict(os.environ, PYTHONPATH=path))
         out = out.resolve()
         GALLERY.mkdir(parents=True, exist_ok=True)
         for source, name in FIGURES.items():
