@@ -75,8 +75,8 @@ def vertex_from_geometry(geometry: VertexGeometry) -> SingleVertex:
             raise FoldFormatError(
                 f"{where}: creases {folded} are fully folded (±180°, the default for M and V "
                 "without edges_foldAngle). A flat-folded state is outside the charge model "
-                "(docs/physics.md, Part A): give edges_foldAngle of a slightly opened state, "
-                "e.g. ±170°"
+                '(docs/physics.md, "Single-vertex geometry"): give edges_foldAngle of a slightly '
+                "opened state, e.g. ±170°"
             )
         return SingleVertex.from_fold_angles(
             geometry.sector_angles, geometry.fold_angles, closed=geometry.closed
