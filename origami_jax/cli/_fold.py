@@ -211,12 +211,14 @@ def run(args: argparse.Namespace) -> int:
     print(report.summary())
     print(f"wrote {out / 'result.json'}, trajectory.csv, trajectory.fold")
     if not args.no_figures and bool(trajectory.succeeded):
-        _figures(system, trajectory, out, net.name)
+        # Show the fold itself rather than the long rest after it.
+        t_max = None if report.time_to_fold is None else min(2.0 * report.time_to_fold, args.t1)
+        _figures(system, trajectory, out, net.name, t_max)
     del jnp
     return EXIT_OK if report.verdict == "folded" else EXIT_FAILED
 
 
-def _figures(system, trajectory, out: Path, name: str) -> None:
+def _figures(system, trajectory, out: Path, name: str, t_max: float | None) -> None:
     import matplotlib.pyplot as plt
 
     from origami_jax.plotting import chain as plots
@@ -224,6 +226,6 @@ def _figures(system, trajectory, out: Path, name: str) -> None:
     fig = plots.plot_joint_angles(trajectory, None, title=f"{name}: fold angles")
     fig.savefig(out / "angles.png", dpi=120)
     plt.close(fig)
-    fig = plots.folding_frames(system, trajectory, out / "frames.png", n_frames=6)
+    fig = plots.folding_frames(system, trajectory, out / "frames.png", n_frames=6, t_max=t_max)
     plt.close(fig)
-    plots.animate_folding(system, trajectory, out / "animation.gif", n_frames=40)
+    plots.animate_folding(system, trajectory, out / "animation.gif", n_frames=40, t_max=t_max)
