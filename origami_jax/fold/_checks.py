@@ -7,6 +7,8 @@ counter-clockwise faces, fold-angle signs against assignments).
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 
 from ._errors import FoldFormatError
@@ -72,17 +74,18 @@ def check_frame(frame: FoldFrame, where: str) -> None:
 
 
 def _check_signs(assignment: tuple[str, ...], angles: np.ndarray, where: str) -> None:
-    kinds = np.asarray(assignment, dtype="<U1")
+    codes = {"M": 0, "V": 1, "B": 2, "F": 2}  # U and C take any angle
+    kinds = np.fromiter(map(codes.get, assignment, itertools.repeat(3)), np.int8, len(assignment))
     angles = np.asarray(angles, dtype=np.float64)
     with np.errstate(invalid="ignore"):  # NaN (no angle given) is never wrong
         wrong = (
-            ((kinds == "M") & (angles > ANGLE_SIGN_TOL_DEG))
-            | ((kinds == "V") & (angles < -ANGLE_SIGN_TOL_DEG))
-            | (((kinds == "B") | (kinds == "F")) & (np.abs(angles) > ANGLE_SIGN_TOL_DEG))
+            ((kinds == 0) & (angles > ANGLE_SIGN_TOL_DEG))
+            | ((kinds == 1) & (angles < -ANGLE_SIGN_TOL_DEG))
+            | ((kinds == 2) & (np.abs(angles) > ANGLE_SIGN_TOL_DEG))
         )
     if np.any(wrong):
         i = int(np.argmax(wrong))
-        a, angle = str(kinds[i]), float(angles[i])
+        a, angle = assignment[i], float(angles[i])
         expected = {"M": "<= 0 (mountain)", "V": ">= 0 (valley)", "B": "0", "F": "0"}[a]
         raise FoldFormatError(
             f"{where}: edge {i} is assigned {a!r} but edges_foldAngle[{i}] = {angle:g} degrees; "
@@ -97,7 +100,8 @@ def _faces_by_size(faces) -> dict[int, tuple[np.ndarray, np.ndarray]]:
     lengths = np.fromiter(map(len, faces), dtype=np.int64, count=len(faces))
     if len(lengths) and lengths.min() == lengths.max():  # the usual case: all triangles, say
         k = int(lengths[0])
-        return {k: (np.arange(len(faces)), np.asarray(faces, dtype=np.int64).reshape(-1, k))}
+        ids = np.fromiter(itertools.chain.from_iterable(faces), np.int64, count=k * len(faces))
+        return {k: (np.arange(len(faces)), ids.reshape(-1, k))}
     groups: dict[int, list[int]] = {}
     for f, face in enumerate(faces):
         groups.setdefault(len(face), []).append(f)
@@ -135,10 +139,11 @@ def _check_faces(frame: FoldFrame, where: str) -> None:
         owners.append(np.broadcast_to(index[:, None], ids.shape)[keep])
     u, v, owner = (np.concatenate(x) for x in (tails, heads, owners))
     key = u * max(n_vertices, 1) + v
-    order = np.lexsort((owner, key))
-    key, owner = key[order], owner[order]
-    repeated = np.flatnonzero(key[1:] == key[:-1])
-    if len(repeated):
+    ordered = np.sort(key)
+    if np.any(ordered[1:] == ordered[:-1]):  # rare: then find the faces to name
+        order = np.lexsort((owner, key))
+        key, owner = key[order], owner[order]
+        repeated = np.flatnonzero(key[1:] == key[:-1])
         # The first face (in file order) that runs along a side an earlier face already ran along.
         second = owner[repeated + 1]
         j = repeated[int(np.argmin(second))]

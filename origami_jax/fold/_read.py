@@ -246,15 +246,24 @@ def _uniform_rows(rows: list, lengths: set[int]) -> bool:
     return set(map(type, rows)) <= {list} and set(map(len, rows)) <= lengths
 
 
+def _bulk(rows: list, width: int, dtype) -> np.ndarray | None:
+    """`rows` (lists of `width` entries, types checked by the caller) as a `(len, width)` array,
+    or `None` when a value does not fit `dtype` (the element pass then names it)."""
+    try:
+        flat = np.fromiter(
+            itertools.chain.from_iterable(rows), dtype=dtype, count=len(rows) * width
+        )
+    except (OverflowError, ValueError, TypeError):
+        return None
+    return flat.reshape(len(rows), width)
+
+
 def _coords(value: Any, where: str) -> np.ndarray:
     rows = _list(value, "vertices_coords", where)
     out = None
     if rows and _uniform_rows(rows, {2, 3}) and len(set(map(len, rows))) == 1:
         if _flat_types(rows) <= {int, float}:
-            try:
-                out = np.array(rows, dtype=np.float64)
-            except OverflowError:  # an integer beyond float64: the loop below names it
-                out = None
+            out = _bulk(rows, len(rows[0]), np.float64)
     if out is not None and np.all(np.isfinite(out)) and np.all(np.abs(out) <= MAX_COORDINATE):
         return out
     dimension = 2
@@ -288,11 +297,9 @@ def _finite_coordinate(x: int | float) -> bool:
 def _edges(value: Any, where: str) -> np.ndarray:
     rows = _list(value, "edges_vertices", where)
     if _uniform_rows(rows, {2}) and _flat_types(rows) <= {int}:
-        flat = list(itertools.chain.from_iterable(rows))
-        if not flat or (min(flat) >= 0 and max(flat) <= _MAX_INDEX):
-            out = np.array(rows, dtype=np.int64).reshape(len(rows), 2)
-            loops = np.flatnonzero(out[:, 0] == out[:, 1])
-            if len(loops) == 0:
+        out = _bulk(rows, 2, np.int64)  # ids beyond int64 give None
+        if out is not None and (len(out) == 0 or out.min() >= 0):
+            if not np.any(out[:, 0] == out[:, 1]):
                 return out
     out = np.zeros((len(rows), 2), dtype=np.int64)
     for i, row in enumerate(rows):
@@ -369,8 +376,12 @@ def _faces(value: Any, where: str) -> tuple[tuple[int, ...], ...]:
     rows = _list(value, "faces_vertices", where)
     if set(map(type, rows)) <= {list} and (not rows or min(map(len, rows)) >= 3):
         if _flat_types(rows) <= {int}:
-            flat = list(itertools.chain.from_iterable(rows))
-            if not flat or (min(flat) >= 0 and max(flat) <= _MAX_INDEX):
+            total = sum(map(len, rows))
+            try:
+                flat = np.fromiter(itertools.chain.from_iterable(rows), np.int64, count=total)
+            except OverflowError:  # an id beyond int64: the element pass names it
+                flat = None
+            if flat is not None and (total == 0 or flat.min() >= 0):
                 return tuple(map(tuple, rows))
     out = []
     for i, row in enumerate(rows):
