@@ -61,6 +61,7 @@ def test_negative_or_non_finite_system_values_are_refused(two_flaps):
         sim.simulate(nan_target, sim.Step(), t1=10.0)
 
 
+@pytest.mark.slow
 def test_traced_end_time_is_checked_when_the_solve_runs():
     # Under jit the value is unknown while tracing: the same check runs in the compiled solve.
     system = accordion_system(HingeDesign.literature(), 1)

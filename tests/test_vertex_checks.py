@@ -101,7 +101,7 @@ def test_random_vertex_of_many_creases_is_refused_or_fails_fast():
 
 
 def test_random_vertex_still_draws_valid_vertices():
-    vertex = random_vertex(jax.random.key(3), 12, closed=True)
+    vertex = random_vertex(jax.random.key(3), 4, closed=True)  # the size the sweep tests use
     report = validate_vertex(vertex)
     assert report.min_clearance >= np.radians(2.0) and not report.contacts
     folds = np.asarray(fold_angles(vertex))

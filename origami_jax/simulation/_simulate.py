@@ -304,15 +304,19 @@ def _checked_times(ts, t0, t1) -> Array:
 
 
 def _check_system_values(system: FoldingSystem) -> None:
-    """Concrete numbers of `system` (a system built outside `jit`): finite, positive stiffness,
-    non-negative hinge drag. Traced systems (a sweep's batch) are left to their builder."""
+    """Concrete numbers of `system` (a system built outside `jit`): hinges and drag finite, no NaN
+    anywhere, positive stiffness, non-negative hinge drag. Traced systems (a sweep's batch) are left
+    to their builder."""
     for path, leaf in jax.tree_util.tree_leaves_with_path(system):
         if is_traced(leaf) or not eqx.is_inexact_array(leaf):
             continue
-        if not np.all(np.isfinite(np.asarray(leaf))):
+        where = jax.tree_util.keystr(path).lstrip(".")
+        # A mechanism or contact model may use infinity on purpose (a limit that is not there).
+        physics = where.startswith(("hinges", "drag"))
+        values = np.asarray(leaf)
+        if np.any(np.isnan(values)) or (physics and not np.all(np.isfinite(values))):
             raise ValueError(
-                f"the system's {jax.tree_util.keystr(path).lstrip('.')} contains NaN or inf; "
-                "check the values that built it."
+                f"the system's {where} contains NaN or inf; check the values that built it."
             )
     stiffness = system.hinges.stiffness
     if not is_traced(stiffness) and np.any(np.asarray(stiffness) <= 0):
