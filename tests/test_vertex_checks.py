@@ -113,3 +113,4 @@ def test_hinge_design_refuses_a_fold_angle_in_degrees():
         HingeDesign.literature(theta_final=100.0)
     design = HingeDesign.literature(theta_final=np.pi)  # the paper's 180°: fine
     assert float(design.hinge_length()) == pytest.approx(np.pi * float(design.radius()))
+    HingeDesign.literature(theta_final=np.float32(np.pi))  # π rounded up to float32 is π too

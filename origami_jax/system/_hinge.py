@@ -8,6 +8,7 @@ the dynamics. Constants are defined in SI and converted into the design's `UnitS
 µm, µs, ng ⇒ stress MPa, torque µN·µm = pN·m).
 """
 
+import math
 from typing import Literal
 
 import equinox as eqx
@@ -173,10 +174,10 @@ def _check_fold_angle(theta_final: Array) -> None:
     if is_traced(theta_final):
         return
     largest = float(jnp.max(theta_final))
-    if largest > float(jnp.pi):
+    if largest > math.pi * (1 + 1e-6):  # π rounded to float32 is a little above π
         raise ValueError(
             f"theta_final is a fold angle in radians, at most π (180°, the flap folded flat onto "
-            f"its neighbour); got {largest:g} rad ({largest * 180 / float(jnp.pi):.4g}°), which "
+            f"its neighbour); got {largest:g} rad ({math.degrees(largest):.4g}°), which "
             "would make the hinge ρ·θ_final long. Give radians (numpy.radians converts degrees)."
         )
 
