@@ -68,7 +68,7 @@ def check_positive(array: Array, name: str, unit: str = "") -> Array:
     if np.any(host <= 0):
         bad = host[host <= 0].ravel()[0]
         raise ValueError(
-            f"{name} must be positive{f' ({unit})' if unit else ''}, got {bad!r}; "
+            f"{name} must be positive{f' ({unit})' if unit else ''}, got {float(bad):g}; "
             "thicknesses, lengths, widths, densities and masses are magnitudes."
         )
     return array

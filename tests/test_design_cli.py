@@ -9,7 +9,7 @@ from origami_jax.cli import main
 
 def test_bad_number_is_a_usage_error(tmp_path, capsys):
     assert main(["design", "--target-rise", "37e-6,abc", "--out", str(tmp_path)]) == 2
-    assert "could not convert" in capsys.readouterr().err
+    assert "'abc' is not a number" in capsys.readouterr().err
 
 
 def test_unknown_parameter_is_a_usage_error(tmp_path, capsys):

@@ -1,31 +1,288 @@
-"""Pieces every subcommand shares: the output folder, float64, the exit codes."""
+"""Pieces every subcommand shares: the output folder, one-line errors, JSON and number checks.
+
+Every command writes its results through an `OutputFolder`: files go to a staging folder inside
+`--out` and are moved into place only when the command has finished, so the results in `--out` are
+always those of one complete run. A kill mid-run leaves the earlier results untouched (and a
+`.partial-*` folder that the next run removes). A folder that already holds results of the same
+command is refused unless `--overwrite` is given; with it the earlier run's files are replaced, and
+those the new run does not write are removed.
+
+Errors a command reports are `CLIError`s (one line, exit code 2 or 1); `_main.main` turns anything
+else into one line too, and `--debug` shows the traceback.
+"""
+
+from __future__ import annotations
 
 import argparse
+import json
+import math
 import os
+import shutil
+import sys
+import uuid
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
+from typing import Any, NoReturn
 
 DEFAULT_OUT = Path("origami_out")
 
 # Exit codes of the CLI. 0 success; 1 the computation ran but its answer is negative or failed
-# (e.g. a vertex that stalls, a solver that failed); 2 bad usage or bad input.
+# (e.g. a vertex that stalls, a solver that failed); 2 bad usage or bad input; 130 interrupted.
 EXIT_OK = 0
 EXIT_FAILED = 1
 EXIT_USAGE = 2
+EXIT_INTERRUPTED = 130
+
+STAGING_PREFIX = ".partial-"
+# Longest list a message prints in full; longer ones are cut with "... and N more".
+MESSAGE_LIST_LIMIT = 8
+
+
+class CLIError(Exception):
+    """A problem a command reports as one line on stderr, with exit code `code` (default 2)."""
+
+    def __init__(self, message: str, code: int = EXIT_USAGE):
+        super().__init__(message)
+        self.code = code
+
+
+class Interrupted(CLIError):
+    """Ctrl-C, with a message saying what was kept (exit code 130)."""
+
+    def __init__(self, message: str = "interrupted"):
+        super().__init__(message, EXIT_INTERRUPTED)
+
+
+def fail(message: str, code: int = EXIT_USAGE) -> NoReturn:
+    """Stop the command with a one-line message (exit code `code`, default 2: bad input)."""
+    raise CLIError(message, code)
+
+
+def one_line(text: str, limit: int = 400) -> str:
+    """The first non-empty line of `text`, cut to `limit` characters."""
+    for line in str(text).splitlines():
+        if line.strip():
+            line = line.strip()
+            return line if len(line) <= limit else line[: limit - 3] + "..."
+    return ""
+
+
+def capped(items: Sequence[Any], limit: int = MESSAGE_LIST_LIMIT) -> str:
+    """`items` joined by ", ", at most `limit` of them, then "... and N more"."""
+    shown = ", ".join(str(x) for x in items[:limit])
+    return shown + (f", ... and {len(items) - limit} more" if len(items) > limit else "")
 
 
 def add_out_argument(parser: argparse.ArgumentParser, default: Path = DEFAULT_OUT) -> None:
+    """`--out FOLDER` and `--overwrite` (see the module docstring)."""
     parser.add_argument(
         "--out",
         type=Path,
         default=default,
         help=f"output folder, created if missing (default: ./{default})",
     )
+    parser.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="replace the results of an earlier run of this command in --out (default: refuse "
+        "and keep them)",
+    )
+
+
+# Numbers from the command line: each check names the flag and says what it takes.
+def finite(value: float, flag: str) -> float:
+    if not math.isfinite(value):
+        fail(f"{flag} must be a finite number, got {value}.")
+    return value
+
+
+def positive(value: float, flag: str, unit: str = "") -> float:
+    if not (math.isfinite(value) and value > 0):
+        fail(f"{flag} must be a positive finite number{f' ({unit})' if unit else ''}, got {value}.")
+    return value
+
+
+def in_range(value: float, flag: str, low: float, high: float, *, what: str = "") -> float:
+    """`low < value < high` (open interval)."""
+    if not (math.isfinite(value) and low < value < high):
+        fail(f"{flag} must lie strictly between {low:g} and {high:g}{what}, got {value}.")
+    return value
+
+
+def int_range(value: int, flag: str, low: int, high: int, *, why: str = "") -> int:
+    """`low <= value <= high`."""
+    if not low <= value <= high:
+        fail(f"{flag} must be between {low} and {high}{why}, got {value}.")
+    return value
+
+
+def jsonable(value: Any) -> Any:
+    """`value` as plain JSON: NumPy and JAX numbers and arrays as Python numbers and lists, NaN and
+    infinities as `None` (JSON `null`: strict JSON has no NaN), mappings and sequences recursed."""
+    if isinstance(value, Mapping):
+        return {str(k): jsonable(v) for k, v in value.items()}
+    if isinstance(value, str | bool) or value is None:
+        return value
+    if isinstance(value, int):
+        return value
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, list | tuple):
+        return [jsonable(v) for v in value]
+    if hasattr(value, "tolist"):  # NumPy or JAX scalar or array
+        return jsonable(value.tolist())
+    return str(value)
+
+
+def dumps_json(value: Any) -> str:
+    """Strict JSON text of `value` (see `jsonable`), indented."""
+    return json.dumps(jsonable(value), indent=2, allow_nan=False) + "\n"
+
+
+def write_atomic(path: Path, data: str | bytes) -> Path:
+    """Write `data` to `path` through a temporary file in the same folder and `os.replace`, so that
+    `path` holds either its old content or all of the new one; the temporary file is removed if the
+    write fails (a full disk, Ctrl-C)."""
+    path = Path(path)
+    tmp = path.with_name(f".tmp-{os.getpid()}-{uuid.uuid4().hex[:12]}-{path.name}")
+    try:
+        with open(tmp, "wb") as handle:
+            handle.write(data.encode("utf-8") if isinstance(data, str) else data)
+            handle.flush()
+            os.fsync(handle.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    return path
+
+
+def _pid_alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def _stale_staging(out: Path) -> Iterable[Path]:
+    """Staging folders left by killed runs (their process is gone)."""
+    for path in out.glob(f"{STAGING_PREFIX}*"):
+        parts = path.name[len(STAGING_PREFIX) :].split("-")
+        pid = next((int(p) for p in parts if p.isdigit()), None)
+        if path.is_dir() and (pid is None or not _pid_alive(pid)):
+            yield path
+
+
+def check_out_folder(out: Path, flag: str = "--out") -> Path:
+    """Create `out` (and parents) and check it can be written; one-line errors otherwise."""
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        fail(f"{flag} {out} is a file, not a folder: give a folder to write the results into.")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        fail(f"cannot create the output folder {out}: {error.strerror or error}.")
+    if not os.access(out, os.W_OK | os.X_OK):
+        fail(f"cannot write into the output folder {out}: permission denied.")
+    return out
+
+
+class OutputFolder:
+    """The results of one command run, written as a unit into `out` (module docstring).
+
+    **Arguments:**
+    - `out`: the folder (created if missing).
+    - `command`: the subcommand's name, for messages and the staging folder's name.
+    - `owns`: glob patterns (relative to `out`) of every file this command writes there. A match
+      means the folder holds an earlier run's results: refused unless `overwrite`; with `overwrite`
+      the matches this run does not write again are removed when it commits.
+    - `overwrite`: replace earlier results (the `--overwrite` flag).
+
+    Write into `dir` (a staging folder inside `out`, same layout); `commit()` moves every file into
+    `out` and returns their final paths. As a context manager it commits on success and discards
+    the staging folder on an exception (Ctrl-C included).
+
+    **Raises:** `CLIError` when `out` is a file, cannot be written, or holds results (see `owns`).
+    """
+
+    def __init__(self, out: Path, *, command: str, owns: Sequence[str], overwrite: bool = False):
+        self.out = check_out_folder(Path(out))
+        self.command = command
+        self.owns = tuple(owns)
+        self.overwrite = overwrite
+        for stale in _stale_staging(self.out):
+            shutil.rmtree(stale, ignore_errors=True)
+        earlier = self.existing()
+        if earlier and not overwrite:
+            names = [str(p.relative_to(self.out)) for p in earlier]
+            fail(
+                f"{self.out} already holds results of an earlier run ({capped(names, 4)}); pass "
+                "--overwrite to replace them, or choose another --out."
+            )
+        self.dir = self.out / f"{STAGING_PREFIX}{command}-{os.getpid()}-{uuid.uuid4().hex[:8]}"
+        try:
+            self.dir.mkdir()
+        except OSError as error:
+            fail(f"cannot write into the output folder {self.out}: {error.strerror or error}.")
+        self.committed: list[Path] = []
+        self.discarded = False
+
+    def existing(self) -> list[Path]:
+        """Files in `out` that match `owns` (results of an earlier run)."""
+        found: set[Path] = set()
+        for pattern in self.owns:
+            found.update(p for p in self.out.glob(pattern) if p.is_file())
+        return sorted(found)
+
+    def final(self, path: str | os.PathLike) -> Path:
+        """Where a file written under `dir` ends up after `commit()`."""
+        path = Path(path)
+        try:
+            return self.out / path.relative_to(self.dir)
+        except ValueError:
+            return path
+
+    def commit(self) -> list[Path]:
+        """Move every staged file into `out` (replacing earlier ones), remove the earlier run's
+        files this run did not write (with `overwrite`), and return the final paths."""
+        if self.discarded:
+            return []
+        staged = sorted(p for p in self.dir.rglob("*") if p.is_file())
+        finals = [self.final(p) for p in staged]
+        if self.overwrite:
+            keep = set(finals)
+            for old in self.existing():
+                if old not in keep:
+                    old.unlink(missing_ok=True)
+        for source, target in zip(staged, finals, strict=True):
+            target.parent.mkdir(parents=True, exist_ok=True)
+            os.replace(source, target)
+        shutil.rmtree(self.dir, ignore_errors=True)
+        self.committed = finals
+        return finals
+
+    def discard(self) -> None:
+        """Drop everything staged: `out` keeps what it held."""
+        shutil.rmtree(self.dir, ignore_errors=True)
+        self.discarded = True
+
+    def __enter__(self) -> OutputFolder:
+        return self
+
+    def __exit__(self, kind, value, traceback) -> None:
+        if kind is None:
+            self.commit()
+        else:
+            self.discard()
 
 
 def prepare_out(out: Path) -> Path:
-    """Create the output folder (and parents); return it."""
-    out.mkdir(parents=True, exist_ok=True)
-    return out
+    """Create the output folder (and parents) with one-line errors; return it. Commands that write
+    results use `OutputFolder` instead."""
+    return check_out_folder(Path(out))
 
 
 def setup_runtime() -> None:
@@ -38,3 +295,8 @@ def setup_runtime() -> None:
     import jax
 
     jax.config.update("jax_enable_x64", True)
+
+
+def print_error(command: str | None, message: str) -> None:
+    prefix = "origami-jax" + (f" {command}" if command else "")
+    print(f"{prefix}: {message}", file=sys.stderr)

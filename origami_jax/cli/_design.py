@@ -1,13 +1,28 @@
 """`origami-jax design`: Fit hinge parameters to target rise times / overshoot or to a measured response."""
 
 import argparse
-import json
 import math
-import sys
 import time
+from pathlib import Path
 from typing import overload
 
-from ._common import EXIT_FAILED, EXIT_OK, EXIT_USAGE, add_out_argument, prepare_out
+from .._limits import MAX_FLAPS
+from ._common import (
+    EXIT_FAILED,
+    EXIT_OK,
+    EXIT_USAGE,
+    OutputFolder,
+    add_out_argument,
+    dumps_json,
+    fail,
+    int_range,
+    positive,
+    write_atomic,
+)
+
+# Most starts and optimiser steps a command-line fit takes (the starts run as one vmapped batch).
+MAX_STARTS = 256
+MAX_FIT_STEPS = 10_000
 
 _EPILOG = """\
 Times are in SI seconds on the command line; per-joint lists are comma-separated with '-' for a joint
@@ -70,7 +85,16 @@ def _floats(text: str | None, what: str) -> list[float] | None:
     values = []
     for item in text.split(","):
         item = item.strip()
-        values.append(math.nan if item in ("", "-", "nan") else float(item))
+        if item in ("", "-", "nan"):
+            values.append(math.nan)
+            continue
+        try:
+            value = float(item)
+        except ValueError:
+            raise ValueError(f"{what}: {item!r} is not a number.") from None
+        if not math.isfinite(value):
+            raise ValueError(f"{what}: {item!r} is not finite (use '-' for a joint without one).")
+        values.append(value)
     if not values or all(math.isnan(v) for v in values):
         raise ValueError(f"{what}: no values in {text!r}.")
     return values
@@ -99,6 +123,36 @@ def _convert(units, kind: str, value: float) -> float:
     }.get(kind, lambda v: v)(value)
 
 
+def _check_numbers(args: argparse.Namespace) -> None:
+    if args.n_flaps is not None:
+        int_range(args.n_flaps, "--n-flaps", 1, MAX_FLAPS)
+    if args.t1 is not None:
+        positive(args.t1, "--t1", "s")
+    int_range(args.starts, "--starts", 1, MAX_STARTS)
+    int_range(args.max_steps, "--max-steps", 1, MAX_FIT_STEPS)
+    positive(args.tolerance, "--tolerance", "relative miss")
+
+
+def _read_curve(path: str):
+    import numpy as np
+
+    file = Path(path)
+    if not file.is_file():
+        fail(f"--curve {path}: no such file.")
+    try:
+        table = np.loadtxt(file, delimiter=",", skiprows=1, ndmin=2)
+    except (ValueError, OSError) as error:
+        fail(f"--curve {path}: not a CSV of numbers with one header line ({error}).")
+    if table.shape[1] < 2 or table.shape[0] < 2:
+        fail(
+            f"--curve {path}: needs columns t (s), theta_1, ... and at least 2 rows, got shape "
+            f"{table.shape}."
+        )
+    if not np.all(np.isfinite(table[:, 0])):
+        fail(f"--curve {path}: the times (first column) must be finite.")
+    return table
+
+
 def run(args: argparse.Namespace) -> int:
     try:
         rise = _floats(args.target_rise, "--target-rise")
@@ -107,32 +161,42 @@ def run(args: argparse.Namespace) -> int:
         settling = _floats(args.target_settling, "--target-settling")
         final = _floats(args.target_final, "--target-final")
     except ValueError as error:
-        print(f"origami-jax design: {error}", file=sys.stderr)
-        return EXIT_USAGE
+        fail(str(error))
+    _check_numbers(args)
     lists = [v for v in (rise, peak, settling, final) if v is not None]
     n = args.n_flaps or (len(lists[0]) if lists else None)
     if n is None and args.curve is None and overshoot is not None:
         n = 3
     if n is None and args.curve is None:
-        print(
-            "origami-jax design: give at least one target (--target-*, --curve).", file=sys.stderr
-        )
-        return EXIT_USAGE
+        fail("give at least one target (--target-*, --curve).")
+    table = None if args.curve is None else _read_curve(args.curve)
+    if n is not None:
+        int_range(n, "the joint count of the targets", 1, MAX_FLAPS)
+    output = OutputFolder(
+        Path(args.out),
+        command="design",
+        owns=("design.json", "design_response.png"),
+        overwrite=args.overwrite,
+    )
+    with output:
+        code = _fit(args, output.dir, n, table, rise, overshoot, peak, settling, final)
+    if code == EXIT_OK or code == EXIT_FAILED:
+        print(f"wrote {output.out / 'design.json'} and {output.out / 'design_response.png'}")
+    return code
 
+
+def _fit(args, out: Path, n, table, rise, overshoot, peak, settling, final) -> int:
     print(
         "origami-jax design: loading JAX and compiling (the first fit takes a minute) ...",
         flush=True,
     )
-    import numpy as np
-
     import origami_jax.design as ojd
     from origami_jax.system import AIR, KOH_SOLUTION, MICRO, HingeDesign
 
     units = MICRO
     try:
         curve = None
-        if args.curve is not None:
-            table = np.loadtxt(args.curve, delimiter=",", skiprows=1, ndmin=2)
+        if table is not None:
             curve = ojd.MeasuredCurve(units.time(table[:, 0]), table[:, 1:])
             n = n or curve.theta.shape[1]
         assert n is not None  # from the targets or the curve, checked above
@@ -153,18 +217,16 @@ def run(args: argparse.Namespace) -> int:
             name, _, span = item.partition("=")
             lower, _, upper = span.partition(":")
             kind = ojd.parameter_unit(name.strip())
-            bounds[name.strip()] = (
-                _convert(units, kind, float(lower)),
-                _convert(units, kind, float(upper)),
-            )
+            low, high = float(lower), float(upper)
+            if not (math.isfinite(low) and math.isfinite(high) and low < high):
+                raise ValueError(f"--bounds {item!r}: give finite lower < upper.")
+            bounds[name.strip()] = (_convert(units, kind, low), _convert(units, kind, high))
         fluid = AIR if args.fluid == "air" else KOH_SOLUTION
         hinge = HingeDesign.literature(units, fluid=fluid)
         t1 = None if args.t1 is None else units.time(args.t1)
     except ValueError as error:
-        print(f"origami-jax design: {error}", file=sys.stderr)
-        return EXIT_USAGE
+        fail(str(error))
 
-    out = prepare_out(args.out)
     print(
         f"  targets: {', '.join(targets.labels) or '-'}{' + measured curve' if curve is not None else ''}"
         f"\n  free: {', '.join(free)}; {args.starts} starts, up to {args.max_steps} steps each",
@@ -184,8 +246,7 @@ def run(args: argparse.Namespace) -> int:
             tolerance=args.tolerance,
         )
     except (ValueError, RuntimeError) as error:
-        print(f"origami-jax design: {error}", file=sys.stderr)
-        return EXIT_FAILED if isinstance(error, RuntimeError) else EXIT_USAGE
+        fail(str(error), EXIT_FAILED if isinstance(error, RuntimeError) else EXIT_USAGE)
     print(f"  fitted in {time.perf_counter() - start:.1f} s (compilation included)", flush=True)
     print(result.summary())
 
@@ -198,12 +259,10 @@ def run(args: argparse.Namespace) -> int:
         }
         for row in result.targets
     }
-    with open(out / "design.json", "w") as file:
-        json.dump(payload, file, indent=2, default=float)
+    write_atomic(out / "design.json", dumps_json(payload))
     print("  drawing the before/after response ...", flush=True)
     import matplotlib
 
     matplotlib.use("Agg")
     ojd.plot_response(result, path=out / "design_response.png")
-    print(f"wrote {out / 'design.json'} and {out / 'design_response.png'}")
     return EXIT_OK if result.reached else EXIT_FAILED

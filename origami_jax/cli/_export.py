@@ -7,10 +7,9 @@
 """
 
 import argparse
-import sys
 from pathlib import Path
 
-from ._common import EXIT_OK, EXIT_USAGE, add_out_argument, prepare_out
+from ._common import EXIT_OK, OutputFolder, add_out_argument, fail
 from ._unfold import EXAMPLES as CATALOGUE
 from ._unfold import catalogue_vertex
 
@@ -50,20 +49,22 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     from origami_jax.fold import FoldFormatError
 
+    if args.name is not None and (not args.name or Path(args.name).name != args.name):
+        fail(f"--name must be a plain file name without folders, got {args.name!r}.")
     try:
         if args.source in CATALOGUE:
             return _export_catalogue(args)
         if args.source.lower().endswith(".fold") or Path(args.source).exists():
             return _export_file(args)
     except FoldFormatError as error:
-        print(f"origami-jax export: {error}", file=sys.stderr)
-        return EXIT_USAGE
-    print(
-        f"origami-jax export: unknown SOURCE {args.source!r}: give one of "
-        f"{', '.join(CATALOGUE)} or a .fold file",
-        file=sys.stderr,
+        fail(str(error))
+    fail(
+        f"unknown SOURCE {args.source!r}: give one of {', '.join(CATALOGUE)} or a .fold file",
     )
-    return EXIT_USAGE
+
+
+# Vertices listed after an export (a large pattern has thousands).
+LISTED_VERTICES = 20
 
 
 def _export_file(args: argparse.Namespace) -> int:
@@ -77,19 +78,15 @@ def _export_file(args: argparse.Namespace) -> int:
 
     source = Path(args.source)
     if not source.is_file():
-        print(f"origami-jax export: no such file: {source}", file=sys.stderr)
-        return EXIT_USAGE
+        fail(f"no such file: {source}")
     fold = normalise_fold(read_fold(source))
-    out = prepare_out(Path(args.out))
-    target = out / f"{args.name or source.stem}.fold"
-    if target.resolve() == source.resolve():
-        print(
-            f"origami-jax export: refusing to overwrite the input {source}; choose another --out "
-            "or --name",
-            file=sys.stderr,
-        )
-        return EXIT_USAGE
-    write_fold(target, fold)
+    name = f"{args.name or source.stem}.fold"
+    if (Path(args.out) / name).resolve() == source.resolve():
+        fail(f"refusing to overwrite the input {source}; choose another --out or --name")
+    output = OutputFolder(Path(args.out), command="export", owns=(name,), overwrite=args.overwrite)
+    with output:
+        write_fold(output.dir / name, fold)
+    target = output.out / name
     key = fold.key_frame
     print(
         f"wrote {target}: FOLD {fold.file_spec}, {fold.n_frames} frame(s), {key.n_vertices} "
@@ -98,9 +95,11 @@ def _export_file(args: argparse.Namespace) -> int:
     if key.edges_assignment is not None:
         candidates = candidate_vertices(list_vertices(fold))
         if candidates:
-            print("vertices where creases meet (origami-jax unfold FILE --vertex N):")
-            for vertex in candidates:
+            print("vertices where creases meet (origami-jax unfold FILE --vertex-index N):")
+            for vertex in candidates[:LISTED_VERTICES]:
                 print(f"  {vertex}")
+            if len(candidates) > LISTED_VERTICES:
+                print(f"  ... and {len(candidates) - LISTED_VERTICES} more")
     return EXIT_OK
 
 
@@ -109,8 +108,11 @@ def _export_catalogue(args: argparse.Namespace) -> int:
     from ..fold import write_fold
     from ..vertex import single_vertex_to_fold
 
-    fold = single_vertex_to_fold(catalogue_vertex(args.source), title=args.source)
-    out = prepare_out(Path(args.out))
-    target = write_fold(out / f"{args.name or args.source}.fold", fold)
+    name = f"{args.name or args.source}.fold"
+    output = OutputFolder(Path(args.out), command="export", owns=(name,), overwrite=args.overwrite)
+    with output:
+        fold = single_vertex_to_fold(catalogue_vertex(args.source), title=args.source)
+        write_fold(output.dir / name, fold)
+    target = output.out / name
     print(f"wrote {target}: {args.source}, {fold.n_frames} frame(s) (crease pattern + state)")
     return EXIT_OK

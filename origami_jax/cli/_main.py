@@ -1,4 +1,10 @@
-"""Top-level argument parser; each subcommand lives in its own module with ``register(subparsers)``."""
+"""Top-level argument parser; each subcommand lives in its own module with ``register(subparsers)``.
+
+`main` is the one place where errors become exit codes: a command's `CLIError` prints its one line;
+Ctrl-C prints one line and exits 130; any other exception prints one line naming the input and the
+error (exit 2 for a `ValueError`, bad input found by the library; 1 otherwise), or its traceback
+with `--debug`.
+"""
 
 import argparse
 import sys
@@ -6,33 +12,89 @@ from collections.abc import Sequence
 
 from .._version import __version__
 from . import _design, _export, _fold, _paper, _simulate, _sweep, _unfold, _view
-from ._common import EXIT_USAGE, setup_runtime
+from ._common import (
+    EXIT_FAILED,
+    EXIT_INTERRUPTED,
+    EXIT_USAGE,
+    CLIError,
+    one_line,
+    print_error,
+    setup_runtime,
+)
 
 SUBCOMMANDS = (_paper, _unfold, _simulate, _fold, _design, _sweep, _export, _view)
+DEBUG_HELP = "show the full traceback of an unexpected error"
+# Arguments that name a command's input, in the order they are looked for (for error messages).
+_INPUT_ARGUMENTS = ("config", "target", "source", "result", "curve")
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with one-line usage errors (its default prints the whole usage block first)."""
+
+    def error(self, message: str):  # pyright: ignore[reportIncompatibleMethodOverride]
+        self.exit(EXIT_USAGE, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="origami-jax",
         description=(
             "Differentiable simulator for nanostructured origami: unfold single-vertex origami with "
             "charge energies, simulate stressed-hinge folding of flap chains, design hinges, sweep "
             "designs. `origami-jax paper` reproduces the paper's examples."
         ),
+        epilog=(
+            "Results: every command writes into --out as one unit (moved into place when the run "
+            "ends) and refuses a folder that holds results of an earlier run unless --overwrite is "
+            "given. Exit codes: 0 success, 1 the computation failed or its answer is negative, "
+            "2 bad input, 130 interrupted."
+        ),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
+    parser.add_argument("--debug", action="store_true", help=DEBUG_HELP)
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
     for module in SUBCOMMANDS:
         module.register(subparsers)
+    for sub in subparsers.choices.values():
+        # Also after the subcommand; SUPPRESS keeps a top-level --debug when not repeated here.
+        sub.add_argument("--debug", action="store_true", default=argparse.SUPPRESS, help=DEBUG_HELP)
     return parser
 
 
+def _input_of(args: argparse.Namespace, argv: Sequence[str]) -> str:
+    for name in _INPUT_ARGUMENTS:
+        value = getattr(args, name, None)
+        if value is not None:
+            return str(value)
+    options = " ".join(a for a in argv if a not in ("--debug", args.command))
+    options = options if len(options) <= 120 else options[:117] + "..."
+    return f"the options '{options}'" if options else "the default options"
+
+
 def main(argv: Sequence[str] | None = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
     parser = build_parser()
     args = parser.parse_args(argv)
     if args.command is None:
         parser.print_help(sys.stderr)
         return EXIT_USAGE
     setup_runtime()
-    return int(args.func(args))
+    try:
+        return int(args.func(args))
+    except CLIError as error:
+        print_error(args.command, str(error))
+        return error.code
+    except KeyboardInterrupt:
+        print_error(args.command, "interrupted (Ctrl-C); nothing was written to --out.")
+        return EXIT_INTERRUPTED
+    except Exception as error:
+        if args.debug:
+            raise
+        kind = type(error).__name__
+        message = one_line(str(error)) or kind
+        print_error(
+            args.command,
+            f"failed on {_input_of(args, argv)}: {kind}: {message} (--debug shows the traceback)",
+        )
+        return EXIT_USAGE if isinstance(error, ValueError) else EXIT_FAILED

@@ -8,7 +8,7 @@ import argparse
 import time
 from pathlib import Path
 
-from ._common import EXIT_OK, add_out_argument, prepare_out
+from ._common import EXIT_OK, OutputFolder, add_out_argument, write_atomic
 
 HELP = (
     "Reproduce the paper's examples (unfoldings of Fig. 3, step and ramp responses of Figs. 7-11, "
@@ -33,16 +33,28 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.set_defaults(func=run)
 
 
+# Everything the parts write (see each part), relative to --out.
+OWNS = (
+    "summary.txt",
+    "dynamics_metrics.json",
+    "fig*",
+    "slow_ramp_koh_trajectory.*",
+    "unfolding/*",
+    "calibration/*",
+)
+
+
 def run(args: argparse.Namespace) -> int:
-    out = prepare_out(Path(args.out))
+    output = OutputFolder(Path(args.out), command="paper", owns=OWNS, overwrite=args.overwrite)
     summary: list[str] = ["origami_jax: reproduction of the paper's examples", ""]
-    for title, part in _parts():
-        start = time.perf_counter()
-        print(f"[paper] {title} ...", flush=True)
-        lines = part(out)
-        elapsed = time.perf_counter() - start
-        summary += [f"## {title}", *lines, f"(took {elapsed:.1f} s)", ""]
-        print("\n".join(lines), flush=True)
-    (out / "summary.txt").write_text("\n".join(summary) + "\n")
-    print(f"[paper] summary written to {out / 'summary.txt'}")
+    with output:
+        for title, part in _parts():
+            start = time.perf_counter()
+            print(f"[paper] {title} ...", flush=True)
+            lines = [line.replace(str(output.dir), str(output.out)) for line in part(output.dir)]
+            elapsed = time.perf_counter() - start
+            summary += [f"## {title}", *lines, f"(took {elapsed:.1f} s)", ""]
+            print("\n".join(lines), flush=True)
+        write_atomic(output.dir / "summary.txt", "\n".join(summary) + "\n")
+    print(f"[paper] results and summary written to {output.out / 'summary.txt'}")
     return EXIT_OK

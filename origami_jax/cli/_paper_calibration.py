@@ -8,9 +8,10 @@ four numbers the paper reports (rise times 37 / 101 / 38 µs, joint-1 overshoot 
 Levenberg–Marquardt through the simulation. The fitted values are an output, never a default.
 """
 
-import json
 import math
 from pathlib import Path
+
+from ._common import dumps_json, write_atomic
 
 N_STARTS = (
     8  # the fit's cost landscape has several local minima (joint 2's rise is near-discontinuous)
@@ -34,8 +35,8 @@ def run(out: Path) -> list[str]:
     )
     folder = Path(out) / "calibration"
     folder.mkdir(parents=True, exist_ok=True)
-    (folder / "fig7_calibration.json").write_text(json.dumps(result.to_dict(), indent=2))
-    (folder / "fig7_calibration.txt").write_text(result.summary() + "\n")
+    write_atomic(folder / "fig7_calibration.json", dumps_json(result.to_dict()))
+    write_atomic(folder / "fig7_calibration.txt", result.summary() + "\n")
     ojd.plot_response(result, path=folder / "fig7_calibration_response.png")
     plt.close("all")
     k_scale, b_scale = (float(v) for v in result.values)

@@ -6,8 +6,9 @@ not give its width, drag coefficient or residual strain, so its numbers (joint 1
 times 37 / 101 / 38 µs) are quoted for comparison only; matching them is a calibration task (the paper job's calibration part).
 """
 
-import json
 from pathlib import Path
+
+from ._common import dumps_json, write_atomic
 
 PAPER_RISE_US = (37.0, 101.0, 38.0)
 PAPER_OVERSHOOT_JOINT1 = 39.0
@@ -104,7 +105,7 @@ def run(out: Path) -> list[str]:
         "(k × 3.07, b × 18.6 reach 36 % and 38 / 96 / 39 µs; see the calibration below), never a default."
     )
     lines += _contact_comparison(out, record)
-    (out / "dynamics_metrics.json").write_text(json.dumps(record, indent=2))
+    write_atomic(out / "dynamics_metrics.json", dumps_json(record))
     return lines
 
 

@@ -3,10 +3,27 @@ etch-rate ramp input; write the trajectory, the metrics and the figures."""
 
 import argparse
 import json
-import sys
+import math
 from pathlib import Path
 
-from ._common import EXIT_FAILED, EXIT_OK, EXIT_USAGE, add_out_argument, prepare_out
+from .._limits import MAX_FLAPS, MAX_SAMPLES
+from ._common import (
+    EXIT_FAILED,
+    EXIT_OK,
+    OutputFolder,
+    add_out_argument,
+    capped,
+    dumps_json,
+    fail,
+    in_range,
+    int_range,
+    positive,
+    print_error,
+    write_atomic,
+)
+
+# HingeDesign arguments that are not numbers (so not --param).
+_NOT_PARAMS = frozenset({"structural", "hinge", "fluid", "stiffness_model", "drag_model", "units"})
 
 HELP = (
     "Simulate the folding of a hinged-flap chain (accordion) under a step or etch-rate ramp input."
@@ -23,7 +40,9 @@ DESCRIPTION = HELP + (
 def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser("simulate", help=HELP, description=DESCRIPTION)
     parser.add_argument("--input", choices=("step", "ramp", "fast-ramp"), default="step")
-    parser.add_argument("--flaps", type=int, default=3, help="number of flaps (default 3)")
+    parser.add_argument(
+        "--flaps", type=int, default=3, help=f"number of flaps, 1 to {MAX_FLAPS} (default 3)"
+    )
     parser.add_argument("--fluid", choices=("air", "koh"), default="air", help="default air")
     parser.add_argument(
         "--param",
@@ -43,21 +62,60 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     parser.add_argument("--rtol", type=float, default=None, help="default 1e-7")
     parser.add_argument("--atol", type=float, default=None, help="default 1e-9")
-    parser.add_argument("--n-save", type=int, default=2001, help="samples (default 2001)")
-    parser.add_argument("--band", type=float, default=0.02, help="settling band (default 0.02)")
+    parser.add_argument(
+        "--n-save", type=int, default=2001, help="samples, at least 2 (default 2001)"
+    )
+    parser.add_argument(
+        "--band", type=float, default=0.02, help="settling band, in (0, 1) (default 0.02)"
+    )
     parser.add_argument("--format", choices=("csv", "npz"), default="csv")
     parser.add_argument("--no-figures", action="store_true", help="skip figures and animation")
     add_out_argument(parser)
     parser.set_defaults(func=run)
 
 
+def param_names() -> tuple[str, ...]:
+    """The HingeDesign arguments `--param` sets (the numeric ones)."""
+    import inspect
+
+    from origami_jax.system import HingeDesign
+
+    signature = inspect.signature(HingeDesign.__init__)
+    return tuple(n for n in signature.parameters if n != "self" and n not in _NOT_PARAMS)
+
+
 def _parse_params(items: list[str]) -> dict[str, float]:
+    names = param_names()
     params = {}
     for item in items:
         name, sep, value = item.partition("=")
+        name = name.strip()
         if not sep:
-            raise ValueError(f"--param expects NAME=VALUE, got {item!r}.")
-        params[name.strip()] = float(value)
+            fail(f"--param expects NAME=VALUE, got {item!r}.")
+        if name not in names:
+            fail(f"--param {name!r} is not a hinge parameter; give one of {capped(names, 20)}.")
+        try:
+            number = float(value)
+        except ValueError:
+            fail(f"--param {name}={value!r}: the value must be a number (MICRO units).")
+        if not math.isfinite(number):
+            fail(f"--param {name}={value}: the value must be finite.")
+        params[name] = number
+    return params
+
+
+def check_arguments(args: argparse.Namespace) -> dict[str, float]:
+    """Every number of the command line checked before JAX is imported: `CLIError` (exit 2, one
+    line) for a bad one. Returns the parsed `--param` overrides."""
+    params = _parse_params(args.param)
+    int_range(args.flaps, "--flaps", 1, MAX_FLAPS, why=" (longer chains: use the Python API)")
+    int_range(args.n_save, "--n-save", 2, MAX_SAMPLES)
+    if args.t1 is not None:
+        positive(args.t1, "--t1", "µs, the end of the run; it starts at 0")
+    for flag, value in (("--rtol", args.rtol), ("--atol", args.atol)):
+        if value is not None:
+            positive(value, flag)
+    in_range(args.band, "--band", 0.0, 1.0, what=" (a fraction of the target angle)")
     return params
 
 
@@ -76,33 +134,49 @@ def write_trajectory(trajectory, path: Path, *, fmt: str = "csv", time_unit: str
         "theta_dot": f"rad/{time_unit}",
         "tau": "pN*m" if time_unit == "us" else "N*m",
     }
+    import io
+
+    buffer = io.BytesIO()
     if fmt == "npz":
         path = path.with_suffix(".npz")
         np.savez(
-            path, times=times, theta=theta, theta_dot=theta_dot, tau=tau, units=json.dumps(units)
+            buffer, times=times, theta=theta, theta_dot=theta_dot, tau=tau, units=json.dumps(units)
         )
-        return path
+        return write_atomic(path, buffer.getvalue())
     path = path.with_suffix(".csv")
     columns = [f"time [{units['time']}]"]
     columns += [f"theta_{j + 1} [rad]" for j in range(n)]
     columns += [f"theta_dot_{j + 1} [{units['theta_dot']}]" for j in range(n)]
     columns += [f"tau_{j + 1} [{units['tau']}]" for j in range(n)]
     data = np.column_stack([times, theta, theta_dot, tau])
-    np.savetxt(path, data, delimiter=",", header=",".join(columns), comments="", fmt="%.12g")
-    return path
+    np.savetxt(buffer, data, delimiter=",", header=",".join(columns), comments="", fmt="%.12g")
+    return write_atomic(path, buffer.getvalue())
+
+
+# The figures `write_figures` draws, named after the input.
+FIGURE_PATTERNS = ("*_angles.png", "*_frames.png", "*_animation.gif")
 
 
 def run(args: argparse.Namespace) -> int:
-    try:
-        params = _parse_params(args.param)
-    except ValueError as error:
-        print(f"origami-jax simulate: {error}", file=sys.stderr)
-        return EXIT_USAGE
-    if args.flaps < 1:
-        print("origami-jax simulate: --flaps must be at least 1.", file=sys.stderr)
-        return EXIT_USAGE
-    out = prepare_out(Path(args.out))
+    params = check_arguments(args)
+    output = OutputFolder(
+        Path(args.out),
+        command="simulate",
+        owns=("trajectory.*", "metrics.json", *FIGURE_PATTERNS),
+        overwrite=args.overwrite,
+    )
+    with output:
+        code, lines, problem = _run(args, params, output.dir)
+    for line in lines:
+        print(line.replace(str(output.dir), str(output.out)))
+    if problem:
+        print_error("simulate", problem)
+    return code
 
+
+def _run(args: argparse.Namespace, params: dict[str, float], out: Path):
+    """The run itself, writing into `out` (the staging folder). Returns the exit code, the lines
+    to print and a one-line problem to report (or `None`)."""
     import diffrax
     import jax.numpy as jnp
 
@@ -118,8 +192,7 @@ def run(args: argparse.Namespace) -> int:
             **params,  # pyright: ignore[reportArgumentType]
         )
     except (TypeError, ValueError) as error:
-        print(f"origami-jax simulate: bad --param: {error}", file=sys.stderr)
-        return EXIT_USAGE
+        fail(f"bad --param: {error}")
     n = args.flaps
     system = accordion_system(design, n)
     k, b = system.hinges.stiffness, system.drag.coefficient
@@ -186,22 +259,21 @@ def run(args: argparse.Namespace) -> int:
     if ok:
         metrics = sim.response_metrics(trajectory, band=args.band)
         report["metrics"] = metrics.as_dict()
-    (out / "metrics.json").write_text(json.dumps(report, indent=2))
-    print(f"trajectory: {path}\nmetrics: {out / 'metrics.json'}")
+    write_atomic(out / "metrics.json", dumps_json(report))
+    lines = [f"trajectory: {path}", f"metrics: {out / 'metrics.json'}"]
     if metrics is not None:
         for j in range(n):
-            print(
+            lines.append(
                 f"joint {j + 1}: rise {float(metrics.rise_time[j]):.4g} µs, overshoot "
                 f"{float(metrics.overshoot[j]):.3g} %, peak at {float(metrics.peak_time[j]):.4g} µs"
                 + (" [rise ill-conditioned]" if bool(metrics.rise_ill_conditioned[j]) else "")
                 + (" [settling ill-posed]" if bool(metrics.settling_ill_posed[j]) else "")
             )
     if not ok:
-        print(f"origami-jax simulate: solve failed: {report['result']}", file=sys.stderr)
-        return EXIT_FAILED
+        return EXIT_FAILED, lines, f"solve failed: {report['result']}"
     if not args.no_figures:
         write_figures(system, trajectory, metrics, out, ramp=ramp, name=args.input)
-    return EXIT_OK
+    return EXIT_OK, lines, None
 
 
 def write_figures(

@@ -1,11 +1,18 @@
 """`origami-jax sweep`: Run a batch sweep over designs from a TOML config, chunked, resumable."""
 
 import argparse
-import sys
 import time
 from pathlib import Path
 
-from ._common import EXIT_FAILED, EXIT_OK, EXIT_USAGE, add_out_argument, prepare_out
+from ._common import (
+    EXIT_FAILED,
+    EXIT_OK,
+    Interrupted,
+    OutputFolder,
+    check_out_folder,
+    fail,
+    write_atomic,
+)
 
 DESCRIPTION = """\
 Run a batch sweep over designs from a TOML config, chunked, resumable.
@@ -14,7 +21,12 @@ The config names the model (and its input), its settings, the design space (grid
 uniform samples or a table) and the parameters with their ranges; see examples/sweep_*.toml.
 Writes OUT/sweep.nc (NetCDF, parameters as coordinates, units as attributes), OUT/chunks/ (one file
 per finished chunk: an interrupted sweep continues with --resume), OUT/plots/ and OUT/summary.txt.
-Exit codes: 0 all designs succeeded, 1 some designs failed (marked in `result`), 2 bad config.
+A folder holding a sweep is never overwritten: continue it with --resume (the stored chunks are
+checked; an unreadable or foreign one is set aside as chunks/NAME.bad and recomputed), or choose
+another --out. A second sweep on a folder in use by a running one is refused. Ctrl-C, a full disk
+or a kill keep every finished chunk: continue with --resume.
+Exit codes: 0 all designs succeeded, 1 some designs failed (marked in `result`) or the run stopped
+(disk full), 2 bad config or a folder in use, 130 interrupted.
 """
 
 
@@ -26,7 +38,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("config", type=Path, nargs="?", help="sweep configuration (TOML)")
-    add_out_argument(parser, default=Path("origami_out/sweep"))
+    parser.add_argument(
+        "--out",
+        type=Path,
+        default=Path("origami_out/sweep"),
+        help="output folder, created if missing (default: ./origami_out/sweep)",
+    )
     parser.add_argument("--resume", action="store_true", help="continue the sweep stored in --out")
     parser.add_argument("--no-plots", action="store_true", help="skip the summary plots")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -48,17 +65,15 @@ def run(args: argparse.Namespace) -> int:
         _list_models()
         return EXIT_OK
     if args.config is None:
-        print("origami-jax sweep: give a CONFIG.toml (or --list-models).", file=sys.stderr)
-        return EXIT_USAGE
-    from ..sweep import load_config, sweep
+        fail("give a CONFIG.toml (or --list-models).")
+    out = check_out_folder(Path(args.out))
+    from ..sweep import SweepBusyError, load_config, sweep
 
     try:
         config = load_config(args.config)
     except (ValueError, OSError) as error:
-        print(f"origami-jax sweep: bad config {args.config}: {error}", file=sys.stderr)
-        return EXIT_USAGE
+        fail(f"bad config {args.config}: {error}")
 
-    out = prepare_out(Path(args.out))
     print(
         f"[sweep] model {config.kernel.name}: {config.space.size} designs over "
         f"{', '.join(config.space.names)} -> {out}",
@@ -74,9 +89,16 @@ def run(args: argparse.Namespace) -> int:
             resume=args.resume,
             progress=not args.no_progress,
         )
-    except (FileExistsError, ValueError) as error:
-        print(f"origami-jax sweep: {error}", file=sys.stderr)
-        return EXIT_USAGE
+    except (FileExistsError, ValueError, SweepBusyError) as error:
+        fail(str(error))
+    except OSError as error:
+        fail(f"{error.strerror or error}", EXIT_FAILED)
+    except KeyboardInterrupt:
+        stored = len(list((out / "chunks").glob("part-*.nc")))
+        raise Interrupted(
+            f"interrupted; the {stored} finished chunk(s) are kept in {out / 'chunks'}: continue "
+            "with --resume."
+        ) from None
     elapsed = time.perf_counter() - start
     n, failed = dataset.attrs["n_designs"], dataset.attrs["n_failed"]
     lines = [
@@ -100,11 +122,17 @@ def run(args: argparse.Namespace) -> int:
             lines.append(
                 f"  result {code} ({meanings.get(code, '?')}): {(codes == code).sum()} designs"
             )
-    if not args.no_plots:
-        from ..plotting import sweep as sweep_plots
+    # The summary and plots describe this dataset: replaced together (the sweep itself decided,
+    # through its manifest, that this run may write here).
+    owns = ("summary.txt",) if args.no_plots else ("summary.txt", "plots/*.png")
+    with OutputFolder(out, command="sweep", owns=owns, overwrite=True) as output:
+        if not args.no_plots:
+            from ..plotting import sweep as sweep_plots
 
-        paths = sweep_plots.summary_plots(dataset, out / "plots", metrics=config.plot_metrics)
-        lines.append(f"plots: {len(paths)} in {out / 'plots'}")
-    (out / "summary.txt").write_text("\n".join(lines) + "\n")
+            paths = sweep_plots.summary_plots(
+                dataset, output.dir / "plots", metrics=config.plot_metrics
+            )
+            lines.append(f"plots: {len(paths)} in {out / 'plots'}")
+        write_atomic(output.dir / "summary.txt", "\n".join(lines) + "\n")
     print("\n".join(lines))
     return EXIT_FAILED if failed else EXIT_OK

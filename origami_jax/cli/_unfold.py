@@ -1,10 +1,11 @@
 """`origami-jax unfold`: Unfold a single-vertex origami by charge-energy descent and give a verdict (flat-unfoldable or not)."""
 
 import argparse
-import sys
+import io
+import math
 from pathlib import Path
 
-from ._common import EXIT_FAILED, EXIT_OK, EXIT_USAGE, add_out_argument, prepare_out
+from ._common import EXIT_FAILED, EXIT_OK, OutputFolder, add_out_argument, fail, write_atomic
 
 EXAMPLES = ("corner-cube", "waterbomb", "degree4", "open-chain")
 HELP = "Unfold a single-vertex origami by charge-energy descent and give a verdict (flat-unfoldable or not)."
@@ -27,8 +28,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         default="separable",
         help="Eq. 1 or Eq. 2",
     )
-    parser.add_argument("--p", type=float, default=None, help="energy exponent (default 2 / 4)")
-    parser.add_argument("--max-steps", type=int, default=2000, help="accepted steps per run")
+    parser.add_argument(
+        "--p", type=float, default=None, help="energy exponent, > 0 (default 2 / 4)"
+    )
+    parser.add_argument(
+        "--max-steps", type=int, default=2000, help="accepted steps per run, >= 1 (default 2000)"
+    )
     parser.add_argument("--no-escapes", action="store_true", help="do not try escapes on a stall")
     parser.add_argument("--vertex-index", type=int, default=None, help="FOLD vertex to unfold")
     parser.add_argument("--no-pictures", action="store_true", help="skip PNG/GIF output")
@@ -67,8 +72,9 @@ def write_path(result, out: Path, stem: str = "path") -> list[Path]:
     import numpy as np
 
     npz = out / f"{stem}.npz"
+    buffer = io.BytesIO()
     np.savez(
-        npz,
+        buffer,
         directions=result.path,
         fold_angles_rad=result.fold_angles,
         energy=result.energy,
@@ -79,6 +85,7 @@ def write_path(result, out: Path, stem: str = "path") -> list[Path]:
         verdict=result.verdict.value,
         units="directions: unit vectors (dimensionless); angles: radians; energy: dimensionless",
     )
+    write_atomic(npz, buffer.getvalue())
     csv = out / f"{stem}.csv"
     creases = result.crease_report.creases
     header = ["step", "path_length_rad", "energy"] + [f"fold_{int(c)}_deg" for c in creases]
@@ -90,29 +97,59 @@ def write_path(result, out: Path, stem: str = "path") -> list[Path]:
             np.rad2deg(result.fold_angles),
         ]
     )
-    np.savetxt(csv, rows, delimiter=",", header=",".join(header), comments="", fmt="%.10g")
+    buffer = io.BytesIO()
+    np.savetxt(buffer, rows, delimiter=",", header=",".join(header), comments="", fmt="%.10g")
+    write_atomic(csv, buffer.getvalue())
     return [npz, csv]
+
+
+# Files `unfold` writes: the path and the pictures of `save_unfolding_pictures`.
+OWNS = (
+    "path.npz",
+    "path.csv",
+    "path.html",
+    "unfolding_strip.png",
+    "unfolding_energy.png",
+    "unfolding.gif",
+)
 
 
 def run(args: argparse.Namespace) -> int:
     from .. import vertex
 
-    try:
-        target = load_target(args.target, args.vertex_index)
-    except (ValueError, OSError) as error:
-        print(f"origami-jax unfold: {error}", file=sys.stderr)
-        return EXIT_USAGE
-    out = prepare_out(Path(args.out))
-    result = vertex.unfold(
-        target, energy=args.energy, p=args.p, max_steps=args.max_steps, escapes=not args.no_escapes
-    )
-    print(result.summary())
-    if result.verdict == vertex.Verdict.INVALID:
-        return EXIT_FAILED
-    written = write_path(result, out)
-    if not args.no_pictures:
-        from ..plotting.vertex import save_unfolding_pictures
+    if args.p is not None and not (math.isfinite(args.p) and args.p > 0):
+        fail(f"--p must be a positive finite energy exponent (e.g. 2 or 4), got {args.p}.")
+    if args.max_steps < 1:
+        fail(f"--max-steps must be at least 1, got {args.max_steps}.")
+    if args.vertex_index is not None and args.vertex_index < 0:
+        fail(f"--vertex-index must be >= 0, got {args.vertex_index}.")
+    if args.target not in EXAMPLES and not Path(args.target).is_file():
+        fail(
+            f"no such file: {args.target}"
+            if args.target.endswith(".fold")
+            else f"unknown example {args.target!r}: choose {', '.join(EXAMPLES)} or a .fold file"
+        )
+    output = OutputFolder(Path(args.out), command="unfold", owns=OWNS, overwrite=args.overwrite)
+    with output:
+        try:
+            target = load_target(args.target, args.vertex_index)
+        except (ValueError, OSError) as error:
+            fail(str(error))
+        result = vertex.unfold(
+            target,
+            energy=args.energy,
+            p=args.p,
+            max_steps=args.max_steps,
+            escapes=not args.no_escapes,
+        )
+        print(result.summary())
+        if result.verdict == vertex.Verdict.INVALID:
+            output.discard()
+            return EXIT_FAILED
+        written = write_path(result, output.dir)
+        if not args.no_pictures:
+            from ..plotting.vertex import save_unfolding_pictures
 
-        written += save_unfolding_pictures(result, out)
-    print("wrote " + ", ".join(str(p) for p in written))
+            written += save_unfolding_pictures(result, output.dir)
+    print("wrote " + ", ".join(str(output.final(p)) for p in written))
     return EXIT_OK if result.verdict == vertex.Verdict.FLAT_UNFOLDED else EXIT_FAILED

@@ -4,7 +4,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from ._common import EXIT_OK, EXIT_USAGE
+from ._common import EXIT_OK, check_out_folder, fail, one_line
 
 HELP = "Write an interactive 3D view of a result (one offline HTML page) and open it if asked."
 DESCRIPTION = """\
@@ -46,6 +46,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="at most this many frames, evenly spaced in time (default 300; 0 keeps every sample)",
     )
     parser.add_argument("--member", type=int, default=None, help="design index in a sweep.nc")
+    parser.add_argument(
+        "--overwrite", action="store_true", help="replace an existing page (default: refuse)"
+    )
     parser.add_argument("--title", default=None, help="the page's title")
     parser.add_argument("--open", action="store_true", help="open the page in the web browser")
     parser.set_defaults(func=run)
@@ -67,21 +70,27 @@ def run(args: argparse.Namespace) -> int:
     from ..view import DEFAULT_MAX_FRAMES, load_scene, open_in_browser, resample, write_html
 
     if args.frames is not None and args.frames < 0 or args.frames == 1:
-        print("origami-jax view: --frames must be 0 (all samples) or at least 2", file=sys.stderr)
-        return EXIT_USAGE
+        fail("--frames must be 0 (all samples) or at least 2")
     max_frames = DEFAULT_MAX_FRAMES if args.frames is None else (args.frames or None)
     if args.member is not None and args.result.suffix.lower() != ".nc":
-        print("origami-jax view: --member only applies to a sweep.nc", file=sys.stderr)
-        return EXIT_USAGE
+        fail("--member only applies to a sweep.nc")
+    if args.member is not None and args.member < 0:
+        fail(f"--member must be a design index >= 0, got {args.member}")
+    if not args.result.exists():
+        fail(f"no such file: {args.result}")
+    target = _target(args)
+    if target.is_dir():
+        fail(f"{target} is a folder: give --out FILE.html or a folder to put the page in")
+    if target.exists() and not args.overwrite:
+        fail(f"{target} exists; pass --overwrite to replace it, or choose another --out")
+    check_out_folder(target.parent, "the folder of the page")
     try:
         scene = load_scene(args.result, member=args.member, title=args.title)
         samples = scene.n_frames
         scene = resample(scene, max_frames)
-        target = write_html(scene, _target(args))
+        target = write_html(scene, target)
     except (ValueError, OSError, KeyError) as error:
-        message = str(error).splitlines()[0] if str(error) else type(error).__name__
-        print(f"origami-jax view: {message}", file=sys.stderr)
-        return EXIT_USAGE
+        fail(one_line(str(error)) or type(error).__name__)
     shown = f"{scene.n_frames} frames" + (
         f" of {samples} samples" if samples > scene.n_frames else ""
     )

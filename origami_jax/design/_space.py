@@ -255,8 +255,15 @@ def parameter_space(
             )
         value = np.asarray(_getter(name)(hinge), dtype=float)
         start = float(value)
-        lo, hi = bounds.get(name, (start / _DEFAULT_FACTOR, start * _DEFAULT_FACTOR))
+        default_hi = start * _DEFAULT_FACTOR
+        if name == "theta_final":  # a fold angle: at most π (see HingeDesign)
+            default_hi = min(default_hi, max(float(np.pi), start))  # float32 π is above π
+        lo, hi = bounds.get(name, (start / _DEFAULT_FACTOR, default_hi))
         lo, hi = float(lo), float(hi)
+        if name == "theta_final" and hi > np.pi * (1 + 1e-6):
+            raise ValueError(
+                f"bounds of theta_final must lie within (0, π] rad (a fold angle), got ({lo}, {hi})."
+            )
         if start <= 0 and name not in bounds:
             raise ValueError(f"{name} starts at {start}; give explicit bounds for it.")
         if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):

@@ -7,6 +7,8 @@ counter-clockwise faces, fold-angle signs against assignments).
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 
 from ._errors import FoldFormatError
@@ -72,57 +74,126 @@ def check_frame(frame: FoldFrame, where: str) -> None:
 
 
 def _check_signs(assignment: tuple[str, ...], angles: np.ndarray, where: str) -> None:
-    for i, (a, angle) in enumerate(zip(assignment, angles, strict=True)):
-        if np.isnan(angle):
-            continue
+    codes = {"M": 0, "V": 1, "B": 2, "F": 2}  # U and C take any angle
+    kinds = np.fromiter(map(codes.get, assignment, itertools.repeat(3)), np.int8, len(assignment))
+    angles = np.asarray(angles, dtype=np.float64)
+    with np.errstate(invalid="ignore"):  # NaN (no angle given) is never wrong
         wrong = (
-            (a == "M" and angle > ANGLE_SIGN_TOL_DEG)
-            or (a == "V" and angle < -ANGLE_SIGN_TOL_DEG)
-            or (a in "BF" and abs(angle) > ANGLE_SIGN_TOL_DEG)
+            ((kinds == 0) & (angles > ANGLE_SIGN_TOL_DEG))
+            | ((kinds == 1) & (angles < -ANGLE_SIGN_TOL_DEG))
+            | ((kinds == 2) & (np.abs(angles) > ANGLE_SIGN_TOL_DEG))
         )
-        if wrong:
-            expected = {"M": "<= 0 (mountain)", "V": ">= 0 (valley)", "B": "0", "F": "0"}[a]
-            raise FoldFormatError(
-                f"{where}: edge {i} is assigned {a!r} but edges_foldAngle[{i}] = {angle:g} degrees; "
-                f"it must be {expected}. FOLD: valley +, mountain -, flat and boundary 0. "
-                "Fix the assignment or the sign."
-            )
+    if np.any(wrong):
+        i = int(np.argmax(wrong))
+        a, angle = assignment[i], float(angles[i])
+        expected = {"M": "<= 0 (mountain)", "V": ">= 0 (valley)", "B": "0", "F": "0"}[a]
+        raise FoldFormatError(
+            f"{where}: edge {i} is assigned {a!r} but edges_foldAngle[{i}] = {angle:g} degrees; "
+            f"it must be {expected}. FOLD: valley +, mountain -, flat and boundary 0. "
+            "Fix the assignment or the sign."
+            + (f" ({int(wrong.sum()) - 1} more edges like it.)" if wrong.sum() > 1 else "")
+        )
+
+
+def _faces_by_size(faces) -> dict[int, tuple[np.ndarray, np.ndarray]]:
+    """Faces grouped by vertex count: `k -> (face indices (F_k,), vertex ids (F_k, k))`."""
+    lengths = np.fromiter(map(len, faces), dtype=np.int64, count=len(faces))
+    if len(lengths) and lengths.min() == lengths.max():  # the usual case: all triangles, say
+        k = int(lengths[0])
+        ids = np.fromiter(itertools.chain.from_iterable(faces), np.int64, count=k * len(faces))
+        return {k: (np.arange(len(faces)), ids.reshape(-1, k))}
+    groups: dict[int, list[int]] = {}
+    for f, face in enumerate(faces):
+        groups.setdefault(len(face), []).append(f)
+    out = {}
+    for k, index in groups.items():
+        rows = [faces[f] for f in index]
+        out[k] = (
+            np.asarray(index, dtype=np.int64),
+            np.asarray(rows, dtype=np.int64).reshape(-1, k),
+        )
+    return out
 
 
 def _check_faces(frame: FoldFrame, where: str) -> None:
     faces = frame.faces_vertices or ()
+    if not faces:
+        return
     n_vertices = frame.n_vertices or 0
-    sides: dict[tuple[int, int], int] = {}
-    for f, face in enumerate(faces):
-        if max(face) >= n_vertices:
+    groups = _faces_by_size(faces)
+    for index, ids in groups.values():
+        bad = np.flatnonzero(ids.max(axis=1) >= n_vertices)
+        if len(bad):
+            f = int(index[bad].min())
             raise FoldFormatError(
-                f"{where}: faces_vertices[{f}] = {list(face)} refers to a vertex that does not "
-                f"exist (there are {n_vertices} vertices)"
+                f"{where}: faces_vertices[{f}] = {_short(list(faces[f]))} refers to a vertex that "
+                f"does not exist (there are {n_vertices} vertices)"
             )
-        for u, v in zip(face, face[1:] + face[:1], strict=True):
-            if u == v:
-                continue
-            if (u, v) in sides:
-                raise FoldFormatError(
-                    f"{where}: faces {sides[(u, v)]} and {f} both run along the side {u} -> {v}; "
-                    "faces sharing a side must run along it in opposite directions (all "
-                    "counter-clockwise, FOLD faces_vertices)"
-                )
-            sides[(u, v)] = f
+    # Directed sides u -> v of every face (repeated vertices, u == v, skipped): none may occur twice.
+    tails, heads, owners = [], [], []
+    for index, ids in groups.values():
+        nxt = np.roll(ids, -1, axis=1)
+        keep = ids != nxt
+        tails.append(ids[keep])
+        heads.append(nxt[keep])
+        owners.append(np.broadcast_to(index[:, None], ids.shape)[keep])
+    u, v, owner = (np.concatenate(x) for x in (tails, heads, owners))
+    key = u * max(n_vertices, 1) + v
+    ordered = np.sort(key)
+    if np.any(ordered[1:] == ordered[:-1]):  # rare: then find the faces to name
+        order = np.lexsort((owner, key))
+        key, owner = key[order], owner[order]
+        repeated = np.flatnonzero(key[1:] == key[:-1])
+        # The first face (in file order) that runs along a side an earlier face already ran along.
+        second = owner[repeated + 1]
+        j = repeated[int(np.argmin(second))]
+        side_u, side_v = divmod(int(key[j]), max(n_vertices, 1))
+        raise FoldFormatError(
+            f"{where}: faces {int(owner[j])} and {int(owner[j + 1])} both run along the side "
+            f"{side_u} -> {side_v}; faces sharing a side must run along it in opposite directions "
+            "(all counter-clockwise, FOLD faces_vertices)"
+        )
     coords = frame.coords3
     if not np.allclose(coords[:, 2], coords[0, 2] if len(coords) else 0.0):
         return  # a 3D folded state: orientation is checked by consistency above
     if "foldedForm" in (frame.frame_classes or ()):
         return  # a flat-folded state: flipped faces are legitimately clockwise seen from +z
-    for f, face in enumerate(faces):
-        xy = coords[list(face), :2]
+    with np.errstate(over="ignore", invalid="ignore"):
+        worst = _first_bad_face(groups, coords)
+    if worst is not None:
+        face = faces[worst]
+        xy = coords[list(face), :2] - coords[face[0], :2]
         area = 0.5 * float(
             np.sum(xy[:, 0] * np.roll(xy[:, 1], -1) - np.roll(xy[:, 0], -1) * xy[:, 1])
         )
         size = float(np.max(np.ptp(xy, axis=0))) ** 2
-        if area <= AREA_REL_TOL * size:
-            state = "degenerate (zero area)" if abs(area) <= AREA_REL_TOL * size else "clockwise"
-            raise FoldFormatError(
-                f"{where}: faces_vertices[{f}] = {list(face)} is {state}; FOLD faces are listed "
-                "counter-clockwise seen from +z: reverse its vertex order"
-            )
+        state = "clockwise" if area < -AREA_REL_TOL * size else "degenerate (zero area)"
+        raise FoldFormatError(
+            f"{where}: faces_vertices[{worst}] = {_short(list(face))} is {state}; FOLD faces are "
+            "listed counter-clockwise seen from +z: reverse its vertex order"
+        )
+
+
+def _first_bad_face(groups, coords) -> int | None:
+    """Index of the first face (file order) that is clockwise or degenerate in the xy plane."""
+    worst = None
+    for index, ids in groups.values():
+        xy = coords[ids, :2]  # (F_k, k, 2)
+        # Shoelace formula on coordinates relative to each face's first vertex (no cancellation).
+        rel = xy - xy[:, :1, :]
+        area = 0.5 * np.sum(
+            rel[:, :, 0] * np.roll(rel[:, :, 1], -1, axis=1)
+            - np.roll(rel[:, :, 0], -1, axis=1) * rel[:, :, 1],
+            axis=1,
+        )
+        size = np.max(np.ptp(xy, axis=1), axis=1) ** 2
+        bad = np.flatnonzero(~(area > AREA_REL_TOL * size))
+        if len(bad):
+            first = int(index[bad].min())
+            worst = first if worst is None else min(worst, first)
+    return worst
+
+
+def _short(value, limit: int = 80) -> str:
+    text = repr(value)
+    return text if len(text) <= limit else text[: limit - 3] + "..."

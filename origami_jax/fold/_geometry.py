@@ -174,9 +174,22 @@ def list_vertices(
     )
 
 
-def format_vertex_table(vertices: tuple[VertexInfo, ...] | list[VertexInfo]) -> str:
-    """One line per vertex (see `VertexInfo`), for messages and the CLI."""
-    return "\n".join(f"  {v}" for v in vertices)
+TABLE_LIMIT = 20
+"""Most vertices `format_vertex_table` lists (a large pattern has thousands)."""
+
+
+def format_vertex_table(
+    vertices: tuple[VertexInfo, ...] | list[VertexInfo], limit: int | None = TABLE_LIMIT
+) -> str:
+    """One line per vertex (see `VertexInfo`), for messages and the CLI; at most `limit` lines
+    (`None`: all), then a line saying how many more there are."""
+    shown = vertices if limit is None else vertices[:limit]
+    lines = [f"  {v}" for v in shown]
+    if len(vertices) > len(shown):
+        lines.append(
+            f"  ... and {len(vertices) - len(shown)} more (list_vertices() lists them all)"
+        )
+    return "\n".join(lines)
 
 
 def candidate_vertices(vertices: tuple[VertexInfo, ...]) -> tuple[VertexInfo, ...]:
@@ -220,7 +233,7 @@ def pick_vertex(fold: FoldFile, vertex_index: int | None, *, frame: int = 0) -> 
     listing = format_vertex_table(candidates)
     raise FoldFormatError(
         f"the pattern has {len(candidates)} vertices where creases meet, so it is not a "
-        f"single-vertex origami; pick one with vertex_index= (CLI: --vertex N):\n{listing}"
+        f"single-vertex origami; pick one with vertex_index= (CLI: --vertex-index N):\n{listing}"
     )
 
 

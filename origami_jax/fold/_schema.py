@@ -8,12 +8,15 @@ from __future__ import annotations
 
 import functools
 import importlib.resources
+import itertools
 import json
 from typing import Any, cast
 
 from ._errors import FoldFormatError
 
 SCHEMA_FILE = "fold_schema.json"
+# Schema errors collected before reporting the first (an invalid large file has millions).
+MAX_ERRORS = 100
 
 
 @functools.cache
@@ -45,15 +48,24 @@ def validate_schema(data: Any) -> bool:
     import jsonschema
 
     validator = jsonschema.Draft7Validator(fold_schema())
-    errors = sorted(validator.iter_errors(data), key=lambda e: list(e.absolute_path))
+    errors = sorted(
+        itertools.islice(validator.iter_errors(data), MAX_ERRORS),
+        key=lambda e: [str(p) for p in e.absolute_path],
+    )
     if errors:
         error = errors[0]
         location = "".join(
             f"[{p}]" if isinstance(p, int) else (f".{p}" if i else str(p))
             for i, p in enumerate(error.absolute_path)
         )
-        more = f" (and {len(errors) - 1} more problem(s))" if len(errors) > 1 else ""
+        if len(errors) >= MAX_ERRORS:
+            more = f" (and {MAX_ERRORS - 1} or more other problems)"
+        else:
+            more = f" (and {len(errors) - 1} more problem(s))" if len(errors) > 1 else ""
+        message = error.message  # holds the offending value, which may be a whole array
+        if len(message) > 300:
+            message = message[:297] + "..."
         raise FoldFormatError(
-            f"does not match the FOLD schema at {location or 'the top level'}: {error.message}{more}"
+            f"does not match the FOLD schema at {location or 'the top level'}: {message}{more}"
         )
     return True

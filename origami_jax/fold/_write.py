@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import uuid
 from pathlib import Path
 from typing import Any
 
@@ -34,7 +35,14 @@ def write_fold(path: str | os.PathLike[str], fold: FoldFile) -> Path:
     """
     path = Path(path)
     text = dumps_fold(fold)
-    path.write_text(text, encoding="utf-8")
+    # Through a temporary file and a rename: `path` holds the old file or the whole new one.
+    tmp = path.with_name(f".tmp-{os.getpid()}-{uuid.uuid4().hex[:12]}-{path.name}")
+    try:
+        tmp.write_text(text, encoding="utf-8")
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
     return path
 
 

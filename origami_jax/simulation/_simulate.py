@@ -12,9 +12,11 @@ import diffrax
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
-from ..system import FoldingSystem
+from .._validate import check_finite, is_traced
+from ..system import FoldingSystem, HingeDrag
 from ._guard import ContactGuard
 from ._inputs import AbstractInput
 from ._results import RESULTS
@@ -246,6 +248,93 @@ def _solve(system: FoldingSystem, inputs: AbstractInput, span, y0, ts, how: _Int
 _solve_jit = eqx.filter_jit(_solve)
 
 
+# Argument checks of `simulate` (tier 1 when the values are known, tier 2 when traced: see
+# `origami_jax._validate`). A bad time span or tolerance otherwise runs the solver to its step budget
+# and ends with a misleading "max steps" (a negative t1 even integrated backwards and succeeded).
+def _checked_span(t0, t1) -> tuple[Array, Array]:
+    t0, t1 = jnp.asarray(t0, dtype=float), jnp.asarray(t1, dtype=float)
+    if t0.ndim or t1.ndim:
+        raise ValueError(f"t0 and t1 must be scalars, got shapes {t0.shape} and {t1.shape}.")
+    if is_traced(t0, t1):
+        bad = ~(jnp.isfinite(t0) & jnp.isfinite(t1) & (t1 > t0))
+        return t0, eqx.error_if(t1, bad, "simulate: t0 and t1 must be finite, with t1 > t0.")
+    for name, value in (("t0", float(t0)), ("t1", float(t1))):
+        if not np.isfinite(value):
+            raise ValueError(f"{name} must be a finite time, got {value}.")
+    if not float(t1) > float(t0):
+        raise ValueError(
+            f"t1 must be greater than t0 (the run goes forward in time from t0 = {float(t0):g}), "
+            f"got t1 = {float(t1):g}."
+        )
+    return t0, t1
+
+
+def _checked_tolerance(value, name: str) -> Array:
+    array = jnp.asarray(value, dtype=float)
+    if array.ndim:
+        raise ValueError(f"{name} must be a scalar, got shape {array.shape}.")
+    if is_traced(array):
+        bad = ~(jnp.isfinite(array) & (array > 0))
+        return eqx.error_if(array, bad, f"simulate: {name} must be positive and finite.")
+    if not (np.isfinite(float(array)) and float(array) > 0):
+        example = DEFAULT_RTOL if name == "rtol" else DEFAULT_ATOL
+        raise ValueError(
+            f"{name} must be a positive finite tolerance (e.g. {example:g}), got {float(array)!r}."
+        )
+    return array
+
+
+def _checked_times(ts, t0, t1) -> Array:
+    ts = jnp.asarray(ts, dtype=float)
+    if ts.ndim != 1 or ts.shape[0] < 1:
+        raise ValueError(f"ts must be a non-empty one-dimensional array, got shape {ts.shape}.")
+    ts = check_finite(ts, "ts")
+    if is_traced(ts, t0, t1):
+        outside = jnp.any(ts < t0) | jnp.any(ts > t1) | jnp.any(jnp.diff(ts) < 0)
+        return eqx.error_if(ts, outside, "simulate: ts must be increasing and within [t0, t1].")
+    host = np.asarray(ts)
+    if np.any(np.diff(host) < 0):
+        raise ValueError("ts must be non-decreasing (sample times in order).")
+    if host[0] < float(t0) or host[-1] > float(t1):
+        raise ValueError(
+            f"ts must lie within [t0, t1] = [{float(t0):g}, {float(t1):g}], got "
+            f"[{host[0]:g}, {host[-1]:g}]."
+        )
+    return ts
+
+
+def _check_system_values(system: FoldingSystem) -> None:
+    """Concrete numbers of `system` (a system built outside `jit`): hinges and drag finite, no NaN
+    anywhere, positive stiffness, non-negative hinge drag. Traced systems (a sweep's batch) are left
+    to their builder."""
+    for path, leaf in jax.tree_util.tree_leaves_with_path(system):
+        if is_traced(leaf) or not eqx.is_inexact_array(leaf):
+            continue
+        where = jax.tree_util.keystr(path).lstrip(".")
+        # A mechanism or contact model may use infinity on purpose (a limit that is not there).
+        physics = where.startswith(("hinges", "drag"))
+        values = np.asarray(leaf)
+        if np.any(np.isnan(values)) or (physics and not np.all(np.isfinite(values))):
+            raise ValueError(
+                f"the system's {where} contains NaN or inf; check the values that built it."
+            )
+    stiffness = system.hinges.stiffness
+    if not is_traced(stiffness) and np.any(np.asarray(stiffness) <= 0):
+        raise ValueError(
+            f"the hinge stiffness must be positive (torque/rad), got {np.asarray(stiffness)}."
+        )
+    coefficient = getattr(system.drag, "coefficient", None)
+    if (
+        isinstance(system.drag, HingeDrag)
+        and not is_traced(coefficient)
+        and np.any(np.asarray(coefficient) < 0)
+    ):
+        raise ValueError(
+            f"the drag coefficient must be >= 0 (a negative drag adds energy), got "
+            f"{np.asarray(coefficient)}."
+        )
+
+
 def simulate(
     system: FoldingSystem,
     inputs: AbstractInput,
@@ -310,8 +399,14 @@ def simulate(
 
     **Returns:** a [`origami_jax.simulation.Trajectory`][].
 
-    **Raises:** `ValueError` for inconsistent shapes; with `throw=True`, a runtime error carrying the
-    result message when the solve fails (steps exhausted, step size collapsed, non-finite state).
+    **Raises:** `ValueError`, before anything compiles, for inconsistent shapes and for values that
+    cannot give an answer: `t1 <= t0` or a non-finite time, `rtol` or `atol` not positive and
+    finite, `n_save < 2`, sample times outside `[t0, t1]` or decreasing, a non-finite initial
+    state, or a system whose concrete stiffness is not positive or whose drag or any other number
+    is negative where it must not be or not finite. When these values are traced (`simulate` under
+    `jit` or `vmap`) the same conditions raise at run time (`eqx.error_if`). With `throw=True`, a
+    runtime error carrying the result message when the solve fails (steps exhausted, step size
+    collapsed, non-finite state).
     """
     if not isinstance(system, FoldingSystem):
         raise ValueError(
@@ -329,10 +424,12 @@ def simulate(
         raise ValueError(
             f"the input is for {jnp.shape(target)} hinges but the system has {n} hinges."
         )
-    if n_save < 2 and ts is None:
-        raise ValueError(f"n_save must be at least 2, got {n_save}.")
-    t0 = jnp.asarray(t0, dtype=float)
-    t1 = jnp.asarray(t1, dtype=float)
+    if ts is None and (isinstance(n_save, bool) or not isinstance(n_save, int) or n_save < 2):
+        raise ValueError(f"n_save must be an integer of at least 2, got {n_save!r}.")
+    if not isinstance(max_steps, int) or max_steps < 1:
+        raise ValueError(f"max_steps must be a positive integer, got {max_steps!r}.")
+    _check_system_values(system)
+    t0, t1 = _checked_span(t0, t1)
     q_rest, v_rest = mechanism.rest_state()
     q0 = q_rest if theta0 is None else jnp.asarray(theta0, dtype=float)
     v0 = v_rest if theta_dot0 is None else jnp.asarray(theta_dot0, dtype=float)
@@ -340,14 +437,14 @@ def simulate(
         raise ValueError(
             f"theta0 and theta_dot0 must have shapes {q_rest.shape} and {v_rest.shape}."
         )
-    ts = jnp.linspace(t0, t1, n_save) if ts is None else jnp.asarray(ts, dtype=float)
-    if ts.ndim != 1:
-        raise ValueError(f"ts must be one-dimensional, got shape {ts.shape}.")
+    q0 = check_finite(q0, "theta0")
+    v0 = check_finite(v0, "theta_dot0")
+    ts = jnp.linspace(t0, t1, n_save) if ts is None else _checked_times(ts, t0, t1)
     solver = default_solver() if solver is None else solver
     if stepsize_controller is None:
         # Tolerances as arrays, so a new value does not compile a new solve.
         stepsize_controller = default_controller(
-            jnp.asarray(rtol, dtype=float), jnp.asarray(atol, dtype=float), solver
+            _checked_tolerance(rtol, "rtol"), _checked_tolerance(atol, "atol"), solver
         )
     how = _Integration(
         solver=solver,

@@ -15,8 +15,13 @@ Past `threshold` (default 3.25, Hairer's value for DOPRI5; Tsit5's real stabilit
 solver turns implicit. The switch is one way: an implicit step is never wrong, only dearer, and flipping back and
 forth would put explicit steps into stiff stretches, where their gradients are unreliable.
 
-Dense output is the cubic Hermite interpolant from both ends' derivatives for every step (what
-Kvaerno5 uses anyway), so the two kinds of step share one interpolation.
+Dense output (the samples of `simulate`) carries each step's own accuracy: an explicit step is
+interpolated with Tsit5's fourth-order continuous extension of its seven stages, an implicit one
+with the cubic Hermite polynomial of its end values and slopes (what Kvaerno5 itself uses). Both
+steps hand over the same dense information (end values and the seven stage increments) plus a flag
+saying which kind of step it was, so one interpolation class serves both. A single cubic Hermite
+interpolant for every step, as before, made the samples of a free chain up to ~1000× less accurate
+than the steps (energy drift 1.7e-5 at the samples against 2.2e-7 at the step ends).
 
 Under `vmap` with a batched switch flag, `lax.cond` evaluates both branches: a batch of designs pays
 for an implicit and an explicit step each step. Batches should name their solver (the sweep kernels do).
@@ -31,6 +36,35 @@ import jax.numpy as jnp
 from jaxtyping import Array, Bool, Int
 
 _HermiteFromK = diffrax.ThirdOrderHermitePolynomialInterpolation.from_k
+_Tsit5Interpolation = diffrax.Tsit5.interpolation_cls
+
+
+class SwitchingInterpolation(diffrax.AbstractLocalInterpolation):
+    """Dense output of one `StiffnessSwitching` step (module docstring): Tsit5's fourth-order
+    interpolant for an explicit step, cubic Hermite (Kvaerno5's) for an implicit one.
+
+    **Fields:** `t0`, `t1` (the step), `y0`, `y1` (its end states), `k` (the seven stage increments
+    ``h f``, leading axis 7, the layout both Runge–Kutta methods share), `implicit` (a boolean
+    scalar, batched under `vmap`).
+    """
+
+    t0: Array
+    t1: Array
+    y0: object
+    y1: object
+    k: object
+    implicit: Bool[Array, ""]
+
+    def evaluate(self, t0, t1=None, left=True):
+        del left
+        if t1 is not None:
+            return jax.tree.map(lambda a, b: a - b, self.evaluate(t1), self.evaluate(t0))
+        span = dict(t0=self.t0, t1=self.t1, y0=self.y0, y1=self.y1, k=self.k)
+        return jax.lax.cond(
+            self.implicit,
+            lambda: _HermiteFromK(**span).evaluate(t0),
+            lambda: _Tsit5Interpolation(**span).evaluate(t0),
+        )
 
 
 def implicit_solver() -> diffrax.Kvaerno5:
@@ -65,7 +99,7 @@ class StiffnessSwitching(diffrax.AbstractAdaptiveSolver):
     start_implicit: bool = False
 
     term_structure: ClassVar = diffrax.AbstractTerm
-    interpolation_cls: ClassVar = _HermiteFromK
+    interpolation_cls: ClassVar = SwitchingInterpolation
 
     def __check_init__(self):
         if not self.threshold > 0:
@@ -116,6 +150,7 @@ class StiffnessSwitching(diffrax.AbstractAdaptiveSolver):
             return y1, error, dense, state, result, jnp.zeros((), dtype=jnp.result_type(t1))
 
         y1, error, dense, state, result, h_rho = jax.lax.cond(switch.stiff, implicit, explicit)
+        dense = {**dense, "implicit": switch.stiff}
         is_stiff_step = h_rho > self.threshold
         stiff_steps = jnp.where(is_stiff_step, switch.stiff_steps + 1, switch.stiff_steps)
         calm_steps = jnp.where(is_stiff_step, 0, switch.calm_steps + 1)

@@ -36,3 +36,4 @@ from ._space import Product as Product
 from ._space import Range as Range
 from ._space import Samples as Samples
 from ._space import Table as Table
+from ._store import SweepBusyError as SweepBusyError

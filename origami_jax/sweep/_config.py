@@ -73,15 +73,34 @@ def _model_name(model: Mapping[str, Any]) -> str:
     return name
 
 
+# Most designs a configuration may describe (a grid's `num` multiplies up quickly).
+MAX_DESIGNS = 10_000_000
+
+
+def _number(spec: Mapping[str, Any], key: str, name: str, *, integer: bool = False) -> Any:
+    value = spec[key]
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise ValueError(f"parameter {name!r}: {key} must be a number, got {value!r}.")
+    if integer and not float(value).is_integer():
+        raise ValueError(f"parameter {name!r}: {key} must be an integer, got {value!r}.")
+    return int(value) if integer else float(value)
+
+
 def _grid_axis(name: str, spec: Mapping[str, Any]) -> np.ndarray | list:
     if "values" in spec:
-        return list(spec["values"])
+        values = spec["values"]
+        if not isinstance(values, list):
+            raise ValueError(f"parameter {name!r}: values must be a list, got {values!r}.")
+        return list(values)
     try:
-        low, high, num = float(spec["min"]), float(spec["max"]), int(spec["num"])
+        low, high = _number(spec, "min", name), _number(spec, "max", name)
+        num = _number(spec, "num", name, integer=True)
     except KeyError as error:
         raise ValueError(
             f"parameter {name!r}: give `values = [...]` or `min`, `max` and `num` for a grid."
         ) from error
+    if not 1 <= num <= MAX_DESIGNS:
+        raise ValueError(f"parameter {name!r}: num must be from 1 to {MAX_DESIGNS}, got {num}.")
     if spec.get("scale", "linear") == "log":
         Range(low, high, "log")  # checks low > 0
         return np.geomspace(low, high, num)
@@ -111,9 +130,16 @@ def load_config(path: str | Path) -> SweepConfig:
         raise ValueError(f"[sweep] kind must be one of {KINDS}, got {kind!r}.")
     chunk_size = run.pop("chunk_size", None)
     n = run.pop("n", None)
-    seed = int(run.pop("seed", 0))
+    seed = run.pop("seed", 0)
     if run:
         raise ValueError(f"[sweep]: unknown key(s) {sorted(run)}.")
+    for key, value, low in (("chunk_size", chunk_size, 1), ("n", n, 1), ("seed", seed, 0)):
+        if value is not None and (
+            isinstance(value, bool) or not isinstance(value, int) or not low <= value
+        ):
+            raise ValueError(f"[sweep] {key} must be an integer >= {low}, got {value!r}.")
+    if n is not None and n > MAX_DESIGNS:
+        raise ValueError(f"[sweep] n must be at most {MAX_DESIGNS}, got {n}.")
 
     parameters = dict(raw.get("parameters", {}))
     space: DesignSpace
@@ -140,11 +166,17 @@ def load_config(path: str | Path) -> SweepConfig:
             if n is None:
                 raise ValueError(f"kind = {kind!r} needs [sweep] n = <number of samples>.")
             fixed = {p: s for p, s in parameters.items() if "values" in s}
-            ranges = {
-                p: Range(float(s["min"]), float(s["max"]), s.get("scale", "linear"))
-                for p, s in parameters.items()
-                if "values" not in s
-            }
+            try:
+                ranges = {
+                    p: Range(_number(s, "min", p), _number(s, "max", p), s.get("scale", "linear"))
+                    for p, s in parameters.items()
+                    if "values" not in s
+                }
+            except KeyError as error:
+                raise ValueError(
+                    f"kind = {kind!r}: give every sampled parameter `min` and `max` (missing "
+                    f"{error})."
+                ) from None
             if not ranges:
                 raise ValueError(f"kind = {kind!r} needs at least one {{min, max}} parameter.")
             sampled = Samples(
@@ -157,6 +189,10 @@ def load_config(path: str | Path) -> SweepConfig:
                     units={p: unit_of[p] for p in fixed},
                 )
                 space = Product((grid, sampled))
+    if space.size > MAX_DESIGNS:
+        raise ValueError(
+            f"the design space has {space.size} designs, more than {MAX_DESIGNS}; split the sweep."
+        )
     plots = dict(raw.get("plots", {}))
     metrics = plots.get("metrics")
     return SweepConfig(

@@ -27,10 +27,13 @@ How a sweep runs:
 **Multi-host.** Call `jax.distributed.initialize()` in every process before `sweep` (on SLURM or
 TPU pods it finds its peers from the environment; elsewhere pass `coordinator_address`,
 `num_processes` and `process_id`), give every process the same `out` folder on a shared file
-system, and run the same script everywhere. Each process takes every `jax.process_count()`-th chunk
-and runs it on its own `jax.local_devices()`; the processes meet at barriers before starting and at
-the end, where process 0 gathers `sweep.nc` and the others read it back. `resume=True` works the same
-way. (This path has not been run on more than one host in this repository's tests.)
+system, and run the same script everywhere. Process 0 opens (and locks) the folder and checks the
+stored chunks; every process receives its list of stored designs, takes every
+`jax.process_count()`-th chunk of the remaining work and runs it on its own `jax.local_devices()`;
+at the end process 0 gathers `sweep.nc` (checking that every design is there exactly once) and the
+others read it back. `resume=True` works the same way. The test suite runs this with two processes
+on one machine (a localhost coordinator, CPU devices), including a process killed midway and the
+sweep resumed.
 """
 
 import dataclasses
@@ -52,7 +55,7 @@ from jax.sharding import PartitionSpec as P
 
 from ._kernel import Kernel, as_kernel
 from ._space import DesignSpace
-from ._store import RESULT, Store, gather
+from ._store import RESULT, Store, SweepBusyError, gather
 
 AXIS = "design"
 # Default chunk sizing (see `_default_chunk_size`).
@@ -224,30 +227,38 @@ def sweep(
     devices = list(devices) if devices is not None else jax.local_devices()
     if not devices:
         raise ValueError("no devices to run on.")
+    if out is None and jax.process_count() > 1:
+        raise ValueError(
+            "a sweep over several processes needs `out`, a folder every process can write to: "
+            "each process computes only its share of the chunks, and process 0 gathers them there."
+        )
     sharding = NamedSharding(Mesh(np.array(devices), (AXIS,)), P(AXIS))
     process_index, process_count = jax.process_index(), jax.process_count()
     store = _open_store(out, plan.manifest, resume, process_index, process_count)
-    done = (
-        store.done_mask(plan.n_designs)
-        if store is not None
-        else np.zeros(plan.n_designs, dtype=bool)
-    )
-    _barrier("origami_jax.sweep.scanned", process_count)
-    compiler = _Compiler(plan, sharding)
-    size, work = _schedule(plan, done, chunk_size, devices, compiler)
-    chunks, run_seconds = _run_chunks(
-        plan,
-        work[process_index::process_count],
-        size,
-        sharding,
-        compiler,
-        store,
-        n_done=int(done.sum()),
-        progress=progress,
-        on_chunk=on_chunk,
-    )
-    _barrier("origami_jax.sweep.computed", process_count)
-    return _gather(plan, store, chunks, size, devices, compiler.seconds, run_seconds)
+    try:
+        done = np.zeros(plan.n_designs, dtype=bool)
+        if store is not None and process_index == 0:
+            done = store.scan(plan.columns, repair=True)
+        # Every process takes its share of the same work list: process 0's view of the store.
+        done = _from_process_zero(done, process_count)
+        compiler = _Compiler(plan, sharding)
+        size, work = _schedule(plan, done, chunk_size, devices, compiler)
+        chunks, run_seconds = _run_chunks(
+            plan,
+            work[process_index::process_count],
+            size,
+            sharding,
+            compiler,
+            store,
+            n_done=int(done.sum()),
+            progress=progress,
+            on_chunk=on_chunk,
+        )
+        _barrier("origami_jax.sweep.computed", process_count)
+        return _gather(plan, store, chunks, size, devices, compiler.seconds, run_seconds)
+    finally:
+        if store is not None:
+            store.close()
 
 
 def _plan(kernel: Kernel, space: DesignSpace) -> _Plan:
@@ -267,6 +278,17 @@ def _plan(kernel: Kernel, space: DesignSpace) -> _Plan:
                 f"{sorted(kernel.parameters)}."
             )
     columns = space.columns()
+    for name in space.names:
+        column = columns[name]
+        if column.dtype.kind == "U" and kernel.parameters is not None:
+            if name not in kernel.categories:
+                unit = kernel.parameters.get(name, "")
+                raise ValueError(
+                    f"parameter {name!r} of model {kernel.name!r} takes numbers"
+                    + (f" (in {unit})" if unit and unit != "1" else "")
+                    + f", not labels such as {str(column[0])!r}; a label would be swept as a "
+                    "category index. Give numbers (TOML: no quotes)."
+                )
     static_names = [n for n in space.names if n in space.static or n in kernel.static]
     dynamic_names = [n for n in space.names if n not in static_names]
     encoded = _encode(kernel, space, columns, dynamic_names)
@@ -347,11 +369,32 @@ def _open_store(
     for reading once it exists."""
     if out is None:
         return None
-    store = Store.open(Path(out), manifest, resume=resume, writer=process_index == 0)
-    _barrier("origami_jax.sweep.open", process_count)
+    store, error = None, None
+    if process_index == 0:
+        try:
+            store = Store.open(Path(out), manifest, resume=resume, writer=True)
+        except (FileExistsError, ValueError, SweepBusyError, OSError) as caught:
+            error = caught
+    # The others learn whether process 0 could open the folder (else they would wait for it).
+    opened = bool(_from_process_zero(np.asarray(error is None), process_count))
+    if error is not None:
+        raise error
+    if not opened:
+        raise RuntimeError(
+            f"process 0 could not open the sweep folder {out}; its error message says why."
+        )
     if process_index != 0:
         store = Store.open(Path(out), manifest, resume=True, writer=False)
     return store
+
+
+def _from_process_zero(value: np.ndarray, process_count: int) -> np.ndarray:
+    """Process 0's `value` in every process (itself on one process)."""
+    if process_count == 1:
+        return value
+    from jax.experimental import multihost_utils
+
+    return np.asarray(multihost_utils.broadcast_one_to_all(value))
 
 
 class _Compiler:
@@ -521,13 +564,21 @@ def _gather(
             gather(chunks), plan.kernel, plan.manifest, size, devices, compile_seconds, run_seconds
         )
     process_count = jax.process_count()
+    error = None
     if jax.process_index() == 0:
-        dataset = store.gather(write=False)
-        dataset = _finish(
-            dataset, plan.kernel, plan.manifest, size, devices, compile_seconds, run_seconds
-        )
-        gather([dataset], path=store.root / RESULT)
-    _barrier("origami_jax.sweep.gathered", process_count)
+        try:
+            dataset = store.gather(write=False, columns=plan.columns)
+            dataset = _finish(
+                dataset, plan.kernel, plan.manifest, size, devices, compile_seconds, run_seconds
+            )
+            gather([dataset], path=store.root / RESULT)
+        except Exception as caught:  # reported by process 0, the others stop with it
+            error = caught
+    gathered = bool(_from_process_zero(np.asarray(error is None), process_count))
+    if error is not None:
+        raise error
+    if not gathered:
+        raise RuntimeError("process 0 could not gather the sweep; its error message says why.")
     if jax.process_index() != 0:
         dataset = xr.load_dataset(store.root / RESULT, engine="h5netcdf")
     return dataset

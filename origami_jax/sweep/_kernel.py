@@ -30,8 +30,10 @@ class Kernel:
     - `result_messages`: result code → short explanation, stored as CF `flag_values` /
       `flag_meanings`.
     - `categories`: categorical parameter → the labels the kernel knows, in the order of the index it
-      receives (e.g. `{"fluid": ("air", "koh")}`). A categorical parameter not listed here is indexed
-      into the design space's sorted labels.
+      receives (e.g. `{"fluid": ("air", "koh")}`). A kernel that lists its `parameters` takes labels
+      only for the parameters listed here (a label given for a number is refused before anything
+      runs); without `parameters`, a string-valued parameter is indexed into the design space's
+      sorted labels.
     - `prepare`: optional host-side step, `prepare(columns, static) -> dict[str, ndarray]`, called
       per chunk with the chunk's parameter values (NumPy, labels as strings) and the group's static
       values; each returned array has a leading axis of one entry per design and reaches `fn` as an

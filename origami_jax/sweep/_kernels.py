@@ -18,6 +18,7 @@ import dataclasses
 from collections.abc import Callable, Mapping
 from typing import Any
 
+from .._limits import MAX_FLAPS, MAX_SAMPLES
 from ._kernel import Kernel
 
 # Result code for a design whose parameters are outside the model's domain (non-positive or
@@ -40,6 +41,33 @@ ACCORDION_PARAMETERS = {
     "fluid": "",
 }
 FLUIDS = ("air", "koh")
+
+
+def _setting(
+    value: Any,
+    name: str,
+    *,
+    low: float | int,
+    integer: bool = False,
+    high: float | int | None = None,
+) -> Any:
+    """A numeric model setting, checked before anything compiles: a number (not a string or a
+    boolean), finite, `> low` (or `>= low` for integers) and at most `high`."""
+    import math
+
+    kind = "an integer" if integer else "a number"
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise ValueError(f"setting {name} must be {kind}, got {value!r}.")
+    if integer and not float(value).is_integer():
+        raise ValueError(f"setting {name} must be an integer, got {value!r}.")
+    ok = math.isfinite(value) and (value >= low if integer else value > low)
+    if high is not None:
+        ok = ok and value <= high
+    if not ok:
+        span = f">= {low}" if integer else f"> {low:g}"
+        span += "" if high is None else f" and <= {high}"
+        raise ValueError(f"setting {name} must be finite and {span}, got {value!r}.")
+    return int(value) if integer else float(value)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -105,8 +133,12 @@ def accordion_step(
         raise ValueError(f"solver must be one of {sorted(solvers)}, got {solver!r}.")
     if fluid not in FLUIDS:
         raise ValueError(f"fluid must be one of {FLUIDS}, got {fluid!r}.")
-    rtol = DEFAULT_RTOL if rtol is None else float(rtol)
-    atol = DEFAULT_ATOL if atol is None else float(atol)
+    n_flaps = _setting(n_flaps, "n_flaps", low=1, integer=True, high=MAX_FLAPS)
+    t_end = _setting(t_end, "t_end", low=0.0)
+    n_save = _setting(n_save, "n_save", low=2, integer=True, high=MAX_SAMPLES)
+    max_steps = _setting(max_steps, "max_steps", low=1, integer=True)
+    rtol = DEFAULT_RTOL if rtol is None else _setting(rtol, "rtol", low=0.0)
+    atol = DEFAULT_ATOL if atol is None else _setting(atol, "atol", low=0.0)
     literature = HingeDesign.literature(MICRO)
     floats = [n for n, u in ACCORDION_PARAMETERS.items() if n not in ("n_flaps", "fluid")]
     defaults = {n: float(getattr(literature, n)) for n in floats if n not in ("k_scale", "b_scale")}
@@ -114,11 +146,15 @@ def accordion_step(
     densities = [float(f.to(MICRO).density) for f in (AIR, KOH_SOLUTION)]
 
     def design_of(params: Mapping[str, Any]):
-        n = int(params.get("n_flaps", n_flaps))
+        n = params.get("n_flaps", n_flaps)
+        if not isinstance(n, int) or not 1 <= n <= MAX_FLAPS:
+            raise ValueError(f"n_flaps must be an integer from 1 to {MAX_FLAPS}, got {n!r}.")
         swept = {k: jnp.asarray(params[k], dtype=float) for k in defaults if k in params}
         invalid = jnp.zeros((), dtype=bool)
         for value in swept.values():
             invalid = invalid | ~(jnp.isfinite(value) & (value > 0))
+        if "theta_final" in swept:  # a fold angle: at most π (see HingeDesign)
+            invalid = invalid | (swept["theta_final"] > jnp.pi)
         # Parameters not swept stay Python constants: XLA folds them into the compiled kernel (a
         # chain whose geometry is not swept has constant masses and inertias, which made the
         # width x strain benchmark sweep 2.2x faster than with every default traced per design).
@@ -274,7 +310,12 @@ def vertex_unfold(
 
     if energy not in DEFAULT_P:
         raise ValueError(f"energy must be one of {sorted(DEFAULT_P)}, got {energy!r}.")
-    p_default = float(DEFAULT_P[energy] if p is None else p)
+    p_default = float(DEFAULT_P[energy] if p is None else _setting(p, "p", low=0.0))
+    n_creases = _setting(n_creases, "n_creases", low=3, integer=True)
+    max_steps = _setting(max_steps, "max_steps", low=1, integer=True)
+    max_fold_deg = _setting(max_fold_deg, "max_fold_deg", low=0.0, high=180.0)
+    if not isinstance(closed, bool):
+        raise ValueError(f"setting closed must be true or false, got {closed!r}.")
     settings = jax.tree.map(lambda v: float(v), DescentSettings())
 
     def prepare(columns: Mapping[str, Any], static: Mapping[str, Any]) -> dict[str, Any]:

@@ -8,6 +8,7 @@ the dynamics. Constants are defined in SI and converted into the design's `UnitS
 µm, µs, ng ⇒ stress MPa, torque µN·µm = pN·m).
 """
 
+import math
 from typing import Literal
 
 import equinox as eqx
@@ -165,6 +166,22 @@ def bilayer_curvature(
     return numerator / denominator
 
 
+def _check_fold_angle(theta_final: Array) -> None:
+    """A fold angle is at most π (the flap folded flat onto its neighbour): a larger value is almost
+    always degrees given for radians, and the hinge length ``l = ρ θ_final`` follows it silently
+    (100 "rad" makes a 7.8 mm hinge). Checked when the value is known (traced values, e.g. inside
+    a fit, are bounded by the fit)."""
+    if is_traced(theta_final):
+        return
+    largest = float(jnp.max(theta_final))
+    if largest > math.pi * (1 + 1e-6):  # π rounded to float32 is a little above π
+        raise ValueError(
+            f"theta_final is a fold angle in radians, at most π (180°, the flap folded flat onto "
+            f"its neighbour); got {largest:g} rad ({math.degrees(largest):.4g}°), which "
+            "would make the hinge ρ·θ_final long. Give radians (numpy.radians converts degrees)."
+        )
+
+
 class HingeDesign(eqx.Module):
     """Physical parameters of a bilayer-hinged flap chain, from which ``k`` and ``b`` per hinge follow.
 
@@ -177,7 +194,7 @@ class HingeDesign(eqx.Module):
     - `t_structural` ``t₁`` (SiNx membrane and flap), `t_hinge` ``t₂`` (Cr film) (length).
     - `misfit_strain` ``ε`` (dimensionless; pass `residual_stress` to the constructor instead to get
       ``ε = σ / E₂'``).
-    - `theta_final`: the fold angle the free hinge reaches, rad (``l = ρ θ_final``).
+    - `theta_final`: the fold angle the free hinge reaches, rad, in (0, π] (``l = ρ θ_final``).
     - `drag_coefficient` ``C_D`` (dimensionless).
     - `structural`, `hinge`: `Material`s (converted into `units`); `fluid`: `Fluid` (converted).
     - `k_scale`, `b_scale`: dimensionless factors on ``k`` and ``b`` (calibration knobs), default 1.
@@ -253,6 +270,7 @@ class HingeDesign(eqx.Module):
             ("drag_coefficient", drag_coefficient),
         ):
             setattr(self, name, check_positive(as_float_array(value, name), name))
+        _check_fold_angle(self.theta_final)
         if misfit_strain is None:
             assert residual_stress is not None  # exactly one of the two was checked above
             stress = check_positive(

@@ -54,7 +54,9 @@ def _closed_from_guess(sectors, guess, free) -> SingleVertex:
     folds, residual = close_loop(sectors, guess, free=free)
     if not residual < 1e-12:
         raise InvalidVertexError(f"could not close the loop (residual {residual:.2e})")
-    return SingleVertex.from_fold_angles(sectors, np.asarray(folds), closed=True)
+    # The solver may step past ±π; a rotation by θ and by θ − 2π is the same fold.
+    folds = np.remainder(np.asarray(folds) + np.pi, 2 * np.pi) - np.pi
+    return SingleVertex.from_fold_angles(sectors, folds, closed=True)
 
 
 def corner_cube(*, gusset_opening: float = 1.0 * _DEG) -> SingleVertex:
@@ -156,18 +158,37 @@ def random_vertex(
     nearest closing state (`close_loop`). Candidates that are invalid, nearly flat, have a sector
     below `min_sector` or a clearance below `min_clearance` (radians) are redrawn.
 
-    **Raises:** `RuntimeError` if `max_tries` candidates all fail.
+    With the default settings, draws succeed reliably up to about 20 creases for a closed vertex
+    and 10 for an open one (measured: 19 of 20 keys at n = 20 closed, 17 of 20 at n = 10 open);
+    beyond, nearly every candidate has a sector below `min_sector` or flaps that cross. Each
+    candidate takes milliseconds, so a failure is quick, and its message says which test rejected
+    the candidates.
+
+    **Raises:** `ValueError` up front when no candidate can pass (the average sector `total / n` is
+    below `min_sector`); `RuntimeError` if `max_tries` candidates all fail.
     """
     if n < 3 or (closed and n < 4):
         raise ValueError("random vertices need n >= 4 (closed) or n >= 3 (open)")
+    if max_tries < 1:
+        raise ValueError(f"max_tries must be at least 1, got {max_tries}.")
     # NumPy's generator seeded from the key: drawing candidates eagerly through jax.random costs
     # milliseconds of dispatch per call, which dominated generating thousands of vertices.
     rng = np.random.default_rng(np.asarray(jax.random.key_data(key)).ravel().tolist())
+    n_arcs = n if closed else n - 1
+    widest = total if total is not None else (2 * np.pi if closed else np.pi)
+    if widest / n_arcs < min_sector:
+        raise ValueError(
+            f"{'a closed' if closed else 'an open'} vertex of {n} creases has {n_arcs} sectors "
+            f"averaging at most {np.degrees(widest / n_arcs):.3g}°, below min_sector = "
+            f"{np.degrees(min_sector):.3g}°: no candidate can pass. Lower n or min_sector."
+        )
     if total is None:
         total = 2 * np.pi if closed else rng.uniform(0.5, 1.0) * np.pi
+    rejected = {"a sector outside [min_sector, π − min_sector]": 0}
     for _ in range(max_tries):
         sectors, folds = _random_candidate(rng, n, closed, total, max_fold)
         if np.min(sectors) < min_sector or np.max(sectors) > np.pi - min_sector:
+            rejected["a sector outside [min_sector, π − min_sector]"] += 1
             continue
         try:
             if closed:
@@ -175,17 +196,33 @@ def random_vertex(
             else:
                 vertex = SingleVertex.from_fold_angles(sectors, folds[1:-1], closed=False)
             report = validate_vertex(vertex)
-        except InvalidVertexError:
+        except InvalidVertexError as error:
+            message = str(error)
+            reason = (
+                "not closing"
+                if "close the loop" in message
+                else "crossing or overlapping flaps"
+                if "flaps" in message
+                else "invalid"
+            )
+            rejected[reason] = rejected.get(reason, 0) + 1
             continue
-        if (
-            report.contacts
-            or report.min_clearance < min_clearance
-            or report.planarity < 1e-2
-            or report.max_abs_fold_angle > np.pi - min_sector
-        ):
+        reason = None
+        if report.contacts or report.min_clearance < min_clearance:
+            reason = "flaps closer than min_clearance"
+        elif report.planarity < 1e-2:
+            reason = "nearly flat"
+        elif report.max_abs_fold_angle > np.pi - min_sector:
+            reason = "a fold angle near ±180°"
+        if reason is not None:
+            rejected[reason] = rejected.get(reason, 0) + 1
             continue
         return vertex
-    raise RuntimeError(f"no valid random vertex with n={n}, closed={closed} in {max_tries} tries")
+    counts = ", ".join(f"{count} {why}" for why, count in rejected.items() if count)
+    raise RuntimeError(
+        f"no valid random vertex with n={n}, closed={closed} in {max_tries} tries (rejected: "
+        f"{counts}). Fewer creases, a smaller max_fold or min_sector, or more max_tries help."
+    )
 
 
 def random_vertices(

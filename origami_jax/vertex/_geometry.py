@@ -8,6 +8,7 @@ computed once in NumPy as static index arrays.
 
 import functools
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Bool, Float
@@ -125,12 +126,26 @@ def arcs_cross(
     `(b1, b2)` are on the same side (positive dot product) — not antipodal. Both points are positive
     combinations of their chord's endpoints, so they lie on the minor arcs. Touching (a zero
     determinant) is not a proper crossing; it is reported through the clearance instead.
+
+    "Strictly" means by more than `SIDE_TOL`: a determinant within rounding of zero puts the point
+    on the circle. Without the margin, arcs lying on one great circle (a flat stretch of paper)
+    gave determinants of ±1e-17 whose signs depended on how XLA fused the arithmetic, and a
+    compiled check reported crossings that the eager one did not.
     """
     s_b1, s_b2 = _det(a1, a2, b1), _det(a1, a2, b2)
     s_a1, s_a2 = _det(b1, b2, a1), _det(b1, b2, a2)
     q = (s_b1[..., None] * b2 - s_b2[..., None] * b1) * jnp.sign(s_b1 - s_b2)[..., None]
     r = (s_a1[..., None] * a2 - s_a2[..., None] * a1) * jnp.sign(s_a1 - s_a2)[..., None]
-    return (s_b1 * s_b2 < 0) & (s_a1 * s_a2 < 0) & (jnp.sum(q * r, axis=-1) > 0)
+    return _opposite(s_b1, s_b2) & _opposite(s_a1, s_a2) & (jnp.sum(q * r, axis=-1) > 0)
+
+
+SIDE_TOL = 1e-12
+"""Determinant (of three unit vectors) within which a point counts as on a great circle: far above
+float64 rounding (~1e-16), far below the contact tolerance of the validation (1e-9 rad)."""
+
+
+def _opposite(s1, s2):
+    return ((s1 < -SIDE_TOL) & (s2 > SIDE_TOL)) | ((s1 > SIDE_TOL) & (s2 < -SIDE_TOL))
 
 
 def point_arc_distance(
@@ -207,17 +222,21 @@ def chain_from_fold_angles(
     loop closes; meaningful for closed chains only).
     """
     dtype = sector_angles.dtype
-    x = jnp.array([1.0, 0.0, 0.0], dtype)
-    t = jnp.array([0.0, 1.0, 0.0], dtype)
-    nodes = [x]
+    x0 = jnp.array([1.0, 0.0, 0.0], dtype)
+    t0 = jnp.array([0.0, 1.0, 0.0], dtype)
     n_arcs = sector_angles.shape[0]
-    for i in range(n_arcs):
-        alpha = sector_angles[i]
+    # The fold applied after arc i is at node (i + 1) mod n.
+    next_folds = folds[(jnp.arange(n_arcs) + 1) % folds.shape[0]]
+
+    def arc(carry, inputs):
+        x, t = carry
+        alpha, fold = inputs
         x_next = jnp.cos(alpha) * x + jnp.sin(alpha) * t
         t_flat = -jnp.sin(alpha) * x + jnp.cos(alpha) * t
-        j = (i + 1) % folds.shape[0]
-        t = rotate(x_next, folds[j], t_flat)
-        x = x_next
-        nodes.append(x)
-    closure = jnp.concatenate([x - nodes[0], t - jnp.array([0.0, 1.0, 0.0], dtype)])
-    return jnp.stack(nodes), closure
+        return (x_next, rotate(x_next, fold, t_flat)), x_next
+
+    # A scan, not a Python loop: the traced graph (and the compile time of the loop closure's
+    # Gauss-Newton, which differentiates it) stays the same size for any number of creases.
+    (x, t), nodes = jax.lax.scan(arc, (x0, t0), (sector_angles, next_folds))
+    closure = jnp.concatenate([x - x0, t - t0])
+    return jnp.concatenate([x0[None], nodes]), closure

@@ -105,7 +105,9 @@ class SingleVertex(eqx.Module):
 
         Flap 0 lies in the xy-plane, from `x_0 = (1, 0, 0)` towards `+y`.
 
-        **Raises:** `InvalidVertexError` if the counts disagree, if a closed chain's fold angles do
+        **Raises:** `InvalidVertexError` if the counts disagree, if a fold angle is not finite or
+        lies outside [−π, π] (a fold of 190° is no fold: it would put a flap through its
+        neighbour, and its geometry is that of −170°), if a closed chain's fold angles do
         not close the loop (closure residual above `CLOSURE_TOL`; a closed vertex has only
         `n − 3` free fold angles), or if the state fails `validate_vertex`.
         """
@@ -121,12 +123,13 @@ class SingleVertex(eqx.Module):
                 f"a {kind} chain with {len(sectors)} sectors has {m} fold angles, got {len(folds)}"
             )
         _check_sectors(sectors, closed)
+        _check_folds(folds)
         padded = folds if closed else np.concatenate([[0.0], folds, [0.0]])
         nodes, closure = _chain(jnp.asarray(sectors), jnp.asarray(padded), closed)
         nodes, closure = np.asarray(nodes, np.float64), np.asarray(closure, np.float64)
         if closed:
             residual = float(np.max(np.abs(closure)))
-            if residual > CLOSURE_TOL:
+            if not residual <= CLOSURE_TOL:  # NaN fails too
                 raise InvalidVertexError(
                     f"the fold angles do not close the loop (closure residual {residual:.2e} > "
                     f"{CLOSURE_TOL:g}): a closed vertex of {n} creases has only {n - 3} free fold "
@@ -257,6 +260,19 @@ class ValidationReport:
     planarity: float
     max_abs_fold_angle: float
     contact_mask: np.ndarray
+
+
+def _check_folds(folds: np.ndarray) -> None:
+    if not np.all(np.isfinite(folds)):
+        bad = np.flatnonzero(~np.isfinite(folds)).tolist()
+        raise InvalidVertexError(f"fold angles must be finite; entries {bad[:8]} are not")
+    bad = np.flatnonzero(np.abs(folds) > np.pi)
+    if len(bad):
+        raise InvalidVertexError(
+            f"fold angles must lie in [−180°, 180°] (radians in [−π, π]; valley +, mountain −): "
+            f"entries {bad[:8].tolist()} are {np.round(np.rad2deg(folds[bad[:8]]), 6).tolist()}°. "
+            "A fold beyond 180° would carry a flap through its neighbour; angles are in radians."
+        )
 
 
 def _check_sectors(sectors: np.ndarray, closed: bool) -> None:

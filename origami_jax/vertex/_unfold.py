@@ -17,6 +17,7 @@ import dataclasses
 import enum
 import functools
 import time
+from typing import Any
 
 import equinox as eqx
 import jax
@@ -514,6 +515,27 @@ def _invalid_result(vertex, kind, p, reason) -> UnfoldResult:
     )
 
 
+def _checked_p(energy: str, p: Any) -> float:
+    """The energy exponent: `DEFAULT_P[energy]` when `None`, else a positive finite number."""
+    if p is None:
+        return float(DEFAULT_P[energy])
+    if (
+        isinstance(p, bool)
+        or not isinstance(p, int | float | np.number)
+        or not (np.isfinite(p) and p > 0)
+    ):
+        raise ValueError(
+            f"p, the exponent of the charge energy 1/d^p, must be a positive finite number (the "
+            f"paper uses {DEFAULT_P['separable']:g} and {DEFAULT_P['nonseparable']:g}), got {p!r}."
+        )
+    return float(p)
+
+
+def _check_max_steps(max_steps: Any) -> None:
+    if isinstance(max_steps, bool) or not isinstance(max_steps, int | np.integer) or max_steps < 1:
+        raise ValueError(f"max_steps must be a positive integer, got {max_steps!r}.")
+
+
 def unfold(
     vertex: SingleVertex,
     *,
@@ -540,6 +562,9 @@ def unfold(
     message in `reason` instead of raising, so that sweeps can carry on; use
     `validate_vertex` to get the exception.
 
+    **Raises:** `ValueError` for an unknown `energy`, a `p` that is not a positive finite number or a
+    `max_steps` below 1 (checked before anything compiles).
+
     Requires float64 (`jax.config.update("jax_enable_x64", True)`): the constraints are held to
     1e-10 and the verdict thresholds are 1e-4.
     """
@@ -548,7 +573,8 @@ def unfold(
         raise RuntimeError(
             'unfold needs float64: call jax.config.update("jax_enable_x64", True) first'
         )
-    p = DEFAULT_P[energy] if p is None else float(p)
+    p = _checked_p(energy, p)
+    _check_max_steps(max_steps)
     settings = DescentSettings() if settings is None else settings
     key = jax.random.key(0) if key is None else key
     t_start = time.perf_counter()
@@ -677,7 +703,8 @@ def unfold_batch(
     further vmapped calls on the stalled members only; `perturbation` is left to `unfold`.
     """
     check_energy(energy)
-    p = DEFAULT_P[energy] if p is None else float(p)
+    p = _checked_p(energy, p)
+    _check_max_steps(max_steps)
     settings = _settings_arrays(DescentSettings() if settings is None else settings)
     x = jnp.asarray(vertices.directions, jnp.float64)
     sectors = jnp.asarray(vertices.sector_angles, jnp.float64)
