@@ -92,8 +92,8 @@ def hydrodynamic_function(
 ) -> tuple[Float[Array, "*b"], Float[Array, "*b"]]:
     """Sader's hydrodynamic function of a thin rectangular section, ``Γ_rect = Ω Γ_circ``, as
     ``(Re Γ, Im Γ)`` (dimensionless, module docstring). `reynolds`: ``ρ_f ω c² / (4 μ)``, in
-    ``[1e-6, 1e4]`` (the fit's range; higher values are clipped there, where ``Γ`` is within 3 % of
-    its potential-flow limit 1)."""
+    ``[1e-6, 1e4]`` (the fit's range; higher values are clipped there, where ``Γ`` is close to
+    its potential-flow limit 1: 4 % at 1e4)."""
     re = jnp.clip(jnp.asarray(reynolds, dtype=float), 1e-6, 1e4)
     gamma = rectangular_correction(re) * circular_hydrodynamic_function(re)
     return jnp.real(gamma), jnp.imag(gamma)
