@@ -191,3 +191,95 @@ def _base(design: HingeDesign) -> np.ndarray:
             [-width / 2, 0.0, 0.0],
         ]
     )
+
+
+def tip_contact_angle(radius: float, strip_length: float, flap_length: float) -> float:
+    """The fold angle (rad, in ``(π, 2π)``) at which a flap of length ``L`` on an arc hinge of strip
+    length ``l`` (bending radius ``ρ`` at its target π) touches the panel it folded onto with its
+    far edge: ``z_tip(q) = l (1 − cos q)/q + L sin q = 0`` (bisection, host). With a point hinge it is
+    ``π``: any overshoot is interpenetration. `radius` is unused but for the docstring's reading
+    (``l = ρ π``)."""
+    del radius
+
+    def height(q):
+        return strip_length * (1 - np.cos(q)) / q + flap_length * np.sin(q)
+
+    lo, hi = np.pi, 2 * np.pi
+    if height(lo + 1e-12) <= 0:
+        return float(np.pi)
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if height(mid) > 0 else (lo, mid)
+    return 0.5 * (lo + hi)
+
+
+def accordion_diagnostics(design: HingeDesign, n: int = 3) -> dict:
+    """Where the extended accordion differs from the paper's, in numbers (host floats; the paper job
+    and the notebook print them): hinge stiffness by both formulas, the arc's radius and length, the
+    strip's and flap's masses, each hinge's inertia half-way to its target (paper's model; arc
+    hinges with their strips; with the fluid's inertia too), the fluid's frequencies, Reynolds
+    numbers and hydrodynamic function per flap, and the angle at which flap 1's far edge touches
+    the base."""
+    from ..fluid import fluid_loads, rectangle_added_inertia
+    from ..net import strip_tree
+    from ._system import accordion_system, alternating_targets
+
+    target = alternating_targets(n, design.theta_final)
+    middle = 0.5 * target
+    paper_design = eqx_replace(design, stiffness_model="paper")
+    bilayer_design = eqx_replace(design, stiffness_model="bilayer")
+    point = accordion_system(paper_design, n)
+    radius = float(design.radius())
+    lengths = radius * np.abs(np.asarray(target))
+    panels = _panels(design, n, jnp.asarray(lengths), None, True)
+    arc = strip_tree(
+        panels,
+        areal_density=design.strip_areal_density(),
+        width=design.hinge_width,
+        thickness=design.t_structural + design.t_hinge,
+    )
+    stiffness = bilayer_design.stiffness(n)
+    unit = rectangle_added_inertia(design.flap_length, design.flap_width, 1.0)
+    loads = fluid_loads(
+        arc,
+        jnp.broadcast_to(unit, (n, 6, 6)),
+        jnp.broadcast_to(design.flap_length, (n,)),
+        stiffness,
+        target,
+        density=design.fluid.density,
+        viscosity=design.fluid.viscosity,
+        coefficient=design.added_mass_coefficient,
+    )
+    flap_mass = float(panels.masses[0])
+    strip_mass = float(design.strip_areal_density() * jnp.mean(design.hinge_width)) * lengths[0]
+
+    def diagonal(mechanism):
+        return np.asarray(jnp.diagonal(mechanism.mass_matrix(middle))).tolist()
+
+    return {
+        "fluid": design.fluid.name,
+        "stiffness_paper": float(paper_design.stiffness(n)[0]),
+        "stiffness_bilayer": float(stiffness[0]),
+        "radius_um": radius,
+        "strip_length_um": float(lengths[0]),
+        "flap_mass_ng": flap_mass,
+        "strip_mass_ng": strip_mass,
+        "inertia_mid_fold_paper": diagonal(point.mechanism),
+        "inertia_mid_fold_arc": diagonal(arc),
+        "inertia_mid_fold_arc_fluid": diagonal(loads.mechanism),
+        "fluid_frequency_rad_per_us": np.asarray(loads.frequency).tolist(),
+        "reynolds": np.asarray(loads.reynolds).tolist(),
+        "gamma_real": np.asarray(loads.gamma[0]).tolist(),
+        "gamma_imag": np.asarray(loads.gamma[1]).tolist(),
+        "tip_contact_angle_over_pi": tip_contact_angle(
+            radius, float(lengths[0]), float(design.flap_length)
+        )
+        / np.pi,
+    }
+
+
+def eqx_replace(design: HingeDesign, **static) -> HingeDesign:
+    """`design` with static fields (`stiffness_model`, `drag_model`) replaced."""
+    import dataclasses
+
+    return dataclasses.replace(design, **static)

@@ -270,7 +270,9 @@ def parameter_space(
             raise ValueError(f"scale of {name} must be 'log' or 'linear', got {kind!r}.")
         if kind == "log" and lo <= 0:
             raise ValueError(f"log scale needs a positive lower bound for {name}, got {lo}.")
-        if not lo <= start <= hi:
+        # Round-off of a unit conversion (200e-6 m in µm) must not put a start on a bound outside it.
+        slack = 1e-9 * max(abs(lo), abs(hi))
+        if not lo - slack <= start <= hi + slack:
             raise ValueError(
                 f"{name} starts at {start:.6g}, outside its bounds ({lo:.6g}, {hi:.6g}); widen the "
                 "bounds or start inside them."
