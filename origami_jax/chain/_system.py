@@ -5,6 +5,8 @@ simulate the same model: the flaps of the design's geometry, the design's stiffn
 hinge, and fold targets ``(θ_final, −θ_final, θ_final, …)`` (paper Eq. 12 with ``θ_final = π``).
 """
 
+from collections.abc import Sequence
+
 import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
@@ -12,6 +14,7 @@ from jaxtyping import Array, ArrayLike, Float
 
 from ..system import AbstractLayout, FoldingSystem, HingeDesign, HingeDrag, Hinges
 from ._chain import accordion
+from ._extended import extended_accordion, fluid_parts
 
 
 def alternating_targets(
@@ -34,6 +37,9 @@ def accordion_system(
     release_times: Float[ArrayLike, " n"] | None = None,
     gravity: Float[ArrayLike, "3"] | None = None,
     contact: bool = False,
+    hinges: str = "point",
+    fluid: str | Sequence[str] = "paper",
+    strip_nodes: int = 6,
 ) -> FoldingSystem:
     """The paper's accordion as a [`origami_jax.system.FoldingSystem`][], from a hinge design.
 
@@ -48,13 +54,40 @@ def accordion_system(
       ([`origami_jax.contact.PanelContact`][] with its defaults): flap 1 lands on the base (the
       membrane still on the substrate, a flap-sized rectangle before the first hinge) and each flap
       on the one before. `False` (default) is the paper's model, where they pass through.
+    - `hinges`: `"point"` (the paper's revolute creases, default) or `"arc"`: bending strips of length
+      ``ρ |θ_target|`` with their own mass and inertia, the flaps attached at their ends
+      ([`origami_jax.net.StripTree`][]; docs/physics.md, "The hinge is a bending arc").
+    - `fluid`: `"paper"` (default: ``b θ̇|θ̇|`` per hinge, Eq. 11), `"extended"` (quadratic drag on
+      every flap from its own motion, the fluid's added inertia and viscous drag; docs/physics.md,
+      "The fluid moves with the flap"), or a sequence of the parts `"hinge"`, `"panel"`,
+      `"added_mass"`, `"viscous"` (`origami_jax.chain._extended`).
+    - `strip_nodes`: quadrature nodes along each arc hinge's strip (static).
 
-    **Returns:** a `FoldingSystem` with a [`origami_jax.chain.Chain`][], the design's stiffness
-    ``k`` and bending radius ``ρ`` on every hinge, and the paper's hinge drag ``b``
-    ([`origami_jax.system.HingeDrag`][]).
+    **Returns:** a `FoldingSystem`: with the defaults a [`origami_jax.chain.Chain`][], the design's
+    stiffness ``k`` and bending radius ``ρ`` on every hinge and the paper's hinge drag ``b``
+    ([`origami_jax.system.HingeDrag`][]); otherwise a panel tree (`origami_jax.net.PanelTree`, or
+    `StripTree` for arc hinges) with the chosen fluid. The hinge spring is the design's
+    `stiffness_model` either way (`"bilayer"` is the bending energy of the Timoshenko bilayer).
     """
     if not isinstance(design, HingeDesign):
         raise ValueError(f"design must be a HingeDesign, got {type(design).__name__}.")
+    if hinges != "point" or fluid != "paper":
+        if not isinstance(n_flaps, int | np.integer) or isinstance(n_flaps, bool) or n_flaps < 1:
+            raise ValueError(f"n_flaps must be an integer >= 1, got {n_flaps!r}.")
+        n = int(n_flaps)
+        if targets is None:
+            targets = alternating_targets(n, design.theta_final)
+        return extended_accordion(
+            design,
+            n,
+            targets,
+            release_times,
+            gravity,
+            hinges=hinges,
+            fluid=fluid,
+            contact=contact,
+            strip_nodes=strip_nodes,
+        )
     chain = accordion(
         n_flaps,
         flap_length=design.flap_length,
@@ -103,20 +136,33 @@ def _base_rectangle(chain) -> np.ndarray:
 
 
 class Accordion(AbstractLayout):
-    """The accordion layout: ``Accordion(n_flaps)(design)`` is ``accordion_system(design, n_flaps)``.
+    """The accordion layout: ``Accordion(n_flaps, ...)(design)`` is
+    ``accordion_system(design, n_flaps, hinges=..., fluid=..., contact=...)``.
 
-    **Fields** (static): `n_flaps`, the number of flaps (= hinges).
+    **Fields** (static): `n_flaps`, the number of flaps (= hinges); `hinges` (`"point"`, the paper's,
+    or `"arc"`), `fluid` (`"paper"`, `"extended"` or a tuple of parts), `contact` (default `False`),
+    as `accordion_system` takes them.
     """
 
     n_flaps: int = eqx.field(static=True)
+    hinges: str = eqx.field(static=True, default="point")
+    fluid: str | tuple[str, ...] = eqx.field(
+        static=True, default="paper", converter=lambda f: f if isinstance(f, str) else tuple(f)
+    )
+    contact: bool = eqx.field(static=True, default=False)
 
     def __check_init__(self):
         if not isinstance(self.n_flaps, int) or isinstance(self.n_flaps, bool) or self.n_flaps < 1:
             raise ValueError(f"n_flaps must be an integer >= 1, got {self.n_flaps!r}.")
+        if self.hinges not in ("point", "arc"):
+            raise ValueError(f"hinges must be 'point' or 'arc', got {self.hinges!r}.")
+        fluid_parts(self.fluid)  # raises for a bad value
 
     @property
     def n_hinges(self) -> int:
         return self.n_flaps
 
     def __call__(self, design: HingeDesign) -> FoldingSystem:
-        return accordion_system(design, self.n_flaps)
+        return accordion_system(
+            design, self.n_flaps, hinges=self.hinges, fluid=self.fluid, contact=self.contact
+        )

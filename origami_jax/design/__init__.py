@@ -17,6 +17,8 @@ print(result.summary())
 - `fit_batch`: the multi-start least-squares driver over any residual function; `default_solver`
   (`GaussNewtonStepStop`, a Levenberg–Marquardt that also stops on a negligible next step).
 - `identifiability`: rank and (non-)determined combinations of a sensitivity matrix.
+- `PLAUSIBLE_RANGES`, `plausible_bounds`: physically plausible ranges of the design's parameters,
+  with their sources, for calibrations that must stay inside what a device can be.
 - Plots: `origami_jax.design.plot_response` (imports matplotlib when called).
 """
 
@@ -38,6 +40,9 @@ from ._lstsq import FitBatch as FitBatch
 from ._lstsq import GaussNewtonStepStop as GaussNewtonStepStop
 from ._lstsq import default_solver as default_solver
 from ._lstsq import fit_batch as fit_batch
+from ._plausible import PLAUSIBLE_RANGES as PLAUSIBLE_RANGES
+from ._plausible import PlausibleRange as PlausibleRange
+from ._plausible import plausible_bounds as plausible_bounds
 from ._plot import plot_response as plot_response
 from ._report import DesignResult as DesignResult
 from ._report import TargetRow as TargetRow

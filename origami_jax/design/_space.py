@@ -33,9 +33,11 @@ _TOP_LEVEL = {
     "drag_coefficient": "",
     "k_scale": "",
     "b_scale": "",
+    "added_mass_coefficient": "",
 }
 _NESTED = {
     "fluid.density": "mass/length³",
+    "fluid.viscosity": "mass/(length·time)",
     "structural.youngs_modulus": "stress",
     "structural.poisson_ratio": "",
     "structural.density": "mass/length³",
@@ -43,9 +45,9 @@ _NESTED = {
     "hinge.poisson_ratio": "",
     "hinge.density": "mass/length³",
 }
-_ALIASES = {"fluid_density": "fluid.density"}
+_ALIASES = {"fluid_density": "fluid.density", "fluid_viscosity": "fluid.viscosity"}
 PARAMETER_NAMES = tuple(_TOP_LEVEL) + tuple(_NESTED)
-"""Every name `ParameterSpace` accepts (plus the alias ``fluid_density`` for ``fluid.density``)."""
+"""Every name `ParameterSpace` accepts (plus the aliases ``fluid_density`` and ``fluid_viscosity``)."""
 
 # Default bounds: a factor of 100 either side of the start (log-scaled parameters).
 _DEFAULT_FACTOR = 100.0
@@ -71,7 +73,7 @@ def _canonical(name: str) -> str:
     if field not in _TOP_LEVEL and field not in _NESTED:
         raise ValueError(
             f"{name!r} is not a free parameter of HingeDesign. Choose among: "
-            f"{', '.join(PARAMETER_NAMES)} (alias: fluid_density), or one hinge's entry of a "
+            f"{', '.join(PARAMETER_NAMES)} (aliases: fluid_density, fluid_viscosity), or one hinge's entry of a "
             "per-hinge field as NAME[i] (e.g. hinge_width[2])."
         )
     return field if index is None else f"{field}[{index}]"
@@ -275,7 +277,9 @@ def parameter_space(
             raise ValueError(f"scale of {name} must be 'log' or 'linear', got {kind!r}.")
         if kind == "log" and lo <= 0:
             raise ValueError(f"log scale needs a positive lower bound for {name}, got {lo}.")
-        if not lo <= start <= hi:
+        # Round-off of a unit conversion (200e-6 m in µm) must not put a start on a bound outside it.
+        slack = 1e-9 * max(abs(lo), abs(hi))
+        if not lo - slack <= start <= hi + slack:
             raise ValueError(
                 f"{name} starts at {start:.6g}, outside its bounds ({lo:.6g}, {hi:.6g}); widen the "
                 "bounds or start inside them."

@@ -5,7 +5,8 @@ A net's panels joined by its creases form a tree once its seams are cut.
 tree with Featherstone's algorithms in the world frame (CRBA, RNEA, the tree-sparse ``LᵀL`` solve);
 [`origami_jax.net.panel_tree`][] builds one from a flat pattern of polygonal plates
 ([`origami_jax.net.polygon_plate`][]). Hinges are point creases ([`origami_jax.net.RevoluteJoints`][])
-or bending arcs ([`origami_jax.net.ArcJoints`][]). Fold angles are valley positive.
+or bending arcs ([`origami_jax.net.ArcJoints`][]); [`origami_jax.net.StripTree`][] gives the arcs'
+strips their own mass and inertia ([`origami_jax.net.strip_tree`][]). Fold angles are valley positive.
 """
 
 from ._joints import AbstractJoints as AbstractJoints
@@ -17,5 +18,7 @@ from ._net import load_net as load_net
 from ._net import release_times_from_front as release_times_from_front
 from ._plate import Plate as Plate
 from ._plate import polygon_plate as polygon_plate
+from ._strip import StripTree as StripTree
+from ._strip import strip_tree as strip_tree
 from ._tree import PanelTree as PanelTree
 from ._tree import panel_tree as panel_tree

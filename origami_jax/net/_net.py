@@ -33,6 +33,7 @@ from ..fold._catalogue import catalogue_names, catalogue_path
 from ..fold._model import FRAME_UNITS_M
 from ..fold._net_geometry import NetGeometry
 from ..system import AbstractLayout, FoldingSystem, HingeDesign, HingeDrag, Hinges
+from ._strip import StripTree, strip_tree
 from ._tree import PanelTree, panel_tree
 
 
@@ -75,8 +76,10 @@ class Net:
         *,
         hinges: str = "point",
         targets: Float[ArrayLike, " m"] | None = None,
-    ) -> PanelTree:
-        """The panels as a `PanelTree` in the design's units (plates of thickness ``t₁``)."""
+    ) -> PanelTree | StripTree:
+        """The panels as a `PanelTree` in the design's units (plates of thickness ``t₁``); with
+        `hinges="arc"` a `StripTree`: bending strips of length ``ρ |θ_target|`` carrying their own
+        mass (areal density ``ρ₁t₁ + ρ₂t₂``, width the design's `hinge_width`)."""
         g = self.geometry
         scale = self.length_scale
         order = np.asarray(g.order)
@@ -89,7 +92,7 @@ class Net:
             hinge_lengths = np.asarray(design.radius()) * np.abs(angles)
         elif hinges != "point":
             raise ValueError(f"hinges must be 'point' or 'arc', got {hinges!r}.")
-        return panel_tree(
+        tree = panel_tree(
             tuple(int(p) for p in body_parents),
             g.hinge_axes,
             g.hinge_points * scale,
@@ -98,6 +101,14 @@ class Net:
             density=design.structural.density,
             base_outline=base,
             hinge_lengths=hinge_lengths,
+        )
+        if hinges == "point":
+            return tree
+        return strip_tree(
+            tree,
+            areal_density=design.strip_areal_density(),
+            width=design.hinge_width,
+            thickness=design.t_structural + design.t_hinge,
         )
 
     def system(
@@ -109,6 +120,8 @@ class Net:
         contact: bool = True,
         drag: str = "panel",
         hinges: str = "point",
+        added_mass: bool = False,
+        viscous: bool = False,
     ) -> FoldingSystem:
         """The folding system of this net with the hinges, films and fluid of `design`.
 
@@ -121,7 +134,12 @@ class Net:
         - `contact`: panels meet instead of passing through each other (default) or not.
         - `drag`: `"panel"` (each panel's own motion, `PanelDrag`; default) or `"hinge"` (the paper's
           ``−b θ̇|θ̇|`` per hinge with ``b`` from the child panel's area and its reach from the crease).
-        - `hinges`: `"point"` creases (the paper's model) or bending `"arc"`s of length ``ρ|θ_target|``.
+        - `hinges`: `"point"` creases (the paper's model) or bending `"arc"`s of length ``ρ|θ_target|``
+          with their strips' own mass (`StripTree`).
+        - `added_mass`, `viscous`: the fluid's inertia on every panel and its viscous drag (strip
+          theory across each crease, Sader's hydrodynamic function at each hinge's frequency;
+          `origami_jax.fluid.fluid_loads`, docs/physics.md "The fluid moves with the flap"); off by
+          default.
         """
         from ..contact import PanelContact
         from ..fluid import PanelDrag
@@ -155,6 +173,25 @@ class Net:
             drag_model = HingeDrag(_hinge_drag(tree, design))
         else:
             raise ValueError(f"drag must be 'panel' or 'hinge', got {drag!r}.")
+        if added_mass or viscous:
+            from ..fluid import CombinedDrag, fluid_loads, polygon_added_inertia
+
+            outlines = tree.outlines()
+            loads = fluid_loads(
+                tree,
+                jnp.stack([polygon_added_inertia(o) for o in outlines]),
+                jnp.asarray([float(np.ptp(o[:, 1])) for o in outlines]),
+                stiffness,
+                targets,
+                density=design.fluid.density,
+                viscosity=design.fluid.viscosity,
+                coefficient=design.added_mass_coefficient,
+                added_mass=added_mass,
+                viscous=viscous,
+            )
+            tree = loads.mechanism
+            if loads.viscous is not None:
+                drag_model = CombinedDrag((drag_model, loads.viscous))
         contact_model = None
         if contact:
             contact_model = PanelContact.for_system(
@@ -341,9 +378,11 @@ def _key_frame(g: NetGeometry, name: str) -> tuple[FoldFrame, tuple[tuple[int, .
     return frame, tuple(tuple(e) for e in on_crease)
 
 
-def _hinge_drag(tree: PanelTree, design: HingeDesign) -> Array:
+def _hinge_drag(tree: PanelTree | StripTree, design: HingeDesign) -> Array:
     """The paper's ``b = C_D ν A L³ / c`` per hinge, for a polygonal child panel: ``A`` its area and
     ``L`` its farthest reach from the crease."""
+    if isinstance(tree, StripTree):
+        tree = tree.panels
     layout = tree.hinge_layout()
     b = []
     for i, outline in enumerate(tree.outlines()):
@@ -440,16 +479,26 @@ def load_net(
 
 class NetLayout(AbstractLayout):
     """The net layout for `design` and `sweep`: ``NetLayout(net)(design)`` is ``net.system(design,
-    ...)`` with the layout's options (static fields: `net`, `contact`, `drag`, `hinges`)."""
+    ...)`` with the layout's options (static fields: `net`, `contact`, `drag`, `hinges`,
+    `added_mass`, `viscous`)."""
 
     net: Net = eqx.field(static=True)
     contact: bool = eqx.field(static=True, default=True)
     drag: str = eqx.field(static=True, default="panel")
     hinges: str = eqx.field(static=True, default="point")
+    added_mass: bool = eqx.field(static=True, default=False)
+    viscous: bool = eqx.field(static=True, default=False)
 
     @property
     def n_hinges(self) -> int:
         return self.net.n_creases
 
     def __call__(self, design: HingeDesign) -> FoldingSystem:
-        return self.net.system(design, contact=self.contact, drag=self.drag, hinges=self.hinges)
+        return self.net.system(
+            design,
+            contact=self.contact,
+            drag=self.drag,
+            hinges=self.hinges,
+            added_mass=self.added_mass,
+            viscous=self.viscous,
+        )

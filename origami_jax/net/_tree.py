@@ -34,7 +34,7 @@ from .._validate import (
     is_traced,
 )
 from ..system._mechanism import AbstractMechanism, HingeLayout
-from . import _batching, _dynamics
+from . import _batching, _dynamics, _motion
 from ._joints import AbstractJoints, ArcJoints, RevoluteJoints
 from ._plate import polygon_plate
 from ._topology import check_parents
@@ -242,6 +242,14 @@ class PanelTree(AbstractMechanism):
 
     def body_poses(self, q):
         return _body_poses(self, jnp.asarray(q))
+
+    def spatial_velocities(self, q, v):
+        """``V_b = Σ_{j ⪯ b} S_j q̇_j`` from the hinges' world motion subspaces (`_motion`)."""
+        return _motion.spatial_velocities(self, jnp.asarray(q), jnp.asarray(v))
+
+    def apply_wrenches(self, q, wrenches):
+        """``f_j = S_j · Σ_{b ⪰ j} W_b``: hinge ``j`` carries its subtree (`_motion`)."""
+        return _motion.apply_wrenches(self, jnp.asarray(q), jnp.asarray(wrenches))
 
     def outlines(self) -> list[np.ndarray]:
         """Each panel's polygon in its body frame, `(k_i, 3)` host arrays; without stored outlines a

@@ -71,26 +71,59 @@ class Material(eqx.Module):
 
 
 class Fluid(eqx.Module):
-    """The fluid the flaps fold in; only its density enters the quadratic drag.
+    """The fluid the flaps fold in.
 
-    **Fields:** `density` (mass/length³ of `units`), `units` (static, SI by default), `name` (static).
+    Its density enters the quadratic (pressure) drag and the added (fluid) inertia; its dynamic
+    viscosity the viscous (linear) drag and the viscous correction of the added inertia
+    (`origami_jax.fluid`; docs/physics.md, "The fluid moves with the flap"). The paper's model uses the
+    density only.
+
+    **Fields:** `density` (mass/length³ of `units`), `viscosity` (dynamic viscosity, mass/(length·time)
+    of `units`: Pa·s in SI, ng/(µm·µs) = Pa·s in MICRO; `None` when unknown: the viscous models then
+    refuse the fluid), `units` (static, SI by default), `name` (static).
     """
 
     density: Float[Array, "..."]
+    viscosity: Float[Array, "..."] | None
     units: UnitSystem = eqx.field(static=True)
     name: str = eqx.field(static=True)
 
-    def __init__(self, density: ArrayLike, units: UnitSystem = SI, name: str = "fluid"):
+    def __init__(
+        self,
+        density: ArrayLike,
+        units: UnitSystem = SI,
+        name: str = "fluid",
+        *,
+        viscosity: ArrayLike | None = None,
+    ):
         self.density = check_positive(as_float_array(density, "density"), "density", "mass/length³")
+        self.viscosity = (
+            None
+            if viscosity is None
+            else check_positive(
+                as_float_array(viscosity, "viscosity"), "viscosity", "mass/(length·time)"
+            )
+        )
         self.units = units
         self.name = name
 
     def to(self, units: UnitSystem) -> "Fluid":
-        """The same fluid with its density expressed in `units`."""
+        """The same fluid with its values expressed in `units`."""
         if units == self.units:
             return self
+        viscosity = None
+        if self.viscosity is not None:
+            viscosity = units.from_si(
+                self.units.to_si(self.viscosity, mass=1, length=-1, time=-1),
+                mass=1,
+                length=-1,
+                time=-1,
+            )
         return Fluid(
-            units.density(self.units.to_si(self.density, mass=1, length=-3)), units, self.name
+            units.density(self.units.to_si(self.density, mass=1, length=-3)),
+            units,
+            self.name,
+            viscosity=viscosity,
         )
 
 
@@ -106,13 +139,16 @@ SINX = Material(250e9, 0.23, 3100.0)
 CR = Material(279e9, 0.21, 7190.0)
 """Chromium, SI values (stressed hinge film)."""
 
-# - Air at 20 °C and 1 atm: 1.204 kg/m³ (ideal gas, 28.96 g/mol; CRC Handbook, "Properties of dry air").
-# - KOH etch bath, 30 wt% aqueous KOH at 20 °C: 1.29 g/cm³ (CRC Handbook, "Concentrative properties of
-#   aqueous solutions", KOH). The fold happens while the hinge is released in this bath; at
-#   the usual 80 °C the density is ~2 % lower, well inside the uncertainty of C_D.
-AIR = Fluid(1.204, SI, "air")
+# - Air at 20 °C and 1 atm: density 1.204 kg/m³ (ideal gas, 28.96 g/mol), dynamic viscosity
+#   1.81e-5 Pa·s (CRC Handbook of Chemistry and Physics, "Properties of dry air" and "Viscosity of
+#   gases").
+# - KOH etch bath, 30 wt% aqueous KOH at 20 °C: density 1.29 g/cm³, dynamic viscosity 2.2 mPa·s (CRC
+#   Handbook, "Concentrative properties of aqueous solutions", KOH; consistent with Sipos, Hefter &
+#   May, J. Chem. Eng. Data 45 (2000) 613, at 25 °C). The fold happens while the hinge is released in
+#   this bath; at the usual 80 °C the density is ~2 % lower and the viscosity about half.
+AIR = Fluid(1.204, SI, "air", viscosity=1.81e-5)
 """Air at 20 °C, 1 atm (SI)."""
-KOH_SOLUTION = Fluid(1290.0, SI, "30 wt% KOH solution")
+KOH_SOLUTION = Fluid(1290.0, SI, "30 wt% KOH solution", viscosity=2.2e-3)
 """30 wt% aqueous KOH at 20 °C (SI)."""
 
 # Literature defaults (paper Fig. 4): 200 nm SiNx, 100 nm Cr, ~1 GPa tensile residual stress in the
@@ -198,8 +234,16 @@ class HingeDesign(eqx.Module):
     - `drag_coefficient` ``C_D`` (dimensionless).
     - `structural`, `hinge`: `Material`s (converted into `units`); `fluid`: `Fluid` (converted).
     - `k_scale`, `b_scale`: dimensionless factors on ``k`` and ``b`` (calibration knobs), default 1.
-    - `stiffness_model` (static): `"paper"` ``k = w (E₁'t₁³ + E₂'t₂³) / (3 l)`` (default) or `"plate"`,
-      pure plate bending, ``/(12 l)`` — a factor 4 softer (docs/physics.md, "Where the paper's formulas are questionable").
+    - `added_mass_coefficient` ``C_a`` (dimensionless, default 1): the fluid inertia of a panel is
+      ``C_a`` times the two-dimensional potential-flow (strip theory) value (`origami_jax.fluid`); a
+      finite square plate has about 0.58 of it (docs/physics.md, "The fluid moves with the flap"). Only
+      the extended fluid model reads it.
+    - `stiffness_model` (static): `"paper"` ``k = w (E₁'t₁³ + E₂'t₂³) / (3 l)`` (default), `"plate"`,
+      each film's own plate bending, ``/(12 l)`` — a factor 4 softer (docs/physics.md, "Where the
+      paper's formulas are questionable") — or `"bilayer"`, ``k = w D / l`` with ``D`` the flexural
+      rigidity of the bonded bilayer about its neutral axis (`flexural_rigidity`): the bending energy
+      ``½ w l D (κ − κ₀)²`` of a strip of length ``l`` held at curvature ``κ = θ / l`` away from its
+      Timoshenko curvature ``κ₀ = θ_final / l``.
     - `drag_model` (static): `"paper"` ``b = C_D ν A L³ / 16`` (default) or `"strip"`, quadratic drag
       integrated along the plate, ``/8``.
     - `units` (static).
@@ -218,7 +262,8 @@ class HingeDesign(eqx.Module):
     fluid: Fluid
     k_scale: Float[Array, "..."]
     b_scale: Float[Array, "..."]
-    stiffness_model: Literal["paper", "plate"] = eqx.field(static=True)
+    added_mass_coefficient: Float[Array, "..."]
+    stiffness_model: Literal["paper", "plate", "bilayer"] = eqx.field(static=True)
     drag_model: Literal["paper", "strip"] = eqx.field(static=True)
     units: UnitSystem = eqx.field(static=True)
 
@@ -239,13 +284,14 @@ class HingeDesign(eqx.Module):
         fluid: Fluid = AIR,
         k_scale: ArrayLike = 1.0,
         b_scale: ArrayLike = 1.0,
+        added_mass_coefficient: ArrayLike = 1.0,
         stiffness_model: str = "paper",  # str, not Literal: a wrong value gets the ValueError below
         drag_model: str = "paper",
         units: UnitSystem = MICRO,
     ):
-        if stiffness_model not in ("paper", "plate"):
+        if stiffness_model not in ("paper", "plate", "bilayer"):
             raise ValueError(
-                f"stiffness_model must be 'paper' or 'plate', got {stiffness_model!r}."
+                f"stiffness_model must be 'paper', 'plate' or 'bilayer', got {stiffness_model!r}."
             )
         if drag_model not in ("paper", "strip"):
             raise ValueError(f"drag_model must be 'paper' or 'strip', got {drag_model!r}.")
@@ -284,6 +330,10 @@ class HingeDesign(eqx.Module):
         )
         self.k_scale = check_positive(as_float_array(k_scale, "k_scale"), "k_scale")
         self.b_scale = check_positive(as_float_array(b_scale, "b_scale"), "b_scale")
+        self.added_mass_coefficient = check_positive(
+            as_float_array(added_mass_coefficient, "added_mass_coefficient"),
+            "added_mass_coefficient",
+        )
 
     @classmethod
     def literature(cls, units: UnitSystem = MICRO, **overrides) -> "HingeDesign":
@@ -323,17 +373,45 @@ class HingeDesign(eqx.Module):
         """``l = ρ θ_final`` (length): the arc that bends by ``θ_final`` at the free curvature."""
         return self.radius() * self.theta_final
 
+    def flexural_rigidity(self) -> Array:
+        """Bending rigidity ``D`` of the bonded bilayer strip per unit width (torque, µN·µm in MICRO).
+
+        ``D = (E₁²t₁⁴ + E₂²t₂⁴ + 2 E₁E₂t₁t₂(2t₁² + 3t₁t₂ + 2t₂²)) / (12 (E₁t₁ + E₂t₂))``, the two layers'
+        ``Σ E_i (t_i³/12 + t_i d_i²)`` about their common neutral axis (the denominator of the
+        Timoshenko curvature, Eq. 7, over ``12 (E₁t₁ + E₂t₂)``), with the plate moduli
+        ``E_i = E / (1 − ν²)`` of a strip in cylindrical bending (a wide strip keeps the crease
+        straight; Timoshenko & Woinowsky-Krieger, *Theory of Plates and Shells*, 1959, §1–2).
+        """
+        e1 = self.structural.youngs_modulus / (1 - self.structural.poisson_ratio**2)
+        e2 = self.hinge.youngs_modulus / (1 - self.hinge.poisson_ratio**2)
+        t1, t2 = self.t_structural, self.t_hinge
+        numerator = (
+            e1**2 * t1**4
+            + e2**2 * t2**4
+            + 2 * e1 * e2 * t1 * t2 * (2 * t1**2 + 3 * t1 * t2 + 2 * t2**2)
+        )
+        return numerator / (12 * (e1 * t1 + e2 * t2))
+
+    def strip_areal_density(self) -> Array:
+        """Mass per unit area of the hinge strip, ``ρ₁t₁ + ρ₂t₂`` (membrane and stressed film;
+        mass/length², ng/µm² in MICRO)."""
+        return self.structural.density * self.t_structural + self.hinge.density * self.t_hinge
+
     def stiffness(self, n_joints: int) -> Float[Array, " n"]:
         """Rotational stiffness ``k`` of each hinge, shape `(n_joints,)`, torque/rad (µN·µm in MICRO).
 
-        ``k = k_scale · w (E₁'t₁³ + E₂'t₂³) / (c l)`` with ``c = 3`` (`"paper"`) or 12 (`"plate"`).
+        ``k = k_scale · w (E₁'t₁³ + E₂'t₂³) / (c l)`` with ``c = 3`` (`"paper"`) or 12 (`"plate"`);
+        ``k = k_scale · w D / l`` (`"bilayer"`, `flexural_rigidity`).
         """
-        bending = (
-            self.structural.biaxial_modulus * self.t_structural**3
-            + self.hinge.biaxial_modulus * self.t_hinge**3
-        )
-        denominator = 3.0 if self.stiffness_model == "paper" else 12.0
-        k = self.k_scale * self.hinge_width * bending / (denominator * self.hinge_length())
+        if self.stiffness_model == "bilayer":
+            rigidity = self.flexural_rigidity()
+        else:
+            bending = (
+                self.structural.biaxial_modulus * self.t_structural**3
+                + self.hinge.biaxial_modulus * self.t_hinge**3
+            )
+            rigidity = bending / (3.0 if self.stiffness_model == "paper" else 12.0)
+        k = self.k_scale * self.hinge_width * rigidity / self.hinge_length()
         return jnp.broadcast_to(k, (n_joints,))
 
     def drag(self, n_joints: int) -> Float[Array, " n"]:
