@@ -401,3 +401,46 @@ def _fan_fold(rays_deg, angles_deg) -> dict:
     ]
     out["file_spec"] = 1.2
     return out
+
+
+# --- one physics: CLI, design layout, sweep ---------------------------------------------------
+
+
+def test_fold_cli_lists_and_refuses(tmp_path, capsys):
+    from origami_jax.cli import main
+
+    assert main(["fold", "--list"]) == 0
+    listed = capsys.readouterr().out.split()
+    for name in ("vertex_degree4", "vertex_degree6", "miura_3x3", "waterbomb_base", "waterbomb_2x2"):
+        assert name in listed
+    code = main(["fold", "square_twist", "--no-figures", "--out", str(tmp_path / "twist")])
+    assert code == 2 and "not rigidly foldable" in capsys.readouterr().err
+    code = main(["fold", "origami_simulator_miura", "--no-figures", "--out", str(tmp_path / "os")])
+    assert code == 2 and "length_scale" in capsys.readouterr().err
+
+
+def test_layout_and_sweep_kernel_build_closed_loop_systems():
+    from origami_jax.loops import PatternLayout
+    from origami_jax.sweep import get_model
+
+    pattern, system = _degree4()
+    layout = PatternLayout(pattern, contact=False)
+    built = layout(KOH)
+    assert layout.n_hinges == 4 and isinstance(built.mechanism, LoopedPanels)
+    np.testing.assert_allclose(built.hinges.stiffness, system.hinges.stiffness, rtol=1e-15)
+    kernel = get_model("net-fold", net="vertex_degree4", contact=False, bias=1e-3)
+    assert kernel.settings["closed_loops"] == 1 and "release[3]" in kernel.parameters
+
+
+@pytest.mark.slow
+def test_fold_cli_folds_a_closed_loop_pattern(tmp_path, capsys):
+    from origami_jax.cli import main
+
+    out = tmp_path / "vertex"
+    argv = ["fold", "vertex_degree4", "--fluid", "koh", "--no-contact", "--t1", "600"]
+    code = main(argv + ["--no-figures", "--n-save", "201", "--bias", "0.001", "--out", str(out)])
+    assert code == 0, capsys.readouterr().err
+    result = json.loads((out / "result.json").read_text())
+    assert result["verdict"] == "folded" and result["closed_loops"] == 1
+    assert result["wrong_creases"] == [] and result["closure_drift"] < DRIFT_TOL
+    assert (out / "trajectory.fold").is_file()

@@ -19,15 +19,19 @@ work through its rate like any other (``τ θ̇_C``) and reaches the panels thro
 **Singular places.** At the flat state (and at fully folded states) the closure Jacobian loses rank:
 the loops' linearised constraints become dependent, and several folding branches meet. The
 multipliers are then not unique and the saddle-point system is singular, so it is solved by the
-augmented-Lagrangian iteration (Bayo & Ledesma, Nonlinear Dyn. 9, 1996):
+augmented-Lagrangian iteration (Bayo & Ledesma, Nonlinear Dyn. 9, 1996) with each vertex's three rows
+whitened, ``W_v = (J_v J_vᵀ + δ)⁻¹``:
 
-    (M + ρ JᵀJ) θ̈ₖ₊₁ = f − C θ̇ − G + Jᵀ λₖ + ρ Jᵀ b,     λₖ₊₁ = λₖ + ρ (b − J θ̈ₖ₊₁),
+    (M + ρ Jᵀ W J) θ̈ₖ₊₁ = f − C θ̇ − G + Jᵀ λₖ + ρ Jᵀ W b,     λₖ₊₁ = λₖ + ρ W (b − J θ̈ₖ₊₁),
 
 one Cholesky factorisation and a few solves. The matrix is positive definite at any rank of ``J``;
-redundant constraints (a Miura-ori's loops are dependent everywhere) converge in a few iterations;
-constraint directions that vanish at a singular place (``J`` row of size ``σ → 0``) act as a penalty
-of stiffness ``ρ σ²`` there, which is what lets the state leave a bifurcation along one branch
-instead of stalling. Units: ``ρ = penalty · mean(diag M_T)``.
+redundant constraints (a Miura-ori's loops are dependent everywhere) converge in a few iterations.
+The whitening matters near flat: a vertex's out-of-plane row shrinks like the fold ``r`` there, and
+unwhitened it would be enforced only as a penalty of stiffness ``ρ r²`` (the path leaves its branch
+for ``r`` up to ~1/√(ρ/M)); whitened it is enforced at full strength down to ``|J_v row| ~ √δ``
+(``δ`` = `whitening`, 1e-8: rows within ~1e-4 rad of flat fall back to the penalty, which lets a
+vertex swinging through flat keep its momentum along its branch instead of being thrown onto the
+other one by accelerations that grow like 1/r). Units: ``ρ = penalty · mean(diag M_T)``.
 """
 
 import equinox as eqx
@@ -71,8 +75,8 @@ class LoopedPanels(AbstractMechanism):
       `cut_ends` (static): its two end points in the flat state, world frame.
     - `loop_index` (static): `(n_v, D)` crease indices around each interior vertex, counter-clockwise
       (``m`` pads); `loop_directions`: `(n_v, D, 3)` their outward unit directions in the flat state.
-    - `rate`: Baumgarte rate ``ω`` (1/time). `penalty` (static): ``ρ / mean(diag M_T)``;
-      `iterations` (static): augmented-Lagrangian iterations.
+    - `rate`: Baumgarte rate ``ω`` (1/time); `whitening`: ``δ`` (dimensionless). `penalty` (static):
+      ``ρ / mean(diag M_T)``; `iterations` (static): augmented-Lagrangian iterations.
     - `loop_points` (static): the interior vertices' positions (flat state), for contact tables.
     """
 

@@ -88,8 +88,8 @@ class CreasePattern:
             self._cache["padded"] = (directions, _kinematics._with_count(index, g.n_creases))
         return self._cache["padded"]
 
-    def closure_residual(self, angles: Float[ArrayLike, " m"]) -> np.ndarray:
-        """Each loop's closure residual at `angles` (the rotation angle, rad, `(n_v,)`)."""
+    def closure_residual(self, angles: Float[ArrayLike, "*batch m"]) -> np.ndarray:
+        """Each loop's closure residual at `angles` (the rotation angle, rad, `(*batch, n_v)`)."""
         return self.geometry.closure_residual(np.asarray(angles, dtype=float))
 
     def check_angles(self, angles: Float[ArrayLike, " m"], what: str = "fold angles") -> None:

@@ -151,7 +151,6 @@ def accordion_step(
         trajectory = simulate(
             system,
             Step(),
-            theta0=theta0,
             t1=t_end,
             n_save=n_save,
             rtol=rtol,
