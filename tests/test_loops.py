@@ -33,23 +33,25 @@ from origami_jax.system import AIR, KOH_SOLUTION, HingeDesign
 
 KOH = HingeDesign.literature(fluid=KOH_SOLUTION)
 # The closed forms hold exactly on the constraint manifold; the integrated state leaves it by the
-# closure drift, held near 1e-9 rad by the Baumgarte feedback at rtol 1e-10 (measured 4e-9 on the
-# relation from a flat start, 6e-9 through flat), so the relations are checked to 1e-8.
+# closure drift, held near 1e-9 rad by the Baumgarte feedback at rtol 1e-10, and, within ~1e-4 rad
+# of flat, by the penalty the constraint falls back to there (docs/physics.md, "Closed loops").
+# Measured on the degree-4 relation: 6e-9 from a flat start; through flat 2.5e-8 at rtol 1e-10 and
+# 3e-9 at rtol 1e-11 (the swing through the singular place is run at 1e-11). Checked to 1e-8.
 CLOSED_FORM_TOL = 1e-8
 # Stated drift bound over long runs (rad of loop rotation).
 DRIFT_TOL = 1e-8
 RTOL, ATOL, N_SAVE = 1e-10, 1e-12, 201
 
 
-def _simulate(system, theta0=None, t1=3000.0, inputs=None):
+def _simulate(system, theta0=None, t1=3000.0, inputs=None, rtol=RTOL):
     return sim.simulate(
         system,
         sim.Step() if inputs is None else inputs,
         t1=t1,
         theta0=theta0,
         n_save=N_SAVE,
-        rtol=RTOL,
-        atol=ATOL,
+        rtol=rtol,
+        atol=rtol * 1e-2,
         solver=diffrax.Tsit5(),
         max_steps=200_000,
         throw=False,
@@ -174,7 +176,7 @@ def test_degree4_vertex_swings_through_flat_on_its_branch():
     pattern, system = _degree4()
     start = pattern.intended_angles
     mirrored = eqx.tree_at(lambda s: s.hinges.target, system, jnp.asarray(-start))
-    trajectory = _simulate(mirrored, theta0=start, t1=300.0)
+    trajectory = _simulate(mirrored, theta0=start, t1=300.0, rtol=1e-11)
     theta = np.asarray(trajectory.theta)
     assert np.any(theta[:, 0] > 0.5) and np.any(theta[:, 0] < -0.5)
     assert _relation_error(pattern, theta) < CLOSED_FORM_TOL

@@ -302,10 +302,7 @@ class CreasePattern:
         contact_model = None
         if contact:
             contact_model = _contact(
-                mechanism,
-                np.asarray(stiffness),
-                np.asarray(targets),
-                thickness=float(np.asarray(design.t_structural)),
+                mechanism, stiffness, targets, thickness=float(np.asarray(design.t_structural))
             )
         return FoldingSystem(
             mechanism, hinges_, drag_model, contact=contact_model, units=design.units
@@ -510,13 +507,15 @@ def _contact(mechanism: LoopedPanels, stiffness, targets, *, thickness: float):
         np.concatenate(ends),
         inset=2 * float(probe.edge_width),
     )
-    energy = float(np.sum(0.5 * stiffness * targets**2))
+    # Stiffness and damping as `PanelContact.for_system` sets them, traceable in the hinges (a sweep
+    # over hinge parameters builds contact inside `vmap`); the tables are the flat geometry's.
+    energy = jnp.sum(0.5 * stiffness * targets**2)
     gap = float(probe.activation)
     curvature = float(jax.grad(jax.grad(barrier))(0.5))
     contact_stiffness = energy * curvature / gap**2
-    inertia = np.diag(np.asarray(mechanism.tree.mass_matrix(jnp.zeros(mechanism.n_tree))))
-    mass = float(np.min(inertia)) / tables.scale**2
-    damping = 2 * 0.5 * np.sqrt(contact_stiffness * mass)
+    inertia = jnp.diagonal(mechanism.tree.mass_matrix(jnp.zeros(mechanism.n_tree)))
+    mass = jnp.min(inertia) / tables.scale**2
+    damping = 2 * 0.5 * jnp.sqrt(contact_stiffness * mass)
     dtype = jnp.result_type(float)
     return PanelContact(
         tables=tables,
