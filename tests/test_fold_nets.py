@@ -35,13 +35,17 @@ from origami_jax.fold import (
     read_fold,
 )
 from origami_jax.fold._catalogue import _cube_net, build_catalogue, free_polyominoes
+from origami_jax.fold._catalogue_loops import VERBATIM, loop_patterns
 
 DATA = Path(__file__).parent / "data" / "fold"
 EDGE = 200.0  # µm, every catalogue edge
 GAP_TOL = 1e-9 * EDGE
 RIGID_TOL = 1e-9 * EDGE
 ANGLE_TOL = 1e-9  # rad, dihedral angles measured on the folded mesh
-NAMES = catalogue_names()
+LOOP_NAMES = tuple(
+    sorted(loop_patterns())
+)  # crease patterns with closed loops: tests/test_loops.py
+NAMES = tuple(n for n in catalogue_names() if n not in LOOP_NAMES)  # the nets
 CUBE_NETS = [n for n in NAMES if n.startswith("cube_net_")]
 CLOSED = [n for n in NAMES if n != "accordion"]  # nets whose seams close into a polyhedron corner
 # Seams of a closed polyhedron net: the polyhedron's edges that are not creases.
@@ -78,6 +82,8 @@ def test_catalogue_names_and_paths():
     expected = {"accordion", "corner_cube", "tetrahedron", "octahedron"}
     expected |= {f"cube_net_{i:02d}" for i in range(1, 12)}
     assert set(NAMES) == expected and list(NAMES) == sorted(NAMES)
+    assert set(catalogue_names()) == expected | set(LOOP_NAMES)
+    assert list(catalogue_names()) == sorted(catalogue_names())
     assert catalogue_path("corner_cube") == catalogue_path("corner_cube.fold")
     assert catalogue_path("corner_cube").is_file()
     with pytest.raises(ValueError, match="no catalogue net named 'cube'.*accordion, corner_cube"):
@@ -86,9 +92,11 @@ def test_catalogue_names_and_paths():
 
 def test_shipped_files_are_what_the_generator_writes():
     built = build_catalogue()
-    assert set(built) == set(NAMES)
+    assert set(built) == set(catalogue_names())
     for name, fold in built.items():
         assert read_fold(catalogue_path(name)) == fold, name
+    for name, text in VERBATIM.items():
+        assert catalogue_path(name).read_text() == text(), name
 
 
 @pytest.mark.parametrize("name", NAMES)

@@ -1,4 +1,5 @@
-"""`origami-jax fold`: fold a net of panels from a FOLD crease pattern under its stressed hinges.
+"""`origami-jax fold`: fold a net of panels, or a crease pattern with closed loops, from FOLD under its
+stressed hinges.
 
 Writes `result.json` (the verdict and the numbers behind it), `trajectory.csv` (hinge angles against
 time), `trajectory.fold` (the folding as FOLD frames: `origami-jax view` plays it), and unless
@@ -12,20 +13,32 @@ from pathlib import Path
 
 from ._common import EXIT_FAILED, EXIT_OK, EXIT_USAGE, add_out_argument, prepare_out
 
-HELP = "Fold a net of panels (FOLD file or catalogue name) under its hinges; say whether it closes."
+HELP = (
+    "Fold a net or a crease pattern (FOLD file or catalogue name) under its hinges; say whether it "
+    "folds."
+)
 DESCRIPTION = (
     HELP
     + """
 
-NET is a FOLD file whose faces form a tree through their creases (a net: cut seams allowed), or the
-name of a shipped net (origami-jax fold --list). The largest face stays on the substrate; every crease
+NET is a FOLD file, or the name of a shipped pattern (origami-jax fold --list): a net (faces joined
+by creases into a tree; cut seams allowed) or a crease pattern whose creases close loops around
+interior vertices (single vertices, Miura-ori, waterbombs; the loops are held closed as constraints;
+an Origami Simulator export is read as it is, with --length-scale for its unitless coordinates).
+The largest face stays on the substrate; every crease
 is a bilayer hinge of the literature design (200 nm SiNx, 100 nm Cr at 1 GPa; override any HingeDesign
 field with --param NAME=VALUE in MICRO units: µm, µs, ng, MPa) folding to the crease's
 edges_foldAngle. Panels have the membrane's thickness and meet (contact) unless --no-contact; drag
 acts on every panel from its own motion (--drag hinge: the paper's per-hinge drag).
 
+A closed-loop pattern starts flat, where its folding branches meet, and the hinges pick the branch;
+--bias RAD starts it pre-folded by RAD along the branch the hinges aim at. A pattern that rigid panels
+cannot fold to its angles (a square twist) is refused with the closure residual (--no-rigid-check
+simulates it anyway).
+
 Verdicts: folded (every crease within tolerance, every seam closed), jammed (contact stops a crease
-short), misfolded (another final state), unfinished (time ran out), invalid (the simulation failed).
+short), misfolded (another final state, another branch), unfinished (time ran out), invalid (the
+simulation failed).
 Exit codes: 0 folded, 1 any other verdict, 2 bad input.
 """
 )
@@ -68,6 +81,31 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "--hinges", choices=("point", "arc"), default="point", help="point creases or bending arcs"
     )
     parser.add_argument("--root", type=int, default=None, help="the fixed face (default: largest)")
+    parser.add_argument(
+        "--length-scale",
+        type=float,
+        default=None,
+        metavar="UM",
+        help="µm per FOLD length unit, for unitless files (Origami Simulator's export)",
+    )
+    parser.add_argument(
+        "--bias",
+        type=float,
+        default=0.0,
+        metavar="RAD",
+        help="closed loops: start pre-folded by RAD along the hinges' branch (default 0: flat)",
+    )
+    parser.add_argument(
+        "--flat-creases",
+        choices=("panel", "hinge"),
+        default="panel",
+        help="closed loops: F edges (facet diagonals) join one rigid panel (default) or hinge",
+    )
+    parser.add_argument(
+        "--no-rigid-check",
+        action="store_true",
+        help="closed loops: simulate a pattern rigid panels cannot fold to its angles anyway",
+    )
     parser.add_argument(
         "--tolerance", type=float, default=3.0, help="crease angle tolerance, degrees (default 3)"
     )
@@ -124,11 +162,16 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
 
     import origami_jax.simulation as sim
-    from origami_jax.net import load_net, release_times_from_front
+    from origami_jax.loops import CreasePattern, load_pattern
+    from origami_jax.loops import release_times_from_front as pattern_front
+    from origami_jax.net import release_times_from_front
     from origami_jax.system import AIR, KOH_SOLUTION, HingeDesign
 
     try:
-        net = load_net(args.net, root=args.root)
+        net = load_pattern(
+            args.net, root=args.root, length_scale=args.length_scale, flat_creases=args.flat_creases
+        )
+        loops = isinstance(net, CreasePattern)
         design = HingeDesign.literature(
             fluid={"air": AIR, "koh": KOH_SOLUTION}[args.fluid], **params
         )
@@ -141,37 +184,52 @@ def run(args: argparse.Namespace) -> int:
         if release is not None and len(release) != m:
             raise ValueError(f"--release: {len(release)} values for {m} creases")
         if front is not None:
-            release = release_times_from_front(net, front[:2], front[2])
-        system = net.system(
-            design,
+            from_front = pattern_front if loops else release_times_from_front
+            release = from_front(net, front[:2], front[2])
+        options = dict(
             targets=targets,
             release_times=release,
             contact=not args.no_contact,
             drag=args.drag,
             hinges=args.hinges,
         )
+        if loops:
+            options["check_rigid"] = not args.no_rigid_check
+        system = net.system(design, **options)
+        theta0, theta_dot0 = net.start_state(system, bias=args.bias) if loops else (None, None)
     except (FoldFormatError, ValueError, TypeError, OSError) as error:
         print(f"origami-jax fold: {args.net}: {error}", file=sys.stderr)
         return EXIT_USAGE
 
     out = prepare_out(Path(args.out))
+    kind = f"{net.n_loops} closed loop(s), " if loops else ""
     print(
-        f"[fold] {net.name}: {m} creases, {system.mechanism.n_bodies} moving panels, contact "
+        f"[fold] {net.name}: {m} creases, {kind}{system.mechanism.n_bodies} moving panels, contact "
         f"{'on' if system.contact is not None else 'off'}; compiling and folding for {args.t1:g} µs ...",
         flush=True,
     )
     import diffrax
 
+    # Closed loops: explicit Tsit5 (the default solver's implicit half differentiates through the
+    # constraint solve and compiles for minutes).
+    solver = diffrax.Tsit5() if loops else None
     trajectory = sim.simulate(
         system,
         sim.Step(),
+        solver=solver,
+        theta0=theta0,
+        theta_dot0=theta_dot0,
         t1=args.t1,
         n_save=args.n_save,
         throw=False,
         max_steps=500_000,
         progress_meter=diffrax.TqdmProgressMeter(refresh_steps=200),
     )
-    report = net.assess(system, trajectory, angle_tolerance=float(np.radians(args.tolerance)))
+    tolerance = float(np.radians(args.tolerance))
+    if loops:
+        report = net.assess(system, trajectory, angle_tolerance=tolerance, bias=args.bias)
+    else:
+        report = net.assess(system, trajectory, angle_tolerance=tolerance)
     result = report.to_dict()
     result.update(
         net=net.name,
@@ -182,6 +240,8 @@ def run(args: argparse.Namespace) -> int:
         contact=not args.no_contact,
         drag=args.drag,
         hinges=args.hinges,
+        closed_loops=net.n_loops if loops else 0,
+        bias=args.bias,
         release_times=None if release is None else [float(x) for x in release],
         stats={
             k: (int(v) if np.asarray(v).dtype.kind in "iu" else float(v))

@@ -145,9 +145,9 @@ def build_net(
                 loop = _loop(parents, f, g)
                 raise FoldFormatError(
                     f"{where}: the creases join faces {loop} in a closed loop (around a hole or "
-                    "a cut-out in the paper); closed-loop crease patterns need the closed-loop "
-                    "engine, not available in the panel-tree engine: cut one crease of the loop "
-                    "(assignment C) to make the net a tree"
+                    "a cut-out in the paper); the panel-tree engine folds trees: cut one crease "
+                    "of the loop (assignment C) to make the net a tree (the closed-loop engine, "
+                    "origami_jax.loops.load_pattern, takes loops round interior vertices only)"
                 )
             seen.add(g)
             parents[g] = f
@@ -244,9 +244,9 @@ def _check_interior_loops(
             x, y, z = (float(c) for c in coords[w])
             raise FoldFormatError(
                 f"{where}: the creases around interior vertex {w} ({x:.6g}, {y:.6g}, {z:.6g}) "
-                f"close a loop through faces {sorted(around[w])}; closed-loop crease patterns need "
-                "the closed-loop engine, not available in the panel-tree engine: to fold it as a "
-                f"net, cut one crease at vertex {w} (assignment C)"
+                f"close a loop through faces {sorted(around[w])}; the panel-tree engine folds trees: "
+                "read it with origami_jax.loops.load_pattern (the closed-loop engine), or cut one "
+                f"crease at vertex {w} (assignment C) to fold it as a net"
             )
 
 

@@ -412,10 +412,13 @@ def net_fold(
     drag: str = "panel",
     hinges: str = "point",
     angle_tolerance_deg: float = 3.0,
+    bias: float = 0.0,
 ) -> Kernel:
-    """Sweep kernel: does a net of panels fold? Verdict and numbers per design (explicit Tsit5 under
-    the contact guard; `origami_jax.net.load_net(net).system(design, ...)` with the literature design
-    for what is not swept, in MICRO units).
+    """Sweep kernel: does a net of panels, or a crease pattern with closed loops, fold? Verdict and
+    numbers per design (explicit Tsit5 under the contact guard;
+    `origami_jax.loops.load_pattern(net).system(design, ...)` with the literature design for what is
+    not swept, in MICRO units). A closed-loop pattern starts flat, or pre-folded by `bias` rad along
+    its own angles (`CreasePattern.start_state`); its verdict is `misfolded` on another branch.
 
     **Parameters** (swept): `hinge_width`, `t_hinge`, `misfit_strain`, `k_scale` for every crease, or
     per crease as `name[j]` (e.g. `misfit_strain[3]`: the film stress scatter of one hinge);
@@ -431,13 +434,15 @@ def net_fold(
     import jax.numpy as jnp
     import numpy as np
 
-    from ..net import load_net
+    from ..loops import CreasePattern, load_pattern
     from ..simulation import DEFAULT_ATOL, DEFAULT_RTOL, RESULTS, Step, fold_outcome, simulate
     from ..system import AIR, KOH_SOLUTION, HingeDesign
 
     if fluid not in FLUIDS:
         raise ValueError(f"fluid must be one of {FLUIDS}, got {fluid!r}.")
-    the_net = load_net(net)
+    the_net = load_pattern(net)
+    loops = isinstance(the_net, CreasePattern)
+    theta0 = the_net.start_state(bias=bias)[0] if loops else None
     m = the_net.n_creases
     base = HingeDesign.literature(fluid=AIR if fluid == "air" else KOH_SOLUTION)
     rtol = DEFAULT_RTOL if rtol is None else float(rtol)
@@ -483,6 +488,7 @@ def net_fold(
         trajectory = simulate(
             system,
             Step(),
+            theta0=theta0,
             t1=t_end,
             n_save=n_save,
             rtol=rtol,
@@ -535,6 +541,8 @@ def net_fold(
             "drag": drag,
             "hinges": hinges,
             "angle_tolerance_deg": angle_tolerance_deg,
+            "closed_loops": the_net.n_loops if loops else 0,
+            "bias": bias,
         },
         parameters=parameters,
         output_units={
@@ -569,7 +577,8 @@ MODELS: dict[str, _Model] = {
         vertex_unfold,
     ),
     "net-fold": _Model(
-        "fold verdicts of a net of panels (FOLD) over hinge parameters and release times",
+        "fold verdicts of a net or closed-loop crease pattern (FOLD) over hinge parameters and "
+        "release times",
         net_fold,
     ),
 }

@@ -1,0 +1,212 @@
+"""A bar-and-hinge model of a crease pattern in NumPy/SciPy: the benchmark peer of the closed-loop engine.
+
+The model of Origami Simulator (Ghassaei, Demaine & Gershenfeld, 7OSME 2018) and MERLIN (Liu & Paulino,
+Proc. R. Soc. A 473, 2017), written here from their papers: every vertex of the pattern is a point mass,
+every edge and every facet diagonal is an axial spring (bar), every crease is a rotational spring on the
+dihedral angle between the two triangles that share it, and every facet diagonal a stiff rotational
+spring that keeps the facet flat. Panels are compliant, not rigid: the closure of a loop is held by the
+bars' stiffness, not exactly. Integrated with `scipy.integrate.solve_ivp`.
+
+Dihedral angle of an edge ``u → v`` with wing ``w1`` in the triangle that runs ``u → v`` and ``w2`` in
+the one that runs ``v → u``: ``ρ = atan2(−(n1 × n2) · ê, n1 · n2)`` with ``n1 = (v − u) × (w1 − u)``,
+``n2 = (u − v) × (w2 − v)``, ``ê`` the unit edge (valley positive, the FOLD convention). Its gradient
+(Liu & Paulino's, in these labels): ``∂ρ/∂w_i = |e| n_i / |n_i|²``, and for the edge's ends
+``∂ρ/∂u = −(1 − t1) ∂ρ/∂w1 − (1 − t2) ∂ρ/∂w2``, ``∂ρ/∂v = −t1 ∂ρ/∂w1 − t2 ∂ρ/∂w2`` with
+``t_i = (w_i − u)·e/|e|²``.
+"""
+
+import dataclasses
+
+import numpy as np
+from scipy.integrate import solve_ivp
+
+from origami_jax.fold._polygons import triangulate
+
+
+@dataclasses.dataclass
+class BarHinge:
+    """Arrays of the model (lengths µm, masses ng, times µs, the design's units)."""
+
+    x0: np.ndarray  # (N, 3) flat positions
+    mass: np.ndarray  # (N,)
+    free: np.ndarray  # (N,) bool: nodes that move (the root face's nodes are fixed)
+    bars: np.ndarray  # (B, 2)
+    bar_length: np.ndarray  # (B,)
+    bar_stiffness: np.ndarray  # (B,) force/length
+    hinges: np.ndarray  # (H, 4): u, v, w1, w2
+    hinge_stiffness: np.ndarray  # (H,) torque/rad
+    hinge_target: np.ndarray  # (H,) rad
+    hinge_crease: np.ndarray  # (H,) crease index, −1 for a facet diagonal
+    damping: float  # 1/time, mass-proportional
+
+    @property
+    def n_nodes(self) -> int:
+        return len(self.x0)
+
+    def angles(self, x: np.ndarray) -> np.ndarray:
+        """Dihedral fold angles of every hinge (rad, valley +) at positions `x` `(..., N, 3)`."""
+        u, v, w1, w2 = (x[..., self.hinges[:, k], :] for k in range(4))
+        e = v - u
+        n1 = np.cross(e, w1 - u)
+        n2 = np.cross(u - v, w2 - v)
+        unit = e / np.linalg.norm(e, axis=-1, keepdims=True)
+        return np.arctan2(-np.sum(np.cross(n1, n2) * unit, -1), np.sum(n1 * n2, -1))
+
+    def forces(self, x: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """Bar, hinge and damping forces on every node, `(N, 3)`."""
+        a, b = self.bars[:, 0], self.bars[:, 1]
+        d = x[b] - x[a]
+        length = np.linalg.norm(d, axis=-1)
+        tension = self.bar_stiffness * (length - self.bar_length)
+        f_bar = (tension / length)[:, None] * d
+        force = np.zeros_like(x)
+        np.add.at(force, a, f_bar)
+        np.add.at(force, b, -f_bar)
+        u, vv, w1, w2 = (self.hinges[:, k] for k in range(4))
+        e = x[vv] - x[u]
+        e2 = np.sum(e * e, -1)
+        n1 = np.cross(e, x[w1] - x[u])
+        n2 = np.cross(x[u] - x[vv], x[w2] - x[vv])
+        norm_e = np.sqrt(e2)
+        unit = e / norm_e[:, None]
+        rho = np.arctan2(-np.sum(np.cross(n1, n2) * unit, -1), np.sum(n1 * n2, -1))
+        g1 = (norm_e / np.sum(n1 * n1, -1))[:, None] * n1
+        g2 = (norm_e / np.sum(n2 * n2, -1))[:, None] * n2
+        t1 = (np.sum((x[w1] - x[u]) * e, -1) / e2)[:, None]
+        t2 = (np.sum((x[w2] - x[u]) * e, -1) / e2)[:, None]
+        gu = -(1 - t1) * g1 - (1 - t2) * g2
+        gv = -t1 * g1 - t2 * g2
+        moment = (-self.hinge_stiffness * (rho - self.hinge_target))[:, None]
+        for nodes, grad in ((u, gu), (vv, gv), (w1, g1), (w2, g2)):
+            np.add.at(force, nodes, moment * grad)
+        force -= self.damping * self.mass[:, None] * v
+        return force
+
+    def rhs(self, t: float, y: np.ndarray) -> np.ndarray:
+        del t
+        n = self.n_nodes
+        x = y[: 3 * n].reshape(n, 3)
+        v = y[3 * n :].reshape(n, 3)
+        a = self.forces(x, v) / self.mass[:, None]
+        a[~self.free] = 0.0
+        v = np.where(self.free[:, None], v, 0.0)
+        return np.concatenate([v.ravel(), a.ravel()])
+
+    def simulate(self, t1: float, *, n_save: int = 101, rtol: float = 1e-6, atol: float = 1e-9):
+        """Fold from flat at rest: `(sol, x (t, N, 3))` (RK45: the bars are stiff enough to hold the
+        loops and soft enough to keep the steps those of the folding, as Origami Simulator sets them)."""
+        y0 = np.concatenate([self.x0.ravel(), np.zeros(3 * self.n_nodes)])
+        ts = np.linspace(0.0, t1, n_save)
+        sol = solve_ivp(self.rhs, (0.0, t1), y0, t_eval=ts, rtol=rtol, atol=atol, method="RK45")
+        x = sol.y[: 3 * self.n_nodes].T.reshape(len(sol.t), self.n_nodes, 3)
+        return sol, x
+
+    def crease_angles(self, x: np.ndarray, n_creases: int) -> np.ndarray:
+        """Each crease's fold angle (rad), the mean over its hinges, `(..., m)`."""
+        rho = self.angles(x)
+        out = np.zeros(x.shape[:-2] + (n_creases,))
+        count = np.zeros(n_creases)
+        for h, j in enumerate(self.hinge_crease):
+            if j >= 0:
+                out[..., j] += rho[..., h]
+                count[j] += 1
+        return out / count
+
+
+def bar_hinge_model(
+    pattern,
+    system,
+    *,
+    bar_factor: float = 200.0,
+    facet_factor: float = 10.0,
+    damping_ratio: float = 1.0,
+) -> BarHinge:
+    """The bar-and-hinge model of a `CreasePattern` with the hinges (stiffness, targets) and panel masses
+    of `system` (its `LoopedPanels`). Bars: axial stiffness ``bar_factor · k_max / L²`` per bar (``k_max``
+    the stiffest hinge), which puts the bars' frequency about ``sqrt(bar_factor)`` times above the hinges';
+    facet diagonals: ``facet_factor · k_max``. Damping: mass-proportional, `damping_ratio` of critical at
+    the hinges' frequency."""
+    g = pattern.geometry
+    scale = pattern.length_scale
+    key = g.frame
+    coords = np.asarray(key.vertices_coords, dtype=float)
+    coords = np.column_stack([coords, np.zeros(len(coords))])[:, :3] * scale
+    stiffness = np.asarray(system.hinges.stiffness)
+    target = np.asarray(system.hinges.target)
+    mechanism = system.mechanism
+    outlines = mechanism.outlines()
+    masses = np.asarray(mechanism.tree.masses)
+    order = np.asarray(g.tree.order)
+    face_mass = np.zeros(g.n_faces)
+    face_mass[order[1:]] = masses
+    # The root (fixed) face gets the mass of a panel of its area, for the record; its nodes are fixed.
+    del outlines
+    crease_of_edge = {e: j for j, line in enumerate(g.crease_edges) for e in line}
+    edges = [tuple(e) for e in np.asarray(key.edges_vertices).tolist()]
+    edge_of = {frozenset(e): i for i, e in enumerate(edges)}
+    triangles = []
+    node_mass = np.zeros(len(coords))
+    for f, face in enumerate(g.faces):
+        xy = coords[list(face)] @ g.plane.T
+        local = triangulate(xy)
+        area = sum(0.5 * abs(np.cross(xy[j] - xy[i], xy[k] - xy[i])) for i, j, k in local)
+        for i, j, k in local:
+            tri = (face[i], face[j], face[k])
+            triangles.append((tri, f))
+            t_area = 0.5 * abs(np.cross(xy[j] - xy[i], xy[k] - xy[i]))
+            share = face_mass[f] * t_area / area if f != g.tree.root else 0.0
+            for node in tri:
+                node_mass[node] += share / 3
+    used = np.unique([n for tri, _ in triangles for n in tri])
+    mean_mass = float(np.mean(node_mass[node_mass > 0]))
+    node_mass = np.where(node_mass > 0, node_mass, mean_mass)
+    # Edges of the triangles: the pattern's edges and the facet diagonals.
+    sides: dict[frozenset, list[tuple[int, int, int]]] = {}
+    for (a, b, c), _f in triangles:
+        for u, v, w in ((a, b, c), (b, c, a), (c, a, b)):
+            sides.setdefault(frozenset((u, v)), []).append((u, v, w))
+    k_max = float(np.max(stiffness))
+    bars, lengths, bar_k = [], [], []
+    hinges, hinge_k, hinge_t, hinge_c = [], [], [], []
+    for key_, runs in sides.items():
+        u, v = sorted(key_)
+        length = float(np.linalg.norm(coords[v] - coords[u]))
+        bars.append((u, v))
+        lengths.append(length)
+        bar_k.append(bar_factor * k_max / length**2)
+        if len(runs) != 2:
+            continue
+        (a1, b1, w1), (_, _, w2) = runs
+        edge = edge_of.get(key_)
+        crease = crease_of_edge.get(edge, -1) if edge is not None else -1
+        if crease >= 0:
+            line = g.crease_edges[crease]
+            total = sum(
+                float(np.linalg.norm(coords[edges[e][1]] - coords[edges[e][0]])) for e in line
+            )
+            hinge_k.append(stiffness[crease] * length / total)
+            hinge_t.append(target[crease])
+        else:
+            hinge_k.append(facet_factor * k_max)
+            hinge_t.append(0.0)
+        hinges.append((a1, b1, w1, w2))
+        hinge_c.append(crease)
+    free = np.ones(len(coords), dtype=bool)
+    free[list(g.faces[g.tree.root])] = False
+    unused = np.setdiff1d(np.arange(len(coords)), used)
+    free[unused] = False
+    inertia = np.diagonal(np.asarray(mechanism.tree.mass_matrix(np.zeros(mechanism.n_tree))))
+    omega = np.sqrt(k_max / float(np.min(inertia)))
+    return BarHinge(
+        x0=coords,
+        mass=node_mass,
+        free=free,
+        bars=np.asarray(bars),
+        bar_length=np.asarray(lengths),
+        bar_stiffness=np.asarray(bar_k),
+        hinges=np.asarray(hinges),
+        hinge_stiffness=np.asarray(hinge_k),
+        hinge_target=np.asarray(hinge_t),
+        hinge_crease=np.asarray(hinge_c),
+        damping=2 * damping_ratio * omega,
+    )

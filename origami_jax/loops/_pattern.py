@@ -1,0 +1,615 @@
+"""A crease pattern with closed loops from FOLD: its folding system, start state, verdict and frames.
+
+`load_pattern("miura_3x3")` reads a catalogue name or a `.fold` file. A pattern whose faces form a tree
+comes back as a [`origami_jax.net.Net`][] (the panel-tree engine, unchanged); one whose creases close
+loops around interior vertices comes back as a [`origami_jax.loops.CreasePattern`][]:
+
+- `pattern.system(design)` builds the [`origami_jax.system.FoldingSystem`][]: the panels on a
+  spanning tree of the faces with the loop closure as constraints ([`origami_jax.loops.LoopedPanels`][]),
+  one bilayer hinge per crease (stiffness from the design with hinge length ``ρ |θ_target|``, as for
+  nets), panel drag, contact between panels (also between panels that meet only at a vertex, away
+  from it);
+- `pattern.start_state(system)` is the state a simulation starts from: flat, or with a small pre-fold
+  `bias` along the branch the inputs choose (docs/physics.md, "Closed loops");
+- `pattern.assess(system, trajectory)` judges the folding against the pattern's angles and reports
+  which branch it took (which way each crease went): another branch is `misfolded`;
+- `pattern.rigid_foldability()` says whether rigid panels can fold from flat to the targets, with the
+  closure residual when they cannot (a square twist): `system()` refuses such a pattern instead of
+  forcing it (pass `check_rigid=False` to simulate what rigid panels do anyway).
+"""
+
+import dataclasses
+import os
+
+import equinox as eqx
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import ArrayLike, Float
+
+from ..fold import FoldFile, FoldFormatError, FoldFrame
+from ..fold._catalogue import catalogue_names, catalogue_path
+from ..fold._loop_geometry import LoopGeometry, loop_geometry
+from ..fold._model import FRAME_UNITS_M
+from ..system import AbstractLayout, FoldingSystem, HingeDesign, Hinges
+from . import _kinematics
+from ._mechanism import LoopedPanels
+
+# Baumgarte rate of the closure, as a multiple of the fastest hinge's natural frequency sqrt(k/I).
+RATE_FACTOR = 1.0
+
+
+class NotRigidlyFoldableError(ValueError):
+    """The pattern cannot fold from flat to its target angles with rigid panels (its facets would have
+    to bend); `report` holds the `RigidFoldability` with the closure residual."""
+
+    def __init__(self, message: str, report):
+        super().__init__(message)
+        self.report = report
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class CreasePattern:
+    """A flat crease pattern whose creases close loops (module docstring).
+
+    **Fields:** `geometry` (a `LoopGeometry`, lengths in the FOLD unit), `name`, `length_scale`
+    (design length units per FOLD unit). Crease ``j`` of the systems it builds is the geometry's
+    crease ``j`` (tree creases, then cut creases); body ``j`` is face ``geometry.tree.order[j + 1]``;
+    the root face is the fixed base.
+    """
+
+    geometry: LoopGeometry
+    name: str
+    length_scale: float
+    _cache: dict = dataclasses.field(default_factory=dict, repr=False)
+
+    # ---- the pattern ----
+
+    @property
+    def n_creases(self) -> int:
+        return self.geometry.n_creases
+
+    @property
+    def n_loops(self) -> int:
+        return self.geometry.n_loops
+
+    @property
+    def intended_angles(self) -> np.ndarray:
+        """The pattern's fold angles (rad, `(m,)`): the shape a correct folding reaches."""
+        return np.asarray(self.geometry.targets, dtype=float)
+
+    @property
+    def seams(self):
+        return self.geometry.seams
+
+    def _padded(self):
+        if "padded" not in self._cache:
+            g = self.geometry
+            directions, index = _kinematics._padded(g.loop_directions, g.loop_creases)
+            self._cache["padded"] = (directions, _kinematics._with_count(index, g.n_creases))
+        return self._cache["padded"]
+
+    def closure_residual(self, angles: Float[ArrayLike, "*batch m"]) -> np.ndarray:
+        """Each loop's closure residual at `angles` (the rotation angle, rad, `(*batch, n_v)`)."""
+        return self.geometry.closure_residual(np.asarray(angles, dtype=float))
+
+    def check_angles(self, angles: Float[ArrayLike, " m"], what: str = "fold angles") -> None:
+        """Raise `FoldFormatError` unless `angles` (rad, `(m,)`) are a state rigid panels can take:
+        every vertex that folds flat (all its creases at 0 or ±180°) obeys Kawasaki's and Maekawa's
+        theorems, and every loop closes to `CLOSURE_TOL`."""
+        g = self.geometry
+        angles = np.asarray(angles, dtype=float)
+        if angles.shape != (g.n_creases,):
+            raise ValueError(f"{what} must have shape ({g.n_creases},), got {angles.shape}.")
+        if not np.all(np.isfinite(angles)):
+            raise FoldFormatError(f"{what}: every crease needs a finite fold angle.")
+        for v, creases in enumerate(g.loop_creases):
+            values = angles[list(creases)]
+            folded = np.abs(np.abs(values) - np.pi) < 1e-9
+            if np.any(folded) and np.all(folded | (np.abs(values) < 1e-9)):
+                sectors = g.loop_sectors[v]
+                # Sectors between consecutive folded creases (flat ones merge their neighbours).
+                start = int(np.flatnonzero(folded)[0])
+                merged, current = [], 0.0
+                for k in range(len(creases)):
+                    i = (start + k) % len(creases)
+                    current += sectors[i]
+                    if folded[(i + 1) % len(creases)]:
+                        merged.append(current)
+                        current = 0.0
+                alternating = abs(sum(merged[0::2]) - sum(merged[1::2]))
+                vertex = int(g.loop_vertices[v])
+                if len(merged) % 2 or alternating > 1e-6:
+                    raise FoldFormatError(
+                        f"{what}: vertex {vertex} folds flat (creases at ±180°) but its sectors "
+                        f"violate Kawasaki's theorem (alternating sum {np.degrees(alternating):.4g}° "
+                        f"over {len(merged)} folded creases, must be 0 with an even count): no flat "
+                        "folded state exists there; change the crease pattern or the target angles"
+                    )
+                signs = np.sign(values[folded])
+                if abs(int(np.sum(signs < 0)) - int(np.sum(signs > 0))) != 2:
+                    raise FoldFormatError(
+                        f"{what}: vertex {vertex} folds flat with {int(np.sum(signs < 0))} mountain "
+                        f"and {int(np.sum(signs > 0))} valley creases; Maekawa's theorem needs "
+                        "|M − V| = 2: flip one crease's assignment"
+                    )
+        residual = g.closure_residual(angles)
+        if residual.size and float(np.max(residual)) > _kinematics.CLOSURE_TOL:
+            v = int(np.argmax(residual))
+            degree = len(g.loop_creases[v])
+            raise FoldFormatError(
+                f"{what}: the faces around vertex {int(g.loop_vertices[v])} do not close (they miss "
+                f"by a {np.degrees(residual[v]):.3g}° rotation): a degree-{degree} vertex has only "
+                f"{degree - 3} free fold angles; fix edges_foldAngle, or start from "
+                "CreasePattern.closest_state(angles)"
+            )
+
+    def closest_state(
+        self, angles: Float[ArrayLike, " m"], *, keep_signs: bool = False
+    ) -> np.ndarray:
+        """A state near `angles` (rad) where every loop closes (minimum-norm Gauss–Newton steps);
+        with `keep_signs`, no crease crosses to the other side of flat from its sign in `angles`
+        (the state stays on their branch)."""
+        directions, index = self._padded()
+        angles = np.asarray(angles, float)
+        signs = np.sign(angles) if keep_signs else np.zeros_like(angles)
+        return _kinematics.project(directions, index, angles, self.n_creases, signs)
+
+    def rigid_foldability(self, targets: Float[ArrayLike, " m"] | None = None, *, steps: int = 20):
+        """Can rigid panels fold from flat to `targets` (default the pattern's angles)? A
+        `RigidFoldability` (continuation along the targets' direction; see `_kinematics.rigid_path`)."""
+        targets = self.intended_angles if targets is None else np.asarray(targets, float)
+        key = ("rigid", targets.tobytes(), steps)
+        if key not in self._cache:
+            directions, index = self._padded()
+            self._cache[key] = _kinematics.rigid_path(
+                directions, index, targets, self.n_creases, steps
+            )
+        return self._cache[key]
+
+    def branch(self, angles: Float[ArrayLike, " m"], *, tolerance: float = np.radians(0.5)):
+        """Which way each crease folds at `angles` (rad): +1 valley, −1 mountain, 0 within
+        `tolerance` of flat, `(m,)` ints."""
+        angles = np.asarray(angles, dtype=float)
+        return np.where(np.abs(angles) < tolerance, 0, np.sign(angles)).astype(int)
+
+    # ---- systems ----
+
+    def net(self):
+        """The spanning tree of panels as a [`origami_jax.net.Net`][] (cut creases open)."""
+        from ..net._net import Net, _key_frame
+
+        if "net" not in self._cache:
+            key, edges = _key_frame(self.geometry.tree, self.name)
+            self._cache["net"] = Net(self.geometry.tree, self.name, self.length_scale, key, edges)
+        return self._cache["net"]
+
+    def mechanism(self, design: HingeDesign | None = None, *, rate: float = 0.0) -> LoopedPanels:
+        """The panels (plates of the design's structural film) as a `LoopedPanels` in the design's
+        units; `rate`: the closure's Baumgarte rate ``ω`` (1/time)."""
+        design = HingeDesign.literature() if design is None else design
+        g = self.geometry
+        tree = self.net().tree(design)
+        position = {int(f): i - 1 for i, f in enumerate(np.asarray(g.tree.order))}
+        m_tree = g.n_tree_creases
+        cut_bodies, cut_ends = [], []
+        for j in range(m_tree, g.n_creases):
+            a, b = (position[int(f)] for f in g.crease_faces[j])
+            if b < 0:
+                a, b = b, a
+            start = g.points[j] * self.length_scale
+            cut_bodies.append((a, b))
+            cut_ends.append(
+                (
+                    tuple(start.tolist()),
+                    tuple((start + g.lengths[j] * self.length_scale * g.axes[j]).tolist()),
+                )
+            )
+        directions, index = self._padded()
+        points = tuple(
+            tuple((g.vertices_coords[v] * self.length_scale).tolist()) for v in g.loop_vertices
+        )
+        return LoopedPanels(
+            tree=tree,
+            cut_bodies=tuple(cut_bodies),
+            cut_ends=tuple(cut_ends),
+            loop_index=tuple(tuple(int(i) for i in row) for row in index),
+            loop_directions=jnp.asarray(directions),
+            rate=jnp.asarray(rate, dtype=jnp.result_type(float)),
+            loop_points=points,
+        )
+
+    def system(
+        self,
+        design: HingeDesign | None = None,
+        *,
+        targets: Float[ArrayLike, " m"] | None = None,
+        release_times: Float[ArrayLike, " m"] | None = None,
+        contact: bool = True,
+        drag: str = "panel",
+        hinges: str = "point",
+        check_rigid: bool = True,
+        rate_factor: float = RATE_FACTOR,
+    ) -> FoldingSystem:
+        """The folding system of this pattern with the hinges, films and fluid of `design`.
+
+        **Arguments** (the design's units, `MICRO` by default):
+        - `design`: a `HingeDesign` (default `HingeDesign.literature()`); as for nets, each crease's
+          bilayer folds to its own target (hinge length ``ρ |θ_target|``).
+        - `targets`: fold target per crease (rad); default the pattern's angles (they must close:
+          `check_angles`).
+        - `release_times`: per-crease release time (time units); default all at ``t = 0``.
+        - `contact`: panels meet (default) or pass through each other.
+        - `drag`: `"panel"` (each panel's own motion); the paper's per-hinge drag is defined for
+          trees only.
+        - `hinges`: `"point"` creases. Bending arcs of finite length (the net engine's `"arc"`) do not
+          meet at a vertex, so a loop of them is not a rigid-panel mechanism: refused.
+        - `check_rigid`: refuse (`NotRigidlyFoldableError`, with the closure residual) a pattern that
+          rigid panels cannot fold to its angles.
+        - `rate_factor`: the closure's Baumgarte rate in units of the fastest hinge's natural
+          frequency ``sqrt(k / I)``.
+
+        **Raises:** `ValueError` for bad arguments, `FoldFormatError` for target angles that do not
+        close or violate Kawasaki/Maekawa at a flat-folded vertex, `NotRigidlyFoldableError`.
+        """
+        from ..fluid import PanelDrag
+
+        if hinges != "point":
+            raise ValueError(
+                f"hinges={hinges!r}: a closed loop of bending strips of finite length does not meet "
+                "at its vertex (the strips offset the panels), so it is not a rigid-panel mechanism; "
+                "closed-loop patterns take point creases (hinges='point')."
+            )
+        if drag != "panel":
+            raise ValueError(
+                f"drag={drag!r}: the paper's per-hinge drag is defined for panel trees; closed-loop "
+                "patterns take drag='panel' (each panel's own motion)."
+            )
+        design = HingeDesign.literature() if design is None else design
+        m = self.n_creases
+        intended = self.intended_angles
+        if not np.all(np.isfinite(intended)) and targets is None:
+            raise ValueError(
+                "every crease needs a finite target: give edges_foldAngle in the FOLD file or "
+                "targets= (rad)."
+            )
+        if not self._cache.get(("checked", intended.tobytes())):
+            if np.all(np.isfinite(intended)):
+                self.check_angles(intended, "the pattern's fold angles")
+            self._cache[("checked", intended.tobytes())] = True
+        if check_rigid and np.all(np.isfinite(intended)):
+            report = self.rigid_foldability()
+            if not report.rigid:
+                raise NotRigidlyFoldableError(f"{self.name}: {report.summary()}", report)
+        targets = intended if targets is None else targets
+        targets = jnp.asarray(targets, dtype=jnp.result_type(float))
+        if targets.shape != (m,):
+            raise ValueError(
+                f"targets must have one fold angle per crease ({m}), got shape {targets.shape}."
+            )
+        mechanism = self.mechanism(design)
+        per_crease = eqx.tree_at(lambda d: d.theta_final, design, jnp.abs(targets) + 0.0)
+        stiffness = per_crease.stiffness(m)
+        inertia = jnp.diagonal(mechanism.tree.mass_matrix(jnp.zeros(mechanism.n_tree)))
+        rate = rate_factor * jnp.sqrt(jnp.max(stiffness) / jnp.min(inertia))
+        mechanism = eqx.tree_at(lambda mech: mech.rate, mechanism, rate)
+        hinges_ = Hinges(stiffness, targets, design.radius(), release_times)
+        drag_model = PanelDrag.for_mechanism(
+            mechanism,
+            coefficient=design.drag_coefficient * design.b_scale,
+            density=design.fluid.density,
+            scale=0.5 if design.drag_model == "paper" else 1.0,
+        )
+        contact_model = None
+        if contact:
+            contact_model = _contact(
+                mechanism, stiffness, targets, thickness=float(np.asarray(design.t_structural))
+            )
+        return FoldingSystem(
+            mechanism, hinges_, drag_model, contact=contact_model, units=design.units
+        )
+
+    # ---- start state ----
+
+    def start_state(
+        self,
+        system: FoldingSystem | None = None,
+        *,
+        bias: float = 0.0,
+        direction: Float[ArrayLike, " m"] | None = None,
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Where a simulation starts: `(θ0, θ̇0)` (rad, rad/time).
+
+        With `bias` = 0 (default) the flat state at rest, a bifurcation of a closed-loop pattern:
+        the inputs pick the branch as the panels leave it. With `bias` > 0, a small pre-fold (a
+        membrane is never quite flat): the closed state nearest ``bias · d̂``, ``d`` = `direction`
+        (default the hinge targets of `system` weighted by stiffness and by which creases release
+        first, or the pattern's angles), so ``|θ0| ≈ bias`` rad along the branch the inputs aim at.
+        """
+        m = self.n_creases
+        if bias == 0.0:
+            return np.zeros(m), np.zeros(m)
+        if not bias > 0:
+            raise ValueError(f"bias must be a small positive angle (rad), got {bias}.")
+        if direction is None:
+            if system is None:
+                direction = self.intended_angles
+            else:
+                h = system.hinges
+                weight = np.asarray(h.stiffness)
+                if h.release_time is not None:
+                    times = np.asarray(h.release_time)
+                    weight = weight * (times <= np.min(times))
+                direction = weight * np.asarray(h.target)
+        direction = np.asarray(direction, dtype=float)
+        if direction.shape != (m,) or not np.linalg.norm(direction) > 0:
+            raise ValueError(f"direction must be a non-zero vector of {m} fold angles.")
+        guess = bias * direction / np.linalg.norm(direction)
+        theta = self.closest_state(guess, keep_signs=True)
+        directions, index = self._padded()
+        if _kinematics.max_residual(directions, index, theta) > 1e-12:
+            raise ValueError(
+                f"could not place a closed start state {bias} rad along the given direction; use a "
+                "smaller bias or another direction."
+            )
+        return theta, np.zeros(m)
+
+    # ---- verdicts ----
+
+    def seam_gap_function(self, system: FoldingSystem):
+        """A traceable ``q ↦`` gap of each seam (design length units, `(s,)`), as for nets (the cut
+        creases are not seams: the closure holds them together)."""
+        g = self.geometry.tree
+        seams = self.seams
+        width = g.face_coords.shape[1]
+        position = {int(f): i - 1 for i, f in enumerate(np.asarray(g.order))}
+        body = np.zeros((len(seams), 2, 2), dtype=np.int64)
+        local = np.zeros((len(seams), 2, 2, 3))
+        outlines = system.mechanism.outlines()
+        for s_ in range(len(seams)):
+            for e in range(2):
+                for side in range(2):
+                    f, k = divmod(int(seams.corners[s_, e, side]), width)
+                    b = position[f]
+                    body[s_, e, side] = b
+                    local[s_, e, side] = (
+                        g.face_coords[f, k] * self.length_scale if b < 0 else outlines[b][k]
+                    )
+
+        def gaps(q):
+            if not len(seams):
+                return jnp.zeros((0,), jnp.asarray(q).dtype)
+            poses = system.mechanism.body_poses(q)
+            base = jnp.eye(4, dtype=poses.dtype)[None]
+            poses = jnp.concatenate([poses, base], axis=0)
+            chosen = poses[jnp.asarray(body)]
+            points = jnp.einsum("seaij,seaj->seai", chosen[..., :3, :3], jnp.asarray(local))
+            points = points + chosen[..., :3, 3]
+            distance = jnp.linalg.norm(points[:, :, 0] - points[:, :, 1], axis=-1)
+            return jnp.max(distance, axis=-1)
+
+        return gaps
+
+    def outcome(self, system: FoldingSystem, trajectory, **kwargs):
+        """`assess`'s verdict as arrays, traceable (`origami_jax.simulation.fold_outcome`)."""
+        from ..simulation import fold_outcome
+
+        kwargs.setdefault("intended_angles", jnp.asarray(self.intended_angles))
+        return fold_outcome(system, trajectory, seam_gaps=self.seam_gap_function(system), **kwargs)
+
+    def assess(self, system: FoldingSystem, trajectory, *, bias: float = 0.0, **kwargs):
+        """The verdict on a folding of this pattern (`origami_jax.simulation.assess`, keyword arguments
+        go there), with the branch it took: a `LoopFoldReport`."""
+        from ..simulation import assess
+
+        kwargs.setdefault("intended_angles", self.intended_angles)
+        report = assess(system, trajectory, seam_gaps=self.seam_gap_function(system), **kwargs)
+        return _with_branch(self, report, trajectory, bias)
+
+    # ---- output ----
+
+    def to_fold(self, trajectory=None, *, angles=None, times=None, every: int = 1) -> FoldFile:
+        """The folding as a FOLD animation: the crease pattern (facets merged), then one frame per kept
+        sample with every vertex where the folded panels put it and every crease's fold angle."""
+        from ..net._net import _vertex_corners
+
+        if trajectory is not None:
+            angles, times = np.asarray(trajectory.theta), np.asarray(trajectory.times)
+        if angles is None:
+            raise ValueError("to_fold needs a trajectory or angles=(k, m).")
+        angles = np.atleast_2d(np.asarray(angles, dtype=float))
+        keep = np.arange(0, len(angles), max(int(every), 1))
+        if keep[-1] != len(angles) - 1:
+            keep = np.append(keep, len(angles) - 1)
+        keep = keep[np.all(np.isfinite(angles[keep]), axis=1)]
+        g = self.geometry
+        first_face, first_corner = _vertex_corners(g.tree)
+        base = g.frame
+        n_edges = int(np.asarray(base.edges_vertices).shape[0])
+        frames = [base]
+        for s in keep:
+            corners = g.fold(angles[s])
+            degrees = np.zeros(n_edges)
+            for j, edges in enumerate(g.crease_edges):
+                degrees[list(edges)] = np.degrees(
+                    np.arctan2(np.sin(angles[s, j]), np.cos(angles[s, j]))
+                )
+            extra = {"origami_jax:hinge_angles": [float(x) for x in angles[s]]}
+            if times is not None:
+                extra["origami_jax:time"] = float(np.asarray(times)[s])
+            frames.append(
+                FoldFrame(
+                    vertices_coords=corners[first_face, first_corner],
+                    edges_fold_angle_deg=degrees,
+                    frame_classes=("foldedForm",),
+                    frame_attributes=("3D",),
+                    frame_parent=0,
+                    frame_inherit=True,
+                    extra=extra,
+                )
+            )
+        return FoldFile(
+            frames=tuple(frames),
+            file_metadata={
+                "file_creator": "origami_jax",
+                "file_classes": ["singleModel", "animation"],
+                "file_title": self.name,
+            },
+        )
+
+
+def _with_branch(pattern: CreasePattern, report, trajectory, bias: float):
+    from ._report import LoopFoldReport
+
+    return LoopFoldReport.from_report(pattern, report, trajectory, bias)
+
+
+def _contact(mechanism: LoopedPanels, stiffness, targets, *, thickness: float):
+    """`PanelContact` with the defaults of `PanelContact.for_system`, where panels that share a crease
+    (tree or cut) or only a vertex do not meet near what they share."""
+    import jax
+
+    from ..contact import PanelContact
+    from ..contact._model import barrier
+    from ..contact._tables import build_tables
+
+    n = mechanism.n_bodies
+    probe = PanelContact.from_mechanism(mechanism, thickness=thickness, stiffness=1.0, damping=0.0)
+    layout = mechanism.hinge_layout()
+    parents, children, ends = [layout.parent], [layout.child], [layout.ends]
+    # Panels around an interior vertex that share only the vertex: a degenerate crease there.
+    outlines = mechanism.outlines()
+    poses = np.asarray(mechanism.body_poses(jnp.zeros(mechanism.n_hinges)))
+    world = [o @ p[:3, :3].T + p[:3, 3] for o, p in zip(outlines, poses, strict=True)]
+    base = mechanism.base_outline()
+    if base is not None:
+        world.append(np.asarray(base))
+    size = max(float(np.max(np.ptp(w, axis=0))) for w in world)
+    for point in np.asarray(mechanism.loop_points, dtype=float).reshape(-1, 3):
+        touching = [
+            b
+            for b, w in enumerate(world)
+            if np.min(np.linalg.norm(w - point, axis=-1)) < 1e-9 * size
+        ]
+        bodies = [b if b < n else -1 for b in touching]
+        for i, a in enumerate(bodies):
+            for b in bodies[i + 1 :]:
+                parents.append(np.array([min(a, b)]))
+                children.append(np.array([max(a, b)]))
+                ends.append(np.stack([point, point])[None])
+    tables = build_tables(
+        outlines,
+        poses,
+        base,
+        np.full(n, thickness),
+        thickness,
+        np.concatenate(parents),
+        np.concatenate(children),
+        np.concatenate(ends),
+        inset=2 * float(probe.edge_width),
+    )
+    # Stiffness and damping as `PanelContact.for_system` sets them, traceable in the hinges (a sweep
+    # over hinge parameters builds contact inside `vmap`); the tables are the flat geometry's.
+    energy = jnp.sum(0.5 * stiffness * targets**2)
+    gap = float(probe.activation)
+    curvature = float(jax.grad(jax.grad(barrier))(0.5))
+    contact_stiffness = energy * curvature / gap**2
+    inertia = jnp.diagonal(mechanism.tree.mass_matrix(jnp.zeros(mechanism.n_tree)))
+    mass = jnp.min(inertia) / tables.scale**2
+    damping = 2 * 0.5 * jnp.sqrt(contact_stiffness * mass)
+    dtype = jnp.result_type(float)
+    return PanelContact(
+        tables=tables,
+        stiffness=jnp.asarray(energy, dtype),
+        activation=jnp.asarray(gap, dtype),
+        damping=jnp.asarray(damping, dtype),
+        edge_width=probe.edge_width,
+    )
+
+
+def load_pattern(
+    pattern: str | os.PathLike | FoldFile,
+    *,
+    root: int | None = None,
+    length_scale: float | None = None,
+    units=None,
+    name: str | None = None,
+    flat_creases: str = "panel",
+):
+    """Read a crease pattern: a catalogue name (`origami_jax.fold.catalogue_names()`), a `.fold` path
+    or a `FoldFile`. A pattern whose faces form a tree (a net) gives a `Net` (the panel-tree engine,
+    `origami_jax.net.load_net`); one whose creases close loops around interior vertices gives a
+    `CreasePattern`.
+
+    **Arguments:** `root`: the fixed face (default the largest); `length_scale`: design length units
+    per FOLD length unit (default from the file's `frame_unit`; a unitless file, such as Origami
+    Simulator's export, needs it); `units` (default `MICRO`); `name`; `flat_creases`: `"panel"`
+    (faces joined by flat `F` edges, the facet diagonals of a triangulated export, are one rigid
+    panel; default) or `"hinge"` (every `F` edge is a crease with a 0° target).
+
+    **Raises:** `FoldFormatError` for a file that is neither (loops round holes, non-manifold
+    edges, ...); `ValueError` for a unitless file without `length_scale`.
+    """
+    from ..fold import read_fold
+    from ..net import load_net
+    from ..system import MICRO
+
+    units = MICRO if units is None else units
+    label = name
+    source = pattern
+    if isinstance(pattern, str) and pattern in catalogue_names():
+        source = catalogue_path(pattern)
+        label = label or pattern
+    elif isinstance(pattern, str | os.PathLike):
+        label = label or os.path.splitext(os.path.basename(os.fspath(pattern)))[0]
+    fold = source if isinstance(source, FoldFile) else read_fold(source)
+    geometry = loop_geometry(fold, root=root, flat_creases=flat_creases)
+    if geometry.n_loops == 0 and flat_creases == "hinge":
+        return load_net(fold, root=root, length_scale=length_scale, units=units, name=label)
+    if geometry.n_loops == 0:
+        try:
+            return load_net(fold, root=root, length_scale=length_scale, units=units, name=label)
+        except FoldFormatError:
+            pass  # facets merged make it a net of panels without loops: fold it as one
+    if length_scale is None:
+        metres = FRAME_UNITS_M.get(geometry.unit or "unit")
+        if metres is None:
+            raise ValueError(
+                f"the FOLD file's frame_unit is {geometry.unit!r}, which has no physical length: give "
+                "length_scale= (the design's length units per FOLD unit, e.g. 1.0 for µm)."
+            )
+        length_scale = metres / units.metre_per_length
+    return CreasePattern(geometry, label or "pattern", float(length_scale))
+
+
+def release_times_from_front(pattern: CreasePattern, direction, speed: float) -> np.ndarray:
+    """Release times (time units, `(m,)`) of an etch front sweeping the sheet at `speed` (design length
+    units per time unit) along `direction` (2 components in the pattern's plane basis, or 3): it starts
+    at the pattern's first point along that direction at ``t = 0`` and releases each crease when it
+    reaches the crease's midpoint (as `origami_jax.net.release_times_from_front`)."""
+    g = pattern.geometry
+    direction = np.asarray(direction, dtype=float)
+    if direction.shape == (2,):
+        direction = direction @ g.plane
+    if direction.shape != (3,) or not np.linalg.norm(direction) > 0:
+        raise ValueError("the etch front's direction must be a non-zero 2- or 3-vector.")
+    if not (np.isfinite(speed) and speed > 0):
+        raise ValueError(f"the etch front's speed must be positive, got {speed}.")
+    direction = direction / np.linalg.norm(direction)
+    start = float(np.min(g.vertices_coords @ direction))
+    mids = g.points + 0.5 * g.lengths[:, None] * g.axes
+    return (mids @ direction - start) * pattern.length_scale / float(speed)
+
+
+class PatternLayout(AbstractLayout):
+    """The closed-loop pattern layout for `design` and `sweep`: ``PatternLayout(pattern)(design)`` is
+    ``pattern.system(design, contact=...)`` (static fields)."""
+
+    pattern: CreasePattern = eqx.field(static=True)
+    contact: bool = eqx.field(static=True, default=True)
+
+    @property
+    def n_hinges(self) -> int:
+        return self.pattern.n_creases
+
+    def __call__(self, design: HingeDesign) -> FoldingSystem:
+        return self.pattern.system(design, contact=self.contact)

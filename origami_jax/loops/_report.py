@@ -1,0 +1,82 @@
+"""`LoopFoldReport`: the verdict on a closed-loop folding, with the branch it took and the closure drift."""
+
+import dataclasses
+
+import numpy as np
+
+from ..simulation._verdict import FoldReport, FoldVerdict
+
+# A crease counts as having chosen its side once it is this far from flat (rad).
+BRANCH_ANGLE = float(np.radians(2.0))
+
+
+@dataclasses.dataclass(frozen=True)
+class LoopFoldReport(FoldReport):
+    """A `FoldReport` plus, for a pattern with closed loops:
+
+    - `branch`: which way each crease went (+1 valley, −1 mountain, 0 flat), taken when it first got
+      `BRANCH_ANGLE` from flat (the choice made leaving the flat state), `(m,)`;
+      `intended_branch`: the pattern's; `wrong_creases`: the creases that went the other way.
+    - `final_branch`: the same at the end of the run.
+    - `bias`: the start's pre-fold (rad; 0: started flat, the inputs alone chose).
+    - `closure_drift`: the largest closure residual of any loop over the run (rad): how far the
+      integrated state left the constraint manifold.
+    """
+
+    branch: np.ndarray
+    intended_branch: np.ndarray
+    wrong_creases: tuple[int, ...]
+    final_branch: np.ndarray
+    bias: float
+    closure_drift: float
+
+    @classmethod
+    def from_report(cls, pattern, report: FoldReport, trajectory, bias: float) -> "LoopFoldReport":
+        theta = np.asarray(trajectory.theta)
+        finite = np.all(np.isfinite(theta), axis=1)
+        theta = theta[finite] if np.any(finite) else np.zeros((1, theta.shape[1]))
+        intended = np.asarray(report.intended_angles)
+        intended_branch = np.where(np.abs(intended) < BRANCH_ANGLE, 0, np.sign(intended)).astype(
+            int
+        )
+        past = np.abs(theta) >= BRANCH_ANGLE
+        first = np.argmax(past, axis=0)
+        chosen = np.sign(theta[first, np.arange(theta.shape[1])]).astype(int)
+        branch = np.where(np.any(past, axis=0), chosen, 0)
+        final = theta[-1]
+        final_branch = np.where(np.abs(final) < BRANCH_ANGLE, 0, np.sign(final)).astype(int)
+        wrong = tuple(
+            int(j)
+            for j in np.flatnonzero((branch != 0) & (intended_branch != 0))
+            if branch[j] != intended_branch[j]
+        )
+        drift = pattern.closure_residual(theta)
+        fields = {f.name: getattr(report, f.name) for f in dataclasses.fields(FoldReport)}
+        if report.verdict == FoldVerdict.MISFOLDED and wrong:
+            creases = ", ".join(str(j) for j in wrong[:8]) + (" ..." if len(wrong) > 8 else "")
+            fields["reason"] = (
+                f"took another folding branch: crease(s) {creases} went the other way "
+                "(mountain for valley or back)"
+            )
+        return cls(
+            **fields,
+            branch=branch,
+            intended_branch=intended_branch,
+            wrong_creases=wrong,
+            final_branch=final_branch,
+            bias=float(bias),
+            closure_drift=float(np.max(drift)) if drift.size else 0.0,
+        )
+
+    def summary(self) -> str:
+        lines = [super().summary()]
+        start = "flat" if self.bias == 0 else f"pre-folded by {self.bias:.3g} rad"
+        if self.wrong_creases:
+            lines.append(
+                f"branch: {len(self.wrong_creases)} crease(s) went the other way from the "
+                f"pattern's (started {start})"
+            )
+        else:
+            lines.append(f"branch: the pattern's (started {start})")
+        lines.append(f"closure drift: {self.closure_drift:.2e} rad")
+        return "\n".join(lines)
