@@ -7,11 +7,30 @@ time), `trajectory.fold` (the folding as FOLD frames: `origami-jax view` plays i
 """
 
 import argparse
-import json
-import sys
+import math
 from pathlib import Path
 
-from ._common import EXIT_FAILED, EXIT_OK, EXIT_USAGE, add_out_argument, prepare_out
+from ._common import (
+    EXIT_FAILED,
+    EXIT_OK,
+    OutputFolder,
+    add_out_argument,
+    dumps_json,
+    fail,
+    finite,
+    int_range,
+    positive,
+)
+
+# Every file `run` writes into --out (an earlier run's are refused without --overwrite).
+OWNS = (
+    "result.json",
+    "trajectory.csv",
+    "trajectory.fold",
+    "angles.png",
+    "frames.png",
+    "animation.gif",
+)
 
 HELP = (
     "Fold a net or a crease pattern (FOLD file or catalogue name) under its hinges; say whether it "
@@ -141,27 +160,30 @@ def run(args: argparse.Namespace) -> int:
             print(name)
         return EXIT_OK
     if args.net is None:
-        print(
-            "origami-jax fold: give a NET (FOLD file or catalogue name; --list).", file=sys.stderr
-        )
-        return EXIT_USAGE
+        fail("give a NET: a FOLD file or a catalogue name (origami-jax fold --list names them).")
     try:
         params = _params(args.param)
         targets_deg = _floats(args.targets, "--targets")
         release = _floats(args.release, "--release")
         front = _floats(args.etch_front, "--etch-front")
-        if front is not None and len(front) != 3:
-            raise ValueError("--etch-front expects DX,DY,SPEED")
-        if not (args.t1 > 0) or args.n_save < 2:
-            raise ValueError("--t1 must be positive and --n-save at least 2")
     except ValueError as error:
-        print(f"origami-jax fold: {error}", file=sys.stderr)
-        return EXIT_USAGE
+        fail(str(error))
+    if front is not None and len(front) != 3:
+        fail("--etch-front expects DX,DY,SPEED (a direction in the plane and a speed in µm/µs).")
+    positive(args.t1, "--t1", "µs")
+    int_range(args.n_save, "--n-save", 2, 1_000_000)
+    finite(args.bias, "--bias")
+    positive(args.tolerance, "--tolerance", "degrees")
+    for flag, values in (
+        ("--targets", targets_deg),
+        ("--release", release),
+        ("--etch-front", front),
+    ):
+        if values is not None and not all(math.isfinite(v) for v in values):
+            fail(f"{flag} must be finite numbers, got {values}.")
 
-    import jax.numpy as jnp
     import numpy as np
 
-    import origami_jax.simulation as sim
     from origami_jax.loops import CreasePattern, load_pattern
     from origami_jax.loops import release_times_from_front as pattern_front
     from origami_jax.net import release_times_from_front
@@ -198,18 +220,30 @@ def run(args: argparse.Namespace) -> int:
         system = net.system(design, **options)
         theta0, theta_dot0 = net.start_state(system, bias=args.bias) if loops else (None, None)
     except (FoldFormatError, ValueError, TypeError, OSError) as error:
-        print(f"origami-jax fold: {args.net}: {error}", file=sys.stderr)
-        return EXIT_USAGE
+        fail(f"{args.net}: {error}")
 
-    out = prepare_out(Path(args.out))
+    output = OutputFolder(Path(args.out), command="fold", owns=OWNS, overwrite=args.overwrite)
+    with output:
+        code = _run(args, net, system, loops, params, release, theta0, theta_dot0, output)
+    return code
+
+
+def _run(args, net, system, loops, params, release, theta0, theta_dot0, output) -> int:
+    """Fold, assess and write into the staging folder of `output`; returns the exit code."""
+    import diffrax
+    import numpy as np
+
+    import origami_jax.simulation as sim
+    from origami_jax.fold import write_fold
+
+    out = output.dir
+    m = net.n_creases
     kind = f"{net.n_loops} closed loop(s), " if loops else ""
     print(
         f"[fold] {net.name}: {m} creases, {kind}{system.mechanism.n_bodies} moving panels, contact "
         f"{'on' if system.contact is not None else 'off'}; compiling and folding for {args.t1:g} µs ...",
         flush=True,
     )
-    import diffrax
-
     # Closed loops: explicit Tsit5 (the default solver's implicit half differentiates through the
     # constraint solve and compiles for minutes).
     solver = diffrax.Tsit5() if loops else None
@@ -253,7 +287,7 @@ def run(args: argparse.Namespace) -> int:
         k: (v if not isinstance(v, float) or np.isfinite(v) else None)
         for k, v in result["stats"].items()
     }
-    (out / "result.json").write_text(json.dumps(result, indent=2))
+    (out / "result.json").write_text(dumps_json(result))
     times = np.asarray(trajectory.times)
     theta = np.asarray(trajectory.theta)
     header = "time [us]," + ",".join(f"theta_{j + 1} [rad]" for j in range(m))
@@ -265,16 +299,13 @@ def run(args: argparse.Namespace) -> int:
         comments="",
         fmt="%.12g",
     )
-    from origami_jax.fold import write_fold
-
     write_fold(out / "trajectory.fold", net.to_fold(trajectory, every=max(1, len(times) // 200)))
     print(report.summary())
-    print(f"wrote {out / 'result.json'}, trajectory.csv, trajectory.fold")
+    print(f"wrote {output.out / 'result.json'}, trajectory.csv, trajectory.fold")
     if not args.no_figures and bool(trajectory.succeeded):
         # Show the fold itself rather than the long rest after it.
         t_max = None if report.time_to_fold is None else min(2.0 * report.time_to_fold, args.t1)
         _figures(system, trajectory, out, net.name, t_max)
-    del jnp
     return EXIT_OK if report.verdict == "folded" else EXIT_FAILED
 
 
