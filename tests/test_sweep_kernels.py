@@ -9,7 +9,7 @@ from origami_jax.sweep import Grid, Table, available_models, get_model, sweep
 
 def test_registry_lists_and_builds_models():
     models = available_models()
-    assert set(models) == {"accordion-step", "vertex-unfold"}
+    assert set(models) == {"accordion-step", "net-fold", "vertex-unfold"}
     assert "accordion" in models["accordion-step"]
     with pytest.raises(ValueError, match="unknown model"):
         get_model("no-such-model")

@@ -57,8 +57,8 @@ class PanelTree(AbstractMechanism):
 
     **Fields** (rest values are at ``q = 0``, in the world frame; ``n`` panels = ``n`` hinges):
     - `parents` (static): ``parents[i]`` is body ``i``'s parent, ``−1`` for the fixed base.
-    - `joints`: the hinge models, [`RevoluteJoints`][] (axes ``ω`` `(n, 3)` and crease points ``p``
-      `(n, 3)`) or [`ArcJoints`][] (bending strips; adds directions and strip lengths).
+    - `joints`: the hinge models, [`RevoluteJoints`][origami_jax.net.RevoluteJoints] (axes ``ω`` `(n, 3)` and crease points ``p``
+      `(n, 3)`) or [`ArcJoints`][origami_jax.net.ArcJoints] (bending strips; adds directions and strip lengths).
     - `frames`: rest pose of each body frame, `(n, 4, 4)` (length in the last column).
     - `masses`: `(n,)`, mass. `cgs`: CG of each panel in its body frame, `(n, 3)`, length.
     - `inertias`: rotational inertia about the CG in the body frame's axes, `(n, 3, 3)`, mass·length².
