@@ -265,7 +265,7 @@ def _degree6() -> FoldFile:
     guess = _fan_angles(
         fold, rays, [-1.0, math.pi / 2, math.pi / 2, -1.0, math.pi / 2, math.pi / 2]
     )
-    free = _fan_angles(fold, rays, [1, 0, 0, 1, 0, 0])
+    free = _fan_angles(fold, rays, [1.0, 0.0, 0.0, 1.0, 0.0, 0.0])
     return _with_angles(fold, _solve_closure(fold, guess, free))
 
 
@@ -291,7 +291,7 @@ def _waterbomb_base() -> FoldFile:
     guess = _fan_angles(
         fold, rays, [mountains[(k // 2) % 2] if s < 0 else valley for k, s in enumerate(signs)]
     )
-    free = _fan_angles(fold, rays, [1 if s < 0 else 0 for s in signs])
+    free = _fan_angles(fold, rays, [1.0 if s < 0 else 0.0 for s in signs])
     return _with_angles(fold, _solve_closure(fold, guess, free))
 
 
