@@ -28,6 +28,7 @@ def _run(names, tmp_path, capsys):
     return rows
 
 
+@pytest.mark.slow  # the peers' agreement is tested where each quantity is (Pinocchio, MuJoCo, scipy)
 def test_quick_benchmarks_agree_with_their_peers(tmp_path, capsys):
     rows = _run(CHEAP, tmp_path, capsys)
     names = " ".join(row["name"] for row in rows)

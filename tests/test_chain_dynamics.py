@@ -95,7 +95,16 @@ def _case(name):
     return _CACHE[name]
 
 
-@pytest.fixture(scope="module", params=list(CASES))
+# Two cases run by default (a planar accordion, a spatial random chain with gravity); all four with -m slow.
+@pytest.fixture(
+    scope="module",
+    params=[
+        "accordion3",
+        "random5_gravity",
+        pytest.param("random7", marks=pytest.mark.slow),
+        pytest.param("planar4_gravity", marks=pytest.mark.slow),
+    ],
+)
 def case(request):
     return _case(request.param)
 
@@ -245,8 +254,10 @@ def test_jit_vmap_over_designs_and_states_without_retracing():
 
     rng = np.random.default_rng(SEED)
     for _ in range(3):
+        scales = rng.uniform(0.8, 1.2, size=(16, 8))
+        scales[:, 7] = rng.uniform(0.8, 1.0, size=16)  # a fold angle is at most π
         args = as_jax(
-            rng.uniform(0.8, 1.2, size=(16, 8)),
+            scales,
             rng.uniform(-3.0, 3.0, size=(16, 3)),
             rng.normal(scale=0.05, size=(16, 3)),
             rng.normal(scale=1e3, size=(16, 3)),
@@ -321,7 +332,14 @@ def _chain_direction(chain, seed, *, planar):
     return direction
 
 
-@pytest.mark.parametrize("name", ["accordion3", "random5_gravity", "planar4_gravity"])
+@pytest.mark.parametrize(
+    "name",
+    [
+        "accordion3",
+        pytest.param("random5_gravity", marks=pytest.mark.slow),
+        pytest.param("planar4_gravity", marks=pytest.mark.slow),
+    ],
+)
 def test_scalar_forward_path_equals_array_path(name):
     """`forward_dynamics` evaluates short chains on scalars (planar ones in two dimensions) and
     differentiates them by a custom JVP (the planar form's autodiff in directions that keep a planar

@@ -87,6 +87,7 @@ def test_elastic_force_is_minus_the_energy_gradient_and_damping_dissipates():
     np.testing.assert_array_equal(contact.force(chain, jnp.zeros(3), jnp.zeros(3)), 0.0)
 
 
+@pytest.mark.slow  # energy balance through contact is also checked by the accordion stack below
 def test_flap_rebounds_from_the_base_without_gaining_energy():
     # One flap, no drag, a weak hinge holding it at 90°, launched towards the base (θ → π).
     chain = accordion(1)
