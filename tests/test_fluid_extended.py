@@ -196,6 +196,7 @@ def koh_folding():
     return system, trajectory
 
 
+@pytest.mark.slow  # one KOH folding with every fluid term; the terms are checked singly below
 def test_energy_lost_is_the_fluids_dissipation(koh_folding):
     """Kinetic (flaps, strips and fluid) + spring energy − the step input's work ``Σ k θ_target θ``
     falls by exactly the work the fluid's drags take out, ``∫ Σ_parts (−q̇ᵀ f) dt`` (Simpson on the
