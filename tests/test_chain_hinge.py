@@ -66,6 +66,28 @@ def test_documented_alternatives():
     )
 
 
+def test_bilayer_flexural_rigidity_is_the_neutral_axis_sum():
+    """`stiffness_model="bilayer"`: the bonded strip's ``D`` is ``Σ E_i (t_i³/12 + t_i d_i²)`` about
+    its neutral axis (the transformed section, summed here layer by layer with the plate moduli
+    ``E / (1 − ν²)``), and ``k = w D / l``; two equal layers are one homogeneous plate of twice the
+    thickness, ``D = E (2t)³ / 12``. Closed forms two ways: round-off only."""
+    design = osys.HingeDesign.literature(stiffness_model="bilayer")
+    moduli = np.array([250e3 / (1 - 0.23**2), 279e3 / (1 - 0.21**2)])  # MPa
+    thickness = np.array([0.2, 0.1])  # µm
+    middle = np.array([0.1, 0.25])  # mid-planes above the bottom face
+    neutral = np.sum(moduli * thickness * middle) / np.sum(moduli * thickness)
+    rigidity = np.sum(moduli * (thickness**3 / 12 + thickness * (middle - neutral) ** 2))
+    assert float(design.flexural_rigidity()) == pytest.approx(rigidity, rel=FORMULA_RTOL)
+    k = 200.0 * rigidity / float(design.hinge_length())
+    np.testing.assert_allclose(design.stiffness(2), np.full(2, k), rtol=FORMULA_RTOL)
+    film = osys.Material(200e9, 0.3, 3000.0)
+    equal = osys.HingeDesign.literature(
+        structural=film, hinge=film, t_structural=0.1, t_hinge=0.1, stiffness_model="bilayer"
+    )
+    plate = 200e3 / (1 - 0.3**2) * 0.2**3 / 12
+    assert float(equal.flexural_rigidity()) == pytest.approx(plate, rel=FORMULA_RTOL)
+
+
 def test_thin_hinge_limit_is_stoney():
     """As t₂ → 0, κ → 6 E₂' t₂ ε / (E₁' t₁²) (Stoney), with a relative error O(t₂/t₁)."""
     e1, e2, t1, eps = 324.7, 353.2, 0.2, 2.8e-3

@@ -206,8 +206,9 @@ def test_page_code_runs_with_slow_blocks(page, tmp_path, monkeypatch):
 # ---- the physics guide's sections --------------------------------------------------------------
 
 # `docs/physics.md, "Inputs", "Numerics"`, `docs/physics.md ("Numerics")`, `the physics guide,
-# "Fluids and drag"`: the quoted titles after a mention of the guide.
-_MENTION = re.compile(r'(?:docs/physics\.md|physics guide)[\s,(]*((?:"[^"\n]+"[\s,]*(?:and\s+)?)+)')
+# "Fluids and drag"`: the quoted titles after a mention of the guide. A title may wrap onto the next
+# line of a docstring (`"Calibrating the extended\n    model"`): its whitespace is collapsed.
+_MENTION = re.compile(r'(?:docs/physics\.md|physics guide)[\s,(]*((?:"[^"]+"[\s,]*(?:and\s+)?)+)')
 
 
 def _section_mentions() -> dict[str, set[str]]:
@@ -218,7 +219,8 @@ def _section_mentions() -> dict[str, set[str]]:
     mentions: dict[str, set[str]] = {}
     for path, text in texts.items():
         for match in _MENTION.finditer(text):
-            for title in re.findall(r'"([^"\n]+)"', match.group(1)):
+            for title in re.findall(r'"([^"]+)"', match.group(1)):
+                title = " ".join(title.split())
                 mentions.setdefault(title, set()).add(str(path.relative_to(ROOT)))
     return mentions
 

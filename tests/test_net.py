@@ -121,3 +121,30 @@ def test_cube_net_aimed_at_80_degrees_is_not_folded():
     assert report.verdict != "folded"
     assert report.verdict == "misfolded", report.summary()
     assert float(np.min(report.seam_gaps)) > 10.0  # µm: every seam stays open
+
+
+def test_foldings_write_as_fold_files_when_creases_dip_past_flat(tmp_path):
+    """A folding's FOLD frames (`Net.to_fold`, `CreasePattern.to_fold`) write and read back when a
+    crease dips to the other side of flat (a valley pulled below flat while its parent swings, an
+    overshoot past 180° that wraps to −180° + x): each frame assigns such a crease what it is in that
+    frame, so its fold angles and assignments agree, and the key frame keeps the pattern's."""
+    from origami_jax.fold import read_fold, write_fold
+    from origami_jax.loops import load_pattern
+
+    for pattern in (load_net("cube_net_01"), load_pattern("vertex_degree4")):
+        m = pattern.n_creases
+        intended = pattern.intended_angles
+        angles = np.stack([np.zeros(m), 0.5 * intended, intended])
+        angles[1, 0] = -np.sign(intended[0]) * np.radians(6.0)  # dips past flat
+        angles[2, 0] = np.sign(intended[0]) * np.radians(190.0)  # wraps to the other side
+        path = tmp_path / f"{pattern.name}.fold"
+        write_fold(path, pattern.to_fold(angles=angles, times=np.arange(3.0)))
+        back = read_fold(path)
+        assert back.n_frames == 4
+        key = back.frames[0].edges_assignment
+        for frame in back.frames[1:]:
+            signs = np.sign(frame.edges_fold_angle_deg)
+            assignment = np.array(frame.edges_assignment)
+            assert np.all(assignment[signs > 0] == "V") and np.all(assignment[signs < 0] == "M")
+        changed = np.array(key) != np.array(back.frames[2].edges_assignment)
+        assert np.any(changed), "the dipping crease kept the pattern's assignment"

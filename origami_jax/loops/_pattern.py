@@ -410,7 +410,7 @@ class CreasePattern:
     def to_fold(self, trajectory=None, *, angles=None, times=None, every: int = 1) -> FoldFile:
         """The folding as a FOLD animation: the crease pattern (facets merged), then one frame per kept
         sample with every vertex where the folded panels put it and every crease's fold angle."""
-        from ..net._net import _vertex_corners
+        from ..net._net import _vertex_corners, frame_assignment
 
         if trajectory is not None:
             angles, times = np.asarray(trajectory.theta), np.asarray(trajectory.times)
@@ -439,6 +439,9 @@ class CreasePattern:
             frames.append(
                 FoldFrame(
                     vertices_coords=corners[first_face, first_corner],
+                    edges_assignment=frame_assignment(
+                        base.edges_assignment, degrees, g.crease_edges
+                    ),
                     edges_fold_angle_deg=degrees,
                     frame_classes=("foldedForm",),
                     frame_attributes=("3D",),

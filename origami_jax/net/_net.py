@@ -304,6 +304,9 @@ class Net:
             frames.append(
                 FoldFrame(
                     vertices_coords=corners[first_face, first_corner],
+                    edges_assignment=frame_assignment(
+                        base.edges_assignment, degrees, self.crease_edge_ids
+                    ),
                     edges_fold_angle_deg=degrees,
                     frame_classes=("foldedForm",),
                     frame_attributes=("3D",),
@@ -320,6 +323,21 @@ class Net:
                 "file_title": self.name,
             },
         )
+
+
+def frame_assignment(key_assignment, degrees: np.ndarray, crease_edges) -> tuple[str, ...]:
+    """Each edge's assignment in a frame of a folding: a crease folded to the other side of flat than
+    the pattern assigns it (a valley that dips below flat while its neighbours swing, an overshoot
+    past 180° wrapped to the mountain side) is written as what it is in that frame, `M` or `V`, so
+    that the frame's fold angles and assignments agree (FOLD: valley +, mountain −)."""
+    out = list(key_assignment)
+    for edges in crease_edges:
+        for e in edges:
+            if degrees[e] > 0:
+                out[e] = "V"
+            elif degrees[e] < 0:
+                out[e] = "M"
+    return tuple(out)
 
 
 def _traced(x) -> bool:
