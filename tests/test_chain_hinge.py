@@ -1,4 +1,4 @@
-"""Hinge physics (issue #3 item 5): bilayer curvature, stiffness, drag, materials, units, gradients."""
+"""Hinge physics: bilayer curvature, stiffness, drag, materials, units, gradients."""
 
 import jax
 import jax.numpy as jnp
