@@ -469,10 +469,8 @@ def _with_branch(pattern: CreasePattern, report, trajectory, bias: float):
 def _contact(mechanism: LoopedPanels, stiffness, targets, *, thickness: float):
     """`PanelContact` with the defaults of `PanelContact.for_system`, where panels that share a crease
     (tree or cut) or only a vertex do not meet near what they share."""
-    import jax
 
     from ..contact import PanelContact
-    from ..contact._model import barrier
     from ..contact._tables import build_tables
 
     n = mechanism.n_bodies
@@ -503,8 +501,6 @@ def _contact(mechanism: LoopedPanels, stiffness, targets, *, thickness: float):
         outlines,
         poses,
         base,
-        np.full(n, thickness),
-        thickness,
         np.concatenate(parents),
         np.concatenate(children),
         np.concatenate(ends),
@@ -512,20 +508,8 @@ def _contact(mechanism: LoopedPanels, stiffness, targets, *, thickness: float):
     )
     # Stiffness and damping as `PanelContact.for_system` sets them, traceable in the hinges (a sweep
     # over hinge parameters builds contact inside `vmap`); the tables are the flat geometry's.
-    energy = jnp.sum(0.5 * stiffness * targets**2)
-    gap = float(probe.activation)
-    curvature = float(jax.grad(jax.grad(barrier))(0.5))
-    contact_stiffness = energy * curvature / gap**2
-    inertia = jnp.diagonal(mechanism.tree.mass_matrix(jnp.zeros(mechanism.n_tree)))
-    mass = jnp.min(inertia) / tables.scale**2
-    damping = 2 * 0.5 * jnp.sqrt(contact_stiffness * mass)
-    dtype = jnp.result_type(float)
-    return PanelContact(
-        tables=tables,
-        stiffness=jnp.asarray(energy, dtype),
-        activation=jnp.asarray(gap, dtype),
-        damping=jnp.asarray(damping, dtype),
-        edge_width=probe.edge_width,
+    return PanelContact.for_system(
+        mechanism, stiffness, targets, thickness=thickness, tables=tables
     )
 
 
