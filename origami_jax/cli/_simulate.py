@@ -203,7 +203,13 @@ def _run(args: argparse.Namespace, params: dict[str, float], out: Path):
     }[args.solver]()
     rtol = sim.DEFAULT_RTOL if args.rtol is None else args.rtol
     atol = sim.DEFAULT_ATOL if args.atol is None else args.atol
-    progress = diffrax.TqdmProgressMeter(refresh_steps=200)
+    # A progress bar for the long ramps only: it calls back into Python, and a compiled program
+    # that does cannot be kept in the persistent compilation cache (a step solves in milliseconds).
+    progress = (
+        diffrax.NoProgressMeter()
+        if args.input == "step"
+        else diffrax.TqdmProgressMeter(refresh_steps=200)
+    )
     extra: dict = {}
     ramp = None
     if args.input in ("step", "fast-ramp"):

@@ -1,0 +1,129 @@
+"""Time to a first result: the persistent compilation cache, no recompilation for values, light
+imports.
+
+Compilations are counted, never timed: JAX's monitoring events for the persistent cache (a hit is
+a program loaded from disk instead of compiled) and the jit caches of the public entry points (a
+new entry is a new trace and compile).
+"""
+
+import json
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+
+import origami_jax
+from origami_jax._cache import CACHE_ENV, _requested, default_cache_dir
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _environment(tmp_path: Path, **extra: str) -> dict[str, str]:
+    """The test process's environment without its own cache settings (conftest sets
+    JAX_COMPILATION_CACHE_DIR for the whole run), with a private XDG cache home."""
+    env = {k: v for k, v in os.environ.items() if k not in ("JAX_COMPILATION_CACHE_DIR", CACHE_ENV)}
+    env.update(PYTHONPATH=str(ROOT), XDG_CACHE_HOME=str(tmp_path / "xdg"), **extra)
+    return env
+
+
+def _run_python(code: str, env: dict[str, str]) -> dict:
+    process = subprocess.run(
+        [sys.executable, "-c", textwrap.dedent(code)],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=300,
+    )
+    assert process.returncode == 0, process.stderr[-3000:]
+    return json.loads(process.stdout.strip().splitlines()[-1])
+
+
+# ---- the persistent cache -----------------------------------------------------------------------
+
+_COUNT_CACHE_EVENTS = """
+    import json, jax
+    from collections import Counter
+    events = Counter()
+    jax.monitoring.register_event_listener(lambda name, **kw: events.update([name]))
+    import origami_jax
+    folder = origami_jax.enable_compilation_cache()
+    jax.config.update("jax_enable_x64", True)
+
+    @jax.jit
+    def f(x):
+        return jax.numpy.sin(x) @ jax.numpy.cos(x).T + jax.numpy.linalg.det(x)
+
+    f(jax.numpy.eye(3) * 0.5).block_until_ready()
+    print(json.dumps({
+        "folder": None if folder is None else str(folder),
+        "config": jax.config.jax_compilation_cache_dir,
+        "hits": events["/jax/compilation_cache/cache_hits"],
+        "misses": events["/jax/compilation_cache/cache_misses"],
+    }))
+"""
+
+
+def test_a_second_process_loads_what_the_first_compiled(tmp_path):
+    cache = tmp_path / "cache"
+    env = _environment(tmp_path, **{CACHE_ENV: str(cache)})
+    first = _run_python(_COUNT_CACHE_EVENTS, env)
+    assert first["folder"] == first["config"] == str(cache)
+    assert first["hits"] == 0 and first["misses"] >= 1
+    written = sorted(p.name for p in cache.iterdir() if p.name.endswith("-cache"))
+    assert any(name.startswith("jit_f-") for name in written), written
+    second = _run_python(_COUNT_CACHE_EVENTS, env)
+    # Every program of the first run is loaded, none compiled again.
+    assert second["hits"] == first["misses"] and second["misses"] == 0, (first, second)
+    assert sorted(p.name for p in cache.iterdir() if p.name.endswith("-cache")) == written
+
+
+def test_the_cache_can_be_turned_off(tmp_path):
+    env = _environment(tmp_path, **{CACHE_ENV: "0"})
+    off = _run_python(_COUNT_CACHE_EVENTS, env)
+    assert off["folder"] is None and off["config"] is None
+    assert off["hits"] == off["misses"] == 0
+    assert not (tmp_path / "xdg").exists()
+
+
+def test_the_command_line_turns_it_on_in_the_user_cache_folder(tmp_path):
+    code = """
+        import json, sys, jax
+        from origami_jax.cli._common import setup_runtime
+        setup_runtime("unfold")
+        print(json.dumps({"dir": jax.config.jax_compilation_cache_dir,
+                          "x64": jax.config.jax_enable_x64,
+                          "min_time": jax.config.jax_persistent_cache_min_compile_time_secs,
+                          "equinox": "equinox" in sys.modules}))
+    """
+    out = _run_python(code, _environment(tmp_path))
+    assert out["dir"] == str(tmp_path / "xdg" / "origami_jax" / "jax")
+    assert out["x64"] and out["min_time"] == 0.0 and not out["equinox"]
+    # A folder JAX was given is kept.
+    mine = tmp_path / "mine"
+    out = _run_python(code, _environment(tmp_path, JAX_COMPILATION_CACHE_DIR=str(mine)))
+    assert out["dir"] == str(mine)
+
+
+def test_cache_folder_choice(tmp_path, monkeypatch):
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    monkeypatch.delenv(CACHE_ENV, raising=False)
+    assert default_cache_dir() == tmp_path / "origami_jax" / "jax"
+    assert _requested(None) == default_cache_dir()
+    assert _requested(tmp_path / "given") == tmp_path / "given"
+    for word, expected in (("0", None), ("off", None), ("1", default_cache_dir())):
+        monkeypatch.setenv(CACHE_ENV, word)
+        assert _requested(None) == expected
+    monkeypatch.setenv(CACHE_ENV, str(tmp_path / "env"))
+    assert _requested(None) == tmp_path / "env"
+    monkeypatch.delenv("XDG_CACHE_HOME")
+    assert default_cache_dir() == Path.home() / ".cache" / "origami_jax" / "jax"
+
+
+def test_an_unwritable_cache_folder_is_one_line(tmp_path):
+    blocker = tmp_path / "file"
+    blocker.write_text("")
+    with pytest.raises(ValueError, match="cannot create the compilation cache folder"):
+        origami_jax.enable_compilation_cache(blocker / "cache")
