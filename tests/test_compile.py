@@ -13,10 +13,17 @@ import sys
 import textwrap
 from pathlib import Path
 
+import diffrax
+import equinox as eqx
+import jax
+import jax.numpy as jnp
 import pytest
 
 import origami_jax
+import origami_jax.simulation as sim
 from origami_jax._cache import CACHE_ENV, _requested, default_cache_dir
+from origami_jax.chain import accordion_system
+from origami_jax.system import HingeDesign
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -127,3 +134,114 @@ def test_an_unwritable_cache_folder_is_one_line(tmp_path):
     blocker.write_text("")
     with pytest.raises(ValueError, match="cannot create the compilation cache folder"):
         origami_jax.enable_compilation_cache(blocker / "cache")
+
+
+# ---- no recompilation for values ----------------------------------------------------------------
+
+
+class _Compilations:
+    """Counts traces of Python functions to jaxprs and XLA compilations (JAX's monitoring events),
+    and the entries of `simulate`'s compiled solve, while active."""
+
+    TRACE = "/jax/core/compile/jaxpr_trace_duration"
+    COMPILE = "/jax/core/compile/backend_compile_duration"
+
+    def __init__(self):
+        self.counts = {self.TRACE: 0, self.COMPILE: 0}
+        self.active = False
+
+    def __call__(self, event, duration, **kwargs):
+        if self.active and event in self.counts:
+            self.counts[event] += 1
+
+    def during(self, call):
+        from origami_jax.simulation._simulate import _solve_jit
+
+        before = _solve_jit._cached._cache_size()
+        self.counts = dict.fromkeys(self.counts, 0)
+        self.active = True
+        try:
+            out = call()
+            jax.block_until_ready(out)
+        finally:
+            self.active = False
+        return {
+            "solve": _solve_jit._cached._cache_size() - before,
+            "traces": self.counts[self.TRACE],
+            "compiles": self.counts[self.COMPILE],
+        }
+
+
+@pytest.fixture(scope="module")
+def compilations():
+    counter = _Compilations()
+    jax.monitoring.register_event_duration_secs_listener(counter)
+    yield counter
+    jax.monitoring.unregister_event_duration_listener(counter)
+
+
+class Push(eqx.Module):
+    """A user torque law with its numbers as leaves: ``τ = gain (θ* − θ) − damping θ̇`` from
+    `start` on."""
+
+    gain: jax.Array
+    target: jax.Array
+    damping: jax.Array
+    start: jax.Array
+
+    def __call__(self, t, theta, theta_dot):
+        on = jnp.where(t >= self.start, 1.0, 0.0)
+        return on * (self.gain * (self.target - theta) - self.damping * theta_dot)
+
+
+def _push(gain, start):
+    return sim.UserTorque(
+        Push(jnp.asarray(gain), jnp.asarray([1.0, -1.0]), jnp.asarray(0.5), jnp.asarray(start)),
+        jumps=jnp.asarray([start]),
+    )
+
+
+def test_values_do_not_recompile(compilations):
+    # One small system (2 flaps, Tsit5, 101 samples): every case below shares its compiled solve.
+    def system(release=(0.0, 5.0), targets=(2.5, -2.5), **params):
+        design = HingeDesign.literature(**params)
+        return accordion_system(
+            design, 2, release_times=jnp.asarray(release), targets=jnp.asarray(targets)
+        )
+
+    def run(sys_=None, inputs=None, **options):
+        kwargs = dict(t1=100.0, n_save=101, solver=diffrax.Tsit5(), rtol=1e-6, atol=1e-8)
+        kwargs.update(options)
+        return lambda: (
+            sim.simulate(
+                system() if sys_ is None else sys_,
+                sim.Step() if inputs is None else inputs,
+                **kwargs,
+            ).theta
+        )
+
+    first = compilations.during(run())
+    assert first["solve"] == 1 and first["compiles"] >= 1  # the counter sees a compilation
+    changes = {
+        "tolerances": run(rtol=3e-7, atol=2e-9),
+        "end time": run(t1=80.0),
+        "stiffness scale": run(system(k_scale=2.0)),
+        "hinge width, flap length, fold angle": run(
+            system(hinge_width=120.0, flap_length=150.0, theta_final=2.0)
+        ),
+        "fold targets": run(system(targets=(1.0, -2.0))),
+        "release times": run(system(release=(3.0, 0.0))),
+        "initial state": run(theta0=jnp.asarray([0.1, 0.0])),
+    }
+    for what, call in changes.items():
+        counts = compilations.during(call)
+        assert counts == {"solve": 0, "traces": 0, "compiles": 0}, (what, counts)
+    # A user torque given as a module with array leaves: once per structure, not per value.
+    first = compilations.during(run(inputs=_push(2.0, 1.0)))
+    assert first["solve"] == 1
+    counts = compilations.during(run(inputs=_push(5.0, 7.0)))
+    assert counts == {"solve": 0, "traces": 0, "compiles": 0}, counts
+    # A new function object is new structure: it compiles again (documented in `UserTorque`; so
+    # does a new sample count `n_save`, a new array shape).
+    law = lambda t, theta, theta_dot: -theta  # noqa: E731
+    assert compilations.during(run(inputs=sim.UserTorque(law)))["solve"] == 1
