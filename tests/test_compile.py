@@ -245,3 +245,28 @@ def test_values_do_not_recompile(compilations):
     # does a new sample count `n_save`, a new array shape).
     law = lambda t, theta, theta_dot: -theta  # noqa: E731
     assert compilations.during(run(inputs=sim.UserTorque(law)))["solve"] == 1
+
+
+# ---- start-up -----------------------------------------------------------------------------------
+
+_HEAVY = ("jax", "jaxlib", "equinox", "diffrax", "matplotlib", "xarray", "scipy", "optax", "h5py")
+
+
+@pytest.mark.parametrize(
+    "statement",
+    [
+        "import origami_jax",
+        "from origami_jax.cli import main\ntry:\n    main(['--help'])\nexcept SystemExit:\n    pass",
+        "from origami_jax.cli import main\ntry:\n    main(['simulate', '--help'])\nexcept SystemExit:\n"
+        "    pass",
+    ],
+    ids=["import", "help", "simulate-help"],
+)
+def test_start_up_imports_nothing_heavy(statement, tmp_path):
+    code = (
+        "import io, contextlib, json, sys\n"
+        "with contextlib.redirect_stdout(io.StringIO()):\n"
+        + textwrap.indent(statement, "    ")
+        + f"\nprint(json.dumps(sorted({{m.split('.')[0] for m in sys.modules}} & {set(_HEAVY)!r})))"
+    )
+    assert _run_python(code, _environment(tmp_path)) == []
