@@ -270,3 +270,53 @@ def test_start_up_imports_nothing_heavy(statement, tmp_path):
         + f"\nprint(json.dumps(sorted({{m.split('.')[0] for m in sys.modules}} & {set(_HEAVY)!r})))"
     )
     assert _run_python(code, _environment(tmp_path)) == []
+
+
+# ---- figures ------------------------------------------------------------------------------------
+
+
+def test_figures_choice_and_its_alias():
+    from origami_jax.cli import build_parser
+
+    parser = build_parser()
+    for command in ("simulate", "fold"):
+        base = [command] if command == "simulate" else [command, "net.fold"]
+        assert parser.parse_args(base).figures == "all"
+        assert parser.parse_args([*base, "--no-figures"]).figures == "none"
+        assert parser.parse_args([*base, "--figures", "png"]).figures == "png"
+
+
+def test_cli_figures_png_draws_no_animation(tmp_path, capsys):
+    from origami_jax.cli import main
+
+    out = tmp_path / "run"
+    cheap = ["--flaps", "1", "--n-save", "51", "--solver", "tsit5", "--t1", "300"]
+    assert main(["simulate", *cheap, "--figures", "png", "--out", str(out)]) == 0
+    assert sorted(p.name for p in out.glob("step_*")) == ["step_angles.png", "step_frames.png"]
+    assert main(["simulate", *cheap, "--overwrite", "--out", str(out)]) == 0
+    gif = out / "step_animation.gif"
+    from PIL import Image
+
+    with Image.open(gif) as image:
+        assert image.n_frames >= 10 and image.size[0] >= 300
+    capsys.readouterr()
+
+
+def test_animation_frames_follow_the_motion():
+    import numpy as np
+
+    from origami_jax.plotting.chain import _frame_indices
+
+    class Samples:
+        # Moves in the first tenth of the time, then rests.
+        times = np.linspace(0.0, 100.0, 1001)
+        theta = np.where(times < 10.0, times / 10.0, 1.0)[:, None] * np.array([[1.0, -1.0]])
+        state = None
+
+    even = _frame_indices(Samples, 20, None)
+    moving = _frame_indices(Samples, 20, None, by_motion=True)
+    assert even[0] == moving[0] == 0 and even[-1] == moving[-1] == 1000
+    assert np.all(np.diff(moving) > 0)
+    # Evenly in time, 2 of 20 frames fall in the motion; by motion and time alike, about half.
+    assert np.sum(Samples.times[even] < 10.0) <= 2
+    assert 8 <= np.sum(Samples.times[moving] < 10.0) <= 12

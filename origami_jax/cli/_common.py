@@ -89,6 +89,27 @@ def add_out_argument(parser: argparse.ArgumentParser, default: Path = DEFAULT_OU
     )
 
 
+FIGURE_CHOICES = ("none", "png", "all")
+
+
+def add_figures_argument(parser: argparse.ArgumentParser) -> None:
+    """`--figures none|png|all` (default all) and `--no-figures` (same as `--figures none`)."""
+    parser.add_argument(
+        "--figures",
+        choices=FIGURE_CHOICES,
+        default="all",
+        help="none; png: the angle plot and a strip of 3D frames; all (default): also the "
+        "animated GIF",
+    )
+    parser.add_argument(
+        "--no-figures",
+        dest="figures",
+        action="store_const",
+        const="none",
+        help="same as --figures none",
+    )
+
+
 # Numbers from the command line: each check names the flag and says what it takes.
 def finite(value: float, flag: str) -> float:
     if not math.isfinite(value):
