@@ -320,3 +320,20 @@ def test_animation_frames_follow_the_motion():
     # Evenly in time, 2 of 20 frames fall in the motion; by motion and time alike, about half.
     assert np.sum(Samples.times[even] < 10.0) <= 2
     assert 8 <= np.sum(Samples.times[moving] < 10.0) <= 12
+
+
+def test_batched_frame_geometry_is_the_mechanisms_own():
+    import numpy as np
+
+    from origami_jax.plotting.chain import _polygon_frames
+
+    mechanism = accordion_system(HingeDesign.literature(), 2).mechanism
+    states = np.array([[0.0, 0.0], [1.0, -2.0], [3.0, -3.0]])
+    frames = _polygon_frames(mechanism, states)
+    skip = 0 if mechanism.base_outline() is None else 1
+    for state, polygons in zip(states, frames, strict=True):
+        # The per-state computation, one state at a time (the path the figures used before).
+        expected = mechanism.panel_polygons(state)
+        assert len(polygons) == len(expected) + skip
+        for got, want in zip(polygons[skip:], expected, strict=True):
+            np.testing.assert_allclose(got, want, rtol=0, atol=1e-9)  # µm, same arithmetic
