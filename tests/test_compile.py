@@ -114,6 +114,25 @@ def test_the_command_line_turns_it_on_in_the_user_cache_folder(tmp_path):
     assert out["dir"] == str(mine)
 
 
+def test_the_simulate_command_stores_its_solve(tmp_path):
+    # A compiled program that calls back into Python cannot be stored: the command's solve must not
+    # (no progress bar for a step, runtime checks as NaN). Cheap options: one flap, Tsit5.
+    out = tmp_path / "run"
+    argv = [sys.executable, "-m", "origami_jax", "simulate", "--flaps", "1", "--n-save", "11"]
+    argv += ["--solver", "tsit5", "--t1", "100", "--figures", "none", "--out", str(out)]
+    env = _environment(tmp_path)
+    process = subprocess.run(argv, capture_output=True, text=True, env=env, timeout=300)
+    assert process.returncode == 0, process.stderr[-2000:]
+    folder = tmp_path / "xdg" / "origami_jax" / "jax"
+    assert any(p.name.startswith("jit__solve-") for p in folder.iterdir()), sorted(
+        p.name for p in folder.iterdir()
+    )
+    code = "import equinox._config as c, json; print(json.dumps(c.EQX_ON_ERROR))"
+    probe = "from origami_jax.cli._common import setup_runtime; setup_runtime('simulate'); " + code
+    assert _run_python(probe, env) == "nan"
+    assert _run_python(code, env) == "raise"  # the library's own default is left alone
+
+
 def test_cache_folder_choice(tmp_path, monkeypatch):
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
     monkeypatch.delenv(CACHE_ENV, raising=False)
