@@ -10,6 +10,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
+from ._gif import save_gif
+
 _COLOURS = plt.rcParams["axes.prop_cycle"].by_key()["color"]
 
 
@@ -264,15 +266,12 @@ def animate_folding(
     of each frame's drawing time). Frames are spread over time and motion alike (dense where the
     panels move fast), with the last frame held for a second.
 
-    Each frame is drawn once into matplotlib's Agg canvas, which only moves the panels (the same
-    `Poly3DCollection` throughout), and written with Pillow directly (matplotlib's animation
-    writers draw every frame twice).
+    Each frame only moves the panels (the same `Poly3DCollection` throughout), is drawn once into
+    matplotlib's Agg canvas and written with Pillow directly (matplotlib's animation writers draw
+    every frame twice).
 
     **Returns:** the path written.
     """
-    from PIL import Image
-
-    path = Path(path)
     mechanism = _mechanism(system)
     indices = _frame_indices(trajectory, n_frames, t_max, by_motion=True)
     frames = _polygon_frames(mechanism, _states(trajectory, indices))
@@ -282,19 +281,12 @@ def animate_folding(
     collection = _draw_polygons(ax, mechanism, frames[0], centre, half, axes=axes)
     ax.view_init(elev=20, azim=-30)
     title = ax.set_title("")
-    images = []
+
+    def draw(k):
+        collection.set_verts(frames[k])
+        title.set_text(f"t = {float(trajectory.times[indices[k]]) * time_scale:.4g} {time_unit}")
+
     try:
-        for index, polygons in zip(indices, frames, strict=True):
-            collection.set_verts(polygons)
-            title.set_text(f"t = {float(trajectory.times[index]) * time_scale:.4g} {time_unit}")
-            fig.canvas.draw()
-            rgb = Image.fromarray(np.asarray(fig.canvas.buffer_rgba())[..., :3])  # pyright: ignore
-            images.append(rgb.quantize(colors=64, method=Image.Quantize.FASTOCTREE))
+        return save_gif(fig, draw, len(frames), path, fps=fps, hold_last_s=1.0)
     finally:
         plt.close(fig)
-    durations = [round(1000 / fps)] * len(images)
-    durations[-1] = max(durations[-1], 1000)
-    images[0].save(
-        path, save_all=True, append_images=images[1:], duration=durations, loop=0, optimize=False
-    )
-    return path
