@@ -119,7 +119,7 @@ def test_the_simulate_command_stores_its_solve(tmp_path):
     # (no progress bar for a step, runtime checks as NaN). Cheap options: one flap, Tsit5.
     out = tmp_path / "run"
     argv = [sys.executable, "-m", "origami_jax", "simulate", "--flaps", "1", "--n-save", "11"]
-    argv += ["--solver", "tsit5", "--t1", "100", "--figures", "none", "--out", str(out)]
+    argv += ["--solver", "tsit5", "--t1", "100", "--figures", "png", "--out", str(out)]
     env = _environment(tmp_path)
     process = subprocess.run(argv, capture_output=True, text=True, env=env, timeout=300)
     assert process.returncode == 0, process.stderr[-2000:]
@@ -127,6 +127,8 @@ def test_the_simulate_command_stores_its_solve(tmp_path):
     assert any(p.name.startswith("jit__solve-") for p in folder.iterdir()), sorted(
         p.name for p in folder.iterdir()
     )
+    # --figures png: the angle plot and the frames, no animation.
+    assert sorted(p.name for p in out.glob("step_*")) == ["step_angles.png", "step_frames.png"]
     code = "import equinox._config as c, json; print(json.dumps(c.EQX_ON_ERROR))"
     probe = "from origami_jax.cli._common import setup_runtime; setup_runtime('simulate'); " + code
     assert _run_python(probe, env) == "nan"
@@ -305,20 +307,26 @@ def test_figures_choice_and_its_alias():
         assert parser.parse_args([*base, "--figures", "png"]).figures == "png"
 
 
-def test_cli_figures_png_draws_no_animation(tmp_path, capsys):
-    from origami_jax.cli import main
-
-    out = tmp_path / "run"
-    cheap = ["--flaps", "1", "--n-save", "51", "--solver", "tsit5", "--t1", "300"]
-    assert main(["simulate", *cheap, "--figures", "png", "--out", str(out)]) == 0
-    assert sorted(p.name for p in out.glob("step_*")) == ["step_angles.png", "step_frames.png"]
-    assert main(["simulate", *cheap, "--overwrite", "--out", str(out)]) == 0
-    gif = out / "step_animation.gif"
+def test_animation_of_a_folding(tmp_path):
+    import numpy as np
     from PIL import Image
 
-    with Image.open(gif) as image:
-        assert image.n_frames >= 10 and image.size[0] >= 300
-    capsys.readouterr()
+    from origami_jax.plotting.chain import animate_folding
+
+    class Samples:
+        times = np.linspace(0.0, 100.0, 201)
+        theta = np.column_stack([np.minimum(times / 50.0, 1.0) * 2.5, -np.sin(times / 30.0)])
+        state = None
+
+    system = accordion_system(HingeDesign.literature(), 2)
+    path = animate_folding(system, Samples, tmp_path / "fold.gif", n_frames=12, fps=10)
+    with Image.open(path) as image:
+        assert image.n_frames == 12 and image.size == (360, 360)  # 4 in at 90 dpi
+        durations = []
+        for k in range(image.n_frames):
+            image.seek(k)
+            durations.append(image.info["duration"])
+    assert durations[:-1] == [100] * 11 and durations[-1] == 1000  # the last frame held 1 s
 
 
 def test_animation_frames_follow_the_motion():
