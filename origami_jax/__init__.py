@@ -5,13 +5,16 @@ Two halves, after Kinematics and Dynamics of Nanostructured Origami (see ``READM
 - single-vertex unfolding by charge-energy descent on the unit sphere;
 - folding dynamics of hinged-flap chains driven by stressed bilayer hinges.
 
-The library never changes JAX's global configuration. Physical quantities are float64-sensitive:
-call ``jax.config.update("jax_enable_x64", True)`` before using it (the CLI does this for you).
+The library never changes JAX's global configuration on its own. Physical quantities are
+float64-sensitive: call ``jax.config.update("jax_enable_x64", True)`` before using it (the CLI does
+this for you); `enable_compilation_cache()` keeps compiled programs on disk between processes (the
+CLI does this too).
 """
 
 import importlib as _importlib
 from typing import TYPE_CHECKING as _TYPE_CHECKING
 
+from ._cache import enable_compilation_cache as enable_compilation_cache
 from ._version import __version__ as __version__
 
 # Subpackages load on first use so that `origami-jax --help` and `import origami_jax` stay fast;
@@ -60,6 +63,7 @@ def __dir__() -> list[str]:
 
 __all__ = [  # noqa: RUF022  (listed literally so type checkers can read it)
     "__version__",
+    "enable_compilation_cache",
     "chain",
     "contact",
     "design",

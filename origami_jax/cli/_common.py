@@ -89,6 +89,27 @@ def add_out_argument(parser: argparse.ArgumentParser, default: Path = DEFAULT_OU
     )
 
 
+FIGURE_CHOICES = ("none", "png", "all")
+
+
+def add_figures_argument(parser: argparse.ArgumentParser) -> None:
+    """`--figures none|png|all` (default all) and `--no-figures` (same as `--figures none`)."""
+    parser.add_argument(
+        "--figures",
+        choices=FIGURE_CHOICES,
+        default="all",
+        help="none; png: the angle plot and a strip of 3D frames; all (default): also the "
+        "animated GIF",
+    )
+    parser.add_argument(
+        "--no-figures",
+        dest="figures",
+        action="store_const",
+        const="none",
+        help="same as --figures none",
+    )
+
+
 # Numbers from the command line: each check names the flag and says what it takes.
 def finite(value: float, flag: str) -> float:
     if not math.isfinite(value):
@@ -285,16 +306,36 @@ def prepare_out(out: Path) -> Path:
     return check_out_folder(Path(out))
 
 
-def setup_runtime() -> None:
-    """Configure JAX for command-line runs: float64 on, matplotlib without a screen.
+# Commands whose inputs are all checked before anything compiles and whose solver failures are
+# result codes (never exceptions): inside their compiled programs a failed runtime check gives NaN
+# instead of calling back into Python to raise (`EQX_ON_ERROR=nan`), which lets JAX store those
+# programs in the persistent cache (it cannot store a program that calls back into Python; diffrax
+# checks its sample times that way). The simulation's solve is most of a run's compile time.
+NAN_ON_ERROR_COMMANDS = frozenset({"simulate"})
+
+
+def setup_runtime(command: str | None = None) -> None:
+    """Configure JAX for command-line runs: float64 on, the persistent compilation cache on (see
+    `origami_jax.enable_compilation_cache`; `ORIGAMI_JAX_CACHE=0` turns it off), matplotlib
+    without a screen; for `NAN_ON_ERROR_COMMANDS`, `EQX_ON_ERROR=nan` unless set (it is read when
+    equinox is first imported, so an in-process caller that imported it keeps its own).
 
     The library itself never flips global JAX configuration; the CLI does, because its results are
-    written to files and must be reproducible to the digits it prints.
+    written to files and must be reproducible to the digits it prints, and because each command is
+    a new process that would otherwise compile everything again.
     """
     os.environ.setdefault("MPLBACKEND", "Agg")
+    if command in NAN_ON_ERROR_COMMANDS and "equinox" not in sys.modules:
+        os.environ.setdefault("EQX_ON_ERROR", "nan")
     import jax
 
+    from .._cache import enable_compilation_cache
+
     jax.config.update("jax_enable_x64", True)
+    try:
+        enable_compilation_cache()
+    except ValueError as error:  # an unwritable cache folder costs time, not the run
+        print(f"origami-jax: warning: {error}", file=sys.stderr)
 
 
 def print_error(command: str | None, message: str) -> None:

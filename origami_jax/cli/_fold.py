@@ -3,7 +3,8 @@ stressed hinges.
 
 Writes `result.json` (the verdict and the numbers behind it), `trajectory.csv` (hinge angles against
 time), `trajectory.fold` (the folding as FOLD frames: `origami-jax view` plays it), and unless
-`--no-figures` the angle plot, a strip of 3D frames and an animation.
+`--figures none` the angle plot and a strip of 3D frames (`png`) and an animation (`all`, the
+default).
 """
 
 import argparse
@@ -14,6 +15,7 @@ from ._common import (
     EXIT_FAILED,
     EXIT_OK,
     OutputFolder,
+    add_figures_argument,
     add_out_argument,
     dumps_json,
     fail,
@@ -128,7 +130,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument(
         "--tolerance", type=float, default=3.0, help="crease angle tolerance, degrees (default 3)"
     )
-    parser.add_argument("--no-figures", action="store_true", help="skip figures and animation")
+    add_figures_argument(parser)
     add_out_argument(parser)
     parser.set_defaults(func=run)
 
@@ -302,14 +304,16 @@ def _run(args, net, system, loops, params, release, theta0, theta_dot0, output) 
     write_fold(out / "trajectory.fold", net.to_fold(trajectory, every=max(1, len(times) // 200)))
     print(report.summary())
     print(f"wrote {output.out / 'result.json'}, trajectory.csv, trajectory.fold")
-    if not args.no_figures and bool(trajectory.succeeded):
+    if args.figures != "none" and bool(trajectory.succeeded):
         # Show the fold itself rather than the long rest after it.
         t_max = None if report.time_to_fold is None else min(2.0 * report.time_to_fold, args.t1)
-        _figures(system, trajectory, out, net.name, t_max)
+        _figures(system, trajectory, out, net.name, t_max, animation=args.figures == "all")
     return EXIT_OK if report.verdict == "folded" else EXIT_FAILED
 
 
-def _figures(system, trajectory, out: Path, name: str, t_max: float | None) -> None:
+def _figures(
+    system, trajectory, out: Path, name: str, t_max: float | None, *, animation: bool = True
+) -> None:
     import matplotlib.pyplot as plt
 
     from origami_jax.plotting import chain as plots
@@ -319,4 +323,5 @@ def _figures(system, trajectory, out: Path, name: str, t_max: float | None) -> N
     plt.close(fig)
     fig = plots.folding_frames(system, trajectory, out / "frames.png", n_frames=6, t_max=t_max)
     plt.close(fig)
-    plots.animate_folding(system, trajectory, out / "animation.gif", n_frames=40, t_max=t_max)
+    if animation:
+        plots.animate_folding(system, trajectory, out / "animation.gif", t_max=t_max)

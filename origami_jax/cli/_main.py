@@ -79,7 +79,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.command is None:
         parser.print_help(sys.stderr)
         return EXIT_USAGE
-    setup_runtime()
+    setup_runtime(args.command)
     try:
         return int(args.func(args))
     except CLIError as error:

@@ -11,6 +11,7 @@ from ._common import (
     EXIT_FAILED,
     EXIT_OK,
     OutputFolder,
+    add_figures_argument,
     add_out_argument,
     capped,
     dumps_json,
@@ -69,7 +70,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "--band", type=float, default=0.02, help="settling band, in (0, 1) (default 0.02)"
     )
     parser.add_argument("--format", choices=("csv", "npz"), default="csv")
-    parser.add_argument("--no-figures", action="store_true", help="skip figures and animation")
+    add_figures_argument(parser)
     add_out_argument(parser)
     parser.set_defaults(func=run)
 
@@ -203,7 +204,13 @@ def _run(args: argparse.Namespace, params: dict[str, float], out: Path):
     }[args.solver]()
     rtol = sim.DEFAULT_RTOL if args.rtol is None else args.rtol
     atol = sim.DEFAULT_ATOL if args.atol is None else args.atol
-    progress = diffrax.TqdmProgressMeter(refresh_steps=200)
+    # A progress bar for the long ramps only: it calls back into Python, and a compiled program
+    # that does cannot be kept in the persistent compilation cache (a step solves in milliseconds).
+    progress = (
+        diffrax.NoProgressMeter()
+        if args.input == "step"
+        else diffrax.TqdmProgressMeter(refresh_steps=200)
+    )
     extra: dict = {}
     ramp = None
     if args.input in ("step", "fast-ramp"):
@@ -271,15 +278,31 @@ def _run(args: argparse.Namespace, params: dict[str, float], out: Path):
             )
     if not ok:
         return EXIT_FAILED, lines, f"solve failed: {report['result']}"
-    if not args.no_figures:
-        write_figures(system, trajectory, metrics, out, ramp=ramp, name=args.input)
+    if args.figures != "none":
+        write_figures(
+            system,
+            trajectory,
+            metrics,
+            out,
+            ramp=ramp,
+            name=args.input,
+            animation=args.figures == "all",
+        )
     return EXIT_OK, lines, None
 
 
 def write_figures(
-    system, trajectory, metrics, out: Path, *, ramp=None, name: str = "step"
+    system,
+    trajectory,
+    metrics,
+    out: Path,
+    *,
+    ramp=None,
+    name: str = "step",
+    animation: bool = True,
 ) -> list[Path]:
-    """Joint angles (PNG), frames strip (PNG) and animation (GIF) into `out`."""
+    """Joint angles (PNG), frames strip (PNG) and, with `animation`, the animation (GIF) into
+    `out`."""
     import matplotlib.pyplot as plt
 
     from origami_jax.plotting import chain as chain_plots
@@ -306,8 +329,10 @@ def write_figures(
         system, trajectory, paths[1], n_frames=6, t_max=t_max, time_scale=scale, time_unit=unit
     )
     plt.close(fig)
+    if not animation:
+        return paths[:2]
     chain_plots.animate_folding(
-        system, trajectory, paths[2], n_frames=40, t_max=t_max, time_scale=scale, time_unit=unit
+        system, trajectory, paths[2], t_max=t_max, time_scale=scale, time_unit=unit
     )
     return paths
 

@@ -6,8 +6,9 @@ from pathlib import Path
 
 import matplotlib.pyplot as plt
 import numpy as np
-from matplotlib.animation import FuncAnimation, PillowWriter
 from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+from ._gif import save_gif
 
 __all__ = [
     "animate_unfolding",
@@ -120,7 +121,8 @@ def plot_energy_and_folds(result, *, title: str | None = None):
 
 
 def animate_unfolding(result, filename: str | Path, *, frames: int = 40, fps: int = 12) -> Path:
-    """Save the unfolding as an animated GIF (matplotlib `PillowWriter`); returns the path."""
+    """Save the unfolding as an animated GIF (each frame drawn once, written with Pillow); returns
+    the path."""
     path = _aligned(result)
     indices = np.unique(_frames(result, np.linspace(0, 1, frames)))
     fig = plt.figure(figsize=(4, 4))
@@ -133,11 +135,10 @@ def animate_unfolding(result, filename: str | Path, *, frames: int = 40, fps: in
         ax.set_title(f"step {indices[k]} / {len(path) - 1}", fontsize=9)
         return ()
 
-    animation = FuncAnimation(fig, draw, frames=len(indices), blit=False)
-    filename = Path(filename)
-    animation.save(filename, writer=PillowWriter(fps=fps))
-    plt.close(fig)
-    return filename
+    try:
+        return save_gif(fig, draw, len(indices), filename, fps=fps)
+    finally:
+        plt.close(fig)
 
 
 def save_unfolding_pictures(

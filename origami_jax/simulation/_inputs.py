@@ -214,8 +214,10 @@ class UserTorque(AbstractInput):
 
     **Fields:**
     - `fn`: the law; a JAX-traceable function of `(t, theta, theta_dot)`. A new function object
-      compiles a new simulation; to change only numbers, subclass `AbstractInput` with the numbers
-      as fields (or pass an `equinox.Module` as `fn`, whose array fields are then leaves).
+      compiles a new simulation (tens of seconds); to change only numbers, pass an `equinox.Module`
+      as `fn` with the numbers as JAX array fields (`jnp.asarray(2.0)`: a plain Python number is
+      part of the structure and compiles anew for each value), or subclass `AbstractInput` the same
+      way. Then the simulation compiles once per structure and a new gain reruns in milliseconds.
     - `theta_target`: angles the response is measured against (rad, `(h,)`), or `None` for the last
       sample.
     - `jumps`: times of corners or jumps in `fn`, or `None`.

@@ -362,8 +362,10 @@ def simulate(
 
     Works under `jax.jit`, `jax.vmap` (batch the system or the input) and `jax.grad` (reverse mode
     through diffrax's checkpointed adjoint). The compiled solve is cached per structure (mechanism
-    size, `n_save`, solver, `dense`, `throw`, `max_steps`), not per value: times, tolerances and every
-    physical number are traced.
+    size, `n_save` or the length of `ts`, solver, `dense`, `throw`, `max_steps`, the input's type
+    and its Python functions), not per value: times, tolerances, initial state, targets, release
+    times and every physical number are traced, so a new value reruns without compiling. See
+    [`origami_jax.enable_compilation_cache`][] to keep compiled solves between processes.
 
     **Arguments:**
     - `system`: a [`origami_jax.system.FoldingSystem`][] (e.g. from

@@ -1,0 +1,366 @@
+"""Time to a first result: the persistent compilation cache, no recompilation for values, light
+imports.
+
+Compilations are counted, never timed: JAX's monitoring events for the persistent cache (a hit is
+a program loaded from disk instead of compiled) and the jit caches of the public entry points (a
+new entry is a new trace and compile).
+"""
+
+import json
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import diffrax
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import pytest
+
+import origami_jax
+import origami_jax.simulation as sim
+from origami_jax._cache import CACHE_ENV, _requested, default_cache_dir
+from origami_jax.chain import accordion_system
+from origami_jax.system import HingeDesign
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _environment(tmp_path: Path, **extra: str) -> dict[str, str]:
+    """The test process's environment without its own cache settings (conftest sets
+    JAX_COMPILATION_CACHE_DIR for the whole run), with a private XDG cache home."""
+    env = {k: v for k, v in os.environ.items() if k not in ("JAX_COMPILATION_CACHE_DIR", CACHE_ENV)}
+    env.update(PYTHONPATH=str(ROOT), XDG_CACHE_HOME=str(tmp_path / "xdg"), **extra)
+    return env
+
+
+def _run_python(code: str, env: dict[str, str]) -> dict:
+    process = subprocess.run(
+        [sys.executable, "-c", textwrap.dedent(code)],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=300,
+    )
+    assert process.returncode == 0, process.stderr[-3000:]
+    return json.loads(process.stdout.strip().splitlines()[-1])
+
+
+# ---- the persistent cache -----------------------------------------------------------------------
+
+_COUNT_CACHE_EVENTS = """
+    import json, jax
+    from collections import Counter
+    events = Counter()
+    jax.monitoring.register_event_listener(lambda name, **kw: events.update([name]))
+    import origami_jax
+    folder = origami_jax.enable_compilation_cache()
+    jax.config.update("jax_enable_x64", True)
+
+    @jax.jit
+    def f(x):
+        return jax.numpy.sin(x) @ jax.numpy.cos(x).T + jax.numpy.linalg.det(x)
+
+    f(jax.numpy.eye(3) * 0.5).block_until_ready()
+    print(json.dumps({
+        "folder": None if folder is None else str(folder),
+        "config": jax.config.jax_compilation_cache_dir,
+        "hits": events["/jax/compilation_cache/cache_hits"],
+        "misses": events["/jax/compilation_cache/cache_misses"],
+    }))
+"""
+
+
+def test_a_second_process_loads_what_the_first_compiled(tmp_path):
+    cache = tmp_path / "cache"
+    env = _environment(tmp_path, **{CACHE_ENV: str(cache)})
+    first = _run_python(_COUNT_CACHE_EVENTS, env)
+    assert first["folder"] == first["config"] == str(cache)
+    assert first["hits"] == 0 and first["misses"] >= 1
+    written = sorted(p.name for p in cache.iterdir() if p.name.endswith("-cache"))
+    assert any(name.startswith("jit_f-") for name in written), written
+    second = _run_python(_COUNT_CACHE_EVENTS, env)
+    # Every program of the first run is loaded, none compiled again.
+    assert second["hits"] == first["misses"] and second["misses"] == 0, (first, second)
+    assert sorted(p.name for p in cache.iterdir() if p.name.endswith("-cache")) == written
+
+
+def test_the_cache_can_be_turned_off(tmp_path):
+    env = _environment(tmp_path, **{CACHE_ENV: "0"})
+    off = _run_python(_COUNT_CACHE_EVENTS, env)
+    assert off["folder"] is None and off["config"] is None
+    assert off["hits"] == off["misses"] == 0
+    assert not (tmp_path / "xdg").exists()
+
+
+def test_the_command_line_turns_it_on_in_the_user_cache_folder(tmp_path):
+    code = """
+        import json, sys, jax
+        from origami_jax.cli._common import setup_runtime
+        setup_runtime("unfold")
+        print(json.dumps({"dir": jax.config.jax_compilation_cache_dir,
+                          "x64": jax.config.jax_enable_x64,
+                          "min_time": jax.config.jax_persistent_cache_min_compile_time_secs,
+                          "equinox": "equinox" in sys.modules}))
+    """
+    out = _run_python(code, _environment(tmp_path))
+    assert out["dir"] == str(tmp_path / "xdg" / "origami_jax" / "jax")
+    assert out["x64"] and out["min_time"] == 0.0 and not out["equinox"]
+    # A folder JAX was given is kept.
+    mine = tmp_path / "mine"
+    out = _run_python(code, _environment(tmp_path, JAX_COMPILATION_CACHE_DIR=str(mine)))
+    assert out["dir"] == str(mine)
+
+
+def test_the_simulate_command_stores_its_solve(tmp_path):
+    # A compiled program that calls back into Python cannot be stored: the command's solve must not
+    # (no progress bar for a step, runtime checks as NaN). Cheap options: one flap, Tsit5.
+    out = tmp_path / "run"
+    argv = [sys.executable, "-m", "origami_jax", "simulate", "--flaps", "1", "--n-save", "11"]
+    argv += ["--solver", "tsit5", "--t1", "100", "--figures", "png", "--out", str(out)]
+    env = _environment(tmp_path)
+    process = subprocess.run(argv, capture_output=True, text=True, env=env, timeout=300)
+    assert process.returncode == 0, process.stderr[-2000:]
+    folder = tmp_path / "xdg" / "origami_jax" / "jax"
+    assert any(p.name.startswith("jit__solve-") for p in folder.iterdir()), sorted(
+        p.name for p in folder.iterdir()
+    )
+    # --figures png: the angle plot and the frames, no animation.
+    assert sorted(p.name for p in out.glob("step_*")) == ["step_angles.png", "step_frames.png"]
+    code = "import equinox._config as c, json; print(json.dumps(c.EQX_ON_ERROR))"
+    probe = "from origami_jax.cli._common import setup_runtime; setup_runtime('simulate'); " + code
+    assert _run_python(probe, env) == "nan"
+    assert _run_python(code, env) == "raise"  # the library's own default is left alone
+
+
+def test_cache_folder_choice(tmp_path, monkeypatch):
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    monkeypatch.delenv(CACHE_ENV, raising=False)
+    assert default_cache_dir() == tmp_path / "origami_jax" / "jax"
+    assert _requested(None) == default_cache_dir()
+    assert _requested(tmp_path / "given") == tmp_path / "given"
+    for word, expected in (("0", None), ("off", None), ("1", default_cache_dir())):
+        monkeypatch.setenv(CACHE_ENV, word)
+        assert _requested(None) == expected
+    monkeypatch.setenv(CACHE_ENV, str(tmp_path / "env"))
+    assert _requested(None) == tmp_path / "env"
+    monkeypatch.delenv("XDG_CACHE_HOME")
+    assert default_cache_dir() == Path.home() / ".cache" / "origami_jax" / "jax"
+
+
+def test_an_unwritable_cache_folder_is_one_line(tmp_path):
+    blocker = tmp_path / "file"
+    blocker.write_text("")
+    with pytest.raises(ValueError, match="cannot create the compilation cache folder"):
+        origami_jax.enable_compilation_cache(blocker / "cache")
+
+
+# ---- no recompilation for values ----------------------------------------------------------------
+
+
+class _Compilations:
+    """Counts traces of Python functions to jaxprs and XLA compilations (JAX's monitoring events),
+    and the entries of `simulate`'s compiled solve, while active."""
+
+    TRACE = "/jax/core/compile/jaxpr_trace_duration"
+    COMPILE = "/jax/core/compile/backend_compile_duration"
+
+    def __init__(self):
+        self.counts = {self.TRACE: 0, self.COMPILE: 0}
+        self.active = False
+
+    def __call__(self, event, duration, **kwargs):
+        if self.active and event in self.counts:
+            self.counts[event] += 1
+
+    def during(self, call):
+        from origami_jax.simulation._simulate import _solve_jit
+
+        before = _solve_jit._cached._cache_size()
+        self.counts = dict.fromkeys(self.counts, 0)
+        self.active = True
+        try:
+            out = call()
+            jax.block_until_ready(out)
+        finally:
+            self.active = False
+        return {
+            "solve": _solve_jit._cached._cache_size() - before,
+            "traces": self.counts[self.TRACE],
+            "compiles": self.counts[self.COMPILE],
+        }
+
+
+@pytest.fixture(scope="module")
+def compilations():
+    counter = _Compilations()
+    jax.monitoring.register_event_duration_secs_listener(counter)
+    yield counter
+    jax.monitoring.unregister_event_duration_listener(counter)
+
+
+class Push(eqx.Module):
+    """A user torque law with its numbers as leaves: ``τ = gain (θ* − θ) − damping θ̇`` from
+    `start` on."""
+
+    gain: jax.Array
+    target: jax.Array
+    damping: jax.Array
+    start: jax.Array
+
+    def __call__(self, t, theta, theta_dot):
+        on = jnp.where(t >= self.start, 1.0, 0.0)
+        return on * (self.gain * (self.target - theta) - self.damping * theta_dot)
+
+
+def _push(gain, start):
+    return sim.UserTorque(
+        Push(jnp.asarray(gain), jnp.asarray([1.0, -1.0]), jnp.asarray(0.5), jnp.asarray(start)),
+        jumps=jnp.asarray([start]),
+    )
+
+
+def test_values_do_not_recompile(compilations):
+    # One small system (2 flaps, Tsit5, 101 samples): every case below shares its compiled solve.
+    def system(release=(0.0, 5.0), targets=(2.5, -2.5), **params):
+        design = HingeDesign.literature(**params)
+        return accordion_system(
+            design, 2, release_times=jnp.asarray(release), targets=jnp.asarray(targets)
+        )
+
+    def run(sys_=None, inputs=None, **options):
+        kwargs = dict(t1=100.0, n_save=101, solver=diffrax.Tsit5(), rtol=1e-6, atol=1e-8)
+        kwargs.update(options)
+        return lambda: (
+            sim.simulate(
+                system() if sys_ is None else sys_,
+                sim.Step() if inputs is None else inputs,
+                **kwargs,
+            ).theta
+        )
+
+    first = compilations.during(run())
+    assert first["solve"] == 1 and first["compiles"] >= 1  # the counter sees a compilation
+    changes = {
+        "tolerances": run(rtol=3e-7, atol=2e-9),
+        "end time": run(t1=80.0),
+        "stiffness scale": run(system(k_scale=2.0)),
+        "hinge width, flap length, fold angle": run(
+            system(hinge_width=120.0, flap_length=150.0, theta_final=2.0)
+        ),
+        "fold targets": run(system(targets=(1.0, -2.0))),
+        "release times": run(system(release=(3.0, 0.0))),
+        "initial state": run(theta0=jnp.asarray([0.1, 0.0])),
+    }
+    for what, call in changes.items():
+        counts = compilations.during(call)
+        assert counts == {"solve": 0, "traces": 0, "compiles": 0}, (what, counts)
+    # A user torque given as a module with array leaves: once per structure, not per value.
+    first = compilations.during(run(inputs=_push(2.0, 1.0)))
+    assert first["solve"] == 1
+    counts = compilations.during(run(inputs=_push(5.0, 7.0)))
+    assert counts == {"solve": 0, "traces": 0, "compiles": 0}, counts
+    # A new function object is new structure: it compiles again (documented in `UserTorque`; so
+    # does a new sample count `n_save`, a new array shape).
+    law = lambda t, theta, theta_dot: -theta  # noqa: E731
+    assert compilations.during(run(inputs=sim.UserTorque(law)))["solve"] == 1
+
+
+# ---- start-up -----------------------------------------------------------------------------------
+
+_HEAVY = ("jax", "jaxlib", "equinox", "diffrax", "matplotlib", "xarray", "scipy", "optax", "h5py")
+
+
+@pytest.mark.parametrize(
+    "statement",
+    [
+        "import origami_jax",
+        "from origami_jax.cli import main\ntry:\n    main(['--help'])\nexcept SystemExit:\n    pass",
+        "from origami_jax.cli import main\ntry:\n    main(['simulate', '--help'])\nexcept SystemExit:\n"
+        "    pass",
+    ],
+    ids=["import", "help", "simulate-help"],
+)
+def test_start_up_imports_nothing_heavy(statement, tmp_path):
+    code = (
+        "import io, contextlib, json, sys\n"
+        "with contextlib.redirect_stdout(io.StringIO()):\n"
+        + textwrap.indent(statement, "    ")
+        + f"\nprint(json.dumps(sorted({{m.split('.')[0] for m in sys.modules}} & {set(_HEAVY)!r})))"
+    )
+    assert _run_python(code, _environment(tmp_path)) == []
+
+
+# ---- figures ------------------------------------------------------------------------------------
+
+
+def test_figures_choice_and_its_alias():
+    from origami_jax.cli import build_parser
+
+    parser = build_parser()
+    for command in ("simulate", "fold"):
+        base = [command] if command == "simulate" else [command, "net.fold"]
+        assert parser.parse_args(base).figures == "all"
+        assert parser.parse_args([*base, "--no-figures"]).figures == "none"
+        assert parser.parse_args([*base, "--figures", "png"]).figures == "png"
+
+
+def test_animation_of_a_folding(tmp_path):
+    import numpy as np
+    from PIL import Image
+
+    from origami_jax.plotting.chain import animate_folding
+
+    class Samples:
+        times = np.linspace(0.0, 100.0, 201)
+        theta = np.column_stack([np.minimum(times / 50.0, 1.0) * 2.5, -np.sin(times / 30.0)])
+        state = None
+
+    system = accordion_system(HingeDesign.literature(), 2)
+    path = animate_folding(system, Samples, tmp_path / "fold.gif", n_frames=12, fps=10)
+    with Image.open(path) as image:
+        assert image.n_frames == 12 and image.size == (360, 360)  # 4 in at 90 dpi
+        durations = []
+        for k in range(image.n_frames):
+            image.seek(k)
+            durations.append(image.info["duration"])
+    assert durations[:-1] == [100] * 11 and durations[-1] == 1000  # the last frame held 1 s
+
+
+def test_animation_frames_follow_the_motion():
+    import numpy as np
+
+    from origami_jax.plotting.chain import _frame_indices
+
+    class Samples:
+        # Moves in the first tenth of the time, then rests.
+        times = np.linspace(0.0, 100.0, 1001)
+        theta = np.where(times < 10.0, times / 10.0, 1.0)[:, None] * np.array([[1.0, -1.0]])
+        state = None
+
+    even = _frame_indices(Samples, 20, None)
+    moving = _frame_indices(Samples, 20, None, by_motion=True)
+    assert even[0] == moving[0] == 0 and even[-1] == moving[-1] == 1000
+    assert np.all(np.diff(moving) > 0)
+    # Evenly in time, 2 of 20 frames fall in the motion; by motion and time alike, about half.
+    assert np.sum(Samples.times[even] < 10.0) <= 2
+    assert 8 <= np.sum(Samples.times[moving] < 10.0) <= 12
+
+
+def test_batched_frame_geometry_is_the_mechanisms_own():
+    import numpy as np
+
+    from origami_jax.plotting.chain import _polygon_frames
+
+    mechanism = accordion_system(HingeDesign.literature(), 2).mechanism
+    states = np.array([[0.0, 0.0], [1.0, -2.0], [3.0, -3.0]])
+    frames = _polygon_frames(mechanism, states)
+    skip = 0 if mechanism.base_outline() is None else 1
+    for state, polygons in zip(states, frames, strict=True):
+        # The per-state computation, one state at a time (the path the figures used before).
+        expected = mechanism.panel_polygons(state)
+        assert len(polygons) == len(expected) + skip
+        for got, want in zip(polygons[skip:], expected, strict=True):
+            np.testing.assert_allclose(got, want, rtol=0, atol=1e-9)  # µm, same arithmetic
