@@ -67,8 +67,8 @@ def test_same_design_through_every_entry_point(tmp_path):
     np.testing.assert_allclose(report["metrics"]["rise_time"], metrics.rise_time, rtol=1e-6)
 
     # 2. `design`'s forward model, θ_final a free parameter set through its parameter space.
-    hinge = HingeDesign.literature()
-    space = ojd.parameter_space(hinge, ["theta_final"], {"theta_final": (1.0, 3.2)})
+    hinge = HingeDesign.literature(theta_final=3.0)
+    space = ojd.parameter_space(hinge, ["theta_final"], {"theta_final": (1.0, float(np.pi))})
     candidate = space.apply(hinge, jnp.array([THETA_FINAL]))
     settings = ojd.SimulationSettings(T1, n_flaps=3, n_save=N_SAVE, rtol=RTOL, atol=ATOL)
     trajectory, _ = ojd.response(candidate, settings)
