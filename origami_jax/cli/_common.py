@@ -20,6 +20,7 @@ import os
 import shutil
 import sys
 import uuid
+import warnings
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any, NoReturn
@@ -332,6 +333,11 @@ def setup_runtime(command: str | None = None) -> None:
     from .._cache import enable_compilation_cache
 
     jax.config.update("jax_enable_x64", True)
+    # A cache entry that cannot be read or written (a full disk, another process writing it) only
+    # costs a compilation; JAX warns with a multi-line message that would bury the command's own.
+    warnings.filterwarnings(
+        "ignore", message=r"Error (reading|writing) persistent compilation cache"
+    )
     try:
         enable_compilation_cache()
     except ValueError as error:  # an unwritable cache folder costs time, not the run
