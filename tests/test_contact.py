@@ -139,6 +139,7 @@ def test_accordion_with_contact_stacks_without_penetration_or_energy_gain(fluid)
         np.testing.assert_allclose(np.abs(theta[-1]), np.pi, atol=0.02)
 
 
+@pytest.mark.slow  # a gradient through a folding with contact
 def test_metric_gradients_through_contact_match_finite_differences():
     """Response metrics of the accordion in KOH with contact (the peaks are the stack's standoff,
     set by the barrier), differentiated in forward mode through the contact solve, against central

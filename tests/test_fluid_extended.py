@@ -245,6 +245,7 @@ def _check_against_central_differences(function, x, h=1e-4, tolerance=1e-5):
     np.testing.assert_allclose(ours, central, atol=tolerance * np.max(np.abs(central)))
 
 
+@pytest.mark.slow  # every fluid term's derivatives through a folding; the terms' closed forms run by default
 def test_derivatives_of_the_dynamics_match_finite_differences():
     """``∂θ̈/∂(log μ, log σ, C_a)`` of two flaps on massive arc hinges in air with panel drag, added
     inertia and viscous drag, at a folding state, by forward-mode autodiff through the whole build
@@ -283,6 +284,7 @@ def test_derivatives_through_a_simulation_match_finite_differences():
     _check_against_central_differences(angle, jnp.array([0.0, 0.0, 0.8]))
 
 
+@pytest.mark.slow
 def test_panel_tree_twists_and_wrenches_match_autodiff():
     """`PanelTree.spatial_velocities` / `apply_wrenches` (motion subspaces) against the mechanism
     contract's autodiff defaults (differentiating the body poses), arc hinges included."""

@@ -95,6 +95,7 @@ def _relation_error(pattern, theta) -> float:
 # --- patterns and geometry -------------------------------------------------------------------
 
 
+@pytest.mark.slow  # every shipped pattern
 def test_catalogue_patterns_close_and_fold_rigidly():
     for name, loops in [
         ("vertex_degree4", 1),
@@ -201,6 +202,7 @@ def test_degree4_vertex_folds_flat():
     assert _relation_error(pattern, theta[away]) < CLOSED_FORM_TOL
 
 
+@pytest.mark.slow  # a long run
 def test_constraint_drift_stays_bounded_over_a_long_run():
     """In air the vertex rings for thousands of periods; Baumgarte's feedback keeps the loop closed:
     drift bounded, no growth from the first half of the run to the second."""
@@ -226,6 +228,7 @@ def _miura():
     return pattern, system, _simulate(system, theta0=start)
 
 
+@pytest.mark.slow  # a Miura cell's folding; the degree-4 closed form runs by default
 def test_miura_follows_schenk_and_guest():
     pattern, system, trajectory = _miura()
     g = pattern.geometry
@@ -413,7 +416,13 @@ def test_fold_cli_lists_and_refuses(tmp_path, capsys):
 
     assert main(["fold", "--list"]) == 0
     listed = capsys.readouterr().out.split()
-    for name in ("vertex_degree4", "vertex_degree6", "miura_3x3", "waterbomb_base", "waterbomb_2x2"):
+    for name in (
+        "vertex_degree4",
+        "vertex_degree6",
+        "miura_3x3",
+        "waterbomb_base",
+        "waterbomb_2x2",
+    ):
         assert name in listed
     code = main(["fold", "square_twist", "--no-figures", "--out", str(tmp_path / "twist")])
     assert code == 2 and "not rigidly foldable" in capsys.readouterr().err

@@ -54,7 +54,14 @@ def test_fold_accordion_is_the_chain_engines_accordion():
 
 
 @pytest.mark.parametrize(
-    "name", ["cube_net_01", "cube_net_11", "corner_cube", "tetrahedron", "octahedron"]
+    "name",
+    [
+        "cube_net_01",
+        "corner_cube",
+        "tetrahedron",
+        pytest.param("cube_net_11", marks=pytest.mark.slow),
+        pytest.param("octahedron", marks=pytest.mark.slow),
+    ],
 )
 def test_tree_kinematics_match_the_patterns_geometry(name):
     """Panel poses from the tree (JAX) against the FOLD geometry's own rigid folding (NumPy): the seam
@@ -105,6 +112,7 @@ def _cube(targets_deg: float):
     return net, system, trajectory
 
 
+@pytest.mark.slow  # compiles a cube net with contact (minutes on 2 cores)
 def test_cube_net_folds_closed():
     net, system, trajectory = _cube(90.0)
     report = net.assess(system, trajectory)

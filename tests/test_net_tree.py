@@ -217,6 +217,7 @@ def _reference_dynamics(tree, q, v, h=1e-5):
     return mass, coriolis + np.asarray(gravity)
 
 
+@pytest.mark.slow  # the isotropic case against Pinocchio runs by default
 def test_anisotropic_added_inertia_matches_jacobian_formula(small_tree):
     """A general positive semi-definite 6×6 per body (rank 4): M against Σ Jᵢᵀ 𝕀ᵢ Jᵢ with body
     Jacobians by autodiff of `body_poses`, the bias against the Christoffel symbols of that M."""
@@ -421,6 +422,7 @@ def cube_trajectory():
     return system, solution
 
 
+@pytest.mark.slow  # energy balance is checked on the chain engine and through contact by default
 def test_simulation_conserves_energy_without_drag(cube_trajectory):
     """With zero drag, kinetic + spring energy minus the step input's work ``Σ k θ_target θ`` is
     conserved; the folding swings every hinge past its target."""

@@ -9,6 +9,13 @@ NOTEBOOK_DIR = Path(__file__).resolve().parent.parent / "notebooks"
 NOTEBOOKS = sorted(NOTEBOOK_DIR.glob("*.ipynb"))
 # A notebook may take a while (first jit compilations); fail loudly rather than hang CI.
 CELL_TIMEOUT_S = 600
+# Notebooks that compile simulations and gradients run with the slow tests (`pytest -m slow`); the
+# default run executes the light ones and checks that every notebook is stored clean.
+HEAVY = {"accordion_dynamics.ipynb", "hinge_design.ipynb", "net_folding.ipynb"}
+RUNS = [
+    pytest.param(p, id=p.name, marks=[pytest.mark.slow] if p.name in HEAVY else [])
+    for p in NOTEBOOKS
+]
 
 
 def test_notebook_folder_is_not_empty():
@@ -26,7 +33,7 @@ def test_notebook_stored_without_outputs(path):
             assert cell.execution_count is None, f"{path.name}: clear execution counts"
 
 
-@pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.name for p in NOTEBOOKS])
+@pytest.mark.parametrize("path", RUNS)
 def test_notebook_runs_top_to_bottom(path, tmp_path):
     import nbformat
     from nbclient import NotebookClient

@@ -21,7 +21,7 @@ SCIPY_AGREEMENT_RAD = 1e-6
 UNITS_AGREEMENT = 1e-6
 
 
-@pytest.mark.parametrize("solver", ["default", "implicit"])
+@pytest.mark.parametrize("solver", ["default", pytest.param("implicit", marks=pytest.mark.slow)])
 def test_step_matches_scipy_radau(solver):
     # "default" is StiffnessSwitching (explicit steps throughout in air); "implicit" is Kvaerno5 alone.
     t1 = 200.0

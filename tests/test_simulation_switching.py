@@ -94,7 +94,7 @@ def test_vmap_over_stiff_and_mild_members_matches_single_solves():
         np.testing.assert_array_equal(switch_time[i], single_switch)
 
 
-@pytest.mark.parametrize("mode", ["forward", "reverse"])
+@pytest.mark.parametrize("mode", ["forward", pytest.param("reverse", marks=pytest.mark.slow)])
 def test_gradient_through_the_switch_matches_the_closed_form(mode):
     # d y(T1) / d a: the derivative of the closed form, through a solve that switches (a = 1e3).
     a = 1e3

@@ -210,6 +210,7 @@ def test_point_hinge_limit_reproduces_the_chain_engine():
     np.testing.assert_allclose(errors[:-1] / errors[1:], 10.0, rtol=0.2)  # first order in ρ
 
 
+@pytest.mark.slow  # a folding with arc hinges
 def test_folded_arc_accordion_stacks_at_twice_the_radius():
     """At the targets ``(π, −π, π)`` each flap lies parallel to the one before, reversed, ``2ρ``
     above it (the strip a semicircle), over the base's membrane; contact sees that gap (the flap

@@ -204,6 +204,7 @@ def test_random_paths_certified_independently(random_batches):
     independent_certificate(result.path, np.asarray(one.sector_angles), True)
 
 
+@pytest.mark.slow
 def test_nonconvex_open_chains_never_flat_unfolded_by_separable_descent():
     # Sector sum 1.8π: outside Streinu–Whiteley; flat stops being a minimum of Eq. 1.
     vertices = random_vertices(
