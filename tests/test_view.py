@@ -585,6 +585,7 @@ def test_notebook_iframe_renders_the_same_view(browser, tmp_path):
     assert page.problems() == []
 
 
+@pytest.mark.slow  # a timing on a shared machine: run it alone (-m slow -k screen_rate)
 def test_large_pattern_updates_at_screen_rate(browser, tmp_path):
     scene = miura_scene()
     assert scene.n_panels == 800 and scene.n_frames == 500
