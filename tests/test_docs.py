@@ -49,6 +49,7 @@ API_PAGES = (
     "simulation",
     "design",
     "sweep",
+    "fab_yield",
     "vertex",
     "fold",
     "contact",
@@ -291,7 +292,7 @@ def test_strict_build_documents_every_public_name(tmp_path):
         undocumented = [n for n in names if f'id="origami_jax.{n}"' not in page]
         assert not undocumented, f"api/{package}.md does not document {undocumented}"
     cli = (site / "cli" / "index.html").read_text(encoding="utf-8")
-    for command in ("paper", "unfold", "simulate", "design", "sweep", "export", "view"):
+    for command in ("paper", "unfold", "simulate", "design", "sweep", "yield", "export", "view"):
         assert f"origami-jax {command}" in cli, f"the CLI reference lacks `{command}`"
     benchmarks = (site / "benchmarks" / "index.html").read_text(encoding="utf-8")
     assert "Benchmark results" in benchmarks

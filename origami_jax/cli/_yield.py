@@ -124,9 +124,7 @@ def run(args: argparse.Namespace) -> int:
             chunk_size=args.chunk_size,
             progress=not args.no_progress,
         )
-    except FileExistsError as error:
-        fail(f"{error} (continue it with --resume, or choose another --out)")
-    except (ValueError, SweepBusyError) as error:
+    except (FileExistsError, ValueError, SweepBusyError) as error:
         fail(str(error))
     except OSError as error:
         fail(f"{error.strerror or error}", EXIT_FAILED)

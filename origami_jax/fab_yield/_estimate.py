@@ -33,7 +33,8 @@ class YieldEstimate:
     - `n_samples`, `seed`, `scatter`.
     - `dataset`: the samples as an `xarray.Dataset` along dimension `design` (one per sample): the
       drawn parameters as coordinates (`misfit_strain[j]`, `t_hinge[j]`, `hinge_width[j]`,
-      `release[j]` per crease, `t_structural`, `drag_coefficient`; µm, µs) and the net kernel's
+      `release[j]`, `target[j]` per crease, `t_structural`, `drag_coefficient`; µm, µs, rad) and
+      the net kernel's
       outputs (`verdict`, `folded`, `time_to_fold`, `final_angle`, `max_seam_gap`, ...; see
       `origami_jax.sweep.get_model("net-fold")`). Attributes: the sweep's, plus `scatter` (JSON),
       `seed`, `yield`.
@@ -125,6 +126,25 @@ def _columns(values: Mapping[str, np.ndarray]) -> tuple[dict[str, np.ndarray], d
     return columns, units
 
 
+_KERNELS: dict[str, Any] = {}
+_KERNELS_KEPT = 4
+
+
+def _kernel(**options):
+    """The net kernel for `options`, the same object for the same options (the sweep engine then
+    traces and compiles it once per process; see `origami_jax.sweep.sweep`)."""
+    from ..sweep._kernels import design_settings, net_fold
+
+    key = json.dumps(
+        {**options, "design": design_settings(options["design"])}, sort_keys=True, default=str
+    )
+    if key not in _KERNELS:
+        _KERNELS[key] = net_fold(**options)
+        while len(_KERNELS) > _KERNELS_KEPT:
+            _KERNELS.pop(next(iter(_KERNELS)))
+    return _KERNELS[key]
+
+
 def _stored_samples(out) -> int:
     """Samples a resumed estimate finds stored (the sweep's chunk files name their counts)."""
     if out is None:
@@ -198,7 +218,6 @@ def yield_estimate(
     from ..net import load_net
     from ..simulation import FoldVerdict
     from ..sweep import Table, sweep
-    from ..sweep._kernels import net_fold
     from ..system import KOH_SOLUTION, HingeDesign
 
     if isinstance(n_samples, bool) or not isinstance(n_samples, int | np.integer):
@@ -219,6 +238,11 @@ def yield_estimate(
         design = HingeDesign.literature(fluid=KOH_SOLUTION)
     elif not isinstance(design, HingeDesign):
         raise ValueError(f"design must be a HingeDesign, got {type(design).__name__}.")
+    if out is not None and not resume and (Path(out) / "sweep.json").exists():
+        raise FileExistsError(
+            f"{out} already holds a yield estimate. Pass resume=True (CLI: --resume) to continue "
+            "it, or choose another output folder."
+        )
     try:
         the_net = load_net(net)
     except FoldFormatError as error:
@@ -249,10 +273,12 @@ def yield_estimate(
             "(not folded): narrow the spread or use a lognormal one.",
             stacklevel=2,
         )
-    kernel = net_fold(
+    aims = the_net.intended_angles if targets is None else np.asarray(targets, dtype=float)
+    if aims.shape != (m,) or not np.all(np.isfinite(aims)):
+        raise ValueError(f"targets must be {m} finite angles (rad, one per crease).")
+    kernel = _kernel(
         net=os.fspath(net),
         design=design,
-        targets=targets,
         hinge_lengths="designed",
         t_end=t_end,
         n_save=n_save,
@@ -262,6 +288,10 @@ def yield_estimate(
         angle_tolerance_deg=angle_tolerance_deg,
     )
     columns, units = _columns(values)
+    # The hinges' drawn angles are data, not settings: nets aimed elsewhere share the compiled call.
+    for j in range(m):
+        columns[f"target[{j}]"] = np.full(int(n_samples), aims[j])
+        units[f"target[{j}]"] = "rad"
     stored = _stored_samples(out) if resume else 0
     dataset = sweep(
         kernel,

@@ -259,6 +259,9 @@ def _spread_from_mapping(name: str, value: Any) -> Spread:
                 )
                 + f", got {item!r}."
             )
+    value = dict(value)
+    if "width" in value:
+        value["width"] = float(value["width"])  # TOML integers are widths too
     try:
         return Spread(**value)
     except ValueError as error:

@@ -426,12 +426,14 @@ def net_fold(
     **Parameters** (swept): `hinge_width`, `t_hinge`, `misfit_strain`, `k_scale` for every crease, or
     per crease as `name[j]` (e.g. `misfit_strain[3]`: the film stress scatter of one hinge);
     `t_structural`, `drag_coefficient`, `b_scale` for the whole net; `release[j]`: crease `j`'s release
-    time (µs, default 0).
+    time (µs, default 0); `target[j]`: the angle crease `j`'s hinge is drawn to fold to (rad; default
+    the `targets` setting, else the pattern's angle; give all of them or none).
 
     **Outputs:** `verdict` (0 folded, 1 jammed, 2 misfolded, 3 unfinished, 4 invalid;
     `origami_jax.simulation.VERDICT_CODES`), `folded`, `time_to_fold` (µs, NaN if never),
-    `final_angle` (rad, per crease), `max_seam_gap` (µm), `min_gap`, `penetration` (µm), `num_steps`,
-    `result` (the solver's code; −1 invalid input).
+    `final_angle` (rad, per crease), `max_seam_gap` (µm), `min_gap`, `penetration` (µm), `engaged`
+    (contact pairs engaged at the end; −1 where the simulation failed), `num_steps`, `result` (the
+    solver's code; −1 invalid input).
 
     **Settings** beyond the solver's: `fluid` (`"air"` or `"koh"`, default `"koh"`) or `design`, a
     whole `HingeDesign` (MICRO units) for what is not swept (its fluid included; not both);
@@ -488,6 +490,7 @@ def net_fold(
         {f"{name}[{j}]": unit for name, unit in NET_PARAMETERS.items() for j in range(m)}
     )
     parameters.update({f"release[{j}]": "us" for j in range(m)})
+    parameters.update({f"target[{j}]": "rad" for j in range(m)})
     intended = jnp.asarray(the_net.intended_angles)
     tolerance = float(np.radians(angle_tolerance_deg))
 
@@ -516,9 +519,17 @@ def net_fold(
         design = eqx_tree_at_fields(base, values)
         return design, times, invalid
 
+    def aims_of(params):
+        swept = [params.get(f"target[{j}]") for j in range(m)]
+        if all(a is None for a in swept):
+            return None if aims is None else jnp.asarray(aims)
+        if any(a is None for a in swept):
+            raise ValueError(f"sweep every target[j] of the {m} creases, or none.")
+        return jnp.stack([jnp.asarray(a, dtype=float) for a in swept])
+
     def fn(params):
         design, times, invalid = design_of(params)
-        aim = None if aims is None else jnp.asarray(aims)
+        aim = aims_of(params)
         if hinge_lengths == "designed":
             aim = intended if aim is None else aim
             aim = aim * design.curvature() / base.curvature()
@@ -560,6 +571,7 @@ def net_fold(
             "max_seam_gap": masked(outcome.max_seam_gap),
             "min_gap": masked(outcome.min_gap),
             "penetration": masked(outcome.penetration),
+            "engaged": jnp.where(failed, -1, outcome.engaged).astype(jnp.int32),
             "num_steps": jnp.asarray(trajectory.stats["num_steps"], dtype=jnp.int32),
             "result": result,
         }
