@@ -29,8 +29,12 @@ estimate.dataset            # xarray.Dataset: the drawn parameters and every sam
 - The result, `YieldEstimate`: the yield, its confidence interval (`wilson_interval`, or
   `clopper_pearson_interval`), the verdict counts and the samples as a dataset.
 
-Not done yet: a differentiable yield surrogate and its gradient, optimisation of the release order,
-closed-loop patterns (only trees of panels), and arc hinges with designed lengths.
+- `soft_yield`: a differentiable surrogate of the yield over the same samples (logistic margins of
+  each sample's final angles and seams), a traceable function of the drawn hinge angles, widths and
+  release times, for `jax.grad`.
+
+Not done yet: optimisation of the release order, closed-loop patterns (only trees of panels), arc
+hinges with designed lengths.
 """
 
 from ._estimate import YieldEstimate as YieldEstimate
@@ -46,3 +50,6 @@ from ._stats import INTERVAL_METHODS as INTERVAL_METHODS
 from ._stats import binomial_interval as binomial_interval
 from ._stats import clopper_pearson_interval as clopper_pearson_interval
 from ._stats import wilson_interval as wilson_interval
+from ._surrogate import DESIGN_VARIABLES as DESIGN_VARIABLES
+from ._surrogate import SoftYield as SoftYield
+from ._surrogate import soft_yield as soft_yield
