@@ -335,34 +335,35 @@ def test_soft_yield_refuses_bad_arguments():
         ojy.soft_yield(NET, targets=[1.0, 1.0, 1.0])
 
 
-@pytest.mark.slow  # compiles the reverse-mode gradient of a vmapped contact simulation (minutes)
-def test_soft_yield_gradient_matches_finite_differences():
+@pytest.mark.slow  # compiles the reverse-mode gradient of a vmapped simulation (minutes)
+def test_soft_yield_gradient_matches_finite_differences_without_contact():
     """The surrogate's gradient with respect to the drawn hinge angles (reverse mode through every
-    sample's contact simulation) against central differences of the surrogate itself (step 0.05°):
-    they agree within 2 % of the gradient's size, the difference step's truncation and the adaptive
-    solver's step-size changes being smaller than that."""
+    sample's simulation) against central differences of the surrogate itself at two steps (0.1°,
+    0.025°), which agree with each other: within 3 % of the gradient's size. Without contact: with
+    it, the differences of the surrogate change with the step (a panel stopped by another moves the
+    final state non-smoothly), so there the gradient is not checked."""
     import jax
     import jax.numpy as jnp
 
-    scatter = ojy.Scatter(
-        misfit_strain=ojy.Spread("normal", 0.01),
-        t_hinge=ojy.Spread(width=0.0),
-        t_structural=ojy.Spread(width=0.0),
-        hinge_width=ojy.Spread(width=0.0),
+    surrogate = ojy.soft_yield(
+        NET, ojy.Scatter(), n_samples=4, seed=1, t_end=T_END, temperature_deg=3.0, contact=False
     )
-    surrogate = ojy.soft_yield(NET, scatter, n_samples=4, seed=1, t_end=T_END, temperature_deg=1.0)
     with pytest.raises(ValueError, match="unknown design variable"):
         surrogate({"misfit_strain": np.ones(2)})
     x0 = jnp.asarray(surrogate.nominal["target"])
     value = jax.jit(lambda t: surrogate({"target": t}))
     gradient = np.asarray(jax.jit(jax.grad(lambda t: surrogate({"target": t})))(x0))
     assert np.all(np.isfinite(gradient))
-    h = np.radians(0.05)
     differences = []
-    for j in range(2):
-        step = np.zeros(2)
-        step[j] = h
-        differences.append(float(value(x0 + step) - value(x0 - step)) / (2 * h))
+    for step_deg in (0.1, 0.025):
+        h = np.radians(step_deg)
+        row = []
+        for j in range(2):
+            step = np.zeros(2)
+            step[j] = h
+            row.append(float(value(x0 + step) - value(x0 - step)) / (2 * h))
+        differences.append(row)
     scale = np.max(np.abs(differences))
-    assert scale > 1e-3, differences  # the surrogate is not flat here
-    np.testing.assert_allclose(gradient, differences, atol=0.02 * scale)
+    assert scale > 1e-2, differences  # the surrogate is not flat here
+    np.testing.assert_allclose(differences[0], differences[1], atol=0.03 * scale)
+    np.testing.assert_allclose(gradient, differences[1], atol=0.03 * scale)

@@ -31,7 +31,8 @@ estimate.dataset            # xarray.Dataset: the drawn parameters and every sam
 
 - `soft_yield`: a differentiable surrogate of the yield over the same samples (logistic margins of
   each sample's final angles and seams), a traceable function of the drawn hinge angles, widths and
-  release times, for `jax.grad`.
+  release times, for `jax.grad`. Checked against finite differences without contact; with contact
+  the surrogate is not smooth (a panel stopped by another) and its gradient is not validated.
 
 Not done yet: optimisation of the release order, closed-loop patterns (only trees of panels), arc
 hinges with designed lengths.
