@@ -8,7 +8,7 @@ import pytest
 from origami_jax import __version__
 from origami_jax.cli import build_parser, main
 
-SUBCOMMANDS = ("paper", "unfold", "simulate", "design", "sweep", "export")
+SUBCOMMANDS = ("paper", "unfold", "simulate", "design", "sweep", "yield", "export")
 
 
 def test_help_lists_every_subcommand(capsys):
