@@ -34,6 +34,7 @@ def yield_figure(result: Any, *, title: str | None = None):
     )
     names = list(counts)
     bars.bar(names, [counts[n] for n in names], color=[VERDICT_COLOURS.get(n, "C0") for n in names])
+    bars.set_ylim(0, 1.15 * max(max(counts.values()), 1))  # room for the labels
     bars.set_ylabel("samples")
     bars.set_title(f"verdicts of {summary['n_samples']} samples")
     for i, name in enumerate(names):
