@@ -8,7 +8,7 @@ import pytest
 from origami_jax import __version__
 from origami_jax.cli import build_parser, main
 
-SUBCOMMANDS = ("paper", "unfold", "simulate", "design", "sweep", "export")
+SUBCOMMANDS = ("paper", "unfold", "simulate", "fold", "design", "sweep", "yield", "export", "view")
 
 
 def test_help_lists_every_subcommand(capsys):
@@ -35,7 +35,7 @@ def test_each_subcommand_has_help(name, capsys):
     with pytest.raises(SystemExit) as excinfo:
         main([name, "--help"])
     assert excinfo.value.code == 0
-    assert "--out" in capsys.readouterr().out or name == "export"
+    assert "--out" in capsys.readouterr().out or name in ("export", "view")
 
 
 def test_parser_builds_without_importing_physics():

@@ -11,7 +11,7 @@ import sys
 from collections.abc import Sequence
 
 from .._version import __version__
-from . import _design, _export, _fold, _paper, _simulate, _sweep, _unfold, _view
+from . import _design, _export, _fold, _paper, _simulate, _sweep, _unfold, _view, _yield
 from ._common import (
     EXIT_FAILED,
     EXIT_INTERRUPTED,
@@ -22,7 +22,7 @@ from ._common import (
     setup_runtime,
 )
 
-SUBCOMMANDS = (_paper, _unfold, _simulate, _fold, _design, _sweep, _export, _view)
+SUBCOMMANDS = (_paper, _unfold, _simulate, _fold, _design, _sweep, _yield, _export, _view)
 DEBUG_HELP = "show the full traceback of an unexpected error"
 # Arguments that name a command's input, in the order they are looked for (for error messages).
 _INPUT_ARGUMENTS = ("config", "target", "source", "result", "curve")

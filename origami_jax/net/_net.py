@@ -28,6 +28,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
+from .._math import safe_norm
 from ..fold import FoldFile, FoldFrame, net_geometry
 from ..fold._catalogue import catalogue_names, catalogue_path
 from ..fold._model import FRAME_UNITS_M
@@ -251,7 +252,9 @@ class Net:
             chosen = poses[jnp.asarray(body)]
             points = jnp.einsum("seaij,seaj->seai", chosen[..., :3, :3], jnp.asarray(local))
             points = points + chosen[..., :3, 3]
-            distance = jnp.linalg.norm(points[:, :, 0] - points[:, :, 1], axis=-1)
+            # A seam's end on a vertex the two faces share stays at distance 0: a norm with a
+            # finite gradient there (yield surrogates differentiate through the gaps).
+            distance = safe_norm(points[:, :, 0] - points[:, :, 1])
             return jnp.max(distance, axis=-1)
 
         return gaps

@@ -114,6 +114,44 @@ def _compiled_bytes(compiled: Any) -> int | None:
         return None
 
 
+class _TraceCache:
+    """Output shapes and compiled calls of the most recent kernels, so that sweeps of the *same*
+    `Kernel` object (e.g. yield estimates of one net at several scatter widths) trace and compile it
+    once per process: tracing a contact simulation costs tens of seconds. Keyed by the kernel's
+    identity (it is held here, so its id cannot be reused) and the group's static values, input
+    shapes and sharding; the least recently used kernels are dropped beyond `size`."""
+
+    def __init__(self, size: int = 4):
+        self.size = size
+        self.entries: dict[int, tuple[Kernel, dict]] = {}
+
+    def get(self, kernel: Kernel, key: tuple) -> Any:
+        entry = self.entries.get(id(kernel))
+        if entry is None or entry[0] is not kernel:
+            return None
+        self.entries[id(kernel)] = self.entries.pop(id(kernel))  # most recently used last
+        return entry[1].get(key)
+
+    def put(self, kernel: Kernel, key: tuple, value: Any) -> None:
+        entry = self.entries.get(id(kernel))
+        if entry is None or entry[0] is not kernel:
+            entry = (kernel, {})
+            self.entries[id(kernel)] = entry
+            while len(self.entries) > self.size:
+                self.entries.pop(next(iter(self.entries)))
+        entry[1][key] = value
+
+
+_TRACES = _TraceCache()
+
+
+def _signature(group: "_Group", inputs: Mapping[str, Any]) -> tuple:
+    """What a traced group depends on besides its kernel: static values, input shapes and dtypes."""
+    statics = tuple(sorted((k, repr(v)) for k, v in group.static_values.items()))
+    shapes = tuple(sorted((k, tuple(v.shape), str(v.dtype)) for k, v in inputs.items()))
+    return statics, shapes
+
+
 class _Group:
     """Designs sharing the same static parameter values: one compiled function."""
 
@@ -309,7 +347,11 @@ def _plan(kernel: Kernel, space: DesignSpace) -> _Plan:
             k: jax.ShapeDtypeStruct(v.shape[1:], v.dtype)
             for k, v in plan.prepared(group, group.indices[:1]).items()
         }
-        shapes = jax.eval_shape(plan.member_fn(group.static_values), {**example, **group.extra})
+        inputs = {**example, **group.extra}
+        shapes = _TRACES.get(kernel, ("shapes", _signature(group, inputs)))
+        if shapes is None:
+            shapes = jax.eval_shape(plan.member_fn(group.static_values), inputs)
+            _TRACES.put(kernel, ("shapes", _signature(group, inputs)), shapes)
         for name, shape in shapes.items():
             if not isinstance(shape, jax.ShapeDtypeStruct):
                 raise ValueError(f"output {name!r} of {kernel.name!r} is not an array.")
@@ -407,7 +449,7 @@ class _Compiler:
         self.seconds: list[float] = []
 
     def group(self, group: _Group, size: int) -> Callable:
-        """The compiled `(size,)`-batch kernel of `group` (not cached: see `_run_chunks`)."""
+        """The compiled `(size,)`-batch kernel of `group` (kept per kernel object in `_TRACES`)."""
         plan, sharding = self.plan, self.sharding
         args = {
             n: jax.ShapeDtypeStruct((size,), plan.encoded[n].dtype, sharding=sharding)
@@ -415,11 +457,16 @@ class _Compiler:
         }
         for name, shape in group.extra.items():
             args[name] = jax.ShapeDtypeStruct((size, *shape.shape), shape.dtype, sharding=sharding)
+        key = ("compiled", _signature(group, args), sharding)
+        compiled = _TRACES.get(plan.kernel, key)
+        if compiled is not None:
+            return compiled
         batched = jax.vmap(plan.member_fn(group.static_values))
         jitted = jax.jit(batched, in_shardings=sharding, out_shardings=sharding)
         start = time.perf_counter()
         compiled = jitted.lower(args).compile()
         self.seconds.append(time.perf_counter() - start)
+        _TRACES.put(plan.kernel, key, compiled)
         return compiled
 
     def costs(self, group: _Group, todo: np.ndarray) -> np.ndarray:

@@ -402,7 +402,7 @@ NET_GLOBAL_PARAMETERS = {
 def net_fold(
     *,
     net: str = "cube_net_01",
-    fluid: str = "koh",
+    fluid: str | None = None,
     t_end: float = 1500.0,
     n_save: int = 301,
     rtol: float | None = None,
@@ -413,6 +413,9 @@ def net_fold(
     hinges: str = "point",
     angle_tolerance_deg: float = 3.0,
     bias: float = 0.0,
+    design: Any = None,
+    targets: Any = None,
+    hinge_lengths: str = "ideal",
 ) -> Kernel:
     """Sweep kernel: does a net of panels, or a crease pattern with closed loops, fold? Verdict and
     numbers per design (explicit Tsit5 under the contact guard;
@@ -423,12 +426,26 @@ def net_fold(
     **Parameters** (swept): `hinge_width`, `t_hinge`, `misfit_strain`, `k_scale` for every crease, or
     per crease as `name[j]` (e.g. `misfit_strain[3]`: the film stress scatter of one hinge);
     `t_structural`, `drag_coefficient`, `b_scale` for the whole net; `release[j]`: crease `j`'s release
-    time (µs, default 0).
+    time (µs, default 0); `target[j]`: the angle crease `j`'s hinge is drawn to fold to (rad; default
+    the `targets` setting, else the pattern's angle; give all of them or none).
 
     **Outputs:** `verdict` (0 folded, 1 jammed, 2 misfolded, 3 unfinished, 4 invalid;
     `origami_jax.simulation.VERDICT_CODES`), `folded`, `time_to_fold` (µs, NaN if never),
-    `final_angle` (rad, per crease), `max_seam_gap` (µm), `min_gap`, `penetration` (µm), `num_steps`,
-    `result` (the solver's code; −1 invalid input).
+    `final_angle` (rad, per crease), `max_seam_gap` (µm), `min_gap`, `penetration` (µm), `engaged`
+    (contact pairs engaged at the end; −1 where the simulation failed), `num_steps`, `result` (the
+    solver's code; −1 invalid input).
+
+    **Settings** beyond the solver's: `fluid` (`"air"` or `"koh"`, default `"koh"`) or `design`, a
+    whole `HingeDesign` (MICRO units) for what is not swept (its fluid included; not both);
+    `targets`: the angles the hinges aim at (rad, one per crease; default the pattern's); and
+    `hinge_lengths`:
+
+    - `"ideal"` (default): every design's hinge bends exactly to its target (hinge length
+      ``ρ |θ_target|`` with the design's own radius ``ρ``);
+    - `"designed"`: the hinge lengths are drawn for the *nominal* design (``l = ρ₀ |θ_target|``, what
+      lithography fixes) and a design whose films differ (swept `misfit_strain`, `t_hinge`,
+      `t_structural`) bends them to ``l / ρ = θ_target ρ₀ / ρ`` (paper Eq. 7 with ``l = ρ θ``): the
+      fold angle of a fabricated hinge whose film stress or thickness is off.
     """
     import diffrax
     import jax.numpy as jnp
@@ -438,13 +455,34 @@ def net_fold(
     from ..simulation import DEFAULT_ATOL, DEFAULT_RTOL, RESULTS, Step, fold_outcome, simulate
     from ..system import AIR, KOH_SOLUTION, HingeDesign
 
+    if design is not None and fluid is not None:
+        raise ValueError("give the fluid in the design (HingeDesign(fluid=...)), not both.")
+    if design is not None and not isinstance(design, HingeDesign):
+        raise ValueError(f"design must be a HingeDesign, got {type(design).__name__}.")
+    fluid = "koh" if fluid is None else fluid
     if fluid not in FLUIDS:
         raise ValueError(f"fluid must be one of {FLUIDS}, got {fluid!r}.")
+    if hinge_lengths not in ("ideal", "designed"):
+        raise ValueError(f"hinge_lengths must be 'ideal' or 'designed', got {hinge_lengths!r}.")
+    if hinge_lengths == "designed" and hinges != "point":
+        raise ValueError(
+            "hinge_lengths='designed' is implemented for point hinges (hinges='point')."
+        )
     the_net = load_pattern(net)
     loops = isinstance(the_net, CreasePattern)
     theta0 = the_net.start_state(bias=bias)[0] if loops else None
     m = the_net.n_creases
-    base = HingeDesign.literature(fluid=AIR if fluid == "air" else KOH_SOLUTION)
+    if design is None:
+        base = HingeDesign.literature(fluid=AIR if fluid == "air" else KOH_SOLUTION)
+    else:
+        base = design
+    aims = None
+    if targets is not None:
+        aims = np.asarray(targets, dtype=float)
+        if aims.shape != (m,) or not np.all(np.isfinite(aims)):
+            raise ValueError(
+                f"targets must be {m} finite fold angles (rad, one per crease), got {targets!r}."
+            )
     rtol = DEFAULT_RTOL if rtol is None else float(rtol)
     atol = DEFAULT_ATOL if atol is None else float(atol)
     parameters = {**NET_PARAMETERS, **NET_GLOBAL_PARAMETERS}
@@ -452,6 +490,7 @@ def net_fold(
         {f"{name}[{j}]": unit for name, unit in NET_PARAMETERS.items() for j in range(m)}
     )
     parameters.update({f"release[{j}]": "us" for j in range(m)})
+    parameters.update({f"target[{j}]": "rad" for j in range(m)})
     intended = jnp.asarray(the_net.intended_angles)
     tolerance = float(np.radians(angle_tolerance_deg))
 
@@ -480,10 +519,22 @@ def net_fold(
         design = eqx_tree_at_fields(base, values)
         return design, times, invalid
 
+    def aims_of(params):
+        swept = [params.get(f"target[{j}]") for j in range(m)]
+        if all(a is None for a in swept):
+            return None if aims is None else jnp.asarray(aims)
+        if any(a is None for a in swept):
+            raise ValueError(f"sweep every target[j] of the {m} creases, or none.")
+        return jnp.stack([jnp.asarray(a, dtype=float) for a in swept])
+
     def fn(params):
         design, times, invalid = design_of(params)
+        aim = aims_of(params)
+        if hinge_lengths == "designed":
+            aim = intended if aim is None else aim
+            aim = aim * design.curvature() / base.curvature()
         system = the_net.system(
-            design, release_times=times, contact=contact, drag=drag, hinges=hinges
+            design, targets=aim, release_times=times, contact=contact, drag=drag, hinges=hinges
         )
         trajectory = simulate(
             system,
@@ -520,6 +571,7 @@ def net_fold(
             "max_seam_gap": masked(outcome.max_seam_gap),
             "min_gap": masked(outcome.min_gap),
             "penetration": masked(outcome.penetration),
+            "engaged": jnp.where(failed, -1, outcome.engaged).astype(jnp.int32),
             "num_steps": jnp.asarray(trajectory.stats["num_steps"], dtype=jnp.int32),
             "result": result,
         }
@@ -531,7 +583,7 @@ def net_fold(
         name="net-fold",
         settings={
             "net": the_net.name,
-            "fluid": fluid,
+            "fluid": fluid if design is None else base.fluid.name,
             "t_end_us": t_end,
             "n_save": n_save,
             "rtol": rtol,
@@ -543,6 +595,9 @@ def net_fold(
             "angle_tolerance_deg": angle_tolerance_deg,
             "closed_loops": the_net.n_loops if loops else 0,
             "bias": bias,
+            **({} if design is None else {"design": design_settings(design)}),
+            **({} if aims is None else {"targets": aims.tolist()}),
+            **({} if hinge_lengths == "ideal" else {"hinge_lengths": hinge_lengths}),
         },
         parameters=parameters,
         output_units={
@@ -555,6 +610,25 @@ def net_fold(
         output_dims={"final_angle": ("crease",)},
         result_messages=messages,
     )
+
+
+def design_settings(design) -> dict[str, Any]:
+    """A `HingeDesign` (or any equinox module) as JSON-able settings: every field by name, arrays
+    as numbers or lists, nested modules as dictionaries, static values as text."""
+    import numpy as np
+
+    out: dict[str, Any] = {}
+    for field in dataclasses.fields(design):
+        value = getattr(design, field.name)
+        if dataclasses.is_dataclass(value) and not isinstance(value, type):
+            out[field.name] = design_settings(value)
+        elif value is None or isinstance(value, bool | int | float | str):
+            out[field.name] = value
+        elif hasattr(value, "shape"):
+            out[field.name] = np.asarray(value, dtype=float).tolist()
+        else:
+            out[field.name] = str(value)
+    return out
 
 
 def eqx_tree_at_fields(design, values: Mapping[str, Any]):

@@ -22,6 +22,7 @@ import dataclasses
 import hashlib
 import json
 import math
+import re
 from collections.abc import Mapping, Sequence
 from typing import Any, Literal
 
@@ -52,12 +53,19 @@ def _as_column(name: str, values: Any) -> np.ndarray:
     )
 
 
+# A parameter name: an identifier, optionally indexed (`misfit_strain[3]`: crease 3's value).
+_PARAMETER_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*(\[[0-9]+\])?")
+
+
 def _check_names(names: Sequence[str], static: Sequence[str], units: Mapping[str, str]) -> None:
     if len(set(names)) != len(names):
         raise ValueError(f"parameter names must be unique, got {list(names)}.")
     for name in names:
-        if not isinstance(name, str) or not name.isidentifier():
-            raise ValueError(f"parameter name {name!r} must be a Python identifier.")
+        if not isinstance(name, str) or not _PARAMETER_NAME.fullmatch(name):
+            raise ValueError(
+                f"parameter name {name!r} must be a Python identifier, or one with an entry "
+                "index such as 'misfit_strain[3]' (one crease's value)."
+            )
         if name in ("design", "result"):
             raise ValueError(f"parameter name {name!r} is reserved by the sweep dataset.")
     for name in list(static) + list(units):

@@ -1,0 +1,163 @@
+"""`origami-jax yield`: how often a net folds correctly under fabrication scatter (Monte Carlo)."""
+
+import argparse
+import time
+from pathlib import Path
+
+from ._common import (
+    EXIT_FAILED,
+    EXIT_OK,
+    Interrupted,
+    OutputFolder,
+    check_out_folder,
+    dumps_json,
+    fail,
+    int_range,
+    positive,
+    write_atomic,
+)
+
+HELP = "Estimate a net's yield under fabrication scatter (Monte Carlo, resumable)."
+DESCRIPTION = (
+    HELP
+    + """
+
+NET is a FOLD file or the name of a shipped net (origami-jax fold --list). Every sample is the net
+with its hinges' film stress (misfit strain), film thicknesses, hinge widths, drag coefficient and
+release times drawn from the scatter, folded with contact in the KOH bath (--fluid air: in air) and
+judged folded, jammed, misfolded, unfinished or invalid. The hinges are fabricated: their lengths
+are the nominal design's, so a film that bends more or less than nominal folds its crease past or
+short of the pattern's angle.
+
+--scatter CONFIG.toml gives one table per parameter (misfit_strain, t_hinge, hinge_width,
+t_structural, drag_coefficient, release) with distribution ("normal", "lognormal", "uniform"), width
+(1 sigma, or the half-width of a uniform), relative (true: a fraction of the nominal value; false: in
+µm or µs) and per ("crease" or "net"); parameters not named keep the defaults (film stress 5 %,
+thicknesses 2.5 %, hinge width 0.5 µm; see origami_jax.fab_yield.Scatter), `defaults = false` at the
+top switches those off. Without --scatter the defaults are used.
+
+Writes OUT/result.json (yield, its confidence interval, verdict counts, the scatter), OUT/yield.png
+(unless --no-figures), and the samples as a sweep store: OUT/sweep.nc (every sample's parameters
+and verdict) and OUT/chunks/ (one file per finished chunk). An interrupted run continues with
+--resume (the same net, settings, scatter, seed and samples); a folder holding an estimate is never
+overwritten.
+Exit codes: 0 done, 1 the run stopped (disk full), 2 bad input or a folder in use, 130 interrupted.
+"""
+)
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    parser = subparsers.add_parser(
+        "yield",
+        help=HELP,
+        description=DESCRIPTION,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument("net", help="FOLD file or catalogue name")
+    parser.add_argument("--samples", type=int, default=100, help="nets to draw (default 100)")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the draws (default 0)")
+    parser.add_argument("--scatter", type=Path, default=None, help="scatter config (TOML)")
+    parser.add_argument("--fluid", choices=("air", "koh"), default="koh", help="default koh")
+    parser.add_argument("--t-end", type=float, default=1500.0, help="simulated time, µs (1500)")
+    parser.add_argument(
+        "--confidence", type=float, default=0.95, help="level of the interval (default 0.95)"
+    )
+    parser.add_argument(
+        "--interval",
+        choices=("wilson", "clopper-pearson"),
+        default="wilson",
+        help="interval method (default wilson)",
+    )
+    parser.add_argument("--chunk-size", type=int, default=None, help="samples per compiled call")
+    parser.add_argument("--resume", action="store_true", help="continue the estimate in --out")
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    parser.add_argument("--no-figures", action="store_true", help="skip yield.png")
+    parser.add_argument(
+        "--out",
+        type=Path,
+        default=Path("origami_out/yield"),
+        help="output folder, created if missing (default: ./origami_out/yield)",
+    )
+    parser.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..fab_yield import Scatter, load_scatter, yield_estimate
+    from ..sweep import SweepBusyError
+    from ..system import AIR, KOH_SOLUTION, HingeDesign
+
+    int_range(args.samples, "--samples", 1, 10_000_000)
+    if args.seed < 0:
+        fail(f"--seed must be >= 0, got {args.seed}.")
+    positive(args.t_end, "--t-end", "µs")
+    if args.chunk_size is not None:
+        int_range(args.chunk_size, "--chunk-size", 1, 10_000_000)
+    if not 0 < args.confidence < 1:
+        fail(f"--confidence must lie strictly between 0 and 1, got {args.confidence}.")
+    scatter = Scatter()
+    if args.scatter is not None:
+        try:
+            scatter = load_scatter(args.scatter)
+        except (ValueError, OSError) as error:
+            fail(f"bad scatter config {args.scatter}: {error}")
+    out = check_out_folder(Path(args.out))
+    design = HingeDesign.literature(fluid=KOH_SOLUTION if args.fluid == "koh" else AIR)
+    print(
+        f"[yield] {args.net}: {args.samples} samples, seed {args.seed}, scatter "
+        + (", ".join(f"{n} {s.width:g}" for n, s in scatter.active().items()) or "none")
+        + f" -> {out}",
+        flush=True,
+    )
+    start = time.perf_counter()
+    try:
+        estimate = yield_estimate(
+            args.net,
+            scatter,
+            n_samples=args.samples,
+            seed=args.seed,
+            design=design,
+            t_end=args.t_end,
+            confidence=args.confidence,
+            interval=args.interval,
+            out=out,
+            resume=args.resume,
+            chunk_size=args.chunk_size,
+            progress=not args.no_progress,
+        )
+    except (FileExistsError, ValueError, SweepBusyError) as error:
+        fail(str(error))
+    except OSError as error:
+        fail(f"{error.strerror or error}", EXIT_FAILED)
+    except KeyboardInterrupt:
+        stored = len(list((out / "chunks").glob("part-*.nc")))
+        raise Interrupted(
+            f"interrupted; the {stored} finished chunk(s) are kept in {out / 'chunks'}: continue "
+            "with --resume."
+        ) from None
+    elapsed = time.perf_counter() - start
+    ds = estimate.dataset
+    result = {
+        "net": args.net,
+        "fluid": args.fluid,
+        "t_end_us": args.t_end,
+        **estimate.to_dict(),
+        "compile_s": float(ds.attrs.get("compile_s", 0.0)),
+        "wall_s": elapsed,
+    }
+    owns = ("result.json",) if args.no_figures else ("result.json", "yield.png")
+    with OutputFolder(out, command="yield", owns=owns, overwrite=True) as output:
+        write_atomic(output.dir / "result.json", dumps_json(result))
+        if not args.no_figures:
+            import matplotlib.pyplot as plt
+
+            from ..plotting.fab_yield import yield_figure
+
+            fig = yield_figure(estimate, title=f"{args.net}: yield under fabrication scatter")
+            fig.savefig(output.dir / "yield.png", dpi=120)
+            plt.close(fig)
+    print(estimate.summary())
+    print(
+        f"wall time {elapsed:.1f} s (compiling {result['compile_s']:.1f} s, "
+        f"{estimate.seconds_per_sample:.3g} s per sample); results in {out}"
+    )
+    return EXIT_OK

@@ -1,0 +1,56 @@
+"""Yield: how often a fabricated net folds into the intended shape.
+
+What self-folding labs report is yield, the fraction of fabricated nets that close into the shape
+they were drawn for (Pandey et al., PNAS 108, 2011). Films vary in stress and thickness across a
+wafer and hinges release at different times, so a net that folds perfectly with ideal hinges can
+jam or misfold with real ones. `yield_estimate` measures this by Monte Carlo:
+
+```python
+import origami_jax.fab_yield as ojy
+
+estimate = ojy.yield_estimate("cube_net_01", ojy.Scatter(), n_samples=200, seed=0, out="yield_out")
+print(estimate.summary())   # yield 0.81 (95 % interval 0.75-0.86, wilson) over 200 samples: ...
+estimate.dataset            # xarray.Dataset: the drawn parameters and every sample's verdict
+```
+
+- `Scatter`: one `Spread` per parameter (film misfit strain, i.e. film stress; hinge film and
+  membrane thickness; hinge width; drag coefficient; release time): normal, lognormal or uniform,
+  relative or absolute, per crease or one draw per net. Defaults and their sources: `Scatter`.
+  `load_scatter` reads one from TOML; bad configs are refused with one line before anything
+  compiles.
+- Each sample is a full folding simulation with contact (`origami_jax.net.Net.system`, explicit
+  Tsit5) judged by `origami_jax.simulation.fold_outcome`: folded, jammed, misfolded, unfinished or
+  invalid. The hinges are *fabricated*: their lengths are the nominal design's, so a film that
+  bends more or less than nominal folds its crease past or short of the target (a contact can
+  stop a crease that overfolds; one that underfolds leaves its seams open).
+- The samples run through the sweep engine (`origami_jax.sweep.sweep`): chunked, vmapped, sharded
+  over the devices, stored as they finish in `out`; `resume=True` continues an interrupted
+  estimate with the same samples.
+- The result, `YieldEstimate`: the yield, its confidence interval (`wilson_interval`, or
+  `clopper_pearson_interval`), the verdict counts and the samples as a dataset.
+
+- `soft_yield`: a differentiable surrogate of the yield over the same samples (logistic margins of
+  each sample's final angles and seams), a traceable function of the drawn hinge angles, widths and
+  release times, for `jax.grad`. Checked against finite differences without contact; with contact
+  the surrogate is not smooth (a panel stopped by another) and its gradient is not validated.
+
+Not done yet: optimisation of the release order, closed-loop patterns (only trees of panels), arc
+hinges with designed lengths.
+"""
+
+from ._estimate import YieldEstimate as YieldEstimate
+from ._estimate import yield_estimate as yield_estimate
+from ._scatter import DISTRIBUTIONS as DISTRIBUTIONS
+from ._scatter import PARAMETERS as PARAMETERS
+from ._scatter import Scatter as Scatter
+from ._scatter import Spread as Spread
+from ._scatter import load_scatter as load_scatter
+from ._scatter import sample_values as sample_values
+from ._scatter import standard_draws as standard_draws
+from ._stats import INTERVAL_METHODS as INTERVAL_METHODS
+from ._stats import binomial_interval as binomial_interval
+from ._stats import clopper_pearson_interval as clopper_pearson_interval
+from ._stats import wilson_interval as wilson_interval
+from ._surrogate import DESIGN_VARIABLES as DESIGN_VARIABLES
+from ._surrogate import SoftYield as SoftYield
+from ._surrogate import soft_yield as soft_yield

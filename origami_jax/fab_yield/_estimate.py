@@ -1,0 +1,330 @@
+"""`yield_estimate`: Monte Carlo over fabrication scatter, one folding simulation per sample, run
+through the sweep engine (chunked, sharded over devices, resumable)."""
+
+import dataclasses
+import json
+import os
+import warnings
+from collections.abc import Callable, Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ._scatter import PARAMETERS, Scatter, sample_values, standard_draws
+from ._stats import INTERVAL_METHODS, binomial_interval
+
+# Units of the swept columns (the net kernel's, MICRO: µm, µs).
+_UNITS = {"misfit_strain": "1", "t_hinge": "um", "hinge_width": "um", "release": "us"}
+_GLOBAL = ("t_structural", "drag_coefficient")
+
+
+@dataclasses.dataclass(frozen=True)
+class YieldEstimate:
+    """The yield of a net under fabrication scatter.
+
+    **Fields:**
+    - `fraction`: the yield, folded samples / samples (every other verdict, `invalid` included, is
+      a failure).
+    - `interval`: `(low, high)`, the `confidence` interval of the yield (`method`: `"wilson"` or
+      `"clopper-pearson"`, see `wilson_interval`).
+    - `counts`: verdict → number of samples (`"folded"`, `"jammed"`, `"misfolded"`, `"unfinished"`,
+      `"invalid"`; `origami_jax.simulation.FoldVerdict`).
+    - `n_samples`, `seed`, `scatter`.
+    - `dataset`: the samples as an `xarray.Dataset` along dimension `design` (one per sample): the
+      drawn parameters as coordinates (`misfit_strain[j]`, `t_hinge[j]`, `hinge_width[j]`,
+      `release[j]`, `target[j]` per crease, `t_structural`, `drag_coefficient`; µm, µs, rad) and
+      the net kernel's
+      outputs (`verdict`, `folded`, `time_to_fold`, `final_angle`, `max_seam_gap`, ...; see
+      `origami_jax.sweep.get_model("net-fold")`). Attributes: the sweep's, plus `scatter` (JSON),
+      `seed`, `yield`.
+    - `seconds_per_sample`: this call's computing time per sample it computed, compilation
+      excluded (0 when every sample was already stored).
+    """
+
+    fraction: float
+    interval: tuple[float, float]
+    confidence: float
+    method: str
+    counts: dict[str, int]
+    n_samples: int
+    seed: int
+    scatter: Scatter
+    dataset: Any
+    seconds_per_sample: float
+
+    def samples(self, name: str) -> np.ndarray:
+        """The drawn values of a parameter of `PARAMETERS`: `(n_samples, n_creases)` for a per-crease
+        one, `(n_samples,)` for `t_structural` and `drag_coefficient`."""
+        if name in _GLOBAL:
+            return np.asarray(self.dataset[name].values)
+        if name not in PARAMETERS:
+            raise ValueError(f"unknown parameter {name!r}; the known ones are {list(PARAMETERS)}.")
+        columns = sorted(
+            (int(c[len(name) + 1 : -1]), c)
+            for c in self.dataset.coords
+            if str(c).startswith(f"{name}[")
+        )
+        return np.stack([self.dataset[c].values for _, c in columns], axis=1)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready summary (no samples)."""
+        return {
+            "yield": self.fraction,
+            "interval": list(self.interval),
+            "confidence": self.confidence,
+            "interval_method": self.method,
+            "counts": dict(self.counts),
+            "n_samples": self.n_samples,
+            "seed": self.seed,
+            "scatter": self.scatter.to_dict(),
+            "seconds_per_sample": self.seconds_per_sample,
+        }
+
+    def summary(self) -> str:
+        """One line for people."""
+        low, high = self.interval
+        counts = ", ".join(f"{k} {v}" for k, v in self.counts.items() if v)
+        return (
+            f"yield {self.fraction:.3f} ({100 * self.confidence:g} % interval {low:.3f}-{high:.3f},"
+            f" {self.method}) over {self.n_samples} samples: {counts}"
+        )
+
+
+def _nominal(design, release_times, m: int) -> dict[str, np.ndarray]:
+    """Nominal value of every scattered parameter, `(m,)` each (global ones repeated)."""
+    nominal = {}
+    for name in PARAMETERS:
+        if name == "release":
+            value = np.zeros(m) if release_times is None else release_times
+        else:
+            value = np.asarray(getattr(design, name), dtype=float)
+            if name in _GLOBAL and value.ndim:
+                raise ValueError(
+                    f"the design's {name} must be one number for the whole net, got shape "
+                    f"{value.shape}."
+                )
+            if value.ndim and value.shape != (m,):
+                raise ValueError(
+                    f"the design's {name} must be a number or one per crease ({m}), got shape "
+                    f"{value.shape}."
+                )
+        nominal[name] = np.broadcast_to(value, (m,)).astype(float)
+    return nominal
+
+
+def _columns(values: Mapping[str, np.ndarray]) -> tuple[dict[str, np.ndarray], dict[str, str]]:
+    columns, units = {}, {}
+    for name, x in values.items():
+        if name in _GLOBAL:
+            columns[name] = x[:, 0]
+            units[name] = "um" if name == "t_structural" else "1"
+            continue
+        for j in range(x.shape[1]):
+            columns[f"{name}[{j}]"] = x[:, j]
+            units[f"{name}[{j}]"] = _UNITS[name]
+    return columns, units
+
+
+_KERNELS: dict[str, Any] = {}
+_KERNELS_KEPT = 4
+
+
+def _kernel(**options):
+    """The net kernel for `options`, the same object for the same options (the sweep engine then
+    traces and compiles it once per process; see `origami_jax.sweep.sweep`)."""
+    from ..sweep._kernels import design_settings, net_fold
+
+    key = json.dumps(
+        {**options, "design": design_settings(options["design"])}, sort_keys=True, default=str
+    )
+    if key not in _KERNELS:
+        _KERNELS[key] = net_fold(**options)
+        while len(_KERNELS) > _KERNELS_KEPT:
+            _KERNELS.pop(next(iter(_KERNELS)))
+    return _KERNELS[key]
+
+
+def _stored_samples(out) -> int:
+    """Samples a resumed estimate finds stored (the sweep's chunk files name their counts)."""
+    if out is None:
+        return 0
+    total = 0
+    for path in (Path(out) / "chunks").glob("part-*-*.nc"):
+        try:
+            total += int(path.stem.rsplit("-", 1)[1])
+        except ValueError:
+            continue
+    return total
+
+
+def yield_estimate(
+    net: str | os.PathLike,
+    scatter: Scatter | Mapping[str, Any] | None = None,
+    n_samples: int = 100,
+    seed: int = 0,
+    *,
+    design=None,
+    targets=None,
+    release_times=None,
+    t_end: float = 1500.0,
+    n_save: int = 301,
+    max_steps: int = 200_000,
+    contact: bool = True,
+    drag: str = "panel",
+    angle_tolerance_deg: float = 3.0,
+    confidence: float = 0.95,
+    interval: str = "wilson",
+    out: str | os.PathLike | None = None,
+    resume: bool = False,
+    chunk_size: int | None = None,
+    progress: bool = True,
+    on_chunk: Callable[[int, int], None] | None = None,
+) -> YieldEstimate:
+    """The fraction of fabricated nets that fold into the intended shape, with its confidence
+    interval (module docstring).
+
+    Every sample is the net with its hinges' films, widths and release times drawn from `scatter`
+    (`standard_draws` from `seed`), simulated with contact from flat for `t_end` and judged by
+    `origami_jax.simulation.fold_outcome` against the pattern's fold angles and seams. The hinge
+    lengths are the nominal design's (``l = ρ₀ |θ_target|``, drawn by lithography), so a sample whose
+    film bends more or less than nominal folds its crease past or short of the target
+    (`hinge_lengths="designed"` of the sweep's `"net-fold"` model). The samples run through
+    `origami_jax.sweep.sweep`: in chunks, vmapped, sharded over `jax.local_devices()`, stored in
+    `out` as they finish.
+
+    **Arguments** (lengths µm, times µs: the MICRO units):
+    - `net`: a catalogue name (`origami_jax.fold.catalogue_names()`, e.g. `"cube_net_01"`) or a
+      `.fold` path of a net (a tree of panels).
+    - `scatter`: a `Scatter` (default `Scatter()`, the documented defaults) or a mapping of one.
+    - `n_samples`, `seed`: how many nets to draw, and from which seed.
+    - `design`: the nominal `HingeDesign` (default `HingeDesign.literature(fluid=KOH_SOLUTION)`:
+      the fold happens in the etch bath); its `theta_final` is not used.
+    - `targets`: the angles the hinges are drawn to fold to (rad, one per crease; default the
+      pattern's); `release_times`: nominal release time per crease (µs, default all 0).
+    - `t_end`, `n_save`, `max_steps`: the simulated time, saved samples, solver step budget.
+    - `contact`, `drag`: as `origami_jax.net.Net.system`; `angle_tolerance_deg`: the verdict's.
+    - `confidence`, `interval`: the interval's level and method (`"wilson"`, `"clopper-pearson"`).
+    - `out`, `resume`, `chunk_size`, `progress`, `on_chunk`: as `origami_jax.sweep.sweep` (a
+      folder to store the samples in; `resume=True` continues an interrupted estimate, which must
+      have the same net, settings, scatter, seed and number of samples).
+
+    **Returns:** a `YieldEstimate`.
+
+    **Raises:** `ValueError` (before anything compiles) for a bad scatter, a net that is not a tree
+    of panels, bad counts or settings; the sweep's errors for a folder that holds another estimate.
+    """
+    from ..fold import FoldFormatError
+    from ..net import load_net
+    from ..simulation import FoldVerdict
+    from ..sweep import Table, sweep
+    from ..system import KOH_SOLUTION, HingeDesign
+
+    if isinstance(n_samples, bool) or not isinstance(n_samples, int | np.integer):
+        raise ValueError(f"n_samples must be an integer >= 1, got {n_samples!r}.")
+    if n_samples < 1:
+        raise ValueError(f"n_samples must be an integer >= 1, got {n_samples!r}.")
+    if scatter is None:
+        scatter = Scatter()
+    elif isinstance(scatter, Mapping):
+        scatter = Scatter.from_mapping(scatter)
+    elif not isinstance(scatter, Scatter):
+        raise ValueError(f"scatter must be a Scatter or a mapping, got {type(scatter).__name__}.")
+    if interval not in INTERVAL_METHODS:
+        raise ValueError(f"interval must be one of {INTERVAL_METHODS}, got {interval!r}.")
+    if not (isinstance(confidence, int | float) and 0 < confidence < 1):
+        raise ValueError(f"confidence must lie strictly between 0 and 1, got {confidence!r}.")
+    if design is None:
+        design = HingeDesign.literature(fluid=KOH_SOLUTION)
+    elif not isinstance(design, HingeDesign):
+        raise ValueError(f"design must be a HingeDesign, got {type(design).__name__}.")
+    if out is not None and not resume and (Path(out) / "sweep.json").exists():
+        raise FileExistsError(
+            f"{out} already holds a yield estimate. Pass resume=True (CLI: --resume) to continue "
+            "it, or choose another output folder."
+        )
+    try:
+        the_net = load_net(net)
+    except FoldFormatError as error:
+        raise ValueError(f"{net}: yield_estimate takes a net (a tree of panels): {error}") from None
+    m = the_net.n_creases
+    if release_times is not None:
+        release_times = np.asarray(release_times, dtype=float)
+        if release_times.shape != (m,) or not np.all(np.isfinite(release_times)):
+            raise ValueError(
+                f"release_times must be {m} finite times (µs, one per crease), got shape "
+                f"{release_times.shape}."
+            )
+        if np.any(release_times < 0):
+            raise ValueError(f"release_times must be >= 0 µs, got {release_times.tolist()}.")
+    nominal = _nominal(design, release_times, m)
+    release = scatter.release
+    if release.width > 0 and release.relative and not np.any(nominal["release"] > 0):
+        raise ValueError(
+            "scatter of release: a relative width of nominal release times that are all 0 is no "
+            "scatter; give relative = false (a width in µs) or nominal release_times."
+        )
+    values = sample_values(scatter, nominal, standard_draws(seed, int(n_samples), m))
+    bad = {n: int(np.sum(np.any(v <= 0, axis=1))) for n, v in values.items() if n != "release"}
+    bad = {n: c for n, c in bad.items() if c}
+    if bad:
+        warnings.warn(
+            f"the scatter draws non-positive values for {bad} sample(s); they count as invalid "
+            "(not folded): narrow the spread or use a lognormal one.",
+            stacklevel=2,
+        )
+    aims = the_net.intended_angles if targets is None else np.asarray(targets, dtype=float)
+    if aims.shape != (m,) or not np.all(np.isfinite(aims)):
+        raise ValueError(f"targets must be {m} finite angles (rad, one per crease).")
+    kernel = _kernel(
+        net=os.fspath(net),
+        design=design,
+        hinge_lengths="designed",
+        t_end=t_end,
+        n_save=n_save,
+        max_steps=max_steps,
+        contact=contact,
+        drag=drag,
+        angle_tolerance_deg=angle_tolerance_deg,
+    )
+    columns, units = _columns(values)
+    # The hinges' drawn angles are data, not settings: nets aimed elsewhere share the compiled call.
+    for j in range(m):
+        columns[f"target[{j}]"] = np.full(int(n_samples), aims[j])
+        units[f"target[{j}]"] = "rad"
+    stored = _stored_samples(out) if resume else 0
+    dataset = sweep(
+        kernel,
+        Table(columns, units=units),
+        chunk_size=chunk_size,
+        out=out,
+        resume=resume,
+        progress=progress,
+        on_chunk=on_chunk,
+    )
+    codes = np.asarray(dataset["verdict"].values)
+    counts = {str(v): int(np.sum(codes == i)) for i, v in enumerate(FoldVerdict)}
+    folded = counts[str(FoldVerdict.FOLDED)]
+    n = int(n_samples)
+    low, high = binomial_interval(folded, n, float(confidence), interval)
+    dataset.attrs.update(
+        {
+            "scatter": json.dumps(scatter.to_dict(), sort_keys=True),
+            "seed": int(seed),
+            "yield": folded / n,
+        }
+    )
+    n_run = n - min(stored, n)
+    seconds = float(dataset.attrs.get("run_s", 0.0))
+    return YieldEstimate(
+        fraction=folded / n,
+        interval=(low, high),
+        confidence=float(confidence),
+        method=interval,
+        counts=counts,
+        n_samples=n,
+        seed=int(seed),
+        scatter=scatter,
+        dataset=dataset,
+        seconds_per_sample=seconds / n_run if n_run else 0.0,
+    )
