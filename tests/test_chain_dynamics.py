@@ -246,6 +246,7 @@ def test_gradients_wrt_design():
     check_grads(acceleration, (jnp.ones(8),), order=1, modes=["fwd", "rev"])
 
 
+@pytest.mark.slow
 def test_jit_vmap_over_designs_and_states_without_retracing():
     @quick_jit
     @eqx.debug.assert_max_traces(max_traces=1)
@@ -292,6 +293,7 @@ def test_units_do_not_change_the_answer():
     assert max_relative_error(results["micro"], results["SI"]) < PATH_RTOL
 
 
+@pytest.mark.slow
 def test_array_path_for_long_chains_agrees():
     """The array form of the recursive algorithm (what long chains and all derivatives run): same numbers."""
     from origami_jax.chain import _dynamics
@@ -335,7 +337,8 @@ def _chain_direction(chain, seed, *, planar):
 @pytest.mark.parametrize(
     "name",
     [
-        "accordion3",
+        # The scalar path is what `simulate` runs; the step response against scipy checks it too.
+        pytest.param("accordion3", marks=pytest.mark.slow),
         pytest.param("random5_gravity", marks=pytest.mark.slow),
         pytest.param("planar4_gravity", marks=pytest.mark.slow),
     ],
@@ -402,6 +405,7 @@ def test_scalar_forward_path_equals_array_path(name):
         forward_dynamics(chain, theta[0], theta_dot[0], tau[0], stiffness=k, drag=b, path="x")
 
 
+@pytest.mark.slow
 def test_planar_path_equals_spatial_scalar_path():
     """The same planar chain with `planar=False` runs the spatial scalar path: same accelerations."""
     planar = CASES["planar4_gravity"]()

@@ -114,6 +114,7 @@ def test_the_command_line_turns_it_on_in_the_user_cache_folder(tmp_path):
     assert out["dir"] == str(mine)
 
 
+@pytest.mark.slow  # a CLI run in a subprocess; the cache itself is checked by default
 def test_the_simulate_command_stores_its_solve(tmp_path):
     # A compiled program that calls back into Python cannot be stored: the command's solve must not
     # (no progress bar for a step, runtime checks as NaN). Cheap options: one flap, Tsit5.

@@ -123,6 +123,7 @@ def test_cube_net_folds_closed():
     assert report.time_to_fold is not None and report.time_to_fold < 1500.0
 
 
+@pytest.mark.slow  # a cube net with contact; a net aimed short of its angles is checked by the yield tests
 def test_cube_net_aimed_at_80_degrees_is_not_folded():
     net, system, trajectory = _cube(80.0)
     report = net.assess(system, trajectory)

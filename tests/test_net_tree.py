@@ -246,6 +246,7 @@ def test_forward_dynamics_gradients(tiny_tree):
     check_grads(accel, (q, v, tau), order=1, modes=["fwd", "rev"], eps=1e-6, rtol=1e-5)
 
 
+@pytest.mark.slow
 def test_rows_vmap_and_single_states_agree(tiny_tree, monkeypatch):
     """`(t, n)` rows (chunked, the last chunk padded), `jax.vmap` of the single-state call (its
     batching rule) and the single states are the same numbers."""
@@ -258,6 +259,7 @@ def test_rows_vmap_and_single_states_agree(tiny_tree, monkeypatch):
     assert max_relative_error(mapped, single) < 1e-13
 
 
+@pytest.mark.slow
 def test_dense_solve_for_large_trees(tiny_tree, monkeypatch):
     """Trees whose sparse factorization would unroll too far solve with LAPACK's Cholesky: the same
     accelerations, for one state and for rows."""
@@ -513,6 +515,7 @@ def _fine_chain(arc, n_links):
     )
 
 
+@pytest.mark.slow  # the strip's limit runs by default (test_strip.py)
 def test_arc_hinge_is_the_limit_of_short_rigid_links():
     """The bending strip against n short rigid links folding together (θ_k = q/n, a holonomic
     constraint with Jacobian J): the panel's pose, ``M`` (vs ``Jᵀ M J``) and the bias (vs

@@ -11,7 +11,12 @@ NOTEBOOKS = sorted(NOTEBOOK_DIR.glob("*.ipynb"))
 CELL_TIMEOUT_S = 600
 # Notebooks that compile simulations and gradients run with the slow tests (`pytest -m slow`); the
 # default run executes the light ones and checks that every notebook is stored clean.
-HEAVY = {"accordion_dynamics.ipynb", "hinge_design.ipynb", "net_folding.ipynb"}
+HEAVY = {
+    "accordion_dynamics.ipynb",
+    "hinge_design.ipynb",
+    "net_folding.ipynb",
+    "interactive_view.ipynb",
+}
 RUNS = [
     pytest.param(p, id=p.name, marks=[pytest.mark.slow] if p.name in HEAVY else [])
     for p in NOTEBOOKS

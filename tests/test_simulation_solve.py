@@ -73,6 +73,7 @@ def test_literature_air_step_metrics():
     assert np.all(metrics.settling_ill_posed)
 
 
+@pytest.mark.slow  # units are checked on the dynamics by default (test_chain_dynamics.py)
 def test_si_and_micro_give_the_same_metrics():
     micro = air_step_metrics()
     si = sim.response_metrics(step_simulation("air", units=SI))
