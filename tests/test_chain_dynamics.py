@@ -158,6 +158,7 @@ def test_mass_matrix_symmetric_positive_definite(case):
         assert np.linalg.eigvalsh(mass).min() > 0
 
 
+@pytest.mark.slow  # energy balance runs by default through contact
 def test_energy_conserved_without_drag():
     chain = oc.accordion(3)
     design = osys.HingeDesign.literature()
@@ -427,6 +428,7 @@ def test_planar_path_equals_spatial_scalar_path():
     assert max_relative_error(accelerations(planar), accelerations(spatial)) < PATH_RTOL
 
 
+@pytest.mark.slow
 def test_forward_dynamics_on_rows_of_states():
     """`forward_dynamics` on a `(t, n)` stack of states (how `simulate` evaluates its samples): row by
     row the single-state answer, with the same forward- and reverse-mode derivatives (its custom JVP
@@ -490,7 +492,7 @@ COMPLEX_STEP_RTOL = 1e-10
 @pytest.mark.parametrize(
     "name",
     [
-        "accordion3",
+        pytest.param("accordion3", marks=pytest.mark.slow),
         pytest.param("planar4_gravity", marks=pytest.mark.slow),
         pytest.param("random5_gravity", marks=pytest.mark.slow),
     ],

@@ -188,6 +188,7 @@ def _held(system, theta, result=None):
     )
 
 
+@pytest.mark.slow  # the yield tests judge folded and misfolded nets by default
 def test_verdicts():
     system, koh = _accordion("koh")
     folded = sim.assess(system, koh)

@@ -49,6 +49,7 @@ def round_trip(settings, measured):
     return ojd.calibrate(start, targets, FREE, settings=settings, n_starts=2)
 
 
+@pytest.mark.slow  # a two-parameter fit through the simulation
 def test_round_trip_recovers_parameters(round_trip):
     result = round_trip
     np.testing.assert_allclose(
@@ -68,6 +69,7 @@ def test_round_trip_recovers_parameters(round_trip):
     assert -0.75 < ratio < -0.25
 
 
+@pytest.mark.slow  # shares the fit
 def test_optimiser_jacobian_matches_finite_differences(round_trip):
     result = round_trip
     z = jnp.asarray(result.z)
@@ -148,6 +150,7 @@ def test_unreachable_metric_target_is_reported():
     assert "rise_time[joint 1]" in result.verdict
 
 
+@pytest.mark.slow  # shares the fit
 def test_evaluate_and_figure(round_trip, tmp_path):
     import matplotlib
 

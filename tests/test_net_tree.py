@@ -108,6 +108,7 @@ def test_branching_tree_matches_pinocchio():
     _compare_with_pinocchio(tree, *to_pinocchio(tree), inverse=True)
 
 
+@pytest.mark.slow
 def test_isotropic_added_inertia_matches_pinocchio_folded():
     """An added inertia diag(m_a I, J_a I) is a rigid body (mass m_a at the frame origin, inertia
     J_a I): without gravity, Pinocchio with it added to each panel's inertia is the same model.

@@ -16,6 +16,7 @@ HEAVY = {
     "hinge_design.ipynb",
     "net_folding.ipynb",
     "interactive_view.ipynb",
+    "single_vertex_unfolding.ipynb",
 }
 RUNS = [
     pytest.param(p, id=p.name, marks=[pytest.mark.slow] if p.name in HEAVY else [])

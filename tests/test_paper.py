@@ -7,6 +7,7 @@ import pytest
 from origami_jax.cli import main
 
 
+@pytest.mark.slow  # the catalogue's certificates run by default
 def test_unfolding_part_certifies_the_fig3_examples(tmp_path):
     from origami_jax.cli import _paper_unfolding
 

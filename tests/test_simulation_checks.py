@@ -125,6 +125,7 @@ def _drifts(system, trajectory, e0):
     return at_steps, at_samples, drift(q_h, v_h, samples)
 
 
+@pytest.mark.slow
 def test_samples_carry_the_solvers_accuracy_on_a_free_chain():
     """Energy of a free flap (no drag, no input, a soft spring): the default solver (explicit here,
     it never turns stiff) drifts by ~1e-10 at its step ends. Its samples used to be cubic Hermite

@@ -75,6 +75,7 @@ def test_etch_ramp_desired_trajectory_solves_the_dynamics():
     np.testing.assert_allclose(ramp.jump_times(system), ramp.durations(system))
 
 
+@pytest.mark.slow
 def test_fast_ramp_tracks_with_minimal_overshoot():
     # A shortened fast ramp (2 ms instead of the paper's 0.1 s) keeps the test quick; explicit Tsit5
     # suits it in air (not stiff).

@@ -84,6 +84,7 @@ def test_stays_explicit_on_a_mild_problem_and_matches_the_closed_form():
     assert int(steps) == int(tsit5_steps)
 
 
+@pytest.mark.slow
 def test_vmap_over_stiff_and_mild_members_matches_single_solves():
     # Under vmap the switch flag is batched and both branches run; each member must still follow its own.
     a = jnp.array([2.0, 1e5])

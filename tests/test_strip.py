@@ -134,6 +134,7 @@ def test_strip_is_the_limit_of_short_rigid_links():
         assert max_relative_error(ours, (4 * fine - coarse) / 3) < 5e-6
 
 
+@pytest.mark.slow
 def test_strip_quadrature_and_forward_dynamics():
     """Six nodes per strip (the default) against sixteen: the strip's part of ``M`` agrees to 1e-7
     relative at ``q = π`` and 1e-4 at ``2π`` (Gauss–Legendre on an analytic integrand; measured 4e-8

@@ -181,6 +181,7 @@ def random_batches():
     return {"closed": (closed, unfold_batch(closed)), "open": (open_, unfold_batch(open_))}
 
 
+@pytest.mark.slow  # a batch of random vertices; the catalogue's vertices reach flat by default
 @pytest.mark.parametrize("kind", ["closed", "open"])
 def test_random_vertices_reach_flat(random_batches, kind):
     _, batch = random_batches[kind]
