@@ -86,6 +86,7 @@ def test_optimiser_jacobian_matches_finite_differences(round_trip):
     assert np.max(np.abs(jac - fd)) < FD_RTOL * scale
 
 
+@pytest.mark.slow  # compiles the fit's forward model; unreachable metric targets are reported by default
 def test_unreachable_target_is_reported(settings, measured):
     times, theta = measured
     targets = ojd.Targets(curve=ojd.MeasuredCurve(times, theta))
