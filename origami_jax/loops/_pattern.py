@@ -26,7 +26,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import ArrayLike, Float
 
-from ..fold import FoldFile, FoldFormatError, FoldFrame
+from ..fold import FoldFile, FoldFormatError
 from ..fold._catalogue import catalogue_names, catalogue_path
 from ..fold._loop_geometry import LoopGeometry, loop_geometry
 from ..fold._model import FRAME_UNITS_M
@@ -410,54 +410,13 @@ class CreasePattern:
     def to_fold(self, trajectory=None, *, angles=None, times=None, every: int = 1) -> FoldFile:
         """The folding as a FOLD animation: the crease pattern (facets merged), then one frame per kept
         sample with every vertex where the folded panels put it and every crease's fold angle."""
-        from ..net._net import _vertex_corners, frame_assignment
+        from ..net._net import _vertex_corners, folding_animation
 
-        if trajectory is not None:
-            angles, times = np.asarray(trajectory.theta), np.asarray(trajectory.times)
-        if angles is None:
-            raise ValueError("to_fold needs a trajectory or angles=(k, m).")
-        angles = np.atleast_2d(np.asarray(angles, dtype=float))
-        keep = np.arange(0, len(angles), max(int(every), 1))
-        if keep[-1] != len(angles) - 1:
-            keep = np.append(keep, len(angles) - 1)
-        keep = keep[np.all(np.isfinite(angles[keep]), axis=1)]
         g = self.geometry
-        first_face, first_corner = _vertex_corners(g.tree)
-        base = g.frame
-        n_edges = int(np.asarray(base.edges_vertices).shape[0])
-        frames = [base]
-        for s in keep:
-            corners = g.fold(angles[s])
-            degrees = np.zeros(n_edges)
-            for j, edges in enumerate(g.crease_edges):
-                degrees[list(edges)] = np.degrees(
-                    np.arctan2(np.sin(angles[s, j]), np.cos(angles[s, j]))
-                )
-            extra = {"origami_jax:hinge_angles": [float(x) for x in angles[s]]}
-            if times is not None:
-                extra["origami_jax:time"] = float(np.asarray(times)[s])
-            frames.append(
-                FoldFrame(
-                    vertices_coords=corners[first_face, first_corner],
-                    edges_assignment=frame_assignment(
-                        base.edges_assignment, degrees, g.crease_edges
-                    ),
-                    edges_fold_angle_deg=degrees,
-                    frame_classes=("foldedForm",),
-                    frame_attributes=("3D",),
-                    frame_parent=0,
-                    frame_inherit=True,
-                    extra=extra,
-                )
-            )
-        return FoldFile(
-            frames=tuple(frames),
-            file_metadata={
-                "file_creator": "origami_jax",
-                "file_classes": ["singleModel", "animation"],
-                "file_title": self.name,
-            },
-        )
+        return folding_animation(
+            g.frame, g.fold, g.crease_edges, _vertex_corners(g.tree), self.name,
+            trajectory=trajectory, angles=angles, times=times, every=every,
+        )  # fmt: skip
 
 
 def _with_branch(pattern: CreasePattern, report, trajectory, bias: float):

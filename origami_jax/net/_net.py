@@ -280,52 +280,11 @@ class Net:
 
         Give a `Trajectory` (its `theta`, `times`) or `angles` `(k, m)` (rad) and optional `times`.
         """
-        if trajectory is not None:
-            angles, times = np.asarray(trajectory.theta), np.asarray(trajectory.times)
-        if angles is None:
-            raise ValueError("to_fold needs a trajectory or angles=(k, m).")
-        angles = np.atleast_2d(np.asarray(angles, dtype=float))
-        keep = np.arange(0, len(angles), max(int(every), 1))
-        if keep[-1] != len(angles) - 1:
-            keep = np.append(keep, len(angles) - 1)
-        keep = keep[np.all(np.isfinite(angles[keep]), axis=1)]
-        g = self.geometry
-        first_face, first_corner = _vertex_corners(g)
-        base = self.key_frame
-        n_edges = int(np.asarray(base.edges_vertices).shape[0])
-        frames = [base]
-        for s in keep:
-            corners = g.fold(angles[s])
-            degrees = np.zeros(n_edges)
-            for j, edges in enumerate(self.crease_edge_ids):
-                degrees[list(edges)] = np.degrees(
-                    np.arctan2(np.sin(angles[s, j]), np.cos(angles[s, j]))
-                )
-            extra = {"origami_jax:hinge_angles": [float(x) for x in angles[s]]}
-            if times is not None:
-                extra["origami_jax:time"] = float(np.asarray(times)[s])
-            frames.append(
-                FoldFrame(
-                    vertices_coords=corners[first_face, first_corner],
-                    edges_assignment=frame_assignment(
-                        base.edges_assignment, degrees, self.crease_edge_ids
-                    ),
-                    edges_fold_angle_deg=degrees,
-                    frame_classes=("foldedForm",),
-                    frame_attributes=("3D",),
-                    frame_parent=0,
-                    frame_inherit=True,
-                    extra=extra,
-                )
-            )
-        return FoldFile(
-            frames=tuple(frames),
-            file_metadata={
-                "file_creator": "origami_jax",
-                "file_classes": ["singleModel", "animation"],
-                "file_title": self.name,
-            },
-        )
+        corners = _vertex_corners(self.geometry)
+        return folding_animation(
+            self.key_frame, self.geometry.fold, self.crease_edge_ids, corners, self.name,
+            trajectory=trajectory, angles=angles, times=times, every=every,
+        )  # fmt: skip
 
 
 def frame_assignment(key_assignment, degrees: np.ndarray, crease_edges) -> tuple[str, ...]:
@@ -523,3 +482,62 @@ class NetLayout(AbstractLayout):
             added_mass=self.added_mass,
             viscous=self.viscous,
         )
+
+
+def folding_animation(
+    base: FoldFrame,
+    fold,
+    crease_edges,
+    vertex_corners: tuple[np.ndarray, np.ndarray],
+    name: str,
+    *,
+    trajectory=None,
+    angles=None,
+    times=None,
+    every: int = 1,
+) -> FoldFile:
+    """A folding as a FOLD animation (`Net.to_fold`, `CreasePattern.to_fold`): `base`, then one frame
+    per kept sample with every vertex where `fold(angles)` (per face, per corner) puts it, picked by
+    `vertex_corners`, and each crease's fold angle on its FOLD edges `crease_edges`."""
+    if trajectory is not None:
+        angles, times = np.asarray(trajectory.theta), np.asarray(trajectory.times)
+    if angles is None:
+        raise ValueError("to_fold needs a trajectory or angles=(k, m).")
+    angles = np.atleast_2d(np.asarray(angles, dtype=float))
+    keep = np.arange(0, len(angles), max(int(every), 1))
+    if keep[-1] != len(angles) - 1:
+        keep = np.append(keep, len(angles) - 1)
+    keep = keep[np.all(np.isfinite(angles[keep]), axis=1)]
+    first_face, first_corner = vertex_corners
+    n_edges = int(np.asarray(base.edges_vertices).shape[0])
+    frames = [base]
+    for s in keep:
+        corners = fold(angles[s])
+        degrees = np.zeros(n_edges)
+        for j, edges in enumerate(crease_edges):
+            degrees[list(edges)] = np.degrees(
+                np.arctan2(np.sin(angles[s, j]), np.cos(angles[s, j]))
+            )
+        extra = {"origami_jax:hinge_angles": [float(x) for x in angles[s]]}
+        if times is not None:
+            extra["origami_jax:time"] = float(np.asarray(times)[s])
+        frames.append(
+            FoldFrame(
+                vertices_coords=corners[first_face, first_corner],
+                edges_assignment=frame_assignment(base.edges_assignment, degrees, crease_edges),
+                edges_fold_angle_deg=degrees,
+                frame_classes=("foldedForm",),
+                frame_attributes=("3D",),
+                frame_parent=0,
+                frame_inherit=True,
+                extra=extra,
+            )
+        )
+    return FoldFile(
+        frames=tuple(frames),
+        file_metadata={
+            "file_creator": "origami_jax",
+            "file_classes": ["singleModel", "animation"],
+            "file_title": name,
+        },
+    )
