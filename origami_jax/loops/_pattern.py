@@ -358,36 +358,11 @@ class CreasePattern:
     def seam_gap_function(self, system: FoldingSystem):
         """A traceable ``q ↦`` gap of each seam (design length units, `(s,)`), as for nets (the cut
         creases are not seams: the closure holds them together)."""
-        g = self.geometry.tree
-        seams = self.seams
-        width = g.face_coords.shape[1]
-        position = {int(f): i - 1 for i, f in enumerate(np.asarray(g.order))}
-        body = np.zeros((len(seams), 2, 2), dtype=np.int64)
-        local = np.zeros((len(seams), 2, 2, 3))
-        outlines = system.mechanism.outlines()
-        for s_ in range(len(seams)):
-            for e in range(2):
-                for side in range(2):
-                    f, k = divmod(int(seams.corners[s_, e, side]), width)
-                    b = position[f]
-                    body[s_, e, side] = b
-                    local[s_, e, side] = (
-                        g.face_coords[f, k] * self.length_scale if b < 0 else outlines[b][k]
-                    )
+        from ..net._net import seam_gap_function
 
-        def gaps(q):
-            if not len(seams):
-                return jnp.zeros((0,), jnp.asarray(q).dtype)
-            poses = system.mechanism.body_poses(q)
-            base = jnp.eye(4, dtype=poses.dtype)[None]
-            poses = jnp.concatenate([poses, base], axis=0)
-            chosen = poses[jnp.asarray(body)]
-            points = jnp.einsum("seaij,seaj->seai", chosen[..., :3, :3], jnp.asarray(local))
-            points = points + chosen[..., :3, 3]
-            distance = jnp.linalg.norm(points[:, :, 0] - points[:, :, 1], axis=-1)
-            return jnp.max(distance, axis=-1)
-
-        return gaps
+        return seam_gap_function(
+            self.geometry.tree, self.seams, system.mechanism, self.length_scale
+        )
 
     def outcome(self, system: FoldingSystem, trajectory, **kwargs):
         """`assess`'s verdict as arrays, traceable (`origami_jax.simulation.fold_outcome`)."""

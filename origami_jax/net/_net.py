@@ -228,36 +228,7 @@ class Net:
         """A traceable ``q ↦`` gap of each seam (design length units, `(s,)`) for a system this net
         built: the larger distance between the two sides' corners at either end of the seam, from
         the mechanism's body poses."""
-        g = self.geometry
-        seams = self.seams
-        width = g.face_coords.shape[1]
-        position = {int(f): i - 1 for i, f in enumerate(np.asarray(g.order))}
-        body = np.zeros((len(seams), 2, 2), dtype=np.int64)
-        local = np.zeros((len(seams), 2, 2, 3))
-        outlines = system.mechanism.outlines()
-        for s_ in range(len(seams)):
-            for e in range(2):
-                for side in range(2):
-                    f, k = divmod(int(seams.corners[s_, e, side]), width)
-                    b = position[f]
-                    body[s_, e, side] = b
-                    local[s_, e, side] = (
-                        g.face_coords[f, k] * self.length_scale if b < 0 else outlines[b][k]
-                    )
-
-        def gaps(q):
-            poses = system.mechanism.body_poses(q)
-            base = jnp.eye(4, dtype=poses.dtype)[None]
-            poses = jnp.concatenate([poses, base], axis=0)  # body −1 is the base (world frame)
-            chosen = poses[jnp.asarray(body)]
-            points = jnp.einsum("seaij,seaj->seai", chosen[..., :3, :3], jnp.asarray(local))
-            points = points + chosen[..., :3, 3]
-            # A seam's end on a vertex the two faces share stays at distance 0: a norm with a
-            # finite gradient there (yield surrogates differentiate through the gaps).
-            distance = safe_norm(points[:, :, 0] - points[:, :, 1])
-            return jnp.max(distance, axis=-1)
-
-        return gaps
+        return seam_gap_function(self.geometry, self.seams, system.mechanism, self.length_scale)
 
     def assess(self, system: FoldingSystem, trajectory, **kwargs):
         """The verdict on a folding of this net against the pattern's angles and seams
@@ -541,3 +512,38 @@ def folding_animation(
             "file_title": name,
         },
     )
+
+
+def seam_gap_function(tree_geometry, seams, mechanism, length_scale: float):
+    """A traceable ``q ↦`` gap of each seam (design length units, `(s,)`): the larger distance
+    between the two sides' corners at either end of the seam, from `mechanism`'s body poses.
+    `tree_geometry` is the panel tree's `NetGeometry` (faces in body order), `seams` its seams."""
+    g = tree_geometry
+    width = g.face_coords.shape[1]
+    position = {int(f): i - 1 for i, f in enumerate(np.asarray(g.order))}
+    body = np.zeros((len(seams), 2, 2), dtype=np.int64)
+    local = np.zeros((len(seams), 2, 2, 3))
+    outlines = mechanism.outlines()
+    for s_ in range(len(seams)):
+        for e in range(2):
+            for side in range(2):
+                f, k = divmod(int(seams.corners[s_, e, side]), width)
+                b = position[f]
+                body[s_, e, side] = b
+                local[s_, e, side] = g.face_coords[f, k] * length_scale if b < 0 else outlines[b][k]
+
+    def gaps(q):
+        if not len(seams):
+            return jnp.zeros((0,), jnp.asarray(q).dtype)
+        poses = mechanism.body_poses(q)
+        base = jnp.eye(4, dtype=poses.dtype)[None]
+        poses = jnp.concatenate([poses, base], axis=0)  # body −1 is the base (world frame)
+        chosen = poses[jnp.asarray(body)]
+        points = jnp.einsum("seaij,seaj->seai", chosen[..., :3, :3], jnp.asarray(local))
+        points = points + chosen[..., :3, 3]
+        # A seam's end on a vertex the two faces share stays at distance 0: a norm with a finite
+        # gradient there (yield surrogates differentiate through the gaps).
+        distance = safe_norm(points[:, :, 0] - points[:, :, 1])
+        return jnp.max(distance, axis=-1)
+
+    return gaps
