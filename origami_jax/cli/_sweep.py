@@ -1,6 +1,7 @@
 """`origami-jax sweep`: Run a batch sweep over designs from a TOML config, chunked, resumable."""
 
 import argparse
+import contextlib
 import time
 from pathlib import Path
 
@@ -60,6 +61,27 @@ def _list_models() -> None:
         print(f"{name}: {description}")
 
 
+@contextlib.contextmanager
+def stored_sweep_errors(out: Path):
+    """A sweep storing its chunks in `out` (`sweep`, `yield`): bad input and a folder in use are
+    one-line usage errors, a failed write (a full disk) a one-line failure, Ctrl-C an interruption
+    that says how many chunks are kept for `--resume`."""
+    from ..sweep import SweepBusyError
+
+    try:
+        yield
+    except (FileExistsError, ValueError, SweepBusyError) as error:
+        fail(str(error))
+    except OSError as error:
+        fail(f"{error.strerror or error}", EXIT_FAILED)
+    except KeyboardInterrupt:
+        stored = len(list((out / "chunks").glob("part-*.nc")))
+        raise Interrupted(
+            f"interrupted; the {stored} finished chunk(s) are kept in {out / 'chunks'}: continue "
+            "with --resume."
+        ) from None
+
+
 def run(args: argparse.Namespace) -> int:
     if args.list_models:
         _list_models()
@@ -67,7 +89,7 @@ def run(args: argparse.Namespace) -> int:
     if args.config is None:
         fail("give a CONFIG.toml (or --list-models).")
     out = check_out_folder(Path(args.out))
-    from ..sweep import SweepBusyError, load_config, sweep
+    from ..sweep import load_config, sweep
 
     try:
         config = load_config(args.config)
@@ -80,7 +102,7 @@ def run(args: argparse.Namespace) -> int:
         flush=True,
     )
     start = time.perf_counter()
-    try:
+    with stored_sweep_errors(out):
         dataset = sweep(
             config.kernel,
             config.space,
@@ -89,16 +111,6 @@ def run(args: argparse.Namespace) -> int:
             resume=args.resume,
             progress=not args.no_progress,
         )
-    except (FileExistsError, ValueError, SweepBusyError) as error:
-        fail(str(error))
-    except OSError as error:
-        fail(f"{error.strerror or error}", EXIT_FAILED)
-    except KeyboardInterrupt:
-        stored = len(list((out / "chunks").glob("part-*.nc")))
-        raise Interrupted(
-            f"interrupted; the {stored} finished chunk(s) are kept in {out / 'chunks'}: continue "
-            "with --resume."
-        ) from None
     elapsed = time.perf_counter() - start
     n, failed = dataset.attrs["n_designs"], dataset.attrs["n_failed"]
     lines = [

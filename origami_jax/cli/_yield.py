@@ -5,9 +5,7 @@ import time
 from pathlib import Path
 
 from ._common import (
-    EXIT_FAILED,
     EXIT_OK,
-    Interrupted,
     OutputFolder,
     check_out_folder,
     dumps_json,
@@ -16,6 +14,7 @@ from ._common import (
     positive,
     write_atomic,
 )
+from ._sweep import stored_sweep_errors
 
 HELP = "Estimate a net's yield under fabrication scatter (Monte Carlo, resumable)."
 DESCRIPTION = (
@@ -83,7 +82,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ..fab_yield import Scatter, load_scatter, yield_estimate
-    from ..sweep import SweepBusyError
     from ..system import AIR, KOH_SOLUTION, HingeDesign
 
     int_range(args.samples, "--samples", 1, 10_000_000)
@@ -109,7 +107,7 @@ def run(args: argparse.Namespace) -> int:
         flush=True,
     )
     start = time.perf_counter()
-    try:
+    with stored_sweep_errors(out):
         estimate = yield_estimate(
             args.net,
             scatter,
@@ -124,16 +122,6 @@ def run(args: argparse.Namespace) -> int:
             chunk_size=args.chunk_size,
             progress=not args.no_progress,
         )
-    except (FileExistsError, ValueError, SweepBusyError) as error:
-        fail(str(error))
-    except OSError as error:
-        fail(f"{error.strerror or error}", EXIT_FAILED)
-    except KeyboardInterrupt:
-        stored = len(list((out / "chunks").glob("part-*.nc")))
-        raise Interrupted(
-            f"interrupted; the {stored} finished chunk(s) are kept in {out / 'chunks'}: continue "
-            "with --resume."
-        ) from None
     elapsed = time.perf_counter() - start
     ds = estimate.dataset
     result = {
