@@ -477,6 +477,122 @@ def test_cli_view_sweep_member_simulates_it_again(tmp_path):
     assert (tmp_path / "sw" / "sweep_member_1.html").is_file()
 
 
+# ---------------------------------------------------------------- nets and crease patterns
+
+
+@pytest.fixture(scope="module")
+def corner_cube():
+    from origami_jax.net import load_net
+
+    net = load_net("corner_cube")
+    return net, net.system()
+
+
+def test_net_hinges_ride_their_creases_and_contacts_are_marked(corner_cube):
+    """Hinge segments of a net lie on the crease in the flat state (`hinge_layout`) and, folded, on
+    an edge shared by the two panels the hinge joins (their own `panel_polygons`); a flap turned
+    by π onto the base is marked as touching it, inside the base, and both panels highlighted."""
+    net, system = corner_cube
+    mechanism = system.mechanism
+    folded = np.array(net.intended_angles, dtype=float)
+    onto_base = np.array([math.pi, 0.0])
+    scene = view.scene_from_mechanism(system, np.stack([np.zeros(2), folded, onto_base]))
+    layout = mechanism.hinge_layout()
+    assert scene.n_hinges == mechanism.n_hinges == 2
+    for h in range(2):
+        ends = scene.vertices[0][scene.hinges[h]]
+        assert (
+            min(np.abs(ends - layout.ends[h]).max(), np.abs(ends[::-1] - layout.ends[h]).max())
+            < GEOMETRY_TOL
+        )
+    polygons = [np.asarray(mechanism.base_outline()), *mechanism.panel_polygons(folded)]
+    for h in range(2):
+        ends = scene.vertices[1][scene.hinges[h]]
+        for body in (int(layout.child[h]) + 1, int(layout.parent[h]) + 1):
+            distance = np.linalg.norm(ends[:, None] - polygons[body][None], axis=-1).min(axis=1)
+            assert np.all(distance < GEOMETRY_TOL), (h, body, distance)
+    # Contacts: none flat; flap 1 on the base at θ = π (the base is the square [0, 200]² µm).
+    assert set(scene.contact_frames.tolist()) == {2}
+    points = scene.contact_points
+    assert np.all((points[:, :2] > 0) & (points[:, :2] < 200)) and np.all(np.abs(points[:, 2]) < 1)
+    flap = 1 + int(layout.child[0])
+    assert scene.highlight_panels.tolist() == [i in (0, flap) for i in range(3)]
+
+
+def test_fold_result_file_carries_verdict_and_contacts(corner_cube, tmp_path):
+    """`origami-jax fold` annotates `trajectory.fold`: the view of that file shows the verdict, the
+    creases outside tolerance and the contacts, as the view of the trajectory itself does."""
+    from origami_jax.cli._fold import _view_annotations
+    from origami_jax.fold import write_fold
+    from origami_jax.simulation import FoldReport, FoldVerdict
+
+    net, system = corner_cube
+    theta = np.stack([np.zeros(2), np.array(net.intended_angles), np.array([math.pi, 0.0])])
+    trajectory = synthetic_trajectory(system, theta)
+    report = FoldReport(
+        verdict=FoldVerdict.JAMMED,
+        reason="contact stops a crease short",
+        final_angles=theta[-1],
+        intended_angles=np.array(net.intended_angles),
+        angle_errors=theta[-1] - np.array(net.intended_angles),
+        seam_gaps=np.zeros(1),
+        angle_tolerance=math.radians(3),
+        seam_tolerance=2.0,
+        time_to_fold=None,
+        settled=True,
+        contacts=14,
+        min_gap=-0.2,
+        max_penetration=0.2,
+        penetration_fraction=1.0,
+        result="successful",
+    )
+    extras, key_extra = _view_annotations(net, system, trajectory, report)
+    path = tmp_path / "trajectory.fold"
+    write_fold(path, net.to_fold(trajectory, extras=extras, key_extra=key_extra))
+    from_file = view.scene_from_fold(path)
+    direct = scene_from(trajectory, system=system, report=report)
+    for scene in (from_file, direct):
+        assert scene.verdict.startswith("verdict: jammed (contact stops a crease short)")
+        assert scene.verdict_level == "fail"
+        assert scene.highlight_hinges.tolist() == [True, True]
+        assert set(scene.contact_frames.tolist()) == {2}
+    # The file's contact points are the trajectory's, in the FOLD file's unit.
+    np.testing.assert_allclose(
+        np.sort(from_file.contact_points, axis=0),
+        np.sort(direct.contact_points / net.length_scale, axis=0),
+        atol=1e-8,
+    )
+    with pytest.raises(ValueError, match="one dict per sample"):
+        net.to_fold(trajectory, extras=extras[:1])
+
+
+@pytest.mark.slow  # a closed-loop pattern and an arc-hinge net compile their own kinematics
+@pytest.mark.parametrize("case", ["loops", "arc"])
+def test_every_mechanism_draws_its_hinges(case):
+    """Closed loops (tree hinges and cut creases) and arc hinges (the strip starts at the parent's
+    edge) get hinge segments on their creases in the flat state, and fold angles plotted."""
+    if case == "loops":
+        from origami_jax.loops import load_pattern
+
+        system = load_pattern("vertex_degree4").system(contact=False)
+    else:
+        from origami_jax.net import load_net
+
+        system = load_net("corner_cube").system(hinges="arc", contact=False)
+    mechanism = system.mechanism
+    scene = view.scene_from_mechanism(system)
+    layout = mechanism.hinge_layout()
+    assert scene.n_hinges == mechanism.n_hinges == len(layout.parent)
+    for h in range(scene.n_hinges):
+        ends = scene.vertices[0][scene.hinges[h]]
+        # On the crease's line, within its extent.
+        direction = layout.ends[h][1] - layout.ends[h][0]
+        rel = ends - layout.ends[h][0]
+        off = rel - np.outer(rel @ direction, direction) / (direction @ direction)
+        assert np.abs(off).max() < GEOMETRY_TOL
+    assert "hinge positions unknown" not in " ".join(scene.notes)
+
+
 # ---------------------------------------------------------------- a real browser
 
 

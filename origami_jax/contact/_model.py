@@ -341,6 +341,21 @@ class PanelContact(AbstractContact):
         flipped = local0[..., 2] * local1[..., 2] < 0
         return jnp.any(flipped & ((cover0 > 0) | (cover1 > 0)))
 
+    def engaged_points(
+        self, mechanism: AbstractMechanism, q: Float[Array, " nq"]
+    ) -> tuple[Float[Array, "n n 3"], Float[Array, "n n"]]:
+        """Where the panels touch at ``q``, for drawing: for every ordered pair of bodies `(a, b)`
+        (the base last) the mean world position of `a`'s points that `report` counts as engaged
+        on `b`'s face (coverage > ½, ``g < 1.1 ĝ``), shape `(n, n, 3)` (length; zeros where none),
+        and how many there are, `(n, n)`."""
+        _, world, local = self._local(mechanism, q)
+        _, _, gap, _, coverage = self._pair_terms(local)
+        engaged = (coverage > 0.5) & (gap < 1.1 * self.activation)  # (a, b, p)
+        count = jnp.sum(engaged, axis=-1)
+        total = jnp.einsum("abp,api->abi", engaged.astype(world.dtype), world)
+        mean = total / jnp.maximum(count, 1)[..., None].astype(world.dtype)
+        return mean, count
+
     def report(self, mechanism, q) -> dict[str, Array]:
         """Contact state at ``q``: the smallest gap over pairs whose point lies over the face
         (coverage > ½; length, `inf` if none), how many such pairs touch (``g < 1.1 ĝ``: a panel
@@ -354,3 +369,27 @@ class PanelContact(AbstractContact):
             "engaged": jnp.sum(covered & (gap < 1.1 * self.activation)),
             "penetration": jnp.maximum(-smallest, 0.0),
         }
+
+
+def contact_points(
+    system, q: Float[ArrayLike, "T nq"]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Where the panels of `system` (a `FoldingSystem` with a `PanelContact`) touch at each of the
+    states `q` `(T, n_coordinates)`, for drawing and export: one entry per engaged ordered body pair
+    and state (`PanelContact.engaged_points`), as host arrays `frames` `(K,)` (index into `q`),
+    `points` `(K, 3)` (world, length units) and `bodies` `(K, 2)` (the point's body, the face's
+    body; the base is `n_bodies`). Empty without a contact model; non-finite states are skipped."""
+    contact = getattr(system, "contact", None)
+    if contact is None or not hasattr(contact, "engaged_points"):
+        return np.zeros(0, np.int64), np.zeros((0, 3)), np.zeros((0, 2), np.int64)
+    q = jnp.asarray(q)
+    points, count = _engaged_over_states(contact, system.mechanism, q)
+    points, count = np.asarray(points), np.asarray(count)
+    count = np.where(np.all(np.isfinite(np.asarray(q)), axis=1)[:, None, None], count, 0)
+    frames, a, b = np.nonzero(count > 0)
+    return frames.astype(np.int64), points[frames, a, b], np.stack([a, b], axis=1).astype(np.int64)
+
+
+@eqx.filter_jit
+def _engaged_over_states(contact, mechanism, q):
+    return jax.vmap(lambda x: contact.engaged_points(mechanism, x))(q)

@@ -382,15 +382,20 @@ class CreasePattern:
 
     # ---- output ----
 
-    def to_fold(self, trajectory=None, *, angles=None, times=None, every: int = 1) -> FoldFile:
+    def to_fold(
+        self, trajectory=None, *, angles=None, times=None, every: int = 1, extras=None,
+        key_extra=None,
+    ) -> FoldFile:  # fmt: skip
         """The folding as a FOLD animation: the crease pattern (facets merged), then one frame per kept
-        sample with every vertex where the folded panels put it and every crease's fold angle."""
+        sample with every vertex where the folded panels put it and every crease's fold angle
+        (`extras`, `key_extra`: see `Net.to_fold`)."""
         from ..net._net import _vertex_corners, folding_animation
 
         g = self.geometry
         return folding_animation(
             g.frame, g.fold, g.crease_edges, _vertex_corners(g.tree), self.name,
-            trajectory=trajectory, angles=angles, times=times, every=every,
+            trajectory=trajectory, angles=angles, times=times, every=every, extras=extras,
+            key_extra=key_extra,
         )  # fmt: skip
 
 

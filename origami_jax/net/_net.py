@@ -245,16 +245,22 @@ class Net:
         kwargs.setdefault("intended_angles", jnp.asarray(self.intended_angles))
         return fold_outcome(system, trajectory, seam_gaps=self.seam_gap_function(system), **kwargs)
 
-    def to_fold(self, trajectory=None, *, angles=None, times=None, every: int = 1) -> FoldFile:
+    def to_fold(
+        self, trajectory=None, *, angles=None, times=None, every: int = 1, extras=None,
+        key_extra=None,
+    ) -> FoldFile:  # fmt: skip
         """The folding as a FOLD animation: the crease pattern, then one frame per kept sample with
         every vertex where the folded panels put it (in the FOLD file's unit) and the fold angles.
 
-        Give a `Trajectory` (its `theta`, `times`) or `angles` `(k, m)` (rad) and optional `times`.
+        Give a `Trajectory` (its `theta`, `times`) or `angles` `(k, m)` (rad) and optional `times`;
+        `extras` (one dict per sample) and `key_extra` add `origami_jax:` properties to the frames
+        and to the crease pattern (`folding_animation`).
         """
         corners = _vertex_corners(self.geometry)
         return folding_animation(
             self.key_frame, self.geometry.fold, self.crease_edge_ids, corners, self.name,
-            trajectory=trajectory, angles=angles, times=times, every=every,
+            trajectory=trajectory, angles=angles, times=times, every=every, extras=extras,
+            key_extra=key_extra,
         )  # fmt: skip
 
 
@@ -466,15 +472,27 @@ def folding_animation(
     angles=None,
     times=None,
     every: int = 1,
+    extras=None,
+    key_extra=None,
 ) -> FoldFile:
     """A folding as a FOLD animation (`Net.to_fold`, `CreasePattern.to_fold`): `base`, then one frame
     per kept sample with every vertex where `fold(angles)` (per face, per corner) puts it, picked by
-    `vertex_corners`, and each crease's fold angle on its FOLD edges `crease_edges`."""
+    `vertex_corners`, and each crease's fold angle on its FOLD edges `crease_edges`.
+
+    `extras`: one dict of `origami_jax:` properties per sample (all samples, not only the kept
+    ones), added to that sample's frame; `key_extra`: properties added to the crease-pattern frame
+    (e.g. the verdict)."""
     if trajectory is not None:
         angles, times = np.asarray(trajectory.theta), np.asarray(trajectory.times)
     if angles is None:
         raise ValueError("to_fold needs a trajectory or angles=(k, m).")
     angles = np.atleast_2d(np.asarray(angles, dtype=float))
+    if extras is not None and len(extras) != len(angles):
+        raise ValueError(
+            f"extras must have one dict per sample ({len(angles)}), got {len(extras)}."
+        )
+    if key_extra:
+        base = dataclasses.replace(base, extra={**base.extra, **key_extra})
     keep = np.arange(0, len(angles), max(int(every), 1))
     if keep[-1] != len(angles) - 1:
         keep = np.append(keep, len(angles) - 1)
@@ -492,6 +510,8 @@ def folding_animation(
         extra = {"origami_jax:hinge_angles": [float(x) for x in angles[s]]}
         if times is not None:
             extra["origami_jax:time"] = float(np.asarray(times)[s])
+        if extras is not None:
+            extra.update(extras[s])
         frames.append(
             FoldFrame(
                 vertices_coords=corners[first_face, first_corner],

@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from ._fold_scene import FILE_VERDICT_LEVELS
 from ._scene import Scene
 
 # Sector arcs of a single vertex are drawn with one corner per this angle (rad) at least.
@@ -206,6 +207,7 @@ def scene_from_trajectory(
     system: Any,
     *,
     thickness: float | None = None,
+    report: Any = None,
     title: str = "folding trajectory",
 ) -> Scene:
     """A scene of a simulated trajectory of `system` (a `FoldingSystem` or a mechanism).
@@ -217,8 +219,13 @@ def scene_from_trajectory(
     another: panels do not collide in the model unless the system has a contact model).
     Samples after a failed solve (non-finite) are dropped and the failure is the verdict.
 
+    A system with a panel contact model (nets, crease patterns) gets its contacts marked where
+    panels touch (`PanelContact.engaged_points`) and the panels touching at the end highlighted.
+
     **Arguments:** `trajectory` an `origami_jax.simulation.Trajectory` (one member, not a batch);
-    `thickness` panel thickness in the system's length unit (default: not drawn to scale).
+    `thickness` panel thickness in the system's length unit (default: not drawn to scale);
+    `report` the run's `FoldReport` (`Net.assess`, `CreasePattern.assess`): its verdict is the
+    banner and the creases outside its angle tolerance are highlighted.
     """
     times = np.asarray(trajectory.times, dtype=float)
     q = np.asarray(trajectory.state[0] if trajectory.state is not None else trajectory.theta)
@@ -251,15 +258,31 @@ def scene_from_trajectory(
 
         message = RESULTS[result]  # pyright: ignore[reportInvalidTypeArguments] (an enum lookup)
         text, level = f"solve failed: {message}", "fail"
+    highlight = None
+    if report is not None:
+        text, level, highlight = _report_banner(report, scene.n_hinges)
     units = getattr(system, "units", None)
     return scene.replace(
         verdict=text,
         verdict_level=level,
+        highlight_hinges=highlight,
         time_unit=scene.time_unit
         if units is None
         else _unit_name(units.second_per_time, _TIME_NAMES),
         notes=(*scene.notes, *notes),
     )
+
+
+def _report_banner(report: Any, n_hinges: int) -> tuple[str, str, np.ndarray | None]:
+    """Banner text, level and the hinges to highlight (outside the angle tolerance) of a
+    `FoldReport`."""
+    verdict = str(report.verdict)
+    text = f"verdict: {verdict} ({report.reason})"
+    errors = np.abs(np.asarray(report.angle_errors, dtype=float))
+    highlight = errors > report.angle_tolerance if len(errors) == n_hinges else None
+    if highlight is not None and np.any(highlight):
+        text += f"; {int(np.sum(highlight))} crease(s) outside tolerance highlighted"
+    return text, FILE_VERDICT_LEVELS.get(verdict, "fail"), highlight
 
 
 def scene_from_mechanism(
@@ -275,6 +298,7 @@ def scene_from_mechanism(
     import jax.numpy as jnp
 
     units = getattr(mechanism, "units", None)
+    system = mechanism
     mechanism = getattr(mechanism, "mechanism", mechanism)
     if q is None:
         q = np.asarray(mechanism.rest_state()[0])[None]
@@ -309,13 +333,17 @@ def scene_from_mechanism(
         sizes.insert(0, len(base))
     offsets = np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64)
     vertices = np.concatenate(panels, axis=1)
-    first_body = 1 if base is not None else 0
-    hinges = _chain_hinges(mechanism, outlines, rest_poses, offsets[first_body:])
+    hinges = _hinge_segments(mechanism, outlines, rest_poses, offsets, base)
     if hinges is None:
         hinges = np.zeros((0, 2), np.int64)
         angles = angles[:, :0]
         notes.append("hinge positions unknown for this mechanism: fold angles not plotted")
     contact_frames, contact_points = _flat_contacts(mechanism, vertices, hinges, angles)
+    first = 1 if base is not None else 0
+    frames, points, touching = _panel_contacts(system, q, len(offsets) - 1, first)
+    if touching is not None:
+        contact_frames, contact_points = frames, points
+        notes.append("contacts: where panels touch (the contact model's engaged points)")
     return Scene(
         vertices=vertices,
         offsets=offsets,
@@ -325,6 +353,7 @@ def scene_from_mechanism(
         hinge_names=tuple(f"hinge {i + 1}" for i in range(len(hinges))),
         thickness=thickness,
         fixed_panels=np.array(fixed),
+        highlight_panels=touching,
         contact_frames=contact_frames,
         contact_points=contact_points,
         title=title,
@@ -365,22 +394,55 @@ def _chain_base(chain, outline: np.ndarray, pose: np.ndarray) -> np.ndarray:
     return ((rest - point) @ turn.T + point)[::-1].copy()
 
 
-def _chain_hinges(mechanism, outlines, rest_poses, offsets) -> np.ndarray | None:
-    """Hinge `i` of a serial chain: the two corners of flap `i` nearest its axis (at rest)."""
-    if not (hasattr(mechanism, "axes") and hasattr(mechanism, "points")):
+def _hinge_segments(mechanism, outlines, rest_poses, offsets, base) -> np.ndarray | None:
+    """Each hinge as two panel corners: the corners of the child body (or, when closer, of the
+    parent body or the drawn base) nearest the two ends of its crease in the flat state
+    (`hinge_layout`), so the segment moves with that body. `offsets`: the scene's panel offsets;
+    `base`: the drawn base polygon (scene panel 0) or `None`."""
+    layout = mechanism.hinge_layout()
+    if len(layout.parent) != mechanism.n_hinges:
         return None
-    if mechanism.n_hinges != len(outlines):
-        return None
-    axes = np.asarray(mechanism.axes, dtype=float)
-    points = np.asarray(mechanism.points, dtype=float)
+    first = 1 if base is not None else 0
+    rest = [o @ p[:3, :3].T + p[:3, 3] for o, p in zip(outlines, rest_poses, strict=True)]
     out = []
-    for i, outline in enumerate(outlines):
-        rest = outline @ rest_poses[i, :3, :3].T + rest_poses[i, :3, 3]
-        rel = rest - points[i]
-        distance = np.linalg.norm(rel - np.outer(rel @ axes[i], axes[i]), axis=1)
-        nearest = np.sort(np.argsort(distance, kind="stable")[:2])
-        out.append([offsets[i] + nearest[0], offsets[i] + nearest[1]])
+    for h in range(mechanism.n_hinges):
+        best = None
+        for body in (int(layout.child[h]), int(layout.parent[h])):
+            if body < 0 and base is None:
+                continue
+            corners = base if body < 0 else rest[body]
+            start = offsets[0] if body < 0 else offsets[first + body]
+            distance = np.linalg.norm(corners[None] - np.asarray(layout.ends[h])[:, None], axis=-1)
+            i = int(np.argmin(distance[0]))
+            other = distance[1].copy()
+            other[i] = np.inf
+            j = int(np.argmin(other))
+            error = distance[0, i] + other[j]
+            if best is None or error < best[0]:
+                best = (error, start + min(i, j), start + max(i, j))
+        if best is None:
+            return None
+        out.append(best[1:])
     return np.array(out, dtype=np.int64).reshape(-1, 2)
+
+
+def _panel_contacts(system, q, n_panels: int, first: int):
+    """Contacts of a system with a panel contact model at every state `q` `(T, n_coordinates)`
+    (`origami_jax.contact.contact_points`): frames, points, and the scene panels (moving body `b` is
+    panel `first + b`, the base panel 0) touching at the last state (`None` without a model)."""
+    if getattr(system, "contact", None) is None:
+        return np.zeros(0, np.int64), np.zeros((0, 3)), None
+    from ..contact import contact_points
+
+    frames, points, bodies = contact_points(system, q)
+    highlight = np.zeros(n_panels, bool)
+    n_bodies = system.mechanism.n_bodies
+    for body in np.unique(bodies[frames == len(q) - 1]):
+        if body < n_bodies:
+            highlight[first + body] = True
+        elif first:
+            highlight[0] = True
+    return frames, points, highlight
 
 
 def _flat_contacts(mechanism, vertices, hinges, angles):

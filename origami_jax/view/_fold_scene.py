@@ -22,6 +22,15 @@ from ._scene import Scene
 FLAT_TOL = 1e-9
 
 
+# Banner level of the verdicts files carry: a single vertex's unfolding verdicts and a folding's.
+FILE_VERDICT_LEVELS = {
+    "flat-unfolded": "ok",
+    "flat-folded": "warn",
+    "folded": "ok",
+    "unfinished": "warn",
+}
+
+
 def _rotation(axis: np.ndarray, angle: float) -> np.ndarray:
     """Rotation matrix about the unit `axis` by `angle` (right-hand rule)."""
     x, y, z = axis
@@ -105,7 +114,10 @@ def scene_from_fold(source, *, title: str | None = None) -> Scene:
     - Hinges: edges shared by two faces that are not boundary edges; fold angles from the 3D
       coordinates (`fold_angles_from_coords`) or, for a folded crease pattern, the frame's.
     - Times: `origami_jax:time` of every frame drawn (unit `origami_jax:time_unit`), else the frame
-      number; the verdict: `origami_jax:verdict` of the key frame.
+      number; the verdict: `origami_jax:verdict` (and `origami_jax:verdict_reason`) of the key
+      frame, the creases outside tolerance: its `origami_jax:off_target_edges` (FOLD edge ids).
+    - Contacts: `origami_jax:contact_points` of each frame drawn (`(k, 3)`, the frame's unit), as
+      `origami-jax fold` writes them.
     """
     from ..fold import FoldFile, fold_angles_from_coords, normalise_fold, read_fold
 
@@ -192,15 +204,25 @@ def scene_from_fold(source, *, title: str | None = None) -> Scene:
         time_unit, time_label = "", "frame"
     unit = key.frame_unit or fold.frame(used[0]).frame_unit or "unit"
     verdict = key.extra.get("origami_jax:verdict")
-    level = "ok"
+    level, banner = "ok", None
     if verdict is not None:
-        level = (
-            "ok"
-            if verdict in ("flat-unfolded",)
-            else "warn"
-            if verdict == "flat-folded"
-            else "fail"
-        )
+        level = FILE_VERDICT_LEVELS.get(str(verdict), "fail")
+        reason = key.extra.get("origami_jax:verdict_reason")
+        banner = f"verdict: {verdict}" + (f" ({reason})" if reason else "")
+    off_target = set(key.extra.get("origami_jax:off_target_edges", ()))
+    highlight = None
+    if off_target:
+        highlight = np.array([int(e) in off_target for e in hinge_edges], dtype=bool)
+        if banner is not None:
+            banner += f"; {int(np.sum(highlight))} crease edge(s) outside tolerance highlighted"
+    contact_frames, contact_points = [], []
+    for position, extra in enumerate(extras):
+        points = np.asarray(extra.get("origami_jax:contact_points", ()), dtype=float)
+        if points.size:
+            contact_points.append(points.reshape(-1, 3))
+            contact_frames.extend([position] * len(contact_points[-1]))
+    if contact_frames:
+        notes.append("contacts: where panels touch (origami_jax:contact_points of each frame)")
     return Scene(
         vertices=np.stack(vertices),
         offsets=offsets,
@@ -208,7 +230,10 @@ def scene_from_fold(source, *, title: str | None = None) -> Scene:
         hinges=np.array(segments, dtype=np.int64).reshape(-1, 2),
         fold_angles=np.stack(angles).reshape(len(used), len(segments)),
         hinge_names=tuple(names),
-        verdict=None if verdict is None else f"verdict: {verdict}",
+        highlight_hinges=highlight,
+        contact_frames=np.array(contact_frames, dtype=np.int64),
+        contact_points=np.concatenate(contact_points) if contact_points else np.zeros((0, 3)),
+        verdict=banner,
         verdict_level=level,
         title=title
         or str(fold.file_metadata.get("file_title") or key.extra.get("frame_title") or "FOLD file"),

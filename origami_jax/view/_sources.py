@@ -43,6 +43,7 @@ def scene_from(
     states: Any = None,
     member: int | None = None,
     thickness: float | None = None,
+    report: Any = None,
     max_frames: int | None = DEFAULT_MAX_FRAMES,
     title: str | None = None,
 ) -> Scene:
@@ -55,6 +56,8 @@ def scene_from(
     - `states`: `(T, n_coordinates)` states of a `FoldingSystem`/mechanism (default its rest state).
     - `member`: the design index of a sweep dataset or `sweep.nc`.
     - `thickness`: panel thickness of a mechanism, its length unit (files give their own).
+    - `report`: the `FoldReport` of a net's or crease pattern's `Trajectory` (`assess`): the
+      verdict banner and the creases outside tolerance highlighted.
     - `title`: the page's title.
 
     **Raises:** `ValueError` with what is missing (a trajectory without its system, a sweep without
@@ -83,7 +86,12 @@ def scene_from(
         )
     elif _is(obj, "origami_jax.simulation._slow_ramp", "SlowRampResult"):
         return scene_from(
-            obj.trajectory, system=system, thickness=thickness, max_frames=max_frames, title=title
+            obj.trajectory,
+            system=system,
+            thickness=thickness,
+            report=report,
+            max_frames=max_frames,
+            title=title,
         )
     elif _is(obj, "origami_jax.simulation._simulate", "Trajectory"):
         if system is None:
@@ -91,7 +99,7 @@ def scene_from(
                 "a Trajectory does not hold its system: pass system=, the FoldingSystem it was "
                 "simulated with"
             )
-        scene = scene_from_trajectory(obj, system, thickness=thickness, **kwargs)
+        scene = scene_from_trajectory(obj, system, thickness=thickness, report=report, **kwargs)
     elif _is(obj, "origami_jax.system._system", "FoldingSystem") or _is(
         obj, "origami_jax.system._mechanism", "AbstractMechanism"
     ):
