@@ -33,12 +33,12 @@ from pathlib import Path
 import numpy as np
 
 from ._catalogue_loops import VERBATIM, loop_patterns
-from ._model import WRITTEN_SPEC, FoldFile, FoldFrame
+from ._model import FoldFile
+from ._pattern_file import crease_pattern_file, edges_of
 from ._write import write_fold
 
 CATALOGUE_DIR = Path(__file__).with_name("catalogue")
 EDGE_UM = 200.0
-CREATOR = "origami_jax catalogue (python -m origami_jax.fold.catalogue._generate)"
 # Fold angles (degrees) that close the regular polyhedra: 180° minus the dihedral angle.
 TETRAHEDRON_FOLD_DEG = 180.0 - math.degrees(math.acos(1.0 / 3.0))  # 109.47°
 OCTAHEDRON_FOLD_DEG = 180.0 - math.degrees(math.acos(-1.0 / 3.0))  # 70.53°
@@ -158,14 +158,7 @@ def _net_fold(
         return index[key]
 
     faces = [tuple(vertex(p) for p in polygon) for polygon in polygons]
-    count: dict[frozenset[int], int] = {}
-    edges: list[tuple[int, int]] = []
-    for face in faces:
-        for u, v in zip(face, face[1:] + face[:1], strict=True):
-            key = frozenset((u, v))
-            if key not in count:
-                edges.append((u, v))
-            count[key] = count.get(key, 0) + 1
+    edges, count = edges_of(faces)
     xy = np.array(coords)
     assignment = []
     angles = []
@@ -177,24 +170,16 @@ def _net_fold(
             angle = crease_deg(xy[u], xy[v])
             assignment.append("V" if angle > 0 else "M" if angle < 0 else "F")
             angles.append(angle)
-    frame = FoldFrame(
-        vertices_coords=xy,
-        edges_vertices=np.array(edges),
-        edges_assignment=tuple(assignment),
-        edges_fold_angle_deg=np.array(angles),
-        faces_vertices=tuple(faces),
-        frame_unit="um",
-        frame_classes=("creasePattern",),
-        frame_attributes=("2D", "manifold", "orientable"),
-        extra={"frame_title": frame_title},
+    return crease_pattern_file(
+        title=title,
+        frame_title=frame_title,
+        description=description,
+        coords=xy,
+        edges=edges,
+        assignment=assignment,
+        angles=angles,
+        faces=faces,
     )
-    metadata = {
-        "file_creator": CREATOR,
-        "file_title": title,
-        "file_description": description,
-        "file_classes": ["singleModel"],
-    }
-    return FoldFile(frames=(frame,), file_spec=WRITTEN_SPEC, file_metadata=metadata)
 
 
 def _clean(x: float) -> float:

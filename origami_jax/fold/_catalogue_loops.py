@@ -30,9 +30,9 @@ import math
 
 import numpy as np
 
-from ._model import WRITTEN_SPEC, FoldFile, FoldFrame
+from ._model import FoldFile
+from ._pattern_file import crease_pattern_file, edges_of
 
-CREATOR = "origami_jax catalogue (python -m origami_jax.fold.catalogue._generate)"
 OS_CREATOR = "Origami Simulator: http://git.amandaghassaei.com/OrigamiSimulator/"
 MIURA_ALPHA_DEG = 60.0
 MIURA_THETA_DEG = 45.0  # Schenk & Guest's folding parameter of the shipped Miura-ori
@@ -58,41 +58,21 @@ def _pattern(
     angles: list[float],
     faces: list[tuple[int, ...]],
 ) -> FoldFile:
-    frame = FoldFrame(
-        vertices_coords=np.asarray([[_clean(x) for x in p] for p in coords]),
-        edges_vertices=np.asarray(edges),
-        edges_assignment=tuple(assignment),
-        edges_fold_angle_deg=np.asarray(angles, dtype=float),
-        faces_vertices=tuple(tuple(int(v) for v in f) for f in faces),
-        frame_unit="um",
-        frame_classes=("creasePattern",),
-        frame_attributes=("2D", "manifold", "orientable"),
-        extra={"frame_title": frame_title},
+    return crease_pattern_file(
+        title=title,
+        frame_title=frame_title,
+        description=description,
+        coords=np.asarray([[_clean(x) for x in p] for p in coords]),
+        edges=edges,
+        assignment=assignment,
+        angles=angles,
+        faces=faces,
     )
-    metadata = {
-        "file_creator": CREATOR,
-        "file_title": title,
-        "file_description": description,
-        "file_classes": ["singleModel"],
-    }
-    return FoldFile(frames=(frame,), file_spec=WRITTEN_SPEC, file_metadata=metadata)
 
 
 def _clean(x: float) -> float:
     x = float(x)
     return float(round(x)) if abs(x - round(x)) < 1e-9 else round(x, 12)
-
-
-def _edges_of(faces: list[tuple[int, ...]]) -> tuple[list[tuple[int, int]], dict]:
-    count: dict[frozenset[int], int] = {}
-    edges: list[tuple[int, int]] = []
-    for face in faces:
-        for u, v in zip(face, face[1:] + face[:1], strict=True):
-            key = frozenset((u, v))
-            if key not in count:
-                edges.append((u, v))
-            count[key] = count.get(key, 0) + 1
-    return edges, count
 
 
 def _closure_vectors(geometry, angles: np.ndarray) -> np.ndarray:
@@ -189,7 +169,7 @@ def _fan(
             i = i % n_b + 1
             face.append(i)
         faces.append(tuple(face))
-    edges, count = _edges_of(faces)
+    edges, count = edges_of(faces)
     assignment, angles = [], []
     for u, v in edges:
         if count[frozenset((u, v))] == 1:
@@ -327,7 +307,7 @@ def miura_sheet(
     from column to column, straight lines alternate at every vertex."""
     coords, faces, index = _miura_geometry(columns, rows, a, b, alpha_deg)
     straight, zigzag = miura_fold_angles(math.radians(alpha_deg), math.radians(theta_deg))
-    edges, count = _edges_of(faces)
+    edges, count = edges_of(faces)
     where = {v: k for k, v in index.items()}
     assignment, angles = [], []
     for u, v in edges:
@@ -403,7 +383,7 @@ def _waterbomb_tessellation(units: int = 2) -> FoldFile:
             else:
                 faces.append((vertex(lower[a], y0), vertex(upper[b + 1], y1), vertex(upper[b], y1)))
                 b += 1
-    edges, count = _edges_of(faces)
+    edges, count = edges_of(faces)
     xy = np.asarray(coords)
     assignment, angles = [], []
     for u, v in edges:
@@ -502,7 +482,7 @@ def origami_simulator_text() -> str:
     # Wound counter-clockwise seen from +y (the program's up), the other way round in (x, z).
     triangles = [(t[0], t[2], t[1]) for t in triangles]
     straight, zigzag = math.pi, math.pi
-    edges, count = _edges_of(triangles)
+    edges, count = edges_of(triangles)
     xy = coords
     assignment, angles = [], []
     for u, v in edges:

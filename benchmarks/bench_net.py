@@ -1,0 +1,207 @@
+"""A cube net folding with contact: ours vs MuJoCo (C) with the same panels, hinge springs and contacts.
+
+The net: `cube_net_01` (six 200 µm SiNx squares, five creases to 90°, literature bilayer hinges, KOH
+solution), folded from flat by a step release; ours with panel drag and `PanelContact` (smooth IPC
+barrier), explicit Tsit5 at the default tolerances, jitted. MuJoCo (`benchmarks._mujoco_tree`): the
+same bodies, inertias, hinge axes and spring constants on the same tree, switched-on springs (an
+actuator per hinge whose control steps from 0 to 1 at its release time), linear joint damping at
+critical for each hinge (MuJoCo has no panel drag), each panel a thin convex prism with frictionless
+soft contacts, `implicitfast` at a fixed step of 1/200 of the shortest hinge period, `mujoco.rollout`.
+
+The two dissipate differently, so they take different paths; what they must share is the end: the
+closed cube (every crease at 90°, every seam closed). Answers are compared there first (final angles
+against the targets, and the seams' gaps from the net's own rigid folding), then timed: one
+trajectory (compile apart), and a batch with scattered hinges (±10 % stiffness per crease, release
+times over 20 µs) in nets/s: ours `jax.vmap` over the batch, MuJoCo one rollout over a list of
+models. MJX (MuJoCo on accelerators) would be the GPU peer; it is not run on a CPU.
+
+Run: ``python -m benchmarks --only net`` (``--quick``: smaller batches, one repeat).
+"""
+
+import time
+
+import diffrax
+import jax
+import jax.numpy as jnp
+import mujoco
+import numpy as np
+from mujoco import rollout
+
+import origami_jax.simulation as sim
+from origami_jax.net import load_net
+from origami_jax.system import KOH_SOLUTION, HingeDesign
+
+from ._harness import Result, Timing, time_calls
+from ._mujoco_tree import critical_damping, release_controls, tree_model
+
+NET = "cube_net_01"
+T1 = 1500.0  # µs: both have folded and settled by then
+N_SAVE = 301
+ANSWER_TOL = 0.01  # rad: each model's final angles against the 90° targets (the verdict allows 3°)
+SEAM_TOL = 0.01  # of the 200 µm edge: seams closed, as the verdict asks
+SCATTER, RELEASE_SPAN = 0.1, 20.0  # ±10 % stiffness, release times uniform over 20 µs
+
+
+def _solve(system):
+    return sim.simulate(
+        system,
+        sim.Step(),
+        t1=T1,
+        n_save=N_SAVE,
+        solver=diffrax.Tsit5(),
+        max_steps=200_000,
+        throw=False,
+    )
+
+
+def _scattered(system, factor, release):
+    h = system.hinges
+    hinges = type(h)(h.stiffness * factor, h.target, h.radius, release)
+    return type(system)(system.mechanism, hinges, system.drag, system.contact, system.units)
+
+
+def _mujoco(system, design, dt):
+    tree = system.mechanism
+    k = np.asarray(system.hinges.stiffness)
+    return tree_model(
+        tree,
+        stiffness=k,
+        target=np.asarray(system.hinges.target),
+        damping=critical_damping(tree, k),
+        dt=dt,
+        thickness=float(design.t_structural),
+    )
+
+
+def _mujoco_final(models, controls, data) -> np.ndarray:
+    """Roll every model out from flat at rest under its controls; final hinge angles `(b, h)`."""
+    model = models[0]
+    size = mujoco.mj_stateSize(model, mujoco.mjtState.mjSTATE_FULLPHYSICS)
+    state, _ = rollout.rollout(
+        models, data, np.zeros((len(models), size)), controls, nstep=controls.shape[1]
+    )
+    order = [int(model.joint(f"h{i}").qposadr[0]) for i in range(model.njnt)]
+    return state[:, -1, 1 + np.asarray(order)]
+
+
+def _check(name: str, net, finals: np.ndarray, targets: np.ndarray) -> float:
+    """Largest angle error of `finals` `(b, h)`; raises if any member is not a closed cube."""
+    error = float(np.max(np.abs(finals - targets)))
+    gaps = max(float(np.max(net.seam_gaps(f))) for f in finals)
+    if error > ANSWER_TOL or gaps > SEAM_TOL * 200.0:
+        raise AssertionError(
+            f"{name} does not close the cube: angle error {error:.3g} rad, seam {gaps:.3g} µm"
+        )
+    return error
+
+
+def run(quick: bool) -> list[Result]:
+    jax.config.update("jax_enable_x64", True)
+    batch_ours = 4 if quick else 32
+    batch_mj = 64 if quick else 1000
+    repeats = 1 if quick else 3
+    net = load_net(NET)
+    design = HingeDesign.literature(fluid=KOH_SOLUTION)
+    system = net.system(design)
+    targets = np.asarray(system.hinges.target)
+    m = net.n_creases
+
+    # Ours: compile apart, check the verdict, then time.
+    start = time.perf_counter()
+    solve = jax.jit(_solve).lower(system).compile()
+    compile_s = time.perf_counter() - start
+    trajectory = solve(system)
+    report = net.assess(system, trajectory)
+    if report.verdict != "folded":
+        raise AssertionError(f"ours: {report.summary()}")
+    ours_final = np.asarray(trajectory.theta[-1])
+    _check("ours", net, ours_final[None], targets)
+    steps = int(trajectory.stats["num_steps"])
+    ours = time_calls(lambda: solve(system).theta, repeats=repeats)
+
+    # MuJoCo: step 1/200 of the shortest hinge period.
+    k = np.asarray(system.hinges.stiffness)
+    inertia = np.diagonal(np.asarray(system.mechanism.mass_matrix(jnp.zeros(m))))
+    dt = float(np.min(2 * np.pi * np.sqrt(inertia / k)) / 200)
+    nstep = int(round(T1 / dt))
+    model = _mujoco(system, design, dt)
+    data = mujoco.MjData(model)
+    controls = release_controls(np.zeros((1, m)), nstep, dt)
+    mj_final = _mujoco_final([model], controls, data)
+    mj_error = _check("MuJoCo", net, mj_final, targets)
+    mj = time_calls(lambda: _mujoco_final([model], controls, data), repeats=repeats)
+    rows = [
+        Result(
+            name=f"{NET} folding with contact, one trajectory to {T1:g} us vs MuJoCo",
+            ours=ours,
+            peer_name=f"MuJoCo rollout (C), dt {dt:.3g} us, mesh contacts",
+            peer=mj,
+            compile_s=compile_s,
+            max_abs_difference=float(np.max(np.abs(mj_final[0] - ours_final))),
+            notes=(
+                f"ours: {steps} Tsit5 steps ({steps / ours.median:.3g} steps/s), verdict "
+                f"{report.verdict}, max penetration {report.max_penetration:.2g} um; MuJoCo: "
+                f"{nstep} steps ({nstep / mj.median:.3g} steps/s), ends {mj_error:.1e} rad from "
+                "the targets"
+            ),
+            extra={
+                "ours_steps": steps,
+                "ours_steps_per_s": steps / ours.median,
+                "mujoco_steps_per_s": nstep / mj.median,
+                "mujoco_dt_us": dt,
+            },
+        )
+    ]
+
+    # A batch with scattered hinges: nets/s.
+    rng = np.random.default_rng(0)
+    factor = 1 + SCATTER * rng.uniform(-1, 1, (batch_mj, m))
+    release = rng.uniform(0, RELEASE_SPAN, (batch_mj, m))
+
+    def member(f, r):
+        return _solve(_scattered(system, f, r)).theta[-1]
+
+    args = (jnp.asarray(factor[:batch_ours]), jnp.asarray(release[:batch_ours]))
+    start = time.perf_counter()
+    batched = jax.jit(jax.vmap(member)).lower(*args).compile()
+    batch_compile = time.perf_counter() - start
+    _check("ours (batch)", net, np.asarray(batched(*args)), targets)
+    ours_batch = time_calls(lambda: batched(*args), repeats=1)
+    models = []
+    for b in range(batch_mj):
+        copy = _mujoco(system, design, dt)
+        copy.actuator_gainprm[:, 0] = k * factor[b] * targets
+        copy.actuator_gainprm[:, 1] = -k * factor[b]
+        models.append(copy)
+    controls = release_controls(release, nstep, dt)
+    _check("MuJoCo (batch)", net, _mujoco_final(models, controls, data), targets)
+    mj_batch = time_calls(lambda: _mujoco_final(models, controls, data), repeats=1)
+    per_net_ours = ours_batch.median / batch_ours
+    per_net_mj = mj_batch.median / batch_mj
+    rows.append(
+        Result(
+            name=f"{NET} with scattered hinges, nets/s: ours vmap over {batch_ours} vs MuJoCo over "
+            f"{batch_mj}",
+            ours=Timing(per_net_ours, per_net_ours, per_net_ours, 1),
+            peer_name=f"MuJoCo rollout over {batch_mj} models (C)",
+            peer=Timing(per_net_mj, per_net_mj, per_net_mj, 1),
+            compile_s=batch_compile,
+            notes=(
+                f"per net; ours {1 / per_net_ours:.3g} nets/s, MuJoCo {1 / per_net_mj:.3g} nets/s; "
+                f"every member of both batches closes the cube (±{SCATTER:.0%} stiffness, release "
+                f"over {RELEASE_SPAN:g} us)"
+            ),
+            extra={
+                "batch_ours": batch_ours,
+                "batch_mujoco": batch_mj,
+                "ours_nets_per_s": 1 / per_net_ours,
+                "mujoco_nets_per_s": 1 / per_net_mj,
+            },
+        )
+    )
+    return rows
+
+
+if __name__ == "__main__":
+    for row in run(quick=True):
+        print(row.line())
