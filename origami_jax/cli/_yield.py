@@ -10,6 +10,7 @@ from ._common import (
     check_out_folder,
     dumps_json,
     fail,
+    in_range,
     int_range,
     positive,
     write_atomic,
@@ -24,7 +25,10 @@ DESCRIPTION = (
 NET is a FOLD file or the name of a shipped net (origami-jax fold --list). Every sample is the net
 with its hinges' film stress (misfit strain), film thicknesses, hinge widths, drag coefficient and
 release times drawn from the scatter, folded with contact in the KOH bath (--fluid air: in air) and
-judged folded, jammed, misfolded, unfinished or invalid. The hinges are fabricated: their lengths
+judged folded, jammed, misfolded, unfinished or invalid: folded when every crease is within
+--angle-tolerance of the pattern's angle (3 degrees) and every seam's gap below --seam-tolerance
+times the largest panel's size (0.01: 2 µm on 200 µm panels, about 0.6 degrees of crease error, so
+the seams decide most verdicts; 0.05 makes the two equally strict). The hinges are fabricated: their lengths
 are the nominal design's, so a film that bends more or less than nominal folds its crease past or
 short of the pattern's angle.
 
@@ -67,6 +71,18 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         default="wilson",
         help="interval method (default wilson)",
     )
+    parser.add_argument(
+        "--angle-tolerance",
+        type=float,
+        default=3.0,
+        help="verdict: crease angle tolerance, degrees (default 3)",
+    )
+    parser.add_argument(
+        "--seam-tolerance",
+        type=float,
+        default=0.01,
+        help="verdict: seam gap tolerance, a fraction of the largest panel's size (default 0.01)",
+    )
     parser.add_argument("--chunk-size", type=int, default=None, help="samples per compiled call")
     parser.add_argument("--resume", action="store_true", help="continue the estimate in --out")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -90,6 +106,8 @@ def run(args: argparse.Namespace) -> int:
     positive(args.t_end, "--t-end", "µs")
     if args.chunk_size is not None:
         int_range(args.chunk_size, "--chunk-size", 1, 10_000_000)
+    in_range(args.angle_tolerance, "--angle-tolerance", 0.0, 180.0, what=" degrees")
+    in_range(args.seam_tolerance, "--seam-tolerance", 0.0, 1.0, what=" (a fraction of the panel)")
     if not 0 < args.confidence < 1:
         fail(f"--confidence must lie strictly between 0 and 1, got {args.confidence}.")
     scatter = Scatter()
@@ -115,6 +133,8 @@ def run(args: argparse.Namespace) -> int:
             seed=args.seed,
             design=design,
             t_end=args.t_end,
+            angle_tolerance_deg=args.angle_tolerance,
+            seam_tolerance=args.seam_tolerance,
             confidence=args.confidence,
             interval=args.interval,
             out=out,
