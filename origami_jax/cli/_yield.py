@@ -1,6 +1,7 @@
 """`origami-jax yield`: how often a net folds correctly under fabrication scatter (Monte Carlo)."""
 
 import argparse
+import math
 import time
 from pathlib import Path
 
@@ -39,9 +40,15 @@ t_structural, drag_coefficient, release) with distribution ("normal", "lognormal
 thicknesses 2.5 %, hinge width 0.5 µm; see origami_jax.fab_yield.Scatter), `defaults = false` at the
 top switches those off. Without --scatter the defaults are used.
 
-Writes OUT/result.json (yield, its confidence interval, verdict counts, the scatter), OUT/yield.png
-(unless --no-figures), and the samples as a sweep store: OUT/sweep.nc (every sample's parameters
-and verdict) and OUT/chunks/ (one file per finished chunk). An interrupted run continues with
+--widths 0.5,1,2 also estimates the yield with every scatter width multiplied by each factor (the
+same draws, so the same fabricated nets made more or less carefully; each in OUT/widths/xF/) and
+plots it against the factor (OUT/yield_widths.png).
+
+Writes OUT/result.json (yield, its confidence interval, verdict counts, the scatter, the
+tolerances, the yield per --widths factor), the figures unless --no-figures (OUT/yield.png: verdict
+counts and the yield; OUT/misfolds.png: the final state of one typical sample of each verdict other
+than folded, in 3D, next to the intended shape), and the samples as a sweep store: OUT/sweep.nc
+(every sample's parameters and verdict) and OUT/chunks/ (one file per finished chunk). An interrupted run continues with
 --resume (the same net, settings, scatter, seed and samples); a folder holding an estimate is never
 overwritten.
 Exit codes: 0 done, 1 the run stopped (disk full), 2 bad input or a folder in use, 130 interrupted.
@@ -86,7 +93,15 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--chunk-size", type=int, default=None, help="samples per compiled call")
     parser.add_argument("--resume", action="store_true", help="continue the estimate in --out")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
-    parser.add_argument("--no-figures", action="store_true", help="skip yield.png")
+    parser.add_argument(
+        "--widths",
+        default=None,
+        help="comma-separated factors on every scatter width (e.g. 0.5,1,2): also estimate the "
+        "yield at each (same draws) and plot it against the width (yield_widths.png)",
+    )
+    parser.add_argument(
+        "--no-figures", action="store_true", help="skip the figures (yield.png, misfolds.png, ...)"
+    )
     parser.add_argument(
         "--out",
         type=Path,
@@ -94,6 +109,22 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="output folder, created if missing (default: ./origami_out/yield)",
     )
     parser.set_defaults(func=run)
+
+
+def _factors(text: str | None) -> list[float]:
+    """The --widths factors: positive finite numbers, at most 16, duplicates dropped."""
+    if text is None:
+        return []
+    try:
+        values = [float(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        fail(f"--widths expects comma-separated numbers (e.g. 0.5,1,2), got {text!r}.")
+    if not values or len(values) > 16:
+        fail(f"--widths expects 1 to 16 factors, got {text!r}.")
+    bad = [v for v in values if not (math.isfinite(v) and v > 0)]
+    if bad:
+        fail(f"--widths factors must be positive (they multiply every scatter width), got {bad}.")
+    return sorted(set(values))
 
 
 def run(args: argparse.Namespace) -> int:
@@ -110,6 +141,7 @@ def run(args: argparse.Namespace) -> int:
     in_range(args.seam_tolerance, "--seam-tolerance", 0.0, 1.0, what=" (a fraction of the panel)")
     if not 0 < args.confidence < 1:
         fail(f"--confidence must lie strictly between 0 and 1, got {args.confidence}.")
+    factors = _factors(args.widths)
     scatter = Scatter()
     if args.scatter is not None:
         try:
@@ -142,6 +174,30 @@ def run(args: argparse.Namespace) -> int:
             chunk_size=args.chunk_size,
             progress=not args.no_progress,
         )
+    # The yield at other widths: the same draws scaled (Scatter.scaled), each its own store.
+    at_width = {}
+    for factor in factors:
+        if factor == 1.0:
+            at_width[factor] = estimate
+            continue
+        print(f"[yield] scatter widths x {factor:g}", flush=True)
+        with stored_sweep_errors(out):
+            at_width[factor] = yield_estimate(
+                args.net,
+                scatter.scaled(factor),
+                n_samples=args.samples,
+                seed=args.seed,
+                design=design,
+                t_end=args.t_end,
+                angle_tolerance_deg=args.angle_tolerance,
+                seam_tolerance=args.seam_tolerance,
+                confidence=args.confidence,
+                interval=args.interval,
+                out=out / "widths" / f"x{factor:g}",
+                resume=args.resume,
+                chunk_size=args.chunk_size,
+                progress=not args.no_progress,
+            )
     elapsed = time.perf_counter() - start
     ds = estimate.dataset
     result = {
@@ -152,17 +208,32 @@ def run(args: argparse.Namespace) -> int:
         "compile_s": float(ds.attrs.get("compile_s", 0.0)),
         "wall_s": elapsed,
     }
-    owns = ("result.json",) if args.no_figures else ("result.json", "yield.png")
+    if factors:
+        result["widths"] = [
+            {"factor": f, **{k: e.to_dict()[k] for k in ("yield", "interval", "counts")}}
+            for f, e in sorted(at_width.items())
+        ]
+    figures = ("yield.png", "misfolds.png") + (("yield_widths.png",) if factors else ())
+    owns = ("result.json",) if args.no_figures else ("result.json", *figures)
     with OutputFolder(out, command="yield", owns=owns, overwrite=True) as output:
         write_atomic(output.dir / "result.json", dumps_json(result))
         if not args.no_figures:
             import matplotlib.pyplot as plt
 
-            from ..plotting.fab_yield import yield_figure
+            from ..plotting.fab_yield import misfold_figure, width_figure, yield_figure
 
             fig = yield_figure(estimate, title=f"{args.net}: yield under fabrication scatter")
             fig.savefig(output.dir / "yield.png", dpi=120)
             plt.close(fig)
+            fig = misfold_figure(args.net, estimate, title=f"{args.net}: misfold modes")
+            fig.savefig(output.dir / "misfolds.png", dpi=120)
+            plt.close(fig)
+            if factors:
+                fig = width_figure(
+                    sorted(at_width), [at_width[f] for f in sorted(at_width)], title=args.net
+                )
+                fig.savefig(output.dir / "yield_widths.png", dpi=120)
+                plt.close(fig)
     print(estimate.summary())
     print(
         f"wall time {elapsed:.1f} s (compiling {result['compile_s']:.1f} s, "

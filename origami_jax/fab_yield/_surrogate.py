@@ -8,9 +8,13 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ._order import front_release_times
 from ._scatter import Scatter, standard_draws
 
-DESIGN_VARIABLES = ("target", "hinge_width", "release")
+DESIGN_VARIABLES = ("target", "hinge_width", "release", "front_angle", "front_speed")
+"""What `SoftYield` takes: per crease `target` (rad), `hinge_width` (µm), `release` (µs); or the
+release times as an etch front's path, `front_angle` (rad) and `front_speed` (µm/µs), both scalars
+(`front_release_times`)."""
 
 
 def _transform(spread, nominal, z):
@@ -31,7 +35,9 @@ def _transform(spread, nominal, z):
 class SoftYield:
     """The smoothed yield of a net over `n_samples` fixed scatter draws (common random numbers), as a
     traceable function of the design variables: call it with a dict of `(m,)` arrays,
-    `{"target": rad, "hinge_width": µm, "release": µs}` (any subset; the others stay nominal).
+    `{"target": rad, "hinge_width": µm, "release": µs}` (any subset; the others stay nominal), or
+    with the release times as an etch front, `{"front_angle": rad, "front_speed": µm/µs}` (scalars,
+    both, instead of `release`; `front_release_times`).
 
     Each sample's score is ``Π_j σ(m_j / τ) · σ(m_s / τ_s)``: ``m_j = tol − |θ_j(t_end) − θ*_j|`` the
     margin of crease ``j``'s final angle to the pattern's angle ``θ*_j``, ``m_s`` the margin of the
@@ -129,7 +135,16 @@ def soft_yield(
         unknown = sorted(set(variables) - set(DESIGN_VARIABLES))
         if unknown:
             raise ValueError(f"unknown design variable(s) {unknown}; use {DESIGN_VARIABLES}.")
+        front = {"front_angle", "front_speed"} & set(variables)
+        if front and (len(front) != 2 or "release" in variables):
+            raise ValueError(
+                "an etch front needs both front_angle and front_speed, and no release times."
+            )
         current = {k: jnp.asarray(variables.get(k, v), dtype=float) for k, v in start.items()}
+        if front:
+            current["release"] = front_release_times(
+                the_net, variables["front_angle"], variables["front_speed"]
+            )
         params = {}
         for name, spread in scatter.items():
             z = draws[name]
