@@ -151,3 +151,21 @@ def test_released_together_the_flaps_jam_and_one_after_the_other_they_fold():
     final = np.degrees(ordered.dataset["final_angle"].values[0])
     np.testing.assert_allclose(final, 180.0, atol=3.0)
     assert final[1] < final[0]  # the right flap lies on the left one
+
+
+def test_representative_samples_pick_a_typical_member_of_each_misfold_mode():
+    """The sample nearest the median final angles of its verdict (no simulation: a hand-made
+    dataset); folded samples and failed ones (NaN) are not picked."""
+    import types
+
+    import xarray as xr
+
+    from origami_jax.plotting.fab_yield import representative_samples
+
+    verdict = np.array([0, 2, 2, 2, 1, 4])
+    angles = np.array([[3.1, 3.1], [1.0, 1.0], [1.1, 1.0], [3.0, 3.0], [2.0, 2.4], [np.nan] * 2])
+    dataset = xr.Dataset(
+        {"verdict": ("design", verdict), "final_angle": (("design", "crease"), angles)}
+    )
+    picks = representative_samples(types.SimpleNamespace(dataset=dataset))
+    assert picks == {"misfolded": 2, "jammed": 4}

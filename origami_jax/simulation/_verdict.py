@@ -96,7 +96,7 @@ class VerdictTolerances:
 
     @property
     def angle_deg(self) -> float:
-        return float(np.degrees(self.angle))
+        return float(f"{np.degrees(self.angle):.12g}")  # 3.0, not 3.0000000000000004
 
     @property
     def seam_equivalent_angle(self) -> float:
