@@ -169,3 +169,29 @@ def test_representative_samples_pick_a_typical_member_of_each_misfold_mode():
     )
     picks = representative_samples(types.SimpleNamespace(dataset=dataset))
     assert picks == {"misfolded": 2, "jammed": 4}
+
+
+@pytest.mark.slow  # 16 contact simulations of the two-flap net, half of them jammed (~10 min here)
+def test_choosing_the_order_raises_the_yield():
+    """Monte Carlo before and after, on the same 8 fabricated nets (film stress 1 %, release times
+    ±25 µs): released together almost every net jams; with the etch front along +x almost every
+    net folds, and the two 95 % Wilson intervals do not overlap (measured: 0/8 and 8/8 with
+    seed 1; the guide's 16-sample runs: 1/16 and 16/16 with seed 0, 0/16 and 15/16 with seed 1)."""
+    scatter = ojy.Scatter.from_mapping(
+        {
+            "defaults": False,
+            "misfit_strain": {"width": 0.01},
+            "release": {"distribution": "uniform", "width": 25.0, "relative": False},
+        }
+    )
+    schedules = {
+        "simultaneous": [0.0, 0.0],
+        "front 0°": ojy.front_release_times(TWO_FLAPS, 0.0, SPEED),
+    }
+    search = ojy.order_search(
+        TWO_FLAPS, schedules, scatter, 8, seed=1, t_end=T_END, chunk_size=8, progress=False
+    )
+    together, ordered = search.estimates["simultaneous"], search.estimates["front 0°"]
+    assert together.fraction <= 0.25 and ordered.fraction >= 0.75, search.summary()
+    assert ordered.interval[0] > together.interval[1], search.summary()
+    assert search.best == "front 0°"

@@ -159,7 +159,7 @@ def misfold_figure(net, estimate, *, title: str | None = None):
         ax.set_box_aspect((1, 1, 1))
         ax.view_init(elev=25, azim=-60)
         ax.set_axis_off()
-        degrees = ", ".join(f"{v:.0f}" for v in np.degrees(a))
+        degrees = ", ".join(f"{v:.1f}" for v in np.degrees(a))
         ax.set_title(f"{verdict}\n{caption}\nangles {degrees}°", fontsize=8)
     if not picks:
         fig.text(0.7, 0.5, "every sample folded", ha="center", va="center")
