@@ -132,3 +132,17 @@ def test_the_net_kernel_names_a_seam_tolerance_only_when_it_is_not_the_default()
     kernel's settings."""
     assert "seam_tolerance" not in get_model("net-fold", net=NET).settings
     assert get_model("net-fold", net=NET, seam_tolerance=0.05).settings["seam_tolerance"] == 0.05
+
+
+def test_cli_tolerance_flags_are_checked_before_compiling(tmp_path, capsys):
+    from origami_jax.cli import main
+
+    for command, flag, value, message in (
+        ("fold", "--seam-tolerance", "0", "--seam-tolerance must lie strictly between 0 and 1"),
+        ("fold", "--tolerance", "200", "--tolerance must lie strictly between 0 and 180 degrees"),
+        ("yield", "--angle-tolerance", "-3", "--angle-tolerance must lie strictly between 0 and"),
+        ("yield", "--seam-tolerance", "nan", "--seam-tolerance must lie strictly between 0 and 1"),
+    ):
+        argv = [command, NET, flag, value, "--out", str(tmp_path / command)]
+        assert main(argv) == 2, argv
+        assert message in capsys.readouterr().err
