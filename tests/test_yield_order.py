@@ -195,3 +195,18 @@ def test_choosing_the_order_raises_the_yield():
     assert together.fraction <= 0.25 and ordered.fraction >= 0.75, search.summary()
     assert ordered.interval[0] > together.interval[1], search.summary()
     assert search.best == "front 0°"
+
+
+def test_yield_cli_release_flags_are_checked_before_compiling(tmp_path, capsys):
+    from origami_jax.cli import main
+
+    for extra, message in (
+        (["--release", "0"], "release_times must be 2 finite times"),
+        (["--release", "0,x"], "--release expects comma-separated numbers"),
+        (["--etch-front", "1,0"], "--etch-front expects DX,DY,SPEED"),
+        (["--etch-front", "1,0,0"], "speed must be positive"),
+        (["--release", "0,1", "--etch-front", "1,0,2"], "not both"),
+    ):
+        argv = ["yield", TWO_FLAPS, *extra, "--no-progress", "--out", str(tmp_path / "out")]
+        assert main(argv) == 2, extra
+        assert message in capsys.readouterr().err, extra

@@ -40,6 +40,10 @@ t_structural, drag_coefficient, release) with distribution ("normal", "lognormal
 thicknesses 2.5 %, hinge width 0.5 µm; see origami_jax.fab_yield.Scatter), `defaults = false` at the
 top switches those off. Without --scatter the defaults are used.
 
+--release T1,T2,... (µs, one per crease) or --etch-front DX,DY,SPEED set the nominal release times,
+the folding order (the release scatter is added to them); e.g. for examples/two_flaps.fold,
+--etch-front 1,0,2 frees the left flap 150 µs before the right one.
+
 --widths 0.5,1,2 also estimates the yield with every scatter width multiplied by each factor (the
 same draws, so the same fabricated nets made more or less carefully; each in OUT/widths/xF/) and
 plots it against the factor (OUT/yield_widths.png).
@@ -79,6 +83,19 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="interval method (default wilson)",
     )
     parser.add_argument(
+        "--release",
+        default=None,
+        help="nominal release time per crease, µs, comma-separated (default all 0); the release "
+        "scatter is added to these",
+    )
+    parser.add_argument(
+        "--etch-front",
+        default=None,
+        metavar="DX,DY,SPEED",
+        help="nominal release times of an etch front moving along (DX, DY) at SPEED µm/µs (the "
+        "folding order; instead of --release)",
+    )
+    parser.add_argument(
         "--angle-tolerance",
         type=float,
         default=3.0,
@@ -109,6 +126,19 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="output folder, created if missing (default: ./origami_out/yield)",
     )
     parser.set_defaults(func=run)
+
+
+def _numbers(text: str | None, flag: str) -> list[float] | None:
+    """Comma-separated finite numbers, or None."""
+    if text is None:
+        return None
+    try:
+        values = [float(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        fail(f"{flag} expects comma-separated numbers, got {text!r}.")
+    if not values or not all(math.isfinite(v) for v in values):
+        fail(f"{flag} expects comma-separated finite numbers, got {text!r}.")
+    return values
 
 
 def _factors(text: str | None) -> list[float]:
@@ -142,12 +172,25 @@ def run(args: argparse.Namespace) -> int:
     if not 0 < args.confidence < 1:
         fail(f"--confidence must lie strictly between 0 and 1, got {args.confidence}.")
     factors = _factors(args.widths)
+    release = _numbers(args.release, "--release")
+    front = _numbers(args.etch_front, "--etch-front")
+    if release is not None and front is not None:
+        fail("give --release or --etch-front, not both.")
+    if front is not None and len(front) != 3:
+        fail("--etch-front expects DX,DY,SPEED (a direction in the plane and a speed in µm/µs).")
     scatter = Scatter()
     if args.scatter is not None:
         try:
             scatter = load_scatter(args.scatter)
         except (ValueError, OSError) as error:
             fail(f"bad scatter config {args.scatter}: {error}")
+    if front is not None:
+        from ..net import load_net, release_times_from_front
+
+        try:
+            release = list(release_times_from_front(load_net(args.net), front[:2], front[2]))
+        except ValueError as error:
+            fail(f"--etch-front: {error}")
     out = check_out_folder(Path(args.out))
     design = HingeDesign.literature(fluid=KOH_SOLUTION if args.fluid == "koh" else AIR)
     print(
@@ -164,6 +207,7 @@ def run(args: argparse.Namespace) -> int:
             n_samples=args.samples,
             seed=args.seed,
             design=design,
+            release_times=release,
             t_end=args.t_end,
             angle_tolerance_deg=args.angle_tolerance,
             seam_tolerance=args.seam_tolerance,
@@ -188,6 +232,7 @@ def run(args: argparse.Namespace) -> int:
                 n_samples=args.samples,
                 seed=args.seed,
                 design=design,
+                release_times=release,
                 t_end=args.t_end,
                 angle_tolerance_deg=args.angle_tolerance,
                 seam_tolerance=args.seam_tolerance,
@@ -203,6 +248,7 @@ def run(args: argparse.Namespace) -> int:
     result = {
         "net": args.net,
         "fluid": args.fluid,
+        "release_us": None if release is None else [float(t) for t in release],
         "t_end_us": args.t_end,
         **estimate.to_dict(),
         "compile_s": float(ds.attrs.get("compile_s", 0.0)),
