@@ -175,8 +175,8 @@ def test_representative_samples_pick_a_typical_member_of_each_misfold_mode():
 def test_choosing_the_order_raises_the_yield():
     """Monte Carlo before and after, on the same 8 fabricated nets (film stress 1 %, release times
     ±25 µs): released together almost every net jams; with the etch front along +x almost every
-    net folds, and the two 95 % Wilson intervals do not overlap (measured: 0/8 and 8/8 with
-    seed 1; the guide's 16-sample runs: 1/16 and 16/16 with seed 0, 0/16 and 15/16 with seed 1)."""
+    net folds, and the two 95 % Wilson intervals do not overlap (these are the first 8 nets of
+    the guide's 16-sample re-estimate with seed 1, which gave 0/16 and 15/16)."""
     scatter = ojy.Scatter.from_mapping(
         {
             "defaults": False,
