@@ -55,9 +55,9 @@ class VerdictTolerances:
     **Fields:**
     - `angle`: rad (default 3°, ``0.0524``): every crease within this of its intended angle.
     - `seam`: a fraction of the panel size ``L`` (default 0.01): every seam's gap below ``seam · L``,
-      with ``L`` the largest panel's size (`origami_jax.contact.ContactTables.scale`: the diameter
-      of the largest panel's outline; 200 µm for the catalogue's nets of 200 µm squares, so the
-      default is 2 µm).
+      with ``L`` the largest panel's size (`origami_jax.contact.ContactTables.scale`: the largest
+      extent of any panel's outline along the axes; 200 µm for the catalogue's nets of 200 µm
+      squares, so the default is 2 µm).
 
     The two are not equally strict: a crease off by ``δθ`` opens a seam along a panel of size ``L``
     by about ``L δθ``, so the default seam tolerance (``0.01 L``) corresponds to about 0.6° of
