@@ -308,7 +308,11 @@ def test_cli_writes_result_and_figure(tmp_path, capsys):
     config.write_text("[misfit_strain]\nwidth = 0.05\n")
     out = tmp_path / "cli"
     argv = ["yield", NET, "--samples", "4", "--seed", "1", "--scatter", str(config)]
-    argv += ["--t-end", str(T_END), "--chunk-size", str(CHUNK), "--no-progress", "--out", str(out)]
+    argv += ["--t-end", str(T_END), "--chunk-size", str(CHUNK), "--no-progress", "--widths", "0,1"]
+    argv += ["--out", str(out)]
+    assert main(argv) == 2  # a width factor of 0: refused before compiling
+    assert "--widths factors must be positive" in capsys.readouterr().err
+    argv[argv.index("0,1")] = "0.1,1"  # nearly no scatter: a cheap second estimate
     code = main(argv)
     captured = capsys.readouterr()
     assert code == 0, captured.err
@@ -316,10 +320,19 @@ def test_cli_writes_result_and_figure(tmp_path, capsys):
     assert result["n_samples"] == 4 and sum(result["counts"].values()) == 4
     low, high = result["interval"]
     assert low <= result["yield"] <= high
-    assert (out / "yield.png").stat().st_size > 1000 and (out / "sweep.nc").is_file()
+    assert result["tolerances"] == {"angle_deg": 3.0, "seam_fraction": 0.01}
+    for name in ("yield.png", "misfolds.png", "yield_widths.png"):
+        assert (out / name).stat().st_size > 1000, name
+    assert (out / "sweep.nc").is_file() and (out / "widths" / "x0.1" / "sweep.nc").is_file()
+    assert [w["factor"] for w in result["widths"]] == [0.1, 1.0]
+    assert result["widths"][1]["counts"] == result["counts"]
+    assert sum(result["widths"][0]["counts"].values()) == 4
     assert "yield" in captured.out
     assert main(argv) == 2  # the same folder again: refused before compiling, in one line
     assert "--resume" in capsys.readouterr().err
+    bad = [*argv[:-2], "--out", str(tmp_path / "bad")]
+    assert main([*bad, "--seam-tolerance", "1.5"]) == 2
+    assert "--seam-tolerance must lie strictly between 0 and 1" in capsys.readouterr().err
     config.write_text("[misfit_strain]\nwidth = -1\n")
     assert main([*argv[:-2], "--out", str(tmp_path / "bad")]) == 2
     assert "width must be finite and >= 0" in capsys.readouterr().err

@@ -20,6 +20,7 @@ from ._common import (
     dumps_json,
     fail,
     finite,
+    in_range,
     int_range,
     positive,
 )
@@ -130,6 +131,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument(
         "--tolerance", type=float, default=3.0, help="crease angle tolerance, degrees (default 3)"
     )
+    parser.add_argument(
+        "--seam-tolerance",
+        type=float,
+        default=0.01,
+        help="seam gap tolerance, a fraction of the largest panel's size (default 0.01)",
+    )
     add_figures_argument(parser)
     add_out_argument(parser)
     parser.set_defaults(func=run)
@@ -175,7 +182,8 @@ def run(args: argparse.Namespace) -> int:
     positive(args.t1, "--t1", "µs")
     int_range(args.n_save, "--n-save", 2, 1_000_000)
     finite(args.bias, "--bias")
-    positive(args.tolerance, "--tolerance", "degrees")
+    in_range(args.tolerance, "--tolerance", 0.0, 180.0, what=" degrees")
+    in_range(args.seam_tolerance, "--seam-tolerance", 0.0, 1.0, what=" (a fraction of the panel)")
     for flag, values in (
         ("--targets", targets_deg),
         ("--release", release),
@@ -261,11 +269,11 @@ def _run(args, net, system, loops, params, release, theta0, theta_dot0, output) 
         max_steps=500_000,
         progress_meter=diffrax.TqdmProgressMeter(refresh_steps=200),
     )
-    tolerance = float(np.radians(args.tolerance))
+    tolerances = sim.VerdictTolerances.from_degrees(args.tolerance, args.seam_tolerance)
     if loops:
-        report = net.assess(system, trajectory, angle_tolerance=tolerance, bias=args.bias)
+        report = net.assess(system, trajectory, tolerances=tolerances, bias=args.bias)
     else:
-        report = net.assess(system, trajectory, angle_tolerance=tolerance)
+        report = net.assess(system, trajectory, tolerances=tolerances)
     result = report.to_dict()
     result.update(
         net=net.name,

@@ -1,6 +1,7 @@
 """`origami-jax yield`: how often a net folds correctly under fabrication scatter (Monte Carlo)."""
 
 import argparse
+import math
 import time
 from pathlib import Path
 
@@ -10,6 +11,7 @@ from ._common import (
     check_out_folder,
     dumps_json,
     fail,
+    in_range,
     int_range,
     positive,
     write_atomic,
@@ -24,7 +26,10 @@ DESCRIPTION = (
 NET is a FOLD file or the name of a shipped net (origami-jax fold --list). Every sample is the net
 with its hinges' film stress (misfit strain), film thicknesses, hinge widths, drag coefficient and
 release times drawn from the scatter, folded with contact in the KOH bath (--fluid air: in air) and
-judged folded, jammed, misfolded, unfinished or invalid. The hinges are fabricated: their lengths
+judged folded, jammed, misfolded, unfinished or invalid: folded when every crease is within
+--angle-tolerance of the pattern's angle (3 degrees) and every seam's gap below --seam-tolerance
+times the largest panel's size (0.01: 2 µm on 200 µm panels, about 0.6 degrees of crease error, so
+the seams decide most verdicts; 0.05 makes the two equally strict). The hinges are fabricated: their lengths
 are the nominal design's, so a film that bends more or less than nominal folds its crease past or
 short of the pattern's angle.
 
@@ -35,9 +40,19 @@ t_structural, drag_coefficient, release) with distribution ("normal", "lognormal
 thicknesses 2.5 %, hinge width 0.5 µm; see origami_jax.fab_yield.Scatter), `defaults = false` at the
 top switches those off. Without --scatter the defaults are used.
 
-Writes OUT/result.json (yield, its confidence interval, verdict counts, the scatter), OUT/yield.png
-(unless --no-figures), and the samples as a sweep store: OUT/sweep.nc (every sample's parameters
-and verdict) and OUT/chunks/ (one file per finished chunk). An interrupted run continues with
+--release T1,T2,... (µs, one per crease) or --etch-front DX,DY,SPEED set the nominal release times,
+the folding order (the release scatter is added to them); e.g. for examples/two_flaps.fold,
+--etch-front 1,0,2 frees the left flap 150 µs before the right one.
+
+--widths 0.5,1,2 also estimates the yield with every scatter width multiplied by each factor (the
+same draws, so the same fabricated nets made more or less carefully; each in OUT/widths/xF/) and
+plots it against the factor (OUT/yield_widths.png).
+
+Writes OUT/result.json (yield, its confidence interval, verdict counts, the scatter, the
+tolerances, the yield per --widths factor), the figures unless --no-figures (OUT/yield.png: verdict
+counts and the yield; OUT/misfolds.png: the final state of one typical sample of each verdict other
+than folded, in 3D, next to the intended shape), and the samples as a sweep store: OUT/sweep.nc
+(every sample's parameters and verdict) and OUT/chunks/ (one file per finished chunk). An interrupted run continues with
 --resume (the same net, settings, scatter, seed and samples); a folder holding an estimate is never
 overwritten.
 Exit codes: 0 done, 1 the run stopped (disk full), 2 bad input or a folder in use, 130 interrupted.
@@ -67,10 +82,43 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         default="wilson",
         help="interval method (default wilson)",
     )
+    parser.add_argument(
+        "--release",
+        default=None,
+        help="nominal release time per crease, µs, comma-separated (default all 0); the release "
+        "scatter is added to these",
+    )
+    parser.add_argument(
+        "--etch-front",
+        default=None,
+        metavar="DX,DY,SPEED",
+        help="nominal release times of an etch front moving along (DX, DY) at SPEED µm/µs (the "
+        "folding order; instead of --release)",
+    )
+    parser.add_argument(
+        "--angle-tolerance",
+        type=float,
+        default=3.0,
+        help="verdict: crease angle tolerance, degrees (default 3)",
+    )
+    parser.add_argument(
+        "--seam-tolerance",
+        type=float,
+        default=0.01,
+        help="verdict: seam gap tolerance, a fraction of the largest panel's size (default 0.01)",
+    )
     parser.add_argument("--chunk-size", type=int, default=None, help="samples per compiled call")
     parser.add_argument("--resume", action="store_true", help="continue the estimate in --out")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
-    parser.add_argument("--no-figures", action="store_true", help="skip yield.png")
+    parser.add_argument(
+        "--widths",
+        default=None,
+        help="comma-separated factors on every scatter width (e.g. 0.5,1,2): also estimate the "
+        "yield at each (same draws) and plot it against the width (yield_widths.png)",
+    )
+    parser.add_argument(
+        "--no-figures", action="store_true", help="skip the figures (yield.png, misfolds.png, ...)"
+    )
     parser.add_argument(
         "--out",
         type=Path,
@@ -78,6 +126,35 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="output folder, created if missing (default: ./origami_out/yield)",
     )
     parser.set_defaults(func=run)
+
+
+def _numbers(text: str | None, flag: str) -> list[float] | None:
+    """Comma-separated finite numbers, or None."""
+    if text is None:
+        return None
+    try:
+        values = [float(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        fail(f"{flag} expects comma-separated numbers, got {text!r}.")
+    if not values or not all(math.isfinite(v) for v in values):
+        fail(f"{flag} expects comma-separated finite numbers, got {text!r}.")
+    return values
+
+
+def _factors(text: str | None) -> list[float]:
+    """The --widths factors: positive finite numbers, at most 16, duplicates dropped."""
+    if text is None:
+        return []
+    try:
+        values = [float(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        fail(f"--widths expects comma-separated numbers (e.g. 0.5,1,2), got {text!r}.")
+    if not values or len(values) > 16:
+        fail(f"--widths expects 1 to 16 factors, got {text!r}.")
+    bad = [v for v in values if not (math.isfinite(v) and v > 0)]
+    if bad:
+        fail(f"--widths factors must be positive (they multiply every scatter width), got {bad}.")
+    return sorted(set(values))
 
 
 def run(args: argparse.Namespace) -> int:
@@ -90,14 +167,30 @@ def run(args: argparse.Namespace) -> int:
     positive(args.t_end, "--t-end", "µs")
     if args.chunk_size is not None:
         int_range(args.chunk_size, "--chunk-size", 1, 10_000_000)
+    in_range(args.angle_tolerance, "--angle-tolerance", 0.0, 180.0, what=" degrees")
+    in_range(args.seam_tolerance, "--seam-tolerance", 0.0, 1.0, what=" (a fraction of the panel)")
     if not 0 < args.confidence < 1:
         fail(f"--confidence must lie strictly between 0 and 1, got {args.confidence}.")
+    factors = _factors(args.widths)
+    release = _numbers(args.release, "--release")
+    front = _numbers(args.etch_front, "--etch-front")
+    if release is not None and front is not None:
+        fail("give --release or --etch-front, not both.")
+    if front is not None and len(front) != 3:
+        fail("--etch-front expects DX,DY,SPEED (a direction in the plane and a speed in µm/µs).")
     scatter = Scatter()
     if args.scatter is not None:
         try:
             scatter = load_scatter(args.scatter)
         except (ValueError, OSError) as error:
             fail(f"bad scatter config {args.scatter}: {error}")
+    if front is not None:
+        from ..net import load_net, release_times_from_front
+
+        try:
+            release = list(release_times_from_front(load_net(args.net), front[:2], front[2]))
+        except ValueError as error:
+            fail(f"--etch-front: {error}")
     out = check_out_folder(Path(args.out))
     design = HingeDesign.literature(fluid=KOH_SOLUTION if args.fluid == "koh" else AIR)
     print(
@@ -114,7 +207,10 @@ def run(args: argparse.Namespace) -> int:
             n_samples=args.samples,
             seed=args.seed,
             design=design,
+            release_times=release,
             t_end=args.t_end,
+            angle_tolerance_deg=args.angle_tolerance,
+            seam_tolerance=args.seam_tolerance,
             confidence=args.confidence,
             interval=args.interval,
             out=out,
@@ -122,27 +218,68 @@ def run(args: argparse.Namespace) -> int:
             chunk_size=args.chunk_size,
             progress=not args.no_progress,
         )
+    # The yield at other widths: the same draws scaled (Scatter.scaled), each its own store.
+    at_width = {}
+    for factor in factors:
+        if factor == 1.0:
+            at_width[factor] = estimate
+            continue
+        print(f"[yield] scatter widths x {factor:g}", flush=True)
+        with stored_sweep_errors(out):
+            at_width[factor] = yield_estimate(
+                args.net,
+                scatter.scaled(factor),
+                n_samples=args.samples,
+                seed=args.seed,
+                design=design,
+                release_times=release,
+                t_end=args.t_end,
+                angle_tolerance_deg=args.angle_tolerance,
+                seam_tolerance=args.seam_tolerance,
+                confidence=args.confidence,
+                interval=args.interval,
+                out=out / "widths" / f"x{factor:g}",
+                resume=args.resume,
+                chunk_size=args.chunk_size,
+                progress=not args.no_progress,
+            )
     elapsed = time.perf_counter() - start
     ds = estimate.dataset
     result = {
         "net": args.net,
         "fluid": args.fluid,
+        "release_us": None if release is None else [float(t) for t in release],
         "t_end_us": args.t_end,
         **estimate.to_dict(),
         "compile_s": float(ds.attrs.get("compile_s", 0.0)),
         "wall_s": elapsed,
     }
-    owns = ("result.json",) if args.no_figures else ("result.json", "yield.png")
+    if factors:
+        result["widths"] = [
+            {"factor": f, **{k: e.to_dict()[k] for k in ("yield", "interval", "counts")}}
+            for f, e in sorted(at_width.items())
+        ]
+    figures = ("yield.png", "misfolds.png") + (("yield_widths.png",) if factors else ())
+    owns = ("result.json",) if args.no_figures else ("result.json", *figures)
     with OutputFolder(out, command="yield", owns=owns, overwrite=True) as output:
         write_atomic(output.dir / "result.json", dumps_json(result))
         if not args.no_figures:
             import matplotlib.pyplot as plt
 
-            from ..plotting.fab_yield import yield_figure
+            from ..plotting.fab_yield import misfold_figure, width_figure, yield_figure
 
             fig = yield_figure(estimate, title=f"{args.net}: yield under fabrication scatter")
             fig.savefig(output.dir / "yield.png", dpi=120)
             plt.close(fig)
+            fig = misfold_figure(args.net, estimate, title=f"{args.net}: misfold modes")
+            fig.savefig(output.dir / "misfolds.png", dpi=120)
+            plt.close(fig)
+            if factors:
+                fig = width_figure(
+                    sorted(at_width), [at_width[f] for f in sorted(at_width)], title=args.net
+                )
+                fig.savefig(output.dir / "yield_widths.png", dpi=120)
+                plt.close(fig)
     print(estimate.summary())
     print(
         f"wall time {elapsed:.1f} s (compiling {result['compile_s']:.1f} s, "

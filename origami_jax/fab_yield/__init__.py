@@ -34,12 +34,24 @@ estimate.dataset            # xarray.Dataset: the drawn parameters and every sam
   release times, for `jax.grad`. Checked against finite differences without contact; with contact
   the surrogate is not smooth (a panel stopped by another) and its gradient is not validated.
 
-Not done yet: optimisation of the release order, closed-loop patterns (only trees of panels), arc
-hinges with designed lengths.
+- Folding order: release times per crease are design variables (`yield_estimate`'s
+  `release_times`, `soft_yield`'s `release` or an etch front's `front_angle` and `front_speed`,
+  `front_release_times`); `order_search` estimates the yield of candidate schedules
+  (`front_candidates`: all at once, and straight etch fronts from several directions) on the same
+  fabricated nets and names the best. `examples/two_flaps.fold` jams when both flaps are released
+  at once and folds when one goes first.
+- The verdict's tolerances: `angle_tolerance_deg` and `seam_tolerance` (a fraction of the panel
+  size; `origami_jax.simulation.VerdictTolerances`).
+
+Not done yet: closed-loop patterns (only trees of panels), arc hinges with designed lengths.
 """
 
 from ._estimate import YieldEstimate as YieldEstimate
 from ._estimate import yield_estimate as yield_estimate
+from ._order import OrderSearch as OrderSearch
+from ._order import front_candidates as front_candidates
+from ._order import front_release_times as front_release_times
+from ._order import order_search as order_search
 from ._scatter import DISTRIBUTIONS as DISTRIBUTIONS
 from ._scatter import PARAMETERS as PARAMETERS
 from ._scatter import Scatter as Scatter

@@ -40,6 +40,8 @@ class YieldEstimate:
       `seed`, `yield`.
     - `seconds_per_sample`: this call's computing time per sample it computed, compilation
       excluded (0 when every sample was already stored).
+    - `tolerances`: the verdict's, `{"angle_deg", "seam_fraction"}`
+      (`origami_jax.simulation.VerdictTolerances.to_dict`).
     """
 
     fraction: float
@@ -52,6 +54,9 @@ class YieldEstimate:
     scatter: Scatter
     dataset: Any
     seconds_per_sample: float
+    tolerances: dict[str, float] = dataclasses.field(
+        default_factory=lambda: {"angle_deg": 3.0, "seam_fraction": 0.01}
+    )
 
     def samples(self, name: str) -> np.ndarray:
         """The drawn values of a parameter of `PARAMETERS`: `(n_samples, n_creases)` for a per-crease
@@ -79,6 +84,7 @@ class YieldEstimate:
             "seed": self.seed,
             "scatter": self.scatter.to_dict(),
             "seconds_per_sample": self.seconds_per_sample,
+            "tolerances": dict(self.tolerances),
         }
 
     def summary(self) -> str:
@@ -173,6 +179,7 @@ def yield_estimate(
     contact: bool = True,
     drag: str = "panel",
     angle_tolerance_deg: float = 3.0,
+    seam_tolerance: float = 0.01,
     confidence: float = 0.95,
     interval: str = "wilson",
     out: str | os.PathLike | None = None,
@@ -203,7 +210,11 @@ def yield_estimate(
     - `targets`: the angles the hinges are drawn to fold to (rad, one per crease; default the
       pattern's); `release_times`: nominal release time per crease (µs, default all 0).
     - `t_end`, `n_save`, `max_steps`: the simulated time, saved samples, solver step budget.
-    - `contact`, `drag`: as `origami_jax.net.Net.system`; `angle_tolerance_deg`: the verdict's.
+    - `contact`, `drag`: as `origami_jax.net.Net.system`.
+    - `angle_tolerance_deg` (degrees) and `seam_tolerance` (a fraction of the largest panel's
+      size, 0.01: 2 µm on 200 µm panels): the verdict's tolerances
+      (`origami_jax.simulation.VerdictTolerances`). The seam tolerance is the stricter of the two
+      by default (0.01 of the panel is about 0.6° of crease error) and decides most verdicts.
     - `confidence`, `interval`: the interval's level and method (`"wilson"`, `"clopper-pearson"`).
     - `out`, `resume`, `chunk_size`, `progress`, `on_chunk`: as `origami_jax.sweep.sweep` (a
       folder to store the samples in; `resume=True` continues an interrupted estimate, which must
@@ -216,12 +227,13 @@ def yield_estimate(
     """
     from ..fold import FoldFormatError
     from ..net import load_net
-    from ..simulation import FoldVerdict
+    from ..simulation import FoldVerdict, VerdictTolerances
     from ..sweep import Table, sweep
     from ..system import KOH_SOLUTION, HingeDesign
 
     if isinstance(n_samples, bool) or not isinstance(n_samples, int | np.integer):
         raise ValueError(f"n_samples must be an integer >= 1, got {n_samples!r}.")
+    tolerances = VerdictTolerances.from_degrees(angle_tolerance_deg, seam_tolerance)
     if n_samples < 1:
         raise ValueError(f"n_samples must be an integer >= 1, got {n_samples!r}.")
     if scatter is None:
@@ -286,6 +298,7 @@ def yield_estimate(
         contact=contact,
         drag=drag,
         angle_tolerance_deg=angle_tolerance_deg,
+        seam_tolerance=seam_tolerance,
     )
     columns, units = _columns(values)
     # The hinges' drawn angles are data, not settings: nets aimed elsewhere share the compiled call.
@@ -327,4 +340,5 @@ def yield_estimate(
         scatter=scatter,
         dataset=dataset,
         seconds_per_sample=seconds / n_run if n_run else 0.0,
+        tolerances=tolerances.to_dict(),
     )

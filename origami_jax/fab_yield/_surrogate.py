@@ -8,9 +8,13 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ._order import front_release_times
 from ._scatter import Scatter, standard_draws
 
-DESIGN_VARIABLES = ("target", "hinge_width", "release")
+DESIGN_VARIABLES = ("target", "hinge_width", "release", "front_angle", "front_speed")
+"""What `SoftYield` takes: per crease `target` (rad), `hinge_width` (µm), `release` (µs); or the
+release times as an etch front's path, `front_angle` (rad) and `front_speed` (µm/µs), both scalars
+(`front_release_times`)."""
 
 
 def _transform(spread, nominal, z):
@@ -31,11 +35,14 @@ def _transform(spread, nominal, z):
 class SoftYield:
     """The smoothed yield of a net over `n_samples` fixed scatter draws (common random numbers), as a
     traceable function of the design variables: call it with a dict of `(m,)` arrays,
-    `{"target": rad, "hinge_width": µm, "release": µs}` (any subset; the others stay nominal).
+    `{"target": rad, "hinge_width": µm, "release": µs}` (any subset; the others stay nominal), or
+    with the release times as an etch front, `{"front_angle": rad, "front_speed": µm/µs}` (scalars,
+    both, instead of `release`; `front_release_times`).
 
     Each sample's score is ``Π_j σ(m_j / τ) · σ(m_s / τ_s)``: ``m_j = tol − |θ_j(t_end) − θ*_j|`` the
     margin of crease ``j``'s final angle to the pattern's angle ``θ*_j``, ``m_s`` the margin of the
-    largest seam gap to the seam tolerance (1 % of the largest panel's size ``L``), ``σ`` the
+    largest seam gap to the seam tolerance (`seam_tolerance`, 1 % of the largest panel's size ``L``
+    by default), ``σ`` the
     logistic function, ``τ`` = `temperature_deg` (in rad) and ``τ_s = τ L`` (a seam gap ``δ`` is a
     crease off by about ``δ / L``). As ``τ → 0`` the score tends to the indicator of the
     folded verdict for samples that have settled (`fold_outcome` also asks the last tenth of the run
@@ -74,6 +81,7 @@ def soft_yield(
     max_steps: int = 200_000,
     contact: bool = True,
     angle_tolerance_deg: float = 3.0,
+    seam_tolerance: float = 0.01,
     temperature_deg: float = 0.5,
 ) -> SoftYield:
     """The differentiable yield surrogate of `net` (see `SoftYield`), with the same samples as
@@ -83,8 +91,11 @@ def soft_yield(
     that is not positive.
     """
     from ..net import load_net
+    from ..simulation import VerdictTolerances
     from ..system import KOH_SOLUTION, HingeDesign
     from ._estimate import _GLOBAL, _kernel, _nominal
+
+    tolerances = VerdictTolerances.from_degrees(angle_tolerance_deg, seam_tolerance)
 
     if not (isinstance(temperature_deg, int | float) and temperature_deg > 0):
         raise ValueError(f"temperature_deg must be a positive number, got {temperature_deg!r}.")
@@ -110,11 +121,12 @@ def soft_yield(
         contact=contact,
         drag="panel",
         angle_tolerance_deg=angle_tolerance_deg,
+        seam_tolerance=seam_tolerance,
     )
-    tol = float(np.radians(angle_tolerance_deg))
+    tol = tolerances.angle
     tau = float(np.radians(temperature_deg))
-    scale = float(the_net.contact_tables().scale)  # the largest panel's size (length)
-    seam_tolerance = 0.01 * scale if contact else 1.0
+    scale = the_net.panel_size()  # the largest panel's size (length)
+    seam_length = tolerances.seam_length(scale)
     # A seam gap δ is a crease off by about δ / scale: the same temperature in angle units.
     tau_seam = tau * scale
     start = {"target": aims, "hinge_width": nominal["hinge_width"], "release": nominal["release"]}
@@ -123,7 +135,16 @@ def soft_yield(
         unknown = sorted(set(variables) - set(DESIGN_VARIABLES))
         if unknown:
             raise ValueError(f"unknown design variable(s) {unknown}; use {DESIGN_VARIABLES}.")
+        front = {"front_angle", "front_speed"} & set(variables)
+        if front and (len(front) != 2 or "release" in variables):
+            raise ValueError(
+                "an etch front needs both front_angle and front_speed, and no release times."
+            )
         current = {k: jnp.asarray(variables.get(k, v), dtype=float) for k, v in start.items()}
+        if front:
+            current["release"] = front_release_times(
+                the_net, variables["front_angle"], variables["front_speed"]
+            )
         params = {}
         for name, spread in scatter.items():
             z = draws[name]
@@ -140,7 +161,7 @@ def soft_yield(
         params.update({f"target[{j}]": jnp.full(n_samples, current["target"][j]) for j in range(m)})
         out = jax.vmap(kernel.fn)(params)
         margin = tol - jnp.abs(out["final_angle"] - jnp.asarray(intended))
-        seam = seam_tolerance - out["max_seam_gap"]
+        seam = seam_length - out["max_seam_gap"]
         score = jnp.prod(jax.nn.sigmoid(margin / tau), axis=-1) * jax.nn.sigmoid(seam / tau_seam)
         return jnp.mean(jnp.where(jnp.isfinite(score), score, 0.0))
 

@@ -355,6 +355,14 @@ class CreasePattern:
 
     # ---- verdicts ----
 
+    def panel_size(self, system: FoldingSystem | None = None) -> float:
+        """The largest panel's size (design length units): what the verdict's seam tolerance is a
+        fraction of (`origami_jax.simulation.VerdictTolerances`); the contact model's
+        `tables.scale` when `system` has contact, else the same from its spanning tree's panels."""
+        if system is not None and system.contact is not None:
+            return float(system.contact.tables.scale)
+        return self.net().panel_size()
+
     def seam_gap_function(self, system: FoldingSystem):
         """A traceable ``q ↦`` gap of each seam (design length units, `(s,)`), as for nets (the cut
         creases are not seams: the closure holds them together)."""
@@ -369,6 +377,7 @@ class CreasePattern:
         from ..simulation import fold_outcome
 
         kwargs.setdefault("intended_angles", jnp.asarray(self.intended_angles))
+        kwargs.setdefault("panel_size", self.panel_size(system))
         return fold_outcome(system, trajectory, seam_gaps=self.seam_gap_function(system), **kwargs)
 
     def assess(self, system: FoldingSystem, trajectory, *, bias: float = 0.0, **kwargs):
@@ -377,6 +386,7 @@ class CreasePattern:
         from ..simulation import assess
 
         kwargs.setdefault("intended_angles", self.intended_angles)
+        kwargs.setdefault("panel_size", self.panel_size(system))
         report = assess(system, trajectory, seam_gaps=self.seam_gap_function(system), **kwargs)
         return _with_branch(self, report, trajectory, bias)
 

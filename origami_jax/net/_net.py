@@ -224,6 +224,14 @@ class Net:
         positions = self.geometry.fold(np.asarray(angles, dtype=float))
         return self.geometry.seam_gaps(positions, self.seams) * self.length_scale
 
+    def panel_size(self, system: FoldingSystem | None = None) -> float:
+        """The largest panel's size (design length units): what the verdict's seam tolerance is a
+        fraction of (`origami_jax.simulation.VerdictTolerances`); the contact model's
+        `tables.scale` when `system` has contact, else the same from the net's geometry."""
+        if system is not None and system.contact is not None:
+            return float(system.contact.tables.scale)
+        return float(self.contact_tables().scale)
+
     def seam_gap_function(self, system: FoldingSystem):
         """A traceable ``q ↦`` gap of each seam (design length units, `(s,)`) for a system this net
         built: the larger distance between the two sides' corners at either end of the seam, from
@@ -236,6 +244,7 @@ class Net:
         from ..simulation import assess
 
         kwargs.setdefault("intended_angles", self.intended_angles)
+        kwargs.setdefault("panel_size", self.panel_size(system))
         return assess(system, trajectory, seam_gaps=self.seam_gap_function(system), **kwargs)
 
     def outcome(self, system: FoldingSystem, trajectory, **kwargs):
@@ -243,6 +252,7 @@ class Net:
         from ..simulation import fold_outcome
 
         kwargs.setdefault("intended_angles", jnp.asarray(self.intended_angles))
+        kwargs.setdefault("panel_size", self.panel_size(system))
         return fold_outcome(system, trajectory, seam_gaps=self.seam_gap_function(system), **kwargs)
 
     def to_fold(

@@ -1,5 +1,6 @@
-"""Figure of a yield estimate (`origami_jax.fab_yield.yield_estimate`): the verdict counts and the
-yield with its confidence interval.
+"""Figures of yield estimates (`origami_jax.fab_yield.yield_estimate`): the verdict counts and the
+yield with its confidence interval (`yield_figure`), the yield against the scatter's width
+(`width_figure`), and the misfold modes as 3D snapshots (`misfold_figure`).
 
 Matplotlib only; imported explicitly (`from origami_jax.plotting import fab_yield`).
 """
@@ -48,6 +49,120 @@ def yield_figure(result: Any, *, title: str | None = None):
     point.set_ylabel("yield")
     confidence = 100 * summary.get("confidence", 0.95)
     point.set_title(f"{fraction:.2f} [{low:.2f}, {high:.2f}]\n{confidence:g} % interval")
+    if title:
+        fig.suptitle(title)
+    return fig
+
+
+def width_figure(factors, results, *, title: str | None = None):
+    """Yield against scatter width: each estimate's yield with its interval, at the factor its
+    scatter's widths were multiplied by (`Scatter.scaled`).
+
+    **Arguments:** `factors`: the scale factors `(k,)`; `results`: the `YieldEstimate`s (or their
+    `to_dict()`s) at those factors; `title`: figure title. **Returns:** the matplotlib `Figure`.
+    """
+    import numpy as np
+
+    summaries = [r if isinstance(r, Mapping) else r.to_dict() for r in results]
+    if len(summaries) != len(factors):
+        raise ValueError("give one estimate per factor.")
+    order = np.argsort(factors)
+    x = np.asarray(factors, dtype=float)[order]
+    y = np.array([summaries[i]["yield"] for i in order])
+    low = np.array([summaries[i]["interval"][0] for i in order])
+    high = np.array([summaries[i]["interval"][1] for i in order])
+    fig, ax = plt.subplots(figsize=(5.0, 3.4), layout="constrained")
+    ax.errorbar(x, y, yerr=[y - low, high - y], fmt="o-", capsize=5, color="k")
+    for xi, s in zip(x, (summaries[i] for i in order), strict=True):
+        ax.annotate(f"n={s['n_samples']}", (xi, 0.02), ha="center", fontsize=7, color="0.4")
+    ax.set_xlabel("scatter width (× the given widths)")
+    ax.set_ylabel("yield")
+    ax.set_ylim(0, 1.02)
+    if len(x) > 1 and x.min() > 0 and x.max() / x.min() >= 4:
+        ax.set_xscale("log")
+        ax.set_xticks(x, [f"{v:g}" for v in x])
+    confidence = 100 * summaries[0].get("confidence", 0.95)
+    ax.set_title(f"yield with its {confidence:g} % interval", fontsize=10)
+    if title:
+        fig.suptitle(title)
+    return fig
+
+
+def representative_samples(estimate) -> dict[str, int]:
+    """For each verdict other than folded that some sample got, the sample whose final crease
+    angles are nearest (Euclidean, in rad) to that verdict's median final angles: one typical
+    member of each misfold mode. Samples whose simulation failed (NaN angles) are skipped.
+
+    **Returns:** verdict name → sample index (in the estimate's dataset order).
+    """
+    import numpy as np
+
+    from ..simulation import FoldVerdict
+
+    ds = estimate.dataset
+    codes = np.asarray(ds["verdict"].values)
+    angles = np.asarray(ds["final_angle"].values, dtype=float)
+    out = {}
+    for code, verdict in enumerate(FoldVerdict):
+        if verdict == FoldVerdict.FOLDED:
+            continue
+        members = np.nonzero((codes == code) & np.all(np.isfinite(angles), axis=1))[0]
+        if len(members):
+            median = np.median(angles[members], axis=0)
+            out[str(verdict)] = int(
+                members[np.argmin(np.linalg.norm(angles[members] - median, axis=1))]
+            )
+    return out
+
+
+def misfold_figure(net, estimate, *, title: str | None = None):
+    """The misfold modes as 3D snapshots: for each verdict other than folded, the final state of one
+    representative sample (`representative_samples`), the panels folded rigidly to its final crease
+    angles (`NetGeometry.fold`; the base in grey), next to the intended shape.
+
+    **Arguments:** `net`: the `origami_jax.net.Net` (or a catalogue name or `.fold` path);
+    `estimate`: its `YieldEstimate`. **Returns:** the matplotlib `Figure`.
+    """
+    import numpy as np
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    from ..net import load_net
+
+    if not hasattr(net, "geometry"):
+        net = load_net(net)
+    g = net.geometry
+    picks = representative_samples(estimate)
+    counts = estimate.counts
+    angles = np.asarray(estimate.dataset["final_angle"].values, dtype=float)
+    panels = [("intended", np.asarray(net.intended_angles), "folded shape")]
+    for verdict, index in picks.items():
+        panels.append((verdict, angles[index], f"sample {index} of {counts[verdict]} {verdict}"))
+    frames = [g.fold(a) for _, a, _ in panels]
+    points = np.concatenate([f.reshape(-1, 3) for f in frames])
+    points = points[np.all(np.isfinite(points), axis=1)]
+    centre = 0.5 * (points.min(axis=0) + points.max(axis=0))
+    half = 0.5 * float(np.max(points.max(axis=0) - points.min(axis=0))) or 1.0
+    root = int(g.order[0])
+    fig = plt.figure(figsize=(3.0 * len(panels), 3.3), layout="constrained")
+    for k, ((verdict, a, caption), corners) in enumerate(zip(panels, frames, strict=True)):
+        ax = fig.add_subplot(1, len(panels), k + 1, projection="3d")
+        polygons = [c[np.all(np.isfinite(c), axis=1)] for c in corners]
+        colour = VERDICT_COLOURS.get(verdict, "tab:green")
+        colours = ["0.7" if f == root else colour for f in range(len(polygons))]
+        ax.add_collection3d(
+            Poly3DCollection(
+                polygons, facecolors=colours, edgecolors="k", linewidths=0.5, alpha=0.7
+            )
+        )
+        for axis, c in zip("xyz", centre, strict=True):
+            getattr(ax, f"set_{axis}lim")(c - half, c + half)
+        ax.set_box_aspect((1, 1, 1))
+        ax.view_init(elev=25, azim=-60)
+        ax.set_axis_off()
+        degrees = ", ".join(f"{v:.1f}" for v in np.degrees(a))
+        ax.set_title(f"{verdict}\n{caption}\nangles {degrees}°", fontsize=8)
+    if not picks:
+        fig.text(0.7, 0.5, "every sample folded", ha="center", va="center")
     if title:
         fig.suptitle(title)
     return fig

@@ -24,9 +24,11 @@ from ._slow_ramp import SlowRampResult as SlowRampResult
 from ._slow_ramp import simulate_slow_ramp as simulate_slow_ramp
 from ._switching import StiffnessSwitching as StiffnessSwitching
 from ._switching import implicit_solver as implicit_solver
+from ._verdict import DEFAULT_TOLERANCES as DEFAULT_TOLERANCES
 from ._verdict import VERDICT_CODES as VERDICT_CODES
 from ._verdict import FoldOutcome as FoldOutcome
 from ._verdict import FoldReport as FoldReport
 from ._verdict import FoldVerdict as FoldVerdict
+from ._verdict import VerdictTolerances as VerdictTolerances
 from ._verdict import assess as assess
 from ._verdict import fold_outcome as fold_outcome

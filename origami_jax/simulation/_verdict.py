@@ -2,8 +2,9 @@
 
 `assess(system, trajectory)` compares the end of a simulation with the shape the device is meant to take:
 
-- **folded**: every crease within `angle_tolerance` of its intended angle and every seam closed (gap
-  below `seam_tolerance`); `time_to_fold` is when it got there for good.
+- **folded**: every crease within the angle tolerance of its intended angle and every seam closed
+  (gap below the seam tolerance; both in `VerdictTolerances`: 3° and 1 % of the panel size by
+  default); `time_to_fold` is when it got there for good.
 - **jammed**: the device came to rest short of that, with panels in contact: a crease stopped short
   of its intended angle (same sign, smaller magnitude) while contact holds it.
 - **misfolded**: it came to rest in another state (a crease on the wrong side or past its angle, seams
@@ -45,6 +46,99 @@ class FoldVerdict(enum.StrEnum):
 VERDICT_CODES = {v: i for i, v in enumerate(FoldVerdict)}
 """`FoldVerdict` → the integer code of `FoldOutcome.code` (folded 0, jammed 1, misfolded 2,
 unfinished 3, invalid 4)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class VerdictTolerances:
+    """How close to the intended shape counts as folded: the verdict's two tolerances.
+
+    **Fields:**
+    - `angle`: rad (default 3°, ``0.0524``): every crease within this of its intended angle.
+    - `seam`: a fraction of the panel size ``L`` (default 0.01): every seam's gap below ``seam · L``,
+      with ``L`` the largest panel's size (`origami_jax.contact.ContactTables.scale`: the largest
+      extent of any panel's outline along the axes; 200 µm for the catalogue's nets of 200 µm
+      squares, so the default is 2 µm).
+
+    The two are not equally strict: a crease off by ``δθ`` opens a seam along a panel of size ``L``
+    by about ``L δθ``, so the default seam tolerance (``0.01 L``) corresponds to about 0.6° of
+    crease error, five times stricter than the default angle tolerance, and decides most verdicts of
+    a net with seams. `seam_equivalent_angle` gives that angle; loosen `seam` to about
+    ``angle`` (in rad, ``0.05``) to make them equally strict.
+
+    **Raises:** `ValueError` (one line, before anything compiles) for a tolerance that is not a
+    finite number, not positive, an angle of π or more, or a seam fraction of 1 or more.
+    """
+
+    angle: float = float(np.radians(3.0))
+    seam: float = 0.01
+
+    def __post_init__(self):
+        for name, limit, unit in (("angle", np.pi, "rad"), ("seam", 1.0, "of the panel size")):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int | float | np.floating):
+                raise ValueError(f"the {name} tolerance must be a number ({unit}), got {value!r}.")
+            if not (np.isfinite(value) and 0 < value < limit):
+                raise ValueError(
+                    f"the {name} tolerance must lie in (0, {limit:.4g}) ({unit}), got {value!r}."
+                )
+            object.__setattr__(self, name, float(value))
+
+    @classmethod
+    def from_degrees(cls, angle_deg: float = 3.0, seam: float = 0.01) -> "VerdictTolerances":
+        """The tolerances with the angle in degrees (what the CLI takes)."""
+        if isinstance(angle_deg, bool) or not isinstance(angle_deg, int | float | np.floating):
+            raise ValueError(f"the angle tolerance must be a number (degrees), got {angle_deg!r}.")
+        if not (np.isfinite(angle_deg) and 0 < angle_deg < 180):
+            raise ValueError(
+                f"the angle tolerance must lie in (0, 180) degrees, got {angle_deg!r}."
+            )
+        return cls(angle=float(np.radians(angle_deg)), seam=seam)
+
+    @property
+    def angle_deg(self) -> float:
+        return float(f"{np.degrees(self.angle):.12g}")  # 3.0, not 3.0000000000000004
+
+    @property
+    def seam_equivalent_angle(self) -> float:
+        """The crease error (rad) that opens a seam by the seam tolerance, ``seam`` (small angles)."""
+        return self.seam
+
+    def seam_length(self, panel_size: float) -> float:
+        """The seam tolerance in length units for panels of size `panel_size`."""
+        return self.seam * float(panel_size)
+
+    def to_dict(self) -> dict[str, float]:
+        return {"angle_deg": self.angle_deg, "seam_fraction": self.seam}
+
+
+DEFAULT_TOLERANCES = VerdictTolerances()
+"""The verdict's default tolerances: 3° per crease, seams within 1 % of the panel size."""
+
+
+def _tolerances(system, tolerances, angle_tolerance, seam_tolerance, panel_size):
+    """The angle (rad) and seam (length) tolerances of a verdict from its arguments."""
+    if tolerances is None:
+        tolerances = DEFAULT_TOLERANCES
+    elif not isinstance(tolerances, VerdictTolerances):
+        raise ValueError(
+            f"tolerances must be a VerdictTolerances, got {type(tolerances).__name__}."
+        )
+    elif angle_tolerance is not None or seam_tolerance is not None:
+        raise ValueError("give tolerances= or angle_tolerance=/seam_tolerance=, not both.")
+    if angle_tolerance is None:
+        angle_tolerance = tolerances.angle
+    elif isinstance(angle_tolerance, int | float | np.floating) and not (
+        np.isfinite(angle_tolerance) and 0 < angle_tolerance < np.pi
+    ):
+        raise ValueError(f"angle_tolerance must lie in (0, π) rad, got {angle_tolerance!r}.")
+    if seam_tolerance is None:
+        if panel_size is None and system.contact is not None:
+            panel_size = system.contact.tables.scale
+        # Without panel geometry: 1 length unit (the seams' scale is unknown).
+        seam_tolerance = 1.0 if panel_size is None else tolerances.seam_length(panel_size)
+    if isinstance(angle_tolerance, int | float | np.floating):
+        angle_tolerance = float(angle_tolerance)
+    return angle_tolerance, seam_tolerance
 
 
 @dataclasses.dataclass(frozen=True)
@@ -148,11 +242,16 @@ def fold_outcome(
     *,
     intended_angles=None,
     seam_gaps: Callable | None = None,
-    angle_tolerance: float = float(np.radians(3.0)),
+    tolerances: VerdictTolerances | None = None,
+    angle_tolerance: float | None = None,
     seam_tolerance=None,
+    panel_size: float | None = None,
 ) -> FoldOutcome:
     """The verdict of `assess` as arrays, traceable (`jit`, `vmap`): see `assess` for the arguments;
     `seam_gaps` must be traceable here (a function of the mechanism's coordinates ``q``)."""
+    angle_tolerance, seam_tolerance = _tolerances(
+        system, tolerances, angle_tolerance, seam_tolerance, panel_size
+    )
     times, theta = trajectory.times, trajectory.theta
     q = theta if trajectory.state is None else trajectory.state[0]
     intended = system.hinges.target if intended_angles is None else jnp.asarray(intended_angles)
@@ -165,13 +264,10 @@ def fold_outcome(
         min_gap = jnp.min(jnp.where(finite, report["min_gap"], jnp.inf))
         penetration = jnp.max(jnp.where(finite, report["penetration"], 0.0))
         engaged = jnp.where(finite[-1], report["engaged"][-1], 0).astype(jnp.int32)
-        if seam_tolerance is None:
-            seam_tolerance = 0.01 * contact.tables.scale
     else:
         min_gap = jnp.asarray(jnp.inf, dtype)
         penetration = jnp.zeros((), dtype)
         engaged = jnp.zeros((), jnp.int32)
-    seam_tolerance = 1.0 if seam_tolerance is None else seam_tolerance
     within = jnp.all(jnp.abs(theta - intended) < angle_tolerance, axis=-1) & finite
     max_gap = jnp.zeros((), dtype)
     if seam_gaps is not None:
@@ -226,8 +322,10 @@ def assess(
     *,
     intended_angles=None,
     seam_gaps: Callable | None = None,
-    angle_tolerance: float = float(np.radians(3.0)),
+    tolerances: VerdictTolerances | None = None,
+    angle_tolerance: float | None = None,
     seam_tolerance: float | None = None,
+    panel_size: float | None = None,
     thickness: float | None = None,
 ) -> FoldReport:
     """The verdict on a simulated folding (module docstring).
@@ -239,13 +337,20 @@ def assess(
       hinge targets.
     - `seam_gaps`: a traceable function of the mechanism's coordinates ``q`` returning each seam's gap
       (length, `(s,)`), e.g. `Net.seam_gap_function`; `None` for a device without seams.
-    - `angle_tolerance`: rad (default 3°); `seam_tolerance`: length (default 1 % of the largest panel,
-      or 1 length unit without contact geometry).
+    - `tolerances`: a `VerdictTolerances` (default: 3°, seams within 1 % of the panel size), or
+      the two as `angle_tolerance` (rad) and `seam_tolerance` (a length; not both ways).
+    - `panel_size`: the ``L`` the seam tolerance is a fraction of (length; default the contact
+      model's largest panel, `ContactTables.scale`; a system without contact and without
+      `panel_size` gets a seam tolerance of 1 length unit). `origami_jax.net.Net.assess` gives
+      the net's.
     - `thickness`: panel thickness for `penetration_fraction` (default: twice the contact model's
       smallest half thickness).
 
     **Returns:** a `FoldReport`.
     """
+    angle_tolerance, seam_tolerance = _tolerances(
+        system, tolerances, angle_tolerance, seam_tolerance, panel_size
+    )
     if trajectory.theta.ndim != 2:
         raise ValueError(
             "assess takes one trajectory; for a batch, use fold_outcome under jax.vmap (or the "
@@ -269,8 +374,6 @@ def assess(
         )
     )
     contact = system.contact
-    if seam_tolerance is None:
-        seam_tolerance = 0.01 * contact.tables.scale if contact is not None else 1.0
     if thickness is None and contact is not None:
         thickness = 2 * float(np.min(contact.half_thickness))
     theta = np.asarray(trajectory.theta)

@@ -412,6 +412,7 @@ def net_fold(
     drag: str = "panel",
     hinges: str = "point",
     angle_tolerance_deg: float = 3.0,
+    seam_tolerance: float = 0.01,
     bias: float = 0.0,
     design: Any = None,
     targets: Any = None,
@@ -435,7 +436,9 @@ def net_fold(
     (contact pairs engaged at the end; −1 where the simulation failed), `num_steps`, `result` (the
     solver's code; −1 invalid input).
 
-    **Settings** beyond the solver's: `fluid` (`"air"` or `"koh"`, default `"koh"`) or `design`, a
+    **Settings** beyond the solver's: `angle_tolerance_deg` (degrees) and `seam_tolerance` (a
+    fraction of the largest panel's size), the verdict's (`origami_jax.simulation.VerdictTolerances`);
+    `fluid` (`"air"` or `"koh"`, default `"koh"`) or `design`, a
     whole `HingeDesign` (MICRO units) for what is not swept (its fluid included; not both);
     `targets`: the angles the hinges aim at (rad, one per crease; default the pattern's); and
     `hinge_lengths`:
@@ -452,9 +455,10 @@ def net_fold(
     import numpy as np
 
     from ..loops import CreasePattern, load_pattern
-    from ..simulation import DEFAULT_ATOL, DEFAULT_RTOL, RESULTS, Step, fold_outcome, simulate
+    from ..simulation import DEFAULT_ATOL, DEFAULT_RTOL, RESULTS, Step, VerdictTolerances, simulate
     from ..system import AIR, KOH_SOLUTION, HingeDesign
 
+    tolerances = VerdictTolerances.from_degrees(angle_tolerance_deg, seam_tolerance)
     if design is not None and fluid is not None:
         raise ValueError("give the fluid in the design (HingeDesign(fluid=...)), not both.")
     if design is not None and not isinstance(design, HingeDesign):
@@ -492,7 +496,6 @@ def net_fold(
     parameters.update({f"release[{j}]": "us" for j in range(m)})
     parameters.update({f"target[{j}]": "rad" for j in range(m)})
     intended = jnp.asarray(the_net.intended_angles)
-    tolerance = float(np.radians(angle_tolerance_deg))
 
     def design_of(params):
         invalid = jnp.zeros((), dtype=bool)
@@ -548,12 +551,8 @@ def net_fold(
             solver=diffrax.Tsit5(),
             throw=False,
         )
-        outcome = fold_outcome(
-            system,
-            trajectory,
-            intended_angles=intended,
-            seam_gaps=the_net.seam_gap_function(system),
-            angle_tolerance=tolerance,
+        outcome = the_net.outcome(
+            system, trajectory, intended_angles=intended, tolerances=tolerances
         )
         result = jnp.where(invalid, INVALID_INPUT, trajectory.result._value).astype(jnp.int32)
         failed = result != 0
@@ -593,6 +592,8 @@ def net_fold(
             "drag": drag,
             "hinges": hinges,
             "angle_tolerance_deg": angle_tolerance_deg,
+            # Named only when not the default (stores written before it existed stay resumable).
+            **({} if seam_tolerance == 0.01 else {"seam_tolerance": seam_tolerance}),
             "closed_loops": the_net.n_loops if loops else 0,
             "bias": bias,
             **({} if design is None else {"design": design_settings(design)}),

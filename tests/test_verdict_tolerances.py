@@ -1,0 +1,148 @@
+"""The verdict's tolerances (`VerdictTolerances`): checked values, one-line errors before anything
+compiles, and the seam tolerance applied as a fraction of the panel size.
+
+The judged foldings are synthetic (a corner cube held at chosen angles, no simulation): the seam gap
+the verdict compares is the traced seam function's, checked here against the host's rigid folding of
+the flat pattern (`Net.seam_gaps`, an independent computation from the FOLD geometry)."""
+
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import origami_jax.fab_yield as ojy
+import origami_jax.simulation as sim
+from origami_jax.net import load_net
+from origami_jax.sweep import get_model
+from origami_jax.system import KOH_SOLUTION, HingeDesign
+
+NET = "corner_cube"
+
+
+def _held(system, theta):
+    """A synthetic trajectory that sits at `theta` (rad) for 11 samples."""
+    theta = jnp.broadcast_to(jnp.asarray(theta), (11, system.n_hinges))
+    zeros = jnp.zeros_like(theta)
+    return sim.Trajectory(
+        times=jnp.linspace(0.0, 100.0, 11),
+        theta=theta,
+        theta_dot=zeros,
+        theta_ddot=zeros,
+        tau=zeros,
+        target=system.hinges.target,
+        stats={},
+        result=sim.RESULTS.successful,
+    )
+
+
+def test_defaults_and_units():
+    tolerances = sim.VerdictTolerances()
+    assert tolerances == sim.DEFAULT_TOLERANCES
+    assert tolerances.angle == pytest.approx(np.pi / 60)  # 3°
+    assert tolerances.seam == 0.01 and tolerances.seam_length(200.0) == pytest.approx(2.0)
+    assert sim.VerdictTolerances.from_degrees(5.0, 0.05) == sim.VerdictTolerances(
+        np.radians(5.0), 0.05
+    )
+    assert tolerances.to_dict() == {"angle_deg": pytest.approx(3.0), "seam_fraction": 0.01}
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"angle": 0.0}, r"angle tolerance must lie in \(0, 3.142\)"),
+        ({"angle": 4.0}, r"angle tolerance must lie in \(0, 3.142\)"),
+        ({"angle": float("nan")}, "angle tolerance must lie"),
+        ({"seam": -0.01}, r"seam tolerance must lie in \(0, 1\)"),
+        ({"seam": 1.5}, r"seam tolerance must lie in \(0, 1\)"),
+        ({"seam": "1 %"}, "seam tolerance must be a number"),
+        ({"angle": True}, "angle tolerance must be a number"),
+    ],
+)
+def test_bad_tolerances_are_refused(kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        sim.VerdictTolerances(**kwargs)
+
+
+@pytest.fixture(scope="module")
+def corner_cube():
+    """The corner cube without contact, and its system (building it takes seconds here)."""
+    net = load_net(NET)
+    return net, net.system(HingeDesign.literature(fluid=KOH_SOLUTION), contact=False)
+
+
+def test_bad_tolerances_are_refused_before_compiling(corner_cube):
+    """Every entry point checks them before building or compiling anything (each call below would
+    otherwise take seconds to minutes)."""
+    with pytest.raises(ValueError, match="angle tolerance must lie in \\(0, 180\\) degrees"):
+        ojy.yield_estimate(NET, n_samples=4, angle_tolerance_deg=-1.0)
+    with pytest.raises(ValueError, match="seam tolerance must lie"):
+        ojy.yield_estimate(NET, n_samples=4, seam_tolerance=0.0)
+    with pytest.raises(ValueError, match="seam tolerance must lie"):
+        ojy.soft_yield(NET, seam_tolerance=2.0)
+    with pytest.raises(ValueError, match="seam tolerance must lie"):
+        get_model("net-fold", net=NET, seam_tolerance=-1.0)
+    net, system = corner_cube
+    trajectory = _held(system, net.intended_angles)
+    with pytest.raises(ValueError, match="not both"):
+        net.assess(system, trajectory, tolerances=sim.VerdictTolerances(), angle_tolerance=0.1)
+    with pytest.raises(ValueError, match="tolerances must be a VerdictTolerances"):
+        net.assess(system, trajectory, tolerances=0.05)
+
+
+@pytest.mark.parametrize(
+    "contact",
+    # With contact the panel size is the contact model's (the same number); its verdict compiles
+    # the contact report (~40 s here): a slow duplicate.
+    [pytest.param(True, marks=pytest.mark.slow), False],
+)
+def test_the_seam_tolerance_is_a_fraction_of_the_panel_size(contact, corner_cube):
+    """The corner cube held with one crease 1° short: within the 3° angle tolerance, but its seam
+    opens by ~3.5 µm, more than the default 1 % of the 200 µm panels (2 µm): misfolded. A seam
+    tolerance of 2 % (4 µm) makes it folded; the reports state the tolerances in length units."""
+    net, system = corner_cube
+    if contact:
+        system = net.system(HingeDesign.literature(fluid=KOH_SOLUTION))
+    angles = net.intended_angles - np.radians([0.0, 1.0])
+    gap = float(net.seam_gaps(angles)[0])  # host geometry: the rigidly folded flat pattern
+    # A crease off by δθ opens the seam along a panel of size L by about L δθ (small angles; the
+    # seam's far corner is 200 µm from the crease): 3.49 µm, within 1 %.
+    assert gap == pytest.approx(200.0 * np.radians(1.0), rel=0.01), gap
+    assert net.panel_size(system) == pytest.approx(200.0)
+    trajectory = _held(system, angles)
+    strict = net.assess(system, trajectory)
+    assert (
+        strict.verdict == "misfolded" and strict.reason == "creases at their angles but seams open"
+    )
+    assert strict.seam_tolerance == pytest.approx(2.0)
+    assert strict.seam_gaps[0] == pytest.approx(gap, rel=1e-9)
+    loose = net.assess(system, trajectory, tolerances=sim.VerdictTolerances(seam=0.02))
+    assert loose.verdict == "folded" and loose.seam_tolerance == pytest.approx(4.0)
+    assert loose.angle_tolerance == pytest.approx(np.radians(3.0))
+    # The traced verdict agrees.
+    codes = sim.VERDICT_CODES
+    assert int(net.outcome(system, trajectory).code) == codes[sim.FoldVerdict.MISFOLDED]
+    outcome = net.outcome(system, trajectory, tolerances=sim.VerdictTolerances(seam=0.02))
+    assert int(outcome.code) == codes[sim.FoldVerdict.FOLDED]
+    # A tighter angle tolerance (0.5°) fails the 1° crease whatever the seam tolerance.
+    tight = sim.VerdictTolerances(angle=np.radians(0.5), seam=0.5)
+    assert net.assess(system, trajectory, tolerances=tight).verdict == "misfolded"
+
+
+def test_the_net_kernel_names_a_seam_tolerance_only_when_it_is_not_the_default():
+    """Stores written before the setting existed stay resumable: the default is not in the
+    kernel's settings."""
+    assert "seam_tolerance" not in get_model("net-fold", net=NET).settings
+    assert get_model("net-fold", net=NET, seam_tolerance=0.05).settings["seam_tolerance"] == 0.05
+
+
+def test_cli_tolerance_flags_are_checked_before_compiling(tmp_path, capsys):
+    from origami_jax.cli import main
+
+    for command, flag, value, message in (
+        ("fold", "--seam-tolerance", "0", "--seam-tolerance must lie strictly between 0 and 1"),
+        ("fold", "--tolerance", "200", "--tolerance must lie strictly between 0 and 180 degrees"),
+        ("yield", "--angle-tolerance", "-3", "--angle-tolerance must lie strictly between 0 and"),
+        ("yield", "--seam-tolerance", "nan", "--seam-tolerance must lie strictly between 0 and 1"),
+    ):
+        argv = [command, NET, flag, value, "--out", str(tmp_path / command)]
+        assert main(argv) == 2, argv
+        assert message in capsys.readouterr().err
