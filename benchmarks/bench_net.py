@@ -100,7 +100,7 @@ def _check(name: str, net, finals: np.ndarray, targets: np.ndarray) -> float:
 
 def run(quick: bool) -> list[Result]:
     jax.config.update("jax_enable_x64", True)
-    batch_ours = 4 if quick else 32
+    batch_ours = 4 if quick else 8
     batch_mj = 64 if quick else 1000
     repeats = 1 if quick else 3
     net = load_net(NET)
