@@ -201,14 +201,18 @@ def bar_hinge_model(
     pattern,
     system,
     *,
-    bar_factor: float = 200.0,
-    facet_factor: float = 10.0,
+    bar_factor: float = 2000.0,
+    facet_factor: float = 100.0,
     damping_ratio: float = 1.0,
 ) -> BarHinge:
     """The bar-and-hinge model of a `CreasePattern` with the hinges (stiffness, targets) and panel masses
     of `system` (its `LoopedPanels`). Bars: axial stiffness ``bar_factor · k_max / L²`` per bar (``k_max``
     the stiffest hinge), which puts the bars' frequency about ``sqrt(bar_factor)`` times above the hinges';
-    facet diagonals: ``facet_factor · k_max``.
+    facet diagonals: ``facet_factor · k_max``. The defaults are as stiff as the step release needs: with
+    bars and facets ten times softer (200, 10), a 10×10 Miura-ori sheet released from flat crumples,
+    folds a crease through ±π (its facets pass through each other; there is no contact) and ends
+    in another state; with the defaults its facets bend up to 0.3 rad and its bars stretch up to 6 %
+    on the way, and it reaches the targets (measured).
 
     Damping, Rayleigh's ``C = α M + β K`` written so that it acts only on the springs' own rates (a
     dashpot beside every bar and hinge, which leaves rigid motions alone): ``α = 2ζ ω_min`` and
