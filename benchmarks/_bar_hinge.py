@@ -163,6 +163,11 @@ class BarHinge:
         return out / count
 
 
+def _area2(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> float:
+    """Area of the plane triangle `a`, `b`, `c` `(2,)`."""
+    return 0.5 * abs((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]))
+
+
 def folded_positions(pattern, system, angles: np.ndarray) -> np.ndarray:
     """Every vertex of `pattern` (µm, `(N, 3)`) in the rigid state of fold angles `angles` `(m,)`:
     each face's vertices moved with its panel (`system`'s `LoopedPanels`; body ``j`` is face
@@ -244,11 +249,11 @@ def bar_hinge_model(
     for f, face in enumerate(g.faces):
         xy = coords[list(face)] @ g.plane.T
         local = triangulate(xy)
-        area = sum(0.5 * abs(np.cross(xy[j] - xy[i], xy[k] - xy[i])) for i, j, k in local)
+        area = sum(_area2(xy[i], xy[j], xy[k]) for i, j, k in local)
         for i, j, k in local:
             tri = (face[i], face[j], face[k])
             triangles.append((tri, f))
-            t_area = 0.5 * abs(np.cross(xy[j] - xy[i], xy[k] - xy[i]))
+            t_area = _area2(xy[i], xy[j], xy[k])
             share = face_mass[f] * t_area / area if f != g.tree.root else 0.0
             for node in tri:
                 node_mass[node] += share / 3
