@@ -13,17 +13,26 @@ bilayer hinges, KOH solution, no contact (none of the peers has panel contact). 
   (MuJoCo has no panel drag), `implicitfast` at a fixed step;
 - **bar-and-hinge** (`benchmarks._bar_hinge`, NumPy + `scipy.integrate.solve_ivp`): Origami Simulator's
   and MERLIN's model written here as the peer: point masses, bars, dihedral springs on creases and on
-  facet diagonals, mass-proportional damping, RK45.
+  facet diagonals (stiff: `bar_hinge_model`), dashpots beside the springs and a nodal drag, damping
+  critical for its slowest mode, RK45.
 
 The three dissipate differently (quadratic panel drag, linear joint damping, nodal damping), so they
 take different times to settle; what they must share is the end: every crease at its target (the
-targets close the loops, so the rigid sheet's equilibrium is the target state). Answers are compared
-there first (each peer's final angles against the targets and ours), then timed: a trajectory to
-``t1`` per model (steps/s), a batch with scattered hinges (±10 % stiffness per crease, release times
-scattered over 20 µs; sheets/s; ours vmapped, MuJoCo one rollout per member), compile time, and the
-scaling of one trajectory's cost per step with the sheet size.
+targets close the loops, so the rigid sheet's equilibrium is the target state, and it is an exact
+equilibrium of the bar-and-hinge model too). Answers are compared there first (each peer's final
+angles against the targets and ours), then timed: a trajectory to ``t1`` per model (steps/s), a batch
+with scattered hinges (±10 % stiffness per crease, release times scattered over 20 µs; sheets/s;
+MuJoCo one rollout per member, at most 8, extrapolated), compile time, and the scaling of the cost
+per step with the sheet size.
 
-Run: ``python -m benchmarks --only loops`` (``--quick``: 3×3 and 5×5 sheets, small batches).
+Run: ``python -m benchmarks --only loops --quick`` (5×5 sheet to 1.5 ms, a vmapped batch of 8,
+scaling 3×3 and 5×5; ~5–8 min on the shared 2-core machine). Without ``--quick``: the 10×10 sheet to
+3 ms, the batch of 1000 extrapolated from ``LOOPS_BATCH`` members (default 2) run through the single
+trajectory's compiled solve (a vmapped program would compile for as long again), scaling over
+``LOOPS_SIZES`` (default 5,10,20) with ours compiled up to ``LOOPS_OURS_MAX`` (default 10) and the
+peers at every size. On the shared 2-core machine ours alone needs ~6 min to compile the 10×10 solve
+and ~2 s per Tsit5 step (measured at 1.5 ms: 366 steps in 518–729 s), so the full run takes well
+over an hour there; benchmarks/RESULTS.md gives the figures measured piecewise.
 """
 
 import os
@@ -44,7 +53,9 @@ from origami_jax.system import KOH_SOLUTION, HingeDesign
 from ._bar_hinge import bar_hinge_model, folded_positions
 from ._harness import Result, Timing, time_calls
 
-T1 = 1500.0  # µs: every model has settled by then
+T1 = 1500.0  # µs: every model has settled by then on a 5×5 sheet
+# µs, the 10×10 sheet: ours (quadratic panel drag) was still 0.044 rad from its targets at 1500 µs
+T1_LARGE = 3000.0
 MJ_DT = 0.02  # µs, MuJoCo's fixed step
 ANSWER_TOL = 0.02  # rad: MuJoCo's end state against the targets (soft connect constraints)
 
@@ -198,7 +209,8 @@ def run(quick: bool) -> list[Result]:
 
     # Ours: compile apart, then time one trajectory.
     start = time.perf_counter()
-    solve = jax.jit(lambda s: _solve(s, T1)).lower(system).compile()
+    t1 = T1 if n <= 5 else T1_LARGE
+    solve = jax.jit(lambda s: _solve(s, t1)).lower(system).compile()
     compile_s = time.perf_counter() - start
     start = time.perf_counter()
     trajectory = jax.block_until_ready(solve(system))
@@ -217,7 +229,7 @@ def run(quick: bool) -> list[Result]:
 
     # MuJoCo: the same folding, same spanning tree, cut creases as connect constraints.
     model = _mujoco_model(system)
-    nstep = int(round(T1 / MJ_DT))
+    nstep = int(round(t1 / MJ_DT))
     data = mujoco.MjData(model)
     start = time.perf_counter()
     mj_final = _mujoco_run(model, nstep, data)[0]
@@ -232,7 +244,7 @@ def run(quick: bool) -> list[Result]:
     )
     rows.append(
         Result(
-            name=f"miura {n}x{n} step release, one trajectory to {T1:g} us vs MuJoCo",
+            name=f"miura {n}x{n} step release, one trajectory to {t1:g} us vs MuJoCo",
             ours=ours,
             peer_name=f"MuJoCo rollout (C), dt {MJ_DT} us",
             peer=mj,
@@ -254,7 +266,7 @@ def run(quick: bool) -> list[Result]:
             },
         )
     )
-    rows.append(_bar_hinge_row(n, pattern, system, ours, compile_s, ours_final, steps))
+    rows.append(_bar_hinge_row(n, t1, pattern, system, ours, compile_s, ours_final, steps))
 
     # A batch with scattered hinges (±10 % stiffness, release over 20 µs): sheets/s.
     rng = np.random.default_rng(0)
@@ -263,7 +275,7 @@ def run(quick: bool) -> list[Result]:
     if quick:
         # vmapped: one compiled program runs the whole batch.
         def member(f, r):
-            return _solve(_scattered(system, f, r), T1).theta[-1]
+            return _solve(_scattered(system, f, r), t1).theta[-1]
 
         start = time.perf_counter()
         batched = jax.jit(jax.vmap(member)).lower(factor, release).compile()
@@ -324,18 +336,21 @@ def run(quick: bool) -> list[Result]:
 
     # Scaling: cost per step with the sheet size.
     for size in scaling:
-        reuse = (solve, compile_s, steps, ours) if size == n else None
-        rows.extend(_scaling_rows(size, reuse=reuse))
+        if size == n:
+            reuse, built = (solve, compile_s, steps, ours, t1), (pattern, base)
+        else:
+            reuse = built = None
+        rows.extend(_scaling_rows(size, reuse=reuse, built=built))
     return rows
 
 
-def _bar_hinge_row(n, pattern, system, ours, compile_s, ours_final, steps) -> Result:
+def _bar_hinge_row(n, t1, pattern, system, ours, compile_s, ours_final, steps) -> Result:
     """One trajectory of the bar-and-hinge peer, its end state checked against the targets.
 
     The targets close every loop, so in the bar-and-hinge model they are an exact equilibrium: every
     bar at its rest length, every facet flat, every crease spring at rest (the force there is
     checked to round-off below). The compliant bars and facets change the path, not the end state;
-    what is left at ``T1`` is the slowest mode's decay, ``exp(−ω_min T1)`` with the damping critical
+    what is left at ``t1`` is the slowest mode's decay, ``exp(−ω_min t1)`` with the damping critical
     for that mode (`bar_hinge_model`), far below `BH_TOL` (1e-3 rad, the check ours passes)."""
     targets = np.asarray(system.hinges.target)
     bars = bar_hinge_model(pattern, system)
@@ -347,7 +362,7 @@ def _bar_hinge_row(n, pattern, system, ours, compile_s, ours_final, steps) -> Re
             f"the targets are not an equilibrium of the bar-and-hinge model: {residual}"
         )
     start = time.perf_counter()
-    sol, x = bars.simulate(T1, n_save=51)
+    sol, x = bars.simulate(t1, n_save=51)
     bh_time = time.perf_counter() - start
     angles = bars.crease_angles(x, pattern.n_creases)
     bh_error = float(np.max(np.abs(angles[-1] - targets)))
@@ -358,7 +373,7 @@ def _bar_hinge_row(n, pattern, system, ours, compile_s, ours_final, steps) -> Re
     lengths = np.linalg.norm(x[:, bars.bars[:, 1]] - x[:, bars.bars[:, 0]], axis=-1)
     strain = float(np.max(np.abs(lengths / bars.bar_length - 1)))
     return Result(
-        name=f"miura {n}x{n} step release, one trajectory to {T1:g} us vs bar-and-hinge",
+        name=f"miura {n}x{n} step release, one trajectory to {t1:g} us vs bar-and-hinge",
         ours=ours,
         peer_name="bar-and-hinge (NumPy, scipy solve_ivp RK45)",
         peer=Timing(bh_time, bh_time, bh_time, 1),
@@ -382,11 +397,11 @@ def _bar_hinge_row(n, pattern, system, ours, compile_s, ours_final, steps) -> Re
     )
 
 
-def _scaling_rows(size: int, horizon: float = 60.0, reuse=None) -> list[Result]:
+def _scaling_rows(size: int, horizon: float = 60.0, reuse=None, built=None) -> list[Result]:
     """Cost per step of one `size` × `size` sheet: ours (the main trajectory's figures where `reuse`
     gives them, else a `horizon` run compiled here; left out above `_ours_max`), MuJoCo and the
     bar-and-hinge model over `horizon`."""
-    p, s = _pattern(size)
+    p, s = built if built is not None else _pattern(size)
     mj_model = _mujoco_model(s)
     mj_steps = int(round(horizon / MJ_DT))
     mj_t = time_calls(lambda: _mujoco_run(mj_model, mj_steps), repeats=1)
@@ -422,8 +437,8 @@ def _scaling_rows(size: int, horizon: float = 60.0, reuse=None) -> list[Result]:
         timing = time_calls(lambda: short(s).theta, repeats=1)
         span = f"{horizon:g} us"
     else:
-        _, compile_s, steps, timing = reuse
-        span = f"{T1:g} us (the trajectory above)"
+        _, compile_s, steps, timing, t1 = reuse
+        span = f"{t1:g} us (the trajectory above)"
     rate = steps / timing.median
     base["ours_steps_per_s"] = rate
     return [
