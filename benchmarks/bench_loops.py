@@ -274,15 +274,17 @@ def run(quick: bool) -> list[Result]:
     release = jnp.asarray(rng.uniform(0, 20.0, (batch, m)))
     if quick:
         # vmapped: one compiled program runs the whole batch.
+        # Twice the single trajectory's span: the softer members (−10 %) released last settle later.
         def member(f, r):
-            return _solve(_scattered(system, f, r), t1).theta[-1]
+            return _solve(_scattered(system, f, r), 2 * t1).theta[-1]
 
         start = time.perf_counter()
         batched = jax.jit(jax.vmap(member)).lower(factor, release).compile()
         batch_compile = time.perf_counter() - start
         finals = np.asarray(batched(factor, release))
         if np.max(np.abs(finals - targets)) > 1e-3:
-            raise AssertionError("a batch member did not fold")
+            error = np.max(np.abs(finals - targets))
+            raise AssertionError(f"a batch member ends {error:.3g} rad from the targets")
         ours_batch = time_calls(lambda: batched(factor, release), repeats=1, warmup=0)
         ours_label = f"ours vmapped over {batch}"
         ours_per_sheet = ours_batch.median / batch
@@ -296,7 +298,8 @@ def run(quick: bool) -> list[Result]:
         for b in range(measured):
             final = np.asarray(solve(_scattered(system, factor[b], release[b])).theta[-1])
             if np.max(np.abs(final - targets)) > 1e-3:
-                raise AssertionError("a batch member did not fold")
+                error = np.max(np.abs(final - targets))
+                raise AssertionError(f"batch member {b} ends {error:.3g} rad from the targets")
         elapsed = time.perf_counter() - start
         ours_per_sheet = elapsed / measured
         ours_batch = Timing(elapsed, elapsed, elapsed, 1)
