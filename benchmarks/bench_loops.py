@@ -26,7 +26,7 @@ MuJoCo one rollout per member, at most 8, extrapolated), compile time, and the s
 per step with the sheet size.
 
 Run: ``python -m benchmarks --only loops --quick`` (5×5 sheet to 1.5 ms, a vmapped batch of 8,
-scaling 3×3 and 5×5; ~5–8 min on the shared 2-core machine). Without ``--quick``: the 10×10 sheet to
+scaling 3×3 and 5×5; 9 min on the shared 2-core machine at load 6–9, most of it compiling). Without ``--quick``: the 10×10 sheet to
 3 ms, the batch of 1000 extrapolated from ``LOOPS_BATCH`` members (default 2) run through the single
 trajectory's compiled solve (a vmapped program would compile for as long again), scaling over
 ``LOOPS_SIZES`` (default 5,10,20) with ours compiled up to ``LOOPS_OURS_MAX`` (default 10) and the
@@ -322,7 +322,8 @@ def run(quick: bool) -> list[Result]:
         Result(
             name=f"miura {n}x{n}, batch of {batch} with scattered hinges vs MuJoCo",
             ours=Timing(total, total, total, 1),
-            peer_name=f"MuJoCo rollout over {mj_members} models (C), extrapolated to {batch}",
+            peer_name=f"MuJoCo rollout over {mj_members} models (C)"
+            + (f", EXTRAPOLATED to {batch}" if batch > mj_members else ""),
             peer=Timing(per_sheet_mj * batch, per_sheet_mj * batch, per_sheet_mj * batch, 1),
             compile_s=batch_compile if quick else compile_s,
             per_item=batch,
