@@ -4,8 +4,11 @@ The model of Origami Simulator (Ghassaei, Demaine & Gershenfeld, 7OSME 2018) and
 Proc. R. Soc. A 473, 2017), written here from their papers: every vertex of the pattern is a point mass,
 every edge and every facet diagonal is an axial spring (bar), every crease is a rotational spring on the
 dihedral angle between the two triangles that share it, and every facet diagonal a stiff rotational
-spring that keeps the facet flat. Panels are compliant, not rigid: the closure of a loop is held by the
-bars' stiffness, not exactly. Integrated with `scipy.integrate.solve_ivp`.
+spring that keeps the facet flat; a dashpot beside every spring and a nodal (mass-proportional) drag
+dissipate. Panels are compliant, not rigid: the closure of a loop is held by the bars' stiffness, not
+exactly, so the path differs from a rigid model's; the end state does not, since a rigid folded state
+(every bar at rest length, every facet flat, every crease at its target) is an exact equilibrium.
+Integrated with `scipy.integrate.solve_ivp`.
 
 Dihedral angle of an edge ``u → v`` with wing ``w1`` in the triangle that runs ``u → v`` and ``w2`` in
 the one that runs ``v → u``: ``ρ = atan2(−(n1 × n2) · ê, n1 · n2)`` with ``n1 = (v − u) × (w1 − u)``,
@@ -38,6 +41,7 @@ class BarHinge:
     hinge_target: np.ndarray  # (H,) rad
     hinge_crease: np.ndarray  # (H,) crease index, −1 for a facet diagonal
     damping: float  # 1/time, mass-proportional
+    viscosity: float = 0.0  # time: each spring's damper, as a multiple of its stiffness
 
     @property
     def n_nodes(self) -> int:
@@ -57,8 +61,10 @@ class BarHinge:
         a, b = self.bars[:, 0], self.bars[:, 1]
         d = x[b] - x[a]
         length = np.linalg.norm(d, axis=-1)
-        tension = self.bar_stiffness * (length - self.bar_length)
-        f_bar = (tension / length)[:, None] * d
+        unit_bar = d / length[:, None]
+        stretch_rate = np.sum((v[b] - v[a]) * unit_bar, -1)
+        tension = self.bar_stiffness * (length - self.bar_length + self.viscosity * stretch_rate)
+        f_bar = tension[:, None] * unit_bar
         force = np.zeros_like(x)
         np.add.at(force, a, f_bar)
         np.add.at(force, b, -f_bar)
@@ -76,11 +82,55 @@ class BarHinge:
         t2 = (np.sum((x[w2] - x[u]) * e, -1) / e2)[:, None]
         gu = -(1 - t1) * g1 - (1 - t2) * g2
         gv = -t1 * g1 - t2 * g2
-        moment = (-self.hinge_stiffness * (rho - self.hinge_target))[:, None]
-        for nodes, grad in ((u, gu), (vv, gv), (w1, g1), (w2, g2)):
+        pairs = ((u, gu), (vv, gv), (w1, g1), (w2, g2))
+        rate = sum(np.sum(v[nodes] * grad, -1) for nodes, grad in pairs)
+        moment = (-self.hinge_stiffness * (rho - self.hinge_target + self.viscosity * rate))[
+            :, None
+        ]
+        for nodes, grad in pairs:
             np.add.at(force, nodes, moment * grad)
         force -= self.damping * self.mass[:, None] * v
         return force
+
+    def stiffness_matrix(self, x: np.ndarray) -> np.ndarray:
+        """The stiffness matrix ``K = Σ k ∇ρ ∇ρᵀ + Σ k_bar ∇l ∇lᵀ`` at positions `x` `(N, 3)`,
+        `(3N, 3N)`: the Hessian of the springs' energy at a state where every spring is at rest (the
+        folded target state), where the terms in ``(ρ − ρ₀) ∇²ρ`` and ``(l − l₀) ∇²l`` vanish."""
+        n = self.n_nodes
+        rows = []
+        a, b = self.bars[:, 0], self.bars[:, 1]
+        d = x[b] - x[a]
+        unit = d / np.linalg.norm(d, axis=-1, keepdims=True)
+        for k, nodes, grads in ((self.bar_stiffness, (a, b), (-unit, unit)),):
+            rows.append((k, nodes, grads))
+        u, vv, w1, w2 = (self.hinges[:, k] for k in range(4))
+        e = x[vv] - x[u]
+        e2 = np.sum(e * e, -1)
+        n1 = np.cross(e, x[w1] - x[u])
+        n2 = np.cross(x[u] - x[vv], x[w2] - x[vv])
+        g1 = (np.sqrt(e2) / np.sum(n1 * n1, -1))[:, None] * n1
+        g2 = (np.sqrt(e2) / np.sum(n2 * n2, -1))[:, None] * n2
+        t1 = (np.sum((x[w1] - x[u]) * e, -1) / e2)[:, None]
+        t2 = (np.sum((x[w2] - x[u]) * e, -1) / e2)[:, None]
+        grads = (-(1 - t1) * g1 - (1 - t2) * g2, -t1 * g1 - t2 * g2, g1, g2)
+        rows.append((self.hinge_stiffness, (u, vv, w1, w2), grads))
+        matrix = np.zeros((3 * n, 3 * n))
+        for k, nodes, grads in rows:
+            gradient = np.zeros((len(k), 3 * n))
+            for node, grad in zip(nodes, grads, strict=True):
+                for c in range(3):
+                    np.add.at(gradient, (np.arange(len(k)), 3 * node + c), grad[:, c])
+            matrix += gradient.T @ (k[:, None] * gradient)
+        return matrix
+
+    def frequencies(self, x: np.ndarray) -> np.ndarray:
+        """Angular frequencies of the free nodes' small oscillations about an equilibrium `x` at which
+        every spring is at rest (`stiffness_matrix`), ascending, 1/time."""
+        free = np.repeat(self.free, 3)
+        stiffness = self.stiffness_matrix(x)[np.ix_(free, free)]
+        scale = 1 / np.sqrt(np.repeat(self.mass, 3)[free])
+        eigenvalues = np.linalg.eigvalsh(scale[:, None] * stiffness * scale[None, :])
+        return np.sqrt(np.clip(eigenvalues, 0.0, None))
 
     def rhs(self, t: float, y: np.ndarray) -> np.ndarray:
         del t
@@ -113,19 +163,69 @@ class BarHinge:
         return out / count
 
 
+def _area2(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> float:
+    """Area of the plane triangle `a`, `b`, `c` `(2,)`."""
+    return 0.5 * abs((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]))
+
+
+def folded_positions(pattern, system, angles: np.ndarray) -> np.ndarray:
+    """Every vertex of `pattern` (µm, `(N, 3)`) in the rigid state of fold angles `angles` `(m,)`:
+    each face's vertices moved with its panel (`system`'s `LoopedPanels`; body ``j`` is face
+    ``geometry.tree.order[j + 1]``, the root face stays flat). For a state that closes every loop,
+    faces that share a vertex put it at the same place."""
+    g = pattern.geometry
+    coords = np.asarray(g.frame.vertices_coords, dtype=float)
+    coords = np.column_stack([coords, np.zeros(len(coords))])[:, :3] * pattern.length_scale
+    tree = system.mechanism.tree
+    parents = tree.parents
+    points, axes = np.asarray(tree.points), np.asarray(tree.axes)
+    angles = np.asarray(angles)
+    # Each body's rigid motion from the flat state, composed from the base outwards (NumPy: the
+    # tree's own `body_poses` would compile a program per sheet size for this one call).
+    moves: dict[int, tuple[np.ndarray, np.ndarray]] = {-1: (np.eye(3), np.zeros(3))}
+
+    def move(i: int) -> tuple[np.ndarray, np.ndarray]:
+        if i not in moves:
+            r_p, t_p = move(parents[i])
+            w = axes[i]
+            cross = np.array([[0, -w[2], w[1]], [w[2], 0, -w[0]], [-w[1], w[0], 0]])
+            r = np.eye(3) + np.sin(angles[i]) * cross + (1 - np.cos(angles[i])) * cross @ cross
+            moves[i] = (r_p @ r, r_p @ (points[i] - r @ points[i]) + t_p)
+        return moves[i]
+
+    order = np.asarray(g.tree.order)
+    out = coords.copy()
+    for body, face in enumerate(order[1:]):
+        nodes = list(g.faces[face])
+        rotation, translation = move(body)
+        out[nodes] = coords[nodes] @ rotation.T + translation
+    return out
+
+
 def bar_hinge_model(
     pattern,
     system,
     *,
-    bar_factor: float = 200.0,
-    facet_factor: float = 10.0,
+    bar_factor: float = 2000.0,
+    facet_factor: float = 100.0,
     damping_ratio: float = 1.0,
 ) -> BarHinge:
     """The bar-and-hinge model of a `CreasePattern` with the hinges (stiffness, targets) and panel masses
     of `system` (its `LoopedPanels`). Bars: axial stiffness ``bar_factor · k_max / L²`` per bar (``k_max``
     the stiffest hinge), which puts the bars' frequency about ``sqrt(bar_factor)`` times above the hinges';
-    facet diagonals: ``facet_factor · k_max``. Damping: mass-proportional, `damping_ratio` of critical at
-    the hinges' frequency."""
+    facet diagonals: ``facet_factor · k_max``. The defaults are as stiff as the step release needs: with
+    bars and facets ten times softer (200, 10), a 10×10 Miura-ori sheet released from flat crumples,
+    folds a crease through ±π (its facets pass through each other; there is no contact) and ends
+    in another state; with the defaults its facets bend up to 0.3 rad and its bars stretch up to 6 %
+    on the way, and it reaches the targets (measured).
+
+    Damping, Rayleigh's ``C = α M + β K`` written so that it acts only on the springs' own rates (a
+    dashpot beside every bar and hinge, which leaves rigid motions alone): ``α = 2ζ ω_min`` and
+    ``β = 2ζ / ω_max`` with ``ω_min``, ``ω_max`` the lowest and highest frequencies of the model about
+    the folded target state (`BarHinge.frequencies`) and ``ζ`` = `damping_ratio`. Every mode then decays
+    at least at the rate ``ζ ω_min``: with mass-proportional damping critical at the hinges' highest
+    frequency instead, the sheet's slowest (collective folding) mode was overdamped five times over on
+    a 5×5 sheet and still 0.075 rad from the targets after 1.5 ms."""
     g = pattern.geometry
     scale = pattern.length_scale
     key = g.frame
@@ -149,11 +249,11 @@ def bar_hinge_model(
     for f, face in enumerate(g.faces):
         xy = coords[list(face)] @ g.plane.T
         local = triangulate(xy)
-        area = sum(0.5 * abs(np.cross(xy[j] - xy[i], xy[k] - xy[i])) for i, j, k in local)
+        area = sum(_area2(xy[i], xy[j], xy[k]) for i, j, k in local)
         for i, j, k in local:
             tri = (face[i], face[j], face[k])
             triangles.append((tri, f))
-            t_area = 0.5 * abs(np.cross(xy[j] - xy[i], xy[k] - xy[i]))
+            t_area = _area2(xy[i], xy[j], xy[k])
             share = face_mass[f] * t_area / area if f != g.tree.root else 0.0
             for node in tri:
                 node_mass[node] += share / 3
@@ -195,9 +295,7 @@ def bar_hinge_model(
     free[list(g.faces[g.tree.root])] = False
     unused = np.setdiff1d(np.arange(len(coords)), used)
     free[unused] = False
-    inertia = np.diagonal(np.asarray(mechanism.tree.mass_matrix(np.zeros(mechanism.n_tree))))
-    omega = np.sqrt(k_max / float(np.min(inertia)))
-    return BarHinge(
+    model = BarHinge(
         x0=coords,
         mass=node_mass,
         free=free,
@@ -208,5 +306,11 @@ def bar_hinge_model(
         hinge_stiffness=np.asarray(hinge_k),
         hinge_target=np.asarray(hinge_t),
         hinge_crease=np.asarray(hinge_c),
-        damping=2 * damping_ratio * omega,
+        damping=0.0,
+    )
+    folded = folded_positions(pattern, system, target)
+    omega = model.frequencies(folded)
+    low, high = float(omega[0]), float(omega[-1])
+    return dataclasses.replace(
+        model, damping=2 * damping_ratio * low, viscosity=2 * damping_ratio / high
     )

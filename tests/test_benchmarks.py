@@ -40,3 +40,63 @@ def test_quick_benchmarks_agree_with_their_peers(tmp_path, capsys):
 def test_heavy_quick_benchmarks_agree_with_their_peers(tmp_path, capsys):
     rows = _run(HEAVY, tmp_path, capsys)
     assert any("sweep" in row["name"] for row in rows)
+
+
+@pytest.mark.slow  # builds a crease pattern's system (a few compiles); the peer is benchmark code
+def test_bar_and_hinge_peer_forces_and_equilibrium():
+    """The bar-and-hinge peer of the closed-loop benchmark on a 3×3 Miura-ori: its forces are minus the
+    gradient of its spring energy (central differences, 1e-6 relative: the differences' truncation
+    error at a 1e-4 µm step), its stiffness matrix the forces' Jacobian at the folded state (same), and
+    the rigid folded state at the targets, placed by the panel tree's kinematics, is its equilibrium:
+    every crease at its target, facets flat, bars at rest length (round-off, 1e-9)."""
+    import numpy as np
+    from benchmarks._bar_hinge import bar_hinge_model, folded_positions
+
+    from origami_jax.loops import load_pattern
+    from origami_jax.system import KOH_SOLUTION, HingeDesign
+
+    pattern = load_pattern("miura_3x3")
+    system = pattern.system(
+        HingeDesign.literature(fluid=KOH_SOLUTION), contact=False, check_rigid=False
+    )
+    targets = np.asarray(system.hinges.target)
+    bars = bar_hinge_model(pattern, system)
+    folded = folded_positions(pattern, system, targets)
+    crease = bars.hinge_crease >= 0
+    angles = bars.angles(folded)
+    assert np.max(np.abs(angles[crease] - targets[bars.hinge_crease[crease]])) < 1e-9
+    assert np.max(np.abs(angles[~crease])) < 1e-9
+    lengths = np.linalg.norm(folded[bars.bars[:, 1]] - folded[bars.bars[:, 0]], axis=-1)
+    assert np.max(np.abs(lengths / bars.bar_length - 1)) < 1e-9
+    scale = float(np.max(bars.bar_stiffness * bars.bar_length))
+    zero = np.zeros_like(folded)
+    assert np.max(np.abs(bars.forces(folded, zero)[bars.free])) < 1e-9 * scale
+
+    def energy(x):
+        length = np.linalg.norm(x[bars.bars[:, 1]] - x[bars.bars[:, 0]], axis=-1)
+        rho = bars.angles(x)
+        return 0.5 * np.sum(bars.bar_stiffness * (length - bars.bar_length) ** 2) + 0.5 * np.sum(
+            bars.hinge_stiffness * (rho - bars.hinge_target) ** 2
+        )
+
+    rng = np.random.default_rng(0)
+    x = folded + rng.normal(scale=2.0, size=folded.shape)  # µm, off equilibrium
+    h = 1e-4
+    gradient = np.zeros_like(x)
+    for i in range(x.shape[0]):
+        for c in range(3):
+            step = np.zeros_like(x)
+            step[i, c] = h
+            gradient[i, c] = (energy(x + step) - energy(x - step)) / (2 * h)
+    force = bars.forces(x, zero)
+    assert np.max(np.abs(force + gradient)) < 1e-6 * np.max(np.abs(gradient))
+
+    jacobian = np.zeros((x.size, x.size))
+    for k in range(x.size):
+        step = np.zeros(x.size)
+        step[k] = h
+        plus = bars.forces(folded + step.reshape(x.shape), zero).ravel()
+        minus = bars.forces(folded - step.reshape(x.shape), zero).ravel()
+        jacobian[:, k] = -(plus - minus) / (2 * h)
+    stiffness = bars.stiffness_matrix(folded)
+    assert np.max(np.abs(stiffness - jacobian)) < 1e-6 * np.max(np.abs(stiffness))
