@@ -39,9 +39,15 @@ def tree_mjcf(
     damping: np.ndarray,
     dt: float,
     thickness: float | None = None,
+    springs: str = "switched",
+    equality: str = "",
 ) -> str:
-    """MJCF of `tree` (a `PanelTree`) with switched hinge springs (one actuator per hinge, in hinge
-    order), joint `damping`, step `dt`; panel contact when `thickness` is given (length units)."""
+    """MJCF of `tree` (a `PanelTree`) with joint `damping`, step `dt`; panel contact when
+    `thickness` is given (length units). `springs`: `"switched"` (one actuator per hinge, in hinge
+    order, released by its control) or `"joint"` (MuJoCo's joint springs, on from the start);
+    `equality`: the model's `<equality>` entries (e.g. loop-closing `connect`s)."""
+    if springs not in ("switched", "joint"):
+        raise ValueError(f"springs must be 'switched' or 'joint', got {springs!r}")
     parents = tree.parents
     points = np.asarray(tree.points)
     axes = np.asarray(tree.axes)
@@ -71,10 +77,13 @@ def tree_mjcf(
             assets.append(f'<mesh name="m{i}" vertex="{_f(_prism(world, thickness, inset))}"/>')
             geom = f'<geom type="mesh" mesh="m{i}" condim="1" contype="1" conaffinity="1"/>'
         inner = "".join(body(c) for c in children.get(i, []))
+        spring = ""
+        if springs == "joint":
+            spring = f'stiffness="{stiffness[i]:.17g}" springref="{target[i]:.17g}" '
         return (
             f'<body name="b{i}" pos="{_f(points[i] - parent_point)}">'
             f'<inertial pos="{_f(cg)}" mass="{masses[i]:.17g}" fullinertia="{_f(full)}"/>'
-            f'<joint name="h{i}" type="hinge" axis="{_f(axes[i])}" pos="0 0 0" '
+            f'<joint name="h{i}" type="hinge" axis="{_f(axes[i])}" pos="0 0 0" {spring}'
             f'damping="{damping[i]:.17g}"/>{geom}{inner}</body>'
         )
 
@@ -89,17 +98,23 @@ def tree_mjcf(
         f'gainprm="{stiffness[i] * target[i]:.17g} {-stiffness[i]:.17g} 0" '
         f'ctrlrange="0 1" ctrllimited="true"/>'
         for i in range(len(parents))
+        if springs == "switched"
     )
     contact_flag = "" if thickness is not None else '<flag contact="disable"/>'
     return (
-        '<mujoco><compiler angle="radian"/>'
-        f'<option timestep="{dt:.17g}" integrator="implicitfast" gravity="0 0 0">'
-        f"{contact_flag}</option>"
-        f'<default><geom solref="{4 * dt:.17g} 1" margin="0"/></default>'
-        f"<asset>{''.join(assets)}</asset>"
-        f"<worldbody>{base}{bodies}</worldbody>"
-        f"<actuator>{actuators}</actuator></mujoco>"
-    ).replace("<asset></asset>", "")
+        (
+            '<mujoco><compiler angle="radian"/>'
+            f'<option timestep="{dt:.17g}" integrator="implicitfast" gravity="0 0 0">'
+            f"{contact_flag}</option>"
+            f'<default><geom solref="{4 * dt:.17g} 1" margin="0"/></default>'
+            f"<asset>{''.join(assets)}</asset>"
+            f"<worldbody>{base}{bodies}</worldbody>"
+            f"<actuator>{actuators}</actuator><equality>{equality}</equality></mujoco>"
+        )
+        .replace("<asset></asset>", "")
+        .replace("<actuator></actuator>", "")
+        .replace("<equality></equality>", "")
+    )
 
 
 def tree_model(tree, **kwargs) -> mujoco.MjModel:

@@ -52,6 +52,7 @@ from origami_jax.system import KOH_SOLUTION, HingeDesign
 
 from ._bar_hinge import bar_hinge_model, folded_positions
 from ._harness import Result, Timing, time_calls
+from ._mujoco_tree import critical_damping, tree_mjcf
 
 T1 = 1500.0  # µs: every model has settled by then on a 5×5 sheet
 # µs, the 10×10 sheet: ours (quadratic panel drag) was still 0.044 rad from its targets at 1500 µs
@@ -84,70 +85,36 @@ def _solve(system, t1, n_save=51, rtol=1e-6, atol=1e-9):
 
 
 def _mjcf(system, damping: np.ndarray, dt: float) -> str:
+    """The sheet's spanning tree with MuJoCo's joint springs, each cut crease closed by two
+    `connect` constraints at its ends."""
     mechanism = system.mechanism
     tree = mechanism.tree
-    parents = tree.parents
     points = np.asarray(tree.points)
-    axes = np.asarray(tree.axes)
-    frames = np.asarray(tree.frames)
-    masses = np.asarray(tree.masses)
-    cgs = np.asarray(tree.cgs)
-    inertias = np.asarray(tree.inertias)
-    k = np.asarray(system.hinges.stiffness)
-    target = np.asarray(system.hinges.target)
-    children: dict[int, list[int]] = {}
-    for i, p in enumerate(parents):
-        children.setdefault(p, []).append(i)
-
-    def f(values) -> str:
-        return " ".join(f"{v:.17g}" for v in values)
-
-    def body(i: int) -> str:
-        parent_point = points[parents[i]] if parents[i] >= 0 else np.zeros(3)
-        rotation = frames[i, :3, :3]
-        cg = frames[i, :3, 3] + rotation @ cgs[i] - points[i]
-        inertia = rotation @ inertias[i] @ rotation.T
-        full = (
-            inertia[0, 0],
-            inertia[1, 1],
-            inertia[2, 2],
-            inertia[0, 1],
-            inertia[0, 2],
-            inertia[1, 2],
-        )
-        inner = "".join(body(c) for c in children.get(i, []))
-        return (
-            f'<body name="b{i}" pos="{f(points[i] - parent_point)}">'
-            f'<inertial pos="{f(cg)}" mass="{masses[i]:.17g}" fullinertia="{f(full)}"/>'
-            f'<joint name="h{i}" type="hinge" axis="{f(axes[i])}" pos="0 0 0" '
-            f'stiffness="{k[i]:.17g}" springref="{target[i]:.17g}" damping="{damping[i]:.17g}"/>'
-            f"{inner}</body>"
-        )
-
+    n = mechanism.n_tree
     equality = ""
-    for c, ((a, b), ends) in enumerate(zip(mechanism.cut_bodies, mechanism.cut_ends, strict=True)):
+    for (a, b), ends in zip(mechanism.cut_bodies, mechanism.cut_ends, strict=True):
         for end in np.asarray(ends):
             anchor = end - (points[a] if a >= 0 else np.zeros(3))
             name1 = f"b{a}" if a >= 0 else "world"
             equality += (
-                f'<connect body1="{name1}" body2="b{b}" anchor="{f(anchor)}" '
-                f'solref="{4 * dt:.17g} 1"/>'
+                f'<connect body1="{name1}" body2="b{b}" '
+                f'anchor="{" ".join(f"{v:.17g}" for v in anchor)}" solref="{4 * dt:.17g} 1"/>'
             )
-        del c
-    return (
-        '<mujoco><compiler angle="radian"/>'
-        f'<option timestep="{dt:.17g}" integrator="implicitfast" gravity="0 0 0">'
-        '<flag contact="disable"/></option>'
-        f"<worldbody>{''.join(body(c) for c in children.get(-1, []))}</worldbody>"
-        f"<equality>{equality}</equality></mujoco>"
+    return tree_mjcf(
+        tree,
+        stiffness=np.asarray(system.hinges.stiffness)[:n],
+        target=np.asarray(system.hinges.target)[:n],
+        damping=damping,
+        dt=dt,
+        springs="joint",
+        equality=equality,
     )
 
 
 def _mujoco_model(system, *, dt: float = MJ_DT, damping_ratio: float = 1.0):
     mechanism = system.mechanism
-    inertia = np.diagonal(np.asarray(mechanism.tree.mass_matrix(np.zeros(mechanism.n_tree))))
     k = np.asarray(system.hinges.stiffness)[: mechanism.n_tree]
-    damping = 2 * damping_ratio * np.sqrt(k * inertia)
+    damping = critical_damping(mechanism.tree, k, damping_ratio)
     return mujoco.MjModel.from_xml_string(_mjcf(system, damping, dt))
 
 
