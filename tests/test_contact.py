@@ -18,6 +18,8 @@ from origami_jax.chain import accordion, accordion_system
 from origami_jax.contact import PanelContact, barrier
 from origami_jax.system import KOH_SOLUTION, FoldingSystem, HingeDesign, HingeDrag, Hinges
 
+from .trajectories import held_trajectory
+
 N_SAVE = 601
 # Energy may rise by no more than the integrator's error between samples (relative to the energy
 # the hinges release): rtol 1e-8 local errors over ~1e3 steps.
@@ -173,19 +175,7 @@ def test_metric_gradients_through_contact_match_finite_differences():
 
 
 def _held(system, theta, result=None):
-    """A synthetic trajectory that sits at `theta` (rad) for 11 samples."""
-    theta = jnp.broadcast_to(jnp.asarray(theta), (11, system.n_hinges))
-    zeros = jnp.zeros_like(theta)
-    return sim.Trajectory(
-        times=jnp.linspace(0.0, 100.0, 11),
-        theta=theta,
-        theta_dot=zeros,
-        theta_ddot=zeros,
-        tau=zeros,
-        target=system.hinges.target,
-        stats={},
-        result=sim.RESULTS.successful if result is None else result,
-    )
+    return held_trajectory(system, theta, result)
 
 
 @pytest.mark.slow  # the yield tests judge folded and misfolded nets by default

@@ -5,7 +5,6 @@ The judged foldings are synthetic (a corner cube held at chosen angles, no simul
 the verdict compares is the traced seam function's, checked here against the host's rigid folding of
 the flat pattern (`Net.seam_gaps`, an independent computation from the FOLD geometry)."""
 
-import jax.numpy as jnp
 import numpy as np
 import pytest
 
@@ -15,23 +14,13 @@ from origami_jax.net import load_net
 from origami_jax.sweep import get_model
 from origami_jax.system import KOH_SOLUTION, HingeDesign
 
+from .trajectories import held_trajectory
+
 NET = "corner_cube"
 
 
-def _held(system, theta):
-    """A synthetic trajectory that sits at `theta` (rad) for 11 samples."""
-    theta = jnp.broadcast_to(jnp.asarray(theta), (11, system.n_hinges))
-    zeros = jnp.zeros_like(theta)
-    return sim.Trajectory(
-        times=jnp.linspace(0.0, 100.0, 11),
-        theta=theta,
-        theta_dot=zeros,
-        theta_ddot=zeros,
-        tau=zeros,
-        target=system.hinges.target,
-        stats={},
-        result=sim.RESULTS.successful,
-    )
+def _held(system, theta, result=None):
+    return held_trajectory(system, theta, result)
 
 
 def test_defaults_and_units():

@@ -199,36 +199,12 @@ def run(args: argparse.Namespace) -> int:
         + f" -> {out}",
         flush=True,
     )
-    start = time.perf_counter()
-    with stored_sweep_errors(out):
-        estimate = yield_estimate(
-            args.net,
-            scatter,
-            n_samples=args.samples,
-            seed=args.seed,
-            design=design,
-            release_times=release,
-            t_end=args.t_end,
-            angle_tolerance_deg=args.angle_tolerance,
-            seam_tolerance=args.seam_tolerance,
-            confidence=args.confidence,
-            interval=args.interval,
-            out=out,
-            resume=args.resume,
-            chunk_size=args.chunk_size,
-            progress=not args.no_progress,
-        )
-    # The yield at other widths: the same draws scaled (Scatter.scaled), each its own store.
-    at_width = {}
-    for factor in factors:
-        if factor == 1.0:
-            at_width[factor] = estimate
-            continue
-        print(f"[yield] scatter widths x {factor:g}", flush=True)
+
+    def estimate_at(scatter, folder):
         with stored_sweep_errors(out):
-            at_width[factor] = yield_estimate(
+            return yield_estimate(
                 args.net,
-                scatter.scaled(factor),
+                scatter,
                 n_samples=args.samples,
                 seed=args.seed,
                 design=design,
@@ -238,11 +214,22 @@ def run(args: argparse.Namespace) -> int:
                 seam_tolerance=args.seam_tolerance,
                 confidence=args.confidence,
                 interval=args.interval,
-                out=out / "widths" / f"x{factor:g}",
+                out=folder,
                 resume=args.resume,
                 chunk_size=args.chunk_size,
                 progress=not args.no_progress,
             )
+
+    start = time.perf_counter()
+    estimate = estimate_at(scatter, out)
+    # The yield at other widths: the same draws scaled (Scatter.scaled), each its own store.
+    at_width = {}
+    for factor in factors:
+        if factor == 1.0:
+            at_width[factor] = estimate
+            continue
+        print(f"[yield] scatter widths x {factor:g}", flush=True)
+        at_width[factor] = estimate_at(scatter.scaled(factor), out / "widths" / f"x{factor:g}")
     elapsed = time.perf_counter() - start
     ds = estimate.dataset
     result = {
