@@ -15,7 +15,7 @@ from ._common import dumps_json, write_atomic
 
 N_STARTS = 2
 """Starts per variant of the plausible calibration (each variant compiles its own fit; the physics
-guide's table used 4 × 32 for the point-hinge variants, with the same finding)."""
+guide's table gives the settings of the run it reports)."""
 MAX_STEPS = 16
 """Levenberg–Marquardt steps per start."""
 
