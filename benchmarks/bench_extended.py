@@ -87,21 +87,22 @@ def run(quick: bool) -> list[Result]:
         if paper_time is None:
             paper_time = timing.median
         relative = timing.median / paper_time
-        rows.append(
-            Result(
-                name=f"extended step {t1:.0f} us: {name}",
-                ours=timing,
-                peer_name="scipy LSODA + pinocchio.aba (paper model)",
-                peer=peer_timing,
-                compile_s=compile_s,
-                max_abs_difference=difference if same_physics else None,
-                notes=f"{int(steps)} diffrax steps (default solver); {relative:.2f}x our paper "
-                "model's run time"
-                + (
-                    ""
-                    if same_physics
-                    else f"; not the peer's physics (max |theta - paper| {difference:.2g} rad)"
-                ),
-            )
+        row = Result(
+            name=f"extended step {t1:.0f} us: {name}",
+            ours=timing,
+            peer_name="scipy LSODA + pinocchio.aba (paper model)",
+            peer=peer_timing,
+            compile_s=compile_s,
+            max_abs_difference=difference if same_physics else None,
+            notes=f"{int(steps)} diffrax steps (default solver); {relative:.2f}x our paper "
+            "model's run time"
+            + (
+                ""
+                if same_physics
+                else f"; not the peer's physics (max |theta - paper| {difference:.2g} rad)"
+            ),
         )
+        # Printed as measured: a long run keeps what it has if it is stopped.
+        print("  (row)", row.line(), "|", row.notes, flush=True)
+        rows.append(row)
     return rows
