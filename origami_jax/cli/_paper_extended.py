@@ -2,7 +2,8 @@
 
 1. The literature device with both models (`origami_jax.chain.compare_models`): Fig. 7's step in
    air, the step in the KOH bath and the 0.1 s etch ramp in KOH, one figure, and the physical reason
-   for every difference (docs/physics.md, "The paper's model and the device's").
+   for every difference (docs/physics.md, "The hinge is a bending arc", "The fluid moves with the
+   flap", "Panel contact").
 2. `origami_jax.design.calibrate_extended`: each model variant (the paper's; with viscous drag; with
    added inertia; with arc hinges; with all) fitted to Fig. 7's four numbers with every freed
    property of the device inside its plausible range; a table, the JSON of every fit and its
