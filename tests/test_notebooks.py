@@ -15,6 +15,7 @@ HEAVY = {
     "accordion_dynamics.ipynb",
     "hinge_design.ipynb",
     "net_folding.ipynb",
+    "paper_vs_extended.ipynb",
     "interactive_view.ipynb",
     "single_vertex_unfolding.ipynb",
 }

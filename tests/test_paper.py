@@ -24,10 +24,16 @@ def test_unfolding_part_certifies_the_fig3_examples(tmp_path):
 
 @pytest.mark.slow
 def test_paper_command_end_to_end(tmp_path, capsys):
-    # ~3 min on 2 cores: every part, every figure, the calibration.
+    # ~3 min on 2 cores for the paper's parts, plus the extended model's comparison and its
+    # plausible calibration (one fit per model variant: tens of minutes on 2 cores).
     assert main(["paper", "--out", str(tmp_path)]) == 0
     summary = (tmp_path / "summary.txt").read_text()
-    for part in ("single-vertex unfolding", "accordion dynamics", "hinge calibration to Fig. 7"):
+    for part in (
+        "single-vertex unfolding",
+        "accordion dynamics",
+        "hinge calibration to Fig. 7",
+        "the paper's model and the extended one",
+    ):
         assert f"## {part}" in summary
     metrics = json.loads((tmp_path / "dynamics_metrics.json").read_text())
     assert {"step_air", "step_koh", "fast_ramp_air", "fast_ramp_koh", "slow_ramp_koh"} <= set(
@@ -38,3 +44,11 @@ def test_paper_command_end_to_end(tmp_path, capsys):
     # (SPEC: identical hinges cannot meet all four exactly; the best compromise misses by ≤ 7 %).
     assert calibration["cost"] < 0.01
     assert (tmp_path / "calibration" / "fig7_calibration_response.png").stat().st_size > 0
+    extended = json.loads((tmp_path / "calibration" / "extended_fig7.json").read_text())
+    assert set(extended["variants"]) == {"paper", "viscous", "added_mass", "arc", "all"}
+    for fit in extended["variants"].values():
+        for value in fit["parameters"].values():
+            assert value["lower"] <= value["value"] <= value["upper"]
+    comparison = json.loads((tmp_path / "paper_vs_extended.json").read_text())
+    assert {"step_air", "step_koh", "ramp_koh"} <= set(comparison)
+    assert (tmp_path / "paper_vs_extended.png").stat().st_size > 0

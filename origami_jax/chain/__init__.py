@@ -5,13 +5,18 @@
 [`origami_jax.system.FoldingSystem`][] from a [`origami_jax.system.HingeDesign`][]. Kernels are
 unit-agnostic; the builders take their constants in a `UnitSystem` (`MICRO`: µm, µs, ng, by default).
 FOLD files in and out: `load_chain` (an accordion crease pattern) and `trajectory_to_fold` (a
-simulated folding as a FOLD animation).
+simulated folding as a FOLD animation). `compare_models`: the paper's model next to the extended
+one (arc hinges, the fluid's inertia and viscosity, contact) on Fig. 7's step in air and KOH and the
+etch ramp, with the physical reason for each difference.
 """
 
 from ._chain import Chain as Chain
 from ._chain import accordion as accordion
 from ._chain import flap_chain as flap_chain
 from ._chain import plate_inertia as plate_inertia
+from ._compare import ModelComparison as ModelComparison
+from ._compare import compare_models as compare_models
+from ._compare import plot_comparison as plot_comparison
 from ._dynamics import bias_torque as bias_torque
 from ._dynamics import coriolis_matrix as coriolis_matrix
 from ._dynamics import forward_dynamics as forward_dynamics

@@ -12,18 +12,19 @@ from ._common import EXIT_OK, OutputFolder, add_out_argument, write_atomic
 
 HELP = (
     "Reproduce the paper's examples (unfoldings of Fig. 3, step and ramp responses of Figs. 7-11, "
-    "and a calibration of the hinges to Fig. 7)."
+    "a calibration of the hinges to Fig. 7, and the extended model next to the paper's)."
 )
 
 
 def _parts():
     # Imported lazily so that `origami-jax --help` stays fast.
-    from . import _paper_calibration, _paper_dynamics, _paper_unfolding
+    from . import _paper_calibration, _paper_dynamics, _paper_extended, _paper_unfolding
 
     return (
         ("single-vertex unfolding", _paper_unfolding.run),
         ("accordion dynamics", _paper_dynamics.run),
         ("hinge calibration to Fig. 7", _paper_calibration.run),
+        ("the paper's model and the extended one", _paper_extended.run),
     )
 
 
@@ -39,6 +40,7 @@ OWNS = (
     "dynamics_metrics.json",
     "fig*",
     "slow_ramp_koh_trajectory.*",
+    "paper_vs_extended.*",
     "unfolding/*",
     "calibration/*",
 )

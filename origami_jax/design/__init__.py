@@ -19,6 +19,9 @@ print(result.summary())
 - `identifiability`: rank and (non-)determined combinations of a sensitivity matrix.
 - `PLAUSIBLE_RANGES`, `plausible_bounds`: physically plausible ranges of the design's parameters,
   with their sources, for calibrations that must stay inside what a device can be.
+- `calibrate_extended`: the paper's Fig. 7 with plausible parameters only, for the paper's model
+  and each added effect (viscous drag, added inertia, arc hinges, all), with the best fit, misses and
+  sensitivities per variant (`ExtendedCalibration`).
 - Plots: `origami_jax.design.plot_response` (imports matplotlib when called).
 """
 
@@ -31,6 +34,13 @@ from ._design import evaluate as evaluate
 from ._design import residual_and_jacobian as residual_and_jacobian
 from ._design import residual_at as residual_at
 from ._design import response as response
+from ._extended_fit import FIG7_TOLERANCE as FIG7_TOLERANCE
+from ._extended_fit import VARIANTS as VARIANTS
+from ._extended_fit import ExtendedCalibration as ExtendedCalibration
+from ._extended_fit import ModelVariant as ModelVariant
+from ._extended_fit import VariantFit as VariantFit
+from ._extended_fit import calibrate_extended as calibrate_extended
+from ._extended_fit import fig7_targets as fig7_targets
 from ._identify import RANK_RTOL as RANK_RTOL
 from ._identify import WEAK_RTOL as WEAK_RTOL
 from ._identify import Identifiability as Identifiability

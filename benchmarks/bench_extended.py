@@ -1,0 +1,109 @@
+"""The cost of each effect the extended model adds, on one step response of the 3-flap accordion.
+
+Rows (literature design in air, 500 µs, rtol 1e-8, default solver): the paper's model on the serial
+chain (the existing step row's system); the same model on the panel-tree engine the extended
+variants use (`fluid=("hinge",)`: isolates the engine's own cost); + viscous drag; + added
+inertia; + arc hinges (bilayer stiffness, the paper's drag); all (arc hinges, quadratic drag on every
+flap, added inertia, viscous drag). Each row: compile time and run time, the system built
+inside the timed function from the design (contact is left out: its geometry is built on the host
+and cannot be traced from the design).
+
+Peer: the same as the existing step-response rows, `scipy.integrate.solve_ivp(LSODA)` over
+Pinocchio's `aba` for the paper's model (`bench_simulate._pinocchio_rhs`). Only the paper's model is
+the same physics as the peer: its answers are compared before timing. The other rows model more, so
+their ratio is "the peer on the paper's model over ours on the extended one" (what a user pays for
+each effect relative to today's scipy route), and their notes give the time relative to our paper
+model.
+"""
+
+import numpy as np
+
+from ._harness import Result, compile_jitted, time_calls
+from .bench_simulate import ATOL, RTOL, SAME_ANSWER_RAD, _pinocchio_rhs
+
+VARIANTS = (
+    ("paper model (serial chain)", dict()),
+    ("paper model (panel-tree engine)", dict(fluid=("hinge",))),
+    ("+ viscous drag", dict(fluid=("hinge", "viscous"))),
+    ("+ added inertia", dict(fluid=("hinge", "added_mass"))),
+    ("+ arc hinges", dict(hinges="arc", bilayer=True)),
+    (
+        "all (arc, panel drag, added inertia, viscous)",
+        dict(hinges="arc", fluid="extended", bilayer=True),
+    ),
+)
+
+
+def run(quick: bool) -> list[Result]:
+    import jax
+    from scipy.integrate import solve_ivp
+
+    import origami_jax.simulation as sim
+    from origami_jax.chain import accordion_system
+    from origami_jax.system import HingeDesign
+
+    t1 = 300.0 if quick else 500.0
+    n_save = 201
+    ts = np.linspace(0.0, t1, n_save)
+    repeats = 2 if quick else 5
+    variants = VARIANTS[:3] if quick else VARIANTS
+
+    paper = accordion_system(HingeDesign.literature(), 3)
+    chain, k, b = paper.mechanism, paper.hinges.stiffness, paper.drag.coefficient
+    rhs = _pinocchio_rhs(chain, k, b, np.asarray(k * paper.hinges.target))
+
+    def peer():
+        return solve_ivp(
+            rhs, (0.0, t1), np.zeros(6), method="LSODA", t_eval=ts, rtol=RTOL, atol=ATOL
+        )
+
+    reference = peer()
+    if not reference.success:
+        raise RuntimeError(f"LSODA failed: {reference.message}")
+    peer_timing = time_calls(peer, repeats=repeats, warmup=0)
+
+    rows = []
+    paper_time = None
+    for name, options in variants:
+        options = dict(options)
+        bilayer = options.pop("bilayer", False)
+        design = HingeDesign.literature(stiffness_model="bilayer" if bilayer else "paper")
+
+        def ours(design, options=options):
+            system = accordion_system(design, 3, **options)
+            trajectory = sim.simulate(
+                system, sim.Step(), t1=t1, n_save=n_save, rtol=RTOL, atol=ATOL, throw=False
+            )
+            return trajectory.theta, trajectory.stats["num_steps"]
+
+        compiled, compile_s, _ = compile_jitted(ours, design)
+        theta, steps = jax.block_until_ready(compiled(design))
+        difference = float(np.max(np.abs(np.asarray(theta) - reference.y[:3].T)))
+        same_physics = not options.get("hinges") and set(options.get("fluid", ("hinge",))) == {
+            "hinge"
+        }
+        if same_physics and difference > SAME_ANSWER_RAD:
+            raise RuntimeError(f"{name}: answers differ by {difference:.2e} rad; not timing")
+        timing = time_calls(lambda c=compiled, d=design: c(d), repeats=repeats)
+        if paper_time is None:
+            paper_time = timing.median
+        relative = timing.median / paper_time
+        row = Result(
+            name=f"extended step {t1:.0f} us: {name}",
+            ours=timing,
+            peer_name="scipy LSODA + pinocchio.aba (paper model)",
+            peer=peer_timing,
+            compile_s=compile_s,
+            max_abs_difference=difference if same_physics else None,
+            notes=f"{int(steps)} diffrax steps (default solver); {relative:.2f}x our paper "
+            "model's run time"
+            + (
+                ""
+                if same_physics
+                else f"; not the peer's physics (max |theta - paper| {difference:.2g} rad)"
+            ),
+        )
+        # Printed as measured: a long run keeps what it has if it is stopped.
+        print("  (row)", row.line(), "|", row.notes, flush=True)
+        rows.append(row)
+    return rows
