@@ -26,7 +26,7 @@ def test_unfolding_part_certifies_the_fig3_examples(tmp_path):
 def test_paper_command_end_to_end(tmp_path, capsys):
     # ~3 min on 2 cores for the paper's parts, plus the extended model's comparison and its
     # plausible calibration (one fit per model variant: tens of minutes on 2 cores).
-    assert main(["paper", "--out", str(tmp_path)]) == 0
+    assert main(["paper", "--extended", "--out", str(tmp_path)]) == 0
     summary = (tmp_path / "summary.txt").read_text()
     for part in (
         "single-vertex unfolding",
@@ -52,3 +52,10 @@ def test_paper_command_end_to_end(tmp_path, capsys):
     comparison = json.loads((tmp_path / "paper_vs_extended.json").read_text())
     assert {"step_air", "step_koh", "ramp_koh"} <= set(comparison)
     assert (tmp_path / "paper_vs_extended.png").stat().st_size > 0
+
+
+def test_extended_part_runs_only_when_asked():
+    from origami_jax.cli._paper import _parts
+
+    assert "the paper's model and the extended one" not in [title for title, _ in _parts()]
+    assert "the paper's model and the extended one" in [title for title, _ in _parts(extended=True)]
