@@ -9,7 +9,7 @@ inside the timed function from the design (contact is left out: its geometry is 
 and cannot be traced from the design).
 
 Peer: the same as the existing step-response rows, `scipy.integrate.solve_ivp(LSODA)` over
-Pinocchio's `aba` for the paper's model (`bench_simulate._pinocchio_rhs`). Only the paper's model is
+Pinocchio's `aba` for the paper's model (`bench_simulate.lsoda_peer`). Only the paper's model is
 the same physics as the peer: its answers are compared before timing. The other rows model more, so
 their ratio is "the peer on the paper's model over ours on the extended one" (what a user pays for
 each effect relative to today's scipy route), and their notes give the time relative to our paper
@@ -19,7 +19,7 @@ model.
 import numpy as np
 
 from ._harness import Result, compile_jitted, time_calls
-from .bench_simulate import ATOL, RTOL, SAME_ANSWER_RAD, _pinocchio_rhs
+from .bench_simulate import ATOL, RTOL, SAME_ANSWER_RAD, lsoda_peer
 
 VARIANTS = (
     ("paper model (serial chain)", dict()),
@@ -36,7 +36,6 @@ VARIANTS = (
 
 def run(quick: bool) -> list[Result]:
     import jax
-    from scipy.integrate import solve_ivp
 
     import origami_jax.simulation as sim
     from origami_jax.chain import accordion_system
@@ -49,18 +48,7 @@ def run(quick: bool) -> list[Result]:
     variants = VARIANTS[:3] if quick else VARIANTS
 
     paper = accordion_system(HingeDesign.literature(), 3)
-    chain, k, b = paper.mechanism, paper.hinges.stiffness, paper.drag.coefficient
-    rhs = _pinocchio_rhs(chain, k, b, np.asarray(k * paper.hinges.target))
-
-    def peer():
-        return solve_ivp(
-            rhs, (0.0, t1), np.zeros(6), method="LSODA", t_eval=ts, rtol=RTOL, atol=ATOL
-        )
-
-    reference = peer()
-    if not reference.success:
-        raise RuntimeError(f"LSODA failed: {reference.message}")
-    peer_timing = time_calls(peer, repeats=repeats, warmup=0)
+    reference, peer_timing = lsoda_peer(paper, ts, repeats)
 
     rows = []
     paper_time = None
