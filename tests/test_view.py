@@ -546,7 +546,7 @@ def test_fold_result_file_carries_verdict_and_contacts(corner_cube, tmp_path):
         penetration_fraction=1.0,
         result="successful",
     )
-    extras, key_extra = _view_annotations(net, system, trajectory, report)
+    extras, key_extra = _view_annotations(net, system, trajectory, report, every=1)
     path = tmp_path / "trajectory.fold"
     write_fold(path, net.to_fold(trajectory, extras=extras, key_extra=key_extra))
     from_file = view.scene_from_fold(path)

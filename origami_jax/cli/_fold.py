@@ -309,10 +309,9 @@ def _run(args, net, system, loops, params, release, theta0, theta_dot0, output) 
         comments="",
         fmt="%.12g",
     )
-    extras, key_extra = _view_annotations(net, system, trajectory, report)
-    animation = net.to_fold(
-        trajectory, every=max(1, len(times) // 200), extras=extras, key_extra=key_extra
-    )
+    every = max(1, len(times) // 200)
+    extras, key_extra = _view_annotations(net, system, trajectory, report, every)
+    animation = net.to_fold(trajectory, every=every, extras=extras, key_extra=key_extra)
     write_fold(out / "trajectory.fold", animation)
     print(report.summary())
     print(f"wrote {output.out / 'result.json'}, trajectory.csv, trajectory.fold")
@@ -339,27 +338,27 @@ def _figures(
         plots.animate_folding(system, trajectory, out / "animation.gif", t_max=t_max)
 
 
-def _view_annotations(net, system, trajectory, report) -> tuple[list[dict], dict]:
+def _view_annotations(net, system, trajectory, report, every: int) -> tuple[list[dict], dict]:
     """What `origami-jax view trajectory.fold` shows beside the panels: the verdict, its reason and
     the FOLD edges of the creases outside tolerance (crease-pattern frame), and where panels touch
-    in every frame (in the FOLD file's unit)."""
+    in every frame the animation keeps (`every`; in the FOLD file's unit)."""
     import numpy as np
 
     from origami_jax.contact import contact_points
+    from origami_jax.net._net import kept_samples
 
-    crease_edges = getattr(net, "crease_edge_ids", None) or net.geometry.crease_edges
-    off_target = np.nonzero(np.abs(report.angle_errors) > report.angle_tolerance)[0]
     key_extra = {
         "origami_jax:verdict": str(report.verdict),
         "origami_jax:verdict_reason": report.reason,
         "origami_jax:off_target_edges": sorted(
-            int(e) for j in off_target for e in crease_edges[int(j)]
+            int(e) for j in np.nonzero(report.off_target)[0] for e in net.crease_edge_ids[int(j)]
         ),
     }
     states = np.asarray(trajectory.theta if trajectory.state is None else trajectory.state[0])
     extras: list[dict] = [{} for _ in range(len(states))]
-    frames, points, _ = contact_points(system, states)
+    kept = kept_samples(np.asarray(trajectory.theta), every)
+    frames, points, _ = contact_points(system, states[kept])
     points = points / net.length_scale
     for s in np.unique(frames):
-        extras[int(s)]["origami_jax:contact_points"] = points[frames == s].round(9).tolist()
+        extras[int(kept[s])]["origami_jax:contact_points"] = points[frames == s].round(9).tolist()
     return extras, key_extra

@@ -20,14 +20,6 @@ import numpy as np
 from ._estimate import YieldEstimate, yield_estimate
 
 
-def _front_geometry(net) -> tuple[np.ndarray, np.ndarray, float]:
-    """The pattern's vertices and crease midpoints in its plane's 2D basis (FOLD length units), and
-    the net's length scale (design units per FOLD unit)."""
-    g = net.geometry
-    mids = g.hinge_points + 0.5 * g.crease_lengths[:, None] * g.hinge_axes
-    return g.vertices_coords @ g.plane.T, mids @ g.plane.T, float(net.length_scale)
-
-
 def front_release_times(net, angle, speed):
     """Release times of a straight etch front, traceable in `angle` and `speed` (for `jax.grad`).
 
@@ -44,15 +36,21 @@ def front_release_times(net, angle, speed):
     **Raises:** `ValueError` for a speed that is a number and not positive and finite.
     """
     from ..net import load_net
+    from ..net._net import front_release
 
     if not hasattr(net, "geometry"):
         net = load_net(net)
     if isinstance(speed, int | float) and not (np.isfinite(speed) and speed > 0):
         raise ValueError(f"the etch front's speed must be positive and finite, got {speed!r}.")
-    vertices, mids, scale = _front_geometry(net)
-    direction = jnp.stack([jnp.cos(angle), jnp.sin(angle)])
-    start = jnp.min(jnp.asarray(vertices) @ direction)
-    return (jnp.asarray(mids) @ direction - start) * scale / speed
+    g = net.geometry
+    direction = jnp.stack([jnp.cos(angle), jnp.sin(angle)]) @ jnp.asarray(g.plane)
+    return front_release(
+        jnp.asarray(g.vertices_coords),
+        jnp.asarray(g.crease_midpoints),
+        direction,
+        float(net.length_scale),
+        speed,
+    )
 
 
 def front_candidates(net, speed: float, n_directions: int = 8) -> dict[str, np.ndarray]:

@@ -133,6 +133,11 @@ class NetGeometry:
         return float(np.max(np.ptp(self.vertices_coords, axis=0)))
 
     @property
+    def crease_midpoints(self) -> np.ndarray:
+        """The midpoint of every crease, `(m, 3)` (in `unit`): where an etch front frees it."""
+        return self.hinge_points + 0.5 * self.crease_lengths[:, None] * self.hinge_axes
+
+    @property
     def body_parents(self) -> np.ndarray:
         """Parent indices `λ` `(F,)` with the faces renumbered in `order` (body `i` is face
         `order[i]`, `λ(0) = −1`, `λ(i) < i`), as Featherstone's tree algorithms take them."""

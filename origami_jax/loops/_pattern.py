@@ -81,6 +81,11 @@ class CreasePattern:
     def seams(self):
         return self.geometry.seams
 
+    @property
+    def crease_edge_ids(self) -> tuple[tuple[int, ...], ...]:
+        """The FOLD edges of each crease (as `origami_jax.net.Net.crease_edge_ids`)."""
+        return self.geometry.crease_edges
+
     def _padded(self):
         if "padded" not in self._cache:
             g = self.geometry
@@ -403,7 +408,7 @@ class CreasePattern:
 
         g = self.geometry
         return folding_animation(
-            g.frame, g.fold, g.crease_edges, _vertex_corners(g.tree), self.name,
+            g.frame, g.fold, self.crease_edge_ids, _vertex_corners(g.tree), self.name,
             trajectory=trajectory, angles=angles, times=times, every=every, extras=extras,
             key_extra=key_extra,
         )  # fmt: skip
@@ -522,18 +527,12 @@ def release_times_from_front(pattern: CreasePattern, direction, speed: float) ->
     units per time unit) along `direction` (2 components in the pattern's plane basis, or 3): it starts
     at the pattern's first point along that direction at ``t = 0`` and releases each crease when it
     reaches the crease's midpoint (as `origami_jax.net.release_times_from_front`)."""
+    from ..net._net import front_release, unit_front_direction
+
     g = pattern.geometry
-    direction = np.asarray(direction, dtype=float)
-    if direction.shape == (2,):
-        direction = direction @ g.plane
-    if direction.shape != (3,) or not np.linalg.norm(direction) > 0:
-        raise ValueError("the etch front's direction must be a non-zero 2- or 3-vector.")
-    if not (np.isfinite(speed) and speed > 0):
-        raise ValueError(f"the etch front's speed must be positive, got {speed}.")
-    direction = direction / np.linalg.norm(direction)
-    start = float(np.min(g.vertices_coords @ direction))
+    direction = unit_front_direction(direction, g.plane, speed)
     mids = g.points + 0.5 * g.lengths[:, None] * g.axes
-    return (mids @ direction - start) * pattern.length_scale / float(speed)
+    return front_release(g.vertices_coords, mids, direction, pattern.length_scale, float(speed))
 
 
 class PatternLayout(AbstractLayout):

@@ -374,21 +374,34 @@ def release_times_from_front(net: Net, direction, speed: float) -> np.ndarray:
     in the world): it starts at the pattern's first point along that direction at ``t = 0`` and
     releases each crease when it reaches the crease's midpoint. Shape `(m,)`."""
     g = net.geometry
+    direction = unit_front_direction(direction, g.plane, speed)
+    return front_release(
+        g.vertices_coords, g.crease_midpoints, direction, net.length_scale, float(speed)
+    )
+
+
+def unit_front_direction(direction, plane: np.ndarray, speed) -> np.ndarray:
+    """An etch front's `direction` (2 components in the `plane` basis `(2, 3)`, or 3) as a unit
+    world 3-vector, its `speed` checked. **Raises:** `ValueError` for a zero or misshapen direction
+    or a speed that is not positive and finite."""
     direction = np.asarray(direction, dtype=float)
     if direction.shape == (2,):
-        direction = direction @ g.plane
+        direction = direction @ plane
     if direction.shape != (3,) or not np.linalg.norm(direction) > 0:
         raise ValueError("the etch front's direction must be a non-zero 2- or 3-vector.")
     if not (np.isfinite(speed) and speed > 0):
         raise ValueError(f"the etch front's speed must be positive, got {speed}.")
-    direction = direction / np.linalg.norm(direction)
-    start = float(np.min(g.vertices_coords @ direction))
-    mids = []
-    for j in range(g.n_creases):
-        ends = g.hinge_points[j], g.hinge_points[j] + g.crease_lengths[j] * g.hinge_axes[j]
-        mids.append(0.5 * (ends[0] + ends[1]))
-    along = (np.asarray(mids) @ direction - start) * net.length_scale
-    return along / float(speed)
+    return direction / np.linalg.norm(direction)
+
+
+def front_release(vertices, midpoints, direction, length_scale: float, speed):
+    """Release times of a straight etch front moving along the unit world `direction` at `speed`
+    (design length units per time unit), from the pattern's first point along it at ``t = 0`` to
+    each crease's midpoint: ``(m · d − min_v v · d) · length_scale / speed``. `vertices` `(n, 3)` and
+    `midpoints` `(m, 3)` in the FOLD unit. Host arrays in, host arrays out; traceable in `direction`
+    and `speed` (the yield surrogate differentiates it)."""
+    start = (vertices @ direction).min()
+    return (midpoints @ direction - start) * length_scale / speed
 
 
 def load_net(
@@ -503,10 +516,7 @@ def folding_animation(
         )
     if key_extra:
         base = dataclasses.replace(base, extra={**base.extra, **key_extra})
-    keep = np.arange(0, len(angles), max(int(every), 1))
-    if keep[-1] != len(angles) - 1:
-        keep = np.append(keep, len(angles) - 1)
-    keep = keep[np.all(np.isfinite(angles[keep]), axis=1)]
+    keep = kept_samples(angles, every)
     first_face, first_corner = vertex_corners
     n_edges = int(np.asarray(base.edges_vertices).shape[0])
     frames = [base]
@@ -542,6 +552,16 @@ def folding_animation(
             "file_title": name,
         },
     )
+
+
+def kept_samples(angles: np.ndarray, every: int) -> np.ndarray:
+    """The samples of `angles` `(k, m)` a FOLD animation keeps: every `every`-th and the last,
+    finite ones only (indices, increasing)."""
+    angles = np.atleast_2d(np.asarray(angles, dtype=float))
+    keep = np.arange(0, len(angles), max(int(every), 1))
+    if keep[-1] != len(angles) - 1:
+        keep = np.append(keep, len(angles) - 1)
+    return keep[np.all(np.isfinite(angles[keep]), axis=1)]
 
 
 def seam_gap_function(tree_geometry, seams, mechanism, length_scale: float):

@@ -177,6 +177,11 @@ class FoldReport:
     penetration_fraction: float
     result: str
 
+    @property
+    def off_target(self) -> np.ndarray:
+        """Which creases end outside the angle tolerance, `(h,)` bool."""
+        return np.abs(np.asarray(self.angle_errors, dtype=float)) > self.angle_tolerance
+
     def to_dict(self) -> dict:
         """JSON-ready dictionary (non-finite numbers as `None`)."""
 

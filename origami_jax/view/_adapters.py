@@ -278,8 +278,7 @@ def _report_banner(report: Any, n_hinges: int) -> tuple[str, str, np.ndarray | N
     `FoldReport`."""
     verdict = str(report.verdict)
     text = f"verdict: {verdict} ({report.reason})"
-    errors = np.abs(np.asarray(report.angle_errors, dtype=float))
-    highlight = errors > report.angle_tolerance if len(errors) == n_hinges else None
+    highlight = report.off_target if len(report.off_target) == n_hinges else None
     if highlight is not None and np.any(highlight):
         text += f"; {int(np.sum(highlight))} crease(s) outside tolerance highlighted"
     return text, FILE_VERDICT_LEVELS.get(verdict, "fail"), highlight
