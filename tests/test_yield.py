@@ -321,6 +321,10 @@ def test_cli_writes_result_and_figure(tmp_path, capsys):
     low, high = result["interval"]
     assert low <= result["yield"] <= high
     assert result["tolerances"] == {"angle_deg": 3.0, "seam_fraction": 0.01}
+    # The score-function gradient of every normally scattered parameter (release is not scattered).
+    assert set(result["gradient"]) == {"misfit_strain", "t_hinge", "hinge_width", "t_structural"}
+    assert len(result["gradient"]["hinge_width"]["gradient"]) == 2
+    assert result["gradient"]["t_hinge"]["per"] == "net"
     for name in ("yield.png", "misfolds.png", "yield_widths.png"):
         assert (out / name).stat().st_size > 1000, name
     assert (out / "sweep.nc").is_file() and (out / "widths" / "x0.1" / "sweep.nc").is_file()

@@ -49,7 +49,9 @@ same draws, so the same fabricated nets made more or less carefully; each in OUT
 plots it against the factor (OUT/yield_widths.png).
 
 Writes OUT/result.json (yield, its confidence interval, verdict counts, the scatter, the
-tolerances, the yield per --widths factor), the figures unless --no-figures (OUT/yield.png: verdict
+tolerances, the yield per --widths factor, and the yield's gradient with respect to each scattered
+parameter's nominal value with its standard error: the score-function estimate from the same
+samples, see origami_jax.fab_yield.yield_gradient), the figures unless --no-figures (OUT/yield.png: verdict
 counts and the yield; OUT/misfolds.png: the final state of one typical sample of each verdict other
 than folded, in 3D, next to the intended shape), and the samples as a sweep store: OUT/sweep.nc
 (every sample's parameters and verdict) and OUT/chunks/ (one file per finished chunk). An interrupted run continues with
@@ -157,6 +159,27 @@ def _factors(text: str | None) -> list[float]:
     return sorted(set(values))
 
 
+def _gradients(estimate) -> dict:
+    """The yield's score-function gradient per scattered parameter (normal or lognormal spreads)
+    as JSON-ready rows; empty with fewer than 2 samples."""
+    import numpy as np
+
+    from ..fab_yield import yield_gradient
+
+    if estimate.n_samples < 2:
+        return {}
+    rows = {}
+    for name, g in yield_gradient(estimate).items():
+        rows[name] = {
+            "per": g.per,
+            "unit": g.unit,
+            "gradient": np.asarray(g.gradient).tolist(),
+            "standard_error": np.asarray(g.standard_error).tolist(),
+            "summary": g.summary(),
+        }
+    return rows
+
+
 def run(args: argparse.Namespace) -> int:
     from ..fab_yield import Scatter, load_scatter, yield_estimate
     from ..system import AIR, KOH_SOLUTION, HingeDesign
@@ -240,6 +263,7 @@ def run(args: argparse.Namespace) -> int:
         **estimate.to_dict(),
         "compile_s": float(ds.attrs.get("compile_s", 0.0)),
         "wall_s": elapsed,
+        "gradient": _gradients(estimate),
     }
     if factors:
         result["widths"] = [
@@ -268,6 +292,8 @@ def run(args: argparse.Namespace) -> int:
                 fig.savefig(output.dir / "yield_widths.png", dpi=120)
                 plt.close(fig)
     print(estimate.summary())
+    for line in result["gradient"].values():
+        print(f"  {line['summary']}")
     print(
         f"wall time {elapsed:.1f} s (compiling {result['compile_s']:.1f} s, "
         f"{estimate.seconds_per_sample:.3g} s per sample); results in {out}"

@@ -42,6 +42,8 @@ class YieldEstimate:
       excluded (0 when every sample was already stored).
     - `tolerances`: the verdict's, `{"angle_deg", "seam_fraction"}`
       (`origami_jax.simulation.VerdictTolerances.to_dict`).
+    - `nominal`: each parameter's nominal value per crease, `{name: (m,)}` (µm, µs), the values the
+      scatter is drawn around (`yield_gradient` differentiates the yield with respect to them).
     """
 
     fraction: float
@@ -57,6 +59,7 @@ class YieldEstimate:
     tolerances: dict[str, float] = dataclasses.field(
         default_factory=lambda: {"angle_deg": 3.0, "seam_fraction": 0.01}
     )
+    nominal: dict[str, np.ndarray] | None = None
 
     def samples(self, name: str) -> np.ndarray:
         """The drawn values of a parameter of `PARAMETERS`: `(n_samples, n_creases)` for a per-crease
@@ -119,6 +122,32 @@ def _nominal(design, release_times, m: int) -> dict[str, np.ndarray]:
     return nominal
 
 
+def _process(process: Mapping[str, Any] | None, m: int) -> dict[str, np.ndarray]:
+    """The checked `process` nominal values of `yield_estimate`, `(m,)` each."""
+    if process is None:
+        return {}
+    if not isinstance(process, Mapping):
+        raise ValueError(f"process must be a mapping of nominal values, got {type(process).__name__}.")
+    out = {}
+    for name, value in process.items():
+        if name not in PARAMETERS or name == "release":
+            known = [n for n in PARAMETERS if n != "release"]
+            raise ValueError(
+                f"process: unknown parameter {name!r}; use {known} (release times: release_times)."
+            )
+        value = np.asarray(value, dtype=float)
+        if value.ndim and (name in _GLOBAL or value.shape != (m,)):
+            raise ValueError(
+                f"process: {name} must be a number"
+                + ("" if name in _GLOBAL else f" or one per crease ({m})")
+                + f", got shape {value.shape}."
+            )
+        if not (np.all(np.isfinite(value)) and np.all(value > 0)):
+            raise ValueError(f"process: {name} must be finite and positive, got {value.tolist()}.")
+        out[name] = np.broadcast_to(value, (m,)).astype(float)
+    return out
+
+
 def _columns(values: Mapping[str, np.ndarray]) -> tuple[dict[str, np.ndarray], dict[str, str]]:
     columns, units = {}, {}
     for name, x in values.items():
@@ -173,6 +202,7 @@ def yield_estimate(
     design=None,
     targets=None,
     release_times=None,
+    process: Mapping[str, Any] | None = None,
     t_end: float = 1500.0,
     n_save: int = 301,
     max_steps: int = 200_000,
@@ -209,6 +239,11 @@ def yield_estimate(
       the fold happens in the etch bath); its `theta_final` is not used.
     - `targets`: the angles the hinges are drawn to fold to (rad, one per crease; default the
       pattern's); `release_times`: nominal release time per crease (µs, default all 0).
+    - `process`: the fabrication's nominal values where they differ from the design's, e.g.
+      `{"misfit_strain": 1.03 * design.misfit_strain}` for a film deposited 3 % more stressed than
+      the hinges were drawn for: the scatter is drawn around these while the hinge lengths stay the
+      design's. Keys: `misfit_strain`, `t_hinge`, `hinge_width` (a number or one per crease),
+      `t_structural`, `drag_coefficient` (a number); default none (the process hits the design).
     - `t_end`, `n_save`, `max_steps`: the simulated time, saved samples, solver step budget.
     - `contact`, `drag`: as `origami_jax.net.Net.system`.
     - `angle_tolerance_deg` (degrees) and `seam_tolerance` (a fraction of the largest panel's
@@ -270,6 +305,7 @@ def yield_estimate(
         if np.any(release_times < 0):
             raise ValueError(f"release_times must be >= 0 µs, got {release_times.tolist()}.")
     nominal = _nominal(design, release_times, m)
+    nominal.update(_process(process, m))
     release = scatter.release
     if release.width > 0 and release.relative and not np.any(nominal["release"] > 0):
         raise ValueError(
@@ -341,4 +377,5 @@ def yield_estimate(
         dataset=dataset,
         seconds_per_sample=seconds / n_run if n_run else 0.0,
         tolerances=tolerances.to_dict(),
+        nominal={k: np.array(v) for k, v in nominal.items()},
     )
