@@ -262,7 +262,7 @@ def _padded(ts: Array, size: int) -> Array:
     """`ts` (concrete) followed by its last time up to length `size`, built on the host: no compiled
     program depends on `len(ts)`."""
     host = np.asarray(ts)
-    return jnp.asarray(np.concatenate([host, np.full(size - host.shape[0], host[-1])]))
+    return jax.device_put(np.concatenate([host, np.full(size - host.shape[0], host[-1])]))
 
 
 @eqx.filter_jit
