@@ -484,7 +484,7 @@ def simulate(
     # Called outside any transformation, the solve runs on sample times padded to a size bucket, so
     # that a new sample count within it reuses the compiled solve (under `jit`/`vmap` the caller's
     # program is compiled for its own sample count anyway, and padding would only add work).
-    pad = not is_traced(system, inputs, t0, t1, q0, v0, ts)
+    pad = not is_traced(system, inputs, t0, t1, q0, v0, ts, rtol, atol, dt0, stepsize_controller)
     if pad:
         ts = _padded(ts, padded_sample_count(n_samples))
     solver = default_solver() if solver is None else solver
