@@ -13,6 +13,8 @@ script, where compile time goes, and a notebook's rerun after a parameter change
   tracing (Python to jaxpr), lowering (jaxpr to StableHLO) and XLA compilation.
 - **Notebook:** after those, a parameter change followed by a new step response, and a new
   gradient, in the same process.
+- **`design` and `unfold`:** their first calls in the same process (programs they share with the
+  rows above are already compiled), split the same way.
 
 Run: `python -m benchmarks.bench_compile` (about 3-6 minutes on 2 cores); `python -m benchmarks
 --only compile` gives the same rows in the suite's format.
@@ -232,6 +234,34 @@ def in_process() -> dict[str, dict]:
     rows["simulate after a parameter change"] = {"wall": wall, **stages}
     wall, stages = _staged(lambda: gradient(jnp.asarray(1.3)))
     rows["gradient after a parameter change"] = {"wall": wall, **stages}
+    rows.update(first_calls_of_design_and_unfold())
+    return rows
+
+
+def first_calls_of_design_and_unfold() -> dict[str, dict]:
+    """The first `design` (a two-parameter fit of the 3-flap accordion to three rise times, four
+    starts) and the first `unfold` (the corner cube vertex), with their stages. Compile time
+    dominates both; the wall time includes the (short) runs."""
+    import origami_jax.design as ojd
+    from origami_jax import vertex
+    from origami_jax.system import HingeDesign
+
+    rows = {}
+    targets = ojd.Targets(rise_time=[30.0, 30.0, 30.0])
+    wall, stages = _staged(
+        lambda: ojd.design(
+            HingeDesign.literature(),
+            targets,
+            ["k_scale", "b_scale"],
+            t1=400.0,
+            n_starts=4,
+            max_steps=16,
+            throw=False,
+        )
+    )
+    rows["design, first call (2 parameters, 4 starts, 16 steps)"] = {"wall": wall, **stages}
+    wall, stages = _staged(lambda: vertex.unfold(vertex.corner_cube()))
+    rows["unfold, first call (corner cube)"] = {"wall": wall, **stages}
     return rows
 
 

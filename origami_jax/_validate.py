@@ -27,7 +27,9 @@ def as_float_array(value: ArrayLike, name: str) -> Array:
         host = np.asarray(value)
         if host.dtype.kind not in "fiu":
             raise ValueError(f"{name} must be real numbers, got dtype {host.dtype}.")
-        array = jnp.asarray(host)
+        if host.dtype.kind != "f":  # converted on the host
+            host = host.astype(jnp.result_type(float))
+        array = jax.device_put(host)  # `jnp.asarray` would compile a program per shape
     if not jnp.issubdtype(array.dtype, jnp.floating):
         array = array.astype(jnp.result_type(float))
     return array

@@ -183,7 +183,7 @@ class _Compilations:
         self.counts = dict.fromkeys(self.counts, 0)
         self.active = True
         try:
-            out = call()
+            self.out = out = call()
             jax.block_until_ready(out)
         finally:
             self.active = False
@@ -258,13 +258,22 @@ def test_values_do_not_recompile(compilations):
     for what, call in changes.items():
         counts = compilations.during(call)
         assert counts == {"solve": 0, "traces": 0, "compiles": 0}, (what, counts)
+    # A new sample count within the padded size (101 and 77 samples both solve on 128): no new
+    # solve; only the sample grid and the cut to 77 samples, two programs of a few operations.
+    assert sim.padded_sample_count(101) == sim.padded_sample_count(77) == 128
+    fewer = compilations.during(run(n_save=77, t1=80.0))
+    assert fewer["solve"] == 0 and fewer["compiles"] <= 2, fewer
+    assert compilations.out.shape == (77, 2)
+    # Same samples as a solve compiled for 77 (under jit: not padded), to rounding.
+    unpadded = jax.jit(run(n_save=77, t1=80.0))()
+    assert jnp.allclose(compilations.out, unpadded, rtol=1e-12, atol=1e-12)
     # A user torque given as a module with array leaves: once per structure, not per value.
     first = compilations.during(run(inputs=_push(2.0, 1.0)))
     assert first["solve"] == 1
     counts = compilations.during(run(inputs=_push(5.0, 7.0)))
     assert counts == {"solve": 0, "traces": 0, "compiles": 0}, counts
     # A new function object is new structure: it compiles again (documented in `UserTorque`; so
-    # does a new sample count `n_save`, a new array shape).
+    # does a sample count past the padded size, 129 samples or more here).
     law = lambda t, theta, theta_dot: -theta  # noqa: E731
     assert compilations.during(run(inputs=sim.UserTorque(law)))["solve"] == 1
 

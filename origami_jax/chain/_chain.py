@@ -207,12 +207,12 @@ class Chain(AbstractMechanism):
 
 def _check_axes(axes: Array) -> Array:
     axes = check_finite(axes, "axes")
-    norms = jnp.linalg.norm(axes, axis=-1)
     if is_traced(axes):
+        norms = jnp.linalg.norm(axes, axis=-1)
         return eqx.error_if(
             axes, jnp.any(jnp.abs(norms - 1) > _UNIT_TOLERANCE), "hinge axes must be unit vectors."
         )
-    norms = np.asarray(norms)
+    norms = np.linalg.norm(np.asarray(axes), axis=-1)
     for i, norm in enumerate(norms):
         if norm == 0:
             raise ValueError(f"axes[{i}] is the zero vector; a hinge needs a direction.")
@@ -285,44 +285,55 @@ def axes_parallel_error(axes: Float[Array, "n 3"]) -> Float[Array, ""]:
     return worst / (x0 * x0 + y0 * y0 + z0 * z0)
 
 
+def _pose_errors(poses, xp) -> tuple:
+    """``(max |RᵀR − I|, max bottom-row error, det R per pose)`` with `xp` = `jnp` (traced) or `np`
+    (known values: checked on the host, nothing compiled)."""
+    rotation = poses[:, :3, :3]
+    orthogonality = xp.max(xp.abs(xp.swapaxes(rotation, -1, -2) @ rotation - xp.eye(3)))
+    bottom = xp.max(xp.abs(poses[:, 3, :] - xp.asarray([0.0, 0.0, 0.0, 1.0])))
+    return orthogonality, bottom, xp.linalg.det(rotation)
+
+
 def _check_poses(poses: Array) -> Array:
     poses = check_finite(poses, "cg_poses")
-    rotation = poses[:, :3, :3]
-    orthogonality = jnp.max(jnp.abs(jnp.swapaxes(rotation, -1, -2) @ rotation - jnp.eye(3)))
-    bottom = jnp.max(jnp.abs(poses[:, 3, :] - jnp.array([0.0, 0.0, 0.0, 1.0])))
-    determinant = jnp.linalg.det(rotation)
-    bad = (orthogonality > _UNIT_TOLERANCE) | (bottom > 0) | jnp.any(determinant <= 0)
     if is_traced(poses):
+        orthogonality, bottom, determinant = _pose_errors(poses, jnp)
+        bad = (orthogonality > _UNIT_TOLERANCE) | (bottom > 0) | jnp.any(determinant <= 0)
         return eqx.error_if(poses, bad, "cg_poses must be rigid transforms [[R, p], [0, 1]].")
-    if bool(bad):
+    orthogonality, bottom, determinant = _pose_errors(np.asarray(poses), np)
+    if orthogonality > _UNIT_TOLERANCE or bottom > 0 or np.any(determinant <= 0):
         raise ValueError(
             "cg_poses must be rigid transforms [[R, p], [0, 0, 0, 1]] with R a rotation "
             f"(max |RᵀR − I| = {float(orthogonality):.3g}, max bottom-row error {float(bottom):.3g}, "
-            f"min det R = {float(jnp.min(determinant)):.3g})."
+            f"min det R = {float(np.min(determinant)):.3g})."
         )
     return poses
 
 
 def _check_inertias(inertias: Array) -> Array:
     inertias = check_finite(inertias, "inertias")
-    asymmetry = jnp.max(jnp.abs(inertias - jnp.swapaxes(inertias, -1, -2)), axis=(-1, -2))
-    scale = jnp.max(jnp.abs(inertias), axis=(-1, -2))
-    # Sylvester's criterion (leading minors) works on tracers, where eigvalsh would be wasteful.
-    minor1 = inertias[:, 0, 0]
-    minor2 = inertias[:, 0, 0] * inertias[:, 1, 1] - inertias[:, 0, 1] * inertias[:, 1, 0]
-    minor3 = jnp.linalg.det(inertias)
-    not_pd = (minor1 <= 0) | (minor2 <= 0) | (minor3 <= 0)
-    not_symmetric = asymmetry > 1e-9 * scale
     if is_traced(inertias):
+        asymmetry = jnp.max(jnp.abs(inertias - jnp.swapaxes(inertias, -1, -2)), axis=(-1, -2))
+        scale = jnp.max(jnp.abs(inertias), axis=(-1, -2))
+        # Sylvester's criterion (leading minors) works on tracers, where eigvalsh would be wasteful.
+        minor1 = inertias[:, 0, 0]
+        minor2 = inertias[:, 0, 0] * inertias[:, 1, 1] - inertias[:, 0, 1] * inertias[:, 1, 0]
+        minor3 = jnp.linalg.det(inertias)
+        not_pd = (minor1 <= 0) | (minor2 <= 0) | (minor3 <= 0)
+        not_symmetric = asymmetry > 1e-9 * scale
         return eqx.error_if(
             inertias,
             jnp.any(not_pd | not_symmetric),
             "inertias must be symmetric positive definite 3x3 matrices.",
         )
-    for i in range(inertias.shape[0]):
-        if bool(not_symmetric[i]):
+    # Known values: checked on the host (nothing compiled).
+    host = np.asarray(inertias)
+    asymmetry = np.max(np.abs(host - np.swapaxes(host, -1, -2)), axis=(-1, -2))
+    scale = np.max(np.abs(host), axis=(-1, -2))
+    for i in range(host.shape[0]):
+        if asymmetry[i] > 1e-9 * scale[i]:
             raise ValueError(f"inertias[{i}] is not symmetric; an inertia tensor is.")
-        eigenvalues = np.linalg.eigvalsh(np.asarray(inertias[i]))
+        eigenvalues = np.linalg.eigvalsh(host[i])
         if eigenvalues.min() <= 0:
             raise ValueError(
                 f"inertias[{i}] is not positive definite (eigenvalues {eigenvalues}); every rigid "

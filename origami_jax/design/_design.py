@@ -45,7 +45,8 @@ class SimulationSettings(eqx.Module):
       the accordion with `n_flaps` flaps ([`origami_jax.chain.Accordion`][]).
     - `inputs`: the input (default the step `Step()` to the system's hinge targets, paper Eq. 12), or
       a function `HingeDesign -> AbstractInput`.
-    - `n_save`: samples of the response (static).
+    - `n_save`: samples of the response (static: part of the compiled fit, which runs `simulate`
+      under `jit`, where sample counts are not padded).
     - `solver`: diffrax solver. Default `Tsit5`: for the accordion in air it compiles ~6× and runs ~10×
       faster than Kvaerno5 with derivatives matching finite differences (tests); pass
       `origami_jax.simulation.implicit_solver()` for stiff cases (very stiff hinges, KOH at high drag).

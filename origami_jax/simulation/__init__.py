@@ -19,6 +19,7 @@ from ._simulate import DEFAULT_RTOL as DEFAULT_RTOL
 from ._simulate import Trajectory as Trajectory
 from ._simulate import default_controller as default_controller
 from ._simulate import default_solver as default_solver
+from ._simulate import padded_sample_count as padded_sample_count
 from ._simulate import simulate as simulate
 from ._slow_ramp import SlowRampResult as SlowRampResult
 from ._slow_ramp import simulate_slow_ramp as simulate_slow_ramp

@@ -247,6 +247,41 @@ def _solve(system: FoldingSystem, inputs: AbstractInput, span, y0, ts, how: _Int
 
 _solve_jit = eqx.filter_jit(_solve)
 
+_MIN_PADDED_SAMPLES = 16
+
+
+def padded_sample_count(n: int) -> int:
+    """The sample count a top-level `simulate` solves for when asked for `n` samples: the next power
+    of two (at least 16). Every `n` up to it shares one compiled solve; the extra samples repeat the
+    last sample time and are cut off before the trajectory is returned (their cost: at most as many
+    again interpolations and accelerations at the samples, none in the steps)."""
+    return max(_MIN_PADDED_SAMPLES, 1 << (int(n) - 1).bit_length())
+
+
+def _padded(ts: Array, size: int) -> Array:
+    """`ts` (concrete) followed by its last time up to length `size`, built on the host: no compiled
+    program depends on `len(ts)`."""
+    host = np.asarray(ts)
+    return jax.device_put(np.concatenate([host, np.full(size - host.shape[0], host[-1])]))
+
+
+@eqx.filter_jit
+def _first_samples(trajectory: Trajectory, n: int) -> Trajectory:
+    """The first `n` samples of a trajectory solved on padded sample times (one small program per
+    `n`, compiled in milliseconds)."""
+
+    def cut(x):
+        return x[:n]
+
+    samples = lambda t: (t.times, t.theta, t.theta_dot, t.theta_ddot, t.tau)  # noqa: E731
+    trajectory = eqx.tree_at(samples, trajectory, replace_fn=cut)
+    if trajectory.state is not None:
+        trajectory = eqx.tree_at(lambda t: t.state, trajectory, replace_fn=cut)
+    if trajectory.solution is not None:
+        saved = lambda t: (t.solution.ts, t.solution.ys)  # noqa: E731
+        trajectory = eqx.tree_at(saved, trajectory, replace_fn=lambda x: jax.tree.map(cut, x))
+    return trajectory
+
 
 # Argument checks of `simulate` (tier 1 when the values are known, tier 2 when traced: see
 # `origami_jax._validate`). A bad time span or tolerance otherwise runs the solver to its step budget
@@ -362,9 +397,12 @@ def simulate(
 
     Works under `jax.jit`, `jax.vmap` (batch the system or the input) and `jax.grad` (reverse mode
     through diffrax's checkpointed adjoint). The compiled solve is cached per structure (mechanism
-    size, `n_save` or the length of `ts`, solver, `dense`, `throw`, `max_steps`, the input's type
-    and its Python functions), not per value: times, tolerances, initial state, targets, release
-    times and every physical number are traced, so a new value reruns without compiling. See
+    size, solver, `dense`, `throw`, `max_steps`, the input's type and its Python functions), not
+    per value: times, tolerances, initial state, targets, release times and every physical number
+    are traced, so a new value reruns without compiling. The sample count (`n_save` or the length
+    of `ts`) is padded to the next power of two (`padded_sample_count`): a new count within
+    it costs a few milliseconds, not a new solve (under `jit` or `vmap` the caller's program is
+    compiled for its own count, and nothing is padded). See
     [`origami_jax.enable_compilation_cache`][] to keep compiled solves between processes.
 
     **Arguments:**
@@ -442,6 +480,13 @@ def simulate(
     q0 = check_finite(q0, "theta0")
     v0 = check_finite(v0, "theta_dot0")
     ts = jnp.linspace(t0, t1, n_save) if ts is None else _checked_times(ts, t0, t1)
+    n_samples = ts.shape[0]
+    # Called outside any transformation, the solve runs on sample times padded to a size bucket, so
+    # that a new sample count within it reuses the compiled solve (under `jit`/`vmap` the caller's
+    # program is compiled for its own sample count anyway, and padding would only add work).
+    pad = not is_traced(system, inputs, t0, t1, q0, v0, ts, rtol, atol, dt0, stepsize_controller)
+    if pad:
+        ts = _padded(ts, padded_sample_count(n_samples))
     solver = default_solver() if solver is None else solver
     if stepsize_controller is None:
         # Tolerances as arrays, so a new value does not compile a new solve.
@@ -459,4 +504,5 @@ def simulate(
         throw=throw,
         land_on_samples=land_on_samples,
     )
-    return _solve_jit(system, inputs, (t0, t1), (q0, v0), ts, how)
+    trajectory = _solve_jit(system, inputs, (t0, t1), (q0, v0), ts, how)
+    return _first_samples(trajectory, n_samples) if pad else trajectory

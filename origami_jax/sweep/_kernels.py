@@ -97,7 +97,9 @@ def accordion_step(
     `(θ_final, −θ_final, θ_final, ...)`. Swept parameters: see
     `ACCORDION_PARAMETERS`; `fluid` is `"air"` or `"koh"` (30 wt% KOH solution); `n_flaps` is static.
 
-    **Arguments (settings, fixed for the whole sweep and checked on resume):**
+    **Arguments (settings, fixed for the whole sweep and checked on resume):** constants of the
+    compiled sweep (folded in by XLA), so a new value, `n_save` included, compiles a new sweep: once
+    per sweep, not per design (the sample count is not padded as in a top-level `simulate`).
     - `n_flaps`, `fluid`: values used when they are not swept.
     - `t_end`: simulated time, µs; `n_save`: samples over `[0, t_end]` the metrics are measured on.
     - `rtol`, `atol`, `max_steps`, `stiffness_model`, `drag_model`: passed to `simulate` /

@@ -13,6 +13,7 @@ from typing import Literal
 
 import equinox as eqx
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from .._validate import as_float_array, check_finite, check_positive, is_traced
@@ -47,7 +48,7 @@ class Material(eqx.Module):
         nu = check_finite(as_float_array(poisson_ratio, "poisson_ratio"), "poisson_ratio")
         if is_traced(nu):
             nu = eqx.error_if(nu, (nu <= -1) | (nu >= 0.5), "poisson_ratio must lie in (-1, 0.5).")
-        elif bool(jnp.any((nu <= -1) | (nu >= 0.5))):
+        elif np.any((np.asarray(nu) <= -1) | (np.asarray(nu) >= 0.5)):
             raise ValueError(f"poisson_ratio must lie in (-1, 0.5) for a stable solid, got {nu}.")
         self.poisson_ratio = nu
         self.density = check_positive(as_float_array(density, "density"), "density", "mass/length³")
