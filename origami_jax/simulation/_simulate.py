@@ -424,7 +424,10 @@ def _stitched(explicit: Trajectory, implicit: Trajectory, ts, t_switch) -> Traje
 def _solve_lazily(system: FoldingSystem, inputs: AbstractInput, span, y0, ts, how: _Integration):
     """The default solver in two programs (top-level calls only): the explicit phase, then, only
     if the run turned stiff, the implicit phase from the switch. A run that never turns stiff
-    compiles no implicit solver; one that does gets the steps of a single solve."""
+    compiles no implicit solver; one that does gets the steps of a single solve (the samples and
+    statistics of the one-program solve, bitwise when measured). Each phase has the step budget
+    `max_steps`, so a run that turns stiff may take up to twice as many steps before it reports
+    `max_steps_reached`; with a progress meter each phase shows its own bar."""
     explicit, start = _solve_until_stiff_jit(system, inputs, span, y0, ts, how)
     if not bool(start.turned) or not float(start.t) < float(span[1]):
         return explicit
@@ -592,7 +595,11 @@ def simulate(
     of `ts`) is padded to the next power of two (`padded_sample_count`): a new count within
     it costs a few milliseconds, not a new solve (under `jit` or `vmap` the caller's program is
     compiled for its own count, and nothing is padded). See
-    [`origami_jax.enable_compilation_cache`][] to keep compiled solves between processes.
+    [`origami_jax.enable_compilation_cache`][] to keep compiled solves between processes. Called
+    outside any transformation with the default solver, the solve runs as two programs: explicit
+    steps up to the switch, then, only for a run that turns stiff, implicit ones from there, so a
+    non-stiff run never compiles the implicit solver (its first call compiles in about a third of
+    the time); the steps, samples and statistics are those of the single program.
 
     **Arguments:**
     - `system`: a [`origami_jax.system.FoldingSystem`][] (e.g. from
