@@ -5,13 +5,16 @@ The test problem is the scalar relaxation ``y' = −a (y − cos t)``, ``y(0) = 
 """
 
 import diffrax
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
 
 import origami_jax.simulation as sim
+from origami_jax.chain import accordion_system
 from origami_jax.simulation._switching import _tsit5_stiffness
+from origami_jax.system import HingeDesign
 
 T1 = 10.0
 RTOL, ATOL = 1e-8, 1e-10
@@ -120,3 +123,66 @@ def test_start_implicit_and_bad_arguments():
         sim.StiffnessSwitching(threshold=0.0)
     with pytest.raises(ValueError, match="patience must be at least 1"):
         sim.StiffnessSwitching(patience=0)
+
+
+class _Viscous(eqx.Module):
+    """A hinge pulled to its target against a linear damper: ``τ = k θ* − c θ̇`` (torque units)."""
+
+    pull: jax.Array
+    damping: jax.Array
+
+    def __call__(self, t, theta, theta_dot):
+        return self.pull - self.damping * theta_dot
+
+
+def test_top_level_simulate_compiles_the_implicit_phase_only_when_a_run_turns_stiff(monkeypatch):
+    # One flap in air with a linear damper c = r √(k I): eigenvalues ≈ −ω/r and −r ω. At r = 0.3
+    # the run is mildly damped and never stiff; at r = 30 the fast mode makes the explicit steps
+    # stability-bound and the default solver turns implicit.
+    from origami_jax.simulation import _simulate
+
+    system = accordion_system(HingeDesign.literature(), 1)
+    k = system.hinges.stiffness[0]
+    inertia = system.mechanism.mass_matrix(jnp.zeros(1))[0, 0]
+    omega = float(jnp.sqrt(k / inertia))
+
+    def viscous(r):
+        c = jnp.atleast_1d(r * jnp.sqrt(k * inertia))
+        return sim.UserTorque(_Viscous(k * system.hinges.target, c))
+
+    kvaerno5_traces = []
+    step = diffrax.Kvaerno5.step
+    monkeypatch.setattr(
+        diffrax.Kvaerno5, "step", lambda *a, **kw: kvaerno5_traces.append(1) or step(*a, **kw)
+    )
+    single = _simulate._solve_jit._cached._cache_size()
+    implicit = _simulate._solve_from_switch_jit._cached._cache_size()
+    run = lambda r: sim.simulate(system, viscous(r), t1=100 / omega, n_save=201)  # noqa: E731
+
+    mild = run(0.3)
+    assert np.isinf(mild.stats["switch_time"]) and mild.succeeded
+    assert kvaerno5_traces == []  # no implicit step was even traced
+    assert _simulate._solve_from_switch_jit._cached._cache_size() == implicit
+    assert _simulate._solve_jit._cached._cache_size() == single
+
+    stiff = run(30.0)
+    assert 0.0 < float(stiff.stats["switch_time"]) < 100 / omega and stiff.succeeded
+    assert (
+        kvaerno5_traces and _simulate._solve_from_switch_jit._cached._cache_size() == implicit + 1
+    )
+    # The same run as one program (under jit nothing is split): the second program restarts from
+    # the first one's solver state, controller state and next step, so the steps are the same and
+    # the samples agree to rounding (1e-12 rad; they were bitwise equal when measured).
+    whole = jax.jit(lambda s, u: sim.simulate(s, u, t1=100 / omega, n_save=201))(
+        system, viscous(30.0)
+    )
+    for key in ("num_steps", "num_accepted_steps", "num_rejected_steps", "switch_time"):
+        assert stiff.stats[key] == whole.stats[key], key
+    for field in ("times", "theta", "theta_dot", "theta_ddot", "tau"):
+        np.testing.assert_allclose(getattr(stiff, field), getattr(whole, field), rtol=0, atol=1e-12)
+    # Independent of the solver: overdamped, the slow mode relaxes as θ* (1 − e^{−k t / c}) (the
+    # air drag, quadratic in θ̇, is negligible at these rates); at the end, 100/ω = 3.3 c/k,
+    # θ is within 5 % of θ* and on that curve to a few % of θ*.
+    target = float(system.hinges.target[0])
+    slow = target * (1 - np.exp(-float(stiff.times[-1]) * omega / 30.0))
+    assert abs(float(stiff.theta[-1, 0]) - slow) < 0.03 * abs(target)

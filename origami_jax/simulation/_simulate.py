@@ -6,6 +6,7 @@ system's mechanism (hinge angles and rates for chains and trees); units are the 
 `MICRO`: µm, µs, ng).
 """
 
+import dataclasses
 from typing import cast
 
 import diffrax
@@ -20,7 +21,7 @@ from ..system import FoldingSystem, HingeDrag
 from ._guard import ContactGuard
 from ._inputs import AbstractInput
 from ._results import RESULTS
-from ._switching import StiffnessSwitching
+from ._switching import TURNED_STIFF, StiffnessSwitching
 
 DEFAULT_RTOL = 1e-7
 """Default relative tolerance of `simulate` (error per step, relative to |θ| and |θ̇|)."""
@@ -182,11 +183,9 @@ def _samples(system: FoldingSystem, inputs: AbstractInput, times, q, v):
     return theta, theta_dot, jnp.where(ok, theta_ddot, jnp.inf), jnp.where(ok, tau, jnp.inf)
 
 
-def _solve(system: FoldingSystem, inputs: AbstractInput, span, y0, ts, how: _Integration):
-    t0, t1 = span
-    solver, controller = how.solver, how.controller
-    if isinstance(solver, StiffnessSwitching) and isinstance(how.adjoint, diffrax.ForwardMode):
-        solver = solver.with_scan_kind("lax")  # what diffrax does for its own Runge–Kutta solvers
+def _controller_and_field(system: FoldingSystem, inputs: AbstractInput, ts, how: _Integration):
+    """The step-size controller (with the contact guard and the input's corners) and vector field."""
+    controller = how.controller
     if system.contact is not None and isinstance(
         controller, diffrax.AbstractAdaptiveStepSizeController
     ):
@@ -198,9 +197,54 @@ def _solve(system: FoldingSystem, inputs: AbstractInput, span, y0, ts, how: _Int
         controller = diffrax.ClipStepSizeController(controller, step_ts=step_ts, jump_ts=jump_ts)
     forward_mode_only = isinstance(how.adjoint, diffrax.ForwardMode)
     vector_field = _vector_field_forward_mode if forward_mode_only else _vector_field
+    return controller, diffrax.ODETerm(vector_field)
+
+
+def _checked_result(solution_result, q, v, saved, how: _Integration):
+    """The solve's result as a `RESULTS` code (a non-finite saved sample is a failure); raises on
+    failure when `how.throw`."""
+    result = (
+        solution_result
+        if isinstance(solution_result, RESULTS)
+        else RESULTS.promote(solution_result)
+    )
+    ok_rows = saved[:, None]
+    finite = jnp.all(jnp.isfinite(q) | ~ok_rows) & jnp.all(jnp.isfinite(v) | ~ok_rows)
+    result = RESULTS.where(
+        (result == RESULTS.successful) & ~finite, RESULTS.nonfinite_state, result
+    )
+    if how.throw:
+        q = result.error_if(q, result != RESULTS.successful)
+    return result, q
+
+
+def _trajectory(system, inputs, times, q, v, stats, result, solution) -> Trajectory:
+    theta, theta_dot, theta_ddot, tau = _samples(system, inputs, times, q, v)
+    target = inputs.target(system)
+    target = theta[-1] if target is None else jnp.asarray(target, dtype=theta.dtype)
+    return Trajectory(
+        times=times,
+        theta=theta,
+        theta_dot=theta_dot,
+        theta_ddot=theta_ddot,
+        tau=tau,
+        target=target,
+        stats=stats,
+        result=result,
+        solution=solution,
+        state=None if system.mechanism.coordinates_are_hinge_angles else (q, v),
+    )
+
+
+def _solve(system: FoldingSystem, inputs: AbstractInput, span, y0, ts, how: _Integration):
+    t0, t1 = span
+    solver = how.solver
+    if isinstance(solver, StiffnessSwitching) and isinstance(how.adjoint, diffrax.ForwardMode):
+        solver = solver.with_scan_kind("lax")  # what diffrax does for its own Runge–Kutta solvers
+    controller, term = _controller_and_field(system, inputs, ts, how)
     switching = isinstance(solver, StiffnessSwitching)
     solution = diffrax.diffeqsolve(
-        diffrax.ODETerm(vector_field),
+        term,
         solver,
         t0,
         t1,
@@ -215,37 +259,185 @@ def _solve(system: FoldingSystem, inputs: AbstractInput, span, y0, ts, how: _Int
         progress_meter=how.progress_meter,
     )
     q, v = cast(tuple[Array, Array], solution.ys)  # SaveAt(ts=...) always saves ys
-    result = RESULTS.promote(solution.result)
-    finite = jnp.all(jnp.isfinite(q)) & jnp.all(jnp.isfinite(v))
-    result = RESULTS.where(
-        (result == RESULTS.successful) & ~finite, RESULTS.nonfinite_state, result
-    )
-    if how.throw:
-        q = result.error_if(q, result != RESULTS.successful)
-    times = cast(Array, solution.ts)
-    theta, theta_dot, theta_ddot, tau = _samples(system, inputs, times, q, v)
-    target = inputs.target(system)
-    target = theta[-1] if target is None else jnp.asarray(target, dtype=theta.dtype)
+    saved = jnp.ones(q.shape[:1], dtype=bool)
+    result, q = _checked_result(solution.result, q, v, saved, how)
     stats = {k: jnp.asarray(val) for k, val in solution.stats.items()}
     if switching:
         # Time at which the solver turned implicit (inf: it never did); see `StiffnessSwitching`.
         _, switch = cast(tuple, solution.solver_state)  # saved: SaveAt(solver_state=True) above
         stats["switch_time"] = switch.switch_time
-    return Trajectory(
-        times=times,
-        theta=theta,
-        theta_dot=theta_dot,
-        theta_ddot=theta_ddot,
-        tau=tau,
-        target=target,
-        stats=stats,
-        result=result,
-        solution=solution if how.dense else None,
-        state=None if system.mechanism.coordinates_are_hinge_angles else (q, v),
+    times = cast(Array, solution.ts)
+    return _trajectory(system, inputs, times, q, v, stats, result, solution if how.dense else None)
+
+
+class _RecordNext(diffrax.AbstractAdaptiveStepSizeController):
+    """Wraps a controller and keeps the end of the next step it proposes in its state, so that a
+    solve stopped after a step can be continued with exactly that next step."""
+
+    controller: diffrax.AbstractAdaptiveStepSizeController
+
+    @property
+    def rtol(self):
+        return self.controller.rtol
+
+    @property
+    def atol(self):
+        return self.controller.atol
+
+    @property
+    def norm(self):  # pyright: ignore[reportIncompatibleMethodOverride]
+        return self.controller.norm
+
+    def wrap(self, direction):
+        return eqx.tree_at(lambda r: r.controller, self, self.controller.wrap(direction))
+
+    def init(self, terms, t0, t1, y0, dt0, args, func, error_order):
+        tnext, state = self.controller.init(terms, t0, t1, y0, dt0, args, func, error_order)
+        return tnext, (state, jnp.asarray(tnext))
+
+    def adapt_step_size(
+        self, t0, t1, y0, y1_candidate, args, y_error, error_order, controller_state
+    ):
+        inner, _ = controller_state
+        keep, next_t0, next_t1, made_jump, inner, result = self.controller.adapt_step_size(
+            t0, t1, y0, y1_candidate, args, y_error, error_order, inner
+        )
+        return keep, next_t0, next_t1, made_jump, (inner, jnp.asarray(next_t1)), result
+
+
+class _Handover(eqx.Module):
+    """Where a solve with explicit steps stopped at the switch: what the implicit phase starts from."""
+
+    turned: Array
+    t: Array
+    y: tuple[Array, Array]
+    tnext: Array
+    solver_state: object
+    controller_state: object
+    made_jump: object
+
+
+def _solve_until_stiff(
+    system: FoldingSystem, inputs: AbstractInput, span, y0, ts, how: _Integration
+) -> tuple[Trajectory, _Handover]:
+    """The default solver's explicit phase: Tsit5 with the stiffness test, stopping after the step
+    at which the switch turns. Samples after that step are inf (the implicit phase computes them)."""
+    t0, t1 = span
+    solver = dataclasses.replace(cast(StiffnessSwitching, how.solver), phase="explicit")
+    controller, term = _controller_and_field(system, inputs, ts, how)
+    saveat = diffrax.SaveAt(
+        subs=[diffrax.SubSaveAt(ts=ts), diffrax.SubSaveAt(t1=True)],
+        solver_state=True,
+        controller_state=True,
+        made_jump=True,
     )
+    solution = diffrax.diffeqsolve(
+        term,
+        solver,
+        t0,
+        t1,
+        how.dt0,
+        y0,
+        (system, inputs),
+        saveat=saveat,
+        stepsize_controller=_RecordNext(controller),
+        adjoint=how.adjoint,
+        max_steps=how.max_steps,
+        throw=False,  # `TURNED_STIFF` is not a failure; real ones raise below
+        progress_meter=how.progress_meter,
+    )
+    (q, v), (q_end, v_end) = cast(list, solution.ys)
+    times, t_end = cast(list, solution.ts)
+    _, switch = cast(tuple, solution.solver_state)
+    turned = switch.stiff
+    result = RESULTS.promote(solution.result)
+    result = RESULTS.where(
+        turned & (result == RESULTS.promote(TURNED_STIFF)), RESULTS.successful, result
+    )
+    result, q = _checked_result(result, q, v, jnp.isfinite(times), how)
+    stats = {k: jnp.asarray(val) for k, val in solution.stats.items()}
+    stats["switch_time"] = switch.switch_time
+    inner, tnext = cast(tuple, solution.controller_state)
+    handover = _Handover(
+        turned=turned,
+        t=t_end[0],
+        y=(q_end[0], v_end[0]),
+        tnext=tnext,
+        solver_state=solution.solver_state,
+        controller_state=inner,
+        made_jump=solution.made_jump,
+    )
+    return _trajectory(system, inputs, times, q, v, stats, result, None), handover
+
+
+def _solve_from_switch(
+    system: FoldingSystem, inputs: AbstractInput, t1, ts, how: _Integration, start: _Handover
+) -> Trajectory:
+    """The default solver's implicit phase: Kvaerno5 from where `_solve_until_stiff` stopped, with
+    its solver state, controller state and next step, so the steps are those of a single solve.
+    Samples before the switch repeat the switch state (`_stitched` takes them from the first phase).
+    """
+    solver = dataclasses.replace(cast(StiffnessSwitching, how.solver), phase="implicit")
+    controller, term = _controller_and_field(system, inputs, ts, how)
+    solution = diffrax.diffeqsolve(
+        term,
+        solver,
+        start.t,
+        t1,
+        start.tnext - start.t,
+        start.y,
+        (system, inputs),
+        saveat=diffrax.SaveAt(ts=jnp.maximum(ts, start.t)),
+        stepsize_controller=controller,
+        adjoint=how.adjoint,
+        max_steps=how.max_steps,
+        throw=how.throw,
+        progress_meter=how.progress_meter,
+        solver_state=start.solver_state,
+        controller_state=start.controller_state,
+        made_jump=start.made_jump,
+    )
+    q, v = cast(tuple[Array, Array], solution.ys)
+    result, q = _checked_result(solution.result, q, v, jnp.ones(q.shape[:1], dtype=bool), how)
+    stats = {k: jnp.asarray(val) for k, val in solution.stats.items()}
+    return _trajectory(system, inputs, cast(Array, solution.ts), q, v, stats, result, None)
+
+
+@eqx.filter_jit
+def _stitched(explicit: Trajectory, implicit: Trajectory, ts, t_switch) -> Trajectory:
+    """One trajectory from the two phases: samples up to the switch from the explicit one, later
+    ones from the implicit one; step counts added."""
+    later = ts > t_switch
+
+    def pick(a, b):
+        return jnp.where(later.reshape(later.shape + (1,) * (a.ndim - 1)), b, a)
+
+    samples = lambda t: (t.times, t.theta, t.theta_dot, t.theta_ddot, t.tau, t.state)  # noqa: E731
+    stitched = jax.tree.map(pick, samples(explicit), samples(implicit))
+    stats = dict(explicit.stats)
+    for key in ("num_steps", "num_accepted_steps", "num_rejected_steps"):
+        stats[key] = explicit.stats[key] + implicit.stats[key]
+    trajectory = eqx.tree_at(samples, implicit, stitched, is_leaf=lambda x: x is None)
+    return eqx.tree_at(lambda t: t.stats, trajectory, stats)
+
+
+def _solve_lazily(system: FoldingSystem, inputs: AbstractInput, span, y0, ts, how: _Integration):
+    """The default solver in two programs (top-level calls only): the explicit phase, then, only
+    if the run turned stiff, the implicit phase from the switch. A run that never turns stiff
+    compiles no implicit solver; one that does gets the steps of a single solve (the samples and
+    statistics of the one-program solve, bitwise when measured). Each phase has the step budget
+    `max_steps`, so a run that turns stiff may take up to twice as many steps before it reports
+    `max_steps_reached`; with a progress meter each phase shows its own bar."""
+    explicit, start = _solve_until_stiff_jit(system, inputs, span, y0, ts, how)
+    if not bool(start.turned) or not float(start.t) < float(span[1]):
+        return explicit
+    implicit = _solve_from_switch_jit(system, inputs, span[1], ts, how, start)
+    return _stitched(explicit, implicit, ts, start.t)
 
 
 _solve_jit = eqx.filter_jit(_solve)
+_solve_until_stiff_jit = eqx.filter_jit(_solve_until_stiff)
+_solve_from_switch_jit = eqx.filter_jit(_solve_from_switch)
 
 _MIN_PADDED_SAMPLES = 16
 
@@ -403,7 +595,11 @@ def simulate(
     of `ts`) is padded to the next power of two (`padded_sample_count`): a new count within
     it costs a few milliseconds, not a new solve (under `jit` or `vmap` the caller's program is
     compiled for its own count, and nothing is padded). See
-    [`origami_jax.enable_compilation_cache`][] to keep compiled solves between processes.
+    [`origami_jax.enable_compilation_cache`][] to keep compiled solves between processes. Called
+    outside any transformation with the default solver, the solve runs as two programs: explicit
+    steps up to the switch, then, only for a run that turns stiff, implicit ones from there, so a
+    non-stiff run never compiles the implicit solver (its first call compiles in about a third of
+    the time); the steps, samples and statistics are those of the single program.
 
     **Arguments:**
     - `system`: a [`origami_jax.system.FoldingSystem`][] (e.g. from
@@ -504,5 +700,16 @@ def simulate(
         throw=throw,
         land_on_samples=land_on_samples,
     )
-    trajectory = _solve_jit(system, inputs, (t0, t1), (q0, v0), ts, how)
+    lazy = (
+        pad
+        and isinstance(solver, StiffnessSwitching)
+        and solver.phase == "both"
+        and not solver.start_implicit
+        and not dense
+        and isinstance(how.adjoint, diffrax.RecursiveCheckpointAdjoint)
+    )
+    # A top-level call with the default solver compiles its implicit phase only for a run that
+    # turns stiff (`_solve_lazily`); under a transformation the solve stays one program.
+    solve = _solve_lazily if lazy else _solve_jit
+    trajectory = solve(system, inputs, (t0, t1), (q0, v0), ts, how)
     return _first_samples(trajectory, n_samples) if pad else trajectory

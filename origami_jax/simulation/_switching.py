@@ -27,7 +27,7 @@ Under `vmap` with a batched switch flag, `lax.cond` evaluates both branches: a b
 for an implicit and an explicit step each step. Batches should name their solver (the sweep kernels do).
 """
 
-from typing import ClassVar
+from typing import ClassVar, Literal
 
 import diffrax
 import equinox as eqx
@@ -87,6 +87,11 @@ class StiffnessSwitching(diffrax.AbstractAdaptiveSolver):
     - `patience`: number of stiff accepted steps (with fewer than six non-stiff ones between) that
       trigger the switch.
     - `start_implicit`: begin with implicit steps (for problems known to be stiff from the start).
+    - `phase`: `"both"` (default): the solver above. `"explicit"`: explicit steps only, ending the
+      solve at the step after which the switch turns (result `TURNED_STIFF`); `"implicit"`:
+      implicit steps only, continuing from that step's solver state. A top-level `simulate` runs
+      the two phases as two programs, so that a run which never turns stiff never compiles the
+      implicit solver (three quarters of the default solver's compile time).
 
     The solver state records whether the switch happened; [`origami_jax.simulation.simulate`][] reports
     the time of the switch in its statistics as `switch_time` (`inf` if it never switched).
@@ -97,6 +102,7 @@ class StiffnessSwitching(diffrax.AbstractAdaptiveSolver):
     threshold: float = 3.25
     patience: int = 15
     start_implicit: bool = False
+    phase: Literal["both", "explicit", "implicit"] = eqx.field(default="both", static=True)
 
     term_structure: ClassVar = diffrax.AbstractTerm
     interpolation_cls: ClassVar = SwitchingInterpolation
@@ -106,6 +112,8 @@ class StiffnessSwitching(diffrax.AbstractAdaptiveSolver):
             raise ValueError(f"threshold must be positive, got {self.threshold}.")
         if self.patience < 1:
             raise ValueError(f"patience must be at least 1, got {self.patience}.")
+        if self.phase not in ("both", "explicit", "implicit"):
+            raise ValueError(f"phase must be 'both', 'explicit' or 'implicit', got {self.phase!r}.")
 
     def with_scan_kind(self, kind: str | None) -> "StiffnessSwitching":
         """The same solver with its Runge–Kutta stage loops of this `scan_kind`.
@@ -149,7 +157,12 @@ class StiffnessSwitching(diffrax.AbstractAdaptiveSolver):
             )
             return y1, error, dense, state, result, jnp.zeros((), dtype=jnp.result_type(t1))
 
-        y1, error, dense, state, result, h_rho = jax.lax.cond(switch.stiff, implicit, explicit)
+        if self.phase == "explicit":
+            y1, error, dense, state, result, h_rho = explicit()
+        elif self.phase == "implicit":
+            y1, error, dense, state, result, h_rho = implicit()
+        else:
+            y1, error, dense, state, result, h_rho = jax.lax.cond(switch.stiff, implicit, explicit)
         dense = {**dense, "implicit": switch.stiff}
         is_stiff_step = h_rho > self.threshold
         stiff_steps = jnp.where(is_stiff_step, switch.stiff_steps + 1, switch.stiff_steps)
@@ -163,10 +176,20 @@ class StiffnessSwitching(diffrax.AbstractAdaptiveSolver):
             calm_steps=calm_steps,
             switch_time=jnp.where(turns, t1, switch.switch_time),
         )
+        if self.phase == "explicit":
+            # Not an "okay" result, so that diffrax keeps it (it keeps the step and stops): the
+            # caller reads it back as the switch (see `TURNED_STIFF`).
+            result = diffrax.RESULTS.where(turns, TURNED_STIFF, result)
         return y1, error, dense, (state, new_switch), result
 
     def func(self, terms, t0, y0, args):
         return terms.vf(t0, y0, args)
+
+
+TURNED_STIFF = diffrax.RESULTS.internal_error
+"""The result with which a `phase="explicit"` solve stops at the switch. An explicit Runge–Kutta step
+never fails by itself, so this code cannot come from anything else in that solve; it has to be one
+that diffrax does not treat as "okay", or the step-size controller's own result would replace it."""
 
 
 class _Switch(eqx.Module):
