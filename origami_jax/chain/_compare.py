@@ -80,7 +80,16 @@ class ModelComparison:
 
 
 def model_designs(fluid):
-    """`(paper design, extended design, extended layout)` of the literature device in `fluid`."""
+    """The literature device (`HingeDesign.literature()`) in `fluid` under both models.
+
+    **Arguments:** `fluid`, a [`origami_jax.system.Fluid`][] (`AIR`, `KOH_SOLUTION`, ...).
+
+    **Returns:** `(paper, extended, layout)`: the paper's design (its stiffness formula), the
+    extended design (`stiffness_model="bilayer"`), and the extended model's
+    [`origami_jax.chain.Accordion`][] layout for 3 flaps (arc hinges, `fluid="extended"`,
+    contact). `accordion_system(paper, 3)` builds the paper's model, `layout(extended)` the
+    extended one.
+    """
     from ..system import HingeDesign
     from ._system import Accordion
 
