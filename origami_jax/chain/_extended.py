@@ -223,7 +223,7 @@ def accordion_diagnostics(design: HingeDesign, n: int = 3) -> dict:
 
     **Returns:** a dict of host floats and lists of `n` floats (one per hinge):
 
-    - `fluid` (name); `stiffness_paper` and `stiffness_bilayer` (µN·µm/rad, hinge 1): the paper's
+    - `fluid` (name) and `fluid_density` (ng/µm³); `stiffness_paper` and `stiffness_bilayer` (µN·µm/rad, hinge 1): the paper's
       ``w(E₁'t₁³ + E₂'t₂³)/(3l)`` and the bonded bilayer's (docs/physics.md, "The hinge is a bending
       arc");
     - `radius_um` (ρ, µm), `strip_length_um` (``l = ρ |θ_target,1|``, µm), `strip_mass_ng` and
@@ -277,6 +277,7 @@ def accordion_diagnostics(design: HingeDesign, n: int = 3) -> dict:
 
     return {
         "fluid": design.fluid.name,
+        "fluid_density": float(design.fluid.density),
         "stiffness_paper": float(paper_design.stiffness(n)[0]),
         "stiffness_bilayer": float(stiffness[0]),
         "radius_um": radius,
