@@ -7,7 +7,8 @@ unit-agnostic; the builders take their constants in a `UnitSystem` (`MICRO`: µm
 FOLD files in and out: `load_chain` (an accordion crease pattern) and `trajectory_to_fold` (a
 simulated folding as a FOLD animation). `compare_models`: the paper's model next to the extended
 one (arc hinges, the fluid's inertia and viscosity, contact) on Fig. 7's step in air and KOH and the
-etch ramp, with the physical reason for each difference.
+etch ramp, with the physical reason for each difference; `model_designs` (the literature device
+under both models) and `accordion_diagnostics` (where they differ, in numbers) are its pieces.
 """
 
 from ._chain import Chain as Chain
@@ -16,6 +17,7 @@ from ._chain import flap_chain as flap_chain
 from ._chain import plate_inertia as plate_inertia
 from ._compare import ModelComparison as ModelComparison
 from ._compare import compare_models as compare_models
+from ._compare import model_designs as model_designs
 from ._compare import plot_comparison as plot_comparison
 from ._dynamics import bias_torque as bias_torque
 from ._dynamics import coriolis_matrix as coriolis_matrix
@@ -25,6 +27,7 @@ from ._dynamics import inverse_dynamics as inverse_dynamics
 from ._dynamics import kinetic_energy as kinetic_energy
 from ._dynamics import mass_matrix as mass_matrix
 from ._dynamics import potential_energy as potential_energy
+from ._extended import accordion_diagnostics as accordion_diagnostics
 from ._fold import accordion_dimensions as accordion_dimensions
 from ._fold import chain_from_geometry as chain_from_geometry
 from ._fold import load_chain as load_chain

@@ -24,9 +24,12 @@ CASE_TITLES = {
     "step_koh": "step in the KOH bath",
     "ramp_koh": "0.1 s etch ramp in the KOH bath (paper Fig. 10)",
 }
-RUN_LENGTH_US = {"step_air": 600.0, "step_koh": 60_000.0}
-"""Run lengths of the steps, µs: the air step rings for the first few hundred µs; in KOH the
-extended model's hinges, with the liquid's inertia, have periods of 8–32 ms."""
+RUN_LENGTH_US = {"step_air": 5_000.0, "step_koh": 60_000.0}
+"""Run lengths of the steps, µs: each covers the extended model's first peak and more. In air the
+paper's hinges ring with periods of a few hundred µs, but the extended hinge 1 (arc strip and air
+included) has a period of about 2.6 ms: a 600 µs run (Fig. 7's window) ends before it reaches its
+target and would report no overshoot. In KOH the extended hinges, with the liquid's inertia, have
+periods of 8–32 ms."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -80,7 +83,16 @@ class ModelComparison:
 
 
 def model_designs(fluid):
-    """`(paper design, extended design, extended layout)` of the literature device in `fluid`."""
+    """The literature device (`HingeDesign.literature()`) in `fluid` under both models.
+
+    **Arguments:** `fluid`, a [`origami_jax.system.Fluid`][] (`AIR`, `KOH_SOLUTION`, ...).
+
+    **Returns:** `(paper, extended, layout)`: the paper's design (its stiffness formula), the
+    extended design (`stiffness_model="bilayer"`), and the extended model's
+    [`origami_jax.chain.Accordion`][] layout for 3 flaps (arc hinges, `fluid="extended"`,
+    contact). `accordion_system(paper, 3)` builds the paper's model, `layout(extended)` the
+    extended one.
+    """
     from ..system import HingeDesign
     from ._system import Accordion
 
@@ -89,7 +101,24 @@ def model_designs(fluid):
     return paper, extended, Accordion(3, hinges="arc", fluid="extended", contact=True)
 
 
-def _reasons(air: dict, koh: dict, lags: dict | None) -> list[str]:
+def periods(inertias, stiffness: float) -> list[float]:
+    """Small-oscillation periods ``2π √(I/k)``, ms, of inertias (ng·µm²) on a spring (µN·µm/rad)."""
+    return [2 * math.pi * math.sqrt(i / stiffness) * 1e-3 for i in inertias]
+
+
+def _peaks_sentence(peaks: dict, case: str, where: str) -> str:
+    """The runs' peaks of `case` (both models), as a sentence; empty when `case` was not run."""
+    if case not in peaks:
+        return ""
+    paper, extended = peaks[case]
+    return (
+        f" The runs {where}: the paper model's joints peak at "
+        f"{' / '.join(f'{p:.3f}' for p in paper)} π, the extended model's at "
+        f"{' / '.join(f'{p:.3f}' for p in extended)} π."
+    )
+
+
+def _reasons(air: dict, koh: dict, lags: dict | None, peaks: dict) -> list[str]:
     k_paper, k_bilayer = air["stiffness_paper"], air["stiffness_bilayer"]
     inertia_paper = air["inertia_mid_fold_paper"][0]
     inertia_arc = air["inertia_mid_fold_arc"][0]
@@ -107,30 +136,38 @@ def _reasons(air: dict, koh: dict, lags: dict | None) -> list[str]:
         f"the flap's {air['flap_mass_ng']:.1f} ng; joint 1's inertia half-way is "
         f"{inertia_arc / inertia_paper:.1f}× the paper's point hinge's. With the softer spring the "
         f"period grows about {period_ratio:.1f}×.",
-        f"Less ringing in air: the air moves with the flap (added inertia: joint 1's inertia "
-        f"{air_fluid / inertia_arc:.2f}× the arc's without it) and drags on it viscously at "
+        f"Slower ringing in air, damped differently: joint 1's period half-way is about "
+        f"{periods(air['inertia_mid_fold_arc_fluid'], k_bilayer)[0]:.1f} ms against the paper "
+        f"model's {periods([inertia_paper], k_paper)[0]:.2f} ms, so in a run of a few ms the extended "
+        "fold swings only a few times where the paper's swings dozens. The air moves with the flap (added inertia: joint 1's "
+        f"inertia {air_fluid / inertia_arc:.2f}× the arc's without it) and drags on it viscously at "
         f"Reynolds numbers {' / '.join(f'{r:.2g}' for r in air['reynolds'])}, where the "
-        f"hydrodynamic function's damping part is {' / '.join(f'{g:.2g}' for g in air['gamma_imag'])} "
-        "(the paper's quadratic drag vanishes at small rates, so its ringing decays like 1/t).",
-        f"No overshoot past the base: flap 1's far edge reaches the base at "
+        f"hydrodynamic function's damping part is {' / '.join(f'{g:.2g}' for g in air['gamma_imag'])}: "
+        "a linear damping that shrinks each swing by a fixed ratio, where the paper's quadratic drag "
+        "vanishes at small rates, so its ringing decays like 1/t.",
+        "No overshoot past the base: flap 1's far edge reaches the base at "
         f"{air['tip_contact_angle_over_pi']:.3f} π (the arc lifts the folded flap about 2ρ above "
-        "it); with point hinges and no contact, as in the paper, any overshoot past π passes "
-        "through the base.",
+        "it), so an arc hinge may swing up to that angle and no further (contact); with point "
+        "hinges and no contact, as in the paper, any overshoot past π passes through the base."
+        + _peaks_sentence(peaks, "step_air", "in air"),
         f"Much slower in KOH: the liquid's added inertia makes joint 1's inertia "
         f"{koh_fluid / inertia_arc:.0f}× the arc's alone (the flap's areal mass is hundreds of "
         "times below the liquid's), which the paper's model lacks; its viscous drag adds to the "
-        "quadratic one.",
+        "quadratic one." + _peaks_sentence(peaks, "step_koh", "in KOH"),
+        "Overdamped in KOH in the paper's model only: its drag grows with the liquid's density "
+        f"({koh['fluid_density'] / air['fluid_density']:.0f}× the air's) while its inertia stays the "
+        "solid's, so the fold creeps to its target; in the extended model the liquid's inertia "
+        "grows with its density as the drag does, so the hinges still swing past their targets.",
     ]
     if lags is not None:
         paper_lag, extended_lag = lags["paper"], lags["extended"]
-        koh_periods = [
-            2 * math.pi * math.sqrt(i / k_bilayer) * 1e-3 for i in koh["inertia_mid_fold_arc_fluid"]
-        ]
+        koh_periods = periods(koh["inertia_mid_fold_arc_fluid"], k_bilayer)
         reasons.append(
             f"The etch ramp: both models' torque is the computed torque of their own dynamics, so "
             f"both follow θ_des; the paper's lags it by at most {paper_lag:.2g} rad, the extended "
-            f"one by {extended_lag:.2g} rad. The ramp takes 100 ms: thousands of the paper model's "
-            f"periods, but only a few of the extended hinges' in KOH "
+            f"one by {extended_lag:.2g} rad. The ramp takes 100 ms: about "
+            f"{100 / periods([inertia_paper], k_paper)[0]:.0f} periods of the paper model's joint 1 "
+            f"in air (and in KOH its drag leaves it overdamped), but only a few of the extended hinges' in KOH "
             f"({' / '.join(f'{p:.0f}' for p in koh_periods)} ms with the liquid's inertia), and "
             "the ramp's corners (start and end) carry no impulse, so the heavy hinges fall behind "
             "at the start and ring on after the end."
@@ -139,7 +176,7 @@ def _reasons(air: dict, koh: dict, lags: dict | None) -> list[str]:
 
 
 def compare_models(
-    cases=CASES, *, run_lengths: dict[str, float] | None = None, n_save: int = 2001
+    cases=CASES, *, run_lengths: dict[str, float] | None = None, n_save: int = 4001
 ) -> ModelComparison:
     """Simulate the literature accordion with the paper's and the extended model on `cases`
     (module docstring; each case a name from `CASES`).
@@ -202,6 +239,13 @@ def compare_models(
             pair.append(((trajectory, metrics), time.perf_counter() - start))
         paper_runs[case], extended_runs[case] = pair[0][0], pair[1][0]
         seconds[case] = (pair[0][1], pair[1][1])
+    peaks = {
+        case: tuple(
+            (np.max(np.abs(np.asarray(runs[case][0].theta)), axis=0) / math.pi).tolist()
+            for runs in (paper_runs, extended_runs)
+        )
+        for case in cases
+    }
     diagnostics = {
         "air": accordion_diagnostics(model_designs(AIR)[1]),
         "koh": accordion_diagnostics(model_designs(KOH_SOLUTION)[1]),
@@ -211,7 +255,7 @@ def compare_models(
         paper_runs,
         extended_runs,
         diagnostics,
-        _reasons(diagnostics["air"], diagnostics["koh"], lags),
+        _reasons(diagnostics["air"], diagnostics["koh"], lags, peaks),
         seconds,
     )
 

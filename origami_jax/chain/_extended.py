@@ -214,12 +214,31 @@ def tip_contact_angle(radius: float, strip_length: float, flap_length: float) ->
 
 
 def accordion_diagnostics(design: HingeDesign, n: int = 3) -> dict:
-    """Where the extended accordion differs from the paper's, in numbers (host floats; the paper job
-    and the notebook print them): hinge stiffness by both formulas, the arc's radius and length, the
-    strip's and flap's masses, each hinge's inertia half-way to its target (paper's model; arc
-    hinges with their strips; with the fluid's inertia too), the fluid's frequencies, Reynolds
-    numbers and hydrodynamic function per flap, and the angle at which flap 1's far edge touches
-    the base."""
+    """Where the extended accordion differs from the paper's, in numbers (the paper job and
+    `notebooks/paper_vs_extended.ipynb` print them). MICRO units (µm, µs, ng).
+
+    **Arguments:** `design`, a [`origami_jax.system.HingeDesign`][] (its fluid sets the fluid
+    terms; both stiffness formulas are evaluated whatever its `stiffness_model`); `n`, the number
+    of flaps.
+
+    **Returns:** a dict of host floats and lists of `n` floats (one per hinge):
+
+    - `fluid` (name) and `fluid_density` (ng/µm³); `stiffness_paper` and `stiffness_bilayer` (µN·µm/rad, hinge 1): the paper's
+      ``w(E₁'t₁³ + E₂'t₂³)/(3l)`` and the bonded bilayer's (docs/physics.md, "The hinge is a bending
+      arc");
+    - `radius_um` (ρ, µm), `strip_length_um` (``l = ρ |θ_target,1|``, µm), `strip_mass_ng` and
+      `flap_mass_ng` (ng, hinge and flap 1);
+    - `inertia_mid_fold_paper`, `inertia_mid_fold_arc`, `inertia_mid_fold_arc_fluid` (`n`,
+      ng·µm²): the mass matrix's diagonal half-way to the target for point hinges, arc hinges with
+      their strips, and arc hinges with the fluid's added inertia;
+    - `fluid_frequency_rad_per_us`, `reynolds`, `gamma_real`, `gamma_imag` (`n` each): the
+      frequency at which the fluid terms are evaluated, the Reynolds number and the real
+      (inertia) and imaginary (damping) parts of Sader's hydrodynamic function, per flap;
+    - `tip_contact_angle_over_pi`: the fold angle (over π) at which flap 1's far edge touches the
+      base (`tip_contact_angle`).
+
+    **Raises:** `ValueError` from the design's own checks (e.g. a non-positive thickness).
+    """
     from ..fluid import fluid_loads, rectangle_added_inertia
     from ..net import strip_tree
     from ._system import accordion_system, alternating_targets
@@ -258,6 +277,7 @@ def accordion_diagnostics(design: HingeDesign, n: int = 3) -> dict:
 
     return {
         "fluid": design.fluid.name,
+        "fluid_density": float(design.fluid.density),
         "stiffness_paper": float(paper_design.stiffness(n)[0]),
         "stiffness_bilayer": float(stiffness[0]),
         "radius_um": radius,
