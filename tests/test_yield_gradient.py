@@ -32,7 +32,9 @@ def _band_probability(spread: ojy.Spread, mu: float, aim: float, half: float) ->
 
 def _closed_form_gradient(spread, mu):
     """dY/dμ_j of Y = Π_j P_j(μ_j), by central differences of the closed form (error ~1e-9)."""
-    p = np.array([_band_probability(spread, m, a, h) for m, a, h in zip(mu, AIM, HALF)])
+    p = np.array(
+        [_band_probability(spread, m, a, h) for m, a, h in zip(mu, AIM, HALF, strict=True)]
+    )
     out = []
     for j in range(len(mu)):
         h = 1e-5 * mu[j]
@@ -220,57 +222,5 @@ def test_yield_gradient_matches_finite_differences_of_the_monte_carlo_yield_with
     )
     print(summary)
     assert np.sum(engaged > 0) > 0, summary
-    assert abs(gradient) > 2.5 * error, summary
-    assert abs(gradient - fd) < 3 * np.hypot(error, fd_error), summary
-
-
-def _off() -> dict[str, ojy.Spread]:
-    return {name: ojy.Spread(width=0.0) for name in ojy.PARAMETERS}
-
-
-@pytest.mark.slow  # three Monte Carlo estimates of the corner cube with contact (minutes)
-def test_yield_gradient_matches_finite_differences_of_the_monte_carlo_yield_with_contact():
-    """The corner cube with contact, the film's stress scattered 5 % per crease: the yield's
-    derivative along the film's nominal misfit strain (every crease's scaled together, d/d ln ε₀),
-    from the score function at ε₀, against central differences of the Monte Carlo yield at
-    ε₀ (1 ± 1 %) on the same draws (the process drifts, the hinge lengths stay as drawn). Both are
-    noisy: they must agree within 3 standard errors of their difference, and the gradient must
-    stand out of its own noise (> 2.5 standard errors). With contact a crease whose film overfolds
-    is stopped by the other flap and still folds: the test checks such samples exist, which is
-    where differentiating the simulation itself fails (its final state moves non-smoothly)."""
-    from origami_jax.system import KOH_SOLUTION, HingeDesign
-
-    design = HingeDesign.literature(fluid=KOH_SOLUTION)
-    scatter = ojy.Scatter(**{**_off(), "misfit_strain": ojy.Spread("normal", 0.05)})
-    n, h, eps0 = 96, 0.01, float(design.misfit_strain)
-    run = {"t_end": 600.0, "chunk_size": 8, "progress": False, "seed": 2}
-
-    def estimate(scale):
-        process = {"misfit_strain": scale * eps0}
-        return ojy.yield_estimate("corner_cube", scatter, n, design=design, process=process, **run)
-
-    centre, up, down = estimate(1.0), estimate(1 + h), estimate(1 - h)
-    folded = {
-        k: np.asarray(e.dataset["verdict"].values) == FOLDED
-        for k, e in (("0", centre), ("+", up), ("-", down))
-    }
-    differences = (folded["+"].astype(float) - folded["-"]) / (2 * h)
-    fd, fd_error = differences.mean(), differences.std(ddof=1) / np.sqrt(n)
-
-    spread = scatter.misfit_strain
-    z = ojy.standard_draws(2, n, 2)["misfit_strain"]
-    nominal = centre.nominal["misfit_strain"]
-    along = np.sum(ojy.score(spread, z, nominal) * nominal, axis=1)  # d ln p / d ln ε₀
-    gradient, error = ojy.score_gradient(folded["0"], along)
-    per_crease = ojy.yield_gradient(centre)["misfit_strain"]
-    # The per-crease gradients are the same estimator: their ε₀-weighted sum is the directional one.
-    assert np.sum(per_crease.gradient * nominal) == pytest.approx(float(gradient), rel=1e-9)
-
-    overfolding = np.any(z > 1.0, axis=1) & folded["0"]
-    summary = (
-        f"yield {centre.fraction:.3f}, d/d ln eps0: score {gradient:.2f} ± {error:.2f}, "
-        f"differences {fd:.2f} ± {fd_error:.2f}; {overfolding.sum()} folded samples overfold"
-    )
-    assert overfolding.sum() > 0, summary
     assert abs(gradient) > 2.5 * error, summary
     assert abs(gradient - fd) < 3 * np.hypot(error, fd_error), summary

@@ -127,7 +127,9 @@ def _process(process: Mapping[str, Any] | None, m: int) -> dict[str, np.ndarray]
     if process is None:
         return {}
     if not isinstance(process, Mapping):
-        raise ValueError(f"process must be a mapping of nominal values, got {type(process).__name__}.")
+        raise ValueError(
+            f"process must be a mapping of nominal values, got {type(process).__name__}."
+        )
     out = {}
     for name, value in process.items():
         if name not in PARAMETERS or name == "release":

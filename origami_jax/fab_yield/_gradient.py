@@ -66,7 +66,7 @@ class YieldGradient:
         """One line for people."""
         values = np.atleast_1d(self.gradient)
         errors = np.atleast_1d(self.standard_error)
-        body = ", ".join(f"{g:+.3g} ± {e:.2g}" for g, e in zip(values, errors))
+        body = ", ".join(f"{g:+.3g} ± {e:.2g}" for g, e in zip(values, errors, strict=True))
         return f"d yield / d {self.parameter} ({self.per}, {self.unit}): {body}"
 
 
@@ -137,7 +137,9 @@ def yield_gradient(estimate, parameters=None) -> dict[str, YieldGradient]:
             if name not in _UNITS:
                 raise ValueError(f"unknown parameter {name!r}; the known ones are {list(_UNITS)}.")
             if name not in active:
-                raise ValueError(f"{name} is not scattered in this estimate (width 0): no gradient.")
+                raise ValueError(
+                    f"{name} is not scattered in this estimate (width 0): no gradient."
+                )
     m = len(next(iter(nominal.values())))
     draws = standard_draws(estimate.seed, estimate.n_samples, m)
     codes = np.asarray(estimate.dataset["verdict"].values)
