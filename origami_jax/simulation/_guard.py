@@ -14,15 +14,11 @@ import jax.numpy as jnp
 from diffrax import AbstractAdaptiveStepSizeController
 
 
-class ContactGuard(AbstractAdaptiveStepSizeController):
-    """Wraps an adaptive controller; rejects steps across which a panel crosses another (module
-    docstring). `simulate` adds it when the system has a contact model.
-
-    **Fields:** `controller`, the wrapped controller; `shrink`, the factor of a rejected step's retry.
-    """
+class WrappedController(AbstractAdaptiveStepSizeController):
+    """An adaptive controller that wraps another and takes its tolerances, norm and direction from
+    it; subclasses change what happens at a step (`adapt_step_size`) or what the state holds."""
 
     controller: AbstractAdaptiveStepSizeController
-    shrink: float = eqx.field(static=True, default=0.5)
 
     @property
     def rtol(self):
@@ -37,7 +33,17 @@ class ContactGuard(AbstractAdaptiveStepSizeController):
         return self.controller.norm
 
     def wrap(self, direction):
-        return eqx.tree_at(lambda g: g.controller, self, self.controller.wrap(direction))
+        return eqx.tree_at(lambda c: c.controller, self, self.controller.wrap(direction))
+
+
+class ContactGuard(WrappedController):
+    """Wraps an adaptive controller; rejects steps across which a panel crosses another (module
+    docstring). `simulate` adds it when the system has a contact model.
+
+    **Fields:** `controller`, the wrapped controller; `shrink`, the factor of a rejected step's retry.
+    """
+
+    shrink: float = eqx.field(static=True, default=0.5)
 
     def init(self, terms, t0, t1, y0, dt0, args, func, error_order):
         return self.controller.init(terms, t0, t1, y0, dt0, args, func, error_order)

@@ -18,7 +18,7 @@ from jaxtyping import Array, ArrayLike, Float
 
 from .._validate import check_finite, is_traced
 from ..system import FoldingSystem, HingeDrag
-from ._guard import ContactGuard
+from ._guard import ContactGuard, WrappedController
 from ._inputs import AbstractInput
 from ._results import RESULTS
 from ._switching import TURNED_STIFF, StiffnessSwitching
@@ -270,26 +270,9 @@ def _solve(system: FoldingSystem, inputs: AbstractInput, span, y0, ts, how: _Int
     return _trajectory(system, inputs, times, q, v, stats, result, solution if how.dense else None)
 
 
-class _RecordNext(diffrax.AbstractAdaptiveStepSizeController):
+class _RecordNext(WrappedController):
     """Wraps a controller and keeps the end of the next step it proposes in its state, so that a
     solve stopped after a step can be continued with exactly that next step."""
-
-    controller: diffrax.AbstractAdaptiveStepSizeController
-
-    @property
-    def rtol(self):
-        return self.controller.rtol
-
-    @property
-    def atol(self):
-        return self.controller.atol
-
-    @property
-    def norm(self):  # pyright: ignore[reportIncompatibleMethodOverride]
-        return self.controller.norm
-
-    def wrap(self, direction):
-        return eqx.tree_at(lambda r: r.controller, self, self.controller.wrap(direction))
 
     def init(self, terms, t0, t1, y0, dt0, args, func, error_order):
         tnext, state = self.controller.init(terms, t0, t1, y0, dt0, args, func, error_order)
