@@ -73,7 +73,7 @@ def plot_joint_angles(
             peak = float(metrics.peak_value[j]) * target[j]
             if float(metrics.overshoot[j]) > 0.05:
                 ax.annotate(
-                    f"{float(metrics.overshoot[j]):.0f} %",
+                    f"{float(metrics.overshoot[j]):.1f} %",
                     (t_peak * time_scale, peak),
                     textcoords="offset points",
                     xytext=(4, 4 if peak > 0 else -12),
