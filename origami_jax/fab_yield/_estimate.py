@@ -14,8 +14,6 @@ import numpy as np
 from ._scatter import PARAMETERS, Scatter, sample_values, standard_draws
 from ._stats import INTERVAL_METHODS, binomial_interval
 
-# Units of the swept columns (the net kernel's, MICRO: µm, µs).
-_UNITS = {"misfit_strain": "1", "t_hinge": "um", "hinge_width": "um", "release": "us"}
 _GLOBAL = ("t_structural", "drag_coefficient")
 
 
@@ -151,15 +149,17 @@ def _process(process: Mapping[str, Any] | None, m: int) -> dict[str, np.ndarray]
 
 
 def _columns(values: Mapping[str, np.ndarray]) -> tuple[dict[str, np.ndarray], dict[str, str]]:
+    """The sweep's columns and their units (`PARAMETERS`: the net kernel's MICRO units, µm, µs)."""
     columns, units = {}, {}
     for name, x in values.items():
+        unit = PARAMETERS[name][0]
         if name in _GLOBAL:
             columns[name] = x[:, 0]
-            units[name] = "um" if name == "t_structural" else "1"
+            units[name] = unit
             continue
         for j in range(x.shape[1]):
             columns[f"{name}[{j}]"] = x[:, j]
-            units[f"{name}[{j}]"] = _UNITS[name]
+            units[f"{name}[{j}]"] = unit
     return columns, units
 
 

@@ -27,16 +27,7 @@ import dataclasses
 
 import numpy as np
 
-from ._scatter import Spread, standard_draws
-
-_UNITS = {
-    "misfit_strain": "1",
-    "t_hinge": "µm",
-    "hinge_width": "µm",
-    "t_structural": "µm",
-    "drag_coefficient": "1",
-    "release": "µs",
-}
+from ._scatter import PARAMETERS, Spread, standard_draws
 
 
 @dataclasses.dataclass(frozen=True)
@@ -51,7 +42,7 @@ class YieldGradient:
       for a relative spread, per `unit` of a common shift for an absolute one.
     - `gradient`, `standard_error`: the estimate and its standard error (same shape). The
       estimate's error is about normal for a few tens of samples or more.
-    - `unit`: what `gradient` is per (e.g. `"1/µm"`).
+    - `unit`: what `gradient` is per, in the units of `PARAMETERS` (e.g. `"1/um"`: per µm).
     - `n_samples`.
     """
 
@@ -134,8 +125,10 @@ def yield_gradient(estimate, parameters=None) -> dict[str, YieldGradient]:
     else:
         names = [parameters] if isinstance(parameters, str) else list(parameters)
         for name in names:
-            if name not in _UNITS:
-                raise ValueError(f"unknown parameter {name!r}; the known ones are {list(_UNITS)}.")
+            if name not in PARAMETERS:
+                raise ValueError(
+                    f"unknown parameter {name!r}; the known ones are {list(PARAMETERS)}."
+                )
             if name not in active:
                 raise ValueError(
                     f"{name} is not scattered in this estimate (width 0): no gradient."
@@ -147,11 +140,11 @@ def yield_gradient(estimate, parameters=None) -> dict[str, YieldGradient]:
     out = {}
     for name in names:
         spread = active[name]
-        unit = _UNITS[name]
+        unit = PARAMETERS[name][0]
         if spread.per == "net":
-            relative = spread.relative or spread.distribution == "lognormal"
+            # Lognormal spreads are always relative (`Spread`).
             scores = score(spread, draws[name][:, 0], np.asarray(1.0))
-            unit = "per unit relative change of every nominal" if relative else f"1/{unit}"
+            unit = "per unit relative change of every nominal" if spread.relative else f"1/{unit}"
         else:
             scores = score(spread, draws[name], nominal[name])
             unit = "1" if unit == "1" else f"1/{unit}"
