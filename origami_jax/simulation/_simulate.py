@@ -16,6 +16,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
+from .._exported import exported_call
 from .._validate import check_finite, is_traced
 from ..system import FoldingSystem, HingeDrag
 from ._guard import ContactGuard, WrappedController
@@ -413,7 +414,17 @@ def _solve_lazily(system: FoldingSystem, inputs: AbstractInput, span, y0, ts, ho
     statistics of the one-program solve, bitwise when measured). Each phase has the step budget
     `max_steps`, so a run that turns stiff may take up to twice as many steps before it reports
     `max_steps_reached`; with a progress meter each phase shows its own bar."""
-    explicit, start = _solve_until_stiff_jit(system, inputs, span, y0, ts, how)
+    explicit, start = exported_call(
+        "solve_until_stiff",
+        _solve_until_stiff,
+        _solve_until_stiff_jit,
+        system,
+        inputs,
+        span,
+        y0,
+        ts,
+        how,
+    )
     if not bool(start.turned) or not float(start.t) < float(span[1]):
         return explicit
     implicit = _solve_from_switch_jit(system, inputs, span[1], ts, how, start)
