@@ -25,10 +25,14 @@ def exporting(tmp_path, monkeypatch):
     # As the command line runs: runtime errors as NaN (a program that calls back into Python for
     # its errors cannot be exported).
     monkeypatch.setattr(equinox._errors, "EQX_ON_ERROR", "nan")
+    # JAX keeps the traces of inner jitted functions per process: an earlier test's, made with
+    # runtime errors raised, would bring its Python callbacks along.
+    jax.clear_caches()
     monkeypatch.setattr(_exported, "_REFUSED", set())
     _exported.enable_exported_programs(tmp_path)
     yield tmp_path
     _exported.enable_exported_programs(None)
+    jax.clear_caches()  # and the traces made here, with errors as NaN, must not serve later tests
 
 
 def _run(system, inputs=None):
