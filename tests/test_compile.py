@@ -136,6 +136,24 @@ def test_the_simulate_command_stores_its_solve(tmp_path):
     assert _run_python(code, env) == "raise"  # the library's own default is left alone
 
 
+@pytest.mark.slow  # two CLI runs in subprocesses
+def test_a_warm_simulate_command_runs_its_exported_solve(tmp_path):
+    # The default solver's explicit phase is exported into the cache folder by the first run and
+    # run from there by the second, with the same numbers.
+    env = _environment(tmp_path)
+    outputs = []
+    for run in ("cold", "warm"):
+        out = tmp_path / run
+        argv = [sys.executable, "-m", "origami_jax", "simulate", "--flaps", "1", "--n-save", "11"]
+        argv += ["--t1", "100", "--figures", "none", "--out", str(out)]
+        process = subprocess.run(argv, capture_output=True, text=True, env=env, timeout=300)
+        assert process.returncode == 0, process.stderr[-2000:]
+        outputs.append((out / "trajectory.csv").read_text())
+    exported = tmp_path / "xdg" / "origami_jax" / "jax" / "exported"
+    assert len(list(exported.glob("solve_until_stiff-*.bin"))) == 1
+    assert outputs[0] == outputs[1]
+
+
 def test_cache_folder_choice(tmp_path, monkeypatch):
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
     monkeypatch.delenv(CACHE_ENV, raising=False)

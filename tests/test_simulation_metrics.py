@@ -141,7 +141,8 @@ def test_metric_gradients_on_closed_forms():
 
 @pytest.mark.slow
 def test_metric_gradients_match_finite_differences_in_koh():
-    # KOH bath: drag ~1000× air, overdamped and stiff. Default solver (Kvaerno5), forward mode. Marked
+    # KOH bath: drag ~1000× air, overdamped and stiff. Default solver (differentiated, its explicit
+    # phase: the KOH step does not turn stiff at these tolerances), forward mode. Marked
     # slow: compiling the forward-mode Kvaerno5 solve takes ~1-5 min on a shared 2-core machine.
     design, system = literature("koh")
 

@@ -186,3 +186,55 @@ def test_top_level_simulate_compiles_the_implicit_phase_only_when_a_run_turns_st
     target = float(system.hinges.target[0])
     slow = target * (1 - np.exp(-float(stiff.times[-1]) * omega / 30.0))
     assert abs(float(stiff.theta[-1, 0]) - slow) < 0.03 * abs(target)
+
+
+def test_differentiated_simulate_compiles_the_explicit_phase_only(monkeypatch):
+    # The system of the test above. Differentiated with the default solver, simulate takes the
+    # explicit phase only: for the mild run (r = 0.3) the value and derivative are those of Tsit5
+    # under the default solver's controller (the same steps: the switching solver's explicit step
+    # is Tsit5's), to rounding; the stiff run (r = 30) ends with a result code that says how to
+    # differentiate both phases, and raises it with `throw`.
+    system = accordion_system(HingeDesign.literature(), 1)
+    k = system.hinges.stiffness[0]
+    inertia = system.mechanism.mass_matrix(jnp.zeros(1))[0, 0]
+    omega = float(jnp.sqrt(k / inertia))
+    t1 = 100 / omega
+
+    def metric(r, solver=None, controller=None, throw=False):
+        c = jnp.atleast_1d(r * jnp.sqrt(k * inertia))
+        torque = sim.UserTorque(_Viscous(k * system.hinges.target, c))
+        trajectory = sim.simulate(
+            system,
+            torque,
+            t1=t1,
+            n_save=65,
+            solver=solver,
+            stepsize_controller=controller,
+            throw=throw,
+        )
+        return jnp.mean(trajectory.theta**2), trajectory.result
+
+    kvaerno5_traces = []
+    step = diffrax.Kvaerno5.step
+    monkeypatch.setattr(
+        diffrax.Kvaerno5, "step", lambda *a, **kw: kvaerno5_traces.append(1) or step(*a, **kw)
+    )
+    ours = jax.jit(jax.value_and_grad(metric, has_aux=True))
+    (value, result), derivative = ours(0.3)
+    assert kvaerno5_traces == []  # the implicit phase was not even traced
+    assert result == sim.RESULTS.successful
+    controller = sim.default_controller(sim.DEFAULT_RTOL, sim.DEFAULT_ATOL, sim.default_solver())
+    tsit5 = jax.jit(
+        jax.value_and_grad(
+            lambda r: metric(r, diffrax.Tsit5(), controller)[0],
+        )
+    )
+    reference_value, reference_derivative = tsit5(0.3)
+    np.testing.assert_allclose(value, reference_value, rtol=1e-12)
+    np.testing.assert_allclose(derivative, reference_derivative, rtol=1e-9)
+    assert abs(float(derivative)) > 0
+
+    (_, result), derivative = ours(30.0)  # a value: the same program
+    assert result == sim.RESULTS.stiff_while_differentiated
+    with pytest.raises(Exception, match="StiffnessSwitching"):
+        jax.grad(lambda r: metric(r, throw=True)[0])(30.0)

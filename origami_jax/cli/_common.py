@@ -331,6 +331,7 @@ def setup_runtime(command: str | None = None) -> None:
     import jax
 
     from .._cache import enable_compilation_cache
+    from .._exported import enable_exported_programs
 
     jax.config.update("jax_enable_x64", True)
     # A cache entry that cannot be read or written (a full disk, another process writing it) only
@@ -339,8 +340,11 @@ def setup_runtime(command: str | None = None) -> None:
         "ignore", message=r"Error (reading|writing) persistent compilation cache"
     )
     try:
-        enable_compilation_cache()
-    except ValueError as error:  # an unwritable cache folder costs time, not the run
+        folder = enable_compilation_cache()
+        if folder is not None:
+            # The traced solve as well, so that a warm run neither traces nor compiles it.
+            enable_exported_programs(folder / "exported")
+    except (ValueError, OSError) as error:  # an unwritable cache folder costs time, not the run
         print(f"origami-jax: warning: {error}", file=sys.stderr)
 
 

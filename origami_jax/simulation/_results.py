@@ -14,3 +14,8 @@ class RESULTS(diffrax.RESULTS):  # pyright: ignore[reportGeneralTypeIssues]
         "The simulated joint angles or rates became NaN or infinite. The inputs or hinge parameters are "
         "probably non-physical (negative stiffness or drag, a zero mass), or the tolerances too loose."
     )
+    stiff_while_differentiated = (
+        "The run turned stiff, and a differentiated simulate with the default solver takes explicit "
+        "steps only (the implicit ones would triple its compile time). Pass "
+        "solver=origami_jax.simulation.StiffnessSwitching() to differentiate through both phases."
+    )

@@ -16,6 +16,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
+from .._exported import exported_call
 from .._validate import check_finite, is_traced
 from ..system import FoldingSystem, HingeDrag
 from ._guard import ContactGuard, WrappedController
@@ -307,6 +308,8 @@ def _solve_until_stiff(
     at which the switch turns. Samples after that step are inf (the implicit phase computes them)."""
     t0, t1 = span
     solver = dataclasses.replace(cast(StiffnessSwitching, how.solver), phase="explicit")
+    if isinstance(how.adjoint, diffrax.ForwardMode):
+        solver = solver.with_scan_kind("lax")  # as `_solve`
     controller, term = _controller_and_field(system, inputs, ts, how)
     saveat = diffrax.SaveAt(
         subs=[diffrax.SubSaveAt(ts=ts), diffrax.SubSaveAt(t1=True)],
@@ -411,11 +414,48 @@ def _solve_lazily(system: FoldingSystem, inputs: AbstractInput, span, y0, ts, ho
     statistics of the one-program solve, bitwise when measured). Each phase has the step budget
     `max_steps`, so a run that turns stiff may take up to twice as many steps before it reports
     `max_steps_reached`; with a progress meter each phase shows its own bar."""
-    explicit, start = _solve_until_stiff_jit(system, inputs, span, y0, ts, how)
+    explicit, start = exported_call(
+        "solve_until_stiff",
+        _solve_until_stiff,
+        _solve_until_stiff_jit,
+        system,
+        inputs,
+        span,
+        y0,
+        ts,
+        how,
+    )
     if not bool(start.turned) or not float(start.t) < float(span[1]):
         return explicit
     implicit = _solve_from_switch_jit(system, inputs, span[1], ts, how, start)
     return _stitched(explicit, implicit, ts, start.t)
+
+
+def _solve_explicit_phase(
+    system: FoldingSystem, inputs: AbstractInput, span, y0, ts, how: _Integration
+) -> Trajectory:
+    """The default solver under differentiation (`jax.grad`, `jax.jvp`, ...): its explicit phase
+    only. The derivative of the implicit phase is most of the compiled program (the Newton
+    iterations' and the linear solves' transposes), and the common runs never reach it; a run that
+    turns stiff ends with `RESULTS.stiff_while_differentiated` (raised with `throw`), whose message
+    says how to differentiate both phases. A run that does not turn stiff gets the steps, samples
+    and derivatives of the one-program solve."""
+    trajectory, start = _solve_until_stiff_jit(system, inputs, span, y0, ts, how)
+    stiff = start.turned & (start.t < span[1])
+    result = RESULTS.where(stiff, RESULTS.stiff_while_differentiated, trajectory.result)
+    theta = result.error_if(trajectory.theta, stiff) if how.throw else trajectory.theta
+    return eqx.tree_at(lambda t: (t.result, t.theta), trajectory, (result, theta))
+
+
+def _is_differentiated(*values) -> bool:
+    """True when a leaf carries a derivative (a JVP or linearisation tracer, possibly inside `vmap`'s
+    batch tracer). Tracer classes are matched by name: JAX does not export them."""
+    for leaf in jax.tree_util.tree_leaves(values):
+        while isinstance(leaf, jax.core.Tracer):
+            if type(leaf).__name__ in ("JVPTracer", "LinearizeTracer"):
+                return True
+            leaf = getattr(leaf, "val", None)  # vmap's BatchTracer: look inside
+    return False
 
 
 _solve_jit = eqx.filter_jit(_solve)
@@ -582,7 +622,11 @@ def simulate(
     outside any transformation with the default solver, the solve runs as two programs: explicit
     steps up to the switch, then, only for a run that turns stiff, implicit ones from there, so a
     non-stiff run never compiles the implicit solver (its first call compiles in about a third of
-    the time); the steps, samples and statistics are those of the single program.
+    the time); the steps, samples and statistics are those of the single program. Differentiated
+    (`jax.grad`, `jax.jvp`, ...), the default solver compiles its explicit phase only (a third of
+    the gradient's compile time): a run that turns stiff then ends with
+    `RESULTS.stiff_while_differentiated`; pass `solver=StiffnessSwitching()` to differentiate both
+    phases.
 
     **Arguments:**
     - `system`: a [`origami_jax.system.FoldingSystem`][] (e.g. from
@@ -596,7 +640,8 @@ def simulate(
       Metrics refine crossings between samples with cubic Hermite interpolation of `(θ, θ̇)`, so keep
       several samples per oscillation period.
     - `solver`: any diffrax ODE solver; default [`origami_jax.simulation.default_solver`][] (Tsit5
-      switching to Kvaerno5 when the problem turns stiff). Explicit solvers (`diffrax.Tsit5()`) are
+      switching to Kvaerno5 when the problem turns stiff; differentiated, its Tsit5 phase only,
+      see above). Explicit solvers (`diffrax.Tsit5()`) are
       faster on the non-stiff fast ramp in air but can give wrong gradients in stiff regimes at loose
       tolerances.
     - `rtol`, `atol`: step-size controller tolerances (default 1e-7 and 1e-9; see `DEFAULT_ATOL`).
@@ -666,6 +711,7 @@ def simulate(
     pad = not is_traced(system, inputs, t0, t1, q0, v0, ts, rtol, atol, dt0, stepsize_controller)
     if pad:
         ts = _padded(ts, padded_sample_count(n_samples))
+    chosen = solver is not None
     solver = default_solver() if solver is None else solver
     if stepsize_controller is None:
         # Tolerances as arrays, so a new value does not compile a new solve.
@@ -692,7 +738,19 @@ def simulate(
         and isinstance(how.adjoint, diffrax.RecursiveCheckpointAdjoint)
     )
     # A top-level call with the default solver compiles its implicit phase only for a run that
-    # turns stiff (`_solve_lazily`); under a transformation the solve stays one program.
-    solve = _solve_lazily if lazy else _solve_jit
+    # turns stiff (`_solve_lazily`); differentiated, the default solver compiles its explicit phase
+    # only (`_solve_explicit_phase`); under other transformations the solve stays one program.
+    explicit_only = (
+        not chosen
+        and not dense
+        and isinstance(how.adjoint, (diffrax.RecursiveCheckpointAdjoint, diffrax.ForwardMode))
+        and _is_differentiated(system, inputs, t0, t1, q0, v0, ts)
+    )
+    if lazy:
+        solve = _solve_lazily
+    elif explicit_only:
+        solve = _solve_explicit_phase
+    else:
+        solve = _solve_jit
     trajectory = solve(system, inputs, (t0, t1), (q0, v0), ts, how)
     return _first_samples(trajectory, n_samples) if pad else trajectory

@@ -1,0 +1,215 @@
+"""Traced programs kept on disk: a warm command skips tracing its solve, not only compiling it.
+
+JAX's persistent compilation cache (`origami_jax._cache`) stores compiled programs, but a new process
+still traces and lowers every program before it can look one up: for the simulation's solve that is
+most of a warm command's own time. `exported_call` keeps the traced program itself, exported with
+`jax.export` (StableHLO), under a key of everything that decides it: the arguments' static parts and
+array shapes, the versions of JAX and of the libraries traced through, this package's source, and
+the configuration flags that change a trace. A later process with the same key deserialises the
+program and runs it (its compilation then comes from the compilation cache).
+
+A wrong hit would silently run another program, so the key refuses what it cannot vouch for: any
+function or class from outside the libraries whose versions or source it records (a user's torque
+function, say) makes `exported_call` trace as usual. Programs that call back into Python (progress
+meters, `equinox.error_if` unless ``EQX_ON_ERROR=nan``) cannot be exported and are traced as usual.
+
+Off unless `enable_exported_programs` was called: the command line does it, in the compilation
+cache's folder (``exported/``); library users keep plain `jit` semantics. Used for the default
+solver's explicit phase (`origami_jax.simulation.simulate` called outside any transformation), the
+program a warm command would otherwise spend most of its own time tracing.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import io
+import os
+import pickle
+import sys
+import tempfile
+from pathlib import Path
+from typing import Any
+
+_FOLDER: Path | None = None
+_REFUSED: set[str] = set()  # programs found not exportable in this process (a callback, ...)
+
+# Code the key vouches for: this package by its source, the others by their versions.
+_LIBRARIES = ("jax", "jaxlib", "equinox", "diffrax", "optimistix", "lineax", "jaxtyping")
+_VOUCHED = frozenset(
+    {"origami_jax", *_LIBRARIES, "numpy", "builtins", "typing", "functools", "collections"}
+)
+
+
+def enable_exported_programs(folder: str | os.PathLike | None) -> Path | None:
+    """Keep exported programs in `folder` (created if missing); `None` turns it off."""
+    global _FOLDER
+    if folder is None:
+        _FOLDER = None
+        return None
+    path = Path(folder).expanduser()
+    path.mkdir(parents=True, exist_ok=True)
+    _FOLDER = path
+    return path
+
+
+def _on_error() -> str:
+    """How equinox's runtime errors are raised in this process (`EQX_ON_ERROR`, read at import)."""
+    errors = sys.modules.get("equinox._errors")
+    return getattr(errors, "EQX_ON_ERROR", os.environ.get("EQX_ON_ERROR", "raise"))
+
+
+def _flags() -> bytes:
+    """The configuration that changes a trace: float64, the backend, equinox's runtime errors."""
+    import jax
+
+    return f"x64={jax.config.jax_enable_x64};{jax.default_backend()};{_on_error()}".encode()
+
+
+@functools.cache
+def _environment() -> bytes:
+    """Versions and this package's source: what, besides the arguments and `_flags`, decides a
+    trace."""
+    import importlib.metadata
+
+    parts = [sys.version]
+    for name in _LIBRARIES:
+        try:
+            parts.append(f"{name}={importlib.metadata.version(name)}")
+        except importlib.metadata.PackageNotFoundError:
+            parts.append(f"{name}=absent")
+    digest = hashlib.sha256("\n".join(parts).encode())
+    root = Path(__file__).resolve().parent
+    for source in sorted(root.rglob("*.py")):
+        digest.update(str(source.relative_to(root)).encode())
+        digest.update(source.read_bytes())
+    return digest.digest()
+
+
+class _Unvouched(Exception):
+    pass
+
+
+class _KeyPickler(pickle.Pickler):
+    """Pickles the arguments' static parts, refusing functions and classes whose code the key does
+    not cover (pickle names them by module and name only: edited code would keep its key)."""
+
+    def reducer_override(self, obj):
+        module = getattr(obj, "__module__", None) if callable(obj) else type(obj).__module__
+        if module is not None and module.split(".")[0] not in _VOUCHED:
+            raise _Unvouched(module)
+        return NotImplemented
+
+
+def _key_and_static(name: str, dynamic_leaves, static) -> tuple[str, bytes] | None:
+    buffer = io.BytesIO()
+    try:
+        _KeyPickler(buffer, protocol=pickle.HIGHEST_PROTOCOL).dump(static)
+    except (_Unvouched, pickle.PicklingError, TypeError, AttributeError):
+        return None
+    digest = hashlib.sha256(_environment() + _flags())
+    digest.update(name.encode())
+    digest.update(buffer.getvalue())
+    for leaf in dynamic_leaves:
+        digest.update(f"{leaf.shape}{leaf.dtype}{getattr(leaf, 'weak_type', '')}".encode())
+    return digest.hexdigest(), buffer.getvalue()
+
+
+def _equinox_missing():
+    from equinox._module._flatten import MISSING
+
+    return MISSING
+
+
+class _RecordPickler(pickle.Pickler):
+    """Pickles tree definitions, keeping equinox's "missing" sentinel the one object it is (its
+    tree definitions test it by identity; a plain pickle would make a copy)."""
+
+    def reducer_override(self, obj):
+        if type(obj).__name__ == "_Missing" and type(obj).__module__.startswith("equinox"):
+            return _equinox_missing, ()
+        return NotImplemented
+
+
+def _record(blob: bytes, structure) -> bytes:
+    buffer = io.BytesIO()
+    _RecordPickler(buffer, protocol=pickle.HIGHEST_PROTOCOL).dump((blob, structure))
+    return buffer.getvalue()
+
+
+def _write_atomically(path: Path, data: bytes) -> None:
+    handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=".tmp-")
+    try:
+        with os.fdopen(handle, "wb") as file:
+            file.write(data)
+        os.replace(temporary, path)
+    except BaseException:
+        Path(temporary).unlink(missing_ok=True)
+        raise
+
+
+def exported_call(name: str, fn, jitted, *args) -> Any:
+    """`jitted(*args)`, through a program exported to disk when `enable_exported_programs` is on
+    and the arguments' static parts can be vouched for (module docstring).
+
+    **Arguments:** `name`: the program's name (part of the key); `fn`: the plain function (traced
+    for the export); `jitted`: its `equinox.filter_jit` version (the fallback); `args`: its
+    arguments (pytrees of arrays and static values).
+    """
+    import equinox as eqx
+    import jax
+
+    # Raised runtime errors call back into Python, which no exported program can: don't try.
+    if _FOLDER is None or name in _REFUSED or _on_error() not in ("nan", "off"):
+        return jitted(*args)
+    dynamic, static = eqx.partition(args, eqx.is_array)
+    leaves, in_tree = jax.tree.flatten(dynamic)
+    keyed = _key_and_static(name, leaves, (in_tree, static))
+    if keyed is None:
+        return jitted(*args)
+    key, _ = keyed
+    path = _FOLDER / f"{name}-{key[:32]}.bin"
+    program = None
+    if path.exists():
+        try:
+            blob, (out_tree, constants) = pickle.loads(path.read_bytes())
+            program = jax.export.deserialize(blob)
+        except Exception:  # a damaged or foreign entry: trace again and replace it
+            program = None
+    if program is None:
+        captured = {}
+
+        def flat(*flat_leaves):
+            dynamic_args = jax.tree.unflatten(in_tree, flat_leaves)
+            out = fn(*eqx.combine(dynamic_args, static))
+            # The output's structure by its tree definition (static fields are its auxiliary
+            # data); pickled modules do not come back whole (equinox's enumerations).
+            out_leaves, out_tree = jax.tree.flatten(out)
+            # Leaves that are Python constants (a flag diffrax keeps as a bool) ride in the record.
+            constants = {}
+            for i, leaf in enumerate(out_leaves):
+                if not eqx.is_array(leaf):
+                    if not isinstance(leaf, (bool, int, float, complex, str)):
+                        raise TypeError(f"an output leaf is a {type(leaf).__name__}")
+                    constants[i] = leaf
+            captured["structure"] = (out_tree, constants)
+            return [leaf for i, leaf in enumerate(out_leaves) if i not in constants]
+
+        shapes = [jax.ShapeDtypeStruct(leaf.shape, leaf.dtype) for leaf in leaves]
+        try:
+            program = jax.export.export(jax.jit(flat))(*shapes)
+            blob = program.serialize()
+            record = _record(blob, captured["structure"])
+        except Exception:  # host callbacks, unpicklable outputs, no serialiser: trace as usual
+            _REFUSED.add(name)
+            return jitted(*args)
+        out_tree, constants = captured["structure"]
+        try:
+            _write_atomically(path, record)
+        except OSError:  # an unwritable folder costs the next process a trace, not this result
+            pass
+    arrays = iter(program.call(*leaves))
+    out_leaves = [
+        constants[i] if i in constants else next(arrays) for i in range(out_tree.num_leaves)
+    ]
+    return jax.tree.unflatten(out_tree, out_leaves)
