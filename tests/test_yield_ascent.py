@@ -334,17 +334,39 @@ def test_yield_ascent_checks_before_compiling():
         ojy.yield_ascent("corner_cube", "misfit_strain", scatter, resume=True)
 
 
+@pytest.mark.parametrize(
+    "extra, message",
+    [
+        (["--improve", "0"], "--improve must be between 1 and 1000"),
+        (["--improve", "2", "--improve-step", "0"], "--improve-step must be a positive"),
+        (["--improve", "2", "--improve-parameters", "release"], "release does not scatter"),
+        (["--improve", "2", "--improve-parameters", "stress"], "unknown parameter 'stress'"),
+        (["--improve-parameters", "misfit_strain"], "needs --improve STEPS"),
+        (["--improve", "2", "--resume"], "cannot resume an ascent"),
+    ],
+)
+def test_cli_improve_refuses_bad_flags_before_compiling(tmp_path, capsys, extra, message):
+    from origami_jax.cli import main
+
+    argv = ["yield", "corner_cube", "--samples", "4", "--out", str(tmp_path / "out"), *extra]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert message in err and len(err.strip().splitlines()) == 1, err
+    assert not (tmp_path / "out" / "sweep.json").exists()
+
+
 def _off() -> dict[str, ojy.Spread]:
     return {name: ojy.Spread(width=0.0) for name in ojy.PARAMETERS}
 
 
-@pytest.mark.slow  # 5 estimates of 64 corner cubes with contact plus a confirmation (~15-40 min)
+@pytest.mark.slow  # at most 5 estimates of 32 corner cubes with contact, and a confirmation (~20 min)
 def test_yield_ascent_raises_the_corner_cubes_yield_with_contact():
     """The corner cube with contact, its film's misfit strain scattered 1 % per crease around a
-    process 3 % above the design's (the hinge lengths as drawn for the design: the creases overfold
-    and the seams stay open): a few steps of the ascent over the process's misfit strain must raise
-    the yield, significantly on the same nets (McNemar p < 0.01), and the best iterate re-estimated
-    on fresh draws must beat the start's yield beyond both intervals' overlap (its lower limit above
+    process 3.5 % above the design's (the hinge lengths as drawn for the design, so the creases
+    overfold by about 3° on average; verdict: 3° per crease, seams within 5 % of the panel): the
+    ascent over the process's misfit strain must raise the yield, significantly on the same nets
+    (McNemar p < 0.01), move the film stress down towards the design's, and the best iterate
+    re-estimated on fresh draws must beat the start beyond both intervals (its lower limit above
     the start's upper one)."""
     import jax
 
@@ -358,13 +380,14 @@ def test_yield_ascent_raises_the_corner_cubes_yield_with_contact():
         "corner_cube",
         "misfit_strain",
         scatter,
-        n_samples=64,
+        n_samples=32,
         seed=0,
         steps=4,
         step=1.0,
         design=design,
-        process={"misfit_strain": 1.03 * eps},
-        confirm_samples=64,
+        process={"misfit_strain": 1.035 * eps},
+        confirm_samples=32,
+        seam_tolerance=0.05,
         t_end=600.0,
         max_steps=20_000,
         chunk_size=8,
@@ -376,4 +399,4 @@ def test_yield_ascent_raises_the_corner_cubes_yield_with_contact():
     assert result.best > 0, result.summary()
     assert paired["gained"] > paired["lost"] and paired["p_value"] < 0.01, result.summary()
     assert result.confirmation.interval[0] > start.interval[1], result.summary()
-    assert np.all(result.path("misfit_strain")[result.best] < 1.03 * eps)
+    assert np.all(result.path("misfit_strain")[result.best] < 1.035 * eps)
