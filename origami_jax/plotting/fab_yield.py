@@ -179,6 +179,8 @@ def ascent_figure(result: Any, *, title: str | None = None):
     """
     import numpy as np
 
+    from ..fab_yield import PARAMETERS
+
     k = np.arange(len(result.iterates))
     y = result.yields
     low, high = result.intervals.T
@@ -211,7 +213,8 @@ def ascent_figure(result: Any, *, title: str | None = None):
         else:
             for j in range(path.shape[1]):
                 ax.plot(k, path[:, j], "o-", color=f"C{j % 10}", label=f"crease {j}")
-        ax.set_ylabel(name)
+        unit = {"1": "", "um": " (µm)", "us": " (µs)"}[PARAMETERS[name][0]]
+        ax.set_ylabel(f"{name}{unit}")
         ax.legend(fontsize=7, loc="best")
     axes[-1].set_xlabel("iterate")
     axes[-1].set_xticks(k)
