@@ -541,9 +541,12 @@ def yield_ascent(
     `confirm_samples`).
 
     ```python
+    design = HingeDesign.literature(fluid=KOH_SOLUTION)
+    film = ojy.Scatter.from_mapping({"defaults": False, "misfit_strain": {"width": 0.01}})
     ascent = ojy.yield_ascent(
-        "corner_cube", "misfit_strain", ojy.Scatter(misfit_strain=ojy.Spread("normal", 0.01)),
-        n_samples=64, process={"misfit_strain": 1.02 * design.misfit_strain}, confirm_samples=64,
+        "corner_cube", "misfit_strain", film, n_samples=32, steps=4, step=1.0, design=design,
+        process={"misfit_strain": 1.035 * float(design.misfit_strain)},  # a film 3.5 % too stressed
+        confirm_samples=32, seam_tolerance=0.05, t_end=600.0,
     )
     print(ascent.summary())
     ```
