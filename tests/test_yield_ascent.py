@@ -5,6 +5,7 @@ iterate's estimate covers the closed-form yield there; the stopping rules, bound
 comparison, and the errors before anything compiles. A slow test climbs the corner cube's yield
 with contact from a film deposited more stressed than its hinges were drawn for."""
 
+import json
 import math
 
 import numpy as np
@@ -332,6 +333,11 @@ def test_yield_ascent_checks_before_compiling():
         )  # fmt: skip
     with pytest.raises(ValueError, match="no resume option"):
         ojy.yield_ascent("corner_cube", "misfit_strain", scatter, resume=True)
+    elsewhere = ojy.YieldEstimate(
+        0.5, (0.2, 0.8), 0.95, "wilson", {}, 64, 7, scatter, None, 0.0, nominal=START
+    )
+    with pytest.raises(ValueError, match="first must be a yield estimate at the start"):
+        ojy.yield_ascent("corner_cube", "misfit_strain", scatter, first=elsewhere)
 
 
 @pytest.mark.parametrize(
@@ -353,6 +359,30 @@ def test_cli_improve_refuses_bad_flags_before_compiling(tmp_path, capsys, extra,
     err = capsys.readouterr().err
     assert message in err and len(err.strip().splitlines()) == 1, err
     assert not (tmp_path / "out" / "sweep.json").exists()
+
+
+@pytest.mark.slow  # two or three estimates of 8 corner cubes with contact (~3-15 min)
+def test_cli_improve_writes_the_iterations(tmp_path, capsys):
+    """`origami-jax yield --improve`: at the design's film stress with 1 % scatter and seams within
+    5 % every sample folds, so the ascent stops at its start, which is the estimate itself (not
+    estimated again); result.json's improve holds it, the best's re-estimate and improve.png."""
+    from origami_jax.cli import main
+
+    config = tmp_path / "film.toml"
+    config.write_text("defaults = false\n[misfit_strain]\nwidth = 0.01\n")
+    out = tmp_path / "out"
+    argv = ["yield", "corner_cube", "--samples", "8", "--seed", "2", "--scatter", str(config)]
+    argv += ["--t-end", "600", "--chunk-size", "8", "--seam-tolerance", "0.05", "--no-progress"]
+    argv += ["--improve", "2", "--out", str(out)]
+    assert main(argv) == 0, capsys.readouterr().err
+    result = json.loads((out / "result.json").read_text())
+    improve = result["improve"]
+    assert improve["iterations"][0]["yield"] == result["yield"] == 1.0
+    assert len(improve["iterations"]) == 1 and "every sample folded" in improve["stopped"]
+    assert improve["confirmation"]["seed"] == 3 and improve["confirmation"]["n_samples"] == 8
+    assert not (out / "improve" / "iterate-00").exists()
+    assert (out / "improve" / "confirmation" / "sweep.nc").is_file()
+    assert (out / "improve.png").stat().st_size > 1000
 
 
 def _off() -> dict[str, ojy.Spread]:

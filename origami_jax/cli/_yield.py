@@ -52,8 +52,8 @@ plots it against the factor (OUT/yield_widths.png).
 values of --improve-parameters (default: every parameter with a normal or lognormal scatter),
 --samples nets per iteration on the same draws, steps of --improve-step spread widths (0.5), at most
 STEPS steps, stopping early where no gradient component exceeds 2 standard errors; the best iterate
-is re-estimated on --samples fresh draws (see origami_jax.fab_yield.yield_ascent). Each iterate is
-stored in OUT/improve/; result.json's "improve" holds every iterate's nominal values, yield,
+is re-estimated on --samples fresh draws (see origami_jax.fab_yield.yield_ascent). Iterate 0 is the
+estimate itself; the others are stored in OUT/improve/; result.json's "improve" holds every iterate's nominal values, yield,
 interval and gradient, and OUT/improve.png plots them (not with --resume).
 
 Writes OUT/result.json (yield, its confidence interval, verdict counts, the scatter, the
@@ -330,6 +330,7 @@ def run(args: argparse.Namespace) -> int:
                 confirm_samples=args.samples,
                 design=design,
                 release_times=release,
+                first=estimate,  # iterate 0 is the estimate above
                 t_end=args.t_end,
                 angle_tolerance_deg=args.angle_tolerance,
                 seam_tolerance=args.seam_tolerance,

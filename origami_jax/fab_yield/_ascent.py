@@ -526,6 +526,7 @@ def yield_ascent(
     design=None,
     process: Mapping[str, Any] | None = None,
     release_times=None,
+    first: YieldEstimate | None = None,
     out=None,
     **options: Any,
 ) -> YieldAscent:
@@ -562,6 +563,9 @@ def yield_ascent(
       parameters not moved keep them throughout.
     - `n_samples`, `seed`, `steps`, `step`, `significance`, `bounds`, `fresh_draws`,
       `confirm_samples`, `confirm_seed`: as `ascend`.
+    - `first`: an estimate already made at the start (same scatter, seed, number of samples and
+      nominal values, e.g. the one that showed the yield is low), used as iterate 0 instead of
+      estimating it again.
 
     **Returns:** a `YieldAscent` (`summary()`, `figure()`, `paired()`, `to_dict()`).
 
@@ -608,8 +612,22 @@ def yield_ascent(
         significance=significance,
         bounds=bounds,
     )
+    if first is not None:
+        same = (
+            isinstance(first, YieldEstimate)
+            and first.nominal is not None
+            and (first.seed, first.n_samples, first.scatter) == (seed, n_samples, scatter)
+            and all(np.array_equal(first.nominal[n], start[n]) for n in PARAMETERS)
+        )
+        if not same:
+            raise ValueError(
+                "first must be a yield estimate at the start: the same scatter, seed, n_samples, "
+                "design, process and release times."
+            )
 
     def estimate_at(nominal, draw_seed, count, label):
+        if first is not None and label == "iterate-00":
+            return first
         moved = {n: nominal[n] for n in names if n != "release"}
         moved = {n: float(v[0]) if n in _GLOBAL else v for n, v in moved.items()}
         return yield_estimate(
