@@ -211,6 +211,14 @@ def test_per_net_lognormal_and_release_times():
     path = result.path("t_hinge")
     assert np.allclose(path[:, 0], path[:, 1], rtol=1e-12)
     assert result.path("release").min() >= 0.0
+    # A bound below the window holds the per-net thickness there, every crease alike.
+    held = ojy.ascend(
+        _synthetic(scatter, windows), start, scatter, "t_hinge", 400, 5, steps=15,
+        bounds={"t_hinge": (0.09, 0.105)},
+    )  # fmt: skip
+    path = held.path("t_hinge")
+    assert np.all(path[:, 0] == path[:, 1]) and path[-1, 0] == pytest.approx(0.105)
+    assert "blocked by the bounds" in held.stopped
 
 
 def test_stops_where_the_samples_show_no_direction():

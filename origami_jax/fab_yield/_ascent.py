@@ -466,14 +466,10 @@ def ascend(
         for name in names:  # a component pushing against its bound does not set the scale
             low, high = limits[name]
             d, x = direction[name], nominal[name]
+            at_bound = (d < 0) & (x <= low) | (d > 0) & (x >= high)  # (m,), or (1,) vs (m,)
             if d.shape != x.shape:  # one move for every crease: blocked if any crease is
-                x = np.array([x.min(), x.max()])
-                d = np.repeat(d, 2)
-            at_bound = (d < 0) & (x <= low) | (d > 0) & (x >= high)
-            blocked = (
-                at_bound if d.shape == nominal[name].shape else np.any(at_bound, keepdims=True)
-            )
-            direction[name] = np.where(blocked, 0.0, direction[name])
+                at_bound = np.any(at_bound, keepdims=True)
+            direction[name] = np.where(at_bound, 0.0, d)
         largest = max(float(np.max(np.abs(d))) for d in direction.values())
         if largest == 0:
             iterates.append(AscentIterate(here, estimate, gradient, 0.0))
