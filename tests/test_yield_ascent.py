@@ -397,7 +397,7 @@ def _off() -> dict[str, ojy.Spread]:
     return {name: ojy.Spread(width=0.0) for name in ojy.PARAMETERS}
 
 
-@pytest.mark.slow  # at most 5 estimates of 32 corner cubes with contact, and a confirmation (~20 min)
+@pytest.mark.slow  # at most 5 estimates of 32 corner cubes with contact, and a re-estimate (~20 min)
 def test_yield_ascent_raises_the_corner_cubes_yield_with_contact():
     """The corner cube with contact, its film's misfit strain scattered 1 % per crease around a
     process 3.5 % above the design's (the hinge lengths as drawn for the design, so the creases
@@ -405,7 +405,9 @@ def test_yield_ascent_raises_the_corner_cubes_yield_with_contact():
     ascent over the process's misfit strain must raise the yield, significantly on the same nets
     (McNemar p < 0.01), move the film stress down towards the design's, and the best iterate
     re-estimated on fresh draws must beat the start beyond both intervals (its lower limit above
-    the start's upper one)."""
+    the start's upper one). Measured: 6/32 → 20, 27, 28/32 folded in three steps (then the gradient
+    was within 1.4 standard errors), 22 gained and 0 lost on the same nets, 28/32 on fresh draws;
+    21 minutes on the shared 2-core CPU."""
     import jax
 
     from origami_jax.system import KOH_SOLUTION, HingeDesign
