@@ -48,6 +48,14 @@ the folding order (the release scatter is added to them); e.g. for examples/two_
 same draws, so the same fabricated nets made more or less carefully; each in OUT/widths/xF/) and
 plots it against the factor (OUT/yield_widths.png).
 
+--improve STEPS then climbs the yield: stochastic gradient ascent over the fabrication's nominal
+values of --improve-parameters (default: every parameter with a normal or lognormal scatter),
+--samples nets per iteration on the same draws, steps of --improve-step spread widths (0.5), at most
+STEPS steps, stopping early where no gradient component exceeds 2 standard errors; the best iterate
+is re-estimated on --samples fresh draws (see origami_jax.fab_yield.yield_ascent). Iterate 0 is the
+estimate itself; the others are stored in OUT/improve/; result.json's "improve" holds every iterate's nominal values, yield,
+interval and gradient, and OUT/improve.png plots them (not with --resume).
+
 Writes OUT/result.json (yield, its confidence interval, verdict counts, the scatter, the
 tolerances, the yield per --widths factor, and the yield's gradient with respect to each scattered
 parameter's nominal value with its standard error: the score-function estimate from the same
@@ -119,6 +127,26 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "yield at each (same draws) and plot it against the width (yield_widths.png)",
     )
     parser.add_argument(
+        "--improve",
+        type=int,
+        default=None,
+        metavar="STEPS",
+        help="then raise the yield by at most STEPS steps of gradient ascent over the nominal "
+        "values (OUT/improve/, result.json's improve, improve.png)",
+    )
+    parser.add_argument(
+        "--improve-parameters",
+        default=None,
+        help="comma-separated parameters --improve moves (default: every parameter with a normal "
+        "or lognormal scatter)",
+    )
+    parser.add_argument(
+        "--improve-step",
+        type=float,
+        default=0.5,
+        help="--improve's largest move per step, in spread widths (default 0.5)",
+    )
+    parser.add_argument(
         "--no-figures", action="store_true", help="skip the figures (yield.png, misfolds.png, ...)"
     )
     parser.add_argument(
@@ -180,6 +208,37 @@ def _gradients(estimate) -> dict:
     return rows
 
 
+def _improve_parameters(args: argparse.Namespace, scatter) -> tuple[str, ...]:
+    """The parameters --improve moves, checked before anything compiles (empty without
+    --improve)."""
+    import numpy as np
+
+    from ..fab_yield import PARAMETERS, check_ascent
+
+    if args.improve is None:
+        if args.improve_parameters is not None:
+            fail("--improve-parameters needs --improve STEPS.")
+        return ()
+    int_range(args.improve, "--improve", 1, 1000)
+    positive(args.improve_step, "--improve-step", "spread widths")
+    if args.resume:
+        fail("--improve cannot resume an ascent; run it without --resume, into a new --out.")
+    if args.improve_parameters is None:
+        names = [n for n, s in scatter.active().items() if s.distribution != "uniform"]
+        if not names:
+            fail("--improve: no parameter has a normal or lognormal scatter to move.")
+    else:
+        names = [n.strip() for n in args.improve_parameters.split(",") if n.strip()]
+    ones = {n: np.ones(1) for n in PARAMETERS}
+    try:
+        return check_ascent(
+            scatter, names, ones, steps=args.improve, step=args.improve_step, significance=2.0,
+            bounds=None,
+        )[0]  # fmt: skip
+    except ValueError as error:
+        fail(f"--improve: {error}")
+
+
 def run(args: argparse.Namespace) -> int:
     from ..fab_yield import Scatter, load_scatter, yield_estimate
     from ..system import AIR, KOH_SOLUTION, HingeDesign
@@ -214,6 +273,7 @@ def run(args: argparse.Namespace) -> int:
             release = list(release_times_from_front(load_net(args.net), front[:2], front[2]))
         except ValueError as error:
             fail(f"--etch-front: {error}")
+    improve = _improve_parameters(args, scatter)
     out = check_out_folder(Path(args.out))
     design = HingeDesign.literature(fluid=KOH_SOLUTION if args.fluid == "koh" else AIR)
     print(
@@ -253,6 +313,33 @@ def run(args: argparse.Namespace) -> int:
             continue
         print(f"[yield] scatter widths x {factor:g}", flush=True)
         at_width[factor] = estimate_at(scatter.scaled(factor), out / "widths" / f"x{factor:g}")
+    ascent = None
+    if improve:
+        from ..fab_yield import yield_ascent
+
+        print(f"[yield] improving {', '.join(improve)}: at most {args.improve} steps", flush=True)
+        with stored_sweep_errors(out):
+            ascent = yield_ascent(
+                args.net,
+                improve,
+                scatter,
+                n_samples=args.samples,
+                seed=args.seed,
+                steps=args.improve,
+                step=args.improve_step,
+                confirm_samples=args.samples,
+                design=design,
+                release_times=release,
+                first=estimate,  # iterate 0 is the estimate above
+                t_end=args.t_end,
+                angle_tolerance_deg=args.angle_tolerance,
+                seam_tolerance=args.seam_tolerance,
+                confidence=args.confidence,
+                interval=args.interval,
+                out=out / "improve",
+                chunk_size=args.chunk_size,
+                progress=not args.no_progress,
+            )
     elapsed = time.perf_counter() - start
     ds = estimate.dataset
     result = {
@@ -270,7 +357,10 @@ def run(args: argparse.Namespace) -> int:
             {"factor": f, **{k: e.to_dict()[k] for k in ("yield", "interval", "counts")}}
             for f, e in sorted(at_width.items())
         ]
+    if ascent is not None:
+        result["improve"] = ascent.to_dict()
     figures = ("yield.png", "misfolds.png") + (("yield_widths.png",) if factors else ())
+    figures += ("improve.png",) if ascent is not None else ()
     owns = ("result.json",) if args.no_figures else ("result.json", *figures)
     with OutputFolder(out, command="yield", owns=owns, overwrite=True) as output:
         write_atomic(output.dir / "result.json", dumps_json(result))
@@ -291,7 +381,13 @@ def run(args: argparse.Namespace) -> int:
                 )
                 fig.savefig(output.dir / "yield_widths.png", dpi=120)
                 plt.close(fig)
+            if ascent is not None:
+                fig = ascent.figure(title=f"{args.net}: yield ascent")
+                fig.savefig(output.dir / "improve.png", dpi=120)
+                plt.close(fig)
     print(estimate.summary())
+    if ascent is not None:
+        print(ascent.summary())
     for line in result["gradient"].values():
         print(f"  {line['summary']}")
     print(

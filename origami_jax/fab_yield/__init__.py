@@ -36,6 +36,12 @@ estimate.dataset            # xarray.Dataset: the drawn parameters and every sam
   against closed forms, and against central differences of the Monte Carlo yield of the corner cube
   with contact). `yield_estimate`'s `process` moves the fabrication's nominal values away from the
   design's (a film deposited more stressed than the hinges were drawn for).
+- `yield_ascent`: maximises the yield over the fabrication's nominal values of chosen scattered
+  parameters (film stress, thicknesses, hinge widths, release times with a normal spread) by
+  stochastic gradient ascent along `yield_gradient`: one estimate per iteration, steps measured in
+  spread widths inside a trust region, common random numbers, the best iterate re-estimated on
+  fresh draws (`confirm_samples`). `ascend` is its loop with any estimator; `YieldAscent` the
+  iterations (`summary()`, `figure()`, `paired()`).
 - `soft_yield`: a differentiable surrogate of the yield over the same samples (logistic margins of
   each sample's final angles and seams), a traceable function of the drawn hinge angles, widths and
   release times, for `jax.grad`. Checked against finite differences without contact; with contact
@@ -54,6 +60,11 @@ estimate.dataset            # xarray.Dataset: the drawn parameters and every sam
 Not done yet: closed-loop patterns (only trees of panels), arc hinges with designed lengths.
 """
 
+from ._ascent import AscentIterate as AscentIterate
+from ._ascent import YieldAscent as YieldAscent
+from ._ascent import ascend as ascend
+from ._ascent import check_ascent as check_ascent
+from ._ascent import yield_ascent as yield_ascent
 from ._estimate import YieldEstimate as YieldEstimate
 from ._estimate import yield_estimate as yield_estimate
 from ._gradient import YieldGradient as YieldGradient

@@ -166,3 +166,58 @@ def misfold_figure(net, estimate, *, title: str | None = None):
     if title:
         fig.suptitle(title)
     return fig
+
+
+def ascent_figure(result: Any, *, title: str | None = None):
+    """The iterations of a yield ascent (`origami_jax.fab_yield.yield_ascent`): the yield with its
+    interval per iterate (the best ringed, its re-estimate on fresh draws to the right if there is
+    one), then one panel per moved parameter: its nominal value per crease along the ascent (one
+    line when every crease has the same).
+
+    **Arguments:** `result`: a `YieldAscent`; `title`: figure title. **Returns:** the matplotlib
+    `Figure`.
+    """
+    import numpy as np
+
+    from ..fab_yield import PARAMETERS
+
+    k = np.arange(len(result.iterates))
+    y = result.yields
+    low, high = result.intervals.T
+    names = list(result.parameters)
+    fig, axes = plt.subplots(
+        1 + len(names), 1, figsize=(5.5, 2.6 + 1.8 * len(names)), sharex=True, layout="constrained"
+    )
+    ax = axes[0]
+    ax.errorbar(k, y, yerr=[y - low, high - y], fmt="o-", capsize=4, color="k", label="iterate")
+    ax.plot(
+        [k[result.best]], [y[result.best]], "o", ms=12, mfc="none", color="tab:green", label="best"
+    )
+    confirmation = result.confirmation
+    if confirmation is not None:
+        c, (c_low, c_high) = confirmation.fraction, confirmation.interval
+        ax.errorbar(
+            [k[-1] + 0.6], [c], yerr=[[c - c_low], [c_high - c]], fmt="s", capsize=4,
+            color="tab:green", label=f"best, fresh draws (n={confirmation.n_samples})",
+        )  # fmt: skip
+    ax.set_ylim(0, 1.02)
+    ax.set_ylabel("yield")
+    confidence = 100 * result.iterates[0].estimate.confidence
+    draws = "same draws" if result.common_random_numbers else "fresh draws each"
+    ax.set_title(f"yield with its {confidence:g} % interval ({draws})", fontsize=10)
+    ax.legend(fontsize=7, loc="best")
+    for ax, name in zip(axes[1:], names, strict=True):
+        path = result.path(name)
+        if np.all(path == path[:, :1]):
+            ax.plot(k, path[:, 0], "o-", color="C0", label="every crease")
+        else:
+            for j in range(path.shape[1]):
+                ax.plot(k, path[:, j], "o-", color=f"C{j % 10}", label=f"crease {j}")
+        unit = {"1": "", "um": " (µm)", "us": " (µs)"}[PARAMETERS[name][0]]
+        ax.set_ylabel(f"{name}{unit}")
+        ax.legend(fontsize=7, loc="best")
+    axes[-1].set_xlabel("iterate")
+    axes[-1].set_xticks(k)
+    if title:
+        fig.suptitle(title)
+    return fig
