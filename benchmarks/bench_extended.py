@@ -8,16 +8,21 @@ flap, added inertia, viscous drag). Each row: compile time and run time, the sys
 inside the timed function from the design (contact is left out: its geometry is built on the host
 and cannot be traced from the design).
 
-Peer: the same as the existing step-response rows, `scipy.integrate.solve_ivp(LSODA)` over
-Pinocchio's `aba` for the paper's model (`bench_simulate.lsoda_peer`). Only the paper's model is
-the same physics as the peer: its answers are compared before timing. The other rows model more, so
-their ratio is "the peer on the paper's model over ours on the extended one" (what a user pays for
-each effect relative to today's scipy route), and their notes give the time relative to our paper
-model.
+Peers: for the paper's model, the same as the existing step-response rows,
+`scipy.integrate.solve_ivp(LSODA)` over Pinocchio's `aba` (`bench_simulate.lsoda_peer`); for
+"+ viscous drag", the same LSODA over `aba` with the fluid's viscous wrench on every flap as
+Pinocchio's external forces (`benchmarks._fluid_peer`, written from the physics: Sader's
+hydrodynamic function by `scipy.special.kv`, the flaps' frequencies by `pinocchio.crba`). Those
+rows are the peer's physics: their answers are compared before timing. The other rows model more
+than the paper's model, whose peer they are shown against, so their ratio is "the peer on the paper's
+model over ours on the extended one" (what a user pays for each effect relative to today's scipy
+route); every row's note gives its time relative to our paper model, and the viscous row's also the
+peer's own cost of viscous drag (its time over the paper model's peer).
 """
 
 import numpy as np
 
+from ._fluid_peer import lsoda_viscous_peer
 from ._harness import Result, compile_jitted, time_calls
 from .bench_simulate import ATOL, RTOL, SAME_ANSWER_RAD, lsoda_peer
 
@@ -48,7 +53,12 @@ def run(quick: bool) -> list[Result]:
     variants = VARIANTS[:3] if quick else VARIANTS
 
     paper = accordion_system(HingeDesign.literature(), 3)
-    reference, peer_timing = lsoda_peer(paper, ts, repeats)
+    paper_peer = lsoda_peer(paper, ts, repeats)
+    viscous_peer = lsoda_viscous_peer(HingeDesign.literature(), 3, ts, repeats)
+    peer_names = (
+        "scipy LSODA + pinocchio.aba (paper model)",
+        "scipy LSODA + pinocchio.aba + viscous fext (same physics)",
+    )
 
     rows = []
     paper_time = None
@@ -66,10 +76,11 @@ def run(quick: bool) -> list[Result]:
 
         compiled, compile_s, _ = compile_jitted(ours, design)
         theta, steps = jax.block_until_ready(compiled(design))
+        fluid = set(options.get("fluid", ("hinge",)))
+        viscous = fluid == {"hinge", "viscous"}
+        same_physics = not options.get("hinges") and (fluid == {"hinge"} or viscous)
+        reference, peer_timing = viscous_peer if viscous else paper_peer
         difference = float(np.max(np.abs(np.asarray(theta) - reference.y[:3].T)))
-        same_physics = not options.get("hinges") and set(options.get("fluid", ("hinge",))) == {
-            "hinge"
-        }
         if same_physics and difference > SAME_ANSWER_RAD:
             raise RuntimeError(f"{name}: answers differ by {difference:.2e} rad; not timing")
         timing = time_calls(lambda c=compiled, d=design: c(d), repeats=repeats)
@@ -79,12 +90,18 @@ def run(quick: bool) -> list[Result]:
         row = Result(
             name=f"extended step {t1:.0f} us: {name}",
             ours=timing,
-            peer_name="scipy LSODA + pinocchio.aba (paper model)",
+            peer_name=peer_names[viscous],
             peer=peer_timing,
             compile_s=compile_s,
             max_abs_difference=difference if same_physics else None,
             notes=f"{int(steps)} diffrax steps (default solver); {relative:.2f}x our paper "
             "model's run time"
+            + (
+                f"; the peer's {peer_timing.median / paper_peer[1].median:.2f}x its paper model's"
+                f" ({reference.nfev} against {paper_peer[0].nfev} RHS calls)"
+                if viscous
+                else ""
+            )
             + (
                 ""
                 if same_physics
