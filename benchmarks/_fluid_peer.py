@@ -1,28 +1,30 @@
-"""The peer of the extended model's point-hinge rows: Pinocchio's `aba` with the fluid's viscous drag.
+"""The peer of the extended model's point-hinge rows: Pinocchio with the fluid's viscous drag and inertia.
 
 Written from the physics, not from `origami_jax` (numpy, scipy and Pinocchio only; the design's
 numbers are read, nothing else): the accordion of ``n`` flaps (``L × w``, thickness ``t``, density
 ``ρ``) on point hinges along ``x`` at ``y = 0, L, 2L, …``, each flap's centre ``L/2`` past its
 hinge, springs ``k (θ_target − θ)`` (the step's torque ``k θ_target``), the paper's hinge drag
-``b θ̇|θ̇|`` and, on every flap, the viscous drag of a plate oscillating in a viscous fluid:
+``b θ̇|θ̇|`` and, on every flap, the fluid of a plate oscillating in a viscous fluid:
 
 - strip-theory added inertia of a rectangle per unit fluid density about its centre, body frame
   (``x`` along the hinge, ``y`` along the chord, ``z`` normal), twists ``(v, ω)``:
-  ``diag(0, 0, πa²w, πa⁴w/8, πa²w³/12, 0)`` with ``a = L/2`` (Newman, *Marine Hydrodynamics*, 1977,
-  §4.13);
+  ``A = diag(0, 0, πa²w, πa⁴w/8, πa²w³/12, 0)`` with ``a = L/2`` (Newman, *Marine
+  Hydrodynamics*, 1977, §4.13);
 - Sader's hydrodynamic function of a thin rectangle (J. Appl. Phys. 84 (1998) 64, Eqs. 20–21):
   ``Γ = Ω(Re) Γ_circ(Re)``, ``Γ_circ = 1 + 4 K₁(z) / (z K₀(z))``, ``z = −i √(i Re)``, with
   `scipy.special.kv` for the Bessel functions of complex argument; ``Re = ρ_f ω c² / (4 μ)``,
   ``c = L``;
-- the damping ``C_b = C_a ρ_f ω_b Im Γ(Re_b) A_b`` at each flap's hinge frequency
-  ``ω_b = √(k_b / M_bb)``, ``M`` the mass matrix half-way to the fold targets (`pinocchio.crba`),
+- viscous damping ``C_b = C_a ρ_f ω_b Im Γ(Re_b) A`` and added inertia ``C_a ρ_f Re Γ(Re_b) A``
+  at each flap's hinge frequency ``ω_b = √(k_b / M_bb)``, ``M`` the mass matrix half-way to the
+  fold targets (`pinocchio.crba`, plus the fluid's part with added inertia: `fluid_terms`),
   ``C_a`` the design's added-mass coefficient.
 
 Pinocchio takes external forces in each joint's local frame about the joint's origin (`aba`'s
-`fext`): here the joint frame of hinge ``b`` has the flap's orientation and its origin on the hinge,
-``r = (0, L/2, 0)`` from the flap's centre, so the damping is shifted there: ``C_joint = Xᵀ C X``
-with ``X = [[I, −[r]×], [0, I]]`` (the centre's twist from the joint's; ``Xᵀ`` carries the wrench
-back, adding ``r × f`` to the moment).
+`fext`), and its local Jacobians and spatial velocities are in the same frames: here the joint frame
+of hinge ``b`` has the flap's orientation and its origin on the hinge, ``r = (0, L/2, 0)`` from the
+flap's centre, so the fluid's matrices are shifted there: ``Xᵀ C X`` with
+``X = [[I, −[r]×], [0, I]]`` (the centre's twist from the joint's; ``Xᵀ`` carries the wrench back,
+adding ``r × f`` to the moment).
 """
 
 import numpy as np
@@ -100,37 +102,16 @@ def accordion_model(design, n: int):
     return model
 
 
-def viscous_damping(design, model, stiffness, targets) -> dict:
-    """Each flap's viscous damping in its joint frame (module docstring), with the frequencies,
-    Reynolds numbers and ``Γ`` it was evaluated at: ``{"joint": (n, 6, 6), "centre": (n, 6, 6),
-    "frequency", "reynolds", "gamma"}``."""
-    import pinocchio as pin
-
-    data = model.createData()
-    mass_matrix = pin.crba(model, data, 0.5 * np.asarray(targets, dtype=float))
-    mass_matrix = np.triu(mass_matrix) + np.triu(mass_matrix, 1).T
-    frequency = np.sqrt(np.asarray(stiffness, dtype=float) / np.diag(mass_matrix))
-    length, width = float(design.flap_length), float(design.flap_width)
-    rho_f, mu = float(design.fluid.density), float(design.fluid.viscosity)
-    reynolds = rho_f * frequency * length**2 / (4 * mu)
-    gamma = sader_gamma(reynolds)
-    unit = rectangle_added_inertia(length, width)
-    scale = float(design.added_mass_coefficient) * rho_f * frequency * gamma.imag
-    centre = scale[:, None, None] * unit
-    r = np.array([0.0, length / 2, 0.0])
-    joint = np.stack([shift_to_joint(c, r) for c in centre])
-    return dict(joint=joint, centre=centre, frequency=frequency, reynolds=reynolds, gamma=gamma)
-
-
 def viscous_rhs(design, n: int, k, b, targets):
     """``f(t, y)`` of the accordion step with the paper's hinge drag and the fluid's viscous drag,
-    ``y = (θ, θ̇)``; also returns the damping dict of `viscous_damping`."""
+    ``y = (θ, θ̇)``; also returns `fluid_terms`' dict (no added inertia)."""
     import pinocchio as pin
 
     model = accordion_model(design, n)
     data = model.createData()
     k, b, targets = (np.asarray(x, dtype=float) for x in (k, b, targets))
-    damping = viscous_damping(design, model, k, targets)["joint"]
+    terms = fluid_terms(design, model, k, targets, added_mass=False)
+    damping = terms["damping"]
     tau0 = k * targets
     fext = pin.StdVec_Force()
     for _ in range(model.njoints):
@@ -144,7 +125,91 @@ def viscous_rhs(design, n: int, k, b, targets):
         torque = tau0 - k * q - b * v * np.abs(v)
         return np.concatenate([v, pin.aba(model, data, q, v, torque, fext)])
 
-    return rhs, damping
+    return rhs, terms
+
+
+def fluid_terms(design, model, stiffness, targets, *, added_mass: bool, passes: int = 60) -> dict:
+    """The fluid's added inertia and viscous damping of every flap in its joint frame, at the
+    frequencies ``ω_b = √(k_b / M_bb)`` (module docstring). With added inertia ``M_bb`` includes the
+    fluid's: the rigid ``M`` from `pinocchio.crba` plus ``Re Γ_b`` times the fluid part ``Σ Jᵀ A J``
+    of the diagonal (``A`` at ``Γ = 1``, all flaps; the flap's own ``Re Γ_b`` weights it), half-way
+    to the targets; ``Re Γ`` depends on ``ω``, so the pair is iterated to its fixed point (`passes`
+    substitutions, each shrinking the error ~10×). Returns ``{"inertia": (n, 6, 6) or None,
+    "damping": (n, 6, 6), "frequency", "reynolds", "gamma"}`` (joint frames)."""
+    import pinocchio as pin
+
+    n = model.nq
+    data = model.createData()
+    middle = 0.5 * np.asarray(targets, dtype=float)
+    own = np.diag(pin.crba(model, data, middle)).copy()
+    length, width = float(design.flap_length), float(design.flap_width)
+    rho_f, mu = float(design.fluid.density), float(design.fluid.viscosity)
+    r = np.array([0.0, length / 2, 0.0])
+    unit = shift_to_joint(rectangle_added_inertia(length, width), r)
+    scale = float(design.added_mass_coefficient) * rho_f
+    fluid = np.zeros(n)
+    if added_mass:
+        pin.computeJointJacobians(model, data, middle)
+        for i in range(n):
+            jacobian = pin.getJointJacobian(model, data, i + 1, pin.LOCAL)
+            fluid += np.diag(jacobian.T @ (scale * unit) @ jacobian)
+    stiffness = np.asarray(stiffness, dtype=float)
+
+    def at(real):
+        frequency = np.sqrt(stiffness / (own + real * fluid))
+        reynolds = rho_f * frequency * length**2 / (4 * mu)
+        return frequency, reynolds, sader_gamma(reynolds)
+
+    real = np.ones(n)
+    for _ in range(passes if added_mass else 0):
+        real = at(real)[2].real
+    frequency, reynolds, gamma = at(real)
+    inertia = (scale * real)[:, None, None] * unit if added_mass else None
+    damping = (scale * frequency * gamma.imag)[:, None, None] * unit
+    return dict(
+        inertia=inertia, damping=damping, frequency=frequency, reynolds=reynolds, gamma=gamma
+    )
+
+
+def added_mass_rhs(design, n: int, k, b, targets, *, viscous: bool = False):
+    """``f(t, y)`` of the accordion step with the paper's hinge drag and the fluid's added inertia
+    (and its viscous drag when `viscous`), ``y = (θ, θ̇)``. The added inertia ``A_b`` (joint frame)
+    is a body-fixed generalised inertia: its wrench on the flap is Kirchhoff's
+    ``A a_b + v_b ×* (A v_b)`` (``v_b``, ``a_b`` the flap's spatial velocity and acceleration in
+    its joint frame), so ``M_total = crba + Σ J_bᵀ A_b J_b`` (local joint Jacobians) and the bias
+    adds ``Σ J_bᵀ (A_b a_b⁰ + v_b ×* A_b v_b)`` (``a_b⁰`` the acceleration at ``q̈ = 0``); solved
+    by Cholesky. Also returns `fluid_terms`' dict."""
+    import pinocchio as pin
+
+    model = accordion_model(design, n)
+    data = model.createData()
+    k, b, targets = (np.asarray(x, dtype=float) for x in (k, b, targets))
+    terms = fluid_terms(design, model, k, targets, added_mass=True)
+    inertia, damping = terms["inertia"], terms["damping"]
+    tau0 = k * targets
+    zero = np.zeros(n)
+
+    def rhs(t, y):
+        q, v = y[:n], y[n:]
+        mass = pin.crba(model, data, q)
+        mass = np.triu(mass) + np.triu(mass, 1).T
+        bias = pin.nonLinearEffects(model, data, q, v).copy()
+        pin.forwardKinematics(model, data, q, v, zero)
+        pin.computeJointJacobians(model, data, q)
+        for i in range(n):
+            jacobian = pin.getJointJacobian(model, data, i + 1, pin.LOCAL)
+            velocity = data.v[i + 1]
+            momentum = inertia[i] @ velocity.vector
+            wrench = inertia[i] @ data.a[i + 1].vector + velocity.cross(pin.Force(momentum)).vector
+            if viscous:
+                wrench = wrench + damping[i] @ velocity.vector
+            mass += jacobian.T @ inertia[i] @ jacobian
+            bias += jacobian.T @ wrench
+        torque = tau0 - k * q - b * v * np.abs(v) - bias
+        factor = np.linalg.cholesky(mass)
+        return np.concatenate([v, np.linalg.solve(factor.T, np.linalg.solve(factor, torque))])
+
+    return rhs, terms
 
 
 def lsoda_viscous_peer(design, n: int, ts: np.ndarray, repeats: int):
