@@ -212,11 +212,12 @@ def added_mass_rhs(design, n: int, k, b, targets, *, viscous: bool = False):
     return rhs, terms
 
 
-def lsoda_viscous_peer(design, n: int, ts: np.ndarray, repeats: int):
-    """The step-response peer of the point-hinge accordion with the fluid's viscous drag: scipy's
-    LSODA on `viscous_rhs` (the design's stiffness and hinge drag, the alternating targets
-    ``±θ_final``), from flat at rest over `ts`, at `bench_simulate`'s tolerances. Returns its solution
-    and its timing (the damping is built inside the timed call: it depends on the design)."""
+def lsoda_fluid_peer(design, n: int, ts: np.ndarray, repeats: int, *, added_mass: bool):
+    """The step-response peer of the point-hinge accordion with the paper's hinge drag and the
+    fluid's viscous drag (`viscous_rhs`) or added inertia (`added_mass_rhs`, `added_mass=True`):
+    scipy's LSODA from flat at rest over `ts` at `bench_simulate`'s tolerances, the design's
+    stiffness and hinge drag, the alternating targets ``±θ_final``. Returns its solution and its
+    timing (the fluid's terms are built inside the timed call: they depend on the design)."""
     from scipy.integrate import solve_ivp
 
     from ._harness import time_calls
@@ -225,9 +226,10 @@ def lsoda_viscous_peer(design, n: int, ts: np.ndarray, repeats: int):
     theta = float(design.theta_final)
     targets = np.array([theta if i % 2 == 0 else -theta for i in range(n)])
     k, b = np.asarray(design.stiffness(n)), np.asarray(design.drag(n))
+    build = added_mass_rhs if added_mass else viscous_rhs
 
     def peer():
-        rhs, _ = viscous_rhs(design, n, k, b, targets)
+        rhs, _ = build(design, n, k, b, targets)
         return solve_ivp(
             rhs, (0.0, ts[-1]), np.zeros(2 * n), method="LSODA", t_eval=ts, rtol=RTOL, atol=ATOL
         )

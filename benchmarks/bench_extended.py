@@ -11,18 +11,19 @@ and cannot be traced from the design).
 Peers: for the paper's model, the same as the existing step-response rows,
 `scipy.integrate.solve_ivp(LSODA)` over Pinocchio's `aba` (`bench_simulate.lsoda_peer`); for
 "+ viscous drag", the same LSODA over `aba` with the fluid's viscous wrench on every flap as
-Pinocchio's external forces (`benchmarks._fluid_peer`, written from the physics: Sader's
-hydrodynamic function by `scipy.special.kv`, the flaps' frequencies by `pinocchio.crba`). Those
-rows are the peer's physics: their answers are compared before timing. The other rows model more
-than the paper's model, whose peer they are shown against, so their ratio is "the peer on the paper's
-model over ours on the extended one" (what a user pays for each effect relative to today's scipy
-route); every row's note gives its time relative to our paper model, and the viscous row's also the
-peer's own cost of viscous drag (its time over the paper model's peer).
+Pinocchio's external forces, and for "+ added inertia" over `crba` plus the fluid's inertia through
+the flaps' Jacobians with Kirchhoff's velocity terms (`benchmarks._fluid_peer`, written from the
+physics: Sader's hydrodynamic function by `scipy.special.kv`, the flaps' frequencies by
+`pinocchio.crba`). Those rows are the peer's physics: their answers are compared before timing.
+The arc-hinge rows model more than any peer here and are shown against the paper model's peer: their
+ratio is "the peer on the paper's model over ours on the extended one" (what a user pays relative
+to today's scipy route). Every row's note gives its time relative to our paper model, and the fluid
+rows' also the peer's own cost of the effect (its time over the paper model's peer).
 """
 
 import numpy as np
 
-from ._fluid_peer import lsoda_viscous_peer
+from ._fluid_peer import lsoda_fluid_peer
 from ._harness import Result, compile_jitted, time_calls
 from .bench_simulate import ATOL, RTOL, SAME_ANSWER_RAD, lsoda_peer
 
@@ -54,11 +55,18 @@ def run(quick: bool) -> list[Result]:
 
     paper = accordion_system(HingeDesign.literature(), 3)
     paper_peer = lsoda_peer(paper, ts, repeats)
-    viscous_peer = lsoda_viscous_peer(HingeDesign.literature(), 3, ts, repeats)
-    peer_names = (
-        "scipy LSODA + pinocchio.aba (paper model)",
-        "scipy LSODA + pinocchio.aba + viscous fext (same physics)",
-    )
+    peers = {
+        frozenset({"hinge"}): ("scipy LSODA + pinocchio.aba (paper model)", *paper_peer),
+        frozenset({"hinge", "viscous"}): (
+            "scipy LSODA + pinocchio.aba + viscous fext (same physics)",
+            *lsoda_fluid_peer(HingeDesign.literature(), 3, ts, repeats, added_mass=False),
+        ),
+    }
+    if not quick:
+        peers[frozenset({"hinge", "added_mass"})] = (
+            "scipy LSODA + pinocchio.crba + sum J^T A J, Kirchhoff terms (same physics)",
+            *lsoda_fluid_peer(HingeDesign.literature(), 3, ts, repeats, added_mass=True),
+        )
 
     rows = []
     paper_time = None
@@ -76,10 +84,11 @@ def run(quick: bool) -> list[Result]:
 
         compiled, compile_s, _ = compile_jitted(ours, design)
         theta, steps = jax.block_until_ready(compiled(design))
-        fluid = set(options.get("fluid", ("hinge",)))
-        viscous = fluid == {"hinge", "viscous"}
-        same_physics = not options.get("hinges") and (fluid == {"hinge"} or viscous)
-        reference, peer_timing = viscous_peer if viscous else paper_peer
+        fluid = options.get("fluid", ("hinge",))
+        fluid = frozenset((fluid,) if isinstance(fluid, str) else fluid)
+        same_physics = not options.get("hinges") and fluid in peers
+        peer_name, reference, peer_timing = peers[fluid if same_physics else frozenset({"hinge"})]
+        fluid_peer = same_physics and fluid != {"hinge"}
         difference = float(np.max(np.abs(np.asarray(theta) - reference.y[:3].T)))
         if same_physics and difference > SAME_ANSWER_RAD:
             raise RuntimeError(f"{name}: answers differ by {difference:.2e} rad; not timing")
@@ -90,7 +99,7 @@ def run(quick: bool) -> list[Result]:
         row = Result(
             name=f"extended step {t1:.0f} us: {name}",
             ours=timing,
-            peer_name=peer_names[viscous],
+            peer_name=peer_name,
             peer=peer_timing,
             compile_s=compile_s,
             max_abs_difference=difference if same_physics else None,
@@ -99,7 +108,7 @@ def run(quick: bool) -> list[Result]:
             + (
                 f"; the peer's {peer_timing.median / paper_peer[1].median:.2f}x its paper model's"
                 f" ({reference.nfev} against {paper_peer[0].nfev} RHS calls)"
-                if viscous
+                if fluid_peer
                 else ""
             )
             + (
