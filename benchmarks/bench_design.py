@@ -77,6 +77,13 @@ def _peer_metrics(chain, design, k_scale, b_scale, ts, targets_theta):
     k = np.asarray(design.stiffness(n)) * k_scale / float(design.k_scale)
     b = np.asarray(design.drag(n)) * b_scale / float(design.b_scale)
     sol = _peer_step_response(chain, k, b, ts, targets_theta)
+    return peer_metrics_of(sol, ts, targets_theta), sol.nfev
+
+
+def peer_metrics_of(sol, ts, targets_theta):
+    """The peer's four metrics (rise times of every joint, joint 1's overshoot) from a `solve_ivp`
+    solution over `ts` of the step to `targets_theta`."""
+    n = len(targets_theta)
     y = sol.y[:n].T / targets_theta
     v = sol.y[n:].T / targets_theta
     rise = [
@@ -88,7 +95,7 @@ def _peer_metrics(chain, design, k_scale, b_scale, ts, targets_theta):
     a, c, d = y[i - 1, 0], y[i, 0], y[i + 1, 0]
     denom = a - 2 * c + d
     peak = c - 0.125 * (a - d) ** 2 / denom if denom != 0 else c
-    return np.array(rise + [max(peak - 1.0, 0.0)]), sol.nfev
+    return np.array(rise + [max(peak - 1.0, 0.0)])
 
 
 def _fit_flops(hinge, t1: float, n_save: int, *, n_lanes: int, steps: int) -> float | None:
