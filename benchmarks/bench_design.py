@@ -119,6 +119,23 @@ def _fit_flops(hinge, t1: float, n_save: int, *, n_lanes: int, steps: int) -> fl
     return accordion_solve_flops(solve_steps * n_lanes * steps, implicit=False)
 
 
+def peer_least_squares(residual, lower, upper):
+    """The peer's fit: `least_squares` (trust region reflective, two-point differences) of
+    `residual` over log-scales from `START` within `[lower, upper]`."""
+    from scipy.optimize import least_squares
+
+    return least_squares(
+        residual,
+        np.log(START),
+        bounds=(lower, upper),
+        method="trf",
+        diff_step=1e-4,
+        xtol=1e-8,
+        ftol=1e-10,
+        gtol=1e-10,
+    )
+
+
 def _time_peer(peer, *, runs: int):
     """Run the (Python, uncompiled) peer `runs` times: its last answer and the timing."""
     seconds = []
@@ -204,8 +221,6 @@ def _sensitivity_row(quick: bool) -> Result:
 
 
 def run(quick: bool) -> list[Result]:
-    from scipy.optimize import least_squares
-
     import origami_jax.design as ojd
     from origami_jax.chain import accordion_system, alternating_targets
     from origami_jax.system import HingeDesign
@@ -263,16 +278,7 @@ def run(quick: bool) -> list[Result]:
 
     def peer():
         evaluations.update(nfev=0, rhs=0)
-        return least_squares(
-            peer_residual,
-            np.log(START),
-            bounds=(lower, upper),
-            method="trf",
-            diff_step=1e-4,
-            xtol=1e-8,
-            ftol=1e-10,
-            gtol=1e-10,
-        )
+        return peer_least_squares(peer_residual, lower, upper)
 
     answer, peer_timing = _time_peer(peer, runs=1 if quick else 3)
     peer_scales = np.exp(answer.x)

@@ -37,6 +37,7 @@ from .bench_design import (
     TRUTH,
     _peer_step_response,
     _time_peer,
+    peer_least_squares,
     peer_metrics_of,
 )
 
@@ -49,7 +50,6 @@ VARIANTS = (
 
 def run(quick: bool) -> list[Result]:
     from scipy.integrate import solve_ivp
-    from scipy.optimize import least_squares
 
     import origami_jax.design as ojd
     from origami_jax.chain import Accordion, accordion_system, alternating_targets
@@ -95,16 +95,7 @@ def run(quick: bool) -> list[Result]:
 
         def peer():
             evaluations.update(nfev=0, rhs=0)
-            return least_squares(
-                residual,
-                np.log(START),
-                bounds=(lower, upper),
-                method="trf",
-                diff_step=1e-4,
-                xtol=1e-8,
-                ftol=1e-10,
-                gtol=1e-10,
-            )
+            return peer_least_squares(residual, lower, upper)
 
         answer, timing = _time_peer(peer, runs=1 if quick else 3)
         return np.exp(answer.x), timing, dict(evaluations)
