@@ -335,6 +335,25 @@ def test_figures_choice_and_its_alias():
         assert parser.parse_args([*base, "--figures", "png"]).figures == "png"
 
 
+def test_the_fold_command_keeps_small_nets_solve_storable():
+    # A progress bar calls back into Python, so a solve with one cannot be stored in the cache: the
+    # fold command shows it only for large patterns (or when asked), and like simulate it turns
+    # failed runtime checks into NaN (its inputs are checked before compiling; failures are verdicts).
+    import diffrax
+
+    from origami_jax.cli import build_parser
+    from origami_jax.cli._common import NAN_ON_ERROR_COMMANDS
+    from origami_jax.cli._fold import PROGRESS_CREASES, _progress_meter
+
+    assert build_parser().parse_args(["fold", "net.fold"]).progress == "auto"
+    quiet, bar = diffrax.NoProgressMeter, diffrax.TqdmProgressMeter
+    assert isinstance(_progress_meter("auto", PROGRESS_CREASES), quiet)
+    assert isinstance(_progress_meter("auto", PROGRESS_CREASES + 1), bar)
+    assert isinstance(_progress_meter("on", 2), bar)
+    assert isinstance(_progress_meter("off", 500), quiet)
+    assert {"simulate", "fold"} <= NAN_ON_ERROR_COMMANDS
+
+
 def test_animation_of_a_folding(tmp_path):
     import numpy as np
     from PIL import Image

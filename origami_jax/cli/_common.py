@@ -312,7 +312,7 @@ def prepare_out(out: Path) -> Path:
 # instead of calling back into Python to raise (`EQX_ON_ERROR=nan`), which lets JAX store those
 # programs in the persistent cache (it cannot store a program that calls back into Python; diffrax
 # checks its sample times that way). The simulation's solve is most of a run's compile time.
-NAN_ON_ERROR_COMMANDS = frozenset({"simulate"})
+NAN_ON_ERROR_COMMANDS = frozenset({"simulate", "fold"})
 
 
 def setup_runtime(command: str | None = None) -> None:

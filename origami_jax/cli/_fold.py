@@ -137,9 +137,30 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         default=0.01,
         help="seam gap tolerance, a fraction of the largest panel's size (default 0.01)",
     )
+    parser.add_argument(
+        "--progress",
+        choices=("auto", "on", "off"),
+        default="auto",
+        help="progress bar of the solve: auto (default) shows it for patterns of more than "
+        f"{PROGRESS_CREASES} creases; with a bar the solve compiles in every run (it calls back "
+        "into Python, which the compilation cache cannot store)",
+    )
     add_figures_argument(parser)
     add_out_argument(parser)
     parser.set_defaults(func=run)
+
+
+PROGRESS_CREASES = 24
+"""`--progress auto`: a bar for patterns with more creases than this (sheets that fold for minutes);
+smaller nets fold in seconds, where a solve kept in the cache (no bar) saves more than a bar shows."""
+
+
+def _progress_meter(choice: str, n_creases: int):
+    import diffrax
+
+    if choice == "on" or (choice == "auto" and n_creases > PROGRESS_CREASES):
+        return diffrax.TqdmProgressMeter(refresh_steps=200)
+    return diffrax.NoProgressMeter()
 
 
 def _floats(text: str | None, what: str) -> list[float] | None:
@@ -267,7 +288,7 @@ def _run(args, net, system, loops, params, release, theta0, theta_dot0, output) 
         n_save=args.n_save,
         throw=False,
         max_steps=500_000,
-        progress_meter=diffrax.TqdmProgressMeter(refresh_steps=200),
+        progress_meter=_progress_meter(args.progress, m),
     )
     tolerances = sim.VerdictTolerances.from_degrees(args.tolerance, args.seam_tolerance)
     if loops:
