@@ -35,7 +35,7 @@ _FOLDER: Path | None = None
 _REFUSED: set[str] = set()  # programs found not exportable in this process (a callback, ...)
 
 # Code the key vouches for: this package by its source, the others by their versions.
-_LIBRARIES = ("jax", "jaxlib", "equinox", "diffrax", "optimistix", "lineax", "jaxtyping")
+_LIBRARIES = ("jax", "jaxlib", "equinox", "diffrax", "optimistix", "lineax", "jaxtyping", "numpy")
 _VOUCHED = frozenset(
     {"origami_jax", *_LIBRARIES, "numpy", "builtins", "typing", "functools", "collections"}
 )
@@ -208,7 +208,11 @@ def exported_call(name: str, fn, jitted, *args) -> Any:
             _write_atomically(path, record)
         except OSError:  # an unwritable folder costs the next process a trace, not this result
             pass
-    arrays = iter(program.call(*leaves))
+    try:
+        arrays = iter(program.call(*leaves))
+    except Exception:  # an entry this process cannot run (it should not happen): trace as usual
+        _REFUSED.add(name)
+        return jitted(*args)
     out_leaves = [
         constants[i] if i in constants else next(arrays) for i in range(out_tree.num_leaves)
     ]
