@@ -1,89 +1,95 @@
 """Traced programs kept on disk (`origami_jax._exported`): a later process runs the exported solve
-without tracing it, and gets the same numbers; what the key cannot vouch for is traced as usual."""
+without tracing it, and gets the same numbers; what the key cannot vouch for is traced as usual.
 
+The solves run in fresh processes with ``EQX_ON_ERROR=nan`` (as the command line sets it): in this
+process equinox raises its runtime errors through Python callbacks, which no exported program can
+hold, and JAX keeps the traces it made here for the rest of the test session.
+"""
+
+import json
+import os
+import subprocess
+import sys
+import textwrap
+
+import diffrax
 import equinox._errors
 import jax
 import jax.numpy as jnp
-import numpy as np
-import pytest
 
-import origami_jax.simulation as sim
 from origami_jax import _exported
-from origami_jax.chain import accordion_system
-from origami_jax.simulation import _simulate
-from origami_jax.system import HingeDesign
 
-T1 = 300.0
+_RUN = """
+    import hashlib, json, sys
+    import jax
+    jax.config.update("jax_enable_x64", True)
+    import numpy as np
+    import origami_jax
+    from origami_jax import _exported
+    from origami_jax.simulation import _simulate
+    import origami_jax.simulation as sim
+    from origami_jax.chain import accordion_system
+    from origami_jax.system import HingeDesign
+
+    folder = sys.argv[1]
+    origami_jax.enable_compilation_cache(folder)
+    traced = []
+    solve = _simulate._solve_until_stiff
+    _simulate._solve_until_stiff = lambda *a: traced.append(1) or solve(*a)
+    system = accordion_system(HingeDesign.literature(), 1)
+    run = lambda: sim.simulate(system, sim.Step(), t1=300.0, n_save=101, throw=False)  # noqa
+    plain = run()  # the ordinary jitted solve
+    traced.clear()
+    _exported.enable_exported_programs(folder + "/exported")
+    ours = run()
+    digest = lambda t: hashlib.sha256(np.asarray(t.theta).tobytes()).hexdigest()  # noqa
+    print(json.dumps({
+        "traced": len(traced),
+        "plain": digest(plain),
+        "ours": digest(ours),
+        "steps": [int(plain.stats["num_steps"]), int(ours.stats["num_steps"])],
+        "succeeded": bool(ours.succeeded),
+    }))
+"""
+
+
+def _process(folder) -> dict:
+    env = {k: v for k, v in os.environ.items() if k != "JAX_COMPILATION_CACHE_DIR"}
+    env["EQX_ON_ERROR"] = "nan"
+    process = subprocess.run(
+        [sys.executable, "-c", textwrap.dedent(_RUN), str(folder)],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=300,
+    )
+    assert process.returncode == 0, process.stderr[-3000:]
+    return json.loads(process.stdout.strip().splitlines()[-1])
+
+
+def test_a_later_process_runs_the_exported_solve_without_tracing_it(tmp_path):
+    first = _process(tmp_path)  # traces, exports, writes
+    files = sorted((tmp_path / "exported").glob("solve_until_stiff-*.bin"))
+    assert len(files) == 1 and first["traced"] == 1
+    assert first["ours"] == first["plain"] and first["succeeded"]
+
+    later = _process(tmp_path)  # loads the program: no trace of the solve, the same samples
+    assert later["traced"] == 0
+    assert later["ours"] == later["plain"] == first["plain"]
+    assert later["steps"][0] == later["steps"][1]
+    assert sorted((tmp_path / "exported").glob("*.bin")) == files
+
+    files[0].write_bytes(b"not a program")  # a damaged entry is traced again and replaced
+    repaired = _process(tmp_path)
+    assert repaired["traced"] == 1 and repaired["ours"] == first["plain"]
+    assert files[0].read_bytes() != b"not a program"
 
 
 def _torque(t, theta, theta_dot):  # a user's function: its code is not part of any key
     return jnp.full_like(theta, 1e-3)
 
 
-@pytest.fixture
-def exporting(tmp_path, monkeypatch):
-    # As the command line runs: runtime errors as NaN (a program that calls back into Python for
-    # its errors cannot be exported).
-    monkeypatch.setattr(equinox._errors, "EQX_ON_ERROR", "nan")
-    # JAX keeps the traces of inner jitted functions per process: an earlier test's, made with
-    # runtime errors raised, would bring its Python callbacks along.
-    jax.clear_caches()
-    monkeypatch.setattr(_exported, "_REFUSED", set())
-    _exported.enable_exported_programs(tmp_path)
-    yield tmp_path
-    _exported.enable_exported_programs(None)
-    jax.clear_caches()  # and the traces made here, with errors as NaN, must not serve later tests
-
-
-def _run(system, inputs=None):
-    return sim.simulate(system, inputs or sim.Step(), t1=T1, n_save=101)
-
-
-def test_a_later_process_runs_the_exported_solve_without_tracing_it(exporting, monkeypatch):
-    system = accordion_system(HingeDesign.literature(), 1)
-    plain_folder, _exported._FOLDER = _exported._FOLDER, None
-    plain = _run(system)  # the ordinary jitted solve
-    _exported._FOLDER = plain_folder
-    first = _run(system)  # traced, exported, written
-    files = sorted(exporting.glob("solve_until_stiff-*.bin"))
-    assert len(files) == 1
-    for field in ("theta", "theta_dot", "times"):
-        np.testing.assert_array_equal(getattr(first, field), getattr(plain, field))
-
-    # A new process, as far as the solve is concerned: nothing may trace or run it but the file.
-    def untraceable(*args, **kwargs):
-        raise AssertionError("the solve was traced again")
-
-    monkeypatch.setattr(_simulate, "_solve_until_stiff", untraceable)
-    monkeypatch.setattr(_simulate, "_solve_until_stiff_jit", untraceable)
-    again = _run(system)
-    for field in ("theta", "theta_dot", "times"):
-        np.testing.assert_array_equal(getattr(again, field), getattr(plain, field))
-    assert again.stats["num_steps"] == plain.stats["num_steps"]
-    assert again.result == sim.RESULTS.successful
-
-    # Another value of a parameter is another input, not another program.
-    stiffer = accordion_system(HingeDesign.literature(k_scale=2.0), 1)
-    assert float(_run(stiffer).stats["num_steps"]) > 0
-    assert sorted(exporting.glob("*.bin")) == files
-
-    # A damaged entry is traced again and replaced.
-    monkeypatch.undo()
-    monkeypatch.setattr(equinox._errors, "EQX_ON_ERROR", "nan")
-    files[0].write_bytes(b"not a program")
-    repaired = _run(system)
-    np.testing.assert_array_equal(repaired.theta, plain.theta)
-    assert files[0].read_bytes() != b"not a program"
-
-
-def test_what_the_key_cannot_vouch_for_is_traced_as_usual(exporting):
-    system = accordion_system(HingeDesign.literature(), 1)
-    trajectory = _run(system, sim.UserTorque(_torque))
-    assert trajectory.succeeded
-    assert not list(exporting.glob("*.bin"))  # a function from the tests: refused, not stored
-
-
-def test_the_key_covers_the_environment(monkeypatch):
+def test_the_key_covers_the_environment_and_refuses_what_it_cannot_vouch_for(monkeypatch):
     leaves = [jnp.zeros(3)]
     key = _exported._key_and_static("p", leaves, ("static",))
     assert key == _exported._key_and_static("p", leaves, ("static",))
@@ -98,4 +104,7 @@ def test_the_key_covers_the_environment(monkeypatch):
         assert key != _exported._key_and_static("p", leaves, ("static",))
     finally:
         jax.config.update("jax_enable_x64", x64)
+    # A function or class from outside the vouched libraries: no key (traced as usual).
     assert _exported._key_and_static("p", leaves, (_torque,)) is None
+    assert _exported._key_and_static("p", leaves, (type("Local", (), {})(),)) is None
+    assert _exported._key_and_static("p", leaves, (diffrax.Tsit5(),)) is not None  # vouched
