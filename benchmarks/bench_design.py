@@ -119,6 +119,25 @@ def _fit_flops(hinge, t1: float, n_save: int, *, n_lanes: int, steps: int) -> fl
     return accordion_solve_flops(solve_steps * n_lanes * steps, implicit=False)
 
 
+def known_truth_targets(truth_design, free, bounds, settings):
+    """The fits' targets: joints 1–3's rise times and joint 1's overshoot of our model at the known
+    scales (`truth_design`), from the design's own forward evaluation (shared compilation)."""
+    import origami_jax.design as ojd
+    from origami_jax.design._design import _evaluate, _Problem
+
+    nan = math.nan
+    probe = ojd.Targets(rise_time=[1.0, 1.0, 1.0], overshoot=[0.1, nan, nan])
+    space = ojd.parameter_space(truth_design, free, bounds)
+    truth = _evaluate(
+        _Problem(truth_design, space, probe, settings),
+        space.to_unconstrained(space.read(truth_design)),
+    )
+    if bool(np.any(np.asarray(truth["flags"]))):
+        raise RuntimeError("the truth point has an ill-conditioned metric; choose another")
+    values = np.asarray(truth["achieved"])
+    return ojd.Targets(rise_time=list(values[:3]), overshoot=[values[3], nan, nan])
+
+
 def peer_least_squares(residual, lower, upper):
     """The peer's fit: `least_squares` (trust region reflective, two-point differences) of
     `residual` over log-scales from `START` within `[lower, upper]`."""
@@ -232,22 +251,9 @@ def run(quick: bool) -> list[Result]:
     settings = ojd.SimulationSettings(t1, n_flaps=3, n_save=n_save, rtol=RTOL, atol=ATOL)
     free = ["k_scale", "b_scale"]
     bounds = {"k_scale": (0.1, 100.0), "b_scale": (0.1, 1000.0)}
-    nan = math.nan
 
-    # Targets from the model at the known scales (our forward evaluation, shared compilation).
     truth_design = HingeDesign.literature(k_scale=TRUTH[0], b_scale=TRUTH[1])
-    probe = ojd.Targets(rise_time=[1.0, 1.0, 1.0], overshoot=[0.1, nan, nan])
-    from origami_jax.design._design import _evaluate, _Problem
-
-    space = ojd.parameter_space(truth_design, free, bounds)
-    truth = _evaluate(
-        _Problem(truth_design, space, probe, settings),
-        space.to_unconstrained(space.read(truth_design)),
-    )
-    if bool(np.any(np.asarray(truth["flags"]))):
-        raise RuntimeError("the truth point has an ill-conditioned metric; choose another")
-    values = np.asarray(truth["achieved"])
-    targets = ojd.Targets(rise_time=list(values[:3]), overshoot=[values[3], nan, nan])
+    targets = known_truth_targets(truth_design, free, bounds, settings)
     start = HingeDesign.literature(k_scale=START[0], b_scale=START[1])
 
     def ours():

@@ -23,7 +23,6 @@ paper model's peer (`bench_design`'s), so that the cost of viscous drag is read 
 our side and on the peer's; `--quick` fits only the viscous variant.
 """
 
-import math
 import time
 
 import numpy as np
@@ -37,6 +36,7 @@ from .bench_design import (
     TRUTH,
     _peer_step_response,
     _time_peer,
+    known_truth_targets,
     peer_least_squares,
     peer_metrics_of,
 )
@@ -53,14 +53,12 @@ def run(quick: bool) -> list[Result]:
 
     import origami_jax.design as ojd
     from origami_jax.chain import Accordion, accordion_system, alternating_targets
-    from origami_jax.design._design import _evaluate, _Problem
     from origami_jax.system import HingeDesign
 
     literature = HingeDesign.literature()
     n, n_save, t1 = 3, 601, 400.0
     free = ["k_scale", "b_scale"]
     bounds = {"k_scale": (0.1, 100.0), "b_scale": (0.1, 1000.0)}
-    nan = math.nan
     ts = np.linspace(0.0, t1, n_save)
     thetas = np.asarray(alternating_targets(n))
     k0, b0 = np.asarray(literature.stiffness(n)), np.asarray(literature.drag(n))
@@ -107,16 +105,7 @@ def run(quick: bool) -> list[Result]:
         settings = ojd.SimulationSettings(
             t1, n_save=n_save, rtol=RTOL, atol=ATOL, layout=Accordion(n, fluid=fluid)
         )
-        probe = ojd.Targets(rise_time=[1.0, 1.0, 1.0], overshoot=[0.1, nan, nan])
-        space = ojd.parameter_space(truth_design, free, bounds)
-        truth = _evaluate(
-            _Problem(truth_design, space, probe, settings),
-            space.to_unconstrained(space.read(truth_design)),
-        )
-        if bool(np.any(np.asarray(truth["flags"]))):
-            raise RuntimeError("the truth point has an ill-conditioned metric; choose another")
-        values = np.asarray(truth["achieved"])
-        targets = ojd.Targets(rise_time=list(values[:3]), overshoot=[values[3], nan, nan])
+        targets = known_truth_targets(truth_design, free, bounds, settings)
 
         def ours(targets=targets, settings=settings):
             return ojd.calibrate(
