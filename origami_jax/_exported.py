@@ -101,7 +101,8 @@ class _KeyPickler(pickle.Pickler):
         return NotImplemented
 
 
-def _key_and_static(name: str, dynamic_leaves, static) -> tuple[str, bytes] | None:
+def _key(name: str, dynamic_leaves, static) -> str | None:
+    """The entry's key (hex), or `None` when `static` holds code the key cannot vouch for."""
     buffer = io.BytesIO()
     try:
         _KeyPickler(buffer, protocol=pickle.HIGHEST_PROTOCOL).dump(static)
@@ -112,7 +113,7 @@ def _key_and_static(name: str, dynamic_leaves, static) -> tuple[str, bytes] | No
     digest.update(buffer.getvalue())
     for leaf in dynamic_leaves:
         digest.update(f"{leaf.shape}{leaf.dtype}{getattr(leaf, 'weak_type', '')}".encode())
-    return digest.hexdigest(), buffer.getvalue()
+    return digest.hexdigest()
 
 
 def _equinox_missing():
@@ -164,10 +165,9 @@ def exported_call(name: str, fn, jitted, *args) -> Any:
         return jitted(*args)
     dynamic, static = eqx.partition(args, eqx.is_array)
     leaves, in_tree = jax.tree.flatten(dynamic)
-    keyed = _key_and_static(name, leaves, (in_tree, static))
-    if keyed is None:
+    key = _key(name, leaves, (in_tree, static))
+    if key is None:
         return jitted(*args)
-    key, _ = keyed
     path = _FOLDER / f"{name}-{key[:32]}.bin"
     program = None
     if path.exists():

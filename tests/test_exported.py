@@ -91,20 +91,20 @@ def _torque(t, theta, theta_dot):  # a user's function: its code is not part of 
 
 def test_the_key_covers_the_environment_and_refuses_what_it_cannot_vouch_for(monkeypatch):
     leaves = [jnp.zeros(3)]
-    key = _exported._key_and_static("p", leaves, ("static",))
-    assert key == _exported._key_and_static("p", leaves, ("static",))
-    assert key != _exported._key_and_static("p", [jnp.zeros(4)], ("static",))
-    assert key != _exported._key_and_static("p", leaves, ("other",))
+    key = _exported._key("p", leaves, ("static",))
+    assert key == _exported._key("p", leaves, ("static",))
+    assert key != _exported._key("p", [jnp.zeros(4)], ("static",))
+    assert key != _exported._key("p", leaves, ("other",))
     monkeypatch.setattr(equinox._errors, "EQX_ON_ERROR", "nan")
-    assert key != _exported._key_and_static("p", leaves, ("static",))
+    assert key != _exported._key("p", leaves, ("static",))
     monkeypatch.setattr(equinox._errors, "EQX_ON_ERROR", "raise")
     x64 = jax.config.jax_enable_x64
     try:
         jax.config.update("jax_enable_x64", not x64)
-        assert key != _exported._key_and_static("p", leaves, ("static",))
+        assert key != _exported._key("p", leaves, ("static",))
     finally:
         jax.config.update("jax_enable_x64", x64)
     # A function or class from outside the vouched libraries: no key (traced as usual).
-    assert _exported._key_and_static("p", leaves, (_torque,)) is None
-    assert _exported._key_and_static("p", leaves, (type("Local", (), {})(),)) is None
-    assert _exported._key_and_static("p", leaves, (diffrax.Tsit5(),)) is not None  # vouched
+    assert _exported._key("p", leaves, (_torque,)) is None
+    assert _exported._key("p", leaves, (type("Local", (), {})(),)) is None
+    assert _exported._key("p", leaves, (diffrax.Tsit5(),)) is not None  # vouched

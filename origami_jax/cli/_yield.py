@@ -283,25 +283,24 @@ def run(args: argparse.Namespace) -> int:
         flush=True,
     )
 
+    # What every estimate of this run shares: the estimate itself, the other widths, the ascent.
+    common = dict(
+        n_samples=args.samples,
+        seed=args.seed,
+        design=design,
+        release_times=release,
+        t_end=args.t_end,
+        angle_tolerance_deg=args.angle_tolerance,
+        seam_tolerance=args.seam_tolerance,
+        confidence=args.confidence,
+        interval=args.interval,
+        chunk_size=args.chunk_size,
+        progress=not args.no_progress,
+    )
+
     def estimate_at(scatter, folder):
         with stored_sweep_errors(out):
-            return yield_estimate(
-                args.net,
-                scatter,
-                n_samples=args.samples,
-                seed=args.seed,
-                design=design,
-                release_times=release,
-                t_end=args.t_end,
-                angle_tolerance_deg=args.angle_tolerance,
-                seam_tolerance=args.seam_tolerance,
-                confidence=args.confidence,
-                interval=args.interval,
-                out=folder,
-                resume=args.resume,
-                chunk_size=args.chunk_size,
-                progress=not args.no_progress,
-            )
+            return yield_estimate(args.net, scatter, out=folder, resume=args.resume, **common)
 
     start = time.perf_counter()
     estimate = estimate_at(scatter, out)
@@ -323,22 +322,12 @@ def run(args: argparse.Namespace) -> int:
                 args.net,
                 improve,
                 scatter,
-                n_samples=args.samples,
-                seed=args.seed,
                 steps=args.improve,
                 step=args.improve_step,
                 confirm_samples=args.samples,
-                design=design,
-                release_times=release,
                 first=estimate,  # iterate 0 is the estimate above
-                t_end=args.t_end,
-                angle_tolerance_deg=args.angle_tolerance,
-                seam_tolerance=args.seam_tolerance,
-                confidence=args.confidence,
-                interval=args.interval,
                 out=out / "improve",
-                chunk_size=args.chunk_size,
-                progress=not args.no_progress,
+                **common,
             )
     elapsed = time.perf_counter() - start
     ds = estimate.dataset

@@ -237,11 +237,25 @@ def _trajectory(system, inputs, times, q, v, stats, result, solution) -> Traject
     )
 
 
+def _solver(how: _Integration, phase: str | None = None) -> diffrax.AbstractSolver:
+    """`how.solver`, restricted to one `phase` of the switching solver if given, with the stage loops
+    forward-mode autodiff needs under `diffrax.ForwardMode` (diffrax does that for its own
+    Runge–Kutta solvers, but cannot see inside the switching one)."""
+    solver = how.solver
+    if phase is not None:
+        solver = dataclasses.replace(cast(StiffnessSwitching, solver), phase=phase)
+    if isinstance(solver, StiffnessSwitching) and isinstance(how.adjoint, diffrax.ForwardMode):
+        solver = solver.with_scan_kind("lax")
+    return solver
+
+
+def _stats(solution: diffrax.Solution) -> dict[str, Array]:
+    return {k: jnp.asarray(val) for k, val in solution.stats.items()}
+
+
 def _solve(system: FoldingSystem, inputs: AbstractInput, span, y0, ts, how: _Integration):
     t0, t1 = span
-    solver = how.solver
-    if isinstance(solver, StiffnessSwitching) and isinstance(how.adjoint, diffrax.ForwardMode):
-        solver = solver.with_scan_kind("lax")  # what diffrax does for its own Runge–Kutta solvers
+    solver = _solver(how)
     controller, term = _controller_and_field(system, inputs, ts, how)
     switching = isinstance(solver, StiffnessSwitching)
     solution = diffrax.diffeqsolve(
@@ -262,7 +276,7 @@ def _solve(system: FoldingSystem, inputs: AbstractInput, span, y0, ts, how: _Int
     q, v = cast(tuple[Array, Array], solution.ys)  # SaveAt(ts=...) always saves ys
     saved = jnp.ones(q.shape[:1], dtype=bool)
     result, q = _checked_result(solution.result, q, v, saved, how)
-    stats = {k: jnp.asarray(val) for k, val in solution.stats.items()}
+    stats = _stats(solution)
     if switching:
         # Time at which the solver turned implicit (inf: it never did); see `StiffnessSwitching`.
         _, switch = cast(tuple, solution.solver_state)  # saved: SaveAt(solver_state=True) above
@@ -307,9 +321,7 @@ def _solve_until_stiff(
     """The default solver's explicit phase: Tsit5 with the stiffness test, stopping after the step
     at which the switch turns. Samples after that step are inf (the implicit phase computes them)."""
     t0, t1 = span
-    solver = dataclasses.replace(cast(StiffnessSwitching, how.solver), phase="explicit")
-    if isinstance(how.adjoint, diffrax.ForwardMode):
-        solver = solver.with_scan_kind("lax")  # as `_solve`
+    solver = _solver(how, "explicit")
     controller, term = _controller_and_field(system, inputs, ts, how)
     saveat = diffrax.SaveAt(
         subs=[diffrax.SubSaveAt(ts=ts), diffrax.SubSaveAt(t1=True)],
@@ -341,7 +353,7 @@ def _solve_until_stiff(
         turned & (result == RESULTS.promote(TURNED_STIFF)), RESULTS.successful, result
     )
     result, q = _checked_result(result, q, v, jnp.isfinite(times), how)
-    stats = {k: jnp.asarray(val) for k, val in solution.stats.items()}
+    stats = _stats(solution)
     stats["switch_time"] = switch.switch_time
     inner, tnext = cast(tuple, solution.controller_state)
     handover = _Handover(
@@ -363,7 +375,7 @@ def _solve_from_switch(
     its solver state, controller state and next step, so the steps are those of a single solve.
     Samples before the switch repeat the switch state (`_stitched` takes them from the first phase).
     """
-    solver = dataclasses.replace(cast(StiffnessSwitching, how.solver), phase="implicit")
+    solver = _solver(how, "implicit")
     controller, term = _controller_and_field(system, inputs, ts, how)
     solution = diffrax.diffeqsolve(
         term,
@@ -385,7 +397,7 @@ def _solve_from_switch(
     )
     q, v = cast(tuple[Array, Array], solution.ys)
     result, q = _checked_result(solution.result, q, v, jnp.ones(q.shape[:1], dtype=bool), how)
-    stats = {k: jnp.asarray(val) for k, val in solution.stats.items()}
+    stats = _stats(solution)
     return _trajectory(system, inputs, cast(Array, solution.ts), q, v, stats, result, None)
 
 
