@@ -1,6 +1,8 @@
 """Result codes of a folding simulation (tier 3 of the package's errors: a solver that did not succeed)."""
 
 import diffrax
+import jax.numpy as jnp
+import numpy as np
 
 
 class RESULTS(diffrax.RESULTS):  # pyright: ignore[reportGeneralTypeIssues]
@@ -19,3 +21,23 @@ class RESULTS(diffrax.RESULTS):  # pyright: ignore[reportGeneralTypeIssues]
         "steps only (the implicit ones would triple its compile time). Pass "
         "solver=origami_jax.simulation.StiffnessSwitching() to differentiate through both phases."
     )
+
+
+def promote(item) -> RESULTS:
+    """`RESULTS.promote(item)` for a diffrax (or our own) result, without a device operation when the
+    code is a constant.
+
+    Equinox's `promote` looks the code up under `jax.ensure_compile_time_eval`, which runs the lookup
+    as eager device operations even inside a trace: half a dozen one-operation programs, each compiled
+    the first time (~0.15 s of a first `simulate`). Here a constant code is looked up in NumPy and a
+    traced one with an indexing that stays in the traced program.
+    """
+    if item._enumeration is RESULTS:
+        return item
+    offsets = RESULTS._base_offsets[item._enumeration]  # raises for an unrelated enumeration
+    value = item._value
+    if isinstance(value, np.ndarray):
+        promoted = np.asarray(offsets[value], dtype=np.int32)
+    else:
+        promoted = jnp.asarray(offsets)[value]
+    return type(RESULTS.successful)(promoted, RESULTS)

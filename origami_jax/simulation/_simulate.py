@@ -21,7 +21,7 @@ from .._validate import check_finite, is_traced
 from ..system import FoldingSystem, HingeDrag
 from ._guard import ContactGuard, WrappedController
 from ._inputs import AbstractInput
-from ._results import RESULTS
+from ._results import RESULTS, promote
 from ._switching import TURNED_STIFF, StiffnessSwitching
 
 DEFAULT_RTOL = 1e-7
@@ -204,13 +204,9 @@ def _controller_and_field(system: FoldingSystem, inputs: AbstractInput, ts, how:
 def _checked_result(solution_result, q, v, saved, how: _Integration):
     """The solve's result as a `RESULTS` code (a non-finite saved sample is a failure); raises on
     failure when `how.throw`."""
-    result = (
-        solution_result
-        if isinstance(solution_result, RESULTS)
-        else RESULTS.promote(solution_result)
-    )
-    ok_rows = saved[:, None]
-    finite = jnp.all(jnp.isfinite(q) | ~ok_rows) & jnp.all(jnp.isfinite(v) | ~ok_rows)
+    result = promote(solution_result)
+    # One reduction over the samples (each is a few kernels to compile).
+    finite = jnp.all(jnp.isfinite(jnp.concatenate([q, v], axis=-1)) | ~saved[:, None])
     result = RESULTS.where(
         (result == RESULTS.successful) & ~finite, RESULTS.nonfinite_state, result
     )
@@ -348,10 +344,8 @@ def _solve_until_stiff(
     times, t_end = cast(list, solution.ts)
     _, switch = cast(tuple, solution.solver_state)
     turned = switch.stiff
-    result = RESULTS.promote(solution.result)
-    result = RESULTS.where(
-        turned & (result == RESULTS.promote(TURNED_STIFF)), RESULTS.successful, result
-    )
+    result = promote(solution.result)
+    result = RESULTS.where(turned & (result == promote(TURNED_STIFF)), RESULTS.successful, result)
     result, q = _checked_result(result, q, v, jnp.isfinite(times), how)
     stats = _stats(solution)
     stats["switch_time"] = switch.switch_time
@@ -492,18 +486,21 @@ def _padded(ts: Array, size: int) -> Array:
     return jax.device_put(np.concatenate([host, np.full(size - host.shape[0], host[-1])]))
 
 
-@eqx.filter_jit
 def _first_samples(trajectory: Trajectory, n: int) -> Trajectory:
-    """The first `n` samples of a trajectory solved on padded sample times (one small program per
-    `n`, compiled in milliseconds)."""
+    """The first `n` samples of a trajectory solved on padded sample times, cut on the host: a copy
+    of a few kilobytes, where a compiled slice is one more program for a first call to compile
+    (~0.1 s)."""
 
     def cut(x):
-        return x[:n]
+        first = np.asarray(x)[:n]
+        return jax.device_put(first, x.sharding) if x.committed else jax.device_put(first)
 
     samples = lambda t: (t.times, t.theta, t.theta_dot, t.theta_ddot, t.tau)  # noqa: E731
     trajectory = eqx.tree_at(samples, trajectory, replace_fn=cut)
     if trajectory.state is not None:
-        trajectory = eqx.tree_at(lambda t: t.state, trajectory, replace_fn=cut)
+        trajectory = eqx.tree_at(
+            lambda t: t.state, trajectory, replace_fn=lambda s: jax.tree.map(cut, s)
+        )
     if trajectory.solution is not None:
         saved = lambda t: (t.solution.ts, t.solution.ys)  # noqa: E731
         trajectory = eqx.tree_at(saved, trajectory, replace_fn=lambda x: jax.tree.map(cut, x))

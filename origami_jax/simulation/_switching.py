@@ -45,7 +45,8 @@ class SwitchingInterpolation(diffrax.AbstractLocalInterpolation):
 
     **Fields:** `t0`, `t1` (the step), `y0`, `y1` (its end states), `k` (the seven stage increments
     ``h f``, leading axis 7, the layout both Runge–Kutta methods share), `implicit` (a boolean
-    scalar, batched under `vmap`).
+    scalar, batched under `vmap`; `None` in the `"explicit"` phase, whose steps are all explicit:
+    then no conditional, and no Hermite branch to trace and compile).
     """
 
     t0: Array
@@ -53,13 +54,15 @@ class SwitchingInterpolation(diffrax.AbstractLocalInterpolation):
     y0: object
     y1: object
     k: object
-    implicit: Bool[Array, ""]
+    implicit: Bool[Array, ""] | None
 
     def evaluate(self, t0, t1=None, left=True):
         del left
         if t1 is not None:
             return jax.tree.map(lambda a, b: a - b, self.evaluate(t1), self.evaluate(t0))
         span = dict(t0=self.t0, t1=self.t1, y0=self.y0, y1=self.y1, k=self.k)
+        if self.implicit is None:
+            return _Tsit5Interpolation(**span).evaluate(t0)
         return jax.lax.cond(
             self.implicit,
             lambda: _HermiteFromK(**span).evaluate(t0),
@@ -163,7 +166,10 @@ class StiffnessSwitching(diffrax.AbstractAdaptiveSolver):
             y1, error, dense, state, result, h_rho = implicit()
         else:
             y1, error, dense, state, result, h_rho = jax.lax.cond(switch.stiff, implicit, explicit)
-        dense = {**dense, "implicit": switch.stiff}
+        # The explicit phase takes explicit steps only (its `switch.stiff` is False at every step's
+        # start: the solve stops at the step that sets it), so its interpolant is Tsit5's.
+        explicit_only = self.phase == "explicit" and self.start_implicit is False
+        dense = {**dense, "implicit": None if explicit_only else switch.stiff}
         is_stiff_step = h_rho > self.threshold
         stiff_steps = jnp.where(is_stiff_step, switch.stiff_steps + 1, switch.stiff_steps)
         calm_steps = jnp.where(is_stiff_step, 0, switch.calm_steps + 1)
