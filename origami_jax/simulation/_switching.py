@@ -33,6 +33,7 @@ import diffrax
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, Bool, Int
 
 _HermiteFromK = diffrax.ThirdOrderHermitePolynomialInterpolation.from_k
@@ -208,12 +209,20 @@ class _Switch(eqx.Module):
 def _tsit5_stiffness(dense, tsit5: diffrax.Tsit5) -> Array:
     """``h ρ ≈ ‖k₇ − k₆‖ / ‖y₁ − Y₆‖`` from one Tsit5 step's stage increments ``k = h f``."""
     tableau = tsit5.tableau
-    a_stage6 = jnp.asarray(tableau.a_lower[-2])  # weights of k₁..k₅ in Y₆
-    b = jnp.asarray(tableau.a_lower[-1])  # weights of k₁..k₆ in y₁ (FSAL: stage 7 is at y₁)
-    weights = b.at[: a_stage6.shape[0]].add(-a_stage6)  # y₁ − Y₆ = Σⱼ (bⱼ − a₆ⱼ) kⱼ
+    # The weights on the host (in the precision JAX computes in): constants of the traced program.
+    real = jax.dtypes.canonicalize_dtype(np.float64)
+    a_stage6 = np.asarray(tableau.a_lower[-2], dtype=real)  # weights of k₁..k₅ in Y₆
+    b = np.asarray(tableau.a_lower[-1], dtype=real)  # weights of k₁..k₆ in y₁ (FSAL: k₇ at y₁)
+    weights = b.copy()
+    weights[: a_stage6.shape[0]] += -a_stage6  # y₁ − Y₆ = Σⱼ (bⱼ − a₆ⱼ) kⱼ
 
     def leaf_sums(k):
-        difference = jnp.tensordot(weights.astype(k.dtype), k[:-1], axes=1)  # y₁ − Y₆
+        # Σⱼ wⱼ kⱼ written out (the sum a dot product takes, in its order): elementwise, it fuses
+        # with the squares below, where a `tensordot` is a kernel of its own to compile.
+        w = weights.astype(k.dtype)
+        difference = w[0] * k[0]
+        for j in range(1, w.shape[0]):
+            difference = difference + w[j] * k[j]  # y₁ − Y₆
         return jnp.sum((k[-1] - k[-2]) ** 2), jnp.sum(difference**2)
 
     sums = [leaf_sums(k) for k in jax.tree.leaves(dense["k"])]
