@@ -29,7 +29,7 @@ def promote(item) -> RESULTS:
 
     Equinox's `promote` looks the code up under `jax.ensure_compile_time_eval`, which runs the lookup
     as eager device operations even inside a trace: half a dozen one-operation programs, each compiled
-    the first time (~0.15 s of a first `simulate`). Here a constant code is looked up in NumPy and a
+    the first time (0.15–0.3 s of a first `simulate`). Here a constant code is looked up in NumPy and a
     traced one with an indexing that stays in the traced program.
     """
     if item._enumeration is RESULTS:

@@ -217,8 +217,9 @@ def _tsit5_stiffness(dense, tsit5: diffrax.Tsit5) -> Array:
     weights[: a_stage6.shape[0]] += -a_stage6  # y₁ − Y₆ = Σⱼ (bⱼ − a₆ⱼ) kⱼ
 
     def leaf_sums(k):
-        # Σⱼ wⱼ kⱼ written out (the sum a dot product takes, in its order): elementwise, it fuses
-        # with the squares below, where a `tensordot` is a kernel of its own to compile.
+        # Σⱼ wⱼ kⱼ written out in a dot product's order (bitwise the `tensordot` it replaces on
+        # XLA:CPU): elementwise, it fuses with the squares below, where a dot is a kernel of its
+        # own to compile.
         w = weights.astype(k.dtype)
         difference = w[0] * k[0]
         for j in range(1, w.shape[0]):
