@@ -89,6 +89,55 @@ def test_elastic_force_is_minus_the_energy_gradient_and_damping_dissipates():
     np.testing.assert_array_equal(contact.force(chain, jnp.zeros(3), jnp.zeros(3)), 0.0)
 
 
+def test_net_contact_force_against_a_point_by_point_world_sum():
+    # The kernel works per body pair in the face's frame; the reference goes point by point in the
+    # world frame (NumPy): the elastic part from the energy's autodiff gradient, the damping
+    # −c w a(g) ġ ∂g/∂z n_b with ġ from the two bodies' material velocities at the point. States:
+    # the closed cube perturbed, so that many pairs are in contact. Tolerance: rounding of sums of
+    # barrier forces that grow steeply as the gap closes (1e-10 relative).
+    from origami_jax.contact import smoothstep
+    from origami_jax.net import load_net
+
+    system = load_net("cube_net_01").system(HingeDesign.literature(fluid=KOH_SOLUTION))
+    contact, tree = system.contact, system.mechanism
+    tables = contact.tables
+    points = tables.points
+    target = np.asarray(system.hinges.target)
+    rng = np.random.default_rng(3)
+    force_jit = jax.jit(lambda q, v: contact.force(tree, q, v))
+    elastic_jit = jax.jit(jax.grad(lambda q: -contact.potential(tree, q)))
+    pressed = 0
+    for _ in range(4):
+        q = jnp.asarray(target * rng.uniform(0.97, 1.06, target.shape))
+        v = jnp.asarray(rng.normal(0.0, 0.05, target.shape))
+        poses = np.concatenate([np.asarray(tree.body_poses(q)), tables.base_pose[None]])
+        twists = np.concatenate([np.asarray(tree.spatial_velocities(q, v)), np.zeros((1, 6))])
+        gap, coverage = (np.asarray(x) for x in contact.gaps(tree, q))
+        activation = float(contact.activation)
+        wrenches = np.zeros((len(poses), 6))
+        for a, b, i in zip(*np.nonzero(tables.pairs), strict=True):
+            if coverage[a, b, i] == 0:
+                continue
+            x = poses[a, :3, :3] @ points[a, i] + poses[a, :3, 3]
+            z = poses[b, :3, :3].T @ (x - poses[b, :3, 3])
+            normal = poses[b, :3, 2]
+            relative = (twists[a, :3] + np.cross(twists[a, 3:], x)) - (
+                twists[b, :3] + np.cross(twists[b, 3:], x)
+            )
+            slope = z[2] / np.sqrt(z[2] ** 2 + (1e-6 * activation) ** 2)
+            rate = slope * (normal @ relative)
+            engaged = coverage[a, b, i] * float(smoothstep(1 - gap[a, b, i] / activation))
+            f = -float(contact.damping) * engaged * rate * slope * normal
+            wrenches[a] += np.concatenate([f, np.cross(x, f)])
+            wrenches[b] -= np.concatenate([f, np.cross(x, f)])
+        damping = np.asarray(tree.apply_wrenches(q, jnp.asarray(wrenches[: tables.n_bodies])))
+        reference = np.asarray(elastic_jit(q)) + damping
+        ours = np.asarray(force_jit(q, v))
+        pressed += int(np.max(np.abs(reference)) > 0)
+        np.testing.assert_allclose(ours, reference, rtol=1e-10, atol=1e-10 * np.max(np.abs(ours)))
+    assert pressed >= 3  # the states are in contact
+
+
 @pytest.mark.slow  # energy balance through contact is also checked by the accordion stack below
 def test_flap_rebounds_from_the_base_without_gaining_energy():
     # One flap, no drag, a weak hinge holding it at 90°, launched towards the base (θ → π).
