@@ -73,6 +73,21 @@ def smoothstep(x: Float[ArrayLike, "..."]) -> Float[Array, "..."]:
     return x**3 * (10 - 15 * x + 6 * x**2)
 
 
+def _barrier_slope(x):
+    """``B'(x)`` of `barrier` (its derivative, piece by piece)."""
+    inside = (x > _X_MIN) & (x < 1)
+    safe = jnp.where(inside, x, 0.5)
+    log_slope = -2 * (safe - 1) * jnp.log(safe) - (safe - 1) ** 2 / safe
+    taylor = _DB_MIN + _D2B_MIN * (x - _X_MIN)
+    return jnp.where(x >= 1, 0.0, jnp.where(inside, log_slope, taylor))
+
+
+def _smoothstep_slope(x):
+    """The derivative of `smoothstep`: ``30 x²(1 − x)²`` on ``[0, 1]``, 0 outside."""
+    x = jnp.clip(x, 0.0, 1.0)
+    return 30 * x**2 * (1 - x) ** 2
+
+
 class PanelContact(AbstractContact):
     """Contact between the panels of a mechanism and its fixed base (module docstring: the model).
 
@@ -273,24 +288,41 @@ class PanelContact(AbstractContact):
         half_sum = half[:, None, None] + half[None, :, None]
         tiny = 1e-6 * self.activation
 
-        def terms(x, y, z):
-            coverage = 1.0
-            for k in range(edges.shape[1]):
-                a, b, c = (edges[None, :, k, j, None] for j in range(3))  # (1, b, 1)
-                coverage = coverage * smoothstep((a * x + b * y + c) / self.edge_width)
-            coverage = jnp.where(mask, coverage, 0.0)
-            root = jnp.sqrt(z**2 + tiny**2)
-            gap = root - tiny - half_sum
-            energy = self.stiffness * coverage * barrier(gap / self.activation)
-            return energy, (gap, z / root, coverage)
-
-        def total(x, y, z):
-            energy, aux = terms(x, y, z)
-            return jnp.sum(energy), (energy, aux)
-
-        gradient, (energy, (gap, dgap_dz, coverage)) = jax.grad(
-            total, argnums=(0, 1, 2), has_aux=True
-        )(*local)
+        # The gradient by hand (the chain rule through the coverage's product of edge ramps and the
+        # barrier), which has about half the operations of reverse-mode autodiff of the energy.
+        x, y, z = local
+        steps, slopes, normals = [], [], []
+        for k in range(edges.shape[1]):
+            a, b, c = (edges[None, :, k, j, None] for j in range(3))  # (1, b, 1)
+            inward = (a * x + b * y + c) / self.edge_width
+            steps.append(smoothstep(inward))
+            slopes.append(_smoothstep_slope(inward) / self.edge_width)
+            normals.append((a, b))
+        # Products of all ramps but one, from running products from either end.
+        before, after = [1.0], [1.0]
+        for s_k in steps[:-1]:
+            before.append(before[-1] * s_k)
+        for s_k in steps[:0:-1]:
+            after.append(after[-1] * s_k)
+        after.reverse()
+        coverage = jnp.where(mask, before[-1] * steps[-1], 0.0)
+        dcover_dx = sum(
+            p * q * d * n[0] for p, q, d, n in zip(before, after, slopes, normals, strict=True)
+        )
+        dcover_dy = sum(
+            p * q * d * n[1] for p, q, d, n in zip(before, after, slopes, normals, strict=True)
+        )
+        root = jnp.sqrt(z**2 + tiny**2)
+        gap = root - tiny - half_sum
+        dgap_dz = z / root
+        ratio = gap / self.activation
+        level = self.stiffness * barrier(ratio)
+        energy = coverage * level
+        gradient = (
+            jnp.where(mask, level * dcover_dx, 0.0),
+            jnp.where(mask, level * dcover_dy, 0.0),
+            coverage * self.stiffness * _barrier_slope(ratio) / self.activation * dgap_dz,
+        )
         return energy, gradient, gap, dgap_dz, coverage
 
     def gaps(
