@@ -278,6 +278,14 @@ class PanelContact(AbstractContact):
             local.append(jnp.broadcast_to(value, self.tables.pairs.shape))
         return rotation, origin, tuple(local)
 
+    def _coverage(self, x, y):
+        """Coverage ``w`` of face-frame positions `(a, b, i)` (zero for pairs not checked)."""
+        coverage = 1.0
+        for k in range(self.tables.face_edges.shape[1]):
+            a, b, c = (self.tables.face_edges[None, :, k, j, None] for j in range(3))
+            coverage = coverage * smoothstep((a * x + b * y + c) / self.edge_width)
+        return jnp.where(self.tables.pairs, coverage, 0.0)
+
     def _pair_terms(self, local):
         """Per pair `(a, b, i)`: the energy ``κ w B(g/ĝ)``, its gradient in the face frame (a
         component tuple), the gap, its derivative along the face normal, and the coverage (zero for
@@ -371,15 +379,18 @@ class PanelContact(AbstractContact):
         return mechanism.apply_wrenches(q, wrenches[: self.tables.n_bodies])
 
     def crossed(self, mechanism, q0, q1) -> Array:
-        """Whether some sample point that lies over a face (coverage > 0) at ``q0`` or ``q1`` is on
-        opposite sides of that face's mid-plane at the two: a panel passed through another between
-        the two states (boolean scalar)."""
-        _, _, local0 = self._local(mechanism, q0)
-        _, _, local1 = self._local(mechanism, q1)
-        _, _, _, _, cover0 = self._pair_terms(local0)
-        _, _, _, _, cover1 = self._pair_terms(local1)
-        flipped = local0[2] * local1[2] < 0
-        return jnp.any(flipped & ((cover0 > 0) | (cover1 > 0)))
+        """Whether some sample point crosses the mid-plane of a face between ``q0`` and ``q1`` at a
+        place where it lies over that face (coverage > ½, as `report` counts it; the place from the
+        straight path between the point's two positions in the face's frame): a panel passed
+        through another (boolean scalar). A point that passes a face's plane beside its edge, or
+        in the outer half of its edge ramp, where the barrier holds it only weakly, does not count:
+        edges meeting edges are not resolved by the model (module docstring)."""
+        _, _, (x0, y0, z0) = self._local(mechanism, q0)
+        _, _, (x1, y1, z1) = self._local(mechanism, q1)
+        flipped = z0 * z1 < 0
+        s = z0 / jnp.where(flipped, z0 - z1, 1.0)
+        coverage = self._coverage(x0 + s * (x1 - x0), y0 + s * (y1 - y0))
+        return jnp.any(flipped & (coverage > 0.5))
 
     def engaged_points(
         self, mechanism: AbstractMechanism, q: Float[Array, " nq"]
