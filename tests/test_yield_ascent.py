@@ -357,6 +357,13 @@ def test_yield_ascent_checks_before_compiling():
         (["--improve", "2", "--improve-parameters", "stress"], "unknown parameter 'stress'"),
         (["--improve-parameters", "misfit_strain"], "needs --improve STEPS"),
         (["--improve", "2", "--resume"], "cannot resume an ascent"),
+        (["--process", "stress=0.01"], "--process expects NAME=VALUE with NAME one of"),
+        (["--process", "release=1"], "--process expects NAME=VALUE"),
+        (["--process", "misfit_strain=-0.01"], "misfit_strain must be finite and positive"),
+        (["--process", "hinge_width=1,2,3"], "hinge_width must be a number or one per crease (2)"),
+        (["--process", "t_structural=0.2,0.2"], "t_structural must be a number, got shape"),
+        (["--process", "t_hinge=x"], "--process t_hinge expects comma-separated numbers"),
+        (["--process", "t_hinge=0.1", "--process", "t_hinge=0.2"], "t_hinge is given twice"),
     ],
 )
 def test_cli_improve_refuses_bad_flags_before_compiling(tmp_path, capsys, extra, message):
@@ -367,6 +374,26 @@ def test_cli_improve_refuses_bad_flags_before_compiling(tmp_path, capsys, extra,
     err = capsys.readouterr().err
     assert message in err and len(err.strip().splitlines()) == 1, err
     assert not (tmp_path / "out" / "sweep.json").exists()
+
+
+def test_cli_process_reaches_the_estimate_and_the_ascent(tmp_path, capsys, monkeypatch):
+    # The plumbing only (the estimate itself is replaced): --process values arrive as the nominal
+    # process of the estimate (and, through the same options, of --improve's start).
+    import origami_jax.fab_yield as fab_yield
+    from origami_jax.cli import main
+
+    seen = {}
+
+    def fake_estimate(net, scatter, **options):
+        seen.update(options)
+        raise RuntimeError("stop here")
+
+    monkeypatch.setattr(fab_yield, "yield_estimate", fake_estimate)
+    argv = ["yield", "corner_cube", "--samples", "4", "--out", str(tmp_path / "out")]
+    argv += ["--process", "misfit_strain=0.0105", "--process", "hinge_width=2.5,3"]
+    assert main(argv) == 1
+    assert "stop here" in capsys.readouterr().err
+    assert seen["process"] == {"misfit_strain": 0.0105, "hinge_width": [2.5, 3.0]}
 
 
 @pytest.mark.slow  # two or three estimates of 8 corner cubes with contact (~3-15 min)

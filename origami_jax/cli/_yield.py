@@ -40,6 +40,12 @@ t_structural, drag_coefficient, release) with distribution ("normal", "lognormal
 thicknesses 2.5 %, hinge width 0.5 µm; see origami_jax.fab_yield.Scatter), `defaults = false` at the
 top switches those off. Without --scatter the defaults are used.
 
+--process NAME=VALUE sets a nominal fabrication value the scatter is drawn about (repeatable;
+NAME one of misfit_strain, t_hinge, hinge_width, t_structural, drag_coefficient; VALUE one number,
+or one per crease, comma-separated, for the per-crease ones; µm for thicknesses and widths), e.g.
+--process misfit_strain=0.00297 for a film 5 % more stressed than the design's 0.00283: where the
+estimate, the --widths and the --improve ascent start (default the design's values).
+
 --release T1,T2,... (µs, one per crease) or --etch-front DX,DY,SPEED set the nominal release times,
 the folding order (the release scatter is added to them); e.g. for examples/two_flaps.fold,
 --etch-front 1,0,2 frees the left flap 150 µs before the right one.
@@ -81,6 +87,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--samples", type=int, default=100, help="nets to draw (default 100)")
     parser.add_argument("--seed", type=int, default=0, help="seed of the draws (default 0)")
     parser.add_argument("--scatter", type=Path, default=None, help="scatter config (TOML)")
+    parser.add_argument(
+        "--process",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="a nominal fabrication value (repeatable; e.g. misfit_strain=0.00297 or "
+        "hinge_width=2,2,2,2,2 in µm): where the scatter is centred and --improve starts",
+    )
     parser.add_argument("--fluid", choices=("air", "koh"), default="koh", help="default koh")
     parser.add_argument("--t-end", type=float, default=1500.0, help="simulated time, µs (1500)")
     parser.add_argument(
@@ -168,6 +182,40 @@ def _numbers(text: str | None, flag: str) -> list[float] | None:
         fail(f"{flag} expects comma-separated numbers, got {text!r}.")
     if not values or not all(math.isfinite(v) for v in values):
         fail(f"{flag} expects comma-separated finite numbers, got {text!r}.")
+    return values
+
+
+def _process(entries: list[str], net: str) -> dict | None:
+    """The --process nominal values, checked against the net's crease count before anything
+    compiles (None without --process)."""
+    if not entries:
+        return None
+    from ..fab_yield import PARAMETERS
+    from ..fab_yield._estimate import _process as check_process
+    from ..net import load_net
+
+    known = [n for n in PARAMETERS if n != "release"]
+    values: dict = {}
+    for entry in entries:
+        name, sep, text = entry.partition("=")
+        name = name.strip()
+        if not sep or name not in known:
+            fail(
+                f"--process expects NAME=VALUE with NAME one of {', '.join(known)} (release times: "
+                f"--release or --etch-front), got {entry!r}."
+            )
+        if name in values:
+            fail(f"--process {name} is given twice.")
+        numbers = _numbers(text, f"--process {name}")
+        values[name] = numbers[0] if len(numbers) == 1 else numbers
+    try:
+        n_creases = load_net(net).n_creases
+    except (ValueError, OSError) as error:
+        fail(f"cannot load {net}: {error}")
+    try:
+        check_process(values, n_creases)
+    except ValueError as error:
+        fail(f"--{error}")
     return values
 
 
@@ -274,6 +322,7 @@ def run(args: argparse.Namespace) -> int:
         except ValueError as error:
             fail(f"--etch-front: {error}")
     improve = _improve_parameters(args, scatter)
+    process = _process(args.process, args.net)
     out = check_out_folder(Path(args.out))
     design = HingeDesign.literature(fluid=KOH_SOLUTION if args.fluid == "koh" else AIR)
     print(
@@ -289,6 +338,7 @@ def run(args: argparse.Namespace) -> int:
         seed=args.seed,
         design=design,
         release_times=release,
+        process=process,
         t_end=args.t_end,
         angle_tolerance_deg=args.angle_tolerance,
         seam_tolerance=args.seam_tolerance,
@@ -335,6 +385,7 @@ def run(args: argparse.Namespace) -> int:
         "net": args.net,
         "fluid": args.fluid,
         "release_us": None if release is None else [float(t) for t in release],
+        "process": process,
         "t_end_us": args.t_end,
         **estimate.to_dict(),
         "compile_s": float(ds.attrs.get("compile_s", 0.0)),

@@ -17,7 +17,6 @@ number value.
 """
 
 import equinox as eqx
-import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
@@ -104,19 +103,61 @@ class PanelDrag(AbstractDrag):
         return cls(quadrature, coefficient, check_finite(density, "density"), float(scale))
 
     def force(self, mechanism, q, v):
+        # Each panel in its own frame: a point ``p`` (normal ``n``) of a body moving with body-frame
+        # twist ``(u, w)`` about the body origin has normal speed ``n·u + (p × n)·w``, and its pressure
+        # force ``f n`` has moment ``f (p × n)`` about that origin; so the per-point work is a few
+        # multiply-adds on arrays of points (`_by_body`: bodies × points, the points minor), with no
+        # per-point rotation and one world wrench per body at the end.
         poses = mechanism.body_poses(q)
-        body = np.asarray(self.quadrature.body)
-        rotations, origins = poses[body, :3, :3], poses[body, :3, 3]
-        positions = jnp.einsum("pij,pj->pi", rotations, self.quadrature.points) + origins
-        normals = jnp.einsum("pij,pj->pi", rotations, self.quadrature.normals)
-        twist = mechanism.spatial_velocities(q, v)[body]  # (p, 6): (v_O, ω) of each point's body
-        velocity = twist[:, :3] + jnp.cross(twist[:, 3:], positions)
-        normal_speed = jnp.sum(velocity * normals, axis=-1)
-        coefficient = jnp.broadcast_to(self.coefficient, (mechanism.n_bodies,))[body]
+        twists = mechanism.spatial_velocities(q, v)
+        rotation, origin = poses[:, :3, :3], poses[:, :3, 3]
+        linear, angular = twists[:, :3], twists[:, 3:]
+        # Body-frame twist about the body origin: u = Rᵀ(v_O + ω × o), w = Rᵀ ω; `(n,)` components.
+        u = _components(jnp.einsum("bji,bj->bi", rotation, linear + jnp.cross(angular, origin)))
+        w = _components(jnp.einsum("bji,bj->bi", rotation, angular))
+        points, normals, weights = _by_body(self.quadrature, mechanism.n_bodies)
+        lever = _cross(points, normals)  # p × n, body frame
+        normal_speed = sum(
+            n_k * u_k[:, None] + c_k * w_k[:, None]
+            for n_k, c_k, u_k, w_k in zip(normals, lever, u, w, strict=True)
+        )
+        coefficient = jnp.broadcast_to(self.coefficient, (mechanism.n_bodies,))[:, None]
         pressure = (
             -0.5 * self.scale * coefficient * self.density * normal_speed * jnp.abs(normal_speed)
-        )
-        point_force = (pressure * self.quadrature.weights)[:, None] * normals
-        wrench = jnp.concatenate([point_force, jnp.cross(positions, point_force)], axis=-1)
-        per_body = jax.ops.segment_sum(wrench, body, num_segments=mechanism.n_bodies)
-        return mechanism.apply_wrenches(q, per_body)
+        ) * weights  # (n, k): force along the point's normal
+        force_body = jnp.stack([jnp.sum(pressure * n_k, axis=1) for n_k in normals], axis=-1)
+        moment_body = jnp.stack([jnp.sum(pressure * c_k, axis=1) for c_k in lever], axis=-1)
+        force = jnp.einsum("bij,bj->bi", rotation, force_body)
+        moment = jnp.einsum("bij,bj->bi", rotation, moment_body) + jnp.cross(origin, force)
+        return mechanism.apply_wrenches(q, jnp.concatenate([force, moment], axis=-1))
+
+
+def _components(x: Float[Array, "n 3"]) -> tuple[Array, Array, Array]:
+    return x[:, 0], x[:, 1], x[:, 2]
+
+
+def _cross(a, b):
+    return (
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    )
+
+
+def _by_body(quadrature: PanelQuadrature, n_bodies: int):
+    """The quadrature by body, `(n, k)` per component (points, normals) and for the weights, padded
+    with zero weights to the largest body's count `k` (static layout from `quadrature.body`)."""
+    body = np.asarray(quadrature.body, dtype=np.int64)
+    counts = np.bincount(body, minlength=n_bodies)
+    width = max(int(counts.max()), 1)
+    index = np.zeros((n_bodies, width), np.int64)
+    valid = np.zeros((n_bodies, width), bool)
+    for b in range(n_bodies):
+        rows = np.flatnonzero(body == b)
+        index[b, : len(rows)] = rows
+        valid[b, : len(rows)] = True
+    points = quadrature.points[index]  # (n, k, 3)
+    normals = quadrature.normals[index]
+    weights = jnp.where(valid, quadrature.weights[index], 0.0)
+    split = lambda x: (x[..., 0], x[..., 1], x[..., 2])  # noqa: E731
+    return split(points), split(normals), weights

@@ -4,8 +4,8 @@ Contact forces act over a thin layer (the activation gap on either side of a pan
 carries a point across that whole layer sees no force at either end: the panel would tunnel through.
 The guard checks every accepted candidate step the way continuous collision detection does in
 Incremental Potential Contact (Li et al., 2020), with the step's end points in place of a line search:
-if a sample point that lies over a face at either end of the step is on the other side of that face's
-mid-plane at the other end, the step is rejected and retried at half the size. Accepted steps are
+if a sample point crosses a face's mid-plane between the step's ends where it lies over the face
+(`PanelContact.crossed`), the step is rejected and retried at half the size. Accepted steps are
 those of the wrapped controller, so accuracy control is unchanged; only tunnelling steps are refused.
 """
 
