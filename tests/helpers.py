@@ -1,4 +1,9 @@
-"""Tree-aware comparisons for tests."""
+"""Tree-aware comparisons and other shared pieces for tests."""
+
+import json
+import subprocess
+import sys
+import textwrap
 
 import equinox as eqx
 import jax
@@ -50,3 +55,17 @@ def make_system(chain, stiffness, drag, target=None, radius=1.0, release_time=No
     )
     drag = jnp.broadcast_to(jnp.asarray(drag, dtype=float), (n,))
     return FoldingSystem(chain, hinges, HingeDrag(drag))
+
+
+def run_python(code: str, env: dict[str, str], *argv: str):
+    """Run `code` (dedented) in a fresh Python process with environment `env` and arguments `argv`;
+    its last line of output, read as JSON (the process must succeed within 5 minutes)."""
+    process = subprocess.run(
+        [sys.executable, "-c", textwrap.dedent(code), *argv],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=300,
+    )
+    assert process.returncode == 0, process.stderr[-3000:]
+    return json.loads(process.stdout.strip().splitlines()[-1])

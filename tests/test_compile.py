@@ -6,7 +6,6 @@ a program loaded from disk instead of compiled) and the jit caches of the public
 new entry is a new trace and compile).
 """
 
-import json
 import os
 import subprocess
 import sys
@@ -25,6 +24,8 @@ from origami_jax._cache import CACHE_ENV, _requested, default_cache_dir
 from origami_jax.chain import accordion_system
 from origami_jax.system import HingeDesign
 
+from .helpers import run_python
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -34,18 +35,6 @@ def _environment(tmp_path: Path, **extra: str) -> dict[str, str]:
     env = {k: v for k, v in os.environ.items() if k not in ("JAX_COMPILATION_CACHE_DIR", CACHE_ENV)}
     env.update(PYTHONPATH=str(ROOT), XDG_CACHE_HOME=str(tmp_path / "xdg"), **extra)
     return env
-
-
-def _run_python(code: str, env: dict[str, str]) -> dict:
-    process = subprocess.run(
-        [sys.executable, "-c", textwrap.dedent(code)],
-        capture_output=True,
-        text=True,
-        env=env,
-        timeout=300,
-    )
-    assert process.returncode == 0, process.stderr[-3000:]
-    return json.loads(process.stdout.strip().splitlines()[-1])
 
 
 # ---- the persistent cache -----------------------------------------------------------------------
@@ -76,12 +65,12 @@ _COUNT_CACHE_EVENTS = """
 def test_a_second_process_loads_what_the_first_compiled(tmp_path):
     cache = tmp_path / "cache"
     env = _environment(tmp_path, **{CACHE_ENV: str(cache)})
-    first = _run_python(_COUNT_CACHE_EVENTS, env)
+    first = run_python(_COUNT_CACHE_EVENTS, env)
     assert first["folder"] == first["config"] == str(cache)
     assert first["hits"] == 0 and first["misses"] >= 1
     written = sorted(p.name for p in cache.iterdir() if p.name.endswith("-cache"))
     assert any(name.startswith("jit_f-") for name in written), written
-    second = _run_python(_COUNT_CACHE_EVENTS, env)
+    second = run_python(_COUNT_CACHE_EVENTS, env)
     # Every program of the first run is loaded, none compiled again.
     assert second["hits"] == first["misses"] and second["misses"] == 0, (first, second)
     assert sorted(p.name for p in cache.iterdir() if p.name.endswith("-cache")) == written
@@ -89,7 +78,7 @@ def test_a_second_process_loads_what_the_first_compiled(tmp_path):
 
 def test_the_cache_can_be_turned_off(tmp_path):
     env = _environment(tmp_path, **{CACHE_ENV: "0"})
-    off = _run_python(_COUNT_CACHE_EVENTS, env)
+    off = run_python(_COUNT_CACHE_EVENTS, env)
     assert off["folder"] is None and off["config"] is None
     assert off["hits"] == off["misses"] == 0
     assert not (tmp_path / "xdg").exists()
@@ -105,12 +94,12 @@ def test_the_command_line_turns_it_on_in_the_user_cache_folder(tmp_path):
                           "min_time": jax.config.jax_persistent_cache_min_compile_time_secs,
                           "equinox": "equinox" in sys.modules}))
     """
-    out = _run_python(code, _environment(tmp_path))
+    out = run_python(code, _environment(tmp_path))
     assert out["dir"] == str(tmp_path / "xdg" / "origami_jax" / "jax")
     assert out["x64"] and out["min_time"] == 0.0 and not out["equinox"]
     # A folder JAX was given is kept.
     mine = tmp_path / "mine"
-    out = _run_python(code, _environment(tmp_path, JAX_COMPILATION_CACHE_DIR=str(mine)))
+    out = run_python(code, _environment(tmp_path, JAX_COMPILATION_CACHE_DIR=str(mine)))
     assert out["dir"] == str(mine)
 
 
@@ -132,8 +121,8 @@ def test_the_simulate_command_stores_its_solve(tmp_path):
     assert sorted(p.name for p in out.glob("step_*")) == ["step_angles.png", "step_frames.png"]
     code = "import equinox._config as c, json; print(json.dumps(c.EQX_ON_ERROR))"
     probe = "from origami_jax.cli._common import setup_runtime; setup_runtime('simulate'); " + code
-    assert _run_python(probe, env) == "nan"
-    assert _run_python(code, env) == "raise"  # the library's own default is left alone
+    assert run_python(probe, env) == "nan"
+    assert run_python(code, env) == "raise"  # the library's own default is left alone
 
 
 @pytest.mark.slow  # two CLI runs in subprocesses
@@ -318,7 +307,7 @@ def test_start_up_imports_nothing_heavy(statement, tmp_path):
         + textwrap.indent(statement, "    ")
         + f"\nprint(json.dumps(sorted({{m.split('.')[0] for m in sys.modules}} & {set(_HEAVY)!r})))"
     )
-    assert _run_python(code, _environment(tmp_path)) == []
+    assert run_python(code, _environment(tmp_path)) == []
 
 
 # ---- figures ------------------------------------------------------------------------------------

@@ -6,11 +6,7 @@ process equinox raises its runtime errors through Python callbacks, which no exp
 hold, and JAX keeps the traces it made here for the rest of the test session.
 """
 
-import json
 import os
-import subprocess
-import sys
-import textwrap
 
 import diffrax
 import equinox._errors
@@ -18,6 +14,8 @@ import jax
 import jax.numpy as jnp
 
 from origami_jax import _exported
+
+from .helpers import run_python
 
 _RUN = """
     import hashlib, json, sys
@@ -56,15 +54,7 @@ _RUN = """
 def _process(folder) -> dict:
     env = {k: v for k, v in os.environ.items() if k != "JAX_COMPILATION_CACHE_DIR"}
     env["EQX_ON_ERROR"] = "nan"
-    process = subprocess.run(
-        [sys.executable, "-c", textwrap.dedent(_RUN), str(folder)],
-        capture_output=True,
-        text=True,
-        env=env,
-        timeout=300,
-    )
-    assert process.returncode == 0, process.stderr[-3000:]
-    return json.loads(process.stdout.strip().splitlines()[-1])
+    return run_python(_RUN, env, str(folder))
 
 
 def test_a_later_process_runs_the_exported_solve_without_tracing_it(tmp_path):

@@ -278,19 +278,27 @@ class PanelContact(AbstractContact):
             local.append(jnp.broadcast_to(value, self.tables.pairs.shape))
         return rotation, origin, tuple(local)
 
+    def _edge_distances(self, x, y):
+        """Per edge of every face, the inward distance of face-frame positions `(a, b, i)` in units
+        of the ramp width ``δ``, with the edge's inward normal ``(a, b)`` as `(1, b, 1)` constants."""
+        edges = self.tables.face_edges  # host (b, e, 3)
+        rows = []
+        for k in range(edges.shape[1]):
+            a, b, c = (edges[None, :, k, j, None] for j in range(3))
+            rows.append(((a * x + b * y + c) / self.edge_width, (a, b)))
+        return rows
+
     def _coverage(self, x, y):
         """Coverage ``w`` of face-frame positions `(a, b, i)` (zero for pairs not checked)."""
         coverage = 1.0
-        for k in range(self.tables.face_edges.shape[1]):
-            a, b, c = (self.tables.face_edges[None, :, k, j, None] for j in range(3))
-            coverage = coverage * smoothstep((a * x + b * y + c) / self.edge_width)
+        for inward, _ in self._edge_distances(x, y):
+            coverage = coverage * smoothstep(inward)
         return jnp.where(self.tables.pairs, coverage, 0.0)
 
     def _pair_terms(self, local):
         """Per pair `(a, b, i)`: the energy ``κ w B(g/ĝ)``, its gradient in the face frame (a
         component tuple), the gap, its derivative along the face normal, and the coverage (zero for
         pairs not checked)."""
-        edges = self.tables.face_edges  # host (b, e, 3)
         mask = self.tables.pairs
         half = self.half_thickness.astype(local[0].dtype)
         half_sum = half[:, None, None] + half[None, :, None]
@@ -300,12 +308,10 @@ class PanelContact(AbstractContact):
         # barrier), which has about half the operations of reverse-mode autodiff of the energy.
         x, y, z = local
         steps, slopes, normals = [], [], []
-        for k in range(edges.shape[1]):
-            a, b, c = (edges[None, :, k, j, None] for j in range(3))  # (1, b, 1)
-            inward = (a * x + b * y + c) / self.edge_width
+        for inward, normal in self._edge_distances(x, y):
             steps.append(smoothstep(inward))
             slopes.append(_smoothstep_slope(inward) / self.edge_width)
-            normals.append((a, b))
+            normals.append(normal)
         # Products of all ramps but one, from running products from either end.
         before, after = [1.0], [1.0]
         for s_k in steps[:-1]:

@@ -22,6 +22,7 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from .._validate import as_float_array, check_finite, check_positive
+from ..net import _soa as soa
 from ..system import AbstractDrag, AbstractMechanism
 from ._quadrature import polygon_quadrature
 
@@ -112,15 +113,12 @@ class PanelDrag(AbstractDrag):
         twists = mechanism.spatial_velocities(q, v)
         rotation, origin = poses[:, :3, :3], poses[:, :3, 3]
         linear, angular = twists[:, :3], twists[:, 3:]
-        # Body-frame twist about the body origin: u = Rᵀ(v_O + ω × o), w = Rᵀ ω; `(n,)` components.
-        u = _components(jnp.einsum("bji,bj->bi", rotation, linear + jnp.cross(angular, origin)))
-        w = _components(jnp.einsum("bji,bj->bi", rotation, angular))
+        # Body-frame twist about the body origin: u = Rᵀ(v_O + ω × o), w = Rᵀ ω; `(n, 1)` components.
+        u = soa.vec(jnp.einsum("bji,bj->bi", rotation, linear + jnp.cross(angular, origin)), 1)
+        w = soa.vec(jnp.einsum("bji,bj->bi", rotation, angular), 1)
         points, normals, weights = _by_body(self.quadrature, mechanism.n_bodies)
-        lever = _cross(points, normals)  # p × n, body frame
-        normal_speed = sum(
-            n_k * u_k[:, None] + c_k * w_k[:, None]
-            for n_k, c_k, u_k, w_k in zip(normals, lever, u, w, strict=True)
-        )
+        lever = soa.cross(points, normals)  # p × n, body frame
+        normal_speed = soa.dot(normals, u) + soa.dot(lever, w)
         coefficient = jnp.broadcast_to(self.coefficient, (mechanism.n_bodies,))[:, None]
         pressure = (
             -0.5 * self.scale * coefficient * self.density * normal_speed * jnp.abs(normal_speed)
@@ -130,18 +128,6 @@ class PanelDrag(AbstractDrag):
         force = jnp.einsum("bij,bj->bi", rotation, force_body)
         moment = jnp.einsum("bij,bj->bi", rotation, moment_body) + jnp.cross(origin, force)
         return mechanism.apply_wrenches(q, jnp.concatenate([force, moment], axis=-1))
-
-
-def _components(x: Float[Array, "n 3"]) -> tuple[Array, Array, Array]:
-    return x[:, 0], x[:, 1], x[:, 2]
-
-
-def _cross(a, b):
-    return (
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    )
 
 
 def _by_body(quadrature: PanelQuadrature, n_bodies: int):
@@ -159,5 +145,4 @@ def _by_body(quadrature: PanelQuadrature, n_bodies: int):
     points = quadrature.points[index]  # (n, k, 3)
     normals = quadrature.normals[index]
     weights = jnp.where(valid, quadrature.weights[index], 0.0)
-    split = lambda x: (x[..., 0], x[..., 1], x[..., 2])  # noqa: E731
-    return split(points), split(normals), weights
+    return soa.vec(points), soa.vec(normals), weights
