@@ -8,15 +8,16 @@ script, where compile time goes, and a notebook's rerun after a parameter change
   Pinocchio (`pin.aba` plus hinge springs and quadratic drag), `solve_ivp(method="LSODA")` over the
   same 2000 µs and 2001 samples, a CSV, the angle plot, and a 24-frame GIF of the panels with
   matplotlib. Also a new process, timed the same way.
-- **Where compile time goes** (in this process, no persistent cache): the first `simulate` call and
-  the first reverse-mode gradient of a metric through it, split with JAX's monitoring events into
+- **Where compile time goes** (in this process, no persistent cache): the first `simulate` call,
+  the first reverse-mode gradient of a metric through it and its first forward-mode derivative
+  (`diffrax.ForwardMode`), split with JAX's monitoring events into
   tracing (Python to jaxpr), lowering (jaxpr to StableHLO) and XLA compilation.
 - **Notebook:** after those, a parameter change followed by a new step response, and a new
   gradient, in the same process.
 - **`design` and `unfold`:** their first calls in the same process (programs they share with the
   rows above are already compiled), split the same way.
 
-Run: `python -m benchmarks.bench_compile` (about 3-6 minutes on 2 cores); `python -m benchmarks
+Run: `python -m benchmarks.bench_compile [--repeats N]` (about 1-6 minutes on 2 cores); `python -m benchmarks
 --only compile` gives the same rows in the suite's format.
 """
 
@@ -205,8 +206,9 @@ def _staged(call):
 
 
 def in_process() -> dict[str, dict]:
-    """First `simulate` and first reverse-mode gradient with their stages, then reruns after a
-    parameter change (the notebook case)."""
+    """First `simulate`, first reverse-mode gradient and first forward-mode derivative with their
+    stages, then reruns after a parameter change (the notebook case)."""
+    import diffrax
     import jax
     import jax.numpy as jnp
 
@@ -216,24 +218,31 @@ def in_process() -> dict[str, dict]:
 
     jax.config.update("jax_enable_x64", True)
 
-    def response(k_scale):
+    def response(k_scale, adjoint=None):
         system = accordion_system(HingeDesign.literature(k_scale=k_scale), 3)
-        return sim.simulate(system, sim.Step(), t1=2000.0).theta
+        return sim.simulate(system, sim.Step(), t1=2000.0, adjoint=adjoint).theta
 
-    def overshoot_like(k_scale):
+    def overshoot_like(k_scale, adjoint=None):
         # A smooth metric of the response: the mean square angle of joint 1 over the run.
-        return jnp.mean(response(k_scale)[:, 0] ** 2)
+        return jnp.mean(response(k_scale, adjoint)[:, 0] ** 2)
 
     gradient = jax.grad(overshoot_like)
+    # Forward mode: the derivative of the same metric by one tangent (a design fit's Jacobian
+    # columns), traced through the solve's forward-mode path.
+    tangent = jax.jacfwd(lambda k: overshoot_like(k, diffrax.ForwardMode()))
     rows = {}
     wall, stages = _staged(lambda: response(jnp.asarray(1.0)))
     rows["simulate, first call"] = {"wall": wall, **stages}
     wall, stages = _staged(lambda: gradient(jnp.asarray(1.0)))
     rows["reverse-mode gradient, first call"] = {"wall": wall, **stages}
+    wall, stages = _staged(lambda: tangent(jnp.asarray(1.0)))
+    rows["forward-mode derivative, first call"] = {"wall": wall, **stages}
     wall, stages = _staged(lambda: response(jnp.asarray(1.3)))
     rows["simulate after a parameter change"] = {"wall": wall, **stages}
     wall, stages = _staged(lambda: gradient(jnp.asarray(1.3)))
     rows["gradient after a parameter change"] = {"wall": wall, **stages}
+    wall, stages = _staged(lambda: tangent(jnp.asarray(1.3)))
+    rows["forward-mode derivative after a parameter change"] = {"wall": wall, **stages}
     rows.update(first_calls_of_design_and_unfold())
     return rows
 
@@ -294,8 +303,20 @@ def run(quick: bool) -> list[Result]:
     return rows
 
 
-def main() -> None:
-    times = end_to_end(repeats=1)
+def main(argv=None) -> None:
+    import argparse
+
+    parser = argparse.ArgumentParser(
+        prog="python -m benchmarks.bench_compile",
+        description="Time to a first result: the CLI cold and warm against the SciPy + Pinocchio "
+        "script, then the first calls of simulate, its gradient, design and unfold in one process "
+        "(stages from JAX's monitoring events).",
+    )
+    parser.add_argument(
+        "--repeats", type=int, default=1, help="end-to-end runs of each command (default 1)"
+    )
+    args = parser.parse_args(argv)
+    times = end_to_end(repeats=args.repeats)
     for key, values in times.items():
         print(f"{key:>5}: " + ", ".join(f"{v:.3g}" for v in values), flush=True)
     for name, row in in_process().items():

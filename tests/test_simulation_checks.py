@@ -61,6 +61,19 @@ def test_negative_or_non_finite_system_values_are_refused(two_flaps):
         sim.simulate(nan_target, sim.Step(), t1=10.0)
 
 
+def test_forward_mode_without_its_adjoint_says_which_adjoint_to_pass(two_flaps):
+    # The default adjoint is a custom VJP: JAX's own error names neither cause nor fix. Raised
+    # while tracing, before anything compiles.
+    def metric(scale):
+        system = eqx.tree_at(
+            lambda s: s.hinges.stiffness, two_flaps, scale * two_flaps.hinges.stiffness
+        )
+        return sim.simulate(system, sim.Step(), t1=10.0).theta[-1, 0]
+
+    with pytest.raises(TypeError, match=r"adjoint=diffrax\.ForwardMode\(\)"):
+        jax.jacfwd(metric)(1.0)
+
+
 @pytest.mark.slow
 def test_traced_end_time_is_checked_when_the_solve_runs():
     # Under jit the value is unknown while tracing: the same check runs in the compiled solve.

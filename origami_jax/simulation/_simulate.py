@@ -760,5 +760,18 @@ def simulate(
         solve = _solve_explicit_phase
     else:
         solve = _solve_jit
-    trajectory = solve(system, inputs, (t0, t1), (q0, v0), ts, how)
+    try:
+        trajectory = solve(system, inputs, (t0, t1), (q0, v0), ts, how)
+    except TypeError as error:
+        # diffrax's default adjoint is a `custom_vjp`: JAX's own message names neither the cause
+        # nor the fix.
+        if "forward-mode autodiff" in str(error) and not isinstance(
+            how.adjoint, diffrax.ForwardMode
+        ):
+            raise TypeError(
+                "simulate was differentiated in forward mode (jax.jvp, jax.jacfwd), which its "
+                "default adjoint does not support: pass adjoint=diffrax.ForwardMode() (or use "
+                "reverse mode, jax.grad)."
+            ) from error
+        raise
     return _first_samples(trajectory, n_samples) if pad else trajectory
