@@ -16,6 +16,7 @@ errors are ~1e-13 µm on 200 µm panels; the tests ask for 1e-9 × the edge (the
 above rounding and far below any real gap (an 80° fold leaves seams ~50 µm open).
 """
 
+import dataclasses
 import itertools
 import json
 from pathlib import Path
@@ -94,7 +95,25 @@ def test_shipped_files_are_what_the_generator_writes():
     built = build_catalogue()
     assert set(built) == set(catalogue_names())
     for name, fold in built.items():
-        assert read_fold(catalogue_path(name)) == fold, name
+        shipped = read_fold(catalogue_path(name))
+        # Patterns whose fold angles close their loops are solved numerically (Gauss–Newton with
+        # LAPACK's least squares): the last digits differ between CPUs and BLAS builds (1e-9° seen),
+        # so the angles are compared to 1e-6° (2e-8 rad) and everything else exactly.
+        shipped_frames, built_frames = shipped.frames, fold.frames
+        assert len(shipped_frames) == len(built_frames), name
+        for a, b in zip(shipped_frames, built_frames, strict=True):
+            np.testing.assert_allclose(
+                np.asarray(a.edges_fold_angle_deg, dtype=float),
+                np.asarray(b.edges_fold_angle_deg, dtype=float),
+                rtol=0,
+                atol=1e-6,
+                err_msg=name,
+            )
+        same_angles = [
+            dataclasses.replace(b, edges_fold_angle_deg=a.edges_fold_angle_deg)
+            for a, b in zip(shipped_frames, built_frames, strict=True)
+        ]
+        assert shipped == dataclasses.replace(fold, frames=tuple(same_angles)), name
     for name, text in VERBATIM.items():
         assert catalogue_path(name).read_text() == text(), name
 
