@@ -80,6 +80,42 @@ def _mujoco(system, design, dt):
     )
 
 
+def mujoco_step(system) -> tuple[float, int]:
+    """MuJoCo's fixed step (1/200 of the shortest hinge period, µs) and its step count to `T1`."""
+    m = system.hinges.stiffness.shape[0]
+    k = np.asarray(system.hinges.stiffness)
+    inertia = np.diagonal(np.asarray(system.mechanism.mass_matrix(jnp.zeros(m))))
+    dt = float(np.min(2 * np.pi * np.sqrt(inertia / k)) / 200)
+    return dt, int(round(T1 / dt))
+
+
+def scattered_draws(count: int, m: int) -> tuple[np.ndarray, np.ndarray]:
+    """Stiffness factors and release times (µs) of `count` scattered nets, `(count, m)` each."""
+    rng = np.random.default_rng(0)
+    factor = 1 + SCATTER * rng.uniform(-1, 1, (count, m))
+    return factor, rng.uniform(0, RELEASE_SPAN, (count, m))
+
+
+def scattered_mujoco(system, design, dt: float, factor: np.ndarray) -> list:
+    """One MuJoCo model per row of `factor` `(b, m)`: the net with its hinge stiffness scaled."""
+    k = np.asarray(system.hinges.stiffness)
+    targets = np.asarray(system.hinges.target)
+    models = []
+    for row in factor:
+        model = _mujoco(system, design, dt)
+        model.actuator_gainprm[:, 0] = k * row * targets
+        model.actuator_gainprm[:, 1] = -k * row
+        models.append(model)
+    return models
+
+
+def mujoco_batch_seconds(models, controls, threads: int, repeats: int = 1) -> Timing:
+    """Rollout time of `models` under `controls` with one `MjData` per thread."""
+    datas = [mujoco.MjData(models[0]) for _ in range(threads)]
+    data = datas if threads > 1 else datas[0]
+    return time_calls(lambda: _mujoco_final(models, controls, data), repeats=repeats)
+
+
 def _mujoco_final(models, controls, data) -> np.ndarray:
     """Roll every model out from flat at rest under its controls; final hinge angles `(b, h)`."""
     model = models[0]
@@ -127,10 +163,7 @@ def run(quick: bool) -> list[Result]:
     ours = time_calls(lambda: solve(system).theta, repeats=repeats)
 
     # MuJoCo: step 1/200 of the shortest hinge period.
-    k = np.asarray(system.hinges.stiffness)
-    inertia = np.diagonal(np.asarray(system.mechanism.mass_matrix(jnp.zeros(m))))
-    dt = float(np.min(2 * np.pi * np.sqrt(inertia / k)) / 200)
-    nstep = int(round(T1 / dt))
+    dt, nstep = mujoco_step(system)
     model = _mujoco(system, design, dt)
     data = mujoco.MjData(model)
     controls = release_controls(np.zeros((1, m)), nstep, dt)
@@ -161,9 +194,7 @@ def run(quick: bool) -> list[Result]:
     ]
 
     # A batch with scattered hinges: nets/s.
-    rng = np.random.default_rng(0)
-    factor = 1 + SCATTER * rng.uniform(-1, 1, (batch_mj, m))
-    release = rng.uniform(0, RELEASE_SPAN, (batch_mj, m))
+    factor, release = scattered_draws(batch_mj, m)
 
     def member(f, r):
         return _solve(_scattered(system, f, r)).theta[-1]
@@ -174,57 +205,35 @@ def run(quick: bool) -> list[Result]:
     batch_compile = time.perf_counter() - start
     _check("ours (batch)", net, np.asarray(batched(*args)), targets)
     ours_batch = time_calls(lambda: batched(*args), repeats=1)
-    models = []
-    for b in range(batch_mj):
-        copy = _mujoco(system, design, dt)
-        copy.actuator_gainprm[:, 0] = k * factor[b] * targets
-        copy.actuator_gainprm[:, 1] = -k * factor[b]
-        models.append(copy)
+    per_net_ours = ours_batch.median / batch_ours
+    models = scattered_mujoco(system, design, dt, factor)
     controls = release_controls(release, nstep, dt)
     _check("MuJoCo (batch)", net, _mujoco_final(models, controls, data), targets)
-    mj_batch = time_calls(lambda: _mujoco_final(models, controls, data), repeats=1)
     # The target is MuJoCo's throughput on 2 cores: rollout's thread pool, one MjData per thread.
-    pair = [data, mujoco.MjData(models[0])]
-    mj_batch_2 = time_calls(lambda: _mujoco_final(models, controls, pair), repeats=1)
-    per_net_ours = ours_batch.median / batch_ours
-    per_net_mj = mj_batch.median / batch_mj
-    per_net_mj_2 = mj_batch_2.median / batch_mj
-    rows.append(
-        Result(
-            name=f"{NET} with scattered hinges, nets/s: ours vmap over {batch_ours} vs MuJoCo over "
-            f"{batch_mj}",
-            ours=Timing(per_net_ours, per_net_ours, per_net_ours, 1),
-            peer_name=f"MuJoCo rollout over {batch_mj} models (C)",
-            peer=Timing(per_net_mj, per_net_mj, per_net_mj, 1),
-            compile_s=batch_compile,
-            notes=(
-                f"per net; ours {1 / per_net_ours:.3g} nets/s (XLA's threads on every core), "
-                f"MuJoCo {1 / per_net_mj:.3g} nets/s on one thread; every member of both batches "
-                f"closes the cube (±{SCATTER:.0%} stiffness, release over {RELEASE_SPAN:g} us)"
-            ),
-            extra={
-                "batch_ours": batch_ours,
-                "batch_mujoco": batch_mj,
-                "ours_nets_per_s": 1 / per_net_ours,
-                "mujoco_nets_per_s": 1 / per_net_mj,
-            },
+    for threads in (1, 2):
+        per_net_mj = mujoco_batch_seconds(models, controls, threads).median / batch_mj
+        rows.append(
+            Result(
+                name=f"{NET} with scattered hinges, nets/s: ours vmap over {batch_ours} vs "
+                f"MuJoCo over {batch_mj} on {threads} thread{'s' if threads > 1 else ''}",
+                ours=Timing(per_net_ours, per_net_ours, per_net_ours, 1),
+                peer_name=f"MuJoCo rollout over {batch_mj} models (C), {threads} thread(s)",
+                peer=Timing(per_net_mj, per_net_mj, per_net_mj, 1),
+                compile_s=batch_compile,
+                notes=(
+                    f"per net; ours {1 / per_net_ours:.3g} nets/s (XLA's threads on every core), "
+                    f"MuJoCo {1 / per_net_mj:.3g} nets/s; every member of both batches closes the "
+                    f"cube (±{SCATTER:.0%} stiffness, release over {RELEASE_SPAN:g} us)"
+                ),
+                extra={
+                    "batch_ours": batch_ours,
+                    "batch_mujoco": batch_mj,
+                    "mujoco_threads": threads,
+                    "ours_nets_per_s": 1 / per_net_ours,
+                    "mujoco_nets_per_s": 1 / per_net_mj,
+                },
+            )
         )
-    )
-    rows.append(
-        Result(
-            name=f"{NET} with scattered hinges, nets/s on 2 cores: ours vmap over {batch_ours} vs "
-            f"MuJoCo over {batch_mj} with 2 threads",
-            ours=Timing(per_net_ours, per_net_ours, per_net_ours, 1),
-            peer_name=f"MuJoCo rollout over {batch_mj} models (C), 2 threads",
-            peer=Timing(per_net_mj_2, per_net_mj_2, per_net_mj_2, 1),
-            compile_s=batch_compile,
-            notes=(
-                f"the issue's target (MuJoCo's throughput on 2 cores); per net; ours "
-                f"{1 / per_net_ours:.3g} nets/s, MuJoCo {1 / per_net_mj_2:.3g} nets/s"
-            ),
-            extra={"mujoco_threads": 2, "mujoco_nets_per_s": 1 / per_net_mj_2},
-        )
-    )
     return rows
 
 

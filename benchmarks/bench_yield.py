@@ -22,8 +22,6 @@ Run: ``python -m benchmarks --only yield`` (10,000 samples: about an hour on 2 c
 import time
 
 import jax
-import mujoco
-import numpy as np
 
 from origami_jax.fab_yield import Scatter, yield_estimate
 from origami_jax.net import load_net
@@ -31,7 +29,14 @@ from origami_jax.system import KOH_SOLUTION, HingeDesign
 
 from ._harness import Result, Timing
 from ._mujoco_tree import release_controls
-from .bench_net import NET, RELEASE_SPAN, SCATTER, T1, _mujoco, _mujoco_final
+from .bench_net import (
+    NET,
+    T1,
+    mujoco_batch_seconds,
+    mujoco_step,
+    scattered_draws,
+    scattered_mujoco,
+)
 
 
 def _estimate(n_samples: int, chunk: int):
@@ -43,26 +48,11 @@ def _estimate(n_samples: int, chunk: int):
 def _mujoco_seconds(n_nets: int, threads: int) -> float:
     design = HingeDesign.literature(fluid=KOH_SOLUTION)
     system = load_net(NET).system(design)
-    m = system.hinges.stiffness.shape[0]
-    k = np.asarray(system.hinges.stiffness)
-    targets = np.asarray(system.hinges.target)
-    inertia = np.diagonal(np.asarray(system.mechanism.mass_matrix(np.zeros(m))))
-    dt = float(np.min(2 * np.pi * np.sqrt(inertia / k)) / 200)
-    nstep = int(round(T1 / dt))
-    rng = np.random.default_rng(0)
-    factor = 1 + SCATTER * rng.uniform(-1, 1, (n_nets, m))
-    release = rng.uniform(0, RELEASE_SPAN, (n_nets, m))
-    models = []
-    for b in range(n_nets):
-        model = _mujoco(system, design, dt)
-        model.actuator_gainprm[:, 0] = k * factor[b] * targets
-        model.actuator_gainprm[:, 1] = -k * factor[b]
-        models.append(model)
+    dt, nstep = mujoco_step(system)
+    factor, release = scattered_draws(n_nets, system.hinges.stiffness.shape[0])
+    models = scattered_mujoco(system, design, dt, factor)
     controls = release_controls(release, nstep, dt)
-    datas = [mujoco.MjData(models[0]) for _ in range(threads)]
-    start = time.perf_counter()
-    _mujoco_final(models, controls, datas if threads > 1 else datas[0])
-    return time.perf_counter() - start
+    return mujoco_batch_seconds(models, controls, threads).median
 
 
 def run(quick: bool) -> list[Result]:
