@@ -159,3 +159,23 @@ def test_identifiability_finds_width_times_stiffness():
     assert full.identifiable and "determined" in full.verdict
     weak = ojd.identifiability(np.stack([a, a + 1e-5 * b], axis=1), ["x", "y"])
     assert weak.rank == 2 and weak.weak
+
+
+@pytest.mark.parametrize("code", ["successful", "max_steps_reached", "nonlinear_divergence"])
+def test_result_codes_promote_as_equinox_does_without_device_work(code):
+    # `promote` replaces equinox's `RESULTS.promote`, which runs its lookup eagerly even inside a
+    # trace; both enumerations that use it: the fits' (optimistix's codes) and the simulations'
+    # (diffrax's codes, themselves optimistix's).
+    import diffrax
+
+    import origami_jax.simulation as sim
+    from origami_jax.simulation._results import promote
+
+    for source, target in ((optx.RESULTS, ojd.RESULTS), (diffrax.RESULTS, sim.RESULTS)):
+        item = getattr(source, code)
+        expected = target.promote(item)
+        constant = promote(item, target)
+        assert isinstance(constant._value, np.ndarray)  # a constant stays on the host
+        assert constant == expected
+        traced = jax.jit(lambda i, s=source, t=target: promote(i, t)._value)(item)
+        assert int(traced) == int(expected._value)

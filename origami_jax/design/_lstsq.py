@@ -26,6 +26,8 @@ import numpy as np
 import optimistix as optx
 from jaxtyping import Array, Bool, Float, Int
 
+from ..simulation._results import promote
+
 # Residual value standing in for a non-finite one (residual rows are O(1) when targets are met).
 NONFINITE_PENALTY = 1e3
 
@@ -201,7 +203,7 @@ def _fit_one(fn, z0, args, solver, max_steps):
         aux = sol.state.aux
     user_aux, r, jac, extra, jac_extra, bad = aux
     loss = 0.5 * jnp.sum(jnp.where(jnp.isfinite(r), r, NONFINITE_PENALTY) ** 2)
-    result = RESULTS.promote(sol.result)
+    result = promote(sol.result, RESULTS)
     result = RESULTS.where(bad, RESULTS.nonfinite_residual, result)
     return FitBatch(
         z=sol.value,

@@ -23,21 +23,21 @@ class RESULTS(diffrax.RESULTS):  # pyright: ignore[reportGeneralTypeIssues]
     )
 
 
-def promote(item) -> RESULTS:
-    """`RESULTS.promote(item)` for a diffrax (or our own) result, without a device operation when the
-    code is a constant.
+def promote(item, enumeration=RESULTS):
+    """`enumeration.promote(item)` (default our `RESULTS`) for a result of an enumeration it extends
+    (diffrax's, optimistix's), without a device operation when the code is a constant.
 
     Equinox's `promote` looks the code up under `jax.ensure_compile_time_eval`, which runs the lookup
     as eager device operations even inside a trace: half a dozen one-operation programs, each compiled
     the first time (0.15–0.3 s of a first `simulate`). Here a constant code is looked up in NumPy and a
     traced one with an indexing that stays in the traced program.
     """
-    if item._enumeration is RESULTS:
+    if item._enumeration is enumeration:
         return item
-    offsets = RESULTS._base_offsets[item._enumeration]  # raises for an unrelated enumeration
+    offsets = enumeration._base_offsets[item._enumeration]  # raises for an unrelated enumeration
     value = item._value
     if isinstance(value, np.ndarray):
         promoted = np.asarray(offsets[value], dtype=np.int32)
     else:
         promoted = jnp.asarray(offsets)[value]
-    return type(RESULTS.successful)(promoted, RESULTS)
+    return type(enumeration.successful)(promoted, enumeration)
