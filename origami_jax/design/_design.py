@@ -7,6 +7,7 @@ its metrics next to the targets, the sensitivity of every metric to every parame
 verdict and, for targets that are not met, how far off they are and why.
 """
 
+import functools
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
@@ -178,18 +179,27 @@ def _fit_and_start(problem: _Problem, z0s, solver, max_steps: int):
     return batch, _evaluate(problem, z0s[0])
 
 
-def _starts(space: ParameterSpace, start: Array, n_starts: int, key) -> Array:
-    """The given start plus `n_starts − 1` Latin-hypercube points in the inner 90 % of the z-box."""
+def _starts(space: ParameterSpace, start: Array, n_starts: int, key) -> np.ndarray:
+    """The given start plus `n_starts − 1` Latin-hypercube points in the inner 90 % of the z-box,
+    `(n_starts, p)` (host)."""
     z0 = space.to_unconstrained(np.asarray(start), xp=np)[None, :]
     if n_starts <= 1:
-        return jnp.asarray(z0)
-    p = space.size
-    m = n_starts - 1
+        return z0
+    extra = _latin_hypercube(key, n_starts - 1, space.size)
+    return np.concatenate([z0, np.asarray(extra, dtype=z0.dtype)], axis=0)
+
+
+@functools.partial(jax.jit, static_argnums=(1, 2))
+def _latin_hypercube(key, m: int, p: int) -> Array:
+    """`m` Latin-hypercube points in the inner 90 % of the unit box, as log-odds `(m, p)`. One
+    compiled program: run eagerly, its dozen operations were a dozen programs compiled on a first
+    call. `key=None`: the default seed."""
+    key = jax.random.key(0) if key is None else key
     k1, k2 = jax.random.split(key)
     strata = jax.vmap(lambda k: jax.random.permutation(k, m))(jax.random.split(k1, p)).T
     u = (strata + jax.random.uniform(k2, (m, p))) / m
     s = 0.05 + 0.9 * u
-    return jnp.concatenate([z0, jnp.log(s) - jnp.log1p(-s)], axis=0)
+    return jnp.log(s) - jnp.log1p(-s)
 
 
 def design(
@@ -249,7 +259,6 @@ def design(
         )
     if n_starts < 1:
         raise ValueError(f"n_starts must be at least 1, got {n_starts}.")
-    key = jax.random.key(0) if key is None else key
     start = space.read(hinge)
     problem = _Problem(hinge, space, targets, settings)
     z0s = _starts(space, start, n_starts, key)
