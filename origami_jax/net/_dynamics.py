@@ -334,6 +334,19 @@ def mass_matrix(tree, q: Float[Array, " n"]) -> Float[Array, "n n"]:
     data = _ordered(tree)
     kin = frames(data, q)
     body, _ = inertias(data, kin)
+    return _mass_matrix(data, kin, body)
+
+
+def mass_matrix_and_bias(tree, q: Float[Array, " n"], v: Float[Array, " n"]) -> tuple[Array, Array]:
+    """``(M(q), C(q, v) v + G(q))`` from one evaluation of the kinematics and inertias, tree order."""
+    data = _ordered(tree)
+    kin = frames(data, q)
+    body, _ = inertias(data, kin)
+    bias = _newton_euler(tree, data, kin, body, _to_order(data, v), None)
+    return _mass_matrix(data, kin, body), _from_order(data, bias)
+
+
+def _mass_matrix(data: _Ordered, kin: Frames, body: Inertias) -> Array:
     force, torque = _composite_forces(data, kin, body)
     # P[j, k] = S_j · F_k, the entry for j an ancestor-or-self of k.
     p = _outer_sum(kin.s_lin + kin.s_ang, force + torque)
