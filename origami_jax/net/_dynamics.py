@@ -187,7 +187,10 @@ def _compose(first: tuple[Mat, Vec], second: tuple[Mat, Vec]) -> tuple[Mat, Vec]
 def _gathered(rotation: Mat, translation: Vec, up: np.ndarray) -> tuple[Mat, Vec]:
     """The displacement of body ``up[i]`` for every body ``i``, the identity where ``up[i] = −1``;
     components `(n, *batch)`. One product with a constant selection matrix for all twelve
-    components (a product rather than a gather: see `_selection`)."""
+    components (a product rather than a gather: see `_selection`). Its ``n²`` cost per component is
+    small beside the loops' dense solve: a gather behind an optimization barrier made a 10×10
+    Miura-ori sheet's right-hand side 0.1 ms (~15 %) faster and a 20×20 one's 0.7 ms (~7 %),
+    measured on one core."""
     n = len(up)
     has = up >= 0
     select = np.zeros((n, n))
