@@ -31,7 +31,7 @@ scaling 3×3 and 5×5). Without ``--quick``: the 10×10 sheet to 3 ms, a vmapped
 ``LOOPS_MJ_BATCH`` members (default 8; one 10×10 rollout to 3 ms takes minutes, so a run on a small
 machine sets 2), scaling over ``LOOPS_SIZES`` (default 5,10,20) with ours compiled up to
 ``LOOPS_OURS_MAX`` (default 20) and the peers at every size. Measured on the shared 2-core machine
-(2026-12-02, fifth session): ours compiles the 10×10 solve in 14–25 s and the 20×20 one in ~15 s
+(2026-12-02, fifth session, one core): ours compiles the 10×10 solve in 20–27 s and the 20×20 one in 24–25 s
 (6 min for the 10×10 before that session's changes); the peers' long rollouts take most of a full
 run (~20 min with ``LOOPS_MJ_BATCH=2``). benchmarks/RESULTS.md has the figures.
 """
