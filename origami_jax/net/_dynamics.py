@@ -57,7 +57,8 @@ from ._topology import Topology, topology
 _UNROLL_MAX_WORK = 4000
 # Trees of at least this many levels compose their kinematics by pointer jumping, ⌈log₂ levels⌉
 # rounds over the whole tree (`_frames_by_doubling`), rather than level by level: fewer operations
-# to compile from 5 levels on (3 rounds against 4 compositions). Each round works on every body,
+# to compile from 5 levels on (3 rounds and the parents' lookup against 4 compositions, and the
+# level loop's per-level slicing and joining gone). Each round works on every body,
 # so shallow trees (the nets) keep the level loop. Measured on a 10×10 Miura-ori sheet's tree (18
 # levels): its body poses compiled to 11,300 optimized operations level by level, 1,700 by jumping.
 _DOUBLING_MIN_LEVELS = 5
@@ -238,9 +239,11 @@ def frames(data: _Ordered, q: Float[Array, " n *batch"]) -> Frames:
     if len(data.topo.levels) >= _DOUBLING_MIN_LEVELS:
         (rotation, translation), (r_p, t_p) = _frames_by_doubling(data, (rj, tj), q.shape)
 
+        def full(x: Array) -> Array:
+            return jnp.broadcast_to(x, q.shape)
+
         def moved(lin: Vec, ang: Vec) -> tuple[Vec, Vec]:
             lin, ang = _adjoint(r_p, t_p, lin, ang)
-            full = lambda x: jnp.broadcast_to(x, q.shape)  # noqa: E731
             return soa.map_vec(full, lin), soa.map_vec(full, ang)
 
         s_lin, s_ang = moved(sl, sa)
