@@ -21,18 +21,19 @@ take different times to settle; what they must share is the end: every crease at
 targets close the loops, so the rigid sheet's equilibrium is the target state, and it is an exact
 equilibrium of the bar-and-hinge model too). Answers are compared there first (each peer's final
 angles against the targets and ours), then timed: a trajectory to ``t1`` per model (steps/s), a batch
-with scattered hinges (±10 % stiffness per crease, all released at 0; sheets/s;
-MuJoCo one rollout per member, at most 8, extrapolated), compile time, and the scaling of the cost
-per step with the sheet size.
+with scattered hinges (±10 % stiffness per crease, all released at 0; sheets/s; ours vmapped,
+MuJoCo one rollout per member), compile time, and the scaling of the cost per step with the sheet
+size.
 
 Run: ``python -m benchmarks --only loops --quick`` (5×5 sheet to 1.5 ms, a vmapped batch of 8,
-scaling 3×3 and 5×5; 9 min on the shared 2-core machine at load 6–9, most of it compiling). Without ``--quick``: the 10×10 sheet to
-3 ms, the batch of 1000 extrapolated from ``LOOPS_BATCH`` members (default 2) run through the single
-trajectory's compiled solve (a vmapped program would compile for as long again), scaling over
-``LOOPS_SIZES`` (default 5,10,20) with ours compiled up to ``LOOPS_OURS_MAX`` (default 10) and the
-peers at every size. On the shared 2-core machine ours alone needs ~6 min to compile the 10×10 solve
-and ~2 s per Tsit5 step (measured at 1.5 ms: 366 steps in 518–729 s), so the full run takes well
-over an hour there; benchmarks/RESULTS.md gives the figures measured piecewise.
+scaling 3×3 and 5×5). Without ``--quick``: the 10×10 sheet to 3 ms, a vmapped batch of
+``LOOPS_BATCH`` members (default 8) extrapolated to the issue's 1000 (labelled), MuJoCo's batch on
+``LOOPS_MJ_BATCH`` members (default 8; one 10×10 rollout to 3 ms takes minutes, so a run on a small
+machine sets 2), scaling over ``LOOPS_SIZES`` (default 5,10,20) with ours compiled up to
+``LOOPS_OURS_MAX`` (default 20) and the peers at every size. Measured on the shared 2-core machine
+(2026-12-02, fifth session, one core): ours compiles the 10×10 solve in 20–27 s and the 20×20 one in 24–25 s
+(6 min for the 10×10 before that session's changes); the peers' long rollouts take most of a full
+run (~20 min with ``LOOPS_MJ_BATCH=2``). benchmarks/RESULTS.md has the figures.
 """
 
 import os
@@ -141,10 +142,8 @@ def _sizes() -> tuple[int, ...]:
 
 
 def _ours_max() -> int:
-    """Largest sheet ours is compiled for in the scaling rows (``LOOPS_OURS_MAX``, default 10): a
-    10×10 sheet's solve compiled in 6 min on the shared 2-core machine, a 20×20 would take longer
-    than a benchmark run may."""
-    return int(os.environ.get("LOOPS_OURS_MAX", "10"))
+    """Largest sheet ours is compiled for in the scaling rows (``LOOPS_OURS_MAX``, default 20)."""
+    return int(os.environ.get("LOOPS_OURS_MAX", "20"))
 
 
 def _scattered(system, factor, release):
@@ -242,41 +241,29 @@ def run(quick: bool) -> list[Result]:
     # the flat state and ended 2.75 rad from the targets (the release order picks the branch), and
     # MuJoCo's rollout has no per-joint release; every member is released at t = 0.
     release = jnp.zeros((batch, m))
-    if quick:
-        # vmapped: one compiled program runs the whole batch.
-        # Twice the single trajectory's span: the softer members (−10 %) released last settle later.
-        def member(f, r):
-            return _solve(_scattered(system, f, r), 2 * t1).theta[-1]
+    # vmapped: one compiled program runs the measured members (all of them in the quick run; in the
+    # full run `LOOPS_BATCH`, default 8, extrapolated to the issue's 1000).
+    measured = batch if quick else min(batch, int(os.environ.get("LOOPS_BATCH", "8")))
 
-        start = time.perf_counter()
-        batched = jax.jit(jax.vmap(member)).lower(factor, release).compile()
-        batch_compile = time.perf_counter() - start
-        finals = np.asarray(batched(factor, release))
-        if np.max(np.abs(finals - targets)) > 1e-3:
-            error = np.max(np.abs(finals - targets))
-            raise AssertionError(f"a batch member ends {error:.3g} rad from the targets")
-        ours_batch = time_calls(lambda: batched(factor, release), repeats=1, warmup=0)
-        ours_label = f"ours vmapped over {batch}"
-        ours_per_sheet = ours_batch.median / batch
-    else:
-        # A vmapped batch would compile for as long again as the single solve (minutes at 10×10):
-        # the single solve's compiled program runs each scattered member (same shapes, no
-        # recompilation), on as many members as `LOOPS_BATCH` (default 2), extrapolated.
-        measured = int(os.environ.get("LOOPS_BATCH", "2"))
-        batch_compile = 0.0
-        start = time.perf_counter()
-        for b in range(measured):
-            final = np.asarray(solve(_scattered(system, factor[b], release[b])).theta[-1])
-            if np.max(np.abs(final - targets)) > 1e-3:
-                error = np.max(np.abs(final - targets))
-                raise AssertionError(f"batch member {b} ends {error:.3g} rad from the targets")
-        elapsed = time.perf_counter() - start
-        ours_per_sheet = elapsed / measured
-        ours_batch = Timing(elapsed, elapsed, elapsed, 1)
-        ours_label = (
-            f"ours, the compiled solve per member: {measured} measured, EXTRAPOLATED to {batch}"
-        )
-    mj_members = min(batch, 8)
+    # Twice the single trajectory's span: the softer members (−10 %) released last settle later.
+    def member(f, r):
+        return _solve(_scattered(system, f, r), 2 * t1).theta[-1]
+
+    start = time.perf_counter()
+    batched = jax.jit(jax.vmap(member)).lower(factor[:measured], release[:measured]).compile()
+    batch_compile = time.perf_counter() - start
+    finals = np.asarray(batched(factor[:measured], release[:measured]))
+    if np.max(np.abs(finals - targets)) > 1e-3:
+        error = np.max(np.abs(finals - targets))
+        raise AssertionError(f"a batch member ends {error:.3g} rad from the targets")
+    ours_batch = time_calls(
+        lambda: batched(factor[:measured], release[:measured]), repeats=1, warmup=0
+    )
+    ours_per_sheet = ours_batch.median / measured
+    ours_label = f"ours vmapped over {measured}" + (
+        f", EXTRAPOLATED to {batch}" if measured < batch else ""
+    )
+    mj_members = min(batch, int(os.environ.get("LOOPS_MJ_BATCH", "8")))
     models = []
     for b in range(mj_members):
         copy = _mujoco_model(system)
@@ -292,7 +279,7 @@ def run(quick: bool) -> list[Result]:
             peer_name=f"MuJoCo rollout over {mj_members} models (C)"
             + (f", EXTRAPOLATED to {batch}" if batch > mj_members else ""),
             peer=Timing(per_sheet_mj * batch, per_sheet_mj * batch, per_sheet_mj * batch, 1),
-            compile_s=batch_compile if quick else compile_s,
+            compile_s=batch_compile,
             per_item=batch,
             notes=(
                 f"{ours_label}: {1 / ours_per_sheet:.3g} sheets/s; MuJoCo {1 / per_sheet_mj:.3g} "
@@ -303,7 +290,8 @@ def run(quick: bool) -> list[Result]:
                 "batch": batch,
                 "ours_sheets_per_s": 1 / ours_per_sheet,
                 "mujoco_sheets_per_s": 1 / per_sheet_mj,
-                "extrapolated": not quick,
+                "measured": measured,
+                "extrapolated": measured < batch,
             },
         )
     )

@@ -132,6 +132,48 @@ def test_twenty_panel_tree_matches_pinocchio():
     _compare_with_pinocchio(tree, *to_pinocchio(tree))
 
 
+def test_deep_tree_matches_pinocchio():
+    """A tree of 7 levels, whose kinematics are composed by pointer jumping
+    (`_frames_by_doubling`), against Pinocchio."""
+    from .tree_cases import random_parents
+
+    parents = random_parents(12, seed=21, reach=2)
+    tree = random_tree(parents, seed=22)
+    levels = len(net_dynamics.topology(parents).levels)
+    assert levels >= net_dynamics._DOUBLING_MIN_LEVELS
+    _compare_with_pinocchio(tree, *to_pinocchio(tree), inverse=True, n_states=2)
+
+
+def test_doubling_frames_equal_level_by_level(monkeypatch):
+    """Pointer jumping and the level-by-level composition give the same kinematics (displacements,
+    world motion subspaces and their derivatives) to round-off, for bending-arc hinges (whose
+    subspaces move) on a deep branching tree numbered out of topological order, one state and a
+    batch of states."""
+    from .tree_cases import random_parents
+
+    parents = random_parents(14, seed=23, reach=3)
+    order = np.random.default_rng(24).permutation(14)  # renumber: body order[i] was body i
+    renumbered = tuple(-1 if parents[i] < 0 else int(order[parents[i]]) for i in np.argsort(order))
+    tree = random_tree(renumbered, seed=25)
+    directions = jnp.cross(tree.frames[:, :3, 2], tree.axes)
+    lengths = jnp.asarray(np.random.default_rng(26).uniform(0, 40, 14))
+    tree = eqx.tree_at(
+        lambda t: t.joints, tree, ArcJoints(tree.axes, tree.points, directions, lengths)
+    )
+    assert len(net_dynamics.topology(renumbered).levels) >= net_dynamics._DOUBLING_MIN_LEVELS
+    q = jnp.asarray(np.random.default_rng(27).uniform(-2, 2, (14, 5)))
+    for state in (q[:, 0], q):
+        data = net_dynamics._ordered(tree, state.ndim - 1)
+        doubled = net_dynamics.frames(data, state)
+        with monkeypatch.context() as patch:
+            patch.setattr(net_dynamics, "_DOUBLING_MIN_LEVELS", 10**6)
+            levelled = net_dynamics.frames(data, state)
+        assert doubled.ds_lin is not None
+        for a, b in zip(jax.tree.leaves(doubled), jax.tree.leaves(levelled), strict=True):
+            assert a.shape == b.shape
+            assert max_relative_error(a, b) < CHAIN_RTOL
+
+
 # ---- the serial chain -----------------------------------------------------------------------------
 
 

@@ -109,8 +109,7 @@ class PanelDrag(AbstractDrag):
         # force ``f n`` has moment ``f (p × n)`` about that origin; so the per-point work is a few
         # multiply-adds on arrays of points (`_by_body`: bodies × points, the points minor), with no
         # per-point rotation and one world wrench per body at the end.
-        poses = mechanism.body_poses(q)
-        twists = mechanism.spatial_velocities(q, v)
+        poses, twists, wrench_force = mechanism.body_motion(q, v)
         rotation, origin = poses[:, :3, :3], poses[:, :3, 3]
         linear, angular = twists[:, :3], twists[:, 3:]
         # Body-frame twist about the body origin: u = Rᵀ(v_O + ω × o), w = Rᵀ ω; `(n, 1)` components.
@@ -127,7 +126,7 @@ class PanelDrag(AbstractDrag):
         moment_body = jnp.stack([jnp.sum(pressure * c_k, axis=1) for c_k in lever], axis=-1)
         force = jnp.einsum("bij,bj->bi", rotation, force_body)
         moment = jnp.einsum("bij,bj->bi", rotation, moment_body) + jnp.cross(origin, force)
-        return mechanism.apply_wrenches(q, jnp.concatenate([force, moment], axis=-1))
+        return wrench_force(jnp.concatenate([force, moment], axis=-1))
 
 
 def _by_body(quadrature: PanelQuadrature, n_bodies: int):

@@ -169,8 +169,7 @@ class LoopedPanels(AbstractMechanism):
     def _accelerations(self, q, v, force):
         n_tree, m = self.n_tree, self.n_hinges
         index = self._index()
-        m_tree = self.tree.mass_matrix(q[:n_tree])
-        bias = self.tree.bias_force(q[:n_tree], v[:n_tree])
+        m_tree, bias = self.tree.mass_matrix_and_bias(q[:n_tree], v[:n_tree])
         free = force - jnp.concatenate([bias, jnp.zeros((self.n_cut,), bias.dtype)])
         residual, jac, gamma = _closure.closure_terms(self.loop_directions, index, q, v)
         omega = self.rate
@@ -227,6 +226,17 @@ class LoopedPanels(AbstractMechanism):
     def apply_wrenches(self, q, wrenches):
         force = self.tree.apply_wrenches(jnp.asarray(q)[: self.n_tree], wrenches)
         return jnp.concatenate([force, jnp.zeros((self.n_cut,), force.dtype)])
+
+    def body_motion(self, q, v):
+        """The tree's (one evaluation of its kinematics); cut creases get no generalized force."""
+        q, v = jnp.asarray(q), jnp.asarray(v)
+        poses, twists, tree_force = self.tree.body_motion(q[: self.n_tree], v[: self.n_tree])
+
+        def wrench_force(wrenches):
+            force = tree_force(wrenches)
+            return jnp.concatenate([force, jnp.zeros((self.n_cut,), force.dtype)])
+
+        return poses, twists, wrench_force
 
     def outlines(self) -> list[np.ndarray]:
         return self.tree.outlines()

@@ -42,15 +42,24 @@ def world_subspaces(tree, q: Float[Array, " n"], poses: Float[Array, "n 4 4"]) -
     return jnp.concatenate([linear, turned], axis=-1)
 
 
-def spatial_velocities(tree, q, v) -> Float[Array, "n 6"]:
-    """Every body's world twist about the origin, ``V = Aᵀ (S q̇)``, `(n, 6)`."""
-    subspaces = world_subspaces(tree, q, tree.body_poses(q))
+def twists(tree, subspaces: Array, v: Float[Array, " n"]) -> Float[Array, "n 6"]:
+    """Every body's world twist about the origin from the world subspaces, ``V = Aᵀ (S q̇)``, `(n, 6)`."""
     ancestors = jnp.asarray(topology(tree.parents).ancestors, subspaces.dtype)
     return ancestors.T @ (subspaces * v[:, None])
 
 
-def apply_wrenches(tree, q, wrenches) -> Float[Array, " n"]:
-    """Generalized force of world wrenches on the bodies, ``f_j = S_j · (A W)_j``, `(n,)`."""
-    subspaces = world_subspaces(tree, q, tree.body_poses(q))
+def generalized_force(tree, subspaces: Array, wrenches: Float[Array, "n 6"]) -> Float[Array, " n"]:
+    """Generalized force of world wrenches on the bodies from the world subspaces,
+    ``f_j = S_j · (A W)_j``, `(n,)`."""
     ancestors = jnp.asarray(topology(tree.parents).ancestors, subspaces.dtype)
     return jnp.sum(subspaces * (ancestors @ wrenches), axis=-1)
+
+
+def spatial_velocities(tree, q, v) -> Float[Array, "n 6"]:
+    """Every body's world twist about the origin, ``V = Aᵀ (S q̇)``, `(n, 6)`."""
+    return twists(tree, world_subspaces(tree, q, tree.body_poses(q)), v)
+
+
+def apply_wrenches(tree, q, wrenches) -> Float[Array, " n"]:
+    """Generalized force of world wrenches on the bodies, ``f_j = S_j · (A W)_j``, `(n,)`."""
+    return generalized_force(tree, world_subspaces(tree, q, tree.body_poses(q)), wrenches)

@@ -15,6 +15,7 @@ axis runs along the crease in the direction in which the *child's* counter-clock
 traverses it. `panel_tree` checks this.
 """
 
+import functools
 from collections.abc import Sequence
 
 import equinox as eqx
@@ -251,6 +252,23 @@ class PanelTree(AbstractMechanism):
         """``f_j = S_j · Σ_{b ⪰ j} W_b``: hinge ``j`` carries its subtree (`_motion`)."""
         return _motion.apply_wrenches(self, jnp.asarray(q), jnp.asarray(wrenches))
 
+    def body_motion(self, q, v):
+        """Poses, twists and the wrench map from one evaluation of the kinematics (the poses and
+        the hinges' world subspaces, `_motion`)."""
+        q, v = jnp.asarray(q), jnp.asarray(v)
+        poses = self.body_poses(q)
+        subspaces = _motion.world_subspaces(self, q, poses)
+        return (
+            poses,
+            _motion.twists(self, subspaces, v),
+            functools.partial(_motion.generalized_force, self, subspaces),
+        )
+
+    def mass_matrix_and_bias(self, q, v):
+        """``(M(q), C(q, v) v + G(q))`` from one evaluation of the kinematics and inertias (what a
+        constrained solve needs; `mass_matrix` and `bias_force` separately compute them twice)."""
+        return _mass_matrix_and_bias(self, jnp.asarray(q), jnp.asarray(v))
+
     def outlines(self) -> list[np.ndarray]:
         """Each panel's polygon in its body frame, `(k_i, 3)` host arrays; without stored outlines a
         rectangle in the body ``x–y`` plane about the CG whose sides give the panel's inertia
@@ -292,6 +310,7 @@ class PanelTree(AbstractMechanism):
 # by one when called outside `jit` (inside another `jit` these are inlined).
 _mass_matrix = jax.jit(_dynamics.mass_matrix)
 _bias_force = jax.jit(_dynamics.bias_force)
+_mass_matrix_and_bias = jax.jit(_dynamics.mass_matrix_and_bias)
 _inverse_dynamics = jax.jit(_dynamics.inverse_dynamics)
 _potential_energy = jax.jit(_dynamics.potential_energy)
 _body_poses = jax.jit(_dynamics.body_poses)

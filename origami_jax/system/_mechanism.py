@@ -31,6 +31,8 @@ give `forward_dynamics` a custom JVP for speed; it must then keep reverse mode w
 
 import abc
 import dataclasses
+from collections.abc import Callable
+from functools import partial
 from typing import ClassVar
 
 import equinox as eqx
@@ -206,6 +208,18 @@ class AbstractMechanism(eqx.Module):
         pass of Newton–Euler."""
         v = jnp.zeros(self.n_velocities, wrenches.dtype)
         return jax.grad(lambda v: jnp.sum(wrenches * self.spatial_velocities(q, v)))(v)
+
+    def body_motion(
+        self, q: Float[Array, " nq"], v: Float[Array, " nv"]
+    ) -> tuple[Float[Array, "b 4 4"], Float[Array, "b 6"], Callable[[Array], Array]]:
+        """What a fluid model reads of the bodies at ``(q, v)``, in one call: `body_poses(q)`,
+        `spatial_velocities(q, v)` and ``wrenches ↦ apply_wrenches(q, wrenches)``.
+
+        Default: those three methods. Trees override it to compute their kinematics once for all
+        three: XLA does not merge repeated kinematics of separate calls (their sines and cosines are
+        computed in conditionals, which it never deduplicates), so each call would be compiled and run
+        again."""
+        return self.body_poses(q), self.spatial_velocities(q, v), partial(self.apply_wrenches, q)
 
     @abc.abstractmethod
     def outlines(self) -> list[np.ndarray]:
