@@ -253,18 +253,20 @@ class PanelContact(AbstractContact):
     # of each body pair carries a's points into b's face frame, and each pair's force is summed
     # into one wrench per body pair there before a single rotation to the world.
 
-    def _frames(self, mechanism, q):
-        """World rotations `(n, 3, 3)` and origins `(n, 3)` of every body, the base last."""
-        poses = mechanism.body_poses(q)
+    def _frames(self, poses):
+        """World rotations `(n, 3, 3)` and origins `(n, 3)` of every body, the base last, from the
+        moving bodies' poses `(b, 4, 4)`."""
         if self.tables.has_base:
             base = jnp.asarray(self.tables.base_pose, poses.dtype)[None]
             poses = jnp.concatenate([poses, base], axis=0)
         return poses[:, :3, :3], poses[:, :3, 3]
 
-    def _local(self, mechanism, q):
+    def _local(self, mechanism, q, poses=None):
         """World frames of every body (the base last) and each body's points in every face frame,
-        ``R_bᵀ (R_a p_i + o_a − o_b)``: `(rotations, origins, (x, y, z))`, the components `(a, b, i)`."""
-        rotation, origin = self._frames(mechanism, q)
+        ``R_bᵀ (R_a p_i + o_a − o_b)``: `(rotations, origins, (x, y, z))`, the components `(a, b, i)`.
+        `poses`: the bodies' poses at `q` when already at hand (default `body_poses(q)`)."""
+        poses = mechanism.body_poses(q) if poses is None else poses
+        rotation, origin = self._frames(poses)
         relative = jnp.einsum("bki,akj->abij", rotation, rotation)  # R_bᵀ R_a
         shift = jnp.einsum("bki,abk->abi", rotation, origin[:, None] - origin[None, :])
         points = self.tables.points  # host (a, i, 3)
@@ -354,12 +356,13 @@ class PanelContact(AbstractContact):
         return jnp.sum(energy)
 
     def force(self, mechanism, q, v):
-        rotation, origin, local = self._local(mechanism, q)
+        # The kinematics once for the poses, the twists and the wrench map (`body_motion`).
+        poses, velocity, wrench_force = mechanism.body_motion(q, v)
+        rotation, origin, local = self._local(mechanism, q, poses)
         _, (gx, gy, gz), gap, dgap_dz, coverage = self._pair_terms(local)
         x, y, z = local
         # The motion of a relative to b in b's face frame about its origin, (u, w) per body pair:
         # u = R_bᵀ (Δv_O + Δω × o_b), w = R_bᵀ Δω from the world twists about the origin.
-        velocity = mechanism.spatial_velocities(q, v)
         if self.tables.has_base:
             velocity = jnp.concatenate([velocity, jnp.zeros((1, 6), velocity.dtype)], axis=0)
         d_linear = velocity[:, None, :3] - velocity[None, :, :3]
@@ -382,7 +385,7 @@ class PanelContact(AbstractContact):
         moment = jnp.einsum("bij,abj->abi", rotation, moment) + jnp.cross(origin[None, :], force)
         pair = jnp.concatenate([force, moment], axis=-1)  # (a, b, 6): on a; −pair on b
         wrenches = jnp.sum(pair, axis=1) - jnp.sum(pair, axis=0)
-        return mechanism.apply_wrenches(q, wrenches[: self.tables.n_bodies])
+        return wrench_force(wrenches[: self.tables.n_bodies])
 
     def crossed(self, mechanism, q0, q1) -> Array:
         """Whether some sample point crosses the mid-plane of a face between ``q0`` and ``q1`` at a
