@@ -17,8 +17,8 @@ script, where compile time goes, and a notebook's rerun after a parameter change
 - **`design` and `unfold`:** their first calls in the same process (programs they share with the
   rows above are already compiled), split the same way.
 
-Run: `python -m benchmarks.bench_compile [--repeats N]` (about 1-6 minutes on 2 cores); `python -m benchmarks
---only compile` gives the same rows in the suite's format.
+Run: `python -m benchmarks.bench_compile [--repeats N]` (about 1-6 minutes on 2 cores);
+`python -m benchmarks --only compile` gives the same rows in the suite's format.
 """
 
 import os
@@ -309,7 +309,7 @@ def main(argv=None) -> None:
     parser = argparse.ArgumentParser(
         prog="python -m benchmarks.bench_compile",
         description="Time to a first result: the CLI cold and warm against the SciPy + Pinocchio "
-        "script, then the first calls of simulate, its gradient, design and unfold in one process "
+        "script, then the first calls of simulate, its gradients, design and unfold in one process "
         "(stages from JAX's monitoring events).",
     )
     parser.add_argument(

@@ -177,5 +177,5 @@ def test_result_codes_promote_as_equinox_does_without_device_work(code):
         constant = promote(item, target)
         assert isinstance(constant._value, np.ndarray)  # a constant stays on the host
         assert constant == expected
-        traced = jax.jit(lambda i, s=source, t=target: promote(i, t)._value)(item)
+        traced = jax.jit(lambda i, t=target: promote(i, t)._value)(item)
         assert int(traced) == int(expected._value)
