@@ -19,6 +19,8 @@ Run: ``python -m benchmarks --only yield`` (10,000 samples: about an hour on 2 c
 64 samples).
 """
 
+import argparse
+import os
 import time
 
 import jax
@@ -39,10 +41,31 @@ from .bench_net import (
 )
 
 
-def _estimate(n_samples: int, chunk: int):
+def _estimate(n_samples: int, chunk: int | None = None, workers: int | None = None, **kwargs):
     return yield_estimate(
-        NET, Scatter(), n_samples=n_samples, seed=0, t_end=T1, chunk_size=chunk, progress=False
+        NET,
+        Scatter(),
+        n_samples=n_samples,
+        seed=0,
+        t_end=T1,
+        chunk_size=chunk,
+        workers=workers,
+        progress=kwargs.pop("progress", False),
+        **kwargs,
     )
+
+
+def _timed(n_samples: int, chunk: int | None, workers: int | None, **kwargs):
+    """An estimate, its wall seconds per sample (compile excluded: the kernel is compiled by an
+    earlier call of the same chunk size) and its process CPU seconds per sample."""
+    cpu = os.times()
+    estimate = _estimate(n_samples, chunk, workers, **kwargs)
+    used = os.times()
+    seconds = used.user - cpu.user + used.system - cpu.system
+    n_run = max(
+        1, round(estimate.dataset.attrs["run_s"] / max(estimate.seconds_per_sample, 1e-300))
+    )
+    return estimate, estimate.seconds_per_sample, seconds / n_run
 
 
 def _mujoco_seconds(n_nets: int, threads: int) -> float:
@@ -55,18 +78,34 @@ def _mujoco_seconds(n_nets: int, threads: int) -> float:
     return mujoco_batch_seconds(models, controls, threads).median
 
 
-def run(quick: bool) -> list[Result]:
+def run(quick: bool, n_samples: int | None = None, out: str | None = None) -> list[Result]:
     jax.config.update("jax_enable_x64", True)
-    n_samples, chunk = (64, 16) if quick else (10_000, 256)
+    n_samples = (64 if quick else 10_000) if n_samples is None else n_samples
     start = time.perf_counter()
-    _estimate(chunk, chunk)  # compiles the chunk's program
+    _estimate(1)  # compiles the default chunk's program (one sample per call on a CPU)
     compile_s = time.perf_counter() - start
-    start = time.perf_counter()
-    estimate = _estimate(n_samples, chunk)
-    ours = (time.perf_counter() - start) / n_samples
+    stored = {"out": out, "resume": True} if out is not None else {}
+    estimate, ours, ours_cpu = _timed(n_samples, None, None, progress=out is not None, **stored)
+    size, workers = estimate.dataset.attrs["chunk_size"], estimate.dataset.attrs["workers"]
+    rows = []
+    if quick:
+        # The sweep's former CPU default for this kernel: wide chunks one after another.
+        _estimate(16, 16, 1)
+        _, wide, wide_cpu = _timed(n_samples, 16, 1)
+        rows.append(
+            Result(
+                name=f"{NET} yield, {n_samples} samples, s/sample: chunks of {size} x {workers} "
+                "at once vs chunks of 16 one at a time",
+                ours=Timing(ours, ours, ours, 1),
+                peer_name="ours, 16-wide vmapped chunks, one at a time",
+                peer=Timing(wide, wide, wide, 1),
+                compile_s=compile_s,
+                notes=f"CPU s/sample: {ours_cpu:.3g} vs {wide_cpu:.3g}",
+                extra={"ours_cpu_s": ours_cpu, "wide_cpu_s": wide_cpu},
+            )
+        )
     # MuJoCo over at most 1,000 nets (its cost per net is flat in the count).
     n_mj = min(n_samples, 1000)
-    rows = []
     for threads in (1, 2):
         peer = _mujoco_seconds(n_mj, threads) / n_mj
         rows.append(
@@ -78,17 +117,22 @@ def run(quick: bool) -> list[Result]:
                 peer=Timing(peer, peer, peer, 1),
                 compile_s=compile_s,
                 notes=(
-                    f"per sample; ours {1 / ours:.3g} samples/s (chunks of {chunk}, compile and "
-                    f"the first chunk of {chunk} apart), yield {estimate.fraction:.3f} "
-                    f"({estimate.counts}); MuJoCo {1 / peer:.3g} nets/s"
+                    f"per sample; ours {1 / ours:.3g} samples/s ({size} per compiled call, "
+                    f"{workers} calls at once; CPU {ours_cpu:.3g} s/sample), yield "
+                    f"{estimate.fraction:.4f} {estimate.interval} ({estimate.counts}); MuJoCo "
+                    f"{1 / peer:.3g} nets/s"
                 ),
                 extra={
                     "n_samples": n_samples,
-                    "chunk_size": chunk,
+                    "chunk_size": size,
+                    "workers": workers,
                     "ours_samples_per_s": 1 / ours,
+                    "ours_cpu_s_per_sample": ours_cpu,
                     "mujoco_nets_per_s": 1 / peer,
                     "mujoco_threads": threads,
                     "yield": estimate.fraction,
+                    "interval": list(estimate.interval),
+                    "counts": estimate.counts,
                 },
             )
         )
@@ -96,5 +140,11 @@ def run(quick: bool) -> list[Result]:
 
 
 if __name__ == "__main__":
-    for row in run(quick=True):
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--samples", type=int, default=64, help="samples (default 64)")
+    parser.add_argument(
+        "--out", default=None, help="store the samples here and resume an interrupted run"
+    )
+    args = parser.parse_args()
+    for row in run(quick=args.samples <= 64, n_samples=args.samples, out=args.out):
         print(row.line())

@@ -153,11 +153,11 @@ def test_unknown_parameter_is_refused():
 
 
 def same_sweep(a: xr.Dataset, b: xr.Dataset) -> None:
-    """Identical datasets apart from `compile_s` and `run_s`, the timings of each run."""
+    """Identical datasets apart from `compile_s`, `run_s` and `workers`: how each run went."""
     a, b = a.copy(), b.copy()
     for ds in (a, b):
-        ds.attrs.pop("compile_s", None)
-        ds.attrs.pop("run_s", None)
+        for name in ("compile_s", "run_s", "workers"):
+            ds.attrs.pop(name, None)
     xr.testing.assert_identical(a, b)
 
 
@@ -185,6 +185,7 @@ def test_interrupted_sweep_resumes_to_the_same_dataset(tmp_path):
         chunk_size=4,
         out=tmp_path / "cut",
         resume=True,
+        workers=1,  # chunks finish in order (side by side, the short last one may finish first)
         progress=False,
         on_chunk=lambda done, total: computed.append(done),
     )
@@ -192,6 +193,75 @@ def test_interrupted_sweep_resumes_to_the_same_dataset(tmp_path):
     same_sweep(resumed, reference)
     same_sweep(xr.load_dataset(tmp_path / "cut" / "sweep.nc"), reference)
     assert reference.attrs["n_failed"] == int((reference["result"] != 0).sum()) > 0
+
+
+def _slow_first(params):
+    """The oscillator, with a busy loop for design `slow` (about 10^7 iterations) so that, computed
+    side by side, it finishes after the designs behind it."""
+    spins = jnp.where(params["slow"] > 0, 10_000_000, 1)
+
+    def body(state):
+        i, x = state
+        return i + 1, jnp.sin(x) + 0.5
+
+    _, x = jax.lax.while_loop(lambda s: s[0] < spins, body, (0, params["zeta"]))
+    return {**oscillator(params), "spun": x}
+
+
+SLOW_FIRST = Kernel(_slow_first, name="slow-first", output_dims={"crossings": ("level",)})
+
+
+def test_chunks_side_by_side_finish_out_of_order_and_change_no_result(tmp_path):
+    n = 9
+    rng = np.random.default_rng(4)
+    table = Table(
+        {
+            "zeta": rng.uniform(0.05, 0.9, n),
+            "omega": rng.uniform(0.5, 5.0, n),
+            "slow": np.r_[1.0, np.zeros(n - 1)],
+        }
+    )
+    order = []
+    alone = sweep(SLOW_FIRST, table, chunk_size=1, workers=1, out=tmp_path / "one", progress=False)
+    together = sweep(
+        SLOW_FIRST,
+        table,
+        chunk_size=1,
+        workers=3,
+        out=tmp_path / "three",
+        progress=False,
+        on_chunk=lambda done, total: order.append(done),
+    )
+    assert (alone.attrs["workers"], together.attrs["workers"]) == (1, 3)
+    assert order == list(range(1, n + 1))  # every chunk reported once, as it is stored
+    # The slow first design finished after others: they were stored before it.
+    parts = sorted((tmp_path / "three" / "chunks").glob("part-*.nc"), key=os.path.getmtime)
+    assert len(parts) == n and not parts[0].name.startswith("part-0-")
+    same_sweep(together, alone)
+    same_sweep(xr.load_dataset(tmp_path / "three" / "sweep.nc"), alone)
+
+
+@pytest.mark.parametrize("workers", [0, -2, 1.5, True, "2"])
+def test_bad_workers_are_refused(workers):
+    with pytest.raises(ValueError, match="workers must be a whole number >= 1"):
+        sweep(KERNEL, SPACE, workers=workers, progress=False)
+
+
+def test_default_chunks_and_workers_on_a_cpu():
+    from origami_jax.sweep import get_model
+    from origami_jax.sweep._engine import _default_chunk_size, _default_workers
+
+    # A kernel's CPU chunk size, per device, on a CPU only; otherwise at least 8 chunks.
+    assert _default_chunk_size(10_000, 1, "cpu", 1) == 1
+    assert _default_chunk_size(10_000, 2, "cpu", 3) == 6
+    assert _default_chunk_size(5, 1, "cpu", 8) == 5
+    assert _default_chunk_size(10_000, 1, "gpu", 1) == 1250
+    assert _default_chunk_size(10_000, 1, "cpu") == 256
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    assert _default_workers(jax.local_devices()[:1]) == cores
+    assert _default_workers(jax.local_devices()[:1] * 2) == 1  # devices already split a chunk
+    # The nets' kernel: contact makes its members' costs spread, so one net per call on a CPU.
+    assert get_model("net-fold").cpu_chunk_size == 1
 
 
 def test_resume_refuses_a_different_sweep(tmp_path):

@@ -132,6 +132,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="verdict: seam gap tolerance, a fraction of the largest panel's size (default 0.01)",
     )
     parser.add_argument("--chunk-size", type=int, default=None, help="samples per compiled call")
+    parser.add_argument(
+        "--workers",
+        type=int,
+        default=None,
+        help="compiled calls at once (default: one per CPU core on a CPU, else 1)",
+    )
     parser.add_argument("--resume", action="store_true", help="continue the estimate in --out")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     parser.add_argument(
@@ -297,6 +303,8 @@ def run(args: argparse.Namespace) -> int:
     positive(args.t_end, "--t-end", "µs")
     if args.chunk_size is not None:
         int_range(args.chunk_size, "--chunk-size", 1, 10_000_000)
+    if args.workers is not None:
+        int_range(args.workers, "--workers", 1, 4096)
     in_range(args.angle_tolerance, "--angle-tolerance", 0.0, 180.0, what=" degrees")
     in_range(args.seam_tolerance, "--seam-tolerance", 0.0, 1.0, what=" (a fraction of the panel)")
     if not 0 < args.confidence < 1:
@@ -345,6 +353,7 @@ def run(args: argparse.Namespace) -> int:
         confidence=args.confidence,
         interval=args.interval,
         chunk_size=args.chunk_size,
+        workers=args.workers,
         progress=not args.no_progress,
     )
 

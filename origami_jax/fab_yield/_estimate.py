@@ -217,6 +217,7 @@ def yield_estimate(
     out: str | os.PathLike | None = None,
     resume: bool = False,
     chunk_size: int | None = None,
+    workers: int | None = None,
     progress: bool = True,
     on_chunk: Callable[[int, int], None] | None = None,
 ) -> YieldEstimate:
@@ -253,9 +254,11 @@ def yield_estimate(
       (`origami_jax.simulation.VerdictTolerances`). The seam tolerance is the stricter of the two
       by default (0.01 of the panel is about 0.6° of crease error) and decides most verdicts.
     - `confidence`, `interval`: the interval's level and method (`"wilson"`, `"clopper-pearson"`).
-    - `out`, `resume`, `chunk_size`, `progress`, `on_chunk`: as `origami_jax.sweep.sweep` (a
-      folder to store the samples in; `resume=True` continues an interrupted estimate, which must
-      have the same net, settings, scatter, seed and number of samples).
+    - `out`, `resume`, `chunk_size`, `workers`, `progress`, `on_chunk`: as
+      `origami_jax.sweep.sweep` (a folder to store the samples in; `resume=True` continues an
+      interrupted estimate, which must have the same net, settings, scatter, seed and number of
+      samples). On a CPU the default runs one sample per compiled call, as many at once as there
+      are cores.
 
     **Returns:** a `YieldEstimate`.
 
@@ -348,6 +351,7 @@ def yield_estimate(
         kernel,
         Table(columns, units=units),
         chunk_size=chunk_size,
+        workers=workers,
         out=out,
         resume=resume,
         progress=progress,

@@ -18,9 +18,14 @@ How a sweep runs:
 3. Run chunks (`_schedule`, `_run_chunks`): pending designs of a group are taken in the order of the
    kernel's `cost` estimate when it has one (similar designs share a chunk, so fewer members wait on
    a slow one), else in design order. Every chunk has the same size (a multiple of the device
-   count), the last one padded by repeating its last design; padded members are discarded. Results
-   are copied to the host, labelled and written to `out/chunks/` before the next chunk starts (see
-   `_store.py`).
+   count), the last one padded by repeating its last design; padded members are discarded. Up to
+   `workers` chunks are computed at once, each compiled call from its own thread (XLA releases
+   the GIL while it computes): on a CPU, where a vmapped adaptive solver runs its chunk in
+   lockstep until the slowest member is done, several small chunks side by side keep every core
+   busy without making members wait on each other (a kernel can ask for small CPU chunks, see
+   `Kernel.cpu_chunk_size`). Each chunk's results are copied to the host, labelled and written
+   to `out/chunks/` as soon as it finishes (see `_store.py`); the order of finishing changes
+   nothing in the results, which are the same as computed one chunk after another.
 4. Gather (`_gather`): at the end the chunks are gathered into one `xarray.Dataset` (written to
    `out/sweep.nc`).
 
@@ -36,6 +41,7 @@ on one machine (a localhost coordinator, CPU devices), including a process kille
 sweep resumed.
 """
 
+import concurrent.futures
 import dataclasses
 import json
 import math
@@ -75,17 +81,34 @@ def _python_scalar(value: Any) -> Any:
     return value.item() if isinstance(value, np.generic) else value
 
 
-def _default_chunk_size(n_designs: int, n_devices: int, platform: str) -> int:
+def _default_chunk_size(
+    n_designs: int, n_devices: int, platform: str, cpu_chunk_size: int | None = None
+) -> int:
     """Designs per chunk when the caller gives none.
 
     At least `MIN_CHUNKS` chunks (so an interruption loses at most ~1/8 of the work and the progress
     bar moves), at most `PER_DEVICE_CAP` designs per device (256 on CPU, where a larger vmapped batch
-    is no faster; 8192 on accelerators), always a multiple of the device count. The memory check in
-    `_fit_memory` may then shrink it.
+    is no faster; 8192 on accelerators), always a multiple of the device count; on a CPU, the
+    kernel's `cpu_chunk_size` per device when it asks for one. The memory check in `_fit_memory`
+    may then shrink it.
     """
+    if platform == "cpu" and cpu_chunk_size is not None:
+        return max(1, min(int(cpu_chunk_size), math.ceil(n_designs / n_devices))) * n_devices
     cap = PER_DEVICE_CAP.get(platform, PER_DEVICE_CAP_ACCELERATOR)
     per_device = max(1, min(cap, math.ceil(n_designs / (n_devices * MIN_CHUNKS))))
     return per_device * n_devices
+
+
+def _default_workers(devices: Sequence[Any]) -> int:
+    """Chunks computed at once when the caller gives none: one per usable CPU core on a single
+    CPU device (XLA computes a small vmapped solve on one core), else 1 (an accelerator, or CPU
+    devices already splitting each chunk)."""
+    if len(devices) != 1 or devices[0].platform != "cpu":
+        return 1
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # not on Linux
+        return max(1, os.cpu_count() or 1)
 
 
 # `jax.Device` is re-exported as a plain assignment, which pyright does not take for a class.
@@ -225,6 +248,7 @@ def sweep(
     out: str | os.PathLike | None = None,
     resume: bool = False,
     devices: Sequence[jax.Device] | None = None,  # pyright: ignore[reportInvalidTypeForm]
+    workers: int | None = None,
     progress: bool = True,
     on_chunk: Callable[[int, int], None] | None = None,
 ) -> xr.Dataset:
@@ -235,13 +259,16 @@ def sweep(
       (see `Kernel` for the contract: traceable, no raising, result code under `"result"`).
     - `space`: a `Grid`, `Samples`, `Table` or `Product` of them.
     - `chunk_size`: designs per compiled call; rounded up to a multiple of the device count. `None`
-      picks one: at least 8 chunks, at most 256 designs per device on CPU (8192 on accelerators),
-      then halved until XLA's memory analysis of the compiled call fits in half the device's memory.
+      picks one: at least 8 chunks, at most 256 designs per device on CPU (8192 on accelerators;
+      on a CPU the kernel's `cpu_chunk_size` when it gives one), then halved until XLA's memory
+      analysis of the compiled call, times `workers`, fits in half the device's memory.
     - `out`: folder to store the sweep in (created if missing). `None` keeps it in memory only.
     - `resume`: continue the sweep stored in `out`, computing only designs not stored yet. Raises
       if the stored sweep has a different kernel, settings or design space. Without `resume`, an
       `out` that already holds a sweep is an error (nothing is overwritten).
     - `devices`: devices to shard the batch axis over (default: `jax.local_devices()`).
+    - `workers`: chunks computed at once, each from its own thread (>= 1). `None`: one per usable
+      CPU core when the sweep runs on one CPU device, else 1. The results do not depend on it.
     - `progress`: show a tqdm progress bar (designs and designs/s) on stderr.
     - `on_chunk`: called as `on_chunk(done, total)` after each chunk is stored.
 
@@ -249,10 +276,10 @@ def sweep(
     row in `space.columns()`), every parameter as a coordinate along `design` (attribute `units`),
     every output as a variable (attribute `units`), and `result` (`int32`, 0 = success) with CF
     `flag_values`/`flag_meanings`. Attributes: `model`, `settings` and `space` (JSON), `n_designs`,
-    `n_failed`, `chunk_size`, `devices`, `compile_s` (seconds spent compiling in this call) and
-    `run_s` (seconds spent computing, copying and storing chunks, compilation excluded: the
-    steady-state cost; with a resumed sweep, of this call's chunks only). The last two are the
-    attributes that differ between runs of the same sweep.
+    `n_failed`, `chunk_size`, `workers`, `devices`, `compile_s` (seconds spent compiling in this
+    call) and `run_s` (wall-clock seconds spent computing, copying and storing chunks, compilation
+    excluded: the steady-state cost; with a resumed sweep, of this call's chunks only). Those two
+    and `workers` are the attributes that differ between runs of the same sweep.
 
     **Raises:** `ValueError` for a wrong design space or kernel outputs (before any compute);
     `FileExistsError` / `ValueError` from the store (see `resume`); `RuntimeError` if a compiled
@@ -261,10 +288,15 @@ def sweep(
     kernel = as_kernel(fn)
     if chunk_size is not None and int(chunk_size) < 1:
         raise ValueError(f"chunk_size must be >= 1, got {chunk_size}.")
+    if workers is not None and (
+        isinstance(workers, bool) or not isinstance(workers, int | np.integer) or workers < 1
+    ):
+        raise ValueError(f"workers must be a whole number >= 1 (chunks at once), got {workers!r}.")
     plan = _plan(kernel, space)
     devices = list(devices) if devices is not None else jax.local_devices()
     if not devices:
         raise ValueError("no devices to run on.")
+    workers = _default_workers(devices) if workers is None else int(workers)
     if out is None and jax.process_count() > 1:
         raise ValueError(
             "a sweep over several processes needs `out`, a folder every process can write to: "
@@ -280,7 +312,7 @@ def sweep(
         # Every process takes its share of the same work list: process 0's view of the store.
         done = _from_process_zero(done, process_count)
         compiler = _Compiler(plan, sharding)
-        size, work = _schedule(plan, done, chunk_size, devices, compiler)
+        size, work = _schedule(plan, done, chunk_size, devices, compiler, workers)
         chunks, run_seconds = _run_chunks(
             plan,
             work[process_index::process_count],
@@ -289,11 +321,12 @@ def sweep(
             compiler,
             store,
             n_done=int(done.sum()),
+            workers=workers,
             progress=progress,
             on_chunk=on_chunk,
         )
         _barrier("origami_jax.sweep.computed", process_count)
-        return _gather(plan, store, chunks, size, devices, compiler.seconds, run_seconds)
+        return _gather(plan, store, chunks, size, devices, compiler.seconds, run_seconds, workers)
     finally:
         if store is not None:
             store.close()
@@ -494,15 +527,18 @@ def _schedule(
     chunk_size: int | None,
     devices: Sequence[jax.Device],  # pyright: ignore[reportInvalidTypeForm]
     compiler: _Compiler,
+    workers: int = 1,
 ) -> tuple[int, list[tuple[_Group, np.ndarray]]]:
     """Stage 3a: the chunk size and the work list, `(group, design indices)` chunks not stored yet,
     in the order of the kernel's cost estimate within each group (see `Kernel.cost`). A chunk size
-    chosen here (not given) is then fitted to the device's memory, which compiles the first group
-    for it."""
+    chosen here (not given) is then fitted to the device's memory (`workers` chunks at once), which
+    compiles the first group for it."""
     n_devices = len(devices)
     if chunk_size is None:
         largest = max(int((~done[g.indices]).sum()) for g in plan.groups)
-        size = _default_chunk_size(max(largest, 1), n_devices, devices[0].platform)
+        size = _default_chunk_size(
+            max(largest, 1), n_devices, devices[0].platform, plan.kernel.cpu_chunk_size
+        )
     else:
         size = math.ceil(int(chunk_size) / n_devices) * n_devices
     todo_by_group = [(group, _pending(plan, group, done, compiler)) for group in plan.groups]
@@ -515,7 +551,7 @@ def _schedule(
 
     work = chunks(size)
     if chunk_size is None and work:
-        size = _fit_memory(work[0][0], size, n_devices, devices[0], compiler.group)
+        size = _fit_memory(work[0][0], size, n_devices, devices[0], compiler.group, workers)
         work = chunks(size)
     return size, work
 
@@ -537,15 +573,17 @@ def _run_chunks(
     store: Store | None,
     *,
     n_done: int,
+    workers: int = 1,
     progress: bool,
     on_chunk: Callable[[int, int], None] | None,
 ) -> tuple[list[xr.Dataset], float]:
-    """Stage 3b: each chunk padded to `size` (repeating its last design), put on the devices,
-    computed, copied back, labelled and stored before the next one starts; a group compiles on
-    its first chunk.
+    """Stage 3b: each chunk padded to `size` (repeating its last design), put on the devices and
+    computed, up to `workers` at once from a thread pool (a group compiles, on this thread, before
+    its first chunk is handed out); each is copied back, labelled and stored on this thread as
+    soon as it finishes.
 
-    **Returns:** the chunks kept in memory (none with a store) and the seconds spent on them,
-    compilation excluded.
+    **Returns:** the chunks kept in memory (none with a store) and the seconds spent on them
+    (wall-clock, compilation excluded).
     """
     from tqdm import tqdm
 
@@ -559,40 +597,69 @@ def _run_chunks(
         file=sys.stderr,
         dynamic_ncols=True,
     )
+
+    def compute(group: _Group, indices: np.ndarray) -> dict[str, np.ndarray]:
+        padded = np.concatenate([indices, np.full(size - len(indices), indices[-1])])
+        inputs = {n: jax.device_put(plan.encoded[n][padded], sharding) for n in plan.dynamic_names}
+        for name, value in plan.prepared(group, padded).items():
+            inputs[name] = jax.device_put(value, sharding)
+        assert group.compiled is not None
+        return jax.device_get(group.compiled(inputs))
+
     in_memory: list[xr.Dataset] = []
-    run_seconds = 0.0
+    start = time.perf_counter()
+    compiling = 0.0
+    pending = iter(work)
+    running: dict[concurrent.futures.Future, tuple[_Group, np.ndarray]] = {}
+    pool = concurrent.futures.ThreadPoolExecutor(max_workers=workers)
     try:
-        for group, indices in work:
-            if group.compiled is None:
-                group.compiled = compiler.group(group, size)
-            chunk_start = time.perf_counter()
-            padded = np.concatenate([indices, np.full(size - len(indices), indices[-1])])
-            inputs = {
-                n: jax.device_put(plan.encoded[n][padded], sharding) for n in plan.dynamic_names
-            }
-            for name, value in plan.prepared(group, padded).items():
-                inputs[name] = jax.device_put(value, sharding)
-            try:
-                outputs = jax.device_get(group.compiled(inputs))
-            except Exception as error:
-                raise RuntimeError(
-                    f"model {kernel.name!r} raised while computing designs {int(indices[0])}.."
-                    f"{int(indices[-1])}: {error}\nA batch kernel must not throw: call solvers "
-                    "with throw=False and return their result code."
-                ) from error
-            chunk = _label_chunk(plan.space, plan.columns, indices, outputs, plan.layout, kernel)
-            if store is not None:
-                store.write_chunk(chunk)
-            else:
-                in_memory.append(chunk)
-            run_seconds += time.perf_counter() - chunk_start
-            n_done += len(indices)
-            bar.update(len(indices))
-            if on_chunk is not None:
-                on_chunk(n_done, plan.n_designs)
+
+        def hand_out() -> None:
+            nonlocal compiling
+            while len(running) < workers:
+                item = next(pending, None)
+                if item is None:
+                    return
+                group, indices = item
+                if group.compiled is None:
+                    compile_start = time.perf_counter()
+                    group.compiled = compiler.group(group, size)
+                    compiling += time.perf_counter() - compile_start
+                running[pool.submit(compute, group, indices)] = item
+
+        hand_out()
+        while running:
+            finished, _ = concurrent.futures.wait(
+                running, return_when=concurrent.futures.FIRST_COMPLETED
+            )
+            for future in sorted(finished, key=lambda f: int(running[f][1][0])):
+                _, indices = running.pop(future)
+                try:
+                    outputs = future.result()
+                except Exception as error:
+                    raise RuntimeError(
+                        f"model {kernel.name!r} raised while computing designs "
+                        f"{int(indices[0])}..{int(indices[-1])}: {error}\nA batch kernel must not "
+                        "throw: call solvers with throw=False and return their result code."
+                    ) from error
+                chunk = _label_chunk(
+                    plan.space, plan.columns, indices, outputs, plan.layout, kernel
+                )
+                if store is not None:
+                    store.write_chunk(chunk)
+                else:
+                    in_memory.append(chunk)
+                n_done += len(indices)
+                bar.update(len(indices))
+                if on_chunk is not None:
+                    on_chunk(n_done, plan.n_designs)
+            hand_out()
     finally:
+        # An error or an interruption: chunks already computing finish (a compiled call cannot
+        # be stopped), nothing more starts, and what was stored stays stored.
+        pool.shutdown(wait=True, cancel_futures=True)
         bar.close()
-    return in_memory, run_seconds
+    return in_memory, time.perf_counter() - start - compiling
 
 
 def _gather(
@@ -603,12 +670,20 @@ def _gather(
     devices: Sequence[jax.Device],  # pyright: ignore[reportInvalidTypeForm]
     compile_seconds: Sequence[float],
     run_seconds: float,
+    workers: int = 1,
 ) -> xr.Dataset:
     """Stage 4: the chunks as one dataset with the sweep's attributes; with a store, process 0
     writes it to `sweep.nc` and the other processes read it back."""
     if store is None:
         return _finish(
-            gather(chunks), plan.kernel, plan.manifest, size, devices, compile_seconds, run_seconds
+            gather(chunks),
+            plan.kernel,
+            plan.manifest,
+            size,
+            devices,
+            compile_seconds,
+            run_seconds,
+            workers,
         )
     process_count = jax.process_count()
     error = None
@@ -616,7 +691,14 @@ def _gather(
         try:
             dataset = store.gather(write=False, columns=plan.columns)
             dataset = _finish(
-                dataset, plan.kernel, plan.manifest, size, devices, compile_seconds, run_seconds
+                dataset,
+                plan.kernel,
+                plan.manifest,
+                size,
+                devices,
+                compile_seconds,
+                run_seconds,
+                workers,
             )
             gather([dataset], path=store.root / RESULT)
         except Exception as caught:  # reported by process 0, the others stop with it
@@ -742,13 +824,15 @@ def _fit_memory(
     n_devices: int,
     device: jax.Device,  # pyright: ignore[reportInvalidTypeForm]
     compile_group: Callable,
+    workers: int = 1,
 ) -> int:
-    """Halve the chunk size until the compiled call's memory fits `MEMORY_FRACTION` of a device."""
+    """Halve the chunk size until `workers` compiled calls at once fit `MEMORY_FRACTION` of a
+    device."""
     budget = _device_memory(device)
     while True:
         compiled = compile_group(group, size)
         needed = _compiled_bytes(compiled)
-        if budget is None or needed is None or needed <= MEMORY_FRACTION * budget:
+        if budget is None or needed is None or workers * needed <= MEMORY_FRACTION * budget:
             group.compiled = compiled
             return size
         if size == n_devices:
@@ -767,6 +851,7 @@ def _finish(
     devices: Sequence[jax.Device],  # pyright: ignore[reportInvalidTypeForm]
     compile_seconds: Sequence[float],
     run_seconds: float,
+    workers: int = 1,
 ) -> xr.Dataset:
     dataset.attrs.update(
         {
@@ -776,6 +861,7 @@ def _finish(
             "n_designs": int(dataset.sizes[AXIS]),
             "n_failed": int((dataset["result"].values != 0).sum()),
             "chunk_size": int(size),
+            "workers": int(workers),
             "devices": ", ".join(str(d) for d in devices),
             "jax_version": jax.__version__,
             "compile_s": float(sum(compile_seconds)),

@@ -45,6 +45,11 @@ class Kernel:
       a vmapped adaptive solver iterates until the slowest member of its chunk is done, so mixing a
       stiff design with easy ones makes the easy ones pay the stiff one's steps. Only the order of
       computation changes; every design's result is the same. Non-finite costs go last.
+    - `cpu_chunk_size`: designs per compiled call (per device) that `sweep` picks on a CPU when its
+      caller gives no `chunk_size`; `None` lets it pick (large chunks). For kernels whose designs'
+      costs spread widely and cannot be estimated ahead (adaptive solvers through contact): a
+      vmapped chunk runs until its slowest member is done, and on a CPU a wider batch buys little,
+      so small chunks computed side by side (`sweep`'s `workers`) finish sooner.
     """
 
     fn: Callable[..., Any]
@@ -59,6 +64,7 @@ class Kernel:
     categories: Mapping[str, tuple[str, ...]] = dataclasses.field(default_factory=dict)
     prepare: Callable[..., Mapping[str, Any]] | None = None
     cost: Callable[..., Any] | None = None
+    cpu_chunk_size: int | None = None
 
     def __call__(self, params: Mapping[str, Any]) -> Any:
         return self.fn(params)

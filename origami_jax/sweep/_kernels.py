@@ -432,6 +432,9 @@ def net_fold(
     time (µs, default 0); `target[j]`: the angle crease `j`'s hinge is drawn to fold to (rad; default
     the `targets` setting, else the pattern's angle; give all of them or none).
 
+    On a CPU, `sweep` runs this kernel one design per compiled call, several at once
+    (`Kernel.cpu_chunk_size`), unless given a `chunk_size`.
+
     **Outputs:** `verdict` (0 folded, 1 jammed, 2 misfolded, 3 unfinished, 4 invalid;
     `origami_jax.simulation.VERDICT_CODES`), `folded`, `time_to_fold` (µs, NaN if never),
     `final_angle` (rad, per crease), `max_seam_gap` (µm), `min_gap`, `penetration` (µm), `engaged`
@@ -612,6 +615,9 @@ def net_fold(
         },
         output_dims={"final_angle": ("crease",)},
         result_messages=messages,
+        # Contact makes the step counts of scattered nets spread tenfold and unpredictably: on a
+        # CPU, chunks of one net side by side beat wide vmapped chunks (benchmarks/RESULTS.md).
+        cpu_chunk_size=1,
     )
 
 
