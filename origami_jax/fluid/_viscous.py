@@ -39,9 +39,15 @@ class ViscousDrag(AbstractDrag):
     def body_twists(self, mechanism, q, v) -> tuple[Array, Array, Array]:
         """Each body's twist ``(v, ω)`` in its body frame about its origin, `(b, 6)`, with the body
         rotations `(b, 3, 3)` and origins `(b, 3)`."""
-        poses = mechanism.body_poses(q)
+        body, rotations, origins, _ = self._motion(mechanism, q, v)
+        return body, rotations, origins
+
+    @staticmethod
+    def _motion(mechanism, q, v):
+        """`body_twists` and the mechanism's wrench map, from one kinematics (`body_motion`)."""
+        poses, twist, wrench_force = mechanism.body_motion(q, v)
         rotations, origins = poses[:, :3, :3], poses[:, :3, 3]
-        twist = mechanism.spatial_velocities(q, v)  # world, about the origin: (v_O, ω)
+        # `twist`: world, about the origin, (v_O, ω).
         linear = twist[:, :3] + jnp.cross(twist[:, 3:], origins)  # velocity of each body origin
         body = jnp.concatenate(
             [
@@ -50,14 +56,14 @@ class ViscousDrag(AbstractDrag):
             ],
             axis=-1,
         )
-        return body, rotations, origins
+        return body, rotations, origins, wrench_force
 
     def force(self, mechanism, q, v):
-        body, rotations, origins = self.body_twists(mechanism, q, v)
+        body, rotations, origins, wrench_force = self._motion(mechanism, q, v)
         wrench = -jnp.einsum("bij,bj->bi", self.damping, body)
         force = jnp.einsum("bij,bj->bi", rotations, wrench[:, :3])
         moment = jnp.einsum("bij,bj->bi", rotations, wrench[:, 3:]) + jnp.cross(origins, force)
-        return mechanism.apply_wrenches(q, jnp.concatenate([force, moment], axis=-1))
+        return wrench_force(jnp.concatenate([force, moment], axis=-1))
 
     def dissipation(self, mechanism, q, v):
         body, _, _ = self.body_twists(mechanism, q, v)

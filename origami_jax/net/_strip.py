@@ -161,6 +161,10 @@ class StripTree(AbstractMechanism):
     def apply_wrenches(self, q, wrenches):
         return self.panels.apply_wrenches(q, wrenches)
 
+    def body_motion(self, q, v):
+        # The panels' kinematics once for poses, twists and wrench map (`PanelTree.body_motion`).
+        return self.panels.body_motion(q, v)
+
     def outlines(self) -> list[np.ndarray]:
         return self.panels.outlines()
 
