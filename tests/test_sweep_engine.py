@@ -6,6 +6,7 @@ oscillator `x'' + 2ζω x' + ω² x = ω²`, whose 10 % and 90 % crossing times 
 return result code 1, overdamped ones (`ζ >= 1`, outside the closed form used) code 2.
 """
 
+import dataclasses
 import json
 import os
 import subprocess
@@ -239,6 +240,36 @@ def test_chunks_side_by_side_finish_out_of_order_and_change_no_result(tmp_path):
     assert len(parts) == n and not parts[0].name.startswith("part-0-")
     same_sweep(together, alone)
     same_sweep(xr.load_dataset(tmp_path / "three" / "sweep.nc"), alone)
+
+
+def test_small_chunks_are_stored_together_and_kept_on_an_interruption(tmp_path):
+    space = Samples({"zeta": (0.05, 0.9), "omega": (0.5, 5.0)}, n=23, seed=2)
+    reference = sweep(KERNEL, space, chunk_size=1, out=tmp_path / "apart", progress=False)
+    assert len(list((tmp_path / "apart" / "chunks").glob("part-*.nc"))) == 23  # as given
+    # The sweep's own chunk size for a kernel that asks for one design per call: one file.
+    single = dataclasses.replace(KERNEL, cpu_chunk_size=1)
+    together = sweep(single, space, out=tmp_path / "together", progress=False)
+    assert together.attrs["chunk_size"] == 1
+    assert len(list((tmp_path / "together" / "chunks").glob("part-*.nc"))) == 1
+    same_sweep(together, reference)
+
+    # Held designs are stored when the sweep is interrupted, and a resume computes the rest.
+    def stop(done, total):
+        if done == 7:
+            raise _Interrupted
+
+    with pytest.raises(_Interrupted):
+        sweep(KERNEL, space, chunk_size=1, store_every=5, out=tmp_path / "cut", on_chunk=stop,
+              workers=1, progress=False)  # fmt: skip
+    stored = [xr.load_dataset(p) for p in sorted((tmp_path / "cut" / "chunks").glob("part-*.nc"))]
+    assert [ds.sizes["design"] for ds in stored] == [5, 2]
+    computed = []
+    resumed = sweep(KERNEL, space, chunk_size=1, store_every=5, out=tmp_path / "cut", resume=True,
+                    progress=False, on_chunk=lambda done, total: computed.append(done))  # fmt: skip
+    assert len(computed) == 23 - 7
+    same_sweep(resumed, reference)
+    with pytest.raises(ValueError, match="store_every must be a whole number >= 1"):
+        sweep(KERNEL, space, store_every=0, progress=False)
 
 
 @pytest.mark.parametrize("workers", [0, -2, 1.5, True, "2"])

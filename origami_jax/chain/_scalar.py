@@ -145,22 +145,25 @@ def sin_cos_once(theta: Array) -> tuple[Array, Array]:
 
 
 def _sin_cos_in_own_kernel(theta: Array) -> tuple[Array, Array]:
-    # `jnp.sin`/`jnp.cos` for angles beyond the polynomials' reduction range, NaN when no angle is
-    # finite (what sin/cos give). `unvmap_any` keeps the branch index unbatched under `vmap`, so the
-    # switch stays a branch and does not become a select that evaluates all three.
+    # Per element: the polynomials within their reduction range, `jnp.sin`/`jnp.cos` beyond it, NaN
+    # where the angle is not finite (what sin/cos give). `unvmap_any` keeps the branch index
+    # unbatched under `vmap`, so the switch stays a branch and does not become a select that
+    # evaluates both; every element gets the same value in either branch, so a batch member's
+    # result never depends on the other members (a blown-up trial state of one member would
+    # otherwise switch the whole batch to `jnp.sin`, 1 ulp apart, and chaotic contact dynamics
+    # amplify that into a different trajectory).
     finite = jnp.isfinite(theta)
-    any_finite = eqxi.unvmap_any(jnp.any(finite))
-    beyond = eqxi.unvmap_any(jnp.any(finite & (jnp.abs(theta) > SIN_COS_REDUCTION_LIMIT)))
-    branch = jnp.where(any_finite, jnp.where(beyond, 1, 2), 0)
-    return jax.lax.switch(
-        branch,
-        [
-            lambda x: (jnp.full_like(x, jnp.nan), jnp.full_like(x, jnp.nan)),
-            lambda x: (jnp.sin(x), jnp.cos(x)),
-            sin_cos_reduced,
-        ],
-        theta,
-    )
+    beyond = finite & (jnp.abs(theta) > SIN_COS_REDUCTION_LIMIT)
+
+    def reduced(x):
+        s, c = sin_cos_reduced(x)
+        return jnp.where(finite, s, jnp.nan), jnp.where(finite, c, jnp.nan)
+
+    def mixed(x):
+        s, c = reduced(x)
+        return jnp.where(beyond, jnp.sin(x), s), jnp.where(beyond, jnp.cos(x), c)
+
+    return jax.lax.cond(eqxi.unvmap_any(jnp.any(beyond)), mixed, reduced, theta)
 
 
 def _transpose(m: Mat) -> Mat:

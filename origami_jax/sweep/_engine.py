@@ -61,7 +61,7 @@ from jax.sharding import PartitionSpec as P
 
 from ._kernel import Kernel, as_kernel
 from ._space import DesignSpace
-from ._store import RESULT, Store, SweepBusyError, gather
+from ._store import RESULT, Store, SweepBusyError, gather, logger
 
 AXIS = "design"
 # Default chunk sizing (see `_default_chunk_size`).
@@ -69,6 +69,10 @@ MIN_CHUNKS = 8
 PER_DEVICE_CAP = {"cpu": 256}
 PER_DEVICE_CAP_ACCELERATOR = 8192
 MEMORY_FRACTION = 0.5
+# Storing small chunks (see `sweep`'s `store_every`): at least this many designs per file when the
+# chunk size is the sweep's choice, and finished designs held at most this long before a write.
+STORE_MIN_DESIGNS = 64
+STORE_EVERY_SECONDS = 30.0
 
 
 def _canonical(column: np.ndarray) -> np.ndarray:
@@ -249,6 +253,7 @@ def sweep(
     resume: bool = False,
     devices: Sequence[jax.Device] | None = None,  # pyright: ignore[reportInvalidTypeForm]
     workers: int | None = None,
+    store_every: int | None = None,
     progress: bool = True,
     on_chunk: Callable[[int, int], None] | None = None,
 ) -> xr.Dataset:
@@ -269,8 +274,14 @@ def sweep(
     - `devices`: devices to shard the batch axis over (default: `jax.local_devices()`).
     - `workers`: chunks computed at once, each from its own thread (>= 1). `None`: one per usable
       CPU core when the sweep runs on one CPU device, else 1. The results do not depend on it.
+    - `store_every`: designs per stored chunk file (>= 1): finished chunks are held until they
+      hold this many designs, or for at most 30 s, then written as one file (and on an
+      interruption, what is held is written first). `None`: one file per chunk when `chunk_size`
+      is given, else at least 64 designs per file (encoding and reading a NetCDF file costs
+      ~0.1 s, more than a one-design chunk of a cheap kernel).
     - `progress`: show a tqdm progress bar (designs and designs/s) on stderr.
-    - `on_chunk`: called as `on_chunk(done, total)` after each chunk is stored.
+    - `on_chunk`: called as `on_chunk(done, total)` after each chunk is computed (and stored,
+      unless held for a larger file).
 
     **Returns:** an `xarray.Dataset` with dimension `design` (index coordinate `design`, the design's
     row in `space.columns()`), every parameter as a coordinate along `design` (attribute `units`),
@@ -297,6 +308,14 @@ def sweep(
     if not devices:
         raise ValueError("no devices to run on.")
     workers = _default_workers(devices) if workers is None else int(workers)
+    if store_every is not None and (
+        isinstance(store_every, bool)
+        or not isinstance(store_every, int | np.integer)
+        or store_every < 1
+    ):
+        raise ValueError(
+            f"store_every must be a whole number >= 1 (designs per file), got {store_every!r}."
+        )
     if out is None and jax.process_count() > 1:
         raise ValueError(
             "a sweep over several processes needs `out`, a folder every process can write to: "
@@ -322,6 +341,13 @@ def sweep(
             store,
             n_done=int(done.sum()),
             workers=workers,
+            store_every=(
+                int(store_every)
+                if store_every is not None
+                else size
+                if chunk_size is not None
+                else max(size, STORE_MIN_DESIGNS)
+            ),
             progress=progress,
             on_chunk=on_chunk,
         )
@@ -574,13 +600,15 @@ def _run_chunks(
     *,
     n_done: int,
     workers: int = 1,
+    store_every: int = 1,
     progress: bool,
     on_chunk: Callable[[int, int], None] | None,
 ) -> tuple[list[xr.Dataset], float]:
     """Stage 3b: each chunk padded to `size` (repeating its last design), put on the devices and
     computed, up to `workers` at once from a thread pool (a group compiles, on this thread, before
-    its first chunk is handed out); each is copied back, labelled and stored on this thread as
-    soon as it finishes.
+    its first chunk is handed out). Finished chunks are copied back and held on this thread until
+    they hold `store_every` designs or `STORE_EVERY_SECONDS` have passed, then labelled and stored
+    as one chunk; what is held is stored on an interruption too.
 
     **Returns:** the chunks kept in memory (none with a store) and the seconds spent on them
     (wall-clock, compilation excluded).
@@ -607,11 +635,41 @@ def _run_chunks(
         return jax.device_get(group.compiled(inputs))
 
     in_memory: list[xr.Dataset] = []
+    held: list[tuple[np.ndarray, dict[str, np.ndarray]]] = []
+    last_stored = time.monotonic()
+
+    def hold(indices: np.ndarray, outputs: Mapping[str, Any]) -> None:
+        n = len(indices)
+        trimmed = {}
+        for name, value in outputs.items():
+            value = np.asarray(value)[:n]
+            if name in plan.layout:  # static groups may differ in trailing sizes
+                _, shape, dtype = plan.layout[name]
+                value = _pad(value, shape, dtype)
+            trimmed[name] = value
+        held.append((indices, trimmed))
+
+    def store_held() -> None:
+        nonlocal held, last_stored
+        if not held:
+            return
+        indices = np.concatenate([i for i, _ in held])
+        order = np.argsort(indices, kind="stable")
+        outputs = {n: np.concatenate([o[n] for _, o in held])[order] for n in held[0][1]}
+        chunk = _label_chunk(plan.space, plan.columns, indices[order], outputs, plan.layout, kernel)
+        held = []
+        last_stored = time.monotonic()
+        if store is not None:
+            store.write_chunk(chunk)
+        else:
+            in_memory.append(chunk)
+
     start = time.perf_counter()
     compiling = 0.0
     pending = iter(work)
     running: dict[concurrent.futures.Future, tuple[_Group, np.ndarray]] = {}
     pool = concurrent.futures.ThreadPoolExecutor(max_workers=workers)
+    completed = False
     try:
 
         def hand_out() -> None:
@@ -642,21 +700,27 @@ def _run_chunks(
                         f"{int(indices[0])}..{int(indices[-1])}: {error}\nA batch kernel must not "
                         "throw: call solvers with throw=False and return their result code."
                     ) from error
-                chunk = _label_chunk(
-                    plan.space, plan.columns, indices, outputs, plan.layout, kernel
-                )
-                if store is not None:
-                    store.write_chunk(chunk)
-                else:
-                    in_memory.append(chunk)
+                hold(indices, outputs)
+                if (
+                    sum(len(i) for i, _ in held) >= store_every
+                    or time.monotonic() - last_stored >= STORE_EVERY_SECONDS
+                ):
+                    store_held()
                 n_done += len(indices)
                 bar.update(len(indices))
                 if on_chunk is not None:
                     on_chunk(n_done, plan.n_designs)
             hand_out()
+        store_held()
+        completed = True
     finally:
-        # An error or an interruption: chunks already computing finish (a compiled call cannot
-        # be stopped), nothing more starts, and what was stored stays stored.
+        if not completed:
+            # An error or an interruption: what was computed is stored first; chunks still
+            # computing finish (a compiled call cannot be stopped) and are dropped.
+            try:
+                store_held()
+            except Exception as error:  # the original error is the one to report
+                logger.warning("sweep: could not store the last finished designs: %s", error)
         pool.shutdown(wait=True, cancel_futures=True)
         bar.close()
     return in_memory, time.perf_counter() - start - compiling
