@@ -172,8 +172,8 @@ class FoldReport:
     - `seam_gaps`: largest gap of each seam at the end `(s,)` (empty without seams);
       `seam_tolerance`, `angle_tolerance`.
     - `seams_touching`: per seam `(s,)`, whether its two panels touch at the end (a rim point of
-      one over the other's face within 1.1 ``ĝ``): such a seam counts as closed whatever its gap (empty without seams,
-      all `False` without contact or when the seams' bodies are not known);
+      one over the other's face within 1.1 ``ĝ``): such a seam counts as closed whatever its gap
+      (empty without seams, all `False` without contact or when the seams' bodies are not known);
       `seams_closed_by_contact` lists those whose gap is above the tolerance.
     - `time_to_fold`: first time from which every crease stays within tolerance (and every seam
       closed) to the end, or `None`.
