@@ -26,9 +26,10 @@ Shared creases: two panels joined by a hinge touch along it by construction; the
 crease are not paired (the hinge keeps them apart, the barrier would fight it). Edges that meet edge
 on edge (a seam closing exactly) feel no force: the model resolves plate-through-plate penetration of
 faces, which is what stops folded flaps on each other and panels passing through panels. A seam whose
-last panel lands its edge on the neighbour's face instead (one plate resting on the other, its corners
-a few µm from the neighbour's) is held by that face; the verdict counts such a seam as closed when the
-two panels touch (`origami_jax.simulation.fold_outcome`, `report`'s `touching`).
+last panel lands on the neighbour's face or on the rim of that face instead (one plate resting on the
+other, its corners a few µm from the neighbour's) is held there by the barrier; the verdict counts such
+a seam as closed when the two panels touch (`origami_jax.simulation.fold_outcome`, `report`'s
+`touching`).
 
 Defaults (`PanelContact.for_system`): ``ĝ`` = the larger of the panel thickness and 0.5 % of the
 largest panel (a standoff that keeps contact from being stiffer than the impact it has to resolve:
@@ -426,18 +427,19 @@ class PanelContact(AbstractContact):
         (coverage > ½; length, `inf` if none), how many such pairs are engaged (``g < 1.1 ĝ``: a
         panel resting on another hovers at the edge of the activation layer, where the barrier's
         force rises from zero), the penetration ``max(0, −g)`` (length), and `touching` `(n, n)`
-        bool over (point body `a`, face body `b`, the base last): some pair of a point of `a` on
-        `b`'s face is engaged, i.e. `a` rests on `b` (the pairs `engaged_points` draws; the
-        verdict's seams closed by contact, `origami_jax.simulation.fold_outcome`)."""
+        bool over (point body `a`, face body `b`, the base last): some point of `a` with
+        coverage > 0 on `b`'s face (the barrier acts there, in the face's edge ramp too) has
+        ``g < 1.1 ĝ``, i.e. `a` rests on `b` (the verdict's seams closed by contact,
+        `origami_jax.simulation.fold_outcome`)."""
         gap, coverage = self.gaps(mechanism, q)
         covered = coverage > 0.5
         smallest = jnp.min(jnp.where(covered, gap, jnp.inf))
-        engaged = covered & (gap < 1.1 * self.activation)  # (a, b, p)
+        near = gap < 1.1 * self.activation
         return {
             "min_gap": smallest,
-            "engaged": jnp.sum(engaged),
+            "engaged": jnp.sum(covered & near),
             "penetration": jnp.maximum(-smallest, 0.0),
-            "touching": jnp.any(engaged, axis=-1),
+            "touching": jnp.any((coverage > 0) & near, axis=-1),
         }
 
 

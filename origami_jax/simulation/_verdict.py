@@ -6,21 +6,24 @@
   (both tolerances in `VerdictTolerances`: 3° and 1 % of the panel size by default);
   `time_to_fold` is when it got there for good. A seam is closed when its gap is below the seam
   tolerance, or when its two panels touch: some rim sample point of one lies over the other's face
-  (coverage > ½) with a gap below 1.1 ``ĝ``, the pairs the contact report counts as engaged and the
-  viewer draws (`PanelContact.report`'s `touching`). The last panel of a cube can land its edge on
-  its neighbour's face near the neighbour's edge (one plate resting on the other, as thick plates
-  meet): that seam cannot open further without the panels separating, and with the creases within
-  the angle tolerance the two panels can only touch near that seam, so it is closed although its
-  corners are a few µm apart. Why 1.1 ``ĝ`` rather than ``ĝ``, where the barrier switches on: a
-  panel resting on another hovers at the edge of the activation layer, where the barrier's force
-  rises from zero, so its rim points sit at about ``ĝ`` (panel 0's on panel 4's face at 1.05 ``ĝ``
-  at the end of the nominal cube net run at rtol 1e-9), and a seam counted as touching should be
-  one whose contact `contacts` counts and the viewer draws (the same pairs); 1.1 ``ĝ`` is 0.1 µm
-  past ``ĝ`` on the catalogue's nets, a twentieth of the seam tolerance. The rule needs to know
-  which two bodies a seam joins (`seam_gaps` with a `bodies` table, as
-  `origami_jax.net.Net.seam_gap_function` gives); a plain function of ``q`` keeps the gap-only
-  rule. A seam whose panels do not touch is judged by its gap alone: a touching seam does not
-  close the others.
+  (coverage > 0: the contact barrier acts there) with a gap below 1.1 ``ĝ``
+  (`PanelContact.report`'s `touching`). The last panel of a cube or a corner cube can land its
+  edge on its neighbour's face or edge instead of meeting it edge on edge (one plate resting on
+  the other, as thick plates meet): that seam cannot open further without the panels separating,
+  and with the creases within the angle tolerance the two panels can only touch near that seam, so
+  it is closed although its corners are a few µm apart (a corner cube with one flap 2° past 90°
+  holds the other at 90° on its edge, the seam open 7 µm at its far end: folded). Why 1.1 ``ĝ``
+  rather than ``ĝ``, where the barrier switches on: a panel resting on another hovers at the edge
+  of the activation layer, where the barrier's force rises from zero, so its rim points sit at
+  about ``ĝ`` (panel 0's on panel 4's face at 1.05 ``ĝ`` at the end of the nominal cube net run
+  at rtol 1e-9); 1.1 ``ĝ`` is what `contacts` counts as engaged, 0.1 µm past ``ĝ`` on the
+  catalogue's nets, a twentieth of the seam tolerance. Why coverage > 0 and not > ½ as `contacts`
+  counts: a panel held on its neighbour's edge rests on a rim point in that face's edge ramp (in
+  that corner cube, one point 0.02 ``ĝ`` from the face at a coverage of almost 0), held by the
+  barrier all the same. The rule needs to know which two bodies a seam joins (`seam_gaps` with a
+  `bodies` table, as `origami_jax.net.Net.seam_gap_function` gives); a plain function of ``q``
+  keeps the gap-only rule. A seam whose panels do not touch is judged by its gap alone: a touching
+  seam does not close the others.
 - **jammed**: the device came to rest short of that, with panels in contact: a crease stopped short
   of its intended angle (same sign, smaller magnitude) while contact holds it.
 - **misfolded**: it came to rest in another state (a crease on the wrong side or past its angle, seams
@@ -75,9 +78,9 @@ class VerdictTolerances:
       extent of any panel's outline along the axes; 200 µm for the catalogue's nets of 200 µm
       squares, so the default is 2 µm).
 
-    A seam whose two panels touch (a rim point of one over the other's face within 1.1 ``ĝ``, the
-    contact's activation gap) counts as closed whatever its gap (module docstring); `seam` judges
-    the seams whose panels do not touch.
+    A seam whose two panels touch (a rim point of one over the other's face, edge ramp included,
+    within 1.1 ``ĝ``, the contact's activation gap) counts as closed whatever its gap (module
+    docstring); `seam` judges the seams whose panels do not touch.
 
     The two are not equally strict: a crease off by ``δθ`` opens a seam along a panel of size ``L``
     by about ``L δθ``, so the default seam tolerance (``0.01 L``) corresponds to about 0.6° of
@@ -172,7 +175,7 @@ class FoldReport:
     - `seam_gaps`: largest gap of each seam at the end `(s,)` (empty without seams);
       `seam_tolerance`, `angle_tolerance`.
     - `seams_touching`: per seam `(s,)`, whether its two panels touch at the end (a rim point of
-      one over the other's face within 1.1 ``ĝ``): such a seam counts as closed whatever its gap
+      one over the other's face, coverage > 0, within 1.1 ``ĝ``): closed whatever its gap
       (empty without seams, all `False` without contact or when the seams' bodies are not known);
       `seams_closed_by_contact` lists those whose gap is above the tolerance.
     - `time_to_fold`: first time from which every crease stays within tolerance (and every seam
@@ -316,7 +319,7 @@ def fold_outcome(
     finite = jnp.all(jnp.isfinite(theta), axis=-1)
     q_safe = jnp.where(finite[:, None], q, 0.0)
     contact = system.contact
-    touching = None  # (t, n, n): some point of body a rests on the face of body b (engaged pairs)
+    touching = None  # (t, n, n): some point of body a rests on the face of body b
     if contact is not None:
         report = jax.vmap(lambda q: contact.report(system.mechanism, q))(q_safe)
         min_gap = jnp.min(jnp.where(finite, report["min_gap"], jnp.inf))
