@@ -58,9 +58,9 @@ A closed-loop pattern starts flat, where its folding branches meet, and the hing
 cannot fold to its angles (a square twist) is refused with the closure residual (--no-rigid-check
 simulates it anyway).
 
-Verdicts: folded (every crease within tolerance, every seam closed), jammed (contact stops a crease
-short), misfolded (another final state, another branch), unfinished (time ran out), invalid (the
-simulation failed).
+Verdicts: folded (every crease within tolerance, every seam closed: within tolerance or its panels
+touching), jammed (contact stops a crease short), misfolded (another final state, another branch),
+unfinished (time ran out), invalid (the simulation failed).
 Exit codes: 0 folded, 1 any other verdict, 2 bad input.
 """
 )

@@ -25,7 +25,11 @@ energy: ``v · f = −dE/dt − c Σ w a ġ² ≤ −dE/dt``.
 Shared creases: two panels joined by a hinge touch along it by construction; their rim points near the
 crease are not paired (the hinge keeps them apart, the barrier would fight it). Edges that meet edge
 on edge (a seam closing exactly) feel no force: the model resolves plate-through-plate penetration of
-faces, which is what stops folded flaps on each other and panels passing through panels.
+faces, which is what stops folded flaps on each other and panels passing through panels. A seam whose
+last panel lands on the neighbour's face or on the rim of that face instead (one plate resting on the
+other, its corners a few µm from the neighbour's) is held there by the barrier; the verdict counts such
+a seam as closed when the two panels touch (`origami_jax.simulation.fold_outcome`, `report`'s
+`touching`).
 
 Defaults (`PanelContact.for_system`): ``ĝ`` = the larger of the panel thickness and 0.5 % of the
 largest panel (a standoff that keeps contact from being stiffer than the impact it has to resolve:
@@ -420,16 +424,22 @@ class PanelContact(AbstractContact):
 
     def report(self, mechanism, q) -> dict[str, Array]:
         """Contact state at ``q``: the smallest gap over pairs whose point lies over the face
-        (coverage > ½; length, `inf` if none), how many such pairs touch (``g < 1.1 ĝ``: a panel
-        resting on another hovers at the edge of the activation layer, where the barrier's force
-        rises from zero), and the penetration ``max(0, −g)`` (length)."""
+        (coverage > ½; length, `inf` if none), how many such pairs are engaged (``g < 1.1 ĝ``: a
+        panel resting on another hovers at the edge of the activation layer, where the barrier's
+        force rises from zero), the penetration ``max(0, −g)`` (length), and `touching` `(n, n)`
+        bool over (point body `a`, face body `b`, the base last): some point of `a` with
+        coverage > 0 on `b`'s face (the barrier acts there, in the face's edge ramp too) has
+        ``g < 1.1 ĝ``, i.e. `a` rests on `b` (the verdict's seams closed by contact,
+        `origami_jax.simulation.fold_outcome`)."""
         gap, coverage = self.gaps(mechanism, q)
         covered = coverage > 0.5
         smallest = jnp.min(jnp.where(covered, gap, jnp.inf))
+        near = gap < 1.1 * self.activation
         return {
             "min_gap": smallest,
-            "engaged": jnp.sum(covered & (gap < 1.1 * self.activation)),
+            "engaged": jnp.sum(covered & near),
             "penetration": jnp.maximum(-smallest, 0.0),
+            "touching": jnp.any((coverage > 0) & near, axis=-1),
         }
 
 

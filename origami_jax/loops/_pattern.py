@@ -370,7 +370,8 @@ class CreasePattern:
 
     def seam_gap_function(self, system: FoldingSystem):
         """A traceable ``q ↦`` gap of each seam (design length units, `(s,)`), as for nets (the cut
-        creases are not seams: the closure holds them together)."""
+        creases are not seams: the closure holds them together): a `SeamGaps`, which also names
+        the two bodies each seam joins (for the verdict's seams closed by contact)."""
         from ..net._net import seam_gap_function
 
         return seam_gap_function(

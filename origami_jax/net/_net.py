@@ -232,10 +232,11 @@ class Net:
             return float(system.contact.tables.scale)
         return float(self.contact_tables().scale)
 
-    def seam_gap_function(self, system: FoldingSystem):
+    def seam_gap_function(self, system: FoldingSystem) -> "SeamGaps":
         """A traceable ``q ↦`` gap of each seam (design length units, `(s,)`) for a system this net
         built: the larger distance between the two sides' corners at either end of the seam, from
-        the mechanism's body poses."""
+        the mechanism's body poses; a `SeamGaps`, which also names the two bodies each seam joins
+        (for the verdict's seams closed by contact)."""
         return seam_gap_function(self.geometry, self.seams, system.mechanism, self.length_scale)
 
     def assess(self, system: FoldingSystem, trajectory, **kwargs):
@@ -564,9 +565,36 @@ def kept_samples(angles: np.ndarray, every: int) -> np.ndarray:
     return keep[np.all(np.isfinite(angles[keep]), axis=1)]
 
 
-def seam_gap_function(tree_geometry, seams, mechanism, length_scale: float):
+class SeamGaps:
+    """The gaps of a device's seams as a traceable function of the mechanism's coordinates, and
+    which two bodies each seam joins (what the verdict needs to call a seam closed by contact).
+
+    Call it: ``seam_gaps(q)`` gives each seam's gap (length, `(s,)`): the larger distance between
+    the two sides' corners at either end of the seam.
+
+    **Fields:**
+    - `bodies`: `(s, 2)` int (host), the bodies on the two sides of each seam, numbered as in the
+      contact tables (`origami_jax.contact.ContactTables`): moving bodies ``0 … b−1``, the fixed
+      base (the net's root face) ``b`` = the mechanism's `n_bodies`.
+      `origami_jax.simulation.fold_outcome` reads it: a seam counts as closed when its gap is
+      within the tolerance or these two bodies touch (`origami_jax.simulation.VerdictTolerances`).
+    """
+
+    def __init__(self, function, bodies):
+        self._function = function
+        self.bodies = np.asarray(bodies, dtype=np.int64).reshape(-1, 2)
+
+    def __call__(self, q: Float[ArrayLike, " nq"]) -> Float[Array, " s"]:
+        return self._function(q)
+
+    def __repr__(self) -> str:
+        return f"SeamGaps({len(self.bodies)} seams, bodies={self.bodies.tolist()})"
+
+
+def seam_gap_function(tree_geometry, seams, mechanism, length_scale: float) -> SeamGaps:
     """A traceable ``q ↦`` gap of each seam (design length units, `(s,)`): the larger distance
-    between the two sides' corners at either end of the seam, from `mechanism`'s body poses.
+    between the two sides' corners at either end of the seam, from `mechanism`'s body poses, as a
+    `SeamGaps` (also the two bodies each seam joins, the base as ``mechanism.n_bodies``).
     `tree_geometry` is the panel tree's `NetGeometry` (faces in body order), `seams` its seams."""
     g = tree_geometry
     width = g.face_coords.shape[1]
@@ -581,6 +609,10 @@ def seam_gap_function(tree_geometry, seams, mechanism, length_scale: float):
                 b = position[f]
                 body[s_, e, side] = b
                 local[s_, e, side] = g.face_coords[f, k] * length_scale if b < 0 else outlines[b][k]
+    # A seam joins one side of one face to one side of another: both ends name the same two faces.
+    assert np.array_equal(body[:, 0], body[:, 1]), "a seam's ends on different faces"
+    # Body −1 (the root face, posed by the world frame below) is the contact tables' base, n_bodies.
+    bodies = np.where(body[:, 0] < 0, mechanism.n_bodies, body[:, 0])
 
     def gaps(q):
         if not len(seams):
@@ -596,4 +628,4 @@ def seam_gap_function(tree_geometry, seams, mechanism, length_scale: float):
         distance = safe_norm(points[:, :, 0] - points[:, :, 1])
         return jnp.max(distance, axis=-1)
 
-    return gaps
+    return SeamGaps(gaps, bodies)

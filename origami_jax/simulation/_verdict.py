@@ -3,8 +3,27 @@
 `assess(system, trajectory)` compares the end of a simulation with the shape the device is meant to take:
 
 - **folded**: every crease within the angle tolerance of its intended angle and every seam closed
-  (gap below the seam tolerance; both in `VerdictTolerances`: 3° and 1 % of the panel size by
-  default); `time_to_fold` is when it got there for good.
+  (both tolerances in `VerdictTolerances`: 3° and 1 % of the panel size by default);
+  `time_to_fold` is when it got there for good. A seam is closed when its gap is below the seam
+  tolerance, or when its two panels touch: some rim sample point of one lies over the other's face
+  (coverage > 0: the contact barrier acts there) with a gap below 1.1 ``ĝ``
+  (`PanelContact.report`'s `touching`). The last panel of a cube or a corner cube can land its
+  edge on its neighbour's face or edge instead of meeting it edge on edge (one plate resting on
+  the other, as thick plates meet): that seam cannot open further without the panels separating,
+  and with the creases within the angle tolerance the two panels can only touch near that seam, so
+  it is closed although its corners are a few µm apart (a corner cube with one flap 2° past 90°
+  holds the other at 90° on its edge, the seam open 7 µm at its far end: folded). Why 1.1 ``ĝ``
+  rather than ``ĝ``, where the barrier switches on: a panel resting on another hovers at the edge
+  of the activation layer, where the barrier's force rises from zero, so its rim points sit at
+  about ``ĝ`` (panel 0's on panel 4's face at 1.05 ``ĝ`` at the end of the nominal cube net run
+  at rtol 1e-9); 1.1 ``ĝ`` is what `contacts` counts as engaged, 0.1 µm past ``ĝ`` on the
+  catalogue's nets, a twentieth of the seam tolerance. Why coverage > 0 and not > ½ as `contacts`
+  counts: a panel held on its neighbour's edge rests on a rim point in that face's edge ramp (in
+  that corner cube, one point 0.02 ``ĝ`` from the face at a coverage of almost 0), held by the
+  barrier all the same. The rule needs to know which two bodies a seam joins (`seam_gaps` with a
+  `bodies` table, as `origami_jax.net.Net.seam_gap_function` gives); a plain function of ``q``
+  keeps the gap-only rule. A seam whose panels do not touch is judged by its gap alone: a touching
+  seam does not close the others.
 - **jammed**: the device came to rest short of that, with panels in contact: a crease stopped short
   of its intended angle (same sign, smaller magnitude) while contact holds it.
 - **misfolded**: it came to rest in another state (a crease on the wrong side or past its angle, seams
@@ -58,6 +77,10 @@ class VerdictTolerances:
       with ``L`` the largest panel's size (`origami_jax.contact.ContactTables.scale`: the largest
       extent of any panel's outline along the axes; 200 µm for the catalogue's nets of 200 µm
       squares, so the default is 2 µm).
+
+    A seam whose two panels touch (a rim point of one over the other's face, edge ramp included,
+    within 1.1 ``ĝ``, the contact's activation gap) counts as closed whatever its gap (module
+    docstring); `seam` judges the seams whose panels do not touch.
 
     The two are not equally strict: a crease off by ``δθ`` opens a seam along a panel of size ``L``
     by about ``L δθ``, so the default seam tolerance (``0.01 L``) corresponds to about 0.6° of
@@ -151,6 +174,10 @@ class FoldReport:
     - `final_angles`, `intended_angles`, `angle_errors`: per crease `(h,)`.
     - `seam_gaps`: largest gap of each seam at the end `(s,)` (empty without seams);
       `seam_tolerance`, `angle_tolerance`.
+    - `seams_touching`: per seam `(s,)`, whether its two panels touch at the end (a rim point of
+      one over the other's face, coverage > 0, within 1.1 ``ĝ``): closed whatever its gap
+      (empty without seams, all `False` without contact or when the seams' bodies are not known);
+      `seams_closed_by_contact` lists those whose gap is above the tolerance.
     - `time_to_fold`: first time from which every crease stays within tolerance (and every seam
       closed) to the end, or `None`.
     - `settled`: the last tenth of the run moved every crease by less than half the tolerance.
@@ -176,6 +203,17 @@ class FoldReport:
     max_penetration: float
     penetration_fraction: float
     result: str
+    seams_touching: np.ndarray = dataclasses.field(
+        default_factory=lambda: np.zeros(0, dtype=bool), kw_only=True
+    )
+
+    @property
+    def seams_closed_by_contact(self) -> np.ndarray:
+        """The seams whose gap is above the tolerance but whose panels touch (indices, `(k,)`)."""
+        touching = np.asarray(self.seams_touching, dtype=bool)
+        if touching.shape != np.shape(self.seam_gaps):
+            return np.zeros(0, dtype=np.int64)
+        return np.flatnonzero(touching & (np.asarray(self.seam_gaps) >= self.seam_tolerance))
 
     @property
     def off_target(self) -> np.ndarray:
@@ -207,9 +245,15 @@ class FoldReport:
             f"(tolerance {np.degrees(self.angle_tolerance):.3g}°)"
         )
         if len(self.seam_gaps):
+            by_contact = self.seams_closed_by_contact
+            touch = (
+                f"; closed by contact (panels touching): seam {', '.join(map(str, by_contact))}"
+                if len(by_contact)
+                else ""
+            )
             lines.append(
                 f"seams: {len(self.seam_gaps)}, largest gap {np.max(self.seam_gaps):.3g} "
-                f"(tolerance {self.seam_tolerance:.3g})"
+                f"(tolerance {self.seam_tolerance:.3g}){touch}"
             )
         if self.time_to_fold is not None:
             lines.append(f"time to fold: {self.time_to_fold:.4g}")
@@ -227,8 +271,11 @@ class FoldOutcome(eqx.Module):
 
     **Fields:** `code` (`VERDICT_CODES`); `time_to_fold` (time units, `inf` if it never got there);
     `settled`; `short` per crease (stopped short of its angle, same sign); `max_seam_gap` at the end
-    (length, 0 without seams); `engaged` contact pairs at the end; `min_gap` over the run (`inf`
-    without contact); `penetration`, the largest over the run (length).
+    (length, 0 without seams; a seam above the tolerance may still be closed by contact);
+    `seams_touching` per seam `(s,)`, its two panels touch at the end (closed whatever its gap;
+    `False` without contact or without the seams' bodies); `engaged` contact pairs at the end;
+    `min_gap` over the run (`inf` without contact); `penetration`, the largest over the run
+    (length).
     """
 
     code: Int[Array, ""]
@@ -236,6 +283,7 @@ class FoldOutcome(eqx.Module):
     settled: Bool[Array, ""]
     short: Bool[Array, " h"]
     max_seam_gap: Float[Array, ""]
+    seams_touching: Bool[Array, " s"]
     engaged: Int[Array, ""]
     min_gap: Float[Array, ""]
     penetration: Float[Array, ""]
@@ -253,7 +301,14 @@ def fold_outcome(
     panel_size: float | None = None,
 ) -> FoldOutcome:
     """The verdict of `assess` as arrays, traceable (`jit`, `vmap`): see `assess` for the arguments;
-    `seam_gaps` must be traceable here (a function of the mechanism's coordinates ``q``)."""
+    `seam_gaps` must be traceable here (a function of the mechanism's coordinates ``q``).
+
+    Every saved state is judged (so `time_to_fold` is when the rule held for good): creases within
+    the angle tolerance and every seam closed, its gap below the seam tolerance or, when
+    `seam_gaps` names the seams' bodies (its `bodies`, `(s, 2)`, numbered as the contact tables:
+    the base last), its two bodies touching in the contact's `report` (`touching`, either way
+    round), from the one contact evaluation per state that also gives `min_gap`, `engaged` and
+    `penetration`."""
     angle_tolerance, seam_tolerance = _tolerances(
         system, tolerances, angle_tolerance, seam_tolerance, panel_size
     )
@@ -264,22 +319,28 @@ def fold_outcome(
     finite = jnp.all(jnp.isfinite(theta), axis=-1)
     q_safe = jnp.where(finite[:, None], q, 0.0)
     contact = system.contact
+    touching = None  # (t, n, n): some point of body a rests on the face of body b
     if contact is not None:
         report = jax.vmap(lambda q: contact.report(system.mechanism, q))(q_safe)
         min_gap = jnp.min(jnp.where(finite, report["min_gap"], jnp.inf))
         penetration = jnp.max(jnp.where(finite, report["penetration"], 0.0))
         engaged = jnp.where(finite[-1], report["engaged"][-1], 0).astype(jnp.int32)
+        touching = report.get("touching")
     else:
         min_gap = jnp.asarray(jnp.inf, dtype)
         penetration = jnp.zeros((), dtype)
         engaged = jnp.zeros((), jnp.int32)
     within = jnp.all(jnp.abs(theta - intended) < angle_tolerance, axis=-1) & finite
     max_gap = jnp.zeros((), dtype)
+    seams_touching = jnp.zeros((0,), bool)
     if seam_gaps is not None:
         gaps = jax.vmap(seam_gaps)(q_safe)  # (t, s)
+        touch = _seams_touching(touching, getattr(seam_gaps, "bodies", None), gaps.shape)
         if gaps.shape[-1]:
-            within = within & jnp.all(gaps < seam_tolerance, axis=-1)
+            # Closed: within the tolerance, or held shut by its two panels touching.
+            within = within & jnp.all((gaps < seam_tolerance) | touch, axis=-1)
             max_gap = jnp.max(gaps[-1])
+        seams_touching = touch[-1] & finite[-1]
     final = theta[-1]
     tail = max(2, theta.shape[0] // 10)
     settled = jnp.max(jnp.abs(theta[-tail:] - final)) < angle_tolerance / 2
@@ -315,10 +376,30 @@ def fold_outcome(
         settled=settled,
         short=short,
         max_seam_gap=max_gap,
+        seams_touching=seams_touching,
         engaged=engaged,
         min_gap=min_gap,
         penetration=penetration,
     )
+
+
+def _seams_touching(touching, bodies, shape):
+    """Whether each seam's two bodies touch, `(t, s)` bool, from the contact's `touching`
+    `(t, n, n)` (`None` without contact) and the seams' bodies `(s, 2)` (host; `None`: unknown,
+    nothing touches). A body outside the contact's tables (a base the contact does not model)
+    touches nothing."""
+    if touching is None or bodies is None:
+        return jnp.zeros(shape, bool)
+    bodies = np.asarray(bodies)
+    if bodies.shape != (shape[-1], 2) or not np.issubdtype(bodies.dtype, np.integer):
+        raise ValueError(
+            f"seam_gaps.bodies must be {shape[-1]} pairs of body indices (int, shape "
+            f"({shape[-1]}, 2)), got {bodies.dtype} {bodies.shape}."
+        )
+    n = touching.shape[-1]
+    known = np.all((bodies >= 0) & (bodies < n), axis=1)
+    a, b = np.where(known[:, None], bodies, 0).T
+    return (touching[:, a, b] | touching[:, b, a]) & known
 
 
 def assess(
@@ -341,7 +422,10 @@ def assess(
     - `intended_angles`: the fold angle each crease should reach (rad, `(h,)`); default the system's
       hinge targets.
     - `seam_gaps`: a traceable function of the mechanism's coordinates ``q`` returning each seam's gap
-      (length, `(s,)`), e.g. `Net.seam_gap_function`; `None` for a device without seams.
+      (length, `(s,)`), e.g. `Net.seam_gap_function`; `None` for a device without seams. With a
+      `bodies` attribute (`(s, 2)` int, the two bodies each seam joins, numbered as in the
+      contact tables, as `origami_jax.net.SeamGaps` has) a seam whose panels touch counts as
+      closed whatever its gap (module docstring); a plain function judges the gaps alone.
     - `tolerances`: a `VerdictTolerances` (default: 3°, seams within 1 % of the panel size), or
       the two as `angle_tolerance` (rad) and `seam_tolerance` (a length; not both ways).
     - `panel_size`: the ``L`` the seam tolerance is a fraction of (length; default the contact
@@ -388,6 +472,9 @@ def assess(
     if seam_gaps is not None and np.all(np.isfinite(final)):
         q = trajectory.theta if trajectory.state is None else trajectory.state[0]
         gaps_final = np.asarray(seam_gaps(q[-1]), dtype=float)
+    seams_touching = np.asarray(outcome.seams_touching, dtype=bool)
+    if seams_touching.shape != gaps_final.shape:  # a failed run: no final seams
+        seams_touching = np.zeros(gaps_final.shape, dtype=bool)
     verdict = list(FoldVerdict)[int(outcome.code)]
     result = RESULTS[trajectory.result]
     if not bool(trajectory.succeeded):
@@ -398,6 +485,12 @@ def assess(
         )
     elif verdict == FoldVerdict.FOLDED:
         reason = "every crease at its angle, every seam closed"
+        by_contact = np.flatnonzero(seams_touching & (gaps_final >= seam_tolerance))
+        if len(by_contact):
+            reason += (
+                f" (seam {', '.join(map(str, by_contact))} by contact: its panels touch, gap "
+                f"{np.max(gaps_final[by_contact]):.3g} above the tolerance {seam_tolerance:.3g})"
+            )
     elif verdict == FoldVerdict.UNFINISHED:
         reason = "still moving at the end of the run"
     elif verdict == FoldVerdict.JAMMED:
@@ -429,4 +522,5 @@ def assess(
         max_penetration=penetration,
         penetration_fraction=penetration / thickness if thickness else 0.0,
         result="successful" if result == "" else str(result),
+        seams_touching=seams_touching,
     )
