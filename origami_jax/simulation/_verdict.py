@@ -6,24 +6,15 @@
   (both tolerances in `VerdictTolerances`: 3° and 1 % of the panel size by default);
   `time_to_fold` is when it got there for good. A seam is closed when its gap is below the seam
   tolerance, or when its two panels touch: some rim sample point of one lies over the other's face
-  (coverage > 0: the contact barrier acts there) with a gap below 1.1 ``ĝ``
-  (`PanelContact.report`'s `touching`). The last panel of a cube or a corner cube can land its
-  edge on its neighbour's face or edge instead of meeting it edge on edge (one plate resting on
-  the other, as thick plates meet): that seam cannot open further without the panels separating,
-  and with the creases within the angle tolerance the two panels can only touch near that seam, so
-  it is closed although its corners are a few µm apart (a corner cube with one flap 2° past 90°
-  holds the other at 90° on its edge, the seam open 7 µm at its far end: folded). Why 1.1 ``ĝ``
-  rather than ``ĝ``, where the barrier switches on: a panel resting on another hovers at the edge
-  of the activation layer, where the barrier's force rises from zero, so its rim points sit at
-  about ``ĝ`` (panel 0's on panel 4's face at 1.05 ``ĝ`` at the end of the nominal cube net run
-  at rtol 1e-9); 1.1 ``ĝ`` is what `contacts` counts as engaged, 0.1 µm past ``ĝ`` on the
-  catalogue's nets, a twentieth of the seam tolerance. Why coverage > 0 and not > ½ as `contacts`
-  counts: a panel held on its neighbour's edge rests on a rim point in that face's edge ramp (in
-  that corner cube, one point 0.02 ``ĝ`` from the face at a coverage of almost 0), held by the
-  barrier all the same. The rule needs to know which two bodies a seam joins (`seam_gaps` with a
-  `bodies` table, as `origami_jax.net.Net.seam_gap_function` gives); a plain function of ``q``
-  keeps the gap-only rule. A seam whose panels do not touch is judged by its gap alone: a touching
-  seam does not close the others.
+  (coverage > 0, the face's edge ramp included: the barrier acts there) within 1.1 ``ĝ``
+  (`PanelContact.report`'s `touching`; a resting panel hovers at the edge of the activation layer,
+  and 1.1 ``ĝ`` is also what `contacts` counts as engaged). The last panel of a cube can land its
+  edge on its neighbour's face or rim instead of meeting it edge on edge, as thick plates do: that
+  seam cannot open without the panels separating, and with every crease within the angle
+  tolerance the two can only touch near that seam, so it is closed although its corners may be a
+  few µm apart. The rule needs the two bodies each seam joins (`seam_gaps` with a `bodies` table,
+  as `origami_jax.net.Net.seam_gap_function` gives); a plain function of ``q`` keeps the gap-only
+  rule. A touching seam does not close the others.
 - **jammed**: the device came to rest short of that, with panels in contact: a crease stopped short
   of its intended angle (same sign, smaller magnitude) while contact holds it.
 - **misfolded**: it came to rest in another state (a crease on the wrong side or past its angle, seams
