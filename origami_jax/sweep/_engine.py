@@ -738,9 +738,10 @@ def _gather(
 ) -> xr.Dataset:
     """Stage 4: the chunks as one dataset with the sweep's attributes; with a store, process 0
     writes it to `sweep.nc` and the other processes read it back."""
-    if store is None:
+
+    def finish(dataset: xr.Dataset) -> xr.Dataset:
         return _finish(
-            gather(chunks),
+            dataset,
             plan.kernel,
             plan.manifest,
             size,
@@ -749,21 +750,15 @@ def _gather(
             run_seconds,
             workers,
         )
+
+    if store is None:
+        return finish(gather(chunks))
     process_count = jax.process_count()
     error = None
     if jax.process_index() == 0:
         try:
             dataset = store.gather(write=False, columns=plan.columns)
-            dataset = _finish(
-                dataset,
-                plan.kernel,
-                plan.manifest,
-                size,
-                devices,
-                compile_seconds,
-                run_seconds,
-                workers,
-            )
+            dataset = finish(dataset)
             gather([dataset], path=store.root / RESULT)
         except Exception as caught:  # reported by process 0, the others stop with it
             error = caught
