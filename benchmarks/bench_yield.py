@@ -57,15 +57,15 @@ def _estimate(n_samples: int, chunk: int | None = None, workers: int | None = No
 
 def _timed(n_samples: int, chunk: int | None, workers: int | None, **kwargs):
     """An estimate, its wall seconds per sample (compile excluded: the kernel is compiled by an
-    earlier call of the same chunk size) and its process CPU seconds per sample."""
+    earlier call of the same chunk size) and its process CPU seconds per sample (the call's CPU
+    seconds per wall second of computing, times its wall seconds per sample)."""
     cpu = os.times()
     estimate = _estimate(n_samples, chunk, workers, **kwargs)
     used = os.times()
     seconds = used.user - cpu.user + used.system - cpu.system
-    n_run = max(
-        1, round(estimate.dataset.attrs["run_s"] / max(estimate.seconds_per_sample, 1e-300))
-    )
-    return estimate, estimate.seconds_per_sample, seconds / n_run
+    run_s = estimate.dataset.attrs["run_s"]
+    per_sample = estimate.seconds_per_sample
+    return estimate, per_sample, seconds / run_s * per_sample if run_s > 0 else 0.0
 
 
 def _mujoco_seconds(n_nets: int, threads: int) -> float:

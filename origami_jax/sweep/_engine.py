@@ -23,9 +23,11 @@ How a sweep runs:
    the GIL while it computes): on a CPU, where a vmapped adaptive solver runs its chunk in
    lockstep until the slowest member is done, several small chunks side by side keep every core
    busy without making members wait on each other (a kernel can ask for small CPU chunks, see
-   `Kernel.cpu_chunk_size`). Each chunk's results are copied to the host, labelled and written
-   to `out/chunks/` as soon as it finishes (see `_store.py`); the order of finishing changes
-   nothing in the results, which are the same as computed one chunk after another.
+   `Kernel.cpu_chunk_size`). Each chunk's results are copied to the host as soon as it finishes,
+   labelled and written to `out/chunks/` (see `_store.py`), small chunks together (`store_every`:
+   one file holds at least that many designs, or what finished within 30 s); the order of
+   finishing changes nothing in the results, which are the same as computed one chunk after
+   another.
 4. Gather (`_gather`): at the end the chunks are gathered into one `xarray.Dataset` (written to
    `out/sweep.nc`).
 
@@ -101,6 +103,14 @@ def _default_chunk_size(
     cap = PER_DEVICE_CAP.get(platform, PER_DEVICE_CAP_ACCELERATOR)
     per_device = max(1, min(cap, math.ceil(n_designs / (n_devices * MIN_CHUNKS))))
     return per_device * n_devices
+
+
+def _check_count(value: Any, name: str, meaning: str) -> None:
+    """Refuse an optional count that is not a whole number >= 1 (`None` passes)."""
+    if value is not None and (
+        isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 1
+    ):
+        raise ValueError(f"{name} must be a whole number >= 1 ({meaning}), got {value!r}.")
 
 
 def _default_workers(devices: Sequence[Any]) -> int:
@@ -299,23 +309,13 @@ def sweep(
     kernel = as_kernel(fn)
     if chunk_size is not None and int(chunk_size) < 1:
         raise ValueError(f"chunk_size must be >= 1, got {chunk_size}.")
-    if workers is not None and (
-        isinstance(workers, bool) or not isinstance(workers, int | np.integer) or workers < 1
-    ):
-        raise ValueError(f"workers must be a whole number >= 1 (chunks at once), got {workers!r}.")
+    _check_count(workers, "workers", "chunks at once")
+    _check_count(store_every, "store_every", "designs per file")
     plan = _plan(kernel, space)
     devices = list(devices) if devices is not None else jax.local_devices()
     if not devices:
         raise ValueError("no devices to run on.")
     workers = _default_workers(devices) if workers is None else int(workers)
-    if store_every is not None and (
-        isinstance(store_every, bool)
-        or not isinstance(store_every, int | np.integer)
-        or store_every < 1
-    ):
-        raise ValueError(
-            f"store_every must be a whole number >= 1 (designs per file), got {store_every!r}."
-        )
     if out is None and jax.process_count() > 1:
         raise ValueError(
             "a sweep over several processes needs `out`, a folder every process can write to: "
@@ -895,8 +895,9 @@ def _fit_memory(
             group.compiled = compiled
             return size
         if size == n_devices:
+            at_once = f" × {workers} chunks at once (give fewer workers)" if workers > 1 else ""
             raise ValueError(
-                f"one design per device needs {needed / 2**30:.1f} GiB, more than "
+                f"one design per device needs {needed / 2**30:.1f} GiB{at_once}, more than "
                 f"{MEMORY_FRACTION:.0%} of the {budget / 2**30:.1f} GiB the device has."
             )
         size = max(n_devices, (size // (2 * n_devices)) * n_devices)
