@@ -92,6 +92,12 @@ def _smoothstep_slope(x):
     return 30 * x**2 * (1 - x) ** 2
 
 
+def _ramp_integral(x):
+    """``∫₀ˣ smoothstep``: 0 for ``x ≤ 0``, ``x⁴(5/2 − 3x + x²)`` on ``[0, 1]``, ``x − ½`` beyond (C³)."""
+    inside = jnp.clip(x, 0.0, 1.0)
+    return inside**4 * (2.5 - 3 * inside + inside**2) + jnp.maximum(x - 1, 0.0)
+
+
 class PanelContact(AbstractContact):
     """Contact between the panels of a mechanism and its fixed base (module docstring: the model).
 
@@ -285,74 +291,69 @@ class PanelContact(AbstractContact):
         return rotation, origin, tuple(local)
 
     def _edge_distances(self, x, y):
-        """Per edge of every face, the inward distance of face-frame positions `(a, b, i)` in units
-        of the ramp width ``δ``, with the edge's inward normal ``(a, b)`` as `(1, b, 1)` constants."""
+        """Per edge of every face, the inward distance of face-frame positions `(a, b, i)` from the
+        edge (length), with the edge's inward normal ``(a, b)`` as `(1, b, 1)` constants."""
         edges = self.tables.face_edges  # host (b, e, 3)
         rows = []
         for k in range(edges.shape[1]):
             a, b, c = (edges[None, :, k, j, None] for j in range(3))
-            rows.append(((a * x + b * y + c) / self.edge_width, (a, b)))
+            rows.append((a * x + b * y + c, (a, b)))
         return rows
 
     def _coverage(self, x, y):
-        """Coverage ``w`` of face-frame positions `(a, b, i)` (zero for pairs not checked)."""
+        """Coverage ``w`` of face-frame positions `(a, b, i)`: 1 over the face's outline by more than
+        ``δ``, 0 beside it (zero for pairs not checked); `report` and `engaged_points` count it."""
         coverage = 1.0
         for inward, _ in self._edge_distances(x, y):
-            coverage = coverage * smoothstep(inward)
+            coverage = coverage * smoothstep(inward / self.edge_width)
         return jnp.where(self.tables.pairs, coverage, 0.0)
 
-    def _pair_terms(self, local):
-        """Per pair `(a, b, i)`: the energy ``κ w B(g/ĝ)``, its gradient in the face frame (a
-        component tuple), the gap, its derivative along the face normal, and the coverage (zero for
-        pairs not checked)."""
-        mask = self.tables.pairs
-        half = self.half_thickness.astype(local[0].dtype)
+    def _gap(self, local):
+        """Per pair `(a, b, i)`: the gap ``g`` between the point's ball and the face's rounded plate
+        (module docstring) and its gradient in the face frame, a component tuple."""
+        x, y, z = local
+        dtype = x.dtype
+        half = self.half_thickness.astype(dtype)
         half_sum = half[:, None, None] + half[None, :, None]
         tiny = 1e-6 * self.activation
-
-        # The gradient by hand (the chain rule through the coverage's product of edge ramps and the
-        # barrier), which has about half the operations of reverse-mode autodiff of the energy.
-        x, y, z = local
-        steps, slopes, normals = [], [], []
-        for inward, normal in self._edge_distances(x, y):
-            steps.append(smoothstep(inward))
-            slopes.append(_smoothstep_slope(inward) / self.edge_width)
-            normals.append(normal)
-        # Products of all ramps but one, from running products from either end.
-        before, after = [1.0], [1.0]
-        for s_k in steps[:-1]:
-            before.append(before[-1] * s_k)
-        for s_k in steps[:0:-1]:
-            after.append(after[-1] * s_k)
-        after.reverse()
-        coverage = jnp.where(mask, before[-1] * steps[-1], 0.0)
-        dcover_dx = sum(
-            p * q * d * n[0] for p, q, d, n in zip(before, after, slopes, normals, strict=True)
-        )
-        dcover_dy = sum(
-            p * q * d * n[1] for p, q, d, n in zip(before, after, slopes, normals, strict=True)
-        )
-        root = jnp.sqrt(z**2 + tiny**2)
+        width = self.edge_width
+        inset = self.tables.face_inset
+        # Beyond each edge of the inset face, a smoothed distance ``δ m(−e/δ)`` (``m`` the integral
+        # of the smoothstep: 0 inside, ``x − ½`` beyond ``δ``), its slope ``−S(−e/δ)`` along the
+        # edge's inward normal.
+        squares, dx, dy = 0.0, 0.0, 0.0
+        for inward, (a, b) in self._edge_distances(x, y):
+            out = -(inward - inset) / width
+            beyond = width * _ramp_integral(out)
+            slope = -smoothstep(out)
+            squares = squares + beyond**2
+            dx = dx + beyond * slope * a
+            dy = dy + beyond * slope * b
+        root = jnp.sqrt(z**2 + squares + tiny**2)
         gap = root - tiny - half_sum
-        dgap_dz = z / root
+        return gap, (dx / root, dy / root, z / root)
+
+    def _pair_terms(self, local):
+        """Per pair `(a, b, i)`: the energy ``κ B(g/ĝ)``, its gradient in the face frame, the gap and
+        its gradient (component tuples; zero for pairs not checked)."""
+        mask = self.tables.pairs
+        gap, normal = self._gap(local)
         ratio = gap / self.activation
-        level = self.stiffness * barrier(ratio)
-        energy = coverage * level
-        gradient = (
-            jnp.where(mask, level * dcover_dx, 0.0),
-            jnp.where(mask, level * dcover_dy, 0.0),
-            coverage * self.stiffness * _barrier_slope(ratio) / self.activation * dgap_dz,
-        )
-        return energy, gradient, gap, dgap_dz, coverage
+        energy = jnp.where(mask, self.stiffness * barrier(ratio), 0.0)
+        slope = jnp.where(mask, self.stiffness * _barrier_slope(ratio) / self.activation, 0.0)
+        gradient = tuple(slope * n for n in normal)
+        return energy, gradient, gap, normal
 
     def gaps(
         self, mechanism: AbstractMechanism, q: Float[Array, " nq"]
     ) -> tuple[Float[Array, "n n p"], Float[Array, "n n p"]]:
-        """Gap ``g`` (length) and coverage ``w`` (0–1, zero for pairs not checked) of point `i` of body
-        `a` against the face of body `b`, shape `(n, n, p)` over `(a, b, i)` (the base last)."""
+        """Gap ``g`` (length: from the point's ball to the face's rounded plate, module docstring)
+        and coverage ``w`` (0–1: 1 where the point lies over the face's outline by more than ``δ``,
+        0 beside it; zero for pairs not checked) of point `i` of body `a` against the face of body
+        `b`, shape `(n, n, p)` over `(a, b, i)` (the base last)."""
         _, _, local = self._local(mechanism, q)
-        _, _, gap, _, coverage = self._pair_terms(local)
-        return gap, coverage
+        gap, _ = self._gap(local)
+        return gap, self._coverage(local[0], local[1])
 
     def potential(self, mechanism, q):
         _, _, local = self._local(mechanism, q)
@@ -363,7 +364,7 @@ class PanelContact(AbstractContact):
         # The kinematics once for the poses, the twists and the wrench map (`body_motion`).
         poses, velocity, wrench_force = mechanism.body_motion(q, v)
         rotation, origin, local = self._local(mechanism, q, poses)
-        _, (gx, gy, gz), gap, dgap_dz, coverage = self._pair_terms(local)
+        _, (gx, gy, gz), gap, (nx, ny, nz) = self._pair_terms(local)
         x, y, z = local
         # The motion of a relative to b in b's face frame about its origin, (u, w) per body pair:
         # u = R_bᵀ (Δv_O + Δω × o_b), w = R_bᵀ Δω from the world twists about the origin.
@@ -373,13 +374,16 @@ class PanelContact(AbstractContact):
         d_angular = velocity[:, None, 3:] - velocity[None, :, 3:]
         u = jnp.einsum("bki,abk->abi", rotation, d_linear + jnp.cross(d_angular, origin[None, :]))
         w = jnp.einsum("bki,abk->abi", rotation, d_angular)
-        # Dissipative: −c w a(g) ġ ∂g/∂z along the face normal, ġ = (∂g/∂z) × the normal component of
-        # the point's velocity relative to the face, u_z + w_x y − w_y x.
-        normal_rate = u[..., 2, None] + w[..., 0, None] * y - w[..., 1, None] * x
-        engaged = coverage * smoothstep(1 - gap / self.activation)
-        damping = -self.damping * engaged * (dgap_dz * normal_rate) * dgap_dz
+        ux, uy, uz = (u[..., k, None] for k in range(3))
+        wx, wy, wz = (w[..., k, None] for k in range(3))
+        # Dissipative: −c a(g) ġ ∇g, ġ = ∇g · (the point's velocity relative to the face, u + w × p).
+        rate = (
+            nx * (ux + wy * z - wz * y) + ny * (uy + wz * x - wx * z) + nz * (uz + wx * y - wy * x)
+        )
+        engaged = jnp.where(self.tables.pairs, smoothstep(1 - gap / self.activation), 0.0)
+        damping = -self.damping * engaged * rate
         # Elastic: −∇e on the point of a; b takes the opposite at the same place.
-        fx, fy, fz = -gx, -gy, damping - gz
+        fx, fy, fz = damping * nx - gx, damping * ny - gy, damping * nz - gz
         force = jnp.stack([jnp.sum(f, axis=-1) for f in (fx, fy, fz)], axis=-1)  # (a, b, 3)
         moment = jnp.stack(
             [jnp.sum(m, axis=-1) for m in (y * fz - z * fy, z * fx - x * fz, x * fy - y * fx)],
@@ -392,54 +396,54 @@ class PanelContact(AbstractContact):
         return wrench_force(wrenches[: self.tables.n_bodies])
 
     def crossed(self, mechanism, q0, q1) -> Array:
-        """Whether some sample point crosses the mid-plane of a face between ``q0`` and ``q1`` at a
-        place where it lies over that face (coverage > ½, as `report` counts it; the place from the
-        straight path between the point's two positions in the face's frame): a panel passed
-        through another (boolean scalar). A point that passes a face's plane beside its edge, or
-        in the outer half of its edge ramp, where the barrier holds it only weakly, does not count:
-        edges meeting edges are not resolved by the model (module docstring)."""
+        """Whether some sample point crosses the mid-plane of a face between ``q0`` and ``q1`` through
+        the face's rounded plate (its gap there, on the mid-plane, below zero; the place from the
+        straight path between the point's two positions in the face's frame): a panel passed through
+        another (boolean scalar). A point that passes a face's plane beside its plate, where the
+        barrier holds it off the rounded rim, does not count."""
         _, _, (x0, y0, z0) = self._local(mechanism, q0)
         _, _, (x1, y1, z1) = self._local(mechanism, q1)
         flipped = z0 * z1 < 0
         s = z0 / jnp.where(flipped, z0 - z1, 1.0)
-        coverage = self._coverage(x0 + s * (x1 - x0), y0 + s * (y1 - y0))
-        return jnp.any(flipped & (coverage > 0.5))
+        place = (x0 + s * (x1 - x0), y0 + s * (y1 - y0), jnp.zeros_like(z0))
+        gap, _ = self._gap(place)
+        return jnp.any(flipped & self.tables.pairs & (gap < 0))
 
     def engaged_points(
         self, mechanism: AbstractMechanism, q: Float[Array, " nq"]
     ) -> tuple[Float[Array, "n n 3"], Float[Array, "n n"]]:
         """Where the panels touch at ``q``, for drawing: for every ordered pair of bodies `(a, b)`
         (the base last) the mean world position of `a`'s points that `report` counts as engaged
-        on `b`'s face (coverage > ½, ``g < 1.1 ĝ``), shape `(n, n, 3)` (length; zeros where none),
-        and how many there are, `(n, n)`."""
+        on `b`'s face or rim (``g < 1.1 ĝ``), shape `(n, n, 3)` (length; zeros where none), and how
+        many there are, `(n, n)`."""
         rotation, origin, local = self._local(mechanism, q)
-        _, _, gap, _, coverage = self._pair_terms(local)
+        gap, _ = self._gap(local)
         points = jnp.asarray(self.tables.points, rotation.dtype)
         world = jnp.einsum("aij,apj->api", rotation, points) + origin[:, None, :]
-        engaged = (coverage > 0.5) & (gap < 1.1 * self.activation)  # (a, b, p)
+        engaged = self.tables.pairs & (gap < 1.1 * self.activation)  # (a, b, p)
         count = jnp.sum(engaged, axis=-1)
         total = jnp.einsum("abp,api->abi", engaged.astype(world.dtype), world)
         mean = total / jnp.maximum(count, 1)[..., None].astype(world.dtype)
         return mean, count
 
     def report(self, mechanism, q) -> dict[str, Array]:
-        """Contact state at ``q``: the smallest gap over pairs whose point lies over the face
-        (coverage > ½; length, `inf` if none), how many such pairs are engaged (``g < 1.1 ĝ``: a
-        panel resting on another hovers at the edge of the activation layer, where the barrier's
-        force rises from zero), the penetration ``max(0, −g)`` (length), and `touching` `(n, n)`
-        bool over (point body `a`, face body `b`, the base last): some point of `a` with
-        coverage > 0 on `b`'s face (the barrier acts there, in the face's edge ramp too) has
-        ``g < 1.1 ĝ``, i.e. `a` rests on `b` (the verdict's seams closed by contact,
+        """Contact state at ``q``: the smallest gap over the pairs checked (length, `inf` if none),
+        how many are engaged (``g < 1.1 ĝ``: a panel resting on another hovers at the edge of the
+        activation layer, where the barrier's force rises from zero), the penetration
+        ``max(0, −g)`` (length), and `touching` `(n, n)` bool over (point body `a`, face body `b`,
+        the base last): some point of `a` has ``g < 1.1 ĝ`` against `b`'s face or rim, i.e. `a`
+        rests on `b` or meets its edge (the verdict's seams closed by contact,
         `origami_jax.simulation.fold_outcome`)."""
-        gap, coverage = self.gaps(mechanism, q)
-        covered = coverage > 0.5
-        smallest = jnp.min(jnp.where(covered, gap, jnp.inf))
-        near = gap < 1.1 * self.activation
+        _, _, local = self._local(mechanism, q)
+        gap, _ = self._gap(local)
+        checked = self.tables.pairs
+        smallest = jnp.min(jnp.where(checked, gap, jnp.inf))
+        near = checked & (gap < 1.1 * self.activation)
         return {
             "min_gap": smallest,
-            "engaged": jnp.sum(covered & near),
+            "engaged": jnp.sum(near),
             "penetration": jnp.maximum(-smallest, 0.0),
-            "touching": jnp.any((coverage > 0) & near, axis=-1),
+            "touching": jnp.any(near, axis=-1),
         }
 
 

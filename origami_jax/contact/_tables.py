@@ -21,11 +21,13 @@ class ContactTables:
     - `n_bodies`: moving bodies; `has_base`: whether a fixed base takes part.
     - `base_pose`: `(4, 4)` world pose of the base's face frame (identity if there is no base).
     - `points`: `(n, p, 3)` sample points of every body (moving bodies, then the base) in its body
-      frame, padded to the same count `p` (`_sample_points`: the rim moved slightly inwards, and the
-      centre).
+      frame, padded to the same count `p` (`_sample_points`: the centre, the rim moved `face_inset`
+      inwards, and the rim itself).
     - `face_edges`: `(n, e, 3)` inward half-planes ``a x + b y + c ≥ 0`` of each body's face (the
       convex hull of its outline) in its body frame (``(a, b)`` a unit normal, `c` a length), padded
       with always-true rows.
+    - `face_inset`: how far inside its outline the face that other panels' points meet begins
+      (length; `PanelContact`'s rounded rim), the inner ring of points lies on it.
     - `pairs`: `(n, n, p)` booleans: point `i` of body `a` is checked against the face of body `b`
       (never its own; padding and points near a crease the two share are left out).
     - `scale`: the largest panel's diameter (length).
@@ -38,6 +40,7 @@ class ContactTables:
     face_edges: np.ndarray
     pairs: np.ndarray
     scale: float
+    face_inset: float = 0.0
     digest: str = dataclasses.field(default="", repr=False)
 
     def __post_init__(self):
@@ -47,7 +50,7 @@ class ContactTables:
             h.update(name.encode())
             h.update(str(array.shape).encode())
             h.update(array.tobytes())
-        h.update(repr((self.n_bodies, self.has_base, self.scale)).encode())
+        h.update(repr((self.n_bodies, self.has_base, self.scale, self.face_inset)).encode())
         object.__setattr__(self, "digest", h.hexdigest())
 
     def __hash__(self) -> int:
@@ -138,20 +141,34 @@ def _inset_polygon(outline: np.ndarray, inset: float) -> np.ndarray:
     return corners
 
 
-def _sample_points(outline: np.ndarray, inset: float, per_edge: int) -> np.ndarray:
-    """Points on the rim of the panel moved `inset` inwards (corners, and `per_edge` points along the
-    longest edge, proportionally fewer on shorter ones), and the vertex mean.
+def _ring(polygon: np.ndarray, per_edge: int) -> list:
+    """Corners of a convex polygon and `per_edge` points along its longest edge, proportionally fewer
+    on shorter ones."""
+    lengths = np.linalg.norm(polygon - np.roll(polygon, -1, axis=0), axis=-1)
+    spacing = lengths.max() / max(per_edge, 1)
+    points = []
+    for a, b, length in zip(polygon, np.roll(polygon, -1, axis=0), lengths, strict=True):
+        n = max(1, int(np.ceil(length / spacing - 1e-9)))
+        points += [a + s * (b - a) for s in np.arange(n) / n]
+    return points
 
-    Inset, so that a panel stacked on another of the same outline lies over its face (a rim point on
-    the other's edge would have no coverage); `inset` is twice the coverage ramp's width."""
+
+def _sample_points(
+    outline: np.ndarray, inset: float, per_edge: int, rim: bool = True
+) -> np.ndarray:
+    """The vertex mean, a ring on the rim of the panel moved `inset` inwards, and (`rim`) a ring on
+    the rim itself (the convex hull's corners and points along its edges, `_ring`).
+
+    The inner ring lies on the face that other panels' points meet (`PanelContact` insets every face
+    by `inset`), so that a panel stacked on another of the same outline lies over its face; the
+    outer ring is where an edge meets another panel's edge."""
     inner = _inset_polygon(outline, inset)
     points = [np.asarray(outline, dtype=float).mean(axis=0)]
     if len(inner) >= 3:
-        lengths = np.linalg.norm(inner - np.roll(inner, -1, axis=0), axis=-1)
-        spacing = lengths.max() / max(per_edge, 1)
-        for a, b, length in zip(inner, np.roll(inner, -1, axis=0), lengths, strict=True):
-            n = max(1, int(np.ceil(length / spacing - 1e-9)))
-            points += [a + s * (b - a) for s in np.arange(n) / n]
+        points += _ring(inner, per_edge)
+        if rim:
+            hull = _convex_hull(np.asarray(outline, dtype=float)[:, :2])
+            points += _ring(np.concatenate([hull, np.zeros((len(hull), 1))], axis=1), per_edge)
     return np.asarray(points)
 
 
@@ -172,6 +189,7 @@ def build_tables(
     inset: float,
     points_per_edge: int = 4,
     crease_clearance: float = 0.5,
+    rim: bool = True,
 ) -> ContactTables:
     """The contact geometry of panels given by their body-frame outlines.
 
@@ -185,9 +203,11 @@ def build_tables(
       point hinge holds the two together there (folded flat onto each other, their surfaces would
       overlap for any angle short of π·(1 − t/r) at a distance r from the crease), so only their far
       halves meet.
-    - `inset`: how far inside each panel's rim its sample points lie (length; see `_sample_points`).
-    - `points_per_edge`: samples along each panel's longest edge; shorter edges get proportionally
-      fewer (at least the corners).
+    - `inset`: how far inside each panel's outline its face begins for other panels' points, and its
+      inner ring of sample points lies (length; see `_sample_points`).
+    - `points_per_edge`: samples along each panel's longest edge, per ring; shorter edges get
+      proportionally fewer (at least the corners).
+    - `rim`: whether each panel also has a ring of points on its rim (edge-on-edge contact).
     """
     n = len(outlines)
     outlines = [np.asarray(o, dtype=float) for o in outlines]
@@ -212,10 +232,10 @@ def build_tables(
 
     points, world_points = [], []
     for body, face in enumerate(faces):
-        rim = _sample_points(face, inset, points_per_edge)
-        points.append(rim)
+        samples = _sample_points(face, inset, points_per_edge, rim)
+        points.append(samples)
         pose = base_pose if body == n else rest_poses[body]
-        world_points.append(rim @ pose[:3, :3].T + pose[:3, 3])
+        world_points.append(samples @ pose[:3, :3].T + pose[:3, 3])
     planes = [_half_planes(f) for f in faces]
     n_edges = max(len(p) for p in planes)
     face_edges = np.zeros((len(faces), n_edges, 3))
@@ -248,4 +268,5 @@ def build_tables(
         face_edges=face_edges,
         pairs=pairs,
         scale=scale,
+        face_inset=float(inset),
     )
