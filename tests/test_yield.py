@@ -261,12 +261,18 @@ def test_fabricated_hinges_fold_to_the_timoshenko_ratio():
     assert under.sum() >= 4
     np.testing.assert_allclose(final[under], free_angle[under], atol=ANGLE_ATOL_DEG)
     # One that overfolds leans towards its neighbour: it reaches its angle, or the neighbour's
-    # panel stops it on the way (at the closed seam, ~90°); contact never pushes it further.
+    # rim stops it on the way (at the closed seam, ~90°), or the neighbour got inside first and
+    # holds it out: the inner flap's rim rests on its inner face, the rim point nearest the seam's
+    # corner (50 µm up the seam) ĝ + t off it, which turns it out by about (ĝ + t)/50 µm = 1.4°.
     over = ~under
-    assert np.all(final[over] > 90.0 - ANGLE_ATOL_DEG)
     assert np.all(final[over] < free_angle[over] + ANGLE_ATOL_DEG)
-    held = over & (final < free_angle - ANGLE_ATOL_DEG)
-    assert held.sum() >= 1 and np.all(np.abs(final[held] - 90.0) < 0.5)
+    reached = np.abs(final - free_angle) < ANGLE_ATOL_DEG
+    held = over & ~reached
+    assert held.sum() >= 1
+    at_seam = np.abs(final - 90.0) < 0.5
+    partner_inside = (reached & over)[:, ::-1]  # two creases: the other flap at its angle, past 90°
+    held_out = (final > 90.0 - 1.5) & (final < 90.0) & partner_inside
+    assert np.all((at_seam | held_out)[held])
     # The verdicts agree with the angles: a crease more than 3° off cannot be folded.
     off = np.any(np.abs(final - 90.0) > 3.0, axis=1)
     assert not np.any(ds["folded"].values[off])
