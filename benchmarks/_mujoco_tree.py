@@ -57,7 +57,7 @@ def tree_mjcf(
     inertias = np.asarray(tree.inertias)
     outlines = tree.outlines()
     # Panels that meet edge on edge (a closing seam) must not jam on their thickness: each panel's
-    # collision prism is inset by a thickness (ours feels no force edge on edge either).
+    # collision prism is inset by a thickness (ours insets each face by 2δ and rounds its rim).
     inset = 0 if thickness is None else thickness
     children: dict[int, list[int]] = {}
     for i, p in enumerate(parents):

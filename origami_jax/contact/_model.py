@@ -1,43 +1,58 @@
 """`PanelContact`: smooth, frictionless, energy-consistent contact between thin panels.
 
-**Model.** Every panel is a plate of thickness ``t`` around its mid-plane, its face the convex hull of its
-outline. Points sampled on each panel's rim (`ContactTables`) are checked against the faces of the other
-panels and of the fixed base. For a point ``p`` and a face ``F`` (frame ``(R, o)``, ``p_F = Rᵀ (p − o)``):
+**Model.** Every panel is a plate of thickness ``t`` around its mid-plane. As other panels meet it, its
+face is the convex hull of its outline moved ``ι`` inwards (``ι = 2δ`` by default, `ContactTables.
+face_inset`), swept by a ball of radius ``t/2``: a plate with a rounded rim. Points sampled on each
+panel (`ContactTables`: its centre, a ring on that inset rim, a ring on the outline's rim itself) are
+kept off the other panels' plates and the fixed base's. For a point ``p`` and a face ``F`` (frame
+``(R, o)``, ``p_F = Rᵀ (p − o)``, ``e_k`` its inward distance from the face's edge ``k``):
 
-- *gap* ``g = |p_F,z| − (t_p + t_F)/2``: the clearance between the two plates' surfaces along the face's
-  normal (``|·|`` smoothed at 0 so its gradient stays finite deep inside);
-- *coverage* ``w = Π_e s(e(p_F)/δ)``: 1 when the point's projection lies inside the face by more than
-  ``δ``, 0 outside it, with ``s`` the C² smoothstep ``x³(10 − 15x + 6x²)`` on each edge's inward
-  distance ``e``; a rim point meets a face only over that face.
+- *gap* ``g = sqrt(z² + Σ_k d_k²) − (t_p + t_F)/2`` with ``z = p_F,z`` and ``d_k = δ m((ι − e_k)/δ)``:
+  over the inset face every ``d_k`` is 0 and ``g = |z| − (t_p + t_F)/2``, the clearance between the two
+  plates' surfaces along the face's normal; beside it, ``g`` is the distance to the rim (to a corner
+  where two ``d_k`` are on) less the two half-thicknesses. ``m`` is the integral of the C² smoothstep
+  ``s(x) = x³(10 − 15x + 6x²)``, 0 for ``x ≤ 0`` and ``x − ½`` beyond 1, so ``g`` is C³ in ``p`` (the
+  rim's edge rounded over ``δ``; ``|·|`` smoothed at 0 so that its gradient stays finite deep inside).
 
-The contact energy is ``E = κ Σ w B(g/ĝ)`` with the barrier of Incremental Potential Contact (Li et al.,
+The contact energy is ``E = κ Σ B(g/ĝ)`` with the barrier of Incremental Potential Contact (Li et al.,
 SIGGRAPH 2020), ``B(x) = −(x − 1)² ln x`` for ``x < 1`` and 0 beyond: it switches on at the activation
 gap ``ĝ``, is C² there, and grows without bound as the gap closes. Below ``x = 0.1`` it continues as its
 own second-order Taylor polynomial, so that an integrator step that lands past contact sees a finite,
 steep, restoring force instead of a NaN (penetration is then possible, and reported). Each pair's
 energy depends only on the point's coordinates in the face's frame, so its force is a force at the point
 and the opposite force on the face's body at the same place (virtual work); with a dissipative part
-``−c w a(g) ġ ∂g/∂x`` (``a`` a C² ramp from 0 at ``ĝ`` to 1 at contact, ``ġ`` from the two bodies'
-velocities at the point) they add up to one wrench per body, which the mechanism maps to its
+``−c a(g) ġ ∇g`` (``a`` a C² ramp from 0 at ``ĝ`` to 1 at contact, ``ġ = ∇g · v`` from the two
+bodies' velocities at the point) they add up to one wrench per body, which the mechanism maps to its
 coordinates (`apply_wrenches`). The elastic part is exactly ``−∂E/∂q``, and contact never adds
-energy: ``v · f = −dE/dt − c Σ w a ġ² ≤ −dE/dt``.
+energy: ``v · f = −dE/dt − c Σ a ġ² ≤ −dE/dt``.
 
-Shared creases: two panels joined by a hinge touch along it by construction; their rim points near the
-crease are not paired (the hinge keeps them apart, the barrier would fight it). Edges that meet edge
-on edge (a seam closing exactly) feel no force: the model resolves plate-through-plate penetration of
-faces, which is what stops folded flaps on each other and panels passing through panels. A seam whose
-last panel lands on the neighbour's face or on the rim of that face instead (one plate resting on the
-other, its corners a few µm from the neighbour's) is held there by the barrier; the verdict counts such
-a seam as closed when the two panels touch (`origami_jax.simulation.fold_outcome`, `report`'s
-`touching`).
+**Why two rings and an inset face.** A closed seam of a rigidly folded net puts two panels' rims on
+one line, each panel in the plane through the other's rim, and a panel turned past it slides its rim
+along the other's face (its points move in that face's plane, across its edge). The outer ring, on the
+rim, meets the neighbour's rounded rim there: a rim pushed more than about ``δ`` past the neighbour's
+(into its plate) is stopped, edge on edge, and a rim point cannot pass a face's plane within its
+plate. The inset face keeps the closed seam itself free: a rim point on the neighbour's outline is
+``ι − δ/2`` from its rounded rim, ``g = 1.3 ĝ`` for a 0.2 µm film with the defaults, so the exactly
+closed cube feels no contact. The inner ring lies on the inset rim, so that a panel stacked on another
+of the same outline lies over its face (its outer ring, over the other's rim, does not touch it). The
+price: within ``ι`` of a face's outline the plates may overlap (the model's resolution, 2 µm for a
+200 µm panel; a rim point passes a face's plane freely less than ``ι − δ/2 − t − ĝ`` inside it, 0.3 µm
+with the defaults), and two panels that share a corner of a closed seam meet through the rim points
+nearest it: one held inside the other turns it out by about ``(t + ĝ)/s`` rad, ``s`` that point's
+distance from the corner (1.4° with rim points 50 µm apart).
+
+Shared creases: two panels joined by a hinge touch along it by construction; their points near the
+crease are not paired (the hinge keeps them apart, the barrier would fight it). A seam whose last panel
+lands on the neighbour's face or rim instead of closing (one plate resting on the other, its corners a
+few µm from the neighbour's) is held there by the barrier; the verdict counts such a seam as closed
+when the two panels touch (`origami_jax.simulation.fold_outcome`, `report`'s `touching`).
 
 Defaults (`PanelContact.for_system`): ``ĝ`` = the larger of the panel thickness and 0.5 % of the
 largest panel (a standoff that keeps contact from being stiffer than the impact it has to resolve:
 a 200 µm flap landing at 10 m/s is stopped within ``ĝ`` in ~0.2 µs whatever the stiffness),
-``δ`` = ``ĝ``, ``κ`` = the energy the
-hinges can release (``Σ ½ k θ_target²``), so a single rim point stops the whole fold's energy at about a
-fifth of ``ĝ`` (``B(0.2) ≈ 1``); ``c`` from a damping ratio of the contact's stiffness at ``g = ĝ/2``
-and the lightest panel's mass.
+``δ`` = ``ĝ``, ``ι = 2δ``, ``κ`` = the energy the hinges can release (``Σ ½ k θ_target²``), so a single
+point stops the whole fold's energy at about a fifth of ``ĝ`` (``B(0.2) ≈ 1``); ``c`` from a damping
+ratio of the contact's stiffness at ``g = ĝ/2`` and the lightest panel's mass.
 """
 
 import equinox as eqx
@@ -106,7 +121,8 @@ class PanelContact(AbstractContact):
     - `stiffness`: ``κ``, energy units (µN·µm = pJ in `MICRO`).
     - `activation`: ``ĝ``, the gap at which contact switches on, length.
     - `damping`: ``c``, force·time/length, per (point, face) pair in contact.
-    - `edge_width`: ``δ``, the width of the coverage ramp at a face's edge, length.
+    - `edge_width`: ``δ``, the width over which a face's rim is rounded (and `report`'s coverage
+      ramp), length.
     - `half_thickness`: half of each body's thickness, the base last, `(n,)`, length.
 
     Build it with [`origami_jax.contact.PanelContact.for_system`][] (defaults from the hinges and
@@ -174,8 +190,8 @@ class PanelContact(AbstractContact):
                         f"{host}."
                     )
         if tables is None:
-            # Sample points sit inside each rim by twice the coverage ramp (host geometry: the
-            # nominal ramp when the thickness is traced).
+            # Faces (and the inner ring of points) inset by twice the rounding width (host
+            # geometry: the nominal width when the thickness is traced).
             ramp = float(edge_width) if not is_traced(edge_width) else 0.005 * size
             tables = cls.tables_for(
                 mechanism, base_outline=base, inset=2 * ramp, points_per_edge=points_per_edge
@@ -198,8 +214,9 @@ class PanelContact(AbstractContact):
         points_per_edge: int = 4,
     ) -> ContactTables:
         """The contact geometry of a mechanism whose arrays are known (host; see `ContactTables`):
-        its outlines, rest poses and hinge layout. `inset` defaults to twice 0.5 % of the largest
-        panel (the default coverage ramp of a thin panel)."""
+        its outlines, rest poses and hinge layout. `inset` (the faces' inset ``ι`` and the inner ring's)
+        defaults to twice 0.5 % of the largest panel (twice the default rounding width of a thin
+        panel)."""
         outlines = mechanism.outlines()
         size = max(float(np.max(np.ptp(o, axis=0))) for o in outlines)
         base = mechanism.base_outline() if base_outline is None else base_outline

@@ -5,11 +5,11 @@
 - **folded**: every crease within the angle tolerance of its intended angle and every seam closed
   (both tolerances in `VerdictTolerances`: 3° and 1 % of the panel size by default);
   `time_to_fold` is when it got there for good. A seam is closed when its gap is below the seam
-  tolerance, or when its two panels touch: some rim sample point of one lies over the other's face
-  (coverage > 0, the face's edge ramp included: the barrier acts there) within 1.1 ``ĝ``
-  (`PanelContact.report`'s `touching`; a resting panel hovers at the edge of the activation layer,
-  and 1.1 ``ĝ`` is also what `contacts` counts as engaged). The last panel of a cube can land its
-  edge on its neighbour's face or rim instead of meeting it edge on edge, as thick plates do: that
+  tolerance, or when its two panels touch: some sample point of one lies within 1.1 ``ĝ`` of the
+  other's plate, its face or its rounded rim (`PanelContact.report`'s `touching`; a resting panel
+  hovers at the edge of the activation layer, and 1.1 ``ĝ`` is also what `contacts` counts as
+  engaged). The last panel of a cube can land its edge on its neighbour's face or rim instead of
+  meeting it edge on edge: that
   seam cannot open without the panels separating, and with every crease within the angle
   tolerance the two can only touch near that seam, so it is closed although its corners may be a
   few µm apart. The rule needs the two bodies each seam joins (`seam_gaps` with a `bodies` table,
@@ -69,8 +69,8 @@ class VerdictTolerances:
       extent of any panel's outline along the axes; 200 µm for the catalogue's nets of 200 µm
       squares, so the default is 2 µm).
 
-    A seam whose two panels touch (a rim point of one over the other's face, edge ramp included,
-    within 1.1 ``ĝ``, the contact's activation gap) counts as closed whatever its gap (module
+    A seam whose two panels touch (a sample point of one within 1.1 ``ĝ``, the contact's activation
+    gap, of the other's face or rim) counts as closed whatever its gap (module
     docstring); `seam` judges the seams whose panels do not touch.
 
     The two are not equally strict: a crease off by ``δθ`` opens a seam along a panel of size ``L``
