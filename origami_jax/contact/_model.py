@@ -3,8 +3,9 @@
 **Model.** Every panel is a plate of thickness ``t`` around its mid-plane. As other panels meet it, its
 face is the convex hull of its outline moved ``ι`` inwards (``ι = 2δ`` by default, `ContactTables.
 face_inset`), swept by a ball of radius ``t/2``: a plate with a rounded rim. Points sampled on each
-panel (`ContactTables`: its centre, a ring on that inset rim, a ring on the outline's rim itself) are
-kept off the other panels' plates and the fixed base's. For a point ``p`` and a face ``F`` (frame
+panel (`ContactTables`: its centre, a ring on that inset rim, and points on the outline's rim itself,
+two per edge, a quarter of the edge from its corners) are kept off the other panels' plates and the
+fixed base's. For a point ``p`` and a face ``F`` (frame
 ``(R, o)``, ``p_F = Rᵀ (p − o)``, ``e_k`` its inward distance from the face's edge ``k``):
 
 - *gap* ``g = sqrt(z² + Σ_k d_k²) − (t_p + t_F)/2`` with ``z = p_F,z`` and ``d_k = δ m((ι − e_k)/δ)``:
@@ -26,20 +27,24 @@ bodies' velocities at the point) they add up to one wrench per body, which the m
 coordinates (`apply_wrenches`). The elastic part is exactly ``−∂E/∂q``, and contact never adds
 energy: ``v · f = −dE/dt − c Σ a ġ² ≤ −dE/dt``.
 
-**Why two rings and an inset face.** A closed seam of a rigidly folded net puts two panels' rims on
+**Why rim points and an inset face.** A closed seam of a rigidly folded net puts two panels' rims on
 one line, each panel in the plane through the other's rim, and a panel turned past it slides its rim
-along the other's face (its points move in that face's plane, across its edge). The outer ring, on the
-rim, meets the neighbour's rounded rim there: a rim pushed more than about ``δ`` past the neighbour's
+along the other's face (its points move in that face's plane, across its edge). The points on the
+rim meet the neighbour's rounded rim there: a rim pushed more than about ``δ`` past the neighbour's
 (into its plate) is stopped, edge on edge, and a rim point cannot pass a face's plane within its
 plate. The inset face keeps the closed seam itself free: a rim point on the neighbour's outline is
 ``ι − δ/2`` from its rounded rim, ``g = 1.3 ĝ`` for a 0.2 µm film with the defaults, so the exactly
 closed cube feels no contact. The inner ring lies on the inset rim, so that a panel stacked on another
-of the same outline lies over its face (its outer ring, over the other's rim, does not touch it). The
+of the same outline lies over its face (its rim points, over the other's rim, do not touch it). The
 price: within ``ι`` of a face's outline the plates may overlap (the model's resolution, 2 µm for a
 200 µm panel; a rim point passes a face's plane freely less than ``ι − δ/2 − t − ĝ`` inside it, 0.3 µm
 with the defaults), and two panels that share a corner of a closed seam meet through the rim points
 nearest it: one held inside the other turns it out by about ``(t + ĝ)/s`` rad, ``s`` that point's
-distance from the corner (1.4° with rim points 50 µm apart).
+distance from the corner (1.4° for 200 µm edges, their rim points 50 µm from the corners). The rim
+points keep off the corners: a rim corner meets the neighbour's inset plate where it is inset along
+two edges, and adds nothing; the ring's density is the trade between cost and how firmly two rims
+that meet stay meeting (the midpoints alone let a flap that overfolds by 4° slip past a neighbour
+that overfolds by 2°; two per edge jam them at 90°).
 
 Shared creases: two panels joined by a hinge touch along it by construction; their points near the
 crease are not paired (the hinge keeps them apart, the barrier would fight it). A seam whose last panel

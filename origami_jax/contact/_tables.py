@@ -141,23 +141,22 @@ def _inset_polygon(outline: np.ndarray, inset: float) -> np.ndarray:
     return corners
 
 
-def _ring(polygon: np.ndarray, per_edge: int) -> list:
-    """Corners of a convex polygon and `per_edge` points along its longest edge, proportionally fewer
-    on shorter ones."""
+def _ring(polygon: np.ndarray, per_edge: int, offset: float = 0.0) -> list:
+    """`per_edge` points along a convex polygon's longest edge, proportionally fewer on shorter ones,
+    spaced evenly from each edge's start (its corner) or, with `offset` ½, from half a spacing in."""
     lengths = np.linalg.norm(polygon - np.roll(polygon, -1, axis=0), axis=-1)
     spacing = lengths.max() / max(per_edge, 1)
     points = []
     for a, b, length in zip(polygon, np.roll(polygon, -1, axis=0), lengths, strict=True):
         n = max(1, int(np.ceil(length / spacing - 1e-9)))
-        points += [a + s * (b - a) for s in np.arange(n) / n]
+        points += [a + s * (b - a) for s in (np.arange(n) + offset) / n]
     return points
 
 
-def _sample_points(
-    outline: np.ndarray, inset: float, per_edge: int, rim: bool = True
-) -> np.ndarray:
-    """The vertex mean, a ring on the rim of the panel moved `inset` inwards, and (`rim`) a ring on
-    the rim itself (the convex hull's corners and points along its edges, `_ring`).
+def _sample_points(outline: np.ndarray, inset: float, per_edge: int, rim: int = 1) -> np.ndarray:
+    """The vertex mean, a ring on the rim of the panel moved `inset` inwards (`per_edge` points along
+    its longest edge and the corners, `_ring`), and a ring on the rim itself: `rim` points along
+    its longest edge, half a spacing from the corners (the edges' midpoints for 1; none for 0).
 
     The inner ring lies on the face that other panels' points meet (`PanelContact` insets every face
     by `inset`), so that a panel stacked on another of the same outline lies over its face; the
@@ -166,9 +165,9 @@ def _sample_points(
     points = [np.asarray(outline, dtype=float).mean(axis=0)]
     if len(inner) >= 3:
         points += _ring(inner, per_edge)
-        if rim:
+        if rim > 0:
             hull = _convex_hull(np.asarray(outline, dtype=float)[:, :2])
-            points += _ring(np.concatenate([hull, np.zeros((len(hull), 1))], axis=1), per_edge)
+            points += _ring(np.concatenate([hull, np.zeros((len(hull), 1))], axis=1), rim, 0.5)
     return np.asarray(points)
 
 
@@ -189,7 +188,7 @@ def build_tables(
     inset: float,
     points_per_edge: int = 4,
     crease_clearance: float = 0.5,
-    rim: bool = True,
+    rim_points_per_edge: int = 2,
 ) -> ContactTables:
     """The contact geometry of panels given by their body-frame outlines.
 
@@ -207,7 +206,9 @@ def build_tables(
       inner ring of sample points lies (length; see `_sample_points`).
     - `points_per_edge`: samples along each panel's longest edge, per ring; shorter edges get
       proportionally fewer (at least the corners).
-    - `rim`: whether each panel also has a ring of points on its rim (edge-on-edge contact).
+    - `rim_points_per_edge`: points along each panel's longest edge on its rim itself (edge-on-edge
+      contact), half a spacing from the corners: 2 (the default) a quarter of the edge from either
+      corner, 1 the edges' midpoints, 0 none.
     """
     n = len(outlines)
     outlines = [np.asarray(o, dtype=float) for o in outlines]
@@ -232,7 +233,7 @@ def build_tables(
 
     points, world_points = [], []
     for body, face in enumerate(faces):
-        samples = _sample_points(face, inset, points_per_edge, rim)
+        samples = _sample_points(face, inset, points_per_edge, rim_points_per_edge)
         points.append(samples)
         pose = base_pose if body == n else rest_poses[body]
         world_points.append(samples @ pose[:3, :3].T + pose[:3, 3])
@@ -249,8 +250,8 @@ def build_tables(
     width = max(len(p) for p in points)
     padded = np.zeros((n_all, width, 3))
     pairs = np.zeros((n_all, n_all, width), bool)
-    for body, (rim, rim_world) in enumerate(zip(points, world_points, strict=True)):
-        padded[body, : len(rim)] = rim
+    for body, (samples, rim_world) in enumerate(zip(points, world_points, strict=True)):
+        padded[body, : len(samples)] = samples
         for face in range(n_all):
             if face == body:
                 continue
@@ -259,7 +260,7 @@ def build_tables(
                 if {int(crease_parent[h]), int(crease_child[h])} == {body, face}:
                     near = _distance_to_segment(rim_world, *crease_ends[h])
                     keep &= near > crease_clearance * min(sizes[body], sizes[face])
-            pairs[body, face, : len(rim)] = keep
+            pairs[body, face, : len(samples)] = keep
     return ContactTables(
         n_bodies=n,
         has_base=base_outline is not None,
