@@ -230,9 +230,9 @@ def run(quick: bool) -> list[Result]:
     if repeats > 1:
         ours = time_calls(lambda: solve(system).theta, repeats=repeats - 1, warmup=0)
         samples = [first_s, ours.median]
-        ours = Timing(float(np.median(samples)), min(samples), max(samples), repeats)
+        ours = Timing.of(samples)
     else:
-        ours = Timing(first_s, first_s, first_s, 1)
+        ours = Timing.once(first_s)
 
     # MuJoCo: the same folding, same spanning tree, cut creases as connect constraints.
     mj_dt = _mujoco_dt(system)
@@ -253,7 +253,7 @@ def run(quick: bool) -> list[Result]:
     mj = (
         time_calls(lambda: _mujoco_run(model, nstep, data), repeats=repeats - 1, warmup=0)
         if (repeats > 1)
-        else Timing(mj_first, mj_first, mj_first, 1)
+        else Timing.once(mj_first)
     )
     rows.append(
         Result(
@@ -330,10 +330,10 @@ def run(quick: bool) -> list[Result]:
     rows.append(
         Result(
             name=f"miura {n}x{n}, batch of {batch} with scattered hinges vs MuJoCo",
-            ours=Timing(total, total, total, 1),
+            ours=Timing.once(total),
             peer_name=f"MuJoCo rollout over {mj_members} models (C)"
             + (f", EXTRAPOLATED to {batch}" if batch > mj_members else ""),
-            peer=Timing(per_sheet_mj * batch, per_sheet_mj * batch, per_sheet_mj * batch, 1),
+            peer=Timing.once(per_sheet_mj * batch),
             compile_s=batch_compile,
             per_item=batch,
             notes=(
@@ -394,7 +394,7 @@ def _bar_hinge_row(n, t1, pattern, system, ours, compile_s, ours_final, steps) -
         name=f"miura {n}x{n} step release, one trajectory to {t1:g} us vs bar-and-hinge",
         ours=ours,
         peer_name="bar-and-hinge (NumPy, scipy solve_ivp RK45)",
-        peer=Timing(bh_time, bh_time, bh_time, 1),
+        peer=Timing.once(bh_time),
         compile_s=compile_s,
         max_abs_difference=float(np.max(np.abs(angles[-1] - ours_final))),
         notes=(
@@ -439,7 +439,7 @@ def _scaling_rows(size: int, horizon: float = 60.0, reuse=None, built=None) -> l
                 name=f"{name}, peers only: MuJoCo in the 'ours' column",
                 ours=mj_t,
                 peer_name="bar-and-hinge (NumPy/SciPy)",
-                peer=Timing(bh_s, bh_s, bh_s, 1),
+                peer=Timing.once(bh_s),
                 notes=(
                     f"ours not compiled above {_ours_max()}x{_ours_max()} (LOOPS_OURS_MAX; the "
                     f"compile time grows with the sheet); MuJoCo {mj_rate:.3g} steps/s, "
@@ -463,9 +463,9 @@ def _scaling_rows(size: int, horizon: float = 60.0, reuse=None, built=None) -> l
     return [
         Result(
             name=f"{name} vs MuJoCo, steps/s",
-            ours=Timing(1 / rate, 1 / rate, 1 / rate, 1),
+            ours=Timing.once(1 / rate),
             peer_name="MuJoCo rollout (C), per step",
-            peer=Timing(1 / mj_rate, 1 / mj_rate, 1 / mj_rate, 1),
+            peer=Timing.once(1 / mj_rate),
             compile_s=compile_s,
             notes=(
                 f"ours {rate:.3g} steps/s ({steps} Tsit5 steps over {span}), MuJoCo "

@@ -213,9 +213,9 @@ def run(quick: bool) -> list[Result]:
             Result(
                 name=f"{NET} with scattered hinges, nets/s: ours vmap over {batch_ours} vs "
                 f"MuJoCo over {batch_mj} on {threads} thread{'s' if threads > 1 else ''}",
-                ours=Timing(per_net_ours, per_net_ours, per_net_ours, 1),
+                ours=Timing.once(per_net_ours),
                 peer_name=f"MuJoCo rollout over {batch_mj} models (C), {threads} thread(s)",
-                peer=Timing(per_net_mj, per_net_mj, per_net_mj, 1),
+                peer=Timing.once(per_net_mj),
                 compile_s=batch_compile,
                 notes=(
                     f"per net; ours {1 / per_net_ours:.3g} nets/s (XLA's threads on every core), "
