@@ -26,6 +26,19 @@ class Timing:
     maximum: float
     repeats: int
 
+    @classmethod
+    def once(cls, seconds: float) -> "Timing":
+        """A single measurement (median, min and max all `seconds`)."""
+        return cls(seconds, seconds, seconds, 1)
+
+    @classmethod
+    def of(cls, samples) -> "Timing":
+        """Median, min and max of several measurements (seconds)."""
+        samples = sorted(float(x) for x in samples)
+        n = len(samples)
+        median = samples[n // 2] if n % 2 else 0.5 * (samples[n // 2 - 1] + samples[n // 2])
+        return cls(median, samples[0], samples[-1], n)
+
 
 @dataclass
 class Result:

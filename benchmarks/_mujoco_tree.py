@@ -129,6 +129,14 @@ def release_controls(release: np.ndarray, nstep: int, dt: float) -> np.ndarray:
     return (times[None, :, None] >= release[:, None, :]).astype(float)
 
 
+def hinge_period_step(tree, stiffness: np.ndarray, fraction: int = 200) -> float:
+    """MuJoCo's fixed step for a tree: `fraction`-th of the shortest hinge period, each hinge alone
+    with its own diagonal inertia in the flat state (time units). The same rule for every benchmark
+    against MuJoCo, so that no peer is run at a step finer than its physics needs."""
+    inertia = np.diagonal(np.asarray(tree.mass_matrix(np.zeros(len(tree.parents)))))
+    return float(np.min(2 * np.pi * np.sqrt(inertia / np.asarray(stiffness))) / fraction)
+
+
 def critical_damping(tree, stiffness: np.ndarray, ratio: float = 1.0) -> np.ndarray:
     """Linear joint damping at `ratio` of critical for each hinge alone (its own diagonal inertia
     in the flat state)."""

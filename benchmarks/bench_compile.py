@@ -274,32 +274,27 @@ def first_calls_of_design_and_unfold() -> dict[str, dict]:
     return rows
 
 
-def _timing(values: list[float]) -> Timing:
-    ordered = sorted(values)
-    return Timing(ordered[len(ordered) // 2], ordered[0], ordered[-1], len(ordered))
-
-
 def run(quick: bool) -> list[Result]:
     times = end_to_end(repeats=1)
     rows = [
         Result(
             "CLI simulate --input step --flaps 3, figures, cold cache (new process)",
-            _timing(times["cold"]),
+            Timing.of(times["cold"]),
             peer_name="scipy LSODA + pinocchio.aba + matplotlib script (new process)",
-            peer=_timing(times["peer"]),
+            peer=Timing.of(times["peer"]),
             max_abs_difference=times["max_abs_difference"][0],
         ),
         Result(
             "CLI simulate --input step --flaps 3, figures, warm cache (new process)",
-            _timing(times["warm"]),
+            Timing.of(times["warm"]),
             peer_name="scipy LSODA + pinocchio.aba + matplotlib script (new process)",
-            peer=_timing(times["peer"]),
+            peer=Timing.of(times["peer"]),
         ),
     ]
     if not quick:
         for name, row in in_process().items():
             notes = ", ".join(f"{k} {row[k]:.2f} s" for k in ("trace", "lower", "compile"))
-            rows.append(Result(name, _timing([row["wall"]]), notes=notes, extra=row))
+            rows.append(Result(name, Timing.of([row["wall"]]), notes=notes, extra=row))
     return rows
 
 

@@ -162,7 +162,7 @@ def _time_peer(peer, *, runs: int):
         begin = time.perf_counter()
         answer = peer()
         seconds.append(time.perf_counter() - begin)
-    return answer, Timing(float(np.median(seconds)), min(seconds), max(seconds), len(seconds))
+    return answer, Timing.of(seconds)
 
 
 def _sensitivity_row(quick: bool) -> Result:

@@ -53,12 +53,11 @@ from origami_jax.system import KOH_SOLUTION, HingeDesign
 
 from ._bar_hinge import bar_hinge_model, folded_positions
 from ._harness import Result, Timing, time_calls
-from ._mujoco_tree import critical_damping, tree_mjcf
+from ._mujoco_tree import critical_damping, hinge_period_step, tree_mjcf
 
 T1 = 1500.0  # µs: every model has settled by then on a 5×5 sheet
 # µs, the 10×10 sheet: ours (quadratic panel drag) was still 0.044 rad from its targets at 1500 µs
 T1_LARGE = 3000.0
-MJ_DT = 0.02  # µs, MuJoCo's fixed step
 ANSWER_TOL = 0.02  # rad: MuJoCo's end state against the targets (soft connect constraints)
 
 
@@ -112,23 +111,65 @@ def _mjcf(system, damping: np.ndarray, dt: float) -> str:
     )
 
 
-def _mujoco_model(system, *, dt: float = MJ_DT, damping_ratio: float = 1.0):
+def _mujoco_dt(system) -> float:
+    """MuJoCo's fixed step (µs): 1/200 of the shortest hinge period of the spanning tree, the rule of
+    the nets benchmark. Stable far beyond it (a 5×5 sheet to 0.8 µs); what a finer step changes is
+    the path on the way (reported beside the single trajectory), not the folded end state."""
     mechanism = system.mechanism
+    return hinge_period_step(
+        mechanism.tree, np.asarray(system.hinges.stiffness)[: mechanism.n_tree]
+    )
+
+
+def _mujoco_model(system, *, dt: float | None = None, damping_ratio: float = 1.0):
+    mechanism = system.mechanism
+    dt = _mujoco_dt(system) if dt is None else dt
     k = np.asarray(system.hinges.stiffness)[: mechanism.n_tree]
     damping = critical_damping(mechanism.tree, k, damping_ratio)
     return mujoco.MjModel.from_xml_string(_mjcf(system, damping, dt))
 
 
-def _mujoco_run(models, nstep: int, data=None):
-    """Roll every model out from flat at rest for `nstep` steps; the final joint angles `(b, n_T)`."""
+def scattered_models(system, factor: np.ndarray) -> list:
+    """One MuJoCo model per row of `factor` `(b, m)`: the sheet with its tree hinges' stiffness
+    scaled by that row (the cut creases carry no spring in MuJoCo, `_mjcf`)."""
+    m_tree = system.mechanism.n_tree
+    stiffness = np.asarray(system.hinges.stiffness)[:m_tree]
+    models = []
+    for row in np.asarray(factor):
+        model = _mujoco_model(system)
+        model.jnt_stiffness[:] = stiffness * row[:m_tree]
+        models.append(model)
+    return models
+
+
+def _mujoco_states(models, nstep: int, data=None):
+    """Roll every model out from flat at rest for `nstep` steps: joint angles after every step
+    `(b, nstep, n_T)`, in our hinge order."""
     models = models if isinstance(models, list) else [models]
     data = data or mujoco.MjData(models[0])
     size = mujoco.mj_stateSize(models[0], mujoco.mjtState.mjSTATE_FULLPHYSICS)
-    initial = np.zeros((len(models), size))
-    state, _ = rollout.rollout(models, data, initial, nstep=nstep)
+    state, _ = rollout.rollout(models, data, np.zeros((len(models), size)), nstep=nstep)
     model = models[0]
     order = [int(model.joint(f"h{i}").qposadr[0]) for i in range(model.njnt)]
-    return state[:, -1, 1 + np.asarray(order)]  # FULLPHYSICS: time, qpos, ...; our hinge order
+    return state[:, :, 1 + np.asarray(order)]  # FULLPHYSICS: time, qpos, ...
+
+
+def _mujoco_run(models, nstep: int, data=None, chunk: int = 8):
+    """The final joint angles `(b, n_T)` of `_mujoco_states`, rolled out `chunk` models at a time
+    (a rollout holds every step of every model it is given)."""
+    models = models if isinstance(models, list) else [models]
+    data = data or mujoco.MjData(models[0])
+    return np.concatenate(
+        [
+            _mujoco_states(models[i : i + chunk], nstep, data)[:, -1]
+            for i in range(0, len(models), chunk)
+        ]
+    )
+
+
+def _mujoco_path(model, nstep: int):
+    """One model's joint angles after every step `(nstep, n_T)`."""
+    return _mujoco_states(model, nstep)[0]
 
 
 # ---- benchmark ------------------------------------------------------------------------------
@@ -189,13 +230,14 @@ def run(quick: bool) -> list[Result]:
     if repeats > 1:
         ours = time_calls(lambda: solve(system).theta, repeats=repeats - 1, warmup=0)
         samples = [first_s, ours.median]
-        ours = Timing(float(np.median(samples)), min(samples), max(samples), repeats)
+        ours = Timing.of(samples)
     else:
-        ours = Timing(first_s, first_s, first_s, 1)
+        ours = Timing.once(first_s)
 
     # MuJoCo: the same folding, same spanning tree, cut creases as connect constraints.
-    model = _mujoco_model(system)
-    nstep = int(round(t1 / MJ_DT))
+    mj_dt = _mujoco_dt(system)
+    model = _mujoco_model(system, dt=mj_dt)
+    nstep = int(round(t1 / mj_dt))
     data = mujoco.MjData(model)
     start = time.perf_counter()
     mj_final = _mujoco_run(model, nstep, data)[0]
@@ -203,16 +245,21 @@ def run(quick: bool) -> list[Result]:
     mj_error = float(np.max(np.abs(mj_final - targets[:m_tree])))
     if mj_error > ANSWER_TOL:
         raise AssertionError(f"MuJoCo ends {mj_error:.3g} rad from the targets")
+    # Its own step error: the same rollout at a quarter of the step, on the way and at the end.
+    fine_model = _mujoco_model(system, dt=mj_dt / 4)
+    coarse_path = _mujoco_path(model, nstep)
+    fine_path = _mujoco_path(fine_model, 4 * nstep)[3::4]
+    mj_step_error = float(np.max(np.abs(coarse_path - fine_path)))
     mj = (
         time_calls(lambda: _mujoco_run(model, nstep, data), repeats=repeats - 1, warmup=0)
         if (repeats > 1)
-        else Timing(mj_first, mj_first, mj_first, 1)
+        else Timing.once(mj_first)
     )
     rows.append(
         Result(
             name=f"miura {n}x{n} step release, one trajectory to {t1:g} us vs MuJoCo",
             ours=ours,
-            peer_name=f"MuJoCo rollout (C), dt {MJ_DT} us",
+            peer_name=f"MuJoCo rollout (C), dt {mj_dt:.3g} us",
             peer=mj,
             compile_s=compile_s,
             max_abs_difference=float(np.max(np.abs(mj_final - ours_final[:m_tree]))),
@@ -220,7 +267,8 @@ def run(quick: bool) -> list[Result]:
                 f"{pattern.n_creases} creases, {pattern.n_loops} loops; ours: {steps} Tsit5 steps "
                 f"({steps / ours.median:.3g} steps/s), closure drift {drift:.1e} rad; MuJoCo: "
                 f"{nstep} steps ({nstep / mj.median:.3g} steps/s), ends {mj_error:.2e} rad from "
-                f"the targets (soft connect constraints); {_ratio(ours.median, mj.median)}"
+                f"the targets (soft connect constraints), its path within {mj_step_error:.1e} rad "
+                f"of the same rollout at dt/4; {_ratio(ours.median, mj.median)}"
             ),
             extra={
                 "creases": pattern.n_creases,
@@ -229,6 +277,8 @@ def run(quick: bool) -> list[Result]:
                 "ours_steps_per_s": steps / ours.median,
                 "mujoco_steps_per_s": nstep / mj.median,
                 "closure_drift": drift,
+                "mujoco_dt_us": mj_dt,
+                "mujoco_step_error": mj_step_error,
             },
         )
     )
@@ -264,27 +314,33 @@ def run(quick: bool) -> list[Result]:
         f", EXTRAPOLATED to {batch}" if measured < batch else ""
     )
     mj_members = min(batch, int(os.environ.get("LOOPS_MJ_BATCH", "8")))
-    models = []
-    for b in range(mj_members):
-        copy = _mujoco_model(system)
-        copy.jnt_stiffness[:] = np.asarray(system.hinges.stiffness[:m_tree] * factor[b, :m_tree])
-        models.append(copy)
-    mj_batch = time_calls(lambda: _mujoco_run(models, nstep), repeats=1, warmup=0)
+    models = scattered_models(system, np.asarray(factor[:mj_members]))
+    # The same span as ours' batch, and the same check of where the members end.
+    mj_finals = []
+    mj_batch = time_calls(
+        lambda: mj_finals.append(_mujoco_run(models, 2 * nstep)), repeats=1, warmup=0
+    )
+    mj_batch_error = float(np.max(np.abs(mj_finals[-1] - targets[:m_tree])))
+    if mj_batch_error > ANSWER_TOL:
+        raise AssertionError(
+            f"a MuJoCo batch member ends {mj_batch_error:.3g} rad from the targets"
+        )
     per_sheet_mj = mj_batch.median / mj_members
     total = ours_per_sheet * batch
     rows.append(
         Result(
             name=f"miura {n}x{n}, batch of {batch} with scattered hinges vs MuJoCo",
-            ours=Timing(total, total, total, 1),
+            ours=Timing.once(total),
             peer_name=f"MuJoCo rollout over {mj_members} models (C)"
             + (f", EXTRAPOLATED to {batch}" if batch > mj_members else ""),
-            peer=Timing(per_sheet_mj * batch, per_sheet_mj * batch, per_sheet_mj * batch, 1),
+            peer=Timing.once(per_sheet_mj * batch),
             compile_s=batch_compile,
             per_item=batch,
             notes=(
                 f"{ours_label}: {1 / ours_per_sheet:.3g} sheets/s; MuJoCo {1 / per_sheet_mj:.3g} "
-                f"sheets/s; stiffness scattered ±10 %, all released at 0; "
-                f"{_ratio(ours_per_sheet, per_sheet_mj)}"
+                f"sheets/s; both to {2 * t1:g} us, stiffness scattered ±10 %, all released at 0, "
+                f"every member within {max(float(np.max(np.abs(finals - targets))), mj_batch_error):.1e} "
+                f"rad of the targets; {_ratio(ours_per_sheet, per_sheet_mj)}"
             ),
             extra={
                 "batch": batch,
@@ -338,7 +394,7 @@ def _bar_hinge_row(n, t1, pattern, system, ours, compile_s, ours_final, steps) -
         name=f"miura {n}x{n} step release, one trajectory to {t1:g} us vs bar-and-hinge",
         ours=ours,
         peer_name="bar-and-hinge (NumPy, scipy solve_ivp RK45)",
-        peer=Timing(bh_time, bh_time, bh_time, 1),
+        peer=Timing.once(bh_time),
         compile_s=compile_s,
         max_abs_difference=float(np.max(np.abs(angles[-1] - ours_final))),
         notes=(
@@ -364,8 +420,9 @@ def _scaling_rows(size: int, horizon: float = 60.0, reuse=None, built=None) -> l
     gives them, else a `horizon` run compiled here; left out above `_ours_max`), MuJoCo and the
     bar-and-hinge model over `horizon`."""
     p, s = built if built is not None else _pattern(size)
-    mj_model = _mujoco_model(s)
-    mj_steps = int(round(horizon / MJ_DT))
+    mj_dt = _mujoco_dt(s)
+    mj_model = _mujoco_model(s, dt=mj_dt)
+    mj_steps = int(round(horizon / mj_dt))
     mj_t = time_calls(lambda: _mujoco_run(mj_model, mj_steps), repeats=1)
     bars = bar_hinge_model(p, s)
     start = time.perf_counter()
@@ -382,7 +439,7 @@ def _scaling_rows(size: int, horizon: float = 60.0, reuse=None, built=None) -> l
                 name=f"{name}, peers only: MuJoCo in the 'ours' column",
                 ours=mj_t,
                 peer_name="bar-and-hinge (NumPy/SciPy)",
-                peer=Timing(bh_s, bh_s, bh_s, 1),
+                peer=Timing.once(bh_s),
                 notes=(
                     f"ours not compiled above {_ours_max()}x{_ours_max()} (LOOPS_OURS_MAX; the "
                     f"compile time grows with the sheet); MuJoCo {mj_rate:.3g} steps/s, "
@@ -406,9 +463,9 @@ def _scaling_rows(size: int, horizon: float = 60.0, reuse=None, built=None) -> l
     return [
         Result(
             name=f"{name} vs MuJoCo, steps/s",
-            ours=Timing(1 / rate, 1 / rate, 1 / rate, 1),
+            ours=Timing.once(1 / rate),
             peer_name="MuJoCo rollout (C), per step",
-            peer=Timing(1 / mj_rate, 1 / mj_rate, 1 / mj_rate, 1),
+            peer=Timing.once(1 / mj_rate),
             compile_s=compile_s,
             notes=(
                 f"ours {rate:.3g} steps/s ({steps} Tsit5 steps over {span}), MuJoCo "

@@ -33,7 +33,7 @@ from origami_jax.net import load_net
 from origami_jax.system import KOH_SOLUTION, HingeDesign
 
 from ._harness import Result, Timing, time_calls
-from ._mujoco_tree import critical_damping, release_controls, tree_model
+from ._mujoco_tree import critical_damping, hinge_period_step, release_controls, tree_model
 
 NET = "cube_net_01"
 T1 = 1500.0  # µs: both have folded and settled by then
@@ -82,10 +82,7 @@ def _mujoco(system, design, dt):
 
 def mujoco_step(system) -> tuple[float, int]:
     """MuJoCo's fixed step (1/200 of the shortest hinge period, µs) and its step count to `T1`."""
-    m = system.hinges.stiffness.shape[0]
-    k = np.asarray(system.hinges.stiffness)
-    inertia = np.diagonal(np.asarray(system.mechanism.mass_matrix(jnp.zeros(m))))
-    dt = float(np.min(2 * np.pi * np.sqrt(inertia / k)) / 200)
+    dt = hinge_period_step(system.mechanism, np.asarray(system.hinges.stiffness))
     return dt, int(round(T1 / dt))
 
 
@@ -216,9 +213,9 @@ def run(quick: bool) -> list[Result]:
             Result(
                 name=f"{NET} with scattered hinges, nets/s: ours vmap over {batch_ours} vs "
                 f"MuJoCo over {batch_mj} on {threads} thread{'s' if threads > 1 else ''}",
-                ours=Timing(per_net_ours, per_net_ours, per_net_ours, 1),
+                ours=Timing.once(per_net_ours),
                 peer_name=f"MuJoCo rollout over {batch_mj} models (C), {threads} thread(s)",
-                peer=Timing(per_net_mj, per_net_mj, per_net_mj, 1),
+                peer=Timing.once(per_net_mj),
                 compile_s=batch_compile,
                 notes=(
                     f"per net; ours {1 / per_net_ours:.3g} nets/s (XLA's threads on every core), "

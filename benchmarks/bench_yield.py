@@ -96,9 +96,9 @@ def run(quick: bool, n_samples: int | None = None, out: str | None = None) -> li
             Result(
                 name=f"{NET} yield, {n_samples} samples, s/sample: chunks of {size} x {workers} "
                 "at once vs chunks of 16 one at a time",
-                ours=Timing(ours, ours, ours, 1),
+                ours=Timing.once(ours),
                 peer_name="ours, 16-wide vmapped chunks, one at a time",
-                peer=Timing(wide, wide, wide, 1),
+                peer=Timing.once(wide),
                 compile_s=compile_s,
                 notes=f"CPU s/sample: {ours_cpu:.3g} vs {wide_cpu:.3g}",
                 extra={"ours_cpu_s": ours_cpu, "wide_cpu_s": wide_cpu},
@@ -112,9 +112,9 @@ def run(quick: bool, n_samples: int | None = None, out: str | None = None) -> li
             Result(
                 name=f"{NET} yield, {n_samples} samples, samples/s: ours vs MuJoCo on "
                 f"{threads} thread{'s' if threads > 1 else ''}",
-                ours=Timing(ours, ours, ours, 1),
+                ours=Timing.once(ours),
                 peer_name=f"MuJoCo rollout over {n_mj} scattered models (C), {threads} thread(s)",
-                peer=Timing(peer, peer, peer, 1),
+                peer=Timing.once(peer),
                 compile_s=compile_s,
                 notes=(
                     f"per sample; ours {1 / ours:.3g} samples/s ({size} per compiled call, "

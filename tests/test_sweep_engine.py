@@ -8,7 +8,9 @@ return result code 1, overdamped ones (`ζ >= 1`, outside the closed form used) 
 
 import dataclasses
 import json
+import logging
 import os
+import shutil
 import subprocess
 import sys
 import textwrap
@@ -166,7 +168,7 @@ class _Interrupted(Exception):
     pass
 
 
-def test_interrupted_sweep_resumes_to_the_same_dataset(tmp_path):
+def test_interrupted_sweep_resumes_to_the_same_dataset(tmp_path, caplog):
     space = Samples({"zeta": (-0.1, 1.2), "omega": (0.5, 5.0)}, n=21, seed=1)
     reference = sweep(KERNEL, space, chunk_size=4, out=tmp_path / "whole", progress=False)
 
@@ -179,6 +181,13 @@ def test_interrupted_sweep_resumes_to_the_same_dataset(tmp_path):
     assert len(list((tmp_path / "cut" / "chunks").glob("part-*.nc"))) == 2
     with pytest.raises(FileExistsError, match="resume"):
         sweep(KERNEL, space, chunk_size=4, out=tmp_path / "cut", progress=False)
+    # Resumed in chunks of another size: said, since the two compile different vector code.
+    shutil.copytree(tmp_path / "cut", tmp_path / "other")
+    with caplog.at_level(logging.WARNING, logger="origami_jax.sweep"):
+        sweep(KERNEL, space, chunk_size=8, out=tmp_path / "other", resume=True, progress=False)
+    assert "computed in chunks of 4; results may differ" in caplog.text
+    assert "Pass chunk_size=4" in caplog.text
+    caplog.clear()
     computed = []
     resumed = sweep(
         KERNEL,
@@ -191,6 +200,7 @@ def test_interrupted_sweep_resumes_to_the_same_dataset(tmp_path):
         on_chunk=lambda done, total: computed.append(done),
     )
     assert computed == [12, 16, 20, 21]  # only the 13 designs not stored yet
+    assert "results may differ" not in caplog.text  # the same size: nothing to say
     same_sweep(resumed, reference)
     same_sweep(xr.load_dataset(tmp_path / "cut" / "sweep.nc"), reference)
     assert reference.attrs["n_failed"] == int((reference["result"] != 0).sum()) > 0

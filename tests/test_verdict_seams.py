@@ -169,6 +169,10 @@ def test_seams_closed_by_contact_under_vmap(cube):
     outcome = jax.jit(jax.vmap(lambda t: _judge(net, system, t, one, traced=True)))(batch)
     assert outcome.code.tolist() == [FOLDED, MISFOLDED]
     assert outcome.seams_touching.tolist() == [[True], [False]]
+    # The gap the rule judges: none left open where the panels touch, the seam's own where not.
+    gaps = [float(net.seam_gaps(_angles(d))[SEAM]) for d in (0.8, -0.8)]
+    np.testing.assert_allclose(outcome.max_seam_gap, gaps, rtol=1e-9)
+    np.testing.assert_allclose(outcome.max_open_seam_gap, [0.0, gaps[1]], rtol=1e-9)
 
 
 def test_seam_bodies_of_the_wrong_shape_are_refused(cube):

@@ -215,6 +215,12 @@ def test_zero_scatter_gives_yield_one_for_a_net_that_folds():
     ds = estimate.dataset
     assert ds.sizes["design"] == 4 and "misfit_strain[1]" in ds.coords
     assert json.loads(ds.attrs["scatter"])["misfit_strain"]["width"] == 0.0
+    # The seams the verdict judges by their gap: every seam, or fewer where panels touch.
+    touching = ds["seams_touching"].values
+    assert np.all(touching >= 0) and ds["max_open_seam_gap"].attrs["units"] == "um"
+    open_gap, every_gap = ds["max_open_seam_gap"].values, ds["max_seam_gap"].values
+    assert np.all(open_gap <= every_gap)
+    np.testing.assert_array_equal(open_gap[touching == 0], every_gap[touching == 0])
 
 
 def test_zero_scatter_gives_yield_zero_for_a_net_aimed_at_80_degrees():

@@ -40,9 +40,10 @@ class SoftYield:
     both, instead of `release`; `front_release_times`).
 
     Each sample's score is ``Π_j σ(m_j / τ) · σ(m_s / τ_s)``: ``m_j = tol − |θ_j(t_end) − θ*_j|`` the
-    margin of crease ``j``'s final angle to the pattern's angle ``θ*_j``, ``m_s`` the margin of the
-    largest seam gap to the seam tolerance (`seam_tolerance`, 1 % of the largest panel's size ``L``
-    by default), ``σ`` the
+    margin of crease ``j``'s final angle to the pattern's angle ``θ*_j``, ``m_s`` the margin to the
+    seam tolerance (`seam_tolerance`, 1 % of the largest panel's size ``L`` by default) of the
+    largest gap among the seams whose panels do not touch at the end (the verdict holds a touching
+    seam closed whatever its gap; whether panels touch is a switch, not smoothed), ``σ`` the
     logistic function, ``τ`` = `temperature_deg` (in rad) and ``τ_s = τ L`` (a seam gap ``δ`` is a
     crease off by about ``δ / L``). As ``τ → 0`` the score tends to the indicator of the
     folded verdict for samples that have settled (`fold_outcome` also asks the last tenth of the run
@@ -161,7 +162,7 @@ def soft_yield(
         params.update({f"target[{j}]": jnp.full(n_samples, current["target"][j]) for j in range(m)})
         out = jax.vmap(kernel.fn)(params)
         margin = tol - jnp.abs(out["final_angle"] - jnp.asarray(intended))
-        seam = seam_length - out["max_seam_gap"]
+        seam = seam_length - out["max_open_seam_gap"]
         score = jnp.prod(jax.nn.sigmoid(margin / tau), axis=-1) * jax.nn.sigmoid(seam / tau_seam)
         return jnp.mean(jnp.where(jnp.isfinite(score), score, 0.0))
 

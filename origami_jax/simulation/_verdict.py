@@ -264,7 +264,9 @@ class FoldOutcome(eqx.Module):
     `settled`; `short` per crease (stopped short of its angle, same sign); `max_seam_gap` at the end
     (length, 0 without seams; a seam above the tolerance may still be closed by contact);
     `seams_touching` per seam `(s,)`, its two panels touch at the end (closed whatever its gap;
-    `False` without contact or without the seams' bodies); `engaged` contact pairs at the end;
+    `False` without contact or without the seams' bodies); `max_open_seam_gap`, the largest final
+    gap among the seams whose panels do not touch (length, 0 if none): what the rule compares with
+    the seam tolerance; `engaged` contact pairs at the end;
     `min_gap` over the run (`inf` without contact); `penetration`, the largest over the run
     (length).
     """
@@ -275,6 +277,7 @@ class FoldOutcome(eqx.Module):
     short: Bool[Array, " h"]
     max_seam_gap: Float[Array, ""]
     seams_touching: Bool[Array, " s"]
+    max_open_seam_gap: Float[Array, ""]
     engaged: Int[Array, ""]
     min_gap: Float[Array, ""]
     penetration: Float[Array, ""]
@@ -322,7 +325,7 @@ def fold_outcome(
         penetration = jnp.zeros((), dtype)
         engaged = jnp.zeros((), jnp.int32)
     within = jnp.all(jnp.abs(theta - intended) < angle_tolerance, axis=-1) & finite
-    max_gap = jnp.zeros((), dtype)
+    max_gap = open_gap = jnp.zeros((), dtype)
     seams_touching = jnp.zeros((0,), bool)
     if seam_gaps is not None:
         gaps = jax.vmap(seam_gaps)(q_safe)  # (t, s)
@@ -331,6 +334,7 @@ def fold_outcome(
             # Closed: within the tolerance, or held shut by its two panels touching.
             within = within & jnp.all((gaps < seam_tolerance) | touch, axis=-1)
             max_gap = jnp.max(gaps[-1])
+            open_gap = jnp.max(jnp.where(touch[-1], 0.0, gaps[-1]))
         seams_touching = touch[-1] & finite[-1]
     final = theta[-1]
     tail = max(2, theta.shape[0] // 10)
@@ -368,6 +372,7 @@ def fold_outcome(
         short=short,
         max_seam_gap=max_gap,
         seams_touching=seams_touching,
+        max_open_seam_gap=open_gap,
         engaged=engaged,
         min_gap=min_gap,
         penetration=penetration,

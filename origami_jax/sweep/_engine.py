@@ -332,6 +332,8 @@ def sweep(
         done = _from_process_zero(done, process_count)
         compiler = _Compiler(plan, sharding)
         size, work = _schedule(plan, done, chunk_size, devices, compiler, workers)
+        if store is not None and process_index == 0 and done.any() and work:
+            _warn_other_chunk_sizes(store.chunk_sizes(), size)
         chunks, run_seconds = _run_chunks(
             plan,
             work[process_index::process_count],
@@ -356,6 +358,22 @@ def sweep(
     finally:
         if store is not None:
             store.close()
+
+
+def _warn_other_chunk_sizes(stored: set[int], size: int) -> None:
+    """Warn when a resumed sweep computes in chunks of another size than its stored designs: the
+    two sizes compile different vector code, so a design's result may differ between them by
+    round-off (more where the kernel amplifies it, as contact does)."""
+    other = sorted(stored - {size})
+    if other:
+        logger.warning(
+            "sweep: resuming in chunks of %d designs, but the stored designs were computed in "
+            "chunks of %s; results may differ between the two by round-off. Pass chunk_size=%d "
+            "to compute the rest as they were.",
+            size,
+            ", ".join(map(str, other)),
+            other[0],
+        )
 
 
 def _plan(kernel: Kernel, space: DesignSpace) -> _Plan:
@@ -657,6 +675,8 @@ def _run_chunks(
         order = np.argsort(indices, kind="stable")
         outputs = {n: np.concatenate([o[n] for _, o in held])[order] for n in held[0][1]}
         chunk = _label_chunk(plan.space, plan.columns, indices[order], outputs, plan.layout, kernel)
+        # Recorded per file: a resumed sweep can say when it computes in chunks of another size.
+        chunk.attrs["chunk_size"] = int(size)
         held = []
         last_stored = time.monotonic()
         if store is not None:

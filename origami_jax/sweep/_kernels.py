@@ -437,7 +437,10 @@ def net_fold(
 
     **Outputs:** `verdict` (0 folded, 1 jammed, 2 misfolded, 3 unfinished, 4 invalid;
     `origami_jax.simulation.VERDICT_CODES`), `folded`, `time_to_fold` (µs, NaN if never),
-    `final_angle` (rad, per crease), `max_seam_gap` (µm), `min_gap`, `penetration` (µm), `engaged`
+    `final_angle` (rad, per crease), `max_seam_gap` (µm, every seam), `max_open_seam_gap` (µm, the
+    seams whose panels do not touch: the verdict holds a touching seam closed whatever its gap),
+    `seams_touching` (how many seams' panels touch at the end; −1 where the simulation failed),
+    `min_gap`, `penetration` (µm), `engaged`
     (contact pairs engaged at the end; −1 where the simulation failed), `num_steps`, `result` (the
     solver's code; −1 invalid input).
 
@@ -573,6 +576,10 @@ def net_fold(
             ),
             "final_angle": masked(trajectory.theta[-1]),
             "max_seam_gap": masked(outcome.max_seam_gap),
+            "max_open_seam_gap": masked(outcome.max_open_seam_gap),
+            "seams_touching": jnp.where(
+                failed, -1, jnp.sum(outcome.seams_touching.astype(jnp.int32))
+            ).astype(jnp.int32),
             "min_gap": masked(outcome.min_gap),
             "penetration": masked(outcome.penetration),
             "engaged": jnp.where(failed, -1, outcome.engaged).astype(jnp.int32),
@@ -610,6 +617,7 @@ def net_fold(
             "time_to_fold": "us",
             "final_angle": "rad",
             "max_seam_gap": "um",
+            "max_open_seam_gap": "um",
             "min_gap": "um",
             "penetration": "um",
         },

@@ -248,6 +248,22 @@ class Store:
             done[designs[(designs >= 0) & (designs < n_designs)]] = True
         return done
 
+    def chunk_sizes(self) -> set[int]:
+        """The compiled chunk sizes the stored designs were computed with (each file's
+        `chunk_size` attribute; files written before it was recorded, or unreadable, give none)."""
+        import h5netcdf
+
+        sizes = set()
+        for path in self.chunk_files():
+            try:
+                with h5netcdf.File(path, "r") as file:
+                    size = file.attrs.get("chunk_size")
+            except Exception:
+                continue
+            if size is not None:
+                sizes.add(int(np.asarray(size).reshape(-1)[0]))
+        return sizes
+
     def write_chunk(self, chunk: xr.Dataset) -> Path:
         """Write one finished chunk atomically; return its path."""
         designs = chunk["design"].values
