@@ -106,12 +106,6 @@ def _barrier_slope(x):
     return jnp.where(x >= 1, 0.0, jnp.where(inside, log_slope, taylor))
 
 
-def _smoothstep_slope(x):
-    """The derivative of `smoothstep`: ``30 x²(1 − x)²`` on ``[0, 1]``, 0 outside."""
-    x = jnp.clip(x, 0.0, 1.0)
-    return 30 * x**2 * (1 - x) ** 2
-
-
 def _ramp_integral(x):
     """``∫₀ˣ smoothstep``: 0 for ``x ≤ 0``, ``x⁴(5/2 − 3x + x²)`` on ``[0, 1]``, ``x − ½`` beyond (C³)."""
     inside = jnp.clip(x, 0.0, 1.0)
