@@ -43,12 +43,12 @@ top switches those off. Without --scatter the defaults are used.
 --process NAME=VALUE sets a nominal fabrication value the scatter is drawn about (repeatable;
 NAME one of misfit_strain, t_hinge, hinge_width, t_structural, drag_coefficient; VALUE one number,
 or one per crease, comma-separated, for the per-crease ones; µm for thicknesses and widths), e.g.
---process misfit_strain=0.00297 for a film 5 % more stressed than the design's 0.00283: where the
+--process misfit_strain=0.00275 for a film 3 % less stressed than the design's 0.00283: where the
 estimate, the --widths and the --improve ascent start (default the design's values).
 
 --release T1,T2,... (µs, one per crease) or --etch-front DX,DY,SPEED set the nominal release times,
-the folding order (the release scatter is added to them); e.g. for examples/two_flaps.fold,
---etch-front 1,0,2 frees the left flap 150 µs before the right one.
+the folding order (the release scatter is added to them); e.g. for examples/flap_under_flap.fold,
+--etch-front 1,0,0.5 frees the left flap 600 µs before the right one.
 
 --widths 0.5,1,2 also estimates the yield with every scatter width multiplied by each factor (the
 same draws, so the same fabricated nets made more or less carefully; each in OUT/widths/xF/) and
@@ -92,7 +92,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         action="append",
         default=[],
         metavar="NAME=VALUE",
-        help="a nominal fabrication value (repeatable; e.g. misfit_strain=0.00297 or "
+        help="a nominal fabrication value (repeatable; e.g. misfit_strain=0.00275 or "
         "hinge_width=2,2,2,2,2 in µm): where the scatter is centred and --improve starts",
     )
     parser.add_argument("--fluid", choices=("air", "koh"), default="koh", help="default koh")

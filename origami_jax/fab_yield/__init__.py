@@ -52,8 +52,8 @@ estimate.dataset            # xarray.Dataset: the drawn parameters and every sam
   `release_times`, `soft_yield`'s `release` or an etch front's `front_angle` and `front_speed`,
   `front_release_times`); `order_search` estimates the yield of candidate schedules
   (`front_candidates`: all at once, and straight etch fronts from several directions) on the same
-  fabricated nets and names the best. `examples/two_flaps.fold` jams when both flaps are released
-  at once and folds when one goes first.
+  fabricated nets and names the best. `examples/flap_under_flap.fold` jams unless its long flap
+  goes first.
 - The verdict's tolerances: `angle_tolerance_deg` and `seam_tolerance` (a fraction of the panel
   size; `origami_jax.simulation.VerdictTolerances`).
 
