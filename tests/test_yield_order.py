@@ -9,7 +9,7 @@ on each short side, both folding 180° flat onto the base.
 side folding 180° flat onto it and a 200 µm flap B on its right side folding to 120°, leaning over
 A. B at its target stands in A's path (B's free edge is 264 µm from A's crease), so A must pass
 before B gets there: with B up first, A's face comes down on B's free edge and stops near 140°. A
-takes ~700 µs in KOH to pass 140°, B ~300 µs to reach its blocking range (above 115.5°)."""
+takes ~700 µs in KOH to pass 140°, B ~370 µs to reach its blocking range (above 115.5°)."""
 
 from pathlib import Path
 
@@ -184,8 +184,8 @@ def test_choosing_the_order_raises_the_yield():
     """Monte Carlo of three schedules on the same 8 fabricated nets (film stress 1 %, release
     times ±25 µs): released together, or B first (the front along −x), almost every net jams;
     with the front along +x (A first) every net folds, and the two 95 % Wilson intervals do not
-    overlap. Measured: 1/8, 1/8 and 8/8 (the net that folds anyway has B's film the weaker, so
-    A passes before B arrives)."""
+    overlap. Measured: 1/8, 1/8 and 8/8 (the same net folds in all three; why was not looked
+    into)."""
     scatter = ojy.Scatter.from_mapping(
         {
             "defaults": False,
