@@ -16,6 +16,12 @@ times over 20 µs) in nets/s: ours `jax.vmap` over the batch, MuJoCo one rollout
 models, on one thread and on two (the target is MuJoCo's throughput on 2 cores). MJX (MuJoCo on
 accelerators) would be the GPU peer; it is not run on a CPU.
 
+At equal accuracy too: a fixed-step integrator and an adaptive one at its default tolerance do not
+make the same error. Each model's path (the hinge angles at the saved times) is compared with its own
+converged path (ours at rtol 1e-10; MuJoCo at 1/16 of its step, with the contact softness of its
+step), and the batch is timed again with ours at the tolerance that makes MuJoCo's path error
+(rtol 1e-5: the verdicts of a 16-net batch are the same from rtol 1e-4 to 1e-10).
+
 Run: ``python -m benchmarks --only net`` (``--quick``: smaller batches, one repeat).
 """
 
@@ -47,15 +53,24 @@ ANSWER_TOL = 0.02
 # off 90°, which opens a seam by a few µm; the answers are compared on angles.
 SEAM_TOL = 0.05
 SCATTER, RELEASE_SPAN = 0.1, 20.0  # ±10 % stiffness, release times uniform over 20 µs
+# Equal accuracy: each model's path error against its own converged solution (ours at rtol 1e-10;
+# MuJoCo at 1/16 of its step with the same contact softness), largest over the saved samples. At
+# MuJoCo's step it is ~3e-2 rad (contact events shift in time); ours reaches that at rtol 1e-5.
+REFERENCE_RTOL, EQUAL_RTOL = 1e-10, 1e-5
+MUJOCO_REFINE = 16
+ATOL_PER_RTOL = 1e-2  # atol = 1e-2 rtol, the defaults' ratio
 
 
-def _solve(system):
+def _solve(system, rtol=sim.DEFAULT_RTOL):
+    # `rtol` traced: one compiled solve for every tolerance.
     return sim.simulate(
         system,
         sim.Step(),
         t1=T1,
         n_save=N_SAVE,
         solver=diffrax.Tsit5(),
+        rtol=rtol,
+        atol=ATOL_PER_RTOL * rtol,
         max_steps=200_000,
         throw=False,
     )
@@ -113,6 +128,32 @@ def mujoco_batch_seconds(models, controls, threads: int, repeats: int = 1) -> Ti
     return time_calls(lambda: _mujoco_final(models, controls, data), repeats=repeats)
 
 
+def mujoco_path(system, design, dt_rule: float, refine: int) -> np.ndarray:
+    """MuJoCo's hinge angles at the saved times `(N_SAVE, h)` (the first at rest) from flat under a
+    step release, at `dt_rule / refine` with the contact softness of `dt_rule` (`solref` scales with
+    the step it is built for), so that only the step changes."""
+    model = _mujoco(system, design, dt_rule)
+    dt = dt_rule / refine
+    model.opt.timestep = dt
+    nstep = int(round(T1 / dt))
+    controls = release_controls(np.zeros((1, system.n_hinges)), nstep, dt)
+    size = mujoco.mj_stateSize(model, mujoco.mjtState.mjSTATE_FULLPHYSICS)
+    state, _ = rollout.rollout(
+        [model], mujoco.MjData(model), np.zeros((1, size)), controls, nstep=nstep
+    )
+    order = [int(model.joint(f"h{i}").qposadr[0]) for i in range(model.njnt)]
+    angles = state[0][:, 1 + np.asarray(order)]  # (nstep, h), after each step
+    times = np.arange(1, nstep + 1) * dt
+    saved = np.linspace(0.0, T1, N_SAVE)
+    return np.stack(
+        [
+            np.interp(saved, np.r_[0.0, times], np.r_[0.0, angles[:, j]])
+            for j in range(angles.shape[1])
+        ],
+        axis=1,
+    )
+
+
 def _mujoco_final(models, controls, data) -> np.ndarray:
     """Roll every model out from flat at rest under its controls; final hinge angles `(b, h)`."""
     model = models[0]
@@ -147,17 +188,18 @@ def run(quick: bool) -> list[Result]:
     m = net.n_creases
 
     # Ours: compile apart, check the verdict, then time.
+    default_rtol = jnp.asarray(sim.DEFAULT_RTOL)
     start = time.perf_counter()
-    solve = jax.jit(_solve).lower(system).compile()
+    solve = jax.jit(_solve).lower(system, default_rtol).compile()
     compile_s = time.perf_counter() - start
-    trajectory = solve(system)
+    trajectory = solve(system, default_rtol)
     report = net.assess(system, trajectory)
     if report.verdict != "folded":
         raise AssertionError(f"ours: {report.summary()}")
     ours_final = np.asarray(trajectory.theta[-1])
     _check("ours", net, ours_final[None], targets)
     steps = int(trajectory.stats["num_steps"])
-    ours = time_calls(lambda: solve(system).theta, repeats=repeats)
+    ours = time_calls(lambda: solve(system, default_rtol).theta, repeats=repeats)
 
     # MuJoCo: step 1/200 of the shortest hinge period.
     dt, nstep = mujoco_step(system)
@@ -167,6 +209,25 @@ def run(quick: bool) -> list[Result]:
     mj_final = _mujoco_final([model], controls, data)
     mj_error = _check("MuJoCo", net, mj_final, targets)
     mj = time_calls(lambda: _mujoco_final([model], controls, data), repeats=repeats)
+
+    # Accuracy of each against its own converged path (module constants).
+    reference = np.asarray(solve(system, jnp.asarray(REFERENCE_RTOL)).theta)
+    ours_path_error = {
+        rtol: float(np.max(np.abs(np.asarray(solve(system, jnp.asarray(rtol)).theta) - reference)))
+        for rtol in (sim.DEFAULT_RTOL, EQUAL_RTOL)
+    }
+    mj_path_error = float(
+        np.max(
+            np.abs(
+                mujoco_path(system, design, dt, 1) - mujoco_path(system, design, dt, MUJOCO_REFINE)
+            )
+        )
+    )
+    accuracy = (
+        f"path error against its own converged path: ours {ours_path_error[sim.DEFAULT_RTOL]:.1e} "
+        f"rad at rtol {sim.DEFAULT_RTOL:g}, {ours_path_error[EQUAL_RTOL]:.1e} at {EQUAL_RTOL:g}; "
+        f"MuJoCo {mj_path_error:.1e} rad at its step (against 1/{MUJOCO_REFINE} of it)"
+    )
     rows = [
         Result(
             name=f"{NET} folding with contact, one trajectory to {T1:g} us vs MuJoCo",
@@ -179,13 +240,16 @@ def run(quick: bool) -> list[Result]:
                 f"ours: {steps} Tsit5 steps ({steps / ours.median:.3g} steps/s), verdict "
                 f"{report.verdict}, max penetration {report.max_penetration:.2g} um; MuJoCo: "
                 f"{nstep} steps ({nstep / mj.median:.3g} steps/s), ends {mj_error:.1e} rad from "
-                "the targets"
+                f"the targets; {accuracy}"
             ),
             extra={
                 "ours_steps": steps,
                 "ours_steps_per_s": steps / ours.median,
                 "mujoco_steps_per_s": nstep / mj.median,
                 "mujoco_dt_us": dt,
+                "ours_path_error_rad": ours_path_error[sim.DEFAULT_RTOL],
+                "ours_path_error_equal_rtol_rad": ours_path_error[EQUAL_RTOL],
+                "mujoco_path_error_rad": mj_path_error,
             },
         )
     ]
@@ -193,16 +257,21 @@ def run(quick: bool) -> list[Result]:
     # A batch with scattered hinges: nets/s.
     factor, release = scattered_draws(batch_mj, m)
 
-    def member(f, r):
-        return _solve(_scattered(system, f, r)).theta[-1]
+    def member(f, r, rtol):
+        return _solve(_scattered(system, f, r), rtol).theta[-1]
 
     args = (jnp.asarray(factor[:batch_ours]), jnp.asarray(release[:batch_ours]))
     start = time.perf_counter()
-    batched = jax.jit(jax.vmap(member)).lower(*args).compile()
+    batched = jax.jit(jax.vmap(member, in_axes=(0, 0, None))).lower(*args, default_rtol).compile()
     batch_compile = time.perf_counter() - start
-    _check("ours (batch)", net, np.asarray(batched(*args)), targets)
-    ours_batch = time_calls(lambda: batched(*args), repeats=1)
-    per_net_ours = ours_batch.median / batch_ours
+    per_net = {}
+    for rtol in (sim.DEFAULT_RTOL, EQUAL_RTOL):
+        rtol_array = jnp.asarray(rtol)
+        _check(f"ours (batch, rtol {rtol:g})", net, np.asarray(batched(*args, rtol_array)), targets)
+        per_net[rtol] = (
+            time_calls(lambda r=rtol_array: batched(*args, r), repeats=1).median / batch_ours
+        )
+    per_net_ours = per_net[sim.DEFAULT_RTOL]
     models = scattered_mujoco(system, design, dt, factor)
     controls = release_controls(release, nstep, dt)
     _check("MuJoCo (batch)", net, _mujoco_final(models, controls, data), targets)
@@ -231,6 +300,26 @@ def run(quick: bool) -> list[Result]:
                 },
             )
         )
+    # At equal accuracy (the same path error as MuJoCo at its step), against MuJoCo on two threads.
+    rows.append(
+        Result(
+            name=f"{NET} with scattered hinges, nets/s at equal accuracy: ours rtol {EQUAL_RTOL:g} "
+            f"vmap over {batch_ours} vs MuJoCo over {batch_mj} on 2 threads",
+            ours=Timing.once(per_net[EQUAL_RTOL]),
+            peer_name=f"MuJoCo rollout over {batch_mj} models (C), 2 threads",
+            peer=Timing.once(per_net_mj),
+            compile_s=batch_compile,
+            notes=f"per net; {accuracy}; every member closes the cube",
+            extra={
+                "rtol": EQUAL_RTOL,
+                "batch_ours": batch_ours,
+                "batch_mujoco": batch_mj,
+                "mujoco_threads": 2,
+                "ours_nets_per_s": 1 / per_net[EQUAL_RTOL],
+                "mujoco_nets_per_s": 1 / per_net_mj,
+            },
+        )
+    )
     return rows
 
 

@@ -187,6 +187,9 @@ def test_bad_estimates_are_refused_before_compiling(tmp_path):
         ojy.yield_estimate("tests/data/fold/degree4.fold")
     with pytest.raises(ValueError, match="interval"):
         ojy.yield_estimate(NET, interval="wald")
+    for rtol in (0.0, 1.5, True, "1e-5"):
+        with pytest.raises(ValueError, match="rtol must be a number strictly between 0 and 1"):
+            ojy.yield_estimate(NET, rtol=rtol)
     path = tmp_path / "scatter.toml"
     path.write_text("[misfit_strain]\nwidth = 0.05\nper = 'wafer'\n")
     with pytest.raises(ValueError, match="per must be 'crease' or 'net'"):
@@ -194,6 +197,25 @@ def test_bad_estimates_are_refused_before_compiling(tmp_path):
     path.write_text("defaults = false\n[misfit_strain]\nwidth = 0.05\n")
     scatter = ojy.load_scatter(path)
     assert scatter.active() == {"misfit_strain": _resolved("misfit_strain", ojy.Spread(width=0.05))}
+
+
+def test_rtol_reaches_the_solver(monkeypatch):
+    # The plumbing only (the sweep is replaced): the tolerance is the kernel's, so a resumed
+    # estimate checks it too; atol keeps the defaults' ratio to it.
+    import origami_jax.sweep as sweep_module
+
+    kernels = []
+
+    def fake_sweep(kernel, *args, **kwargs):
+        kernels.append(kernel)
+        raise RuntimeError("stop here")
+
+    monkeypatch.setattr(sweep_module, "sweep", fake_sweep)
+    for rtol, expected in ((1e-5, (1e-5, 1e-7)), (None, (1e-7, 1e-9))):
+        with pytest.raises(RuntimeError, match="stop here"):
+            ojy.yield_estimate(NET, n_samples=2, rtol=rtol, **RUN)
+        settings = kernels[-1].settings
+        assert (settings["rtol"], settings["atol"]) == pytest.approx(expected, rel=1e-12)
 
 
 # ---- simulated estimates -----------------------------------------------------------------------

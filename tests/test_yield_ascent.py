@@ -364,6 +364,7 @@ def test_yield_ascent_checks_before_compiling():
         (["--process", "t_structural=0.2,0.2"], "t_structural must be a number, got shape"),
         (["--process", "t_hinge=x"], "--process t_hinge expects comma-separated numbers"),
         (["--process", "t_hinge=0.1", "--process", "t_hinge=0.2"], "t_hinge is given twice"),
+        (["--rtol", "0"], "--rtol must lie strictly between 0 and 1"),
     ],
 )
 def test_cli_improve_refuses_bad_flags_before_compiling(tmp_path, capsys, extra, message):
@@ -376,9 +377,10 @@ def test_cli_improve_refuses_bad_flags_before_compiling(tmp_path, capsys, extra,
     assert not (tmp_path / "out" / "sweep.json").exists()
 
 
-def test_cli_process_reaches_the_estimate_and_the_ascent(tmp_path, capsys, monkeypatch):
+def test_cli_process_and_rtol_reach_the_estimate_and_the_ascent(tmp_path, capsys, monkeypatch):
     # The plumbing only (the estimate itself is replaced): --process values arrive as the nominal
-    # process of the estimate (and, through the same options, of --improve's start).
+    # process of the estimate and --rtol as its tolerance (and, through the same options, those of
+    # --improve's start).
     import origami_jax.fab_yield as fab_yield
     from origami_jax.cli import main
 
@@ -391,9 +393,10 @@ def test_cli_process_reaches_the_estimate_and_the_ascent(tmp_path, capsys, monke
     monkeypatch.setattr(fab_yield, "yield_estimate", fake_estimate)
     argv = ["yield", "corner_cube", "--samples", "4", "--out", str(tmp_path / "out")]
     argv += ["--process", "misfit_strain=0.0105", "--process", "hinge_width=2.5,3"]
-    assert main(argv) == 1
+    assert main(argv + ["--rtol", "1e-5"]) == 1
     assert "stop here" in capsys.readouterr().err
     assert seen["process"] == {"misfit_strain": 0.0105, "hinge_width": [2.5, 3.0]}
+    assert seen["rtol"] == 1e-5
 
 
 @pytest.mark.slow  # two or three estimates of 8 corner cubes with contact (~3-15 min)
