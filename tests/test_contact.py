@@ -162,21 +162,23 @@ def test_net_contact_force_against_a_point_by_point_world_sum():
         return jnp.sum(contact._gap(local)[0])
 
     gradient_jit = jax.jit(lambda q: jax.grad(local_gap_sum)(contact._local(tree, q)[2]))
+    gaps_jit = jax.jit(lambda q: contact.gaps(tree, q)[0])
+    engaged_jit = jax.jit(lambda gap: smoothstep(1 - gap / contact.activation))
     pressed = 0
     for _ in range(4):
         q = jnp.asarray(target * rng.uniform(0.97, 1.06, target.shape))
         v = jnp.asarray(rng.normal(0.0, 0.05, target.shape))
         poses = np.concatenate([np.asarray(tree.body_poses(q)), tables.base_pose[None]])
-        gap = np.asarray(contact.gaps(tree, q)[0])
+        gap = gaps_jit(q)
+        engaged = np.asarray(engaged_jit(gap))
         rate = np.asarray(rate_jit(q, v))
         gradient = np.stack([np.asarray(g) for g in gradient_jit(q)], axis=-1)  # (a, b, i, 3)
-        activation = float(contact.activation)
+        damping_coefficient = float(contact.damping)
         wrenches = np.zeros((len(poses), 6))
         for a, b, i in zip(*np.nonzero(tables.pairs), strict=True):
             x = poses[a, :3, :3] @ points[a, i] + poses[a, :3, 3]
             normal = poses[b, :3, :3] @ gradient[a, b, i]
-            engaged = float(smoothstep(1 - gap[a, b, i] / activation))
-            f = -float(contact.damping) * engaged * rate[a, b, i] * normal
+            f = -damping_coefficient * engaged[a, b, i] * rate[a, b, i] * normal
             wrenches[a] += np.concatenate([f, np.cross(x, f)])
             wrenches[b] -= np.concatenate([f, np.cross(x, f)])
         damping = np.asarray(tree.apply_wrenches(q, jnp.asarray(wrenches[: tables.n_bodies])))
