@@ -58,7 +58,7 @@ SCATTER, RELEASE_SPAN = 0.1, 20.0  # ±10 % stiffness, release times uniform ove
 # MuJoCo's step it is ~3e-2 rad (contact events shift in time); ours reaches that at rtol 1e-5.
 REFERENCE_RTOL, EQUAL_RTOL = 1e-10, 1e-5
 MUJOCO_REFINE = 16
-ATOL_PER_RTOL = 1e-2  # atol = 1e-2 rtol, the defaults' ratio
+ATOL_PER_RTOL = sim.DEFAULT_ATOL / sim.DEFAULT_RTOL  # the defaults' ratio
 
 
 def _solve(system, rtol=sim.DEFAULT_RTOL):
@@ -137,12 +137,7 @@ def mujoco_path(system, design, dt_rule: float, refine: int) -> np.ndarray:
     model.opt.timestep = dt
     nstep = int(round(T1 / dt))
     controls = release_controls(np.zeros((1, system.n_hinges)), nstep, dt)
-    size = mujoco.mj_stateSize(model, mujoco.mjtState.mjSTATE_FULLPHYSICS)
-    state, _ = rollout.rollout(
-        [model], mujoco.MjData(model), np.zeros((1, size)), controls, nstep=nstep
-    )
-    order = [int(model.joint(f"h{i}").qposadr[0]) for i in range(model.njnt)]
-    angles = state[0][:, 1 + np.asarray(order)]  # (nstep, h), after each step
+    angles = _mujoco_angles([model], controls, mujoco.MjData(model))[0]  # (nstep, h)
     times = np.arange(1, nstep + 1) * dt
     saved = np.linspace(0.0, T1, N_SAVE)
     return np.stack(
@@ -154,15 +149,21 @@ def mujoco_path(system, design, dt_rule: float, refine: int) -> np.ndarray:
     )
 
 
-def _mujoco_final(models, controls, data) -> np.ndarray:
-    """Roll every model out from flat at rest under its controls; final hinge angles `(b, h)`."""
+def _mujoco_angles(models, controls, data) -> np.ndarray:
+    """Roll every model out from flat at rest under its controls; hinge angles after each step
+    `(b, nstep, h)`."""
     model = models[0]
     size = mujoco.mj_stateSize(model, mujoco.mjtState.mjSTATE_FULLPHYSICS)
     state, _ = rollout.rollout(
         models, data, np.zeros((len(models), size)), controls, nstep=controls.shape[1]
     )
     order = [int(model.joint(f"h{i}").qposadr[0]) for i in range(model.njnt)]
-    return state[:, -1, 1 + np.asarray(order)]
+    return state[:, :, 1 + np.asarray(order)]
+
+
+def _mujoco_final(models, controls, data) -> np.ndarray:
+    """Final hinge angles `(b, h)` of `_mujoco_angles`."""
+    return _mujoco_angles(models, controls, data)[:, -1]
 
 
 def _check(name: str, net, finals: np.ndarray, targets: np.ndarray) -> float:

@@ -272,7 +272,7 @@ def yield_estimate(
     """
     from ..fold import FoldFormatError
     from ..net import load_net
-    from ..simulation import FoldVerdict, VerdictTolerances
+    from ..simulation import DEFAULT_ATOL, DEFAULT_RTOL, FoldVerdict, VerdictTolerances
     from ..sweep import Table, sweep
     from ..system import KOH_SOLUTION, HingeDesign
 
@@ -346,7 +346,7 @@ def yield_estimate(
         n_save=n_save,
         max_steps=max_steps,
         rtol=None if rtol is None else float(rtol),
-        atol=None if rtol is None else 1e-2 * float(rtol),
+        atol=None if rtol is None else DEFAULT_ATOL / DEFAULT_RTOL * float(rtol),
         contact=contact,
         drag=drag,
         angle_tolerance_deg=angle_tolerance_deg,
