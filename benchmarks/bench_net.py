@@ -20,7 +20,10 @@ At equal accuracy too: a fixed-step integrator and an adaptive one at its defaul
 make the same error. Each model's path (the hinge angles at the saved times) is compared with its own
 converged path (ours at rtol 1e-10; MuJoCo at 1/16 of its step, with the contact softness of its
 step), and the batch is timed again with ours at the tolerance that makes MuJoCo's path error
-(rtol 1e-5: the verdicts of a 16-net batch are the same from rtol 1e-4 to 1e-10).
+(rtol 1e-5: the verdicts of a 16-net batch are the same from rtol 1e-4 to 1e-10). And once more with
+the contact removed (the panels then pass through each other): not a folding but a floor, what the
+tree, the hinges and the drag cost at the steps a contact-free run takes, so that the row above it
+can be split into what the contact costs and what the rest does.
 
 Run: ``python -m benchmarks --only net`` (``--quick``: smaller batches, one repeat).
 """
@@ -76,10 +79,11 @@ def _solve(system, rtol=sim.DEFAULT_RTOL):
     )
 
 
-def _scattered(system, factor, release):
+def _scattered(system, factor, release, contact=True):
     h = system.hinges
     hinges = type(h)(h.stiffness * factor, h.target, h.radius, release)
-    return type(system)(system.mechanism, hinges, system.drag, system.contact, system.units)
+    kept = system.contact if contact else None
+    return type(system)(system.mechanism, hinges, system.drag, kept, system.units)
 
 
 def _mujoco(system, design, dt):
@@ -301,6 +305,43 @@ def run(quick: bool) -> list[Result]:
                 },
             )
         )
+
+    # The same batch with the contact removed (the panels pass through each other): a floor, what
+    # the rest of the right-hand side costs at the steps a contact-free folding takes.
+    def free_member(f, r, rtol):
+        trajectory = _solve(_scattered(system, f, r, contact=False), rtol)
+        return trajectory.theta[-1], trajectory.stats["num_steps"]
+
+    start = time.perf_counter()
+    free = jax.jit(jax.vmap(free_member, in_axes=(0, 0, None))).lower(*args, default_rtol).compile()
+    free_compile = time.perf_counter() - start
+    equal_rtol = jnp.asarray(EQUAL_RTOL)
+    _, free_steps = jax.device_get(free(*args, equal_rtol))
+    per_net_free = time_calls(lambda: free(*args, equal_rtol), repeats=repeats).median / batch_ours
+    rows.append(
+        Result(
+            name=f"{NET} with scattered hinges and NO contact (a floor), nets/s: ours rtol "
+            f"{EQUAL_RTOL:g} vmap over {batch_ours} vs MuJoCo (with contact) on 2 threads",
+            ours=Timing.once(per_net_free),
+            peer_name=f"MuJoCo rollout over {batch_mj} models (C), 2 threads",
+            peer=Timing.once(per_net_mj),
+            compile_s=free_compile,
+            notes=(
+                f"per net; the panels pass through each other, so this is not a folding: it is "
+                f"what the tree, hinges and drag cost at the {int(free_steps.max())} steps (batch "
+                f"maximum) a contact-free run takes; with contact at the same rtol: "
+                f"{per_net[EQUAL_RTOL] / per_net_free:.3g}x this"
+            ),
+            extra={
+                "rtol": EQUAL_RTOL,
+                "batch_ours": batch_ours,
+                "ours_steps_max": int(free_steps.max()),
+                "ours_steps_mean": float(free_steps.mean()),
+                "ours_nets_per_s": 1 / per_net_free,
+                "mujoco_nets_per_s": 1 / per_net_mj,
+            },
+        )
+    )
     # At equal accuracy (the same path error as MuJoCo at its step), against MuJoCo on two threads.
     rows.append(
         Result(

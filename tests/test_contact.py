@@ -60,17 +60,21 @@ def _step_energy(system, trajectory):
 
 
 def test_barrier_is_smooth_and_finite():
-    x = jnp.linspace(-2.0, 1.5, 7001)
-    values = jax.vmap(barrier)(x)
-    first = jax.vmap(jax.grad(barrier))(x)
-    second = jax.vmap(jax.grad(jax.grad(barrier)))(x)
+    @jax.jit  # the barrier and its two derivatives at many points in one compiled call
+    def curves(x):
+        return tuple(
+            jax.vmap(f)(x) for f in (barrier, jax.grad(barrier), jax.grad(jax.grad(barrier)))
+        )
+
+    values, first, second = curves(jnp.linspace(-2.0, 1.5, 7001))
     assert bool(jnp.all(jnp.isfinite(values) & jnp.isfinite(first) & jnp.isfinite(second)))
     assert bool(jnp.all(values >= 0)) and bool(jnp.all(first <= 1e-12))
     assert float(barrier(1.0)) == 0.0 and float(barrier(2.0)) == 0.0
     # C² at the activation gap (x = 1) and where the Taylor continuation starts (x = 0.1).
     for x0 in (1.0, 0.1):
-        for f in (barrier, jax.grad(barrier), jax.grad(jax.grad(barrier))):
-            np.testing.assert_allclose(f(x0 - 1e-9), f(x0 + 1e-9), rtol=1e-6, atol=1e-6)
+        below, above = curves(jnp.array([x0 - 1e-9])), curves(jnp.array([x0 + 1e-9]))
+        for left, right in zip(below, above, strict=True):
+            np.testing.assert_allclose(left, right, rtol=1e-6, atol=1e-6)
     # The IPC barrier itself in between.
     np.testing.assert_allclose(barrier(0.5), -(0.25) * np.log(0.5), rtol=1e-14)
 
@@ -80,13 +84,22 @@ def test_elastic_force_is_minus_the_energy_gradient_and_damping_dissipates():
     contact, chain = system.contact, system.mechanism
     q = jnp.array([np.pi - 0.005, -np.pi + 0.01, np.pi - 0.01])  # flaps pressed onto each other
     v = jnp.array([0.01, -0.02, 0.03])
-    elastic = contact.force(chain, q, jnp.zeros(3))
-    reference = -jax.grad(lambda q: contact.potential(chain, q))(q)
+
+    @jax.jit  # one compiled call: op by op, the gradient alone took 20 s
+    def forces(q, v):
+        return {
+            "elastic": contact.force(chain, q, jnp.zeros(3)),
+            "reference": -jax.grad(lambda q: contact.potential(chain, q))(q),
+            "moving": contact.force(chain, q, v),
+        }
+
+    got = forces(q, v)
+    elastic = got["elastic"]
     assert float(jnp.max(jnp.abs(elastic))) > 0  # in contact
-    np.testing.assert_allclose(elastic, reference, rtol=1e-10)
-    assert float(v @ (contact.force(chain, q, v) - elastic)) < 0
+    np.testing.assert_allclose(elastic, got["reference"], rtol=1e-10)
+    assert float(v @ (got["moving"] - elastic)) < 0
     # Flat, every flap beside the others: no contact at all.
-    np.testing.assert_array_equal(contact.force(chain, jnp.zeros(3), jnp.zeros(3)), 0.0)
+    np.testing.assert_array_equal(forces(jnp.zeros(3), jnp.zeros(3))["moving"], 0.0)
 
 
 def test_crossing_counts_through_a_face_not_beside_it():
@@ -154,25 +167,31 @@ def test_net_contact_force_against_a_point_by_point_world_sum():
     points = tables.points
     target = np.asarray(system.hinges.target)
     rng = np.random.default_rng(3)
-    force_jit = jax.jit(lambda q, v: contact.force(tree, q, v))
-    elastic_jit = jax.jit(jax.grad(lambda q: -contact.potential(tree, q)))
-    rate_jit = jax.jit(lambda q, v: jax.jvp(lambda q: contact.gaps(tree, q)[0], (q,), (v,))[1])
 
     def local_gap_sum(local):
         return jnp.sum(contact._gap(local)[0])
 
-    gradient_jit = jax.jit(lambda q: jax.grad(local_gap_sum)(contact._local(tree, q)[2]))
-    gaps_jit = jax.jit(lambda q: contact.gaps(tree, q)[0])
-    engaged_jit = jax.jit(lambda gap: smoothstep(1 - gap / contact.activation))
+    @jax.jit
+    def pieces(q, v):
+        # One compiled call for every piece of the reference and the kernel under test.
+        gap = contact.gaps(tree, q)[0]
+        return {
+            "force": contact.force(tree, q, v),
+            "elastic": jax.grad(lambda q: -contact.potential(tree, q))(q),
+            "rate": jax.jvp(lambda q: contact.gaps(tree, q)[0], (q,), (v,))[1],
+            "gradient": jax.grad(local_gap_sum)(contact._local(tree, q)[2]),
+            "engaged": smoothstep(1 - gap / contact.activation),
+            "poses": tree.body_poses(q),
+        }
+
     pressed = 0
     for _ in range(4):
         q = jnp.asarray(target * rng.uniform(0.97, 1.06, target.shape))
         v = jnp.asarray(rng.normal(0.0, 0.05, target.shape))
-        poses = np.concatenate([np.asarray(tree.body_poses(q)), tables.base_pose[None]])
-        gap = gaps_jit(q)
-        engaged = np.asarray(engaged_jit(gap))
-        rate = np.asarray(rate_jit(q, v))
-        gradient = np.stack([np.asarray(g) for g in gradient_jit(q)], axis=-1)  # (a, b, i, 3)
+        got = jax.device_get(pieces(q, v))
+        poses = np.concatenate([got["poses"], tables.base_pose[None]])
+        engaged, rate = got["engaged"], got["rate"]
+        gradient = np.stack(got["gradient"], axis=-1)  # (a, b, i, 3)
         damping_coefficient = float(contact.damping)
         wrenches = np.zeros((len(poses), 6))
         for a, b, i in zip(*np.nonzero(tables.pairs), strict=True):
@@ -182,8 +201,8 @@ def test_net_contact_force_against_a_point_by_point_world_sum():
             wrenches[a] += np.concatenate([f, np.cross(x, f)])
             wrenches[b] -= np.concatenate([f, np.cross(x, f)])
         damping = np.asarray(tree.apply_wrenches(q, jnp.asarray(wrenches[: tables.n_bodies])))
-        reference = np.asarray(elastic_jit(q)) + damping
-        ours = np.asarray(force_jit(q, v))
+        reference = got["elastic"] + damping
+        ours = got["force"]
         pressed += int(np.max(np.abs(reference)) > 0)
         np.testing.assert_allclose(ours, reference, rtol=1e-10, atol=1e-10 * np.max(np.abs(ours)))
     assert pressed >= 3  # the states are in contact

@@ -125,6 +125,24 @@ def test_bad_model_settings_are_refused(settings, message):
         get_model("accordion-step", **settings)
 
 
+@pytest.mark.parametrize(
+    "settings, message",
+    [
+        ({"rtol": 0.0}, "rtol must be finite and > 0"),
+        ({"atol": float("inf")}, "atol must be finite"),
+        ({"rtol": "1e-5"}, "rtol must be a number"),
+        ({"t_end": -1.0}, "t_end must be finite and > 0"),
+        ({"n_save": 1}, "n_save must be finite and >= 2"),
+        ({"max_steps": 2.5}, "max_steps must be an integer"),
+    ],
+)
+def test_bad_net_fold_settings_are_refused_before_the_net_is_built(settings, message):
+    # The same checks as the accordion's kernel: a direct sweep over `net-fold` (not only
+    # `yield_estimate`, which checks its own rtol) refuses them before loading or compiling anything.
+    with pytest.raises(ValueError, match=message):
+        get_model("net-fold", **settings)
+
+
 def test_bad_settings_and_labels_in_a_config_are_one_line(tmp_path, capsys, monkeypatch):
     _register(monkeypatch)
     config = tmp_path / "bad.toml"

@@ -175,6 +175,22 @@ def test_seams_closed_by_contact_under_vmap(cube):
     np.testing.assert_allclose(outcome.max_open_seam_gap, [0.0, gaps[1]], rtol=1e-9)
 
 
+def test_a_second_verdict_on_the_same_net_compiles_nothing(cube):
+    """`assess` runs the verdict as one compiled program, keyed on the model's structure: another
+    folding of the same net, judged with other tolerances, reuses it (and reads its own states: its
+    seam gaps are the host's rigid folding at its angles)."""
+    from origami_jax.simulation import _verdict
+
+    net, system = cube
+    net.assess(system, held_trajectory(system, _angles(0.8)))
+    compiled = _verdict._outcome_compiled._cached._cache_size()
+    tolerances = sim.VerdictTolerances.from_degrees(2.0, 0.02)
+    report = net.assess(system, held_trajectory(system, _angles(-0.8)), tolerances=tolerances)
+    assert _verdict._outcome_compiled._cached._cache_size() == compiled
+    np.testing.assert_allclose(report.seam_gaps, net.seam_gaps(_angles(-0.8)), atol=1e-9)
+    assert report.angle_tolerance == pytest.approx(np.radians(2.0))
+
+
 def test_seam_bodies_of_the_wrong_shape_are_refused(cube):
     net, system = cube
     one = _one_seam(net, system)

@@ -220,7 +220,7 @@ class PanelContact(AbstractContact):
         size = max(float(np.max(np.ptp(o, axis=0))) for o in outlines)
         base = mechanism.base_outline() if base_outline is None else base_outline
         try:
-            rest = np.asarray(mechanism.body_poses(mechanism.rest_state()[0]))
+            rest = np.asarray(_rest_poses(mechanism))
         except jax.errors.TracerArrayConversionError as error:
             raise ValueError(
                 "contact needs the panels' geometry before compilation, but this mechanism was built "
@@ -266,7 +266,7 @@ class PanelContact(AbstractContact):
         )
         curvature = _D2B_HALF
         contact_stiffness = energy * curvature / probe.activation**2
-        inertia = jnp.diag(mechanism.mass_matrix(mechanism.rest_state()[0]))
+        inertia = _rest_inertia(mechanism)
         mass = jnp.min(inertia) / probe.tables.scale**2
         damping = 2 * damping_ratio * jnp.sqrt(contact_stiffness * mass)
         return eqx.tree_at(lambda c: c.damping, probe, damping.astype(probe.damping.dtype))
@@ -461,6 +461,19 @@ class PanelContact(AbstractContact):
             "penetration": jnp.maximum(-smallest, 0.0),
             "touching": jnp.any(near, axis=-1),
         }
+
+
+# One compiled program each (op by op, every new shape would compile its own): the rest poses for
+# the host geometry, and the mass matrix's diagonal for the default damping. Under an outer trace
+# they are traced inline.
+@eqx.filter_jit
+def _rest_poses(mechanism):
+    return mechanism.body_poses(mechanism.rest_state()[0])
+
+
+@eqx.filter_jit
+def _rest_inertia(mechanism):
+    return jnp.diag(mechanism.mass_matrix(mechanism.rest_state()[0]))
 
 
 def contact_points(

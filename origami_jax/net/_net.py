@@ -22,6 +22,7 @@ Lengths: the FOLD file's `frame_unit` is converted into the design's unit system
 
 import dataclasses
 import os
+from typing import Any
 
 import equinox as eqx
 import jax.numpy as jnp
@@ -573,6 +574,8 @@ class SeamGaps:
     the two sides' corners at either end of the seam.
 
     **Fields:**
+    - `function`: ``q ↦`` the gaps; for a net's seams an `equinox.Module` (its numbers are arrays,
+      so the verdict compiled for one folding serves the next).
     - `bodies`: `(s, 2)` int (host), the bodies on the two sides of each seam, numbered as in the
       contact tables (`origami_jax.contact.ContactTables`): moving bodies ``0 … b−1``, the fixed
       base (the net's root face) ``b`` = the mechanism's `n_bodies`.
@@ -581,14 +584,39 @@ class SeamGaps:
     """
 
     def __init__(self, function, bodies):
-        self._function = function
+        self.function = function
         self.bodies = np.asarray(bodies, dtype=np.int64).reshape(-1, 2)
 
     def __call__(self, q: Float[ArrayLike, " nq"]) -> Float[Array, " s"]:
-        return self._function(q)
+        return self.function(q)
 
     def __repr__(self) -> str:
         return f"SeamGaps({len(self.bodies)} seams, bodies={self.bodies.tolist()})"
+
+
+class _CornerGaps(eqx.Module):
+    """Each seam's gap from its corners: the larger distance between the two sides' corners at
+    either end, the corners placed by the mechanism's body poses."""
+
+    mechanism: Any
+    corner_bodies: np.ndarray  # (s, 2, 2) int: each end's two sides' bodies, −1 the base
+    corner_points: np.ndarray  # (s, 2, 2, 3): those corners in their bodies' frames, length
+
+    def __call__(self, q):
+        body, local = self.corner_bodies, self.corner_points
+        if not body.shape[0]:
+            return jnp.zeros((0,), jnp.asarray(q).dtype)
+        poses = self.mechanism.body_poses(q)
+        base = jnp.eye(4, dtype=poses.dtype)[None]
+        poses = jnp.concatenate([poses, base], axis=0)  # body −1 is the base (world frame)
+        chosen = poses[jnp.asarray(body)]
+        corners = jnp.asarray(local, poses.dtype)
+        points = jnp.einsum("seaij,seaj->seai", chosen[..., :3, :3], corners)
+        points = points + chosen[..., :3, 3]
+        # A seam's end on a vertex the two faces share stays at distance 0: a norm with a finite
+        # gradient there (yield surrogates differentiate through the gaps).
+        distance = safe_norm(points[:, :, 0] - points[:, :, 1])
+        return jnp.max(distance, axis=-1)
 
 
 def seam_gap_function(tree_geometry, seams, mechanism, length_scale: float) -> SeamGaps:
@@ -614,18 +642,4 @@ def seam_gap_function(tree_geometry, seams, mechanism, length_scale: float) -> S
     # Body −1 (the root face, posed by the world frame below) is the contact tables' base, n_bodies.
     bodies = np.where(body[:, 0] < 0, mechanism.n_bodies, body[:, 0])
 
-    def gaps(q):
-        if not len(seams):
-            return jnp.zeros((0,), jnp.asarray(q).dtype)
-        poses = mechanism.body_poses(q)
-        base = jnp.eye(4, dtype=poses.dtype)[None]
-        poses = jnp.concatenate([poses, base], axis=0)  # body −1 is the base (world frame)
-        chosen = poses[jnp.asarray(body)]
-        points = jnp.einsum("seaij,seaj->seai", chosen[..., :3, :3], jnp.asarray(local))
-        points = points + chosen[..., :3, 3]
-        # A seam's end on a vertex the two faces share stays at distance 0: a norm with a finite
-        # gradient there (yield surrogates differentiate through the gaps).
-        distance = safe_norm(points[:, :, 0] - points[:, :, 1])
-        return jnp.max(distance, axis=-1)
-
-    return SeamGaps(gaps, bodies)
+    return SeamGaps(_CornerGaps(mechanism, body, local), bodies)

@@ -84,45 +84,52 @@ def polygon_plate(
         raise ValueError(f"a polygon needs at least 3 vertices, got {v.shape[0]}.")
     if not is_traced(v):
         _check_polygon(np.asarray(v))
-    area_vector = polygon_normal(v)
-    z = area_vector / jnp.linalg.norm(area_vector)
-    x = (v[1] - v[0]) if x_axis is None else as_float_array(x_axis, "x_axis")
-    x = x - jnp.dot(x, z) * z
-    if not is_traced(x) and float(jnp.linalg.norm(x)) < 1e-9 * float(jnp.linalg.norm(v[1] - v[0])):
+    given = [v, thickness, density] + ([] if x_axis is None else [x_axis])
+    xp = jnp
+    if not any(is_traced(value) for value in given):
+        # Known numbers: the same formulas in NumPy on the host (op by op in JAX, every new shape
+        # would compile a program of its own: seconds for a net's panels).
+        xp = np
+        v = np.asarray(v)
+    area_vector = 0.5 * xp.sum(xp.cross(v, xp.roll(v, -1, axis=0)), axis=0)  # `polygon_normal`
+    z = area_vector / xp.linalg.norm(area_vector)
+    x = (v[1] - v[0]) if x_axis is None else xp.asarray(as_float_array(x_axis, "x_axis"))
+    x = x - xp.dot(x, z) * z
+    if not is_traced(x) and float(xp.linalg.norm(x)) < 1e-9 * float(xp.linalg.norm(v[1] - v[0])):
         raise ValueError("x_axis is along the polygon's normal; give a direction in its plane.")
-    x = x / jnp.linalg.norm(x)
-    y = jnp.cross(z, x)
+    x = x / xp.linalg.norm(x)
+    y = xp.cross(z, x)
     rel = v - v[0]
     px, py = rel @ x, rel @ y
-    nx, ny = jnp.roll(px, -1), jnp.roll(py, -1)
+    nx, ny = xp.roll(px, -1), xp.roll(py, -1)
     a = px * ny - nx * py
-    area = 0.5 * jnp.sum(a)
-    cx = jnp.sum((px + nx) * a) / (6 * area)
-    cy = jnp.sum((py + ny) * a) / (6 * area)
+    area = 0.5 * xp.sum(a)
+    cx = xp.sum((px + nx) * a) / (6 * area)
+    cy = xp.sum((py + ny) * a) / (6 * area)
     # Second moments about the centroid: shift the vertices first (better conditioned than the
     # parallel-axis theorem for a panel far from the first vertex).
     px, py, nx, ny = px - cx, py - cy, nx - cx, ny - cy
     a = px * ny - nx * py
-    sxx = jnp.sum((px * px + px * nx + nx * nx) * a) / 12  # ∫x² dA
-    syy = jnp.sum((py * py + py * ny + ny * ny) * a) / 12  # ∫y² dA
-    sxy = jnp.sum((px * ny + 2 * px * py + 2 * nx * ny + nx * py) * a) / 24  # ∫xy dA
-    thickness = jnp.asarray(thickness)
-    areal = jnp.asarray(density) * thickness  # mass per area
+    sxx = xp.sum((px * px + px * nx + nx * nx) * a) / 12  # ∫x² dA
+    syy = xp.sum((py * py + py * ny + ny * ny) * a) / 12  # ∫y² dA
+    sxy = xp.sum((px * ny + 2 * px * py + 2 * nx * ny + nx * py) * a) / 24  # ∫xy dA
+    thickness = xp.asarray(thickness)
+    areal = xp.asarray(density) * thickness  # mass per area
     mass = areal * area
     flat = mass * thickness**2 / 12
-    zero = jnp.zeros_like(mass)
-    inertia = jnp.stack(
+    zero = xp.zeros_like(mass)
+    inertia = xp.stack(
         [
-            jnp.stack([areal * syy + flat, -areal * sxy, zero]),
-            jnp.stack([-areal * sxy, areal * sxx + flat, zero]),
-            jnp.stack([zero, zero, areal * (sxx + syy)]),
+            xp.stack([areal * syy + flat, -areal * sxy, zero]),
+            xp.stack([-areal * sxy, areal * sxx + flat, zero]),
+            xp.stack([zero, zero, areal * (sxx + syy)]),
         ]
     )
     centroid = v[0] + cx * x + cy * y
-    rotation = jnp.stack([x, y, z], axis=-1)
-    top = jnp.concatenate([rotation, centroid[:, None]], axis=-1)
-    frame = jnp.concatenate([top, jnp.array([[0.0, 0.0, 0.0, 1.0]], dtype=top.dtype)], axis=0)
-    return Plate(mass, frame, inertia, area)
+    rotation = xp.stack([x, y, z], axis=-1)
+    top = xp.concatenate([rotation, centroid[:, None]], axis=-1)
+    frame = xp.concatenate([top, xp.array([[0.0, 0.0, 0.0, 1.0]], dtype=top.dtype)], axis=0)
+    return Plate(*(jnp.asarray(value) for value in (mass, frame, inertia, area)))
 
 
 def _check_polygon(v: np.ndarray) -> None:

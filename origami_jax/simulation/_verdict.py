@@ -263,6 +263,7 @@ class FoldOutcome(eqx.Module):
     **Fields:** `code` (`VERDICT_CODES`); `time_to_fold` (time units, `inf` if it never got there);
     `settled`; `short` per crease (stopped short of its angle, same sign); `max_seam_gap` at the end
     (length, 0 without seams; a seam above the tolerance may still be closed by contact);
+    `seam_gaps` per seam `(s,)`, its gap at the end (length; empty without seams);
     `seams_touching` per seam `(s,)`, its two panels touch at the end (closed whatever its gap;
     `False` without contact or without the seams' bodies); `max_open_seam_gap`, the largest final
     gap among the seams whose panels do not touch (length, 0 if none): what the rule compares with
@@ -276,6 +277,7 @@ class FoldOutcome(eqx.Module):
     settled: Bool[Array, ""]
     short: Bool[Array, " h"]
     max_seam_gap: Float[Array, ""]
+    seam_gaps: Float[Array, " s"]
     seams_touching: Bool[Array, " s"]
     max_open_seam_gap: Float[Array, ""]
     engaged: Int[Array, ""]
@@ -326,6 +328,7 @@ def fold_outcome(
         engaged = jnp.zeros((), jnp.int32)
     within = jnp.all(jnp.abs(theta - intended) < angle_tolerance, axis=-1) & finite
     max_gap = open_gap = jnp.zeros((), dtype)
+    final_gaps = jnp.zeros((0,), dtype)
     seams_touching = jnp.zeros((0,), bool)
     if seam_gaps is not None:
         gaps = jax.vmap(seam_gaps)(q_safe)  # (t, s)
@@ -336,6 +339,7 @@ def fold_outcome(
             max_gap = jnp.max(gaps[-1])
             open_gap = jnp.max(jnp.where(touch[-1], 0.0, gaps[-1]))
         seams_touching = touch[-1] & finite[-1]
+        final_gaps = gaps[-1]
     final = theta[-1]
     tail = max(2, theta.shape[0] // 10)
     settled = jnp.max(jnp.abs(theta[-tail:] - final)) < angle_tolerance / 2
@@ -371,12 +375,45 @@ def fold_outcome(
         settled=settled,
         short=short,
         max_seam_gap=max_gap,
+        seam_gaps=final_gaps,
         seams_touching=seams_touching,
         max_open_seam_gap=open_gap,
         engaged=engaged,
         min_gap=min_gap,
         penetration=penetration,
     )
+
+
+@eqx.filter_jit
+def _outcome_compiled(
+    system, trajectory, intended, function, bodies, angle_tolerance, seam_tolerance
+):
+    """`assess`'s `fold_outcome` in one compiled program (op by op, a first verdict compiled one per
+    operation: seconds), shared by every verdict on a model of the same structure: the tolerances
+    are traced, and a net's seam function (`function`, an `equinox.Module`) is data; `bodies`, the
+    seams' bodies, a static tuple (`None` when not known)."""
+    seam_gaps = None
+    if function is not None:
+        seam_gaps = function if bodies is None else _WithBodies(function, bodies)
+    return fold_outcome(
+        system,
+        trajectory,
+        intended_angles=intended,
+        seam_gaps=seam_gaps,
+        angle_tolerance=angle_tolerance,
+        seam_tolerance=seam_tolerance,
+    )
+
+
+class _WithBodies:
+    """A seam-gap function with its seams' bodies (what `fold_outcome` reads), inside the compiled
+    verdict."""
+
+    def __init__(self, function, bodies):
+        self.function, self.bodies = function, np.asarray(bodies, dtype=np.int64).reshape(-1, 2)
+
+    def __call__(self, q):
+        return self.function(q)
 
 
 def _seams_touching(touching, bodies, shape):
@@ -448,14 +485,16 @@ def assess(
         raise ValueError(
             f"intended_angles must have shape {trajectory.theta.shape[-1:]}, got {intended.shape}."
         )
+    bodies = getattr(seam_gaps, "bodies", None)
     outcome = jax.device_get(
-        fold_outcome(
+        _outcome_compiled(
             system,
             trajectory,
-            intended_angles=intended,
-            seam_gaps=seam_gaps,
-            angle_tolerance=angle_tolerance,
-            seam_tolerance=seam_tolerance,
+            intended,
+            getattr(seam_gaps, "function", seam_gaps),
+            None if bodies is None else tuple(map(tuple, np.asarray(bodies).tolist())),
+            jnp.asarray(angle_tolerance),
+            jnp.asarray(seam_tolerance),
         )
     )
     contact = system.contact
@@ -466,8 +505,7 @@ def assess(
     errors = final - intended
     gaps_final = np.zeros(0)
     if seam_gaps is not None and np.all(np.isfinite(final)):
-        q = trajectory.theta if trajectory.state is None else trajectory.state[0]
-        gaps_final = np.asarray(seam_gaps(q[-1]), dtype=float)
+        gaps_final = np.asarray(outcome.seam_gaps, dtype=float)
     seams_touching = np.asarray(outcome.seams_touching, dtype=bool)
     if seams_touching.shape != gaps_final.shape:  # a failed run: no final seams
         seams_touching = np.zeros(gaps_final.shape, dtype=bool)

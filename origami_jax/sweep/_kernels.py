@@ -466,6 +466,11 @@ def net_fold(
     from ..simulation import DEFAULT_ATOL, DEFAULT_RTOL, RESULTS, Step, VerdictTolerances, simulate
     from ..system import AIR, KOH_SOLUTION, HingeDesign
 
+    t_end = _setting(t_end, "t_end", low=0.0)
+    n_save = _setting(n_save, "n_save", low=2, integer=True, high=MAX_SAMPLES)
+    max_steps = _setting(max_steps, "max_steps", low=1, integer=True)
+    rtol = DEFAULT_RTOL if rtol is None else _setting(rtol, "rtol", low=0.0)
+    atol = DEFAULT_ATOL if atol is None else _setting(atol, "atol", low=0.0)
     tolerances = VerdictTolerances.from_degrees(angle_tolerance_deg, seam_tolerance)
     if design is not None and fluid is not None:
         raise ValueError("give the fluid in the design (HingeDesign(fluid=...)), not both.")
@@ -495,8 +500,6 @@ def net_fold(
             raise ValueError(
                 f"targets must be {m} finite fold angles (rad, one per crease), got {targets!r}."
             )
-    rtol = DEFAULT_RTOL if rtol is None else float(rtol)
-    atol = DEFAULT_ATOL if atol is None else float(atol)
     parameters = {**NET_PARAMETERS, **NET_GLOBAL_PARAMETERS}
     parameters.update(
         {f"{name}[{j}]": unit for name, unit in NET_PARAMETERS.items() for j in range(m)}
