@@ -181,6 +181,26 @@ def _check(name: str, net, finals: np.ndarray, targets: np.ndarray) -> float:
     return error
 
 
+def _per_net_row(name, ours_s, mujoco_s, batch_mj, threads, compile_s, notes, extra) -> Result:
+    """A throughput row: seconds per net, ours against MuJoCo's rollout over `batch_mj` models on
+    `threads` threads (nets/s of both in `extra`)."""
+    return Result(
+        name=name,
+        ours=Timing.once(ours_s),
+        peer_name=f"MuJoCo rollout over {batch_mj} models (C), {threads} thread(s)",
+        peer=Timing.once(mujoco_s),
+        compile_s=compile_s,
+        notes=notes,
+        extra={
+            **extra,
+            "batch_mujoco": batch_mj,
+            "mujoco_threads": threads,
+            "ours_nets_per_s": 1 / ours_s,
+            "mujoco_nets_per_s": 1 / mujoco_s,
+        },
+    )
+
+
 def run(quick: bool) -> list[Result]:
     jax.config.update("jax_enable_x64", True)
     batch_ours = 16 if quick else 128
@@ -284,25 +304,18 @@ def run(quick: bool) -> list[Result]:
     for threads in (1, 2):
         per_net_mj = mujoco_batch_seconds(models, controls, threads).median / batch_mj
         rows.append(
-            Result(
-                name=f"{NET} with scattered hinges, nets/s: ours vmap over {batch_ours} vs "
+            _per_net_row(
+                f"{NET} with scattered hinges, nets/s: ours vmap over {batch_ours} vs "
                 f"MuJoCo over {batch_mj} on {threads} thread{'s' if threads > 1 else ''}",
-                ours=Timing.once(per_net_ours),
-                peer_name=f"MuJoCo rollout over {batch_mj} models (C), {threads} thread(s)",
-                peer=Timing.once(per_net_mj),
-                compile_s=batch_compile,
-                notes=(
-                    f"per net; ours {1 / per_net_ours:.3g} nets/s (XLA's threads on every core), "
-                    f"MuJoCo {1 / per_net_mj:.3g} nets/s; every member of both batches closes the "
-                    f"cube (±{SCATTER:.0%} stiffness, release over {RELEASE_SPAN:g} us)"
-                ),
-                extra={
-                    "batch_ours": batch_ours,
-                    "batch_mujoco": batch_mj,
-                    "mujoco_threads": threads,
-                    "ours_nets_per_s": 1 / per_net_ours,
-                    "mujoco_nets_per_s": 1 / per_net_mj,
-                },
+                per_net_ours,
+                per_net_mj,
+                batch_mj,
+                threads,
+                batch_compile,
+                f"per net; ours {1 / per_net_ours:.3g} nets/s (XLA's threads on every core), "
+                f"MuJoCo {1 / per_net_mj:.3g} nets/s; every member of both batches closes the "
+                f"cube (±{SCATTER:.0%} stiffness, release over {RELEASE_SPAN:g} us)",
+                {"batch_ours": batch_ours},
             )
         )
 
@@ -319,47 +332,38 @@ def run(quick: bool) -> list[Result]:
     _, free_steps = jax.device_get(free(*args, equal_rtol))
     per_net_free = time_calls(lambda: free(*args, equal_rtol), repeats=repeats).median / batch_ours
     rows.append(
-        Result(
-            name=f"{NET} with scattered hinges and NO contact (a floor), nets/s: ours rtol "
+        _per_net_row(
+            f"{NET} with scattered hinges and NO contact (a floor), nets/s: ours rtol "
             f"{EQUAL_RTOL:g} vmap over {batch_ours} vs MuJoCo (with contact) on 2 threads",
-            ours=Timing.once(per_net_free),
-            peer_name=f"MuJoCo rollout over {batch_mj} models (C), 2 threads",
-            peer=Timing.once(per_net_mj),
-            compile_s=free_compile,
-            notes=(
-                f"per net; the panels pass through each other, so this is not a folding: it is "
-                f"what the tree, hinges and drag cost at the {int(free_steps.max())} steps (batch "
-                f"maximum) a contact-free run takes; with contact at the same rtol: "
-                f"{per_net[EQUAL_RTOL] / per_net_free:.3g}x this"
-            ),
-            extra={
+            per_net_free,
+            per_net_mj,
+            batch_mj,
+            2,
+            free_compile,
+            f"per net; the panels pass through each other, so this is not a folding: it is "
+            f"what the tree, hinges and drag cost at the {int(free_steps.max())} steps (batch "
+            f"maximum) a contact-free run takes; with contact at the same rtol: "
+            f"{per_net[EQUAL_RTOL] / per_net_free:.3g}x this",
+            {
                 "rtol": EQUAL_RTOL,
                 "batch_ours": batch_ours,
                 "ours_steps_max": int(free_steps.max()),
                 "ours_steps_mean": float(free_steps.mean()),
-                "ours_nets_per_s": 1 / per_net_free,
-                "mujoco_nets_per_s": 1 / per_net_mj,
             },
         )
     )
     # At equal accuracy (the same path error as MuJoCo at its step), against MuJoCo on two threads.
     rows.append(
-        Result(
-            name=f"{NET} with scattered hinges, nets/s at equal accuracy: ours rtol {EQUAL_RTOL:g} "
+        _per_net_row(
+            f"{NET} with scattered hinges, nets/s at equal accuracy: ours rtol {EQUAL_RTOL:g} "
             f"vmap over {batch_ours} vs MuJoCo over {batch_mj} on 2 threads",
-            ours=Timing.once(per_net[EQUAL_RTOL]),
-            peer_name=f"MuJoCo rollout over {batch_mj} models (C), 2 threads",
-            peer=Timing.once(per_net_mj),
-            compile_s=batch_compile,
-            notes=f"per net; {accuracy}; every member closes the cube",
-            extra={
-                "rtol": EQUAL_RTOL,
-                "batch_ours": batch_ours,
-                "batch_mujoco": batch_mj,
-                "mujoco_threads": 2,
-                "ours_nets_per_s": 1 / per_net[EQUAL_RTOL],
-                "mujoco_nets_per_s": 1 / per_net_mj,
-            },
+            per_net[EQUAL_RTOL],
+            per_net_mj,
+            batch_mj,
+            2,
+            batch_compile,
+            f"per net; {accuracy}; every member closes the cube",
+            {"rtol": EQUAL_RTOL, "batch_ours": batch_ours},
         )
     )
     return rows
