@@ -60,10 +60,19 @@ simulates it anyway).
 
 Verdicts: folded (every crease within tolerance, every seam closed: within tolerance or its panels
 touching), jammed (contact stops a crease short), misfolded (another final state, another branch),
-unfinished (time ran out), invalid (the simulation failed).
+unfinished (time ran out; without --t1 a net still moving is folded on, 1000 µs at a time,
+up to 8000 µs), invalid (the simulation failed).
 Exit codes: 0 folded, 1 any other verdict, 2 bad input.
 """
 )
+
+
+# Without --t1: fold for SEGMENT_US, and while the verdict is "unfinished" because the panels still
+# move (not because the solver ran out of steps), continue from where the run ended, up to
+# MAX_SEGMENTS segments. The continuations reuse the compiled solve (times and the initial state are
+# traced values). A cube net in the etch bath settles at ~1,400 µs, in air it rings for longer.
+SEGMENT_US = 1000.0
+MAX_SEGMENTS = 8
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -83,7 +92,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         metavar="NAME=VALUE",
         help="override a HingeDesign field (MICRO units), repeatable",
     )
-    parser.add_argument("--t1", type=float, default=1000.0, help="end time, µs (default 1000)")
+    parser.add_argument(
+        "--t1",
+        type=float,
+        default=None,
+        help=f"end time, µs (default {SEGMENT_US:g}, continued by {SEGMENT_US:g} µs at a time while "
+        f"the panels still move, up to {MAX_SEGMENTS * SEGMENT_US:g})",
+    )
     parser.add_argument("--n-save", type=int, default=501, help="samples (default 501)")
     parser.add_argument(
         "--targets", default=None, help="fold target per crease, degrees, comma-separated"
@@ -200,7 +215,8 @@ def run(args: argparse.Namespace) -> int:
         fail(str(error))
     if front is not None and len(front) != 3:
         fail("--etch-front expects DX,DY,SPEED (a direction in the plane and a speed in µm/µs).")
-    positive(args.t1, "--t1", "µs")
+    if args.t1 is not None:
+        positive(args.t1, "--t1", "µs")
     int_range(args.n_save, "--n-save", 2, 1_000_000)
     finite(args.bias, "--bias")
     in_range(args.tolerance, "--tolerance", 0.0, 180.0, what=" degrees")
@@ -270,31 +286,63 @@ def _run(args, net, system, loops, params, release, theta0, theta_dot0, output) 
     out = output.dir
     m = net.n_creases
     kind = f"{net.n_loops} closed loop(s), " if loops else ""
+    segment = SEGMENT_US if args.t1 is None else args.t1
     print(
         f"[fold] {net.name}: {m} creases, {kind}{system.mechanism.n_bodies} moving panels, contact "
-        f"{'on' if system.contact is not None else 'off'}; compiling and folding for {args.t1:g} µs ...",
+        f"{'on' if system.contact is not None else 'off'}; compiling and folding for {segment:g} µs ...",
         flush=True,
     )
     # Closed loops: explicit Tsit5 (the default solver's implicit half differentiates through the
     # constraint solve and compiles for minutes).
     solver = diffrax.Tsit5() if loops else None
-    trajectory = sim.simulate(
-        system,
-        sim.Step(),
-        solver=solver,
-        theta0=theta0,
-        theta_dot0=theta_dot0,
-        t1=args.t1,
-        n_save=args.n_save,
-        throw=False,
-        max_steps=500_000,
-        progress_meter=_progress_meter(args.progress, m),
-    )
     tolerances = sim.VerdictTolerances.from_degrees(args.tolerance, args.seam_tolerance)
-    if loops:
-        report = net.assess(system, trajectory, tolerances=tolerances, bias=args.bias)
-    else:
-        report = net.assess(system, trajectory, tolerances=tolerances)
+
+    def fold(t0, theta0, theta_dot0):
+        return sim.simulate(
+            system,
+            sim.Step(),
+            solver=solver,
+            theta0=theta0,
+            theta_dot0=theta_dot0,
+            t0=t0,
+            t1=t0 + segment,
+            n_save=args.n_save,
+            throw=False,
+            max_steps=500_000,
+            progress_meter=_progress_meter(args.progress, m),
+        )
+
+    def judge(trajectory):
+        if loops:
+            return net.assess(system, trajectory, tolerances=tolerances, bias=args.bias)
+        return net.assess(system, trajectory, tolerances=tolerances)
+
+    trajectory = fold(0.0, theta0, theta_dot0)
+    report = judge(trajectory)
+    # Closed loops are left at one segment: their state is not their hinge angles.
+    segments = 1
+    while (
+        args.t1 is None
+        and not loops
+        and report.verdict == "unfinished"
+        and bool(trajectory.succeeded)
+        and segments < MAX_SEGMENTS
+    ):
+        end = float(trajectory.times[-1])
+        print(
+            f"[fold] still moving at {end:g} µs; folding on to {end + segment:g} µs ...", flush=True
+        )
+        more = fold(end, trajectory.theta[-1], trajectory.theta_dot[-1])
+        trajectory = join_trajectories(trajectory, more)
+        report = judge(trajectory)
+        segments += 1
+    t_end = float(trajectory.times[-1])
+    if segments == MAX_SEGMENTS and report.verdict == "unfinished":
+        print(
+            f"[fold] still moving at {t_end:g} µs, the end of the automatic extension: give a "
+            "longer --t1, or more damping (--fluid koh folds in the etch bath).",
+            flush=True,
+        )
     result = report.to_dict()
     result.update(
         net=net.name,
@@ -307,6 +355,8 @@ def _run(args, net, system, loops, params, release, theta0, theta_dot0, output) 
         hinges=args.hinges,
         closed_loops=net.n_loops if loops else 0,
         bias=args.bias,
+        t1=t_end,
+        segments=segments,
         release_times=None if release is None else [float(x) for x in release],
         stats={
             k: (int(v) if np.asarray(v).dtype.kind in "iu" else float(v))
@@ -338,7 +388,7 @@ def _run(args, net, system, loops, params, release, theta0, theta_dot0, output) 
     print(f"wrote {output.out / 'result.json'}, trajectory.csv, trajectory.fold")
     if args.figures != "none" and bool(trajectory.succeeded):
         # Show the fold itself rather than the long rest after it.
-        t_max = None if report.time_to_fold is None else min(2.0 * report.time_to_fold, args.t1)
+        t_max = None if report.time_to_fold is None else min(2.0 * report.time_to_fold, t_end)
         _figures(system, trajectory, out, net.name, t_max, animation=args.figures == "all")
     return EXIT_OK if report.verdict == "folded" else EXIT_FAILED
 
@@ -383,3 +433,22 @@ def _view_annotations(net, system, trajectory, report, every: int) -> tuple[list
     for s in np.unique(frames):
         extras[int(kept[s])]["origami_jax:contact_points"] = points[frames == s].round(9).tolist()
     return extras, key_extra
+
+
+def join_trajectories(first, then):
+    """`first` followed by `then`, a run continued from `first`'s last sample (its first sample is
+    that one, and is dropped): samples concatenated, step counts added, the later result code."""
+    import jax.numpy as jnp
+    import numpy as np
+
+    import origami_jax.simulation as sim
+
+    fields = ("times", "theta", "theta_dot", "theta_ddot", "tau")
+    joined = {f: jnp.concatenate([getattr(first, f), getattr(then, f)[1:]]) for f in fields}
+    stats = dict(then.stats)
+    for key in ("num_steps", "num_accepted_steps", "num_rejected_steps"):
+        if key in first.stats and key in then.stats:
+            stats[key] = first.stats[key] + then.stats[key]
+    if "switch_time" in first.stats and np.isfinite(float(first.stats["switch_time"])):
+        stats["switch_time"] = first.stats["switch_time"]
+    return sim.Trajectory(**joined, target=then.target, stats=stats, result=then.result)
