@@ -310,6 +310,9 @@ def fold_outcome(
     )
     times, theta = trajectory.times, trajectory.theta
     q = theta if trajectory.state is None else trajectory.state[0]
+    if seam_gaps is not None and getattr(seam_gaps, "bodies", None) is not None:
+        # Before any work: the seams' count from the function's output shape alone.
+        _checked_bodies(seam_gaps.bodies, jax.eval_shape(seam_gaps, q[0]).shape[-1])
     intended = system.hinges.target if intended_angles is None else jnp.asarray(intended_angles)
     dtype = theta.dtype
     finite = jnp.all(jnp.isfinite(theta), axis=-1)
@@ -416,6 +419,17 @@ class _WithBodies:
         return self.function(q)
 
 
+def _checked_bodies(bodies, n_seams: int) -> np.ndarray:
+    """`seam_gaps.bodies` as a host `(n_seams, 2)` int array, or `ValueError`."""
+    bodies = np.asarray(bodies)
+    if bodies.shape != (n_seams, 2) or not np.issubdtype(bodies.dtype, np.integer):
+        raise ValueError(
+            f"seam_gaps.bodies must be {n_seams} pairs of body indices (int, shape "
+            f"({n_seams}, 2)), got {bodies.dtype} {bodies.shape}."
+        )
+    return bodies
+
+
 def _seams_touching(touching, bodies, shape):
     """Whether each seam's two bodies touch, `(t, s)` bool, from the contact's `touching`
     `(t, n, n)` (`None` without contact) and the seams' bodies `(s, 2)` (host; `None`: unknown,
@@ -423,12 +437,7 @@ def _seams_touching(touching, bodies, shape):
     touches nothing."""
     if touching is None or bodies is None:
         return jnp.zeros(shape, bool)
-    bodies = np.asarray(bodies)
-    if bodies.shape != (shape[-1], 2) or not np.issubdtype(bodies.dtype, np.integer):
-        raise ValueError(
-            f"seam_gaps.bodies must be {shape[-1]} pairs of body indices (int, shape "
-            f"({shape[-1]}, 2)), got {bodies.dtype} {bodies.shape}."
-        )
+    bodies = _checked_bodies(bodies, shape[-1])
     n = touching.shape[-1]
     known = np.all((bodies >= 0) & (bodies < n), axis=1)
     a, b = np.where(known[:, None], bodies, 0).T
