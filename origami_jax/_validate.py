@@ -103,22 +103,19 @@ def check_unit_vectors(array: Array, name: str, what: str = "vector") -> Array:
 def check_rigid_transforms(poses: Array, name: str) -> Array:
     """Every `poses[i]` (shape `(n, 4, 4)`) is ``[[R, p], [0, 0, 0, 1]]`` with ``R`` a rotation."""
     poses = check_finite(poses, name)
-    if is_traced(poses):
-        rotation = poses[..., :3, :3]
-        orthogonality = jnp.max(
-            jnp.abs(jnp.swapaxes(rotation, -1, -2) @ rotation - jnp.eye(3, dtype=poses.dtype))
-        )
-        bottom = jnp.max(jnp.abs(poses[..., 3, :] - jnp.array([0.0, 0.0, 0.0, 1.0], poses.dtype)))
-        bad = (orthogonality > UNIT_TOLERANCE) | (bottom > 0)
-        bad = bad | jnp.any(jnp.linalg.det(rotation) <= 0)
+    traced = is_traced(poses)
+    # Known poses are checked on the host (op by op in JAX, each new shape compiles a program).
+    xp, values = (jnp, poses) if traced else (np, np.asarray(poses))
+    rotation = values[..., :3, :3]
+    orthogonality = xp.max(
+        xp.abs(xp.swapaxes(rotation, -1, -2) @ rotation - xp.eye(3, dtype=values.dtype))
+    )
+    bottom = xp.max(xp.abs(values[..., 3, :] - xp.array([0.0, 0.0, 0.0, 1.0], dtype=values.dtype)))
+    determinant = xp.linalg.det(rotation)
+    bad = (orthogonality > UNIT_TOLERANCE) | (bottom > 0) | xp.any(determinant <= 0)
+    if traced:
         return eqx.error_if(poses, bad, f"{name} must be rigid transforms [[R, p], [0, 1]].")
-    # Known poses: checked on the host (op by op in JAX, each new shape would compile a program).
-    host = np.asarray(poses)
-    rotation = host[..., :3, :3]
-    orthogonality = np.max(np.abs(np.swapaxes(rotation, -1, -2) @ rotation - np.eye(3)))
-    bottom = np.max(np.abs(host[..., 3, :] - np.array([0.0, 0.0, 0.0, 1.0])))
-    determinant = np.linalg.det(rotation)
-    if orthogonality > UNIT_TOLERANCE or bottom > 0 or np.any(determinant <= 0):
+    if bad:
         raise ValueError(
             f"{name} must be rigid transforms [[R, p], [0, 0, 0, 1]] with R a rotation "
             f"(max |RᵀR − I| = {float(orthogonality):.3g}, max bottom-row error {float(bottom):.3g}, "
@@ -134,20 +131,20 @@ def check_symmetric_positive(
     semi-definite, to 1e-9 of its largest entry: `ValueError` if concrete, `eqx.error_if` if traced."""
     matrices = check_finite(matrices, name)
     kind = "positive definite" if definite else "positive semi-definite"
-    if is_traced(matrices):
-        scale = jnp.max(jnp.abs(matrices), axis=(-1, -2))
-        asymmetry = jnp.max(jnp.abs(matrices - jnp.swapaxes(matrices, -1, -2)), axis=(-1, -2))
+    traced = is_traced(matrices)
+    # Known matrices are checked on the host (no program compiled per shape).
+    xp, values = (jnp, matrices) if traced else (np, np.asarray(matrices))
+    scale = xp.max(xp.abs(values), axis=(-1, -2))
+    asymmetry = xp.max(xp.abs(values - xp.swapaxes(values, -1, -2)), axis=(-1, -2))
+    if traced:
         symmetric = 0.5 * (matrices + jnp.swapaxes(matrices, -1, -2))
         lowest = jnp.linalg.eigvalsh(symmetric)[..., 0]
         bad = (asymmetry > 1e-9 * scale) | ((lowest <= 0) if definite else (lowest < -1e-9 * scale))
         return eqx.error_if(matrices, jnp.any(bad), f"{name} must be symmetric {kind}.")
-    host = np.asarray(matrices)  # known: checked on the host (no program compiled per shape)
-    scale = np.max(np.abs(host), axis=(-1, -2))
-    asymmetry = np.max(np.abs(host - np.swapaxes(host, -1, -2)), axis=(-1, -2))
-    for i in range(host.shape[0]):
+    for i in range(values.shape[0]):
         if float(asymmetry[i]) > 1e-9 * float(scale[i]):
             raise ValueError(f"{name}[{i}] is not symmetric; an inertia is. {hint}".strip())
-        eigenvalues = np.linalg.eigvalsh(host[i])
+        eigenvalues = np.linalg.eigvalsh(values[i])
         low = eigenvalues.min()
         if (low <= 0) if definite else (low < -1e-9 * float(scale[i])):
             raise ValueError(

@@ -9,12 +9,12 @@ or bending arcs ([`origami_jax.net.ArcJoints`][]); [`origami_jax.net.StripTree`]
 strips their own mass and inertia ([`origami_jax.net.strip_tree`][]). Fold angles are valley positive.
 """
 
+from ..simulation._verdict import SeamGaps as SeamGaps
 from ._joints import AbstractJoints as AbstractJoints
 from ._joints import ArcJoints as ArcJoints
 from ._joints import RevoluteJoints as RevoluteJoints
 from ._net import Net as Net
 from ._net import NetLayout as NetLayout
-from ._net import SeamGaps as SeamGaps
 from ._net import load_net as load_net
 from ._net import release_times_from_front as release_times_from_front
 from ._plate import Plate as Plate

@@ -34,6 +34,7 @@ from ..fold import FoldFile, FoldFrame, net_geometry
 from ..fold._catalogue import catalogue_names, catalogue_path
 from ..fold._model import FRAME_UNITS_M
 from ..fold._net_geometry import NetGeometry
+from ..simulation._verdict import SeamGaps
 from ..system import AbstractLayout, FoldingSystem, HingeDesign, HingeDrag, Hinges
 from ._strip import StripTree, strip_tree
 from ._tree import PanelTree, panel_tree
@@ -564,34 +565,6 @@ def kept_samples(angles: np.ndarray, every: int) -> np.ndarray:
     if keep[-1] != len(angles) - 1:
         keep = np.append(keep, len(angles) - 1)
     return keep[np.all(np.isfinite(angles[keep]), axis=1)]
-
-
-class SeamGaps:
-    """The gaps of a device's seams as a traceable function of the mechanism's coordinates, and
-    which two bodies each seam joins (what the verdict needs to call a seam closed by contact).
-
-    Call it: ``seam_gaps(q)`` gives each seam's gap (length, `(s,)`): the larger distance between
-    the two sides' corners at either end of the seam.
-
-    **Fields:**
-    - `function`: ``q ↦`` the gaps; for a net's seams an `equinox.Module` (its numbers are arrays,
-      so the verdict compiled for one folding serves the next).
-    - `bodies`: `(s, 2)` int (host), the bodies on the two sides of each seam, numbered as in the
-      contact tables (`origami_jax.contact.ContactTables`): moving bodies ``0 … b−1``, the fixed
-      base (the net's root face) ``b`` = the mechanism's `n_bodies`.
-      `origami_jax.simulation.fold_outcome` reads it: a seam counts as closed when its gap is
-      within the tolerance or these two bodies touch (`origami_jax.simulation.VerdictTolerances`).
-    """
-
-    def __init__(self, function, bodies):
-        self.function = function
-        self.bodies = np.asarray(bodies, dtype=np.int64).reshape(-1, 2)
-
-    def __call__(self, q: Float[ArrayLike, " nq"]) -> Float[Array, " s"]:
-        return self.function(q)
-
-    def __repr__(self) -> str:
-        return f"SeamGaps({len(self.bodies)} seams, bodies={self.bodies.tolist()})"
 
 
 class _CornerGaps(eqx.Module):

@@ -53,8 +53,12 @@ class Plate(NamedTuple):
 def polygon_normal(vertices: Float[ArrayLike, "k 3"]) -> Float[Array, "3"]:
     """Area vector ``½ Σ v_i × v_{i+1}`` (Newell's method): normal to the polygon, length = area,
     pointing to the side from which the vertices run counter-clockwise."""
-    v = jnp.asarray(vertices)
-    return 0.5 * jnp.sum(jnp.cross(v, jnp.roll(v, -1, axis=0)), axis=0)
+    return _area_vector(jnp.asarray(vertices), jnp)
+
+
+def _area_vector(v, xp):
+    """`polygon_normal` with the array module `xp` (`jax.numpy`, or `numpy` for known vertices)."""
+    return 0.5 * xp.sum(xp.cross(v, xp.roll(v, -1, axis=0)), axis=0)
 
 
 def polygon_plate(
@@ -91,7 +95,7 @@ def polygon_plate(
         # would compile a program of its own: seconds for a net's panels).
         xp = np
         v = np.asarray(v)
-    area_vector = 0.5 * xp.sum(xp.cross(v, xp.roll(v, -1, axis=0)), axis=0)  # `polygon_normal`
+    area_vector = _area_vector(v, xp)
     z = area_vector / xp.linalg.norm(area_vector)
     x = (v[1] - v[0]) if x_axis is None else xp.asarray(as_float_array(x_axis, "x_axis"))
     x = x - xp.dot(x, z) * z

@@ -30,6 +30,7 @@ from ._verdict import VERDICT_CODES as VERDICT_CODES
 from ._verdict import FoldOutcome as FoldOutcome
 from ._verdict import FoldReport as FoldReport
 from ._verdict import FoldVerdict as FoldVerdict
+from ._verdict import SeamGaps as SeamGaps
 from ._verdict import VerdictTolerances as VerdictTolerances
 from ._verdict import assess as assess
 from ._verdict import fold_outcome as fold_outcome

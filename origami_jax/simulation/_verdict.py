@@ -36,7 +36,7 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
-from jaxtyping import Array, Bool, Float, Int
+from jaxtyping import Array, ArrayLike, Bool, Float, Int
 
 from ._results import RESULTS
 from ._simulate import Trajectory
@@ -397,7 +397,7 @@ def _outcome_compiled(
     seams' bodies, a static tuple (`None` when not known)."""
     seam_gaps = None
     if function is not None:
-        seam_gaps = function if bodies is None else _WithBodies(function, bodies)
+        seam_gaps = function if bodies is None else SeamGaps(function, bodies)
     return fold_outcome(
         system,
         trajectory,
@@ -408,15 +408,32 @@ def _outcome_compiled(
     )
 
 
-class _WithBodies:
-    """A seam-gap function with its seams' bodies (what `fold_outcome` reads), inside the compiled
-    verdict."""
+class SeamGaps:
+    """The gaps of a device's seams as a traceable function of the mechanism's coordinates, and
+    which two bodies each seam joins (what the verdict needs to call a seam closed by contact).
+
+    Call it: ``seam_gaps(q)`` gives each seam's gap (length, `(s,)`): the larger distance between
+    the two sides' corners at either end of the seam.
+
+    **Fields:**
+    - `function`: ``q ↦`` the gaps; for a net's seams an `equinox.Module` (its numbers are arrays,
+      so the verdict compiled for one folding serves the next).
+    - `bodies`: `(s, 2)` int (host), the bodies on the two sides of each seam, numbered as in the
+      contact tables (`origami_jax.contact.ContactTables`): moving bodies ``0 … b−1``, the fixed
+      base (the net's root face) ``b`` = the mechanism's `n_bodies`.
+      `origami_jax.simulation.fold_outcome` reads it: a seam counts as closed when its gap is
+      within the tolerance or these two bodies touch (`origami_jax.simulation.VerdictTolerances`).
+    """
 
     def __init__(self, function, bodies):
-        self.function, self.bodies = function, np.asarray(bodies, dtype=np.int64).reshape(-1, 2)
+        self.function = function
+        self.bodies = np.asarray(bodies, dtype=np.int64).reshape(-1, 2)
 
-    def __call__(self, q):
+    def __call__(self, q: Float[ArrayLike, " nq"]) -> Float[Array, " s"]:
         return self.function(q)
+
+    def __repr__(self) -> str:
+        return f"SeamGaps({len(self.bodies)} seams, bodies={self.bodies.tolist()})"
 
 
 def _checked_bodies(bodies, n_seams: int) -> np.ndarray:
@@ -437,7 +454,7 @@ def _seams_touching(touching, bodies, shape):
     touches nothing."""
     if touching is None or bodies is None:
         return jnp.zeros(shape, bool)
-    bodies = _checked_bodies(bodies, shape[-1])
+    bodies = np.asarray(bodies)  # checked by `fold_outcome` before any work
     n = touching.shape[-1]
     known = np.all((bodies >= 0) & (bodies < n), axis=1)
     a, b = np.where(known[:, None], bodies, 0).T
