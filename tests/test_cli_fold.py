@@ -1,15 +1,22 @@
-"""`origami-jax fold` without `--t1`: a run whose panels still move at the end is continued from where
-it stopped, one segment at a time (`_fold.join_trajectories`), until it settles or the cap."""
+"""Folding on until the panels settle (`fold_until_settled`, `Net.fold`, `origami-jax fold` without
+`--t1`): a run whose panels still move at the end is continued from where it stopped, one segment at
+a time (`join_trajectories`), until it settles or the cap."""
 
 import json
 
+import equinox as eqx
+import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
 
 import origami_jax.simulation as sim
+from origami_jax.chain import accordion_system
 from origami_jax.cli import build_parser, main
-from origami_jax.cli._fold import MAX_SEGMENTS, SEGMENT_US, join_trajectories
+from origami_jax.cli._fold import MAX_SEGMENTS, SEGMENT_US
+from origami_jax.net import load_net
+from origami_jax.simulation import fold_until_settled, join_trajectories
+from origami_jax.system import KOH_SOLUTION, HingeDesign
 
 
 def _segment(t0, t1, n, angle0, steps, result=sim.RESULTS.successful):
@@ -51,6 +58,66 @@ def test_joined_trajectory_is_one_run_without_the_repeated_sample():
     assert not bool(joined.succeeded)
 
 
+def test_joining_refuses_batches_and_mismatched_runs():
+    first = _segment(0.0, 100.0, 11, 0.0, 40)
+    with pytest.raises(ValueError, match="coordinates"):
+        join_trajectories(first, eqx.tree_at(lambda t: t.theta, first, first.theta[:, :1]))
+    batch = jax.tree.map(lambda x: jnp.stack([x, x]), first)
+    with pytest.raises(ValueError, match="batches"):
+        join_trajectories(batch, batch)
+
+
+def _flap_in_koh():
+    # One flap in the etch bath: overdamped, it creeps to its target and is folded at ~600 µs.
+    system = accordion_system(HingeDesign.literature(fluid=KOH_SOLUTION), 1)
+    return system, lambda trajectory: sim.assess(system, trajectory)
+
+
+def test_a_run_folds_on_until_it_settles_and_is_one_run_continued():
+    system, judge = _flap_in_koh()
+    calls = []
+    trajectory, report, segments = fold_until_settled(
+        system,
+        sim.Step(),
+        judge,
+        segment=100.0,
+        n_save=101,
+        on_continue=lambda end, next_end: calls.append((end, next_end)),
+    )
+    assert report.verdict == "folded" and 1 < segments < 8, report.summary()
+    assert calls == [(100.0 * k, 100.0 * (k + 1)) for k in range(1, segments)]
+    times = np.asarray(trajectory.times)
+    assert times.shape == (100 * segments + 1,) and np.all(np.diff(times) > 0)
+    assert times[-1] == pytest.approx(100.0 * segments)
+    # The same folding as one run to the same end: each segment restarts the adaptive solver at
+    # the last sample, so the two take different steps; both at rtol 1e-7 over a ~1.5 rad swing
+    # make ~1e-7 rad each, 1e-5 leaves room for the error's growth over the run.
+    whole = sim.simulate(system, sim.Step(), t1=times[-1], n_save=times.size, throw=False)
+    np.testing.assert_allclose(whole.times, times, rtol=1e-12)
+    np.testing.assert_allclose(trajectory.theta, whole.theta, atol=1e-5)
+    assert sim.assess(system, whole).verdict == "folded"
+    # Capped: the verdict says it was still moving.
+    capped, report, segments = fold_until_settled(
+        system, sim.Step(), judge, segment=100.0, n_save=101, max_segments=2
+    )
+    assert (report.verdict, segments, float(capped.times[-1])) == ("unfinished", 2, 200.0)
+
+
+@pytest.mark.parametrize(
+    ("options", "message"),
+    [
+        (dict(segment=0.0), "segment"),
+        (dict(segment=float("nan")), "segment"),
+        (dict(segment=10.0, max_segments=0), "max_segments"),
+        (dict(segment=10.0, t1=5.0), "not t1"),
+    ],
+)
+def test_bad_continuations_are_refused_before_any_run(options, message):
+    system, judge = _flap_in_koh()
+    with pytest.raises(ValueError, match=message):
+        fold_until_settled(system, sim.Step(), judge, **options)
+
+
 def test_t1_is_optional_and_checked_when_given(capsys):
     args = build_parser().parse_args(["fold", "cube_net_01"])
     assert args.t1 is None
@@ -72,3 +139,14 @@ def test_a_cube_net_still_moving_at_the_first_segments_end_folds_on(tmp_path, ca
     assert 1000.0 < result["time_to_fold"] < 2000.0
     times = np.loadtxt(tmp_path / "trajectory.csv", delimiter=",", skiprows=1)[:, 0]
     assert times[-1] == pytest.approx(2 * SEGMENT_US) and np.all(np.diff(times) > 0)
+
+
+@pytest.mark.slow  # compiles and folds a cube net (without contact): ~30 s on 2 cores
+def test_net_fold_runs_until_the_cube_closes_or_to_t1():
+    net = load_net("cube_net_01")
+    system = net.system(HingeDesign.literature(fluid=KOH_SOLUTION), contact=False)
+    trajectory, report = net.fold(system, n_save=101)
+    assert report.verdict == "folded", report.summary()
+    assert float(trajectory.times[-1]) > 1000.0  # the first segment ended still moving
+    short, report = net.fold(system, t1=500.0, n_save=101)
+    assert report.verdict == "unfinished" and float(short.times[-1]) == 500.0

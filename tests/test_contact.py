@@ -158,6 +158,25 @@ def test_guard_lets_a_seam_close_where_a_point_passes_a_face_edge():
     assert report.max_penetration == 0.0
 
 
+@pytest.mark.parametrize("name", ["cube_net_01", "octahedron", "corner_cube"])
+def test_blocks_hold_every_checked_pair_once(name):
+    # The hot kernels run over `ContactTables.blocks`; the dense `pairs` mask is the reference.
+    from origami_jax.net import load_net
+
+    tables = load_net(name).contact_tables()
+    seen = np.zeros(tables.pairs.shape[:2], dtype=int)
+    for block in tables.blocks:
+        k, m = block.points.shape[:2]
+        assert block.point_body.shape == block.face_body.shape == (k,) and m > 0
+        for j, (a, b) in enumerate(zip(block.point_body, block.face_body, strict=True)):
+            assert a != b and tables.pairs[a, b].sum() == m
+            np.testing.assert_array_equal(block.points[j], tables.points[a][tables.pairs[a, b]])
+            np.testing.assert_array_equal(block.face_edges[j], tables.face_edges[b])
+            seen[a, b] += m
+    np.testing.assert_array_equal(seen, tables.pairs.sum(axis=-1))
+    assert sum(b.points.shape[0] * b.points.shape[1] for b in tables.blocks) == tables.n_pairs
+
+
 def test_net_contact_force_against_a_point_by_point_world_sum():
     # The kernel works per body pair in the face's frame with the gap's gradient by hand; the
     # reference goes point by point in the world frame (NumPy): the elastic part from the energy's

@@ -164,10 +164,12 @@ def test_doubling_frames_equal_level_by_level(monkeypatch):
     q = jnp.asarray(np.random.default_rng(27).uniform(-2, 2, (14, 5)))
     for state in (q[:, 0], q):
         data = net_dynamics._ordered(tree, state.ndim - 1)
-        doubled = net_dynamics.frames(data, state)
+        # One program each (op by op, every operation would compile its own); the threshold is
+        # read when the function is traced, so each wrapper is a fresh trace.
+        doubled = jax.jit(lambda x, d=data: net_dynamics.frames(d, x))(state)
         with monkeypatch.context() as patch:
             patch.setattr(net_dynamics, "_DOUBLING_MIN_LEVELS", 10**6)
-            levelled = net_dynamics.frames(data, state)
+            levelled = jax.jit(lambda x, d=data: net_dynamics.frames(d, x))(state)
         assert doubled.ds_lin is not None
         for a, b in zip(jax.tree.leaves(doubled), jax.tree.leaves(levelled), strict=True):
             assert a.shape == b.shape

@@ -188,6 +188,9 @@ def test_top_level_simulate_compiles_the_implicit_phase_only_when_a_run_turns_st
     assert abs(float(stiff.theta[-1, 0]) - slow) < 0.03 * abs(target)
 
 
+# Compiles the reverse-mode gradient of two whole simulations (30-60 s on 2 cores); the default run
+# keeps the top-level test above, which checks the same split without the gradient.
+@pytest.mark.slow
 def test_differentiated_simulate_compiles_the_explicit_phase_only(monkeypatch):
     # The system of the test above. Differentiated with the default solver, simulate takes the
     # explicit phase only: for the mild run (r = 0.3) the value and derivative are those of Tsit5

@@ -297,45 +297,30 @@ def _run(args, net, system, loops, params, release, theta0, theta_dot0, output) 
     solver = diffrax.Tsit5() if loops else None
     tolerances = sim.VerdictTolerances.from_degrees(args.tolerance, args.seam_tolerance)
 
-    def fold(t0, theta0, theta_dot0):
-        return sim.simulate(
-            system,
-            sim.Step(),
-            solver=solver,
-            theta0=theta0,
-            theta_dot0=theta_dot0,
-            t0=t0,
-            t1=t0 + segment,
-            n_save=args.n_save,
-            throw=False,
-            max_steps=500_000,
-            progress_meter=_progress_meter(args.progress, m),
-        )
-
     def judge(trajectory):
         if loops:
             return net.assess(system, trajectory, tolerances=tolerances, bias=args.bias)
         return net.assess(system, trajectory, tolerances=tolerances)
 
-    trajectory = fold(0.0, theta0, theta_dot0)
-    report = judge(trajectory)
+    def still_moving(end, next_end):
+        print(f"[fold] still moving at {end:g} µs; folding on to {next_end:g} µs ...", flush=True)
+
     # Closed loops are left at one segment: their state is not their hinge angles.
-    segments = 1
-    while (
-        args.t1 is None
-        and not loops
-        and report.verdict == "unfinished"
-        and bool(trajectory.succeeded)
-        and segments < MAX_SEGMENTS
-    ):
-        end = float(trajectory.times[-1])
-        print(
-            f"[fold] still moving at {end:g} µs; folding on to {end + segment:g} µs ...", flush=True
-        )
-        more = fold(end, trajectory.theta[-1], trajectory.theta_dot[-1])
-        trajectory = join_trajectories(trajectory, more)
-        report = judge(trajectory)
-        segments += 1
+    extend = args.t1 is None and not loops
+    trajectory, report, segments = sim.fold_until_settled(
+        system,
+        sim.Step(),
+        judge,
+        segment=segment,
+        max_segments=MAX_SEGMENTS if extend else 1,
+        theta0=theta0,
+        theta_dot0=theta_dot0,
+        on_continue=still_moving,
+        solver=solver,
+        n_save=args.n_save,
+        max_steps=500_000,
+        progress_meter=_progress_meter(args.progress, m),
+    )
     t_end = float(trajectory.times[-1])
     if segments == MAX_SEGMENTS and report.verdict == "unfinished":
         print(
@@ -433,22 +418,3 @@ def _view_annotations(net, system, trajectory, report, every: int) -> tuple[list
     for s in np.unique(frames):
         extras[int(kept[s])]["origami_jax:contact_points"] = points[frames == s].round(9).tolist()
     return extras, key_extra
-
-
-def join_trajectories(first, then):
-    """`first` followed by `then`, a run continued from `first`'s last sample (its first sample is
-    that one, and is dropped): samples concatenated, step counts added, the later result code."""
-    import jax.numpy as jnp
-    import numpy as np
-
-    import origami_jax.simulation as sim
-
-    fields = ("times", "theta", "theta_dot", "theta_ddot", "tau")
-    joined = {f: jnp.concatenate([getattr(first, f), getattr(then, f)[1:]]) for f in fields}
-    stats = dict(then.stats)
-    for key in ("num_steps", "num_accepted_steps", "num_rejected_steps"):
-        if key in first.stats and key in then.stats:
-            stats[key] = first.stats[key] + then.stats[key]
-    if "switch_time" in first.stats and np.isfinite(float(first.stats["switch_time"])):
-        stats["switch_time"] = first.stats["switch_time"]
-    return sim.Trajectory(**joined, target=then.target, stats=stats, result=then.result)

@@ -273,11 +273,14 @@ class PanelContact(AbstractContact):
 
     # ---- kernels ----
     #
-    # Everything per (point, face) pair is computed in the face's own frame, by component on arrays
-    # `(a, b, i)` (point `i` of body `a` against the face of body `b`; the points minor), so that the
-    # work per pair is a few fused multiply-adds and no per-pair 3×3 products: the relative frame
+    # Everything per (point, face) pair is computed in the face's own frame, by component, so that
+    # the work per pair is a few fused multiply-adds and no per-pair 3×3 products: the relative frame
     # of each body pair carries a's points into b's face frame, and each pair's force is summed
-    # into one wrench per body pair there before a single rotation to the world.
+    # into one wrench per body pair there before a single rotation to the world. The hot kernels
+    # (`force`, `crossed`: every right-hand side and every step) run over the checked pairs only,
+    # packed in blocks of body pairs with the same number of checked points (`ContactTables.
+    # blocks`); the others (`potential`, `gaps`, `report`, ...) over the dense `(a, b, i)` layout,
+    # masked, whose shape they return.
 
     def _frames(self, poses):
         """World rotations `(n, 3, 3)` and origins `(n, 3)` of every body, the base last, from the
@@ -309,12 +312,7 @@ class PanelContact(AbstractContact):
     def _edge_distances(self, x, y):
         """Per edge of every face, the inward distance of face-frame positions `(a, b, i)` from the
         edge (length), with the edge's inward normal ``(a, b)`` as `(1, b, 1)` constants."""
-        edges = self.tables.face_edges  # host (b, e, 3)
-        rows = []
-        for k in range(edges.shape[1]):
-            a, b, c = (edges[None, :, k, j, None] for j in range(3))
-            rows.append((a * x + b * y + c, (a, b)))
-        return rows
+        return _edge_distances(x, y, _dense_edges(self.tables.face_edges))
 
     def _coverage(self, x, y):
         """Coverage ``w`` of face-frame positions `(a, b, i)`: 1 over the face's outline by more than
@@ -324,13 +322,17 @@ class PanelContact(AbstractContact):
             coverage = coverage * smoothstep(inward / self.edge_width)
         return jnp.where(self.tables.pairs, coverage, 0.0)
 
-    def _gap(self, local):
+    def _gap(self, local, edges=None, half_sum=None):
         """Per pair `(a, b, i)`: the gap ``g`` between the point's ball and the face's rounded plate
-        (module docstring) and its gradient in the face frame, a component tuple."""
+        (module docstring) and its gradient in the face frame, a component tuple. `edges` and
+        `half_sum` (the faces' half-planes as `(a, b, c)` rows and the two half-thicknesses, both
+        broadcasting against `local`) default to the dense layout's."""
         x, y, z = local
         dtype = x.dtype
-        half = self.half_thickness.astype(dtype)
-        half_sum = half[:, None, None] + half[None, :, None]
+        if edges is None:
+            edges = _dense_edges(self.tables.face_edges)
+            half = self.half_thickness.astype(dtype)
+            half_sum = half[:, None, None] + half[None, :, None]
         tiny = 1e-6 * self.activation
         width = self.edge_width
         inset = self.tables.face_inset
@@ -338,7 +340,7 @@ class PanelContact(AbstractContact):
         # of the smoothstep: 0 inside, ``x − ½`` beyond ``δ``), its slope ``−S(−e/δ)`` along the
         # edge's inward normal.
         squares, dx, dy = 0.0, 0.0, 0.0
-        for inward, (a, b) in self._edge_distances(x, y):
+        for inward, (a, b) in _edge_distances(x, y, edges):
             out = -(inward - inset) / width
             beyond = width * _ramp_integral(out)
             slope = -smoothstep(out)
@@ -376,39 +378,79 @@ class PanelContact(AbstractContact):
         energy, *_ = self._pair_terms(local)
         return jnp.sum(energy)
 
+    def _block_local(self, block, rotation, origin):
+        """A `PairBlock`'s points in their faces' frames, ``R_bᵀ (R_a p_i + o_a − o_b)``, as
+        components `(k, m)` each, and the faces' rotations and origins `(k, 3, 3)`, `(k, 3)`."""
+        face_rotation, face_origin = rotation[block.face_body], origin[block.face_body]
+        relative = jnp.einsum("kji,kjl->kil", face_rotation, rotation[block.point_body])
+        shift = jnp.einsum("kji,kj->ki", face_rotation, origin[block.point_body] - face_origin)
+        local = []
+        for row in range(3):
+            value = shift[:, row, None]
+            for col in range(3):
+                component = block.points[:, :, col]  # host (k, m)
+                if np.any(component != 0):  # panel points lie in their frame's x–y plane
+                    value = value + relative[:, row, col, None] * component
+            local.append(jnp.broadcast_to(value, block.points.shape[:2]))
+        return tuple(local), face_rotation, face_origin
+
+    def _block_gap(self, block, local):
+        """`_gap` of a `PairBlock`'s points (components `(k, m)`)."""
+        edges = [
+            tuple(block.face_edges[:, k, j, None] for j in range(3))
+            for k in range(block.face_edges.shape[1])
+        ]
+        half = self.half_thickness.astype(local[0].dtype)
+        half_sum = (half[block.point_body] + half[block.face_body])[:, None]
+        return self._gap(local, edges, half_sum)
+
     def force(self, mechanism, q, v):
-        # The kinematics once for the poses, the twists and the wrench map (`body_motion`).
+        # The kinematics once for the poses, the twists and the wrench map (`body_motion`). The
+        # pairs are packed in blocks (`ContactTables.blocks`): no work on unchecked pairs.
         poses, velocity, wrench_force = mechanism.body_motion(q, v)
-        rotation, origin, local = self._local(mechanism, q, poses)
-        _, (gx, gy, gz), gap, (nx, ny, nz) = self._pair_terms(local)
-        x, y, z = local
-        # The motion of a relative to b in b's face frame about its origin, (u, w) per body pair:
-        # u = R_bᵀ (Δv_O + Δω × o_b), w = R_bᵀ Δω from the world twists about the origin.
+        rotation, origin = self._frames(poses)
         if self.tables.has_base:
             velocity = jnp.concatenate([velocity, jnp.zeros((1, 6), velocity.dtype)], axis=0)
-        d_linear = velocity[:, None, :3] - velocity[None, :, :3]
-        d_angular = velocity[:, None, 3:] - velocity[None, :, 3:]
-        u = jnp.einsum("bki,abk->abi", rotation, d_linear + jnp.cross(d_angular, origin[None, :]))
-        w = jnp.einsum("bki,abk->abi", rotation, d_angular)
-        ux, uy, uz = (u[..., k, None] for k in range(3))
-        wx, wy, wz = (w[..., k, None] for k in range(3))
-        # Dissipative: −c a(g) ġ ∇g, ġ = ∇g · (the point's velocity relative to the face, u + w × p).
-        rate = (
-            nx * (ux + wy * z - wz * y) + ny * (uy + wz * x - wx * z) + nz * (uz + wx * y - wy * x)
-        )
-        engaged = jnp.where(self.tables.pairs, smoothstep(1 - gap / self.activation), 0.0)
-        damping = -self.damping * engaged * rate
-        # Elastic: −∇e on the point of a; b takes the opposite at the same place.
-        fx, fy, fz = damping * nx - gx, damping * ny - gy, damping * nz - gz
-        force = jnp.stack([jnp.sum(f, axis=-1) for f in (fx, fy, fz)], axis=-1)  # (a, b, 3)
-        moment = jnp.stack(
-            [jnp.sum(m, axis=-1) for m in (y * fz - z * fy, z * fx - x * fz, x * fy - y * fx)],
-            axis=-1,
-        )  # about b's face origin, in its frame
-        force = jnp.einsum("bij,abj->abi", rotation, force)
-        moment = jnp.einsum("bij,abj->abi", rotation, moment) + jnp.cross(origin[None, :], force)
-        pair = jnp.concatenate([force, moment], axis=-1)  # (a, b, 6): on a; −pair on b
-        wrenches = jnp.sum(pair, axis=1) - jnp.sum(pair, axis=0)
+        n = rotation.shape[0]
+        wrenches = jnp.zeros((n, 6), rotation.dtype)
+        for block in self.tables.blocks:
+            local, face_rotation, face_origin = self._block_local(block, rotation, origin)
+            gap, (nx, ny, nz) = self._block_gap(block, local)
+            x, y, z = local
+            ratio = gap / self.activation
+            slope = self.stiffness * _barrier_slope(ratio) / self.activation
+            # The motion of a relative to b in b's face frame about its origin, per body pair:
+            # u = R_bᵀ (Δv_O + Δω × o_b), w = R_bᵀ Δω from the world twists about the origin.
+            d_linear = velocity[block.point_body, :3] - velocity[block.face_body, :3]
+            d_angular = velocity[block.point_body, 3:] - velocity[block.face_body, 3:]
+            u = jnp.einsum(
+                "kji,kj->ki", face_rotation, d_linear + jnp.cross(d_angular, face_origin)
+            )
+            w = jnp.einsum("kji,kj->ki", face_rotation, d_angular)
+            ux, uy, uz = (u[:, k, None] for k in range(3))
+            wx, wy, wz = (w[:, k, None] for k in range(3))
+            # Dissipative: −c a(g) ġ ∇g, ġ = ∇g · (the point's velocity relative to the face,
+            # u + w × p).
+            rate = (
+                nx * (ux + wy * z - wz * y)
+                + ny * (uy + wz * x - wx * z)
+                + nz * (uz + wx * y - wy * x)
+            )
+            engaged = smoothstep(1 - ratio)
+            push = -self.damping * engaged * rate - slope
+            # Elastic (−∇e, the slope along the normal) and dissipative, on the point of a; b takes
+            # the opposite at the same place.
+            fx, fy, fz = push * nx, push * ny, push * nz
+            force = jnp.stack([jnp.sum(f, axis=-1) for f in (fx, fy, fz)], axis=-1)  # (k, 3)
+            moment = jnp.stack(
+                [jnp.sum(m, axis=-1) for m in (y * fz - z * fy, z * fx - x * fz, x * fy - y * fx)],
+                axis=-1,
+            )  # about b's face origin, in its frame
+            force = jnp.einsum("kij,kj->ki", face_rotation, force)
+            moment = jnp.einsum("kij,kj->ki", face_rotation, moment) + jnp.cross(face_origin, force)
+            pair = jnp.concatenate([force, moment], axis=-1)  # (k, 6): on a; −pair on b
+            onto = np.eye(n)[block.point_body] - np.eye(n)[block.face_body]  # host (k, n)
+            wrenches = wrenches + jnp.einsum("kn,kc->nc", onto, pair)
         return wrench_force(wrenches[: self.tables.n_bodies])
 
     def crossed(self, mechanism, q0, q1) -> Array:
@@ -417,13 +459,18 @@ class PanelContact(AbstractContact):
         straight path between the point's two positions in the face's frame): a panel passed through
         another (boolean scalar). A point that passes a face's plane beside its plate, where the
         barrier holds it off the rounded rim, does not count."""
-        _, _, (x0, y0, z0) = self._local(mechanism, q0)
-        _, _, (x1, y1, z1) = self._local(mechanism, q1)
-        flipped = z0 * z1 < 0
-        s = z0 / jnp.where(flipped, z0 - z1, 1.0)
-        place = (x0 + s * (x1 - x0), y0 + s * (y1 - y0), jnp.zeros_like(z0))
-        gap, _ = self._gap(place)
-        return jnp.any(flipped & self.tables.pairs & (gap < 0))
+        frames0 = self._frames(mechanism.body_poses(q0))
+        frames1 = self._frames(mechanism.body_poses(q1))
+        crossed = jnp.asarray(False)
+        for block in self.tables.blocks:
+            (x0, y0, z0), *_ = self._block_local(block, *frames0)
+            (x1, y1, z1), *_ = self._block_local(block, *frames1)
+            flipped = z0 * z1 < 0
+            s = z0 / jnp.where(flipped, z0 - z1, 1.0)
+            place = (x0 + s * (x1 - x0), y0 + s * (y1 - y0), jnp.zeros_like(z0))
+            gap, _ = self._block_gap(block, place)
+            crossed = crossed | jnp.any(flipped & (gap < 0))
+        return crossed
 
     def engaged_points(
         self, mechanism: AbstractMechanism, q: Float[Array, " nq"]
@@ -461,6 +508,20 @@ class PanelContact(AbstractContact):
             "penetration": jnp.maximum(-smallest, 0.0),
             "touching": jnp.any(near, axis=-1),
         }
+
+
+def _dense_edges(face_edges):
+    """The faces' half-planes `(n, e, 3)` (host) as `(a, b, c)` rows of `(1, n, 1)` constants, one
+    per edge, for the dense `(a, b, i)` layout."""
+    return [
+        tuple(face_edges[None, :, k, j, None] for j in range(3)) for k in range(face_edges.shape[1])
+    ]
+
+
+def _edge_distances(x, y, edges):
+    """The inward distance ``a x + b y + c`` of face-frame positions from each edge in `edges` (rows
+    ``(a, b, c)`` broadcasting against `x`), with the edge's inward normal ``(a, b)``."""
+    return [(a * x + b * y + c, (a, b)) for a, b, c in edges]
 
 
 # One compiled program each (op by op, every new shape would compile its own): the rest poses for

@@ -250,6 +250,48 @@ class Net:
         kwargs.setdefault("panel_size", self.panel_size(system))
         return assess(system, trajectory, seam_gaps=self.seam_gap_function(system), **kwargs)
 
+    def fold(
+        self,
+        system: FoldingSystem,
+        inputs=None,
+        *,
+        t1: float | None = None,
+        segment: float = 1000.0,
+        max_segments: int = 8,
+        tolerances=None,
+        on_continue=None,
+        **simulate_kwargs,
+    ):
+        """Fold this net with `system` (one it built) from rest and judge the run.
+
+        With `t1` (time, the system's units: µs for the default units), one run to `t1`. Without
+        it, runs of `segment` (default 1000 µs) continued from the last state while the verdict is
+        `unfinished` because the panels still move, up to `max_segments` in all
+        (`origami_jax.simulation.fold_until_settled`): a cube net in the etch bath closes in
+        ~1.4 ms, one in air rings for much longer, and neither needs its end time guessed.
+
+        **Arguments:** `inputs` (default a step release, `origami_jax.simulation.Step()`);
+        `tolerances` (a `VerdictTolerances`, for `assess`); `on_continue(end, next_end)`, called
+        before each continuation; other keyword arguments go to `simulate` (`n_save`, `solver`,
+        `rtol`, `max_steps`, ...).
+
+        **Returns:** `(trajectory, report)`, the whole run and its `FoldReport`.
+        """
+        from ..simulation import Step, fold_until_settled
+
+        if t1 is not None:
+            segment, max_segments = float(t1), 1
+        trajectory, report, _ = fold_until_settled(
+            system,
+            Step() if inputs is None else inputs,
+            lambda run: self.assess(system, run, tolerances=tolerances),
+            segment=segment,
+            max_segments=max_segments,
+            on_continue=on_continue,
+            **simulate_kwargs,
+        )
+        return trajectory, report
+
     def outcome(self, system: FoldingSystem, trajectory, **kwargs):
         """`assess`'s verdict as arrays, traceable (`origami_jax.simulation.fold_outcome`)."""
         from ..simulation import fold_outcome

@@ -4,6 +4,8 @@ Paper sections "Open Loop Control Law", "Step Input", "Ramp Input", Figs. 7–11
 "Results to reproduce", "Numerics".
 """
 
+from ._continue import fold_until_settled as fold_until_settled
+from ._continue import join_trajectories as join_trajectories
 from ._inputs import FAST_RAMP_DURATION_SI as FAST_RAMP_DURATION_SI
 from ._inputs import KOH_ETCH_RATE_SI as KOH_ETCH_RATE_SI
 from ._inputs import AbstractInput as AbstractInput

@@ -1,0 +1,103 @@
+"""Folding on until the panels settle: a run judged `unfinished` because it was still moving is
+continued from its last state, one segment at a time.
+
+How long a folding takes is not known before it is run (a cube net in the etch bath closes in
+~1.4 ms, in air it rings for tens of ms), so a fixed end time is either too short (the verdict says
+`unfinished`) or wasted. `fold_until_settled` runs one segment, judges it, and while the verdict is
+`unfinished` with a successful solve (time ran out, not the step budget) runs the next segment from
+the last state. Every segment has the same length and sample count, so the continuations reuse the
+first segment's compiled solve; `join_trajectories` joins them into one `Trajectory`.
+"""
+
+from collections.abc import Callable
+
+import jax.numpy as jnp
+import numpy as np
+
+from ._simulate import Trajectory, simulate
+from ._verdict import FoldReport
+
+_STEP_COUNTS = ("num_steps", "num_accepted_steps", "num_rejected_steps")
+
+
+def join_trajectories(first: Trajectory, then: Trajectory) -> Trajectory:
+    """`first` followed by `then`, a run continued from `first`'s last sample (its first sample is
+    that one, and is dropped): samples concatenated, step counts added, the later result code (and
+    the first stiffness switch, if `first` had one)."""
+    if first.theta.ndim != 2 or then.theta.ndim != 2:
+        raise ValueError("join_trajectories joins single runs, not batches.")
+    if first.theta.shape[-1] != then.theta.shape[-1]:
+        raise ValueError(
+            f"join_trajectories: runs of {first.theta.shape[-1]} and {then.theta.shape[-1]} "
+            "coordinates cannot be joined."
+        )
+    fields = ("times", "theta", "theta_dot", "theta_ddot", "tau")
+    joined = {f: jnp.concatenate([getattr(first, f), getattr(then, f)[1:]]) for f in fields}
+    stats = dict(then.stats)
+    for key in _STEP_COUNTS:
+        if key in first.stats and key in then.stats:
+            stats[key] = first.stats[key] + then.stats[key]
+    if "switch_time" in first.stats and np.isfinite(float(first.stats["switch_time"])):
+        stats["switch_time"] = first.stats["switch_time"]
+    return Trajectory(**joined, target=then.target, stats=stats, result=then.result)
+
+
+def fold_until_settled(
+    system,
+    inputs,
+    judge: Callable[[Trajectory], FoldReport],
+    *,
+    segment: float,
+    max_segments: int = 8,
+    t0: float = 0.0,
+    theta0=None,
+    theta_dot0=None,
+    on_continue: Callable[[float, float], None] | None = None,
+    **simulate_kwargs,
+) -> tuple[Trajectory, FoldReport, int]:
+    """Simulate `system` under `inputs` for `segment` (time units of the system), judge the run
+    with `judge`, and while the verdict is `unfinished` with a successful solve continue from the
+    last state for another `segment`, up to `max_segments` segments in all.
+
+    **Arguments:** `judge` maps a trajectory to its `FoldReport` (e.g. ``lambda tr:
+    net.assess(system, tr)``); `t0`, `theta0`, `theta_dot0` the start (defaults: the system's rest);
+    `on_continue(end, next_end)` is called before each continuation (e.g. to print progress); other
+    keyword arguments go to `simulate` for every segment (`n_save`, `solver`, `max_steps`, ...;
+    `throw` defaults to `False`, so that a failed segment is reported by the verdict).
+
+    **Returns:** `(trajectory, report, segments)`: the joined run, its verdict, how many segments
+    it took. The verdict is the whole run's (the same `judge` on the joined trajectory).
+
+    **Raises:** `ValueError` for a non-positive or non-finite `segment`, or `max_segments < 1`.
+    """
+    if not (np.isfinite(segment) and segment > 0):
+        raise ValueError(f"segment must be a positive, finite time, got {segment}.")
+    if int(max_segments) != max_segments or max_segments < 1:
+        raise ValueError(f"max_segments must be a whole number >= 1, got {max_segments}.")
+    if "t1" in simulate_kwargs:
+        raise ValueError("fold_until_settled runs segments: give segment=, not t1=.")
+    simulate_kwargs.setdefault("throw", False)
+
+    def run(start, theta, theta_dot):
+        return simulate(
+            system,
+            inputs,
+            t0=start,
+            t1=start + segment,
+            theta0=theta,
+            theta_dot0=theta_dot,
+            **simulate_kwargs,
+        )
+
+    trajectory = run(t0, theta0, theta_dot0)
+    report = judge(trajectory)
+    segments = 1
+    while report.verdict == "unfinished" and bool(trajectory.succeeded) and segments < max_segments:
+        end = float(trajectory.times[-1])
+        if on_continue is not None:
+            on_continue(end, end + segment)
+        more = run(end, trajectory.theta[-1], trajectory.theta_dot[-1])
+        trajectory = join_trajectories(trajectory, more)
+        report = judge(trajectory)
+        segments += 1
+    return trajectory, report, segments
