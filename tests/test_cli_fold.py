@@ -101,6 +101,17 @@ def test_a_run_folds_on_until_it_settles_and_is_one_run_continued():
         system, sim.Step(), judge, segment=100.0, n_save=101, max_segments=2
     )
     assert (report.verdict, segments, float(capped.times[-1])) == ("unfinished", 2, 200.0)
+    # `assess` pads a run to the next power of two of samples (one compiled verdict for runs of
+    # nearby lengths); the verdict is the unpadded run's.
+    unpadded = jax.jit(lambda t: sim.fold_outcome(system, t))
+    for run in (trajectory, capped, whole):
+        assert sim.padded_sample_count(run.times.shape[0]) > run.times.shape[0]
+        expected, report = unpadded(run), sim.assess(system, run)
+        assert report.verdict == list(sim.FoldVerdict)[int(expected.code)]
+        assert report.settled == bool(expected.settled)
+        assert report.time_to_fold == (
+            None if np.isinf(expected.time_to_fold) else float(expected.time_to_fold)
+        )
 
 
 @pytest.mark.parametrize(

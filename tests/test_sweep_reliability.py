@@ -256,12 +256,15 @@ def test_ctrl_c_stops_with_one_line_and_resume_completes(tmp_path, reference):
     config = tmp_path / "sweep.toml"
     config.write_text(CONFIG)
     out = tmp_path / "out"
-    # Each stored chunk takes a little while, so that SIGINT arrives mid-sweep.
+    # Each stored chunk takes a while, so that SIGINT arrives mid-sweep even when this process is
+    # slow to see the second chunk on a loaded machine (the nine chunks left take 18 s). At 0.5 s
+    # each, a run on a loaded machine once exited 1 with nothing on stderr: most likely the sweep
+    # had finished and the signal came during the interpreter's shutdown.
     slow = CLI.replace(
         "from origami_jax.cli import main",
         "import time\n    from origami_jax.sweep._store import Store\n"
         "    write = Store.write_chunk\n"
-        "    Store.write_chunk = lambda self, c: (write(self, c), time.sleep(0.5))[0]\n"
+        "    Store.write_chunk = lambda self, c: (write(self, c), time.sleep(2.0))[0]\n"
         "    from origami_jax.cli import main",
     )
     child = _python(slow, "sweep", str(config), "--out", str(out), "--no-progress")
@@ -270,8 +273,8 @@ def test_ctrl_c_stops_with_one_line_and_resume_completes(tmp_path, reference):
         assert child.poll() is None and time.monotonic() < deadline, child.communicate()[1]
         time.sleep(0.05)
     child.send_signal(signal.SIGINT)
-    _, stderr = child.communicate(timeout=120)
-    assert child.returncode == 130, stderr
+    stdout, stderr = child.communicate(timeout=120)
+    assert child.returncode == 130, (child.returncode, stdout[-2000:], stderr)
     lines = [line for line in stderr.splitlines() if line.strip()]
     assert len(lines) == 1 and "continue with --resume" in lines[0], stderr
     _no_temporary_files(out)

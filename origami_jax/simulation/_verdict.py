@@ -39,7 +39,7 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Bool, Float, Int
 
 from ._results import RESULTS
-from ._simulate import Trajectory
+from ._simulate import Trajectory, padded_sample_count
 
 
 class FoldVerdict(enum.StrEnum):
@@ -344,8 +344,13 @@ def fold_outcome(
         seams_touching = touch[-1] & finite[-1]
         final_gaps = gaps[-1]
     final = theta[-1]
-    tail = max(2, theta.shape[0] // 10)
-    settled = jnp.max(jnp.abs(theta[-tail:] - final)) < angle_tolerance / 2
+    # The last tenth of the samples; rows with a NaN time are padding (`assess` pads runs of nearby
+    # lengths to one shape) and are not counted.
+    total = theta.shape[0]
+    tail = jnp.maximum(2, jnp.sum(jnp.isfinite(times)) // 10)
+    recent = (jnp.arange(total) >= total - tail)[:, None]
+    moved = jnp.where(recent, jnp.abs(theta - final), 0.0)
+    settled = jnp.max(moved) < angle_tolerance / 2
     # Stays within from sample k on: a reversed cumulative AND.
     stays = jnp.flip(jnp.cumprod(jnp.flip(within).astype(jnp.int32))).astype(bool)
     first = jnp.argmax(stays)
@@ -461,6 +466,34 @@ def _seams_touching(touching, bodies, shape):
     return (touching[:, a, b] | touching[:, b, a]) & known
 
 
+def _front_padded(trajectory: Trajectory) -> Trajectory:
+    """`trajectory` with rows of NaN put in front of its samples up to `padded_sample_count` of them
+    (and without its dense solution), so that runs of nearby lengths (a run continued segment by
+    segment) share one compiled verdict: `fold_outcome` judges the padded run as the run itself (a
+    NaN time marks padding; a NaN state is not within any tolerance)."""
+    count = trajectory.times.shape[0]
+    extra = padded_sample_count(count) - count
+
+    def pad(x):
+        # On the host: an eager concatenation would compile a program per shape.
+        if extra == 0 or jnp.ndim(x) == 0 or jnp.shape(x)[0] != count:
+            return x
+        x = np.asarray(x)
+        return jax.device_put(np.concatenate([np.full((extra, *x.shape[1:]), np.nan, x.dtype), x]))
+
+    return Trajectory(
+        times=pad(trajectory.times),
+        theta=pad(trajectory.theta),
+        theta_dot=pad(trajectory.theta_dot),
+        theta_ddot=pad(trajectory.theta_ddot),
+        tau=pad(trajectory.tau),
+        target=trajectory.target,
+        stats=trajectory.stats,
+        result=trajectory.result,
+        state=None if trajectory.state is None else jax.tree.map(pad, trajectory.state),
+    )
+
+
 def assess(
     system,
     trajectory: Trajectory,
@@ -495,6 +528,10 @@ def assess(
       smallest half thickness).
 
     **Returns:** a `FoldReport`.
+
+    The verdict runs as one compiled program per model structure and per power of two of samples
+    (the run is padded in front; the verdict is the unpadded run's), so that judging another run of
+    the same model compiles nothing.
     """
     angle_tolerance, seam_tolerance = _tolerances(
         system, tolerances, angle_tolerance, seam_tolerance, panel_size
@@ -515,7 +552,7 @@ def assess(
     outcome = jax.device_get(
         _outcome_compiled(
             system,
-            trajectory,
+            _front_padded(trajectory),
             intended,
             getattr(seam_gaps, "function", seam_gaps),
             None if bodies is None else tuple(map(tuple, np.asarray(bodies).tolist())),
