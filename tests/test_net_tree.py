@@ -132,6 +132,9 @@ def test_twenty_panel_tree_matches_pinocchio():
     _compare_with_pinocchio(tree, *to_pinocchio(tree))
 
 
+# The default run keeps the pointer-jumping kinematics equal to the level-by-level ones (below) and
+# those against Pinocchio (the branching tree above); this joins the two directly (~20 s).
+@pytest.mark.slow
 def test_deep_tree_matches_pinocchio():
     """A tree of 7 levels, whose kinematics are composed by pointer jumping
     (`_frames_by_doubling`), against Pinocchio."""
