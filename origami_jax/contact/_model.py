@@ -298,16 +298,8 @@ class PanelContact(AbstractContact):
         rotation, origin = self._frames(poses)
         relative = jnp.einsum("bki,akj->abij", rotation, rotation)  # R_bᵀ R_a
         shift = jnp.einsum("bki,abk->abi", rotation, origin[:, None] - origin[None, :])
-        points = self.tables.points  # host (a, i, 3)
-        local = []
-        for row in range(3):
-            value = shift[:, :, row, None]
-            for col in range(3):
-                component = points[:, None, :, col]  # (a, 1, i)
-                if np.any(component != 0):  # panel points lie in their frame's x–y plane
-                    value = value + relative[:, :, row, col, None] * component
-            local.append(jnp.broadcast_to(value, self.tables.pairs.shape))
-        return rotation, origin, tuple(local)
+        points = self.tables.points[:, None]  # host (a, 1, i, 3)
+        return rotation, origin, _carried(relative, shift, points, self.tables.pairs.shape)
 
     def _edge_distances(self, x, y):
         """Per edge of every face, the inward distance of face-frame positions `(a, b, i)` from the
@@ -384,15 +376,8 @@ class PanelContact(AbstractContact):
         face_rotation, face_origin = rotation[block.face_body], origin[block.face_body]
         relative = jnp.einsum("kji,kjl->kil", face_rotation, rotation[block.point_body])
         shift = jnp.einsum("kji,kj->ki", face_rotation, origin[block.point_body] - face_origin)
-        local = []
-        for row in range(3):
-            value = shift[:, row, None]
-            for col in range(3):
-                component = block.points[:, :, col]  # host (k, m)
-                if np.any(component != 0):  # panel points lie in their frame's x–y plane
-                    value = value + relative[:, row, col, None] * component
-            local.append(jnp.broadcast_to(value, block.points.shape[:2]))
-        return tuple(local), face_rotation, face_origin
+        local = _carried(relative, shift, block.points, block.points.shape[:2])
+        return local, face_rotation, face_origin
 
     def _block_gap(self, block, local):
         """`_gap` of a `PairBlock`'s points (components `(k, m)`)."""
@@ -508,6 +493,22 @@ class PanelContact(AbstractContact):
             "penetration": jnp.maximum(-smallest, 0.0),
             "touching": jnp.any(near, axis=-1),
         }
+
+
+def _carried(relative, shift, points, shape):
+    """Points carried into other frames, ``relative p + shift``, by component: `relative` `(..., 3,
+    3)` and `shift` `(..., 3)` per frame pair, `points` (host) `(..., m, 3)` broadcasting against
+    their leading axes; returns the three components, each of `shape`. A coordinate that is zero
+    for every point (panel points lie in their frame's x–y plane) costs nothing."""
+    local = []
+    for row in range(3):
+        value = shift[..., row, None]
+        for col in range(3):
+            component = points[..., col]
+            if np.any(component != 0):
+                value = value + relative[..., row, col, None] * component
+        local.append(jnp.broadcast_to(value, shape))
+    return tuple(local)
 
 
 def _dense_edges(face_edges):

@@ -13,7 +13,7 @@ when it crosses one (4 verdicts for 8 segments of 201 samples).
 
 from collections.abc import Callable
 
-import jax.numpy as jnp
+import jax
 import numpy as np
 
 from ._simulate import Trajectory, simulate
@@ -34,7 +34,13 @@ def join_trajectories(first: Trajectory, then: Trajectory) -> Trajectory:
             "coordinates cannot be joined."
         )
     fields = ("times", "theta", "theta_dot", "theta_ddot", "tau")
-    joined = {f: jnp.concatenate([getattr(first, f), getattr(then, f)[1:]]) for f in fields}
+    # On the host: an eager concatenation would compile a program for every new run length.
+    joined = {
+        f: jax.device_put(
+            np.concatenate([np.asarray(getattr(first, f)), np.asarray(getattr(then, f))[1:]])
+        )
+        for f in fields
+    }
     stats = dict(then.stats)
     for key in _STEP_COUNTS:
         if key in first.stats and key in then.stats:
