@@ -1,4 +1,5 @@
-"""Size limits the command line and the sweep models enforce before compiling anything.
+"""Size limits the command line and the sweep models enforce before compiling anything, and how far
+a folding is continued while its panels still move.
 
 Tracing and compiling a chain grow with its flap count (its dynamics are unrolled over the hinges):
 past these limits a run spends minutes and gigabytes compiling before it computes anything
@@ -11,3 +12,11 @@ short run of the default solver): 8 and 16 flaps ~40 s, 24 flaps 56 s, 32 flaps 
 
 MAX_SAMPLES = 1_000_000
 """Most samples of one command-line or sweep simulation (rows of its trajectory)."""
+
+FOLD_SEGMENT = 1000.0
+"""One segment of a folding continued until it settles (`origami_jax.simulation.fold_until_settled`,
+`Net.fold`, the `fold` command), time units: µs in the default units. A cube net in the etch bath
+settles at ~1,400 µs (two segments); one in air rings for several milliseconds."""
+
+MAX_FOLD_SEGMENTS = 8
+"""Most segments of such a folding (8,000 µs in the default units)."""

@@ -113,6 +113,11 @@ def test_units_convert_consistently():
     sinx = osys.SINX.to(osys.MICRO)
     assert float(sinx.youngs_modulus) == pytest.approx(250e3)
     assert float(sinx.biaxial_modulus) == pytest.approx(250e3 / 0.77)
+    # Symbols for printing: named where a prefix fits, the SI value otherwise.
+    assert (osys.MICRO.length_symbol, osys.MICRO.time_symbol) == ("µm", "µs")
+    assert (osys.SI.length_symbol, osys.SI.time_symbol) == ("m", "s")
+    odd = osys.UnitSystem("odd", 2e-6, 1e-3, 1.0)
+    assert (odd.length_symbol, odd.time_symbol) == ("2e-06 m", "ms")
 
 
 def test_stiffness_gradients_wrt_design():

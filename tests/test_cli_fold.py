@@ -56,6 +56,19 @@ def test_joined_trajectory_is_one_run_without_the_repeated_sample():
     assert int(joined.stats["num_rejected_steps"]) == 2
     assert joined.result == sim.RESULTS.max_steps_reached  # the later run's code
     assert not bool(joined.succeeded)
+    assert joined.state is None  # runs in hinge angles keep no separate state
+    # Runs that keep their mechanism's state (q, v) have it joined like the samples.
+    with_state = [
+        eqx.tree_at(lambda t: t.state, run, (run.theta * 2, run.theta_dot * 3), is_leaf=_none)
+        for run in (first, then)
+    ]
+    q, v = join_trajectories(*with_state).state
+    np.testing.assert_array_equal(q, joined.theta * 2)
+    np.testing.assert_array_equal(v, joined.theta_dot * 3)
+
+
+def _none(x):
+    return x is None
 
 
 def test_joining_refuses_batches_and_mismatched_runs():

@@ -103,6 +103,9 @@ def test_the_seam_tolerance_is_a_fraction_of_the_panel_size(contact, corner_cube
     )
     assert strict.seam_tolerance == pytest.approx(2.0)
     assert strict.seam_gaps[0] == pytest.approx(gap, rel=1e-9)
+    # Printed with the system's units (MICRO: µm).
+    assert (strict.length_unit, strict.time_unit) == ("µm", "µs")
+    assert f"largest gap {gap:.3g} µm (tolerance 2 µm)" in strict.summary()
     loose = net.assess(system, trajectory, tolerances=sim.VerdictTolerances(seam=0.02))
     assert loose.verdict == "folded" and loose.seam_tolerance == pytest.approx(4.0)
     assert loose.angle_tolerance == pytest.approx(np.radians(3.0))

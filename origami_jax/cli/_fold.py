@@ -11,6 +11,7 @@ import argparse
 import math
 from pathlib import Path
 
+from .._limits import FOLD_SEGMENT, MAX_FOLD_SEGMENTS
 from ._common import (
     EXIT_FAILED,
     EXIT_OK,
@@ -69,10 +70,10 @@ Exit codes: 0 folded, 1 any other verdict, 2 bad input.
 
 # Without --t1: fold for SEGMENT_US, and while the verdict is "unfinished" because the panels still
 # move (not because the solver ran out of steps), continue from where the run ended, up to
-# MAX_SEGMENTS segments. The continuations reuse the compiled solve (times and the initial state are
-# traced values). A cube net in the etch bath settles at ~1,400 µs, in air it rings for longer.
-SEGMENT_US = 1000.0
-MAX_SEGMENTS = 8
+# MAX_SEGMENTS segments (`Net.fold`'s defaults). The continuations reuse the compiled solve (times and
+# the initial state are traced values).
+SEGMENT_US = FOLD_SEGMENT
+MAX_SEGMENTS = MAX_FOLD_SEGMENTS
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:

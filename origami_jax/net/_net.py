@@ -29,6 +29,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
+from .._limits import FOLD_SEGMENT, MAX_FOLD_SEGMENTS
 from .._math import safe_norm
 from ..fold import FoldFile, FoldFrame, net_geometry
 from ..fold._catalogue import catalogue_names, catalogue_path
@@ -256,8 +257,8 @@ class Net:
         inputs=None,
         *,
         t1: float | None = None,
-        segment: float = 1000.0,
-        max_segments: int = 8,
+        segment: float = FOLD_SEGMENT,
+        max_segments: int = MAX_FOLD_SEGMENTS,
         tolerances=None,
         on_continue=None,
         **simulate_kwargs,
@@ -266,7 +267,7 @@ class Net:
 
         With `t1` (time, the system's units: µs for the default units), one run to `t1`. Without
         it, runs of `segment` (default 1000 µs) continued from the last state while the verdict is
-        `unfinished` because the panels still move, up to `max_segments` in all
+        `unfinished` because the panels still move, up to `max_segments` (default 8) in all
         (`origami_jax.simulation.fold_until_settled`): a cube net in the etch bath closes in
         ~1.4 ms, one in air rings for much longer, and neither needs its end time guessed.
 

@@ -16,6 +16,7 @@ from collections.abc import Callable
 import jax
 import numpy as np
 
+from .._limits import FOLD_SEGMENT, MAX_FOLD_SEGMENTS
 from ._simulate import Trajectory, simulate
 from ._verdict import FoldReport
 
@@ -24,8 +25,9 @@ _STEP_COUNTS = ("num_steps", "num_accepted_steps", "num_rejected_steps")
 
 def join_trajectories(first: Trajectory, then: Trajectory) -> Trajectory:
     """`first` followed by `then`, a run continued from `first`'s last sample (its first sample is
-    that one, and is dropped): samples concatenated, step counts added, the later result code (and
-    the first stiffness switch, if `first` had one)."""
+    that one, and is dropped): samples (and states, where the runs keep them) concatenated, step
+    counts added, the later result code (and the first stiffness switch, if `first` had one). Dense
+    output is not joined: evaluate each run's own."""
     if first.theta.ndim != 2 or then.theta.ndim != 2:
         raise ValueError("join_trajectories joins single runs, not batches.")
     if first.theta.shape[-1] != then.theta.shape[-1]:
@@ -47,7 +49,13 @@ def join_trajectories(first: Trajectory, then: Trajectory) -> Trajectory:
             stats[key] = first.stats[key] + then.stats[key]
     if "switch_time" in first.stats and np.isfinite(float(first.stats["switch_time"])):
         stats["switch_time"] = first.stats["switch_time"]
-    return Trajectory(**joined, target=then.target, stats=stats, result=then.result)
+    state = None
+    if first.state is not None and then.state is not None:
+        state = tuple(
+            jax.device_put(np.concatenate([np.asarray(a), np.asarray(b)[1:]]))
+            for a, b in zip(first.state, then.state, strict=True)
+        )
+    return Trajectory(**joined, target=then.target, stats=stats, result=then.result, state=state)
 
 
 def fold_until_settled(
@@ -55,17 +63,18 @@ def fold_until_settled(
     inputs,
     judge: Callable[[Trajectory], FoldReport],
     *,
-    segment: float,
-    max_segments: int = 8,
+    segment: float = FOLD_SEGMENT,
+    max_segments: int = MAX_FOLD_SEGMENTS,
     t0: float = 0.0,
     theta0=None,
     theta_dot0=None,
     on_continue: Callable[[float, float], None] | None = None,
     **simulate_kwargs,
 ) -> tuple[Trajectory, FoldReport, int]:
-    """Simulate `system` under `inputs` for `segment` (time units of the system), judge the run
+    """Simulate `system` under `inputs` for `segment` (time units of the system; default 1000, µs in
+    the default units), judge the run
     with `judge`, and while the verdict is `unfinished` with a successful solve continue from the
-    last state for another `segment`, up to `max_segments` segments in all.
+    last state for another `segment`, up to `max_segments` segments in all (default 8).
 
     **Arguments:** `judge` maps a trajectory to its `FoldReport` (e.g. ``lambda tr:
     net.assess(system, tr)``); `t0`, `theta0`, `theta_dot0` the start (defaults: the system's rest);

@@ -177,6 +177,7 @@ class FoldReport:
       and `penetration_fraction` of the panel thickness (0 is the model's aim; both 0 without
       contact).
     - `result`: the solver's result message.
+    - `length_unit`, `time_unit`: the system's length and time units, for printing ("µm", "µs").
     """
 
     verdict: FoldVerdict
@@ -197,6 +198,8 @@ class FoldReport:
     seams_touching: np.ndarray = dataclasses.field(
         default_factory=lambda: np.zeros(0, dtype=bool), kw_only=True
     )
+    length_unit: str = dataclasses.field(default="µm", kw_only=True)
+    time_unit: str = dataclasses.field(default="µs", kw_only=True)
 
     @property
     def seams_closed_by_contact(self) -> np.ndarray:
@@ -228,7 +231,8 @@ class FoldReport:
         return {k: clean(v) for k, v in out.items()}
 
     def summary(self) -> str:
-        """A few lines for people (angles in degrees)."""
+        """A few lines for people (angles in degrees, lengths and times in the system's units)."""
+        length, time = self.length_unit, self.time_unit
         lines = [f"verdict: {self.verdict} ({self.reason})"]
         errors = np.degrees(self.angle_errors)
         lines.append(
@@ -243,15 +247,15 @@ class FoldReport:
                 else ""
             )
             lines.append(
-                f"seams: {len(self.seam_gaps)}, largest gap {np.max(self.seam_gaps):.3g} "
-                f"(tolerance {self.seam_tolerance:.3g}){touch}"
+                f"seams: {len(self.seam_gaps)}, largest gap {np.max(self.seam_gaps):.3g} {length} "
+                f"(tolerance {self.seam_tolerance:.3g} {length}){touch}"
             )
         if self.time_to_fold is not None:
-            lines.append(f"time to fold: {self.time_to_fold:.4g}")
+            lines.append(f"time to fold: {self.time_to_fold:.4g} {time}")
         if np.isfinite(self.min_gap):
             lines.append(
                 f"contact: {self.contacts} pairs engaged at the end, smallest gap "
-                f"{self.min_gap:.3g}, max penetration {self.max_penetration:.3g} "
+                f"{self.min_gap:.3g} {length}, max penetration {self.max_penetration:.3g} {length} "
                 f"({100 * self.penetration_fraction:.3g} % of the thickness)"
             )
         return "\n".join(lines)
@@ -620,4 +624,6 @@ def assess(
         penetration_fraction=penetration / thickness if thickness else 0.0,
         result="successful" if result == "" else str(result),
         seams_touching=seams_touching,
+        length_unit=system.units.length_symbol,
+        time_unit=system.units.time_symbol,
     )

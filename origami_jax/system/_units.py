@@ -34,6 +34,16 @@ class UnitSystem:
             if not (isinstance(value, int | float) and value > 0):
                 raise ValueError(f"UnitSystem.{field} must be a positive number, got {value!r}.")
 
+    @property
+    def length_symbol(self) -> str:
+        """The length unit's symbol for printing ("µm"; a number of metres when it has no name)."""
+        return _symbol(self.metre_per_length, "m")
+
+    @property
+    def time_symbol(self) -> str:
+        """The time unit's symbol for printing ("µs"; a number of seconds when it has no name)."""
+        return _symbol(self.second_per_time, "s")
+
     def scale(self, *, length: int = 0, time: int = 0, mass: int = 0) -> float:
         """SI value of one unit of dimension ``length^a · time^b · mass^c`` in this system."""
         return (
@@ -78,6 +88,13 @@ class UnitSystem:
     def acceleration(self, metres_per_s2):
         """Acceleration: m/s² → this system."""
         return self.from_si(metres_per_s2, length=1, time=-2)
+
+
+def _symbol(si_value: float, base: str) -> str:
+    for factor, prefix in ((1.0, ""), (1e-3, "m"), (1e-6, "µ"), (1e-9, "n"), (1e-12, "p")):
+        if abs(si_value / factor - 1) < 1e-12:
+            return prefix + base
+    return f"{si_value:g} {base}"
 
 
 SI = UnitSystem("SI", 1.0, 1.0, 1.0)
