@@ -129,6 +129,48 @@ def test_a_run_folds_on_until_it_settles_and_is_one_run_continued():
         )
 
 
+def test_a_crease_still_moving_slowly_is_not_at_rest():
+    """`settled` (and so `unfinished` against `misfolded`) on synthetic runs of one crease aimed at
+    90°, 101 samples over 100 µs (tail: the last 10): each moves less than the tail bound (1.5°, half
+    the 3° tolerance) over its tail, and only the drift tells them apart."""
+    system, _ = _flap_in_koh()
+    target = float(system.hinges.target[0])
+    times = np.linspace(0.0, 100.0, 101)
+
+    def judged(offset):
+        angles = target + np.radians(offset)[:, None]
+        held = _segment(0.0, 100.0, 101, 0.0, 10)
+        run = eqx.tree_at(lambda t: t.theta, held, jnp.asarray(angles))
+        report = sim.assess(system, run)
+        return report.verdict, report.settled
+
+    # Creeping towards the angle, 20° away, at 0.1°/µs (1° over the tail, the run's length 10°).
+    assert judged(-30.0 + 0.1 * times) == ("unfinished", False)
+    # An exponential approach still 20° away with a 300 µs time constant: ~0.6° over the tail, and
+    # the geometric extrapolation of its drift gives the ~20° still to go.
+    assert judged(-20.0 * np.exp(-(times - 100.0) / 300.0)) == ("unfinished", False)
+    # At rest 20° short, ringing by 0.5° with a period of 7 samples: the tail turns, so its
+    # amplitude alone decides: settled, and (no contact to explain it) misfolded.
+    assert judged(-20.0 + 0.5 * np.sin(2 * np.pi * times / 7.0)) == ("misfolded", True)
+    # The same approach with a 3 µs time constant has nothing left to go: at rest, misfolded.
+    assert judged(-20.0 - 30.0 * np.exp(-times / 3.0)) == ("misfolded", True)
+    # A run of two samples is its own tail (no drift to judge): at rest when it moved less than
+    # the bound.
+    two = _segment(0.0, 100.0, 2, target - 0.5, 10)
+    report = sim.assess(system, eqx.tree_at(lambda t: t.theta, two, jnp.full((2, 1), target - 0.5)))
+    assert (report.verdict, report.settled) == ("misfolded", True)
+    # A crease that only starts to move (a weak hinge in the etch bath, 100 µs after release)
+    # moved less than 1.5° over the tail of its first 100 µs (its last 10 samples): not at rest,
+    # folded on.
+    slow = accordion_system(HingeDesign.literature(fluid=KOH_SOLUTION, k_scale=0.1), 1)
+    run, report, segments = fold_until_settled(
+        slow, sim.Step(), lambda tr: sim.assess(slow, tr), segment=100.0, n_save=101, max_segments=2
+    )
+    assert (report.verdict, segments) == ("unfinished", 2), report.summary()
+    tail_motion = np.degrees(np.ptp(np.asarray(run.theta[91:101, 0])))
+    assert tail_motion < 1.5  # the first segment's tail alone would have looked at rest
+
+
 @pytest.mark.parametrize(
     ("options", "message"),
     [

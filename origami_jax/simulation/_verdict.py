@@ -171,7 +171,9 @@ class FoldReport:
       `seams_closed_by_contact` lists those whose gap is above the tolerance.
     - `time_to_fold`: first time from which every crease stays within tolerance (and every seam
       closed) to the end, or `None`.
-    - `settled`: the last tenth of the run moved every crease by less than half the tolerance.
+    - `settled`: the run came to rest: over its last tenth every crease stayed within half the
+      tolerance of its final angle, and its drift there, carried on, would not move it further
+      (`fold_outcome`).
     - `contacts`: engaged (point, face) pairs at the end; `min_gap`: the smallest contact gap over the
       run (`inf` without contact); `max_penetration`: the largest penetration over the run (length)
       and `penetration_fraction` of the panel thickness (0 is the model's aim; both 0 without
@@ -348,13 +350,7 @@ def fold_outcome(
         seams_touching = touch[-1] & finite[-1]
         final_gaps = gaps[-1]
     final = theta[-1]
-    # The last tenth of the samples; rows with a NaN time are padding (`assess` pads runs of nearby
-    # lengths to one shape) and are not counted.
-    total = theta.shape[0]
-    tail = jnp.maximum(2, jnp.sum(jnp.isfinite(times)) // 10)
-    recent = (jnp.arange(total) >= total - tail)[:, None]
-    moved = jnp.where(recent, jnp.abs(theta - final), 0.0)
-    settled = jnp.max(moved) < angle_tolerance / 2
+    settled = _settled(times, theta, angle_tolerance)
     # Stays within from sample k on: a reversed cumulative AND.
     stays = jnp.flip(jnp.cumprod(jnp.flip(within).astype(jnp.int32))).astype(bool)
     first = jnp.argmax(stays)
@@ -394,6 +390,50 @@ def fold_outcome(
         min_gap=min_gap,
         penetration=penetration,
     )
+
+
+def _settled(times, theta, angle_tolerance):
+    """Whether the run has come to rest: over its last tenth of samples (at least three) every
+    crease stayed within half the angle tolerance of its final angle, and where a crease moved the
+    same way throughout that tail, its drift, carried on, would not take it further than that.
+
+    The drift: the mean angle over three equal parts ending the tail, ``m₁, m₂, m₃``, ``d₂ = m₂ − m₁``,
+    ``d₁ = m₃ − m₂``. A decaying drift (``|d₁| < |d₂|``, ratio ``r``) has ``|d₁| r/(1 − r)`` still to
+    go (a geometric series, as an exponential approach gives); one that does not decay is carried
+    on for as long as the run has lasted so far (``d₁`` per part), which also bounds the series. A
+    crease that turned within the tail is ringing (or at rest, within rounding), bounded by the
+    first condition.
+    Without the drift, an overdamped crease still creeping towards its angle, or one only starting
+    to move, could move less than the bound in the tail and be judged at rest. Rows with a NaN time
+    are padding (`assess` pads runs of nearby lengths to one shape) and are not counted."""
+    total = theta.shape[0]
+    count = jnp.sum(jnp.isfinite(times))
+    tail = jnp.minimum(jnp.maximum(3, count // 10), count)  # a run of 1 or 2 samples: all of it
+    position = jnp.arange(total) - (total - tail)  # 0 … tail − 1 over the tail
+    recent = (position >= 0)[:, None]
+    final = theta[-1]
+    moved = jnp.max(jnp.where(recent, jnp.abs(theta - final), 0.0))
+    # Safe against non-finite rows before the tail (front padding; an invalid run is judged
+    # elsewhere).
+    tail_theta = jnp.where(recent, theta, final)
+    steps = jnp.diff(tail_theta, axis=0)
+    outside = ~recent[:-1]  # steps from a row before the tail
+    one_way = jnp.all((steps >= 0) | outside, axis=0) | jnp.all((steps <= 0) | outside, axis=0)
+    # Three parts of equal length ending at the last sample (their means equally spaced in time, so
+    # that the ratio of successive drifts is an exponential's decay factor).
+    length = jnp.maximum(tail // 3, 1)
+    part = jnp.where(position >= tail - 3 * length, (position - (tail - 3 * length)) // length, -1)
+    means = []
+    for k in range(3):
+        weight = (part == k).astype(theta.dtype)[:, None]
+        means.append(jnp.sum(tail_theta * weight, axis=0) / length)
+    late, early = means[2] - means[1], means[1] - means[0]
+    horizon = count / length  # the run's length in parts
+    decaying = jnp.abs(late) < jnp.abs(early)
+    ratio = jnp.abs(late) / jnp.where(decaying, jnp.abs(early), 1.0)
+    carried = jnp.where(decaying, jnp.minimum(ratio / (1 - ratio), horizon), horizon)
+    to_go = jnp.max(jnp.where(one_way & (tail >= 3), jnp.abs(late) * carried, 0.0))
+    return (moved < angle_tolerance / 2) & (to_go < angle_tolerance / 2)
 
 
 @eqx.filter_jit
