@@ -72,9 +72,9 @@ def fold_until_settled(
     **simulate_kwargs,
 ) -> tuple[Trajectory, FoldReport, int]:
     """Simulate `system` under `inputs` for `segment` (time units of the system; default 1000, µs in
-    the default units), judge the run
-    with `judge`, and while the verdict is `unfinished` with a successful solve continue from the
-    last state for another `segment`, up to `max_segments` segments in all (default 8).
+    the default units), judge the run with `judge`, and while the verdict is `unfinished` with a
+    successful solve continue from the last state for another `segment`, up to `max_segments`
+    segments in all (default 8).
 
     **Arguments:** `judge` maps a trajectory to its `FoldReport` (e.g. ``lambda tr:
     net.assess(system, tr)``); `t0`, `theta0`, `theta_dot0` the start (defaults: the system's rest);

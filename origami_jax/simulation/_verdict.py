@@ -402,10 +402,11 @@ def _settled(times, theta, angle_tolerance):
     go (a geometric series, as an exponential approach gives); one that does not decay is carried
     on for as long as the run has lasted so far (``d₁`` per part), which also bounds the series. A
     crease that turned within the tail is ringing (or at rest, within rounding), bounded by the
-    first condition.
-    Without the drift, an overdamped crease still creeping towards its angle, or one only starting
-    to move, could move less than the bound in the tail and be judged at rest. Rows with a NaN time
-    are padding (`assess` pads runs of nearby lengths to one shape) and are not counted."""
+    first condition. Without the drift, an overdamped crease still creeping towards its angle, or
+    one only starting to move, could move less than the bound in the tail and be judged at rest.
+
+    Rows with a NaN time are padding (`assess` pads runs of nearby lengths to one shape) and are not
+    counted; a run of one or two samples is its own tail, without a drift to judge."""
     total = theta.shape[0]
     count = jnp.sum(jnp.isfinite(times))
     tail = jnp.minimum(jnp.maximum(3, count // 10), count)  # a run of 1 or 2 samples: all of it
