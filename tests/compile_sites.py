@@ -27,13 +27,12 @@ _seconds: collections.Counter = collections.Counter()
 _counts: collections.Counter = collections.Counter()
 
 
-def _frame(stack, part: str) -> str:
+def _frame(stack, part: str, *, innermost: bool = False) -> str:
+    """The outermost (or innermost) frame of the stack in a file under a folder named `part`."""
     frames = [f for f in stack if f"/{part}/" in f.filename]
-    if part == "origami_jax":
-        frames = frames[::-1]  # the innermost package frame
     if not frames:
         return "-"
-    f = frames[0]
+    f = frames[-1] if innermost else frames[0]
     return f"{os.path.basename(f.filename)}:{f.lineno}:{f.name}"
 
 
@@ -46,7 +45,7 @@ class _Record(logging.Handler):
         if seconds > MAX_SECONDS:
             return
         stack = traceback.extract_stack()
-        key = (_frame(stack, "tests"), _frame(stack, "origami_jax"))
+        key = (_frame(stack, "tests"), _frame(stack, "origami_jax", innermost=True))
         _seconds[key] += seconds
         _counts[key] += 1
 

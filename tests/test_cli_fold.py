@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 import origami_jax.simulation as sim
+from origami_jax._limits import FOLD_SEGMENT, MAX_FOLD_SEGMENTS
 from origami_jax.chain import accordion_system
 from origami_jax.cli import build_parser, main
-from origami_jax.cli._fold import MAX_SEGMENTS, SEGMENT_US
 from origami_jax.net import load_net
 from origami_jax.simulation import fold_until_settled, join_trajectories
 from origami_jax.system import KOH_SOLUTION, HingeDesign
@@ -189,7 +189,7 @@ def test_bad_continuations_are_refused_before_any_run(options, message):
 def test_t1_is_optional_and_checked_when_given(capsys):
     args = build_parser().parse_args(["fold", "cube_net_01"])
     assert args.t1 is None
-    assert SEGMENT_US * MAX_SEGMENTS >= 4000.0  # room for a net that rings in air
+    assert FOLD_SEGMENT * MAX_FOLD_SEGMENTS >= 4000.0  # room for a net that rings in air
     assert main(["fold", "cube_net_01", "--t1", "-5", "--no-figures"]) == 2
     assert "--t1" in capsys.readouterr().err
 
@@ -203,10 +203,10 @@ def test_a_cube_net_still_moving_at_the_first_segments_end_folds_on(tmp_path, ca
     assert "folding on to 2000" in capsys.readouterr().out
     result = json.loads((tmp_path / "result.json").read_text())
     assert result["verdict"] == "folded" and result["segments"] == 2
-    assert result["t1"] == pytest.approx(2 * SEGMENT_US)
+    assert result["t1"] == pytest.approx(2 * FOLD_SEGMENT)
     assert 1000.0 < result["time_to_fold"] < 2000.0
     times = np.loadtxt(tmp_path / "trajectory.csv", delimiter=",", skiprows=1)[:, 0]
-    assert times[-1] == pytest.approx(2 * SEGMENT_US) and np.all(np.diff(times) > 0)
+    assert times[-1] == pytest.approx(2 * FOLD_SEGMENT) and np.all(np.diff(times) > 0)
 
 
 @pytest.mark.slow  # compiles and folds a cube net (without contact): ~30 s on 2 cores

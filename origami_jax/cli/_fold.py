@@ -68,12 +68,10 @@ Exit codes: 0 folded, 1 any other verdict, 2 bad input.
 )
 
 
-# Without --t1: fold for SEGMENT_US, and while the verdict is "unfinished" because the panels still
-# move (not because the solver ran out of steps), continue from where the run ended, up to
-# MAX_SEGMENTS segments (`Net.fold`'s defaults). The continuations reuse the compiled solve (times and
-# the initial state are traced values).
-SEGMENT_US = FOLD_SEGMENT
-MAX_SEGMENTS = MAX_FOLD_SEGMENTS
+# Without --t1: fold for FOLD_SEGMENT (µs), and while the verdict is "unfinished" because the panels
+# still move (not because the solver ran out of steps), continue from where the run ended, up to
+# MAX_FOLD_SEGMENTS segments (`Net.fold`'s defaults). The continuations reuse the compiled solve
+# (times and the initial state are traced values).
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -97,8 +95,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "--t1",
         type=float,
         default=None,
-        help=f"end time, µs (default {SEGMENT_US:g}, continued by {SEGMENT_US:g} µs at a time while "
-        f"the panels still move, up to {MAX_SEGMENTS * SEGMENT_US:g})",
+        help=f"end time, µs (default {FOLD_SEGMENT:g}, continued by {FOLD_SEGMENT:g} µs at a time while "
+        f"the panels still move, up to {MAX_FOLD_SEGMENTS * FOLD_SEGMENT:g})",
     )
     parser.add_argument("--n-save", type=int, default=501, help="samples (default 501)")
     parser.add_argument(
@@ -287,7 +285,7 @@ def _run(args, net, system, loops, params, release, theta0, theta_dot0, output) 
     out = output.dir
     m = net.n_creases
     kind = f"{net.n_loops} closed loop(s), " if loops else ""
-    segment = SEGMENT_US if args.t1 is None else args.t1
+    segment = FOLD_SEGMENT if args.t1 is None else args.t1
     print(
         f"[fold] {net.name}: {m} creases, {kind}{system.mechanism.n_bodies} moving panels, contact "
         f"{'on' if system.contact is not None else 'off'}; compiling and folding for {segment:g} µs ...",
@@ -313,7 +311,7 @@ def _run(args, net, system, loops, params, release, theta0, theta_dot0, output) 
         sim.Step(),
         judge,
         segment=segment,
-        max_segments=MAX_SEGMENTS if extend else 1,
+        max_segments=MAX_FOLD_SEGMENTS if extend else 1,
         theta0=theta0,
         theta_dot0=theta_dot0,
         on_continue=still_moving,
@@ -323,7 +321,7 @@ def _run(args, net, system, loops, params, release, theta0, theta_dot0, output) 
         progress_meter=_progress_meter(args.progress, m),
     )
     t_end = float(trajectory.times[-1])
-    if segments == MAX_SEGMENTS and report.verdict == "unfinished":
+    if segments == MAX_FOLD_SEGMENTS and report.verdict == "unfinished":
         print(
             f"[fold] still moving at {t_end:g} µs, the end of the automatic extension: give a "
             "longer --t1, or more damping (--fluid koh folds in the etch bath).",

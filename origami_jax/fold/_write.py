@@ -69,7 +69,7 @@ _REQUIRED_FIELDS = ("vertices_coords", "edges_vertices", "edges_assignment", "fa
 
 
 def normalise_fold(fold: FoldFile, *, creator: str = CREATOR) -> FoldFile:
-    """A copy of `fold` ready for other tools: spec 1.2, every default made explicit.
+    """A copy of `fold` ready for other tools: FOLD spec 1.2, every default made explicit.
 
     - `file_spec` 1.2 and `file_creator` (kept if the file names one);
     - key frame: `faces_vertices` traced from the planar graph if missing (the key frame must then

@@ -36,13 +36,7 @@ def join_trajectories(first: Trajectory, then: Trajectory) -> Trajectory:
             "coordinates cannot be joined."
         )
     fields = ("times", "theta", "theta_dot", "theta_ddot", "tau")
-    # On the host: an eager concatenation would compile a program for every new run length.
-    joined = {
-        f: jax.device_put(
-            np.concatenate([np.asarray(getattr(first, f)), np.asarray(getattr(then, f))[1:]])
-        )
-        for f in fields
-    }
+    joined = {f: _joined(getattr(first, f), getattr(then, f)) for f in fields}
     stats = dict(then.stats)
     for key in _STEP_COUNTS:
         if key in first.stats and key in then.stats:
@@ -51,11 +45,14 @@ def join_trajectories(first: Trajectory, then: Trajectory) -> Trajectory:
         stats["switch_time"] = first.stats["switch_time"]
     state = None
     if first.state is not None and then.state is not None:
-        state = tuple(
-            jax.device_put(np.concatenate([np.asarray(a), np.asarray(b)[1:]]))
-            for a, b in zip(first.state, then.state, strict=True)
-        )
+        state = tuple(map(_joined, first.state, then.state))
     return Trajectory(**joined, target=then.target, stats=stats, result=then.result, state=state)
+
+
+def _joined(first, then):
+    """`first`'s samples, then `then`'s without its first (the shared one). On the host: an eager
+    concatenation would compile a program for every new run length."""
+    return jax.device_put(np.concatenate([np.asarray(first), np.asarray(then)[1:]]))
 
 
 def fold_until_settled(
