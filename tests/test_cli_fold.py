@@ -188,7 +188,7 @@ def test_bad_continuations_are_refused_before_any_run(options, message):
 
 def test_t1_is_optional_and_checked_when_given(capsys):
     args = build_parser().parse_args(["fold", "cube_net_01"])
-    assert args.t1 is None
+    assert args.t1 is None and args.fluid == "koh"  # released devices fold in the etch bath
     assert FOLD_SEGMENT * MAX_FOLD_SEGMENTS >= 4000.0  # room for a net that rings in air
     assert main(["fold", "cube_net_01", "--t1", "-5", "--no-figures"]) == 2
     assert "--t1" in capsys.readouterr().err
@@ -196,9 +196,9 @@ def test_t1_is_optional_and_checked_when_given(capsys):
 
 @pytest.mark.slow  # compiles and folds a cube net with contact: about a minute on 2 cores
 def test_a_cube_net_still_moving_at_the_first_segments_end_folds_on(tmp_path, capsys):
-    # In the etch bath the cube net closes at ~1,350 µs: the first 1,000 µs end with it still
-    # moving, the second segment finds it folded.
-    code = main(["fold", "cube_net_01", "--fluid", "koh", "--no-figures", "--out", str(tmp_path)])
+    # In the etch bath (the default fluid) the cube net closes at ~1,350 µs: the first 1,000 µs
+    # end with it still moving, the second segment finds it folded.
+    code = main(["fold", "cube_net_01", "--no-figures", "--out", str(tmp_path)])
     assert code == 0, capsys.readouterr().err
     assert "folding on to 2000" in capsys.readouterr().out
     result = json.loads((tmp_path / "result.json").read_text())

@@ -51,7 +51,8 @@ an Origami Simulator export is read as it is, with --length-scale for its unitle
 The largest face stays on the substrate; every crease
 is a bilayer hinge of the literature design (200 nm SiNx, 100 nm Cr at 1 GPa; override any HingeDesign
 field with --param NAME=VALUE in MICRO units: µm, µs, ng, MPa) folding to the crease's
-edges_foldAngle. Panels have the membrane's thickness and meet (contact) unless --no-contact; drag
+edges_foldAngle, in the KOH etch bath where released devices fold (--fluid air: the paper's
+setting, where panels ring far longer). Panels have the membrane's thickness and meet (contact) unless --no-contact; drag
 acts on every panel from its own motion (--drag hinge: the paper's per-hinge drag).
 
 A closed-loop pattern starts flat, where its folding branches meet, and the hinges pick the branch;
@@ -83,7 +84,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     parser.add_argument("net", nargs="?", help="FOLD file or catalogue name")
     parser.add_argument("--list", action="store_true", help="list the shipped nets and exit")
-    parser.add_argument("--fluid", choices=("air", "koh"), default="air", help="default air")
+    parser.add_argument(
+        "--fluid",
+        choices=("air", "koh"),
+        default="koh",
+        help="the fluid the panels fold in (default koh: released devices fold in the etch bath; "
+        "air is the paper's setting)",
+    )
     parser.add_argument(
         "--param",
         action="append",
@@ -324,7 +331,7 @@ def _run(args, net, system, loops, params, release, theta0, theta_dot0, output) 
     if segments == MAX_FOLD_SEGMENTS and report.verdict == "unfinished":
         print(
             f"[fold] still moving at {t_end:g} µs, the end of the automatic extension: give a "
-            "longer --t1, or more damping (--fluid koh folds in the etch bath).",
+            "longer --t1, or more damping (in air a net rings far longer than in the etch bath).",
             flush=True,
         )
     result = report.to_dict()
