@@ -202,7 +202,7 @@ def accordion():
     return accordion_system(HingeDesign.literature(), 3)
 
 
-def synthetic_trajectory(system, theta, *, failed_after=None):
+def synthetic_trajectory(system, theta, *, failed_after=None, times=None):
     import jax.numpy as jnp
 
     from origami_jax.simulation import RESULTS, Trajectory
@@ -214,7 +214,7 @@ def synthetic_trajectory(system, theta, *, failed_after=None):
         result = RESULTS.max_steps_reached
     zeros = jnp.zeros_like(theta)
     return Trajectory(
-        times=jnp.linspace(0.0, 100.0, len(theta)),
+        times=jnp.linspace(0.0, 100.0, len(theta)) if times is None else jnp.asarray(times),
         theta=jnp.asarray(theta),
         theta_dot=zeros,
         theta_ddot=zeros,
@@ -564,6 +564,61 @@ def test_fold_result_file_carries_verdict_and_contacts(corner_cube, tmp_path):
     )
     with pytest.raises(ValueError, match="one dict per sample"):
         net.to_fold(trajectory, extras=extras[:1])
+
+
+def test_fold_figures_name_the_verdict_and_the_time_to_fold(corner_cube, tmp_path, monkeypatch):
+    """`origami-jax fold`'s figures: the angle plot is titled with the verdict, its lines are the
+    creases and a folded run marks its time to fold; the frame strip's titles give times without an
+    exponent. The command lists what it wrote from the names `_figures` returns."""
+    import dataclasses
+
+    import matplotlib.pyplot as plt
+
+    from origami_jax.cli._fold import _figures
+    from origami_jax.simulation import FoldReport, FoldVerdict
+
+    net, system = corner_cube
+    theta = np.stack([np.zeros(2), 0.5 * np.array(net.intended_angles), net.intended_angles])
+    trajectory = synthetic_trajectory(system, theta, times=[0.0, 700.0, 1400.0])
+    folded = FoldReport(
+        verdict=FoldVerdict.FOLDED,
+        reason="every crease at its angle, every seam closed",
+        final_angles=theta[-1],
+        intended_angles=np.array(net.intended_angles),
+        angle_errors=np.zeros(2),
+        seam_gaps=np.zeros(1),
+        angle_tolerance=math.radians(3),
+        seam_tolerance=2.0,
+        time_to_fold=1354.0,
+        settled=True,
+        contacts=0,
+        min_gap=1.0,
+        max_penetration=0.0,
+        penetration_fraction=0.0,
+        result="successful",
+    )
+    jammed = dataclasses.replace(folded, verdict=FoldVerdict.JAMMED, time_to_fold=None)
+    saved, savefig = {}, plt.Figure.savefig
+
+    def keep(fig, path, **kwargs):  # the figures, to read their titles and labels
+        saved[str(path)] = fig
+        savefig(fig, path, **kwargs)
+
+    monkeypatch.setattr(plt.Figure, "savefig", keep)
+    for report in (folded, jammed):
+        out = tmp_path / str(report.verdict)
+        out.mkdir()
+        written = _figures(system, trajectory, report, out, "corner_cube", None, animation=False)
+        assert written == ["angles.png", "frames.png"]
+        assert all((out / name).stat().st_size > 1000 for name in written)
+        angles = saved[str(out / "angles.png")].axes[0]
+        assert angles.get_title() == f"corner_cube: {report.verdict}"
+        assert angles.get_ylabel() == "crease angle [deg]"
+        assert [t.get_text() for t in angles.get_legend().get_texts()] == ["crease 1", "crease 2"]
+        marked = [t.get_text().strip() for t in angles.texts]
+        assert marked == (["folded at 1354 µs"] if report is folded else [])
+        titles = [ax.get_title() for ax in saved[str(out / "frames.png")].axes]
+        assert titles == ["t = 0 µs", "t = 700 µs", "t = 1400 µs"]
 
 
 @pytest.mark.slow  # a closed-loop pattern and an arc-hinge net compile their own kinematics

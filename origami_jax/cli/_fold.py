@@ -376,28 +376,46 @@ def _run(args, net, system, loops, params, release, theta0, theta_dot0, output) 
     animation = net.to_fold(trajectory, every=every, extras=extras, key_extra=key_extra)
     write_fold(out / "trajectory.fold", animation)
     print(report.summary())
-    print(f"wrote {output.out / 'result.json'}, trajectory.csv, trajectory.fold")
+    written = ["result.json", "trajectory.csv", "trajectory.fold"]
     if args.figures != "none" and bool(trajectory.succeeded):
         # Show the fold itself rather than the long rest after it.
         t_max = None if report.time_to_fold is None else min(2.0 * report.time_to_fold, t_end)
-        _figures(system, trajectory, out, net.name, t_max, animation=args.figures == "all")
+        animation = args.figures == "all"
+        written += _figures(system, trajectory, report, out, net.name, t_max, animation=animation)
+    print(f"wrote {output.out}: {', '.join(written)}")
     return EXIT_OK if report.verdict == "folded" else EXIT_FAILED
 
 
 def _figures(
-    system, trajectory, out: Path, name: str, t_max: float | None, *, animation: bool = True
-) -> None:
+    system, trajectory, report, out: Path, name: str, t_max: float | None, *, animation: bool = True
+) -> list[str]:
+    """Draws the angle plot (titled with the verdict, the time to fold marked), a strip of 3D
+    frames and (with `animation`) a GIF into `out`; returns the names of the files written."""
     import matplotlib.pyplot as plt
 
     from origami_jax.plotting import chain as plots
 
-    fig = plots.plot_joint_angles(trajectory, None, title=f"{name}: fold angles")
+    fig = plots.plot_joint_angles(
+        trajectory, None, title=f"{name}: {report.verdict}", name="crease"
+    )
+    if report.time_to_fold is not None:
+        fig.axes[0].axvline(report.time_to_fold, color="k", lw=0.8, ls="--")
+        fig.axes[0].annotate(
+            f" folded at {report.time_to_fold:.4g} µs",
+            (report.time_to_fold, 0.02),
+            xycoords=("data", "axes fraction"),
+            fontsize=8,
+        )
     fig.savefig(out / "angles.png", dpi=120)
     plt.close(fig)
-    fig = plots.folding_frames(system, trajectory, out / "frames.png", n_frames=6, t_max=t_max)
+    fig = plots.folding_frames(
+        system, trajectory, out / "frames.png", n_frames=6, t_max=t_max, by_motion=True
+    )
     plt.close(fig)
-    if animation:
-        plots.animate_folding(system, trajectory, out / "animation.gif", t_max=t_max)
+    if not animation:
+        return ["angles.png", "frames.png"]
+    plots.animate_folding(system, trajectory, out / "animation.gif", t_max=t_max)
+    return ["angles.png", "frames.png", "animation.gif"]
 
 
 def _view_annotations(net, system, trajectory, report, every: int) -> tuple[list[dict], dict]:

@@ -24,6 +24,7 @@ def plot_joint_angles(
     time_label: str = "time [µs]",
     desired=None,
     title: str | None = None,
+    name: str = "joint",
 ):
     """Joint angles (degrees) against time, one line per joint, metrics annotated (paper Figs. 7, 10).
 
@@ -34,6 +35,7 @@ def plot_joint_angles(
     - `time_scale`: multiply times by this for the axis (e.g. 1e-3 for ms from µs); `time_label` to match.
     - `desired`: optional callable `t -> θ_des` drawn dashed (e.g. `EtchRamp.desired` returning a pair).
     - `title`: axis title.
+    - `name`: what the lines are called in the legend and on the axis (`"crease"` for a net).
 
     **Returns:** the matplotlib `Figure`.
     """
@@ -48,7 +50,7 @@ def plot_joint_angles(
     t_axis = times * time_scale
     for j in range(theta.shape[1]):
         colour = _COLOURS[j % len(_COLOURS)]
-        label = f"joint {j + 1}"
+        label = f"{name} {j + 1}"
         if metrics is not None:
             label += (
                 f": rise {float(metrics.rise_time[j]) * time_scale:.3g} {unit}, "
@@ -86,12 +88,20 @@ def plot_joint_angles(
                     float(metrics.settling_time[j]) * time_scale, color=colour, lw=0.6, ls="-."
                 )
     ax.set_xlabel(time_label)
-    ax.set_ylabel("joint angle [deg]")
+    ax.set_ylabel(f"{name} angle [deg]")
     if title:
         ax.set_title(title)
     ax.legend(fontsize=8, loc="best")
     ax.grid(alpha=0.3)
     return fig
+
+
+def _time_text(t: float) -> str:
+    """A time for a title: four significant digits, without an exponent from 0.001 to 99,999
+    (``1354``, not ``1.35e+03``)."""
+    if t != 0 and not 1e-3 <= abs(t) < 1e5:
+        return f"{t:.3g}"
+    return f"{t:.4g}" if abs(t) < 1e4 else f"{t:.0f}"
 
 
 def _mechanism(obj):
@@ -218,17 +228,20 @@ def folding_frames(
     t_max: float | None = None,
     time_scale: float = 1.0,
     time_unit: str = "µs",
+    by_motion: bool = False,
 ):
     """A strip of 3D frames of a folding (paper Figs. 8, 11); saved as PNG when `path` is given.
 
     **Arguments:** `system`: the `FoldingSystem` (or its mechanism) that was simulated; `trajectory`:
-    its `Trajectory`; `n_frames` frames evenly spread over the samples up to `t_max` (time units);
-    `time_scale`, `time_unit`: how titles show times.
+    its `Trajectory`; `n_frames` frames evenly spread over the samples up to `t_max` (time units),
+    or with `by_motion` spread over an equal blend of time and of the distance the panels travel
+    (more frames where they move fast, as `animate_folding` does); `time_scale`, `time_unit`: how
+    titles show times.
 
     **Returns:** the `Figure`.
     """
     mechanism = _mechanism(system)
-    indices = _frame_indices(trajectory, n_frames, t_max)
+    indices = _frame_indices(trajectory, n_frames, t_max, by_motion=by_motion)
     frames = _polygon_frames(mechanism, _states(trajectory, indices))
     centre, half = _limits_of(frames)
     fig = plt.figure(figsize=(2.6 * len(indices), 3.0), constrained_layout=True)
@@ -236,7 +249,7 @@ def folding_frames(
         ax = fig.add_subplot(1, len(indices), i + 1, projection="3d")
         _draw_polygons(ax, mechanism, polygons, centre, half)
         ax.set_title(
-            f"t = {float(trajectory.times[index]) * time_scale:.3g} {time_unit}", fontsize=9
+            f"t = {_time_text(float(trajectory.times[index]) * time_scale)} {time_unit}", fontsize=9
         )
         ax.view_init(elev=20, azim=-30)
         ax.tick_params(labelsize=6)
@@ -284,7 +297,9 @@ def animate_folding(
 
     def draw(k):
         collection.set_verts(frames[k])
-        title.set_text(f"t = {float(trajectory.times[indices[k]]) * time_scale:.4g} {time_unit}")
+        title.set_text(
+            f"t = {_time_text(float(trajectory.times[indices[k]]) * time_scale)} {time_unit}"
+        )
 
     try:
         return save_gif(fig, draw, len(frames), path, fps=fps, hold_last_s=1.0)
