@@ -89,6 +89,17 @@ def _synthetic(y_fn, t1=10.0, n=4001, target=2.0):
     )
 
 
+def test_a_zero_target_is_refused_before_compiling_and_checked_when_traced():
+    """Known targets are checked in Python, a `ValueError` (so the compiled metrics hold no
+    callback and can be cached between processes); traced ones (under `jit`) by the compiled
+    program, equinox's runtime error."""
+    trajectory = _synthetic(lambda t: 1 - jnp.exp(-t), n=11, target=0.0)
+    with pytest.raises(ValueError, match="a joint's target is 0"):
+        sim.response_metrics(trajectory)
+    with pytest.raises(eqx.EquinoxRuntimeError, match="a joint's target is 0"):
+        eqx.filter_jit(sim.response_metrics)(trajectory)
+
+
 def test_grazing_peak_flags_the_rise_time():
     # An early bump peaking at 0.895 (just below 90 %), then the real rise: the first-crossing rise time
     # would jump by ~3 time units if the bump grew by 0.5 %.

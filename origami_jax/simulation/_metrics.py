@@ -26,8 +26,10 @@ Two situations make a metric jump with the parameters; they are flagged, not hid
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, Bool, Float
 
+from .._validate import is_traced
 from ._simulate import Trajectory
 
 _BISECTIONS = 48
@@ -193,7 +195,6 @@ class ResponseMetrics(eqx.Module):
         return out
 
 
-@eqx.filter_jit
 def response_metrics(
     trajectory: Trajectory,
     *,
@@ -215,9 +216,25 @@ def response_metrics(
 
     **Returns:** a [`origami_jax.simulation.ResponseMetrics`][]. Differentiable with respect to anything the
     trajectory depends on (flags and crossing indices carry no gradient).
+
+    **Raises:** `ValueError` when a joint's target is 0 (the metrics are fractions of it); under
+    `jit` or `vmap`, where the target is traced, the same check runs in the compiled program.
     """
+    message = "response_metrics: a joint's target is 0; the metrics are fractions of the target."
+    if is_traced(trajectory.target):
+        return _metrics(trajectory, band, low, high, graze_tol, settle_fraction, message)
+    if np.any(np.asarray(trajectory.target) == 0):
+        raise ValueError(message)
+    # Checked here, the compiled program has no runtime check: no callback into Python, so the
+    # compilation cache can keep it between processes.
+    return _metrics(trajectory, band, low, high, graze_tol, settle_fraction, None)
+
+
+@eqx.filter_jit
+def _metrics(trajectory, band, low, high, graze_tol, settle_fraction, message: str | None):
     target = trajectory.target
-    target = eqx.error_if(target, jnp.any(target == 0), "response_metrics: a joint's target is 0.")
+    if message is not None:
+        target = eqx.error_if(target, jnp.any(target == 0), message)
     y = trajectory.theta / target
     v = trajectory.theta_dot / target
     a = trajectory.theta_ddot / target
