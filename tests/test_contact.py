@@ -177,6 +177,30 @@ def test_blocks_hold_every_checked_pair_once(name):
     assert sum(b.points.shape[0] * b.points.shape[1] for b in tables.blocks) == tables.n_pairs
 
 
+def test_contact_sampling_sets_every_panels_points():
+    """`Net.system(contact_sampling=(n, r))`: each square panel of the corner cube (two flaps and
+    the base) gets its centre, ``n`` points per edge on its inner ring (a corner included) and
+    ``r`` per edge on its rim: ``1 + 4 (n + r)`` points. Bad sampling is refused in one line."""
+    from origami_jax.net import load_net
+
+    net = load_net("corner_cube")
+    for sampling in ((4, 2), (4, 0), (8, 6)):
+        tables = net.contact_tables(sampling=sampling)
+        counts = [len(np.unique(p, axis=0)) for p in tables.points]
+        assert counts == [1 + 4 * sum(sampling)] * 3, (sampling, counts)
+    system = net.system(contact_sampling=(8, 6))
+    assert system.contact.tables is net.contact_tables(sampling=(8, 6))
+    assert system.contact.tables.n_pairs > net.contact_tables().n_pairs
+    for bad, message in (
+        ((4,), "must be a pair"),
+        ((0, 2), "points_per_edge must be a whole number >= 1"),
+        ((4, -1), "rim_points_per_edge must be a whole number >= 0"),
+        ((4.5, 2), "points_per_edge must be a whole number"),
+    ):
+        with pytest.raises(ValueError, match=message):
+            net.system(contact_sampling=bad)
+
+
 def test_net_contact_force_against_a_point_by_point_world_sum():
     # The kernel works per body pair in the face's frame with the gap's gradient by hand; the
     # reference goes point by point in the world frame (NumPy): the elastic part from the energy's

@@ -148,6 +148,7 @@ class PanelContact(AbstractContact):
         base_outline: np.ndarray | None = None,
         base_thickness: Float[ArrayLike, ""] | None = None,
         points_per_edge: int = 4,
+        rim_points_per_edge: int = 2,
         tables: ContactTables | None = None,
     ) -> "PanelContact":
         """Contact of `mechanism`'s panels (their `outlines()`) with each other and with its base.
@@ -156,7 +157,8 @@ class PanelContact(AbstractContact):
         ``κ``, `damping` ``c``, `activation` ``ĝ`` (default: the largest of the thickness and 0.5 %
         of the largest panel), `edge_width` ``δ`` (default ``ĝ``), `base_outline` (world polygon; default
         the mechanism's `base_outline()`), `base_thickness` (default the largest panel thickness),
-        `points_per_edge` (samples along a panel's rim, see `ContactTables`), `tables` (the geometry,
+        `points_per_edge`, `rim_points_per_edge` (samples along a panel's longest edge on its inner
+        ring and on its rim, see `build_tables`), `tables` (the geometry,
         from `tables_for`, when it is at hand: under `jit` the mechanism's own arrays are traced and
         cannot give it). The numbers may be traced (a fit or a sweep over the thickness or the
         hinges); the geometry may not.
@@ -193,7 +195,11 @@ class PanelContact(AbstractContact):
             # geometry: the nominal width when the thickness is traced).
             ramp = float(edge_width) if not is_traced(edge_width) else 0.005 * size
             tables = cls.tables_for(
-                mechanism, base_outline=base, inset=2 * ramp, points_per_edge=points_per_edge
+                mechanism,
+                base_outline=base,
+                inset=2 * ramp,
+                points_per_edge=points_per_edge,
+                rim_points_per_edge=rim_points_per_edge,
             )
         return cls(
             tables=tables,
@@ -211,11 +217,12 @@ class PanelContact(AbstractContact):
         base_outline: np.ndarray | None = None,
         inset: float | None = None,
         points_per_edge: int = 4,
+        rim_points_per_edge: int = 2,
     ) -> ContactTables:
         """The contact geometry of a mechanism whose arrays are known (host; see `ContactTables`):
         its outlines, rest poses and hinge layout. `inset` (the faces' inset ``ι`` and the inner ring's)
         defaults to twice 0.5 % of the largest panel (twice the default rounding width of a thin
-        panel)."""
+        panel); `points_per_edge` and `rim_points_per_edge` set the sampling (`build_tables`)."""
         outlines = mechanism.outlines()
         size = max(float(np.max(np.ptp(o, axis=0))) for o in outlines)
         base = mechanism.base_outline() if base_outline is None else base_outline
@@ -237,6 +244,7 @@ class PanelContact(AbstractContact):
             layout.ends,
             inset=0.01 * size if inset is None else float(inset),
             points_per_edge=points_per_edge,
+            rim_points_per_edge=rim_points_per_edge,
         )
 
     @classmethod

@@ -241,6 +241,12 @@ def build_tables(
       contact), half a spacing from the corners: 2 (the default) a quarter of the edge from either
       corner, 1 the edges' midpoints, 0 none.
     """
+    for name, value, least in (
+        ("points_per_edge", points_per_edge, 1),
+        ("rim_points_per_edge", rim_points_per_edge, 0),
+    ):
+        if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < least:
+            raise ValueError(f"{name} must be a whole number >= {least}, got {value!r}.")
     n = len(outlines)
     outlines = [np.asarray(o, dtype=float) for o in outlines]
     for i, outline in enumerate(outlines):

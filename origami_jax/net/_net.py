@@ -126,6 +126,7 @@ class Net:
         hinges: str = "point",
         added_mass: bool = False,
         viscous: bool = False,
+        contact_sampling: tuple[int, int] = (4, 2),
     ) -> FoldingSystem:
         """The folding system of this net with the hinges, films and fluid of `design`.
 
@@ -136,6 +137,12 @@ class Net:
         - `targets`: fold target per crease (rad); default the pattern's angles.
         - `release_times`: per-crease release time (time units); default all at ``t = 0``.
         - `contact`: panels meet instead of passing through each other (default) or not.
+        - `contact_sampling`: ``(points_per_edge, rim_points_per_edge)``, how densely each panel's
+          inner ring and rim are sampled for contact (`origami_jax.contact.build_tables`; default
+          ``(4, 2)``). An edge resting on another edge is resolved only at these points: to check
+          that a verdict decided by such a lock does not depend on them, fold again with denser
+          sampling, e.g. ``(16, 12)`` (the contact then costs about as many times more as it has
+          points).
         - `drag`: `"panel"` (each panel's own motion, `PanelDrag`; default) or `"hinge"` (the paper's
           ``−b θ̇|θ̇|`` per hinge with ``b`` from the child panel's area and its reach from the crease).
         - `hinges`: `"point"` creases (the paper's model) or bending `"arc"`s of length ``ρ|θ_target|``
@@ -204,22 +211,33 @@ class Net:
                 targets,
                 thickness=design.t_structural,
                 base_thickness=design.t_structural,
-                tables=self.contact_tables(hinges),
+                tables=self.contact_tables(hinges, sampling=contact_sampling),
             )
         return FoldingSystem(tree, hinges_, drag_model, contact=contact_model, units=design.units)
 
-    def contact_tables(self, hinges: str = "point"):
+    def contact_tables(self, hinges: str = "point", *, sampling: tuple[int, int] = (4, 2)):
         """The panels' contact geometry (`origami_jax.contact.ContactTables`), computed once on the
-        host from the pattern (it depends on the geometry only, not on the design's numbers)."""
+        host from the pattern (it depends on the geometry only, not on the design's numbers).
+        `sampling`: ``(points_per_edge, rim_points_per_edge)``, as `system`'s `contact_sampling`."""
         import jax
 
         from ..contact import PanelContact
 
-        if hinges not in self._tables:
+        try:
+            points_per_edge, rim_points_per_edge = sampling
+        except (TypeError, ValueError):
+            raise ValueError(
+                "contact_sampling must be a pair (points_per_edge, rim_points_per_edge), e.g. "
+                f"(4, 2), got {sampling!r}."
+            ) from None
+        key = (hinges, points_per_edge, rim_points_per_edge)
+        if key not in self._tables:
             with jax.ensure_compile_time_eval():
                 tree = self.tree(HingeDesign.literature(), hinges=hinges)
-                self._tables[hinges] = PanelContact.tables_for(tree)
-        return self._tables[hinges]
+                self._tables[key] = PanelContact.tables_for(
+                    tree, points_per_edge=points_per_edge, rim_points_per_edge=rim_points_per_edge
+                )
+        return self._tables[key]
 
     def seam_gaps(self, angles: ArrayLike) -> np.ndarray:
         """Largest end-to-end gap of each seam with the creases at `angles` (rad), in design length
