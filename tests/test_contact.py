@@ -86,9 +86,27 @@ def test_barrier_is_smooth_and_finite():
     np.testing.assert_allclose(barrier(0.5), -(0.25) * np.log(0.5), rtol=1e-14)
 
 
-def test_elastic_force_is_minus_the_energy_gradient_and_damping_dissipates():
+@pytest.mark.parametrize("sampling", [(4, 2), (8, 3)], ids=["default", "denser"])
+def test_elastic_force_is_minus_the_energy_gradient_and_damping_dissipates(sampling):
+    # Denser sampling: points weighted 1/2 (inner ring) and 2/3 (rim), which the hand-written
+    # force must carry as the energy does.
+    from origami_jax.chain._system import _base_rectangle
+
     system = accordion_system(HingeDesign.literature(), 3, contact=True)
-    contact, chain = system.contact, system.mechanism
+    chain = system.mechanism
+    contact = PanelContact.for_system(
+        chain,
+        system.hinges.stiffness,
+        system.hinges.target,
+        thickness=HingeDesign.literature().t_structural,
+        base_outline=_base_rectangle(chain),  # as `accordion_system` builds it
+        points_per_edge=sampling[0],
+        rim_points_per_edge=sampling[1],
+    )
+    if sampling == (4, 2):
+        assert contact.tables == system.contact.tables
+    weights = contact.tables.weights[contact.tables.pairs.any(axis=1)]
+    assert set(np.unique(weights)) == ({1.0} if sampling == (4, 2) else {0.5, 2 / 3, 1.0})
     q = jnp.array([np.pi - 0.005, -np.pi + 0.01, np.pi - 0.01])  # flaps pressed onto each other
     v = jnp.array([0.01, -0.02, 0.03])
 
@@ -172,9 +190,27 @@ def test_blocks_hold_every_checked_pair_once(name):
             assert a != b and tables.pairs[a, b].sum() == m
             np.testing.assert_array_equal(block.points[j], tables.points[a][tables.pairs[a, b]])
             np.testing.assert_array_equal(block.face_edges[j], tables.face_edges[b])
+            np.testing.assert_array_equal(block.weights[j], tables.weights[a][tables.pairs[a, b]])
             seen[a, b] += m
     np.testing.assert_array_equal(seen, tables.pairs.sum(axis=-1))
     assert sum(b.points.shape[0] * b.points.shape[1] for b in tables.blocks) == tables.n_pairs
+
+
+def test_denser_sampling_shares_the_same_weight_per_length_of_ring_and_rim():
+    """The default points weigh 1 each; a denser ring or rim spreads the same total weight over
+    more points (the contact refined, not stiffened): per square panel of the corner cube, 1 (the
+    centre) + 16 (the inner ring) + 8 (the rim) whatever the sampling."""
+    from origami_jax.net import load_net
+
+    net = load_net("corner_cube")
+    default = net.contact_tables()
+    np.testing.assert_array_equal(default.weights, 1.0)
+    for sampling in ((8, 6), (16, 1), (3, 5)):
+        tables = net.contact_tables(sampling=sampling)
+        np.testing.assert_allclose(tables.weights.sum(axis=1), 1 + 16 + 8, rtol=1e-14)
+        assert sorted(set(tables.weights.ravel().round(12))) == sorted(
+            {1.0, round(4 / sampling[0], 12), round(2 / sampling[1], 12)}
+        )
 
 
 def test_contact_sampling_sets_every_panels_points():

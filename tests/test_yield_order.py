@@ -185,9 +185,9 @@ def test_choosing_the_order_raises_the_yield():
     times ±25 µs): released together, or B first (the front along −x), almost every net jams;
     with the front along +x (A first) every net folds, and the two 95 % Wilson intervals do not
     overlap. Measured: 1/8, 1/8 and 8/8. The same net folds in all three: its flap B's film is
-    1.3 % weaker than nominal, and the jam is a tip resting on an edge 0.2° short of clearing it,
-    whose outcome depends on the rim's sampling (docs/physics.md, "An edge resting on an edge"),
-    hence the margins below rather than exact counts."""
+    1.3 % weaker than nominal, and the jam is a tip resting on B's edge 0.2° short of clearing it,
+    whose outcome is not monotone in B's film strain and depends on the contact's stiffness
+    (docs/physics.md, "A tip resting on an edge"), hence the margins below, not exact counts."""
     scatter = ojy.Scatter.from_mapping(
         {
             "defaults": False,

@@ -15,17 +15,20 @@ fixed base's. For a point ``p`` and a face ``F`` (frame
   ``s(x) = x³(10 − 15x + 6x²)``, 0 for ``x ≤ 0`` and ``x − ½`` beyond 1, so ``g`` is C³ in ``p`` (the
   rim's edge rounded over ``δ``; ``|·|`` smoothed at 0 so that its gradient stays finite deep inside).
 
-The contact energy is ``E = κ Σ B(g/ĝ)`` with the barrier of Incremental Potential Contact (Li et al.,
+The contact energy is ``E = κ Σ w B(g/ĝ)`` with the barrier of Incremental Potential Contact (Li et al.,
 SIGGRAPH 2020), ``B(x) = −(x − 1)² ln x`` for ``x < 1`` and 0 beyond: it switches on at the activation
 gap ``ĝ``, is C² there, and grows without bound as the gap closes. Below ``x = 0.1`` it continues as its
 own second-order Taylor polynomial, so that an integrator step that lands past contact sees a finite,
 steep, restoring force instead of a NaN (penetration is then possible, and reported). Each pair's
 energy depends only on the point's coordinates in the face's frame, so its force is a force at the point
 and the opposite force on the face's body at the same place (virtual work); with a dissipative part
-``−c a(g) ġ ∇g`` (``a`` a C² ramp from 0 at ``ĝ`` to 1 at contact, ``ġ = ∇g · v`` from the two
+``−c w a(g) ġ ∇g`` (``a`` a C² ramp from 0 at ``ĝ`` to 1 at contact, ``ġ = ∇g · v`` from the two
 bodies' velocities at the point) they add up to one wrench per body, which the mechanism maps to its
 coordinates (`apply_wrenches`). The elastic part is exactly ``−∂E/∂q``, and contact never adds
-energy: ``v · f = −dE/dt − c Σ a ġ² ≤ −dE/dt``.
+energy: ``v · f = −dE/dt − c Σ w a ġ² ≤ −dE/dt``. ``w`` is the point's share (`ContactTables.
+weights`): 1 for every point of the default sampling, and for a denser ring or rim its spacing
+over the default's, so that more points resolve the same contact (a quadrature along the rings
+and rims) instead of stiffening it.
 
 **Why rim points and an inset face.** A closed seam of a rigidly folded net puts two panels' rims on
 one line, each panel in the plane through the other's rim, and a panel turned past it slides its rim
@@ -68,7 +71,7 @@ from jaxtyping import Array, ArrayLike, Float
 
 from .._validate import is_traced
 from ..system import AbstractContact, AbstractMechanism
-from ._tables import ContactTables, build_tables
+from ._tables import RIM_POINTS_PER_EDGE, RING_POINTS_PER_EDGE, ContactTables, build_tables
 
 _X_MIN = 0.1  # below this fraction of the activation gap the barrier continues as a quadratic
 _LOG_X_MIN = float(np.log(_X_MIN))
@@ -147,8 +150,8 @@ class PanelContact(AbstractContact):
         edge_width: Float[ArrayLike, ""] | None = None,
         base_outline: np.ndarray | None = None,
         base_thickness: Float[ArrayLike, ""] | None = None,
-        points_per_edge: int = 4,
-        rim_points_per_edge: int = 2,
+        points_per_edge: int = RING_POINTS_PER_EDGE,
+        rim_points_per_edge: int = RIM_POINTS_PER_EDGE,
         tables: ContactTables | None = None,
     ) -> "PanelContact":
         """Contact of `mechanism`'s panels (their `outlines()`) with each other and with its base.
@@ -216,8 +219,8 @@ class PanelContact(AbstractContact):
         *,
         base_outline: np.ndarray | None = None,
         inset: float | None = None,
-        points_per_edge: int = 4,
-        rim_points_per_edge: int = 2,
+        points_per_edge: int = RING_POINTS_PER_EDGE,
+        rim_points_per_edge: int = RIM_POINTS_PER_EDGE,
     ) -> ContactTables:
         """The contact geometry of a mechanism whose arrays are known (host; see `ContactTables`):
         its outlines, rest poses and hinge layout. `inset` (the faces' inset ``ι`` and the inner ring's)
@@ -355,10 +358,13 @@ class PanelContact(AbstractContact):
         """Per pair `(a, b, i)`: the energy ``κ B(g/ĝ)``, its gradient in the face frame, the gap and
         its gradient (component tuples; zero for pairs not checked)."""
         mask = self.tables.pairs
+        weight = self.tables.weights[:, None, :]  # host (a, 1, i): each point's share
         gap, normal = self._gap(local)
         ratio = gap / self.activation
-        energy = jnp.where(mask, self.stiffness * barrier(ratio), 0.0)
-        slope = jnp.where(mask, self.stiffness * _barrier_slope(ratio) / self.activation, 0.0)
+        energy = jnp.where(mask, weight * self.stiffness * barrier(ratio), 0.0)
+        slope = jnp.where(
+            mask, weight * self.stiffness * _barrier_slope(ratio) / self.activation, 0.0
+        )
         gradient = tuple(slope * n for n in normal)
         return energy, gradient, gap, normal
 
@@ -430,7 +436,8 @@ class PanelContact(AbstractContact):
                 + nz * (uz + wx * y - wy * x)
             )
             engaged = smoothstep(1 - ratio)
-            push = -self.damping * engaged * rate - slope
+            # Each point's share of the energy (1 at the default sampling) scales both parts.
+            push = block.weights * (-self.damping * engaged * rate - slope)
             # Elastic (−∇e, the slope along the normal) and dissipative, on the point of a; b takes
             # the opposite at the same place.
             fx, fy, fz = push * nx, push * ny, push * nz

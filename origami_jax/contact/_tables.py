@@ -32,6 +32,10 @@ class ContactTables:
     - `pairs`: `(n, n, p)` booleans: point `i` of body `a` is checked against the face of body `b`
       (never its own; padding and points near a crease the two share are left out).
     - `scale`: the largest panel's diameter (length).
+    - `weights`: `(n, p)` each point's share of the contact energy (`PanelContact`'s
+      ``κ Σ w B(g/ĝ)``): 1 at the default sampling, so that denser sampling refines the same contact
+      (a quadrature along the rings and rims) instead of stiffening it; 0 for padding. Default: 1
+      for every point.
     """
 
     n_bodies: int
@@ -42,11 +46,14 @@ class ContactTables:
     pairs: np.ndarray
     scale: float
     face_inset: float = 0.0
+    weights: np.ndarray | None = None
     digest: str = dataclasses.field(default="", repr=False)
 
     def __post_init__(self):
+        if self.weights is None:
+            object.__setattr__(self, "weights", np.ones(self.points.shape[:2]))
         h = hashlib.sha256()
-        for name in ("base_pose", "points", "face_edges", "pairs"):
+        for name in ("base_pose", "points", "face_edges", "pairs", "weights"):
             array = np.ascontiguousarray(getattr(self, name))
             h.update(name.encode())
             h.update(str(array.shape).encode())
@@ -77,8 +84,17 @@ class ContactTables:
         for count in sorted(set(counts[counts > 0].tolist()), reverse=True):
             a, b = np.nonzero(counts == count)
             points = np.stack([self.points[i][self.pairs[i, j]] for i, j in zip(a, b, strict=True)])
+            weights = np.stack(
+                [self.weights[i][self.pairs[i, j]] for i, j in zip(a, b, strict=True)]
+            )
             blocks.append(
-                PairBlock(point_body=a, face_body=b, points=points, face_edges=self.face_edges[b])
+                PairBlock(
+                    point_body=a,
+                    face_body=b,
+                    points=points,
+                    face_edges=self.face_edges[b],
+                    weights=weights,
+                )
             )
         return tuple(blocks)
 
@@ -88,12 +104,13 @@ class PairBlock:
     """Body pairs that check the same number ``m`` of points (host NumPy arrays; `ContactTables.
     blocks`): `point_body` `(k,)` and `face_body` `(k,)` the two bodies of each pair (the base is
     `n_bodies`), `points` `(k, m, 3)` the point body's checked points in its frame, `face_edges`
-    `(k, e, 3)` the face body's half-planes."""
+    `(k, e, 3)` the face body's half-planes, `weights` `(k, m)` the points' shares of the energy."""
 
     point_body: np.ndarray
     face_body: np.ndarray
     points: np.ndarray
     face_edges: np.ndarray
+    weights: np.ndarray
 
 
 def plane_frame(polygon: np.ndarray) -> np.ndarray:
@@ -184,22 +201,38 @@ def _ring(polygon: np.ndarray, per_edge: int, offset: float = 0.0) -> list:
     return points
 
 
-def _sample_points(outline: np.ndarray, inset: float, per_edge: int, rim: int = 1) -> np.ndarray:
+# The default sampling (`build_tables`): its points weigh 1 each; denser rings and rims share the
+# same weight per length of ring or rim.
+RING_POINTS_PER_EDGE = 4
+RIM_POINTS_PER_EDGE = 2
+
+
+def _sample_points(
+    outline: np.ndarray, inset: float, per_edge: int, rim: int = 1
+) -> tuple[np.ndarray, np.ndarray]:
     """The vertex mean, a ring on the rim of the panel moved `inset` inwards (`per_edge` points along
     its longest edge and the corners, `_ring`), and a ring on the rim itself: `rim` points along
     its longest edge, half a spacing from the corners (the edges' midpoints for 1; none for 0).
+    Returns the points `(p, 3)` and their weights `(p,)`: 1 for the centre, and for the rings
+    their spacing over the default sampling's (`RING_POINTS_PER_EDGE / per_edge`,
+    `RIM_POINTS_PER_EDGE / rim`).
 
     The inner ring lies on the face that other panels' points meet (`PanelContact` insets every face
     by `inset`), so that a panel stacked on another of the same outline lies over its face; the
     outer ring is where an edge meets another panel's edge."""
     inner = _inset_polygon(outline, inset)
     points = [np.asarray(outline, dtype=float).mean(axis=0)]
+    weights = [1.0]
     if len(inner) >= 3:
-        points += _ring(inner, per_edge)
+        ring = _ring(inner, per_edge)
+        points += ring
+        weights += [RING_POINTS_PER_EDGE / per_edge] * len(ring)
         if rim > 0:
             hull = _convex_hull(np.asarray(outline, dtype=float)[:, :2])
-            points += _ring(np.concatenate([hull, np.zeros((len(hull), 1))], axis=1), rim, 0.5)
-    return np.asarray(points)
+            edge = _ring(np.concatenate([hull, np.zeros((len(hull), 1))], axis=1), rim, 0.5)
+            points += edge
+            weights += [RIM_POINTS_PER_EDGE / rim] * len(edge)
+    return np.asarray(points), np.asarray(weights)
 
 
 def _distance_to_segment(points: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -217,9 +250,9 @@ def build_tables(
     crease_ends: np.ndarray,
     *,
     inset: float,
-    points_per_edge: int = 4,
+    points_per_edge: int = RING_POINTS_PER_EDGE,
     crease_clearance: float = 0.5,
-    rim_points_per_edge: int = 2,
+    rim_points_per_edge: int = RIM_POINTS_PER_EDGE,
 ) -> ContactTables:
     """The contact geometry of panels given by their body-frame outlines.
 
@@ -240,6 +273,10 @@ def build_tables(
     - `rim_points_per_edge`: points along each panel's longest edge on its rim itself (edge-on-edge
       contact), half a spacing from the corners: 2 (the default) a quarter of the edge from either
       corner, 1 the edges' midpoints, 0 none.
+
+    Each point's share of the energy (`ContactTables.weights`) is its ring's spacing over the
+    default's, so that a denser sampling resolves the same contact more finely rather than making
+    it stiffer (the default points weigh 1).
     """
     for name, value, least in (
         ("points_per_edge", points_per_edge, 1),
@@ -268,10 +305,11 @@ def build_tables(
     sizes = [float(np.max(np.ptp(w, axis=0))) for w in world_outlines]
     scale = max(sizes)
 
-    points, world_points = [], []
+    points, weights, world_points = [], [], []
     for body, face in enumerate(faces):
-        samples = _sample_points(face, inset, points_per_edge, rim_points_per_edge)
+        samples, shares = _sample_points(face, inset, points_per_edge, rim_points_per_edge)
         points.append(samples)
+        weights.append(shares)
         pose = base_pose if body == n else rest_poses[body]
         world_points.append(samples @ pose[:3, :3].T + pose[:3, 3])
     planes = [_half_planes(f) for f in faces]
@@ -286,9 +324,11 @@ def build_tables(
     n_all = len(faces)
     width = max(len(p) for p in points)
     padded = np.zeros((n_all, width, 3))
+    padded_weights = np.zeros((n_all, width))
     pairs = np.zeros((n_all, n_all, width), bool)
     for body, (samples, rim_world) in enumerate(zip(points, world_points, strict=True)):
         padded[body, : len(samples)] = samples
+        padded_weights[body, : len(samples)] = weights[body]
         for face in range(n_all):
             if face == body:
                 continue
@@ -307,4 +347,5 @@ def build_tables(
         pairs=pairs,
         scale=scale,
         face_inset=float(inset),
+        weights=padded_weights,
     )

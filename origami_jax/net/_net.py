@@ -139,10 +139,10 @@ class Net:
         - `contact`: panels meet instead of passing through each other (default) or not.
         - `contact_sampling`: ``(points_per_edge, rim_points_per_edge)``, how densely each panel's
           inner ring and rim are sampled for contact (`origami_jax.contact.build_tables`; default
-          ``(4, 2)``). An edge resting on another edge is resolved only at these points: to check
-          that a verdict decided by such a lock does not depend on them, fold again with denser
-          sampling, e.g. ``(16, 12)`` (the contact then costs about as many times more as it has
-          points).
+          ``(4, 2)``). Each point carries its share of the ring's or rim's length, so a denser
+          sampling resolves the same contact more finely: fold again with, e.g., ``(16, 12)`` to
+          check that a verdict decided where edges meet does not depend on it (the contact then
+          costs about as many times more as it has points).
         - `drag`: `"panel"` (each panel's own motion, `PanelDrag`; default) or `"hinge"` (the paper's
           ``−b θ̇|θ̇|`` per hinge with ``b`` from the child panel's area and its reach from the crease).
         - `hinges`: `"point"` creases (the paper's model) or bending `"arc"`s of length ``ρ|θ_target|``
