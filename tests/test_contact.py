@@ -237,6 +237,22 @@ def test_contact_sampling_sets_every_panels_points():
             net.system(contact_sampling=bad)
 
 
+def test_closed_loop_patterns_and_the_command_line_take_the_sampling(tmp_path, capsys):
+    from origami_jax.cli import main
+    from origami_jax.loops import load_pattern
+
+    pattern = load_pattern("vertex_degree4")
+    default, dense = (
+        pattern.system(contact_sampling=sampling).contact.tables for sampling in ((4, 2), (8, 6))
+    )
+    assert dense.n_pairs > default.n_pairs
+    np.testing.assert_allclose(dense.weights.sum(axis=1), default.weights.sum(axis=1), rtol=1e-12)
+    for value in ("8", "0,2", "4,-1", "x,2"):
+        argv = ["fold", "corner_cube", "--contact-sampling", value, "--out", str(tmp_path / "o")]
+        assert main(argv) == 2, value
+        assert "--contact-sampling expects RING,RIM" in capsys.readouterr().err
+
+
 def test_net_contact_force_against_a_point_by_point_world_sum():
     # The kernel works per body pair in the face's frame with the gap's gradient by hand; the
     # reference goes point by point in the world frame (NumPy): the elastic part from the energy's

@@ -119,6 +119,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="release each crease when an etch front moving along (DX, DY) at SPEED µm/µs passes it",
     )
     parser.add_argument("--no-contact", action="store_true", help="panels pass through each other")
+    parser.add_argument(
+        "--contact-sampling",
+        default="4,2",
+        metavar="RING,RIM",
+        help="contact points per panel edge on the inner ring and on the rim (default 4,2; denser "
+        "resolves the same contact more finely, to check a verdict where edges meet)",
+    )
     parser.add_argument("--drag", choices=("panel", "hinge"), default="panel", help="default panel")
     parser.add_argument(
         "--hinges", choices=("point", "arc"), default="point", help="point creases or bending arcs"
@@ -193,6 +200,16 @@ def _floats(text: str | None, what: str) -> list[float] | None:
         raise ValueError(f"{what}: {error}") from None
 
 
+def _sampling(text: str) -> tuple[int, int]:
+    parts = [x.strip() for x in text.split(",")]
+    if len(parts) != 2 or not all(p.isdigit() for p in parts) or int(parts[0]) < 1:
+        raise ValueError(
+            f"--contact-sampling expects RING,RIM: two whole numbers, RING >= 1 (e.g. 8,6), got "
+            f"{text!r}."
+        )
+    return int(parts[0]), int(parts[1])
+
+
 def _params(items: list[str]) -> dict[str, float]:
     out = {}
     for item in items:
@@ -217,6 +234,7 @@ def run(args: argparse.Namespace) -> int:
         targets_deg = _floats(args.targets, "--targets")
         release = _floats(args.release, "--release")
         front = _floats(args.etch_front, "--etch-front")
+        sampling = _sampling(args.contact_sampling)
     except ValueError as error:
         fail(str(error))
     if front is not None and len(front) != 3:
@@ -267,6 +285,7 @@ def run(args: argparse.Namespace) -> int:
             contact=not args.no_contact,
             drag=args.drag,
             hinges=args.hinges,
+            contact_sampling=sampling,
         )
         if loops:
             options["check_rigid"] = not args.no_rigid_check
@@ -342,6 +361,7 @@ def _run(args, net, system, loops, params, release, theta0, theta_dot0, output) 
         params=params,
         fluid=args.fluid,
         contact=not args.no_contact,
+        contact_sampling=list(_sampling(args.contact_sampling)),
         drag=args.drag,
         hinges=args.hinges,
         closed_loops=net.n_loops if loops else 0,

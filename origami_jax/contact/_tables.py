@@ -189,16 +189,32 @@ def _inset_polygon(outline: np.ndarray, inset: float) -> np.ndarray:
     return corners
 
 
-def _ring(polygon: np.ndarray, per_edge: int, offset: float = 0.0) -> list:
-    """`per_edge` points along a convex polygon's longest edge, proportionally fewer on shorter ones,
-    spaced evenly from each edge's start (its corner) or, with `offset` ½, from half a spacing in."""
+def _ring_counts(polygon: np.ndarray, per_edge: int) -> np.ndarray:
+    """How many points `_ring` puts on each edge of `polygon`: `per_edge` on the longest,
+    proportionally fewer (at least one) on shorter ones."""
     lengths = np.linalg.norm(polygon - np.roll(polygon, -1, axis=0), axis=-1)
     spacing = lengths.max() / max(per_edge, 1)
-    points = []
-    for a, b, length in zip(polygon, np.roll(polygon, -1, axis=0), lengths, strict=True):
-        n = max(1, int(np.ceil(length / spacing - 1e-9)))
+    return np.maximum(1, np.ceil(lengths / spacing - 1e-9).astype(int))
+
+
+def _ring(
+    polygon: np.ndarray, per_edge: int, default: int, offset: float = 0.0
+) -> tuple[list, list]:
+    """`per_edge` points along a convex polygon's longest edge, proportionally fewer on shorter ones,
+    spaced evenly from each edge's start (its corner) or, with `offset` ½, from half a spacing in;
+    and each point's weight: its spacing over the spacing on the same edge with `default` points
+    along the longest (1 at the default; the weights on an edge sum to the default's count)."""
+    points, weights = [], []
+    for a, b, n, m in zip(
+        polygon,
+        np.roll(polygon, -1, axis=0),
+        _ring_counts(polygon, per_edge),
+        _ring_counts(polygon, default),
+        strict=True,
+    ):
         points += [a + s * (b - a) for s in (np.arange(n) + offset) / n]
-    return points
+        weights += [m / n] * n
+    return points, weights
 
 
 # The default sampling (`build_tables`): its points weigh 1 each; denser rings and rims share the
@@ -207,15 +223,28 @@ RING_POINTS_PER_EDGE = 4
 RIM_POINTS_PER_EDGE = 2
 
 
+def sampling_pair(sampling) -> tuple[int, int]:
+    """``(points_per_edge, rim_points_per_edge)`` from a `contact_sampling` argument, or a one-line
+    `ValueError` (the counts themselves are checked by `build_tables`)."""
+    try:
+        points_per_edge, rim_points_per_edge = sampling
+    except (TypeError, ValueError):
+        raise ValueError(
+            "contact_sampling must be a pair (points_per_edge, rim_points_per_edge), e.g. "
+            f"(4, 2), got {sampling!r}."
+        ) from None
+    return points_per_edge, rim_points_per_edge
+
+
 def _sample_points(
     outline: np.ndarray, inset: float, per_edge: int, rim: int = 1
 ) -> tuple[np.ndarray, np.ndarray]:
     """The vertex mean, a ring on the rim of the panel moved `inset` inwards (`per_edge` points along
     its longest edge and the corners, `_ring`), and a ring on the rim itself: `rim` points along
     its longest edge, half a spacing from the corners (the edges' midpoints for 1; none for 0).
-    Returns the points `(p, 3)` and their weights `(p,)`: 1 for the centre, and for the rings
-    their spacing over the default sampling's (`RING_POINTS_PER_EDGE / per_edge`,
-    `RIM_POINTS_PER_EDGE / rim`).
+    Returns the points `(p, 3)` and their weights `(p,)`: 1 for the centre, and on the rings each
+    point's spacing over the spacing on its edge at the default sampling (`RING_POINTS_PER_EDGE`,
+    `RIM_POINTS_PER_EDGE`): 1 at the default, and each edge's total the same at any sampling.
 
     The inner ring lies on the face that other panels' points meet (`PanelContact` insets every face
     by `inset`), so that a panel stacked on another of the same outline lies over its face; the
@@ -224,14 +253,15 @@ def _sample_points(
     points = [np.asarray(outline, dtype=float).mean(axis=0)]
     weights = [1.0]
     if len(inner) >= 3:
-        ring = _ring(inner, per_edge)
+        ring, shares = _ring(inner, per_edge, RING_POINTS_PER_EDGE)
         points += ring
-        weights += [RING_POINTS_PER_EDGE / per_edge] * len(ring)
+        weights += shares
         if rim > 0:
             hull = _convex_hull(np.asarray(outline, dtype=float)[:, :2])
-            edge = _ring(np.concatenate([hull, np.zeros((len(hull), 1))], axis=1), rim, 0.5)
+            hull = np.concatenate([hull, np.zeros((len(hull), 1))], axis=1)
+            edge, shares = _ring(hull, rim, RIM_POINTS_PER_EDGE, offset=0.5)
             points += edge
-            weights += [RIM_POINTS_PER_EDGE / rim] * len(edge)
+            weights += shares
     return np.asarray(points), np.asarray(weights)
 
 

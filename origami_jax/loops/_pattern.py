@@ -234,6 +234,7 @@ class CreasePattern:
         hinges: str = "point",
         check_rigid: bool = True,
         rate_factor: float = RATE_FACTOR,
+        contact_sampling: tuple[int, int] = (4, 2),
     ) -> FoldingSystem:
         """The folding system of this pattern with the hinges, films and fluid of `design`.
 
@@ -252,6 +253,8 @@ class CreasePattern:
           rigid panels cannot fold to its angles.
         - `rate_factor`: the closure's Baumgarte rate in units of the fastest hinge's natural
           frequency ``sqrt(k / I)``.
+        - `contact_sampling`: ``(points_per_edge, rim_points_per_edge)``, as for nets
+          (`origami_jax.net.Net.system`).
 
         **Raises:** `ValueError` for bad arguments, `FoldFormatError` for target angles that do not
         close or violate Kawasaki/Maekawa at a flat-folded vertex, `NotRigidlyFoldableError`.
@@ -307,7 +310,11 @@ class CreasePattern:
         contact_model = None
         if contact:
             contact_model = _contact(
-                mechanism, stiffness, targets, thickness=float(np.asarray(design.t_structural))
+                mechanism,
+                stiffness,
+                targets,
+                thickness=float(np.asarray(design.t_structural)),
+                sampling=contact_sampling,
             )
         return FoldingSystem(
             mechanism, hinges_, drag_model, contact=contact_model, units=design.units
@@ -421,12 +428,15 @@ def _with_branch(pattern: CreasePattern, report, trajectory, bias: float):
     return LoopFoldReport.from_report(pattern, report, trajectory, bias)
 
 
-def _contact(mechanism: LoopedPanels, stiffness, targets, *, thickness: float):
+def _contact(mechanism: LoopedPanels, stiffness, targets, *, thickness: float, sampling=(4, 2)):
     """`PanelContact` with the defaults of `PanelContact.for_system`, where panels that share a crease
-    (tree or cut) or only a vertex do not meet near what they share."""
+    (tree or cut) or only a vertex do not meet near what they share; `sampling` is
+    ``(points_per_edge, rim_points_per_edge)`` (`build_tables`)."""
 
     from ..contact import PanelContact
-    from ..contact._tables import build_tables
+    from ..contact._tables import build_tables, sampling_pair
+
+    points_per_edge, rim_points_per_edge = sampling_pair(sampling)
 
     n = mechanism.n_bodies
     probe = PanelContact.from_mechanism(mechanism, thickness=thickness, stiffness=1.0, damping=0.0)
@@ -460,6 +470,8 @@ def _contact(mechanism: LoopedPanels, stiffness, targets, *, thickness: float):
         np.concatenate(children),
         np.concatenate(ends),
         inset=2 * float(probe.edge_width),
+        points_per_edge=points_per_edge,
+        rim_points_per_edge=rim_points_per_edge,
     )
     # Stiffness and damping as `PanelContact.for_system` sets them, traceable in the hinges (a sweep
     # over hinge parameters builds contact inside `vmap`); the tables are the flat geometry's.

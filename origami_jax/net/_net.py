@@ -222,14 +222,9 @@ class Net:
         import jax
 
         from ..contact import PanelContact
+        from ..contact._tables import sampling_pair
 
-        try:
-            points_per_edge, rim_points_per_edge = sampling
-        except (TypeError, ValueError):
-            raise ValueError(
-                "contact_sampling must be a pair (points_per_edge, rim_points_per_edge), e.g. "
-                f"(4, 2), got {sampling!r}."
-            ) from None
+        points_per_edge, rim_points_per_edge = sampling_pair(sampling)
         key = (hinges, points_per_edge, rim_points_per_edge)
         if key not in self._tables:
             with jax.ensure_compile_time_eval():
