@@ -355,7 +355,7 @@ class PanelContact(AbstractContact):
         return gap, (dx / root, dy / root, z / root)
 
     def _pair_terms(self, local):
-        """Per pair `(a, b, i)`: the energy ``κ B(g/ĝ)``, its gradient in the face frame, the gap and
+        """Per pair `(a, b, i)`: the energy ``κ w B(g/ĝ)``, its gradient in the face frame, the gap and
         its gradient (component tuples; zero for pairs not checked)."""
         mask = self.tables.pairs
         weight = self.tables.weights[:, None, :]  # host (a, 1, i): each point's share
