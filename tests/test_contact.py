@@ -247,10 +247,24 @@ def test_closed_loop_patterns_and_the_command_line_take_the_sampling(tmp_path, c
     )
     assert dense.n_pairs > default.n_pairs
     np.testing.assert_allclose(dense.weights.sum(axis=1), default.weights.sum(axis=1), rtol=1e-12)
-    for value in ("8", "0,2", "4,-1", "x,2"):
-        argv = ["fold", "corner_cube", "--contact-sampling", value, "--out", str(tmp_path / "o")]
-        assert main(argv) == 2, value
-        assert "--contact-sampling expects RING,RIM" in capsys.readouterr().err
+    for command in ("fold", "yield"):
+        for value in ("8", "0,2", "4,-1", "x,2"):
+            argv = [command, "corner_cube", "--contact-sampling", value, "--out", str(tmp_path)]
+            assert main(argv) == 2, (command, value)
+            assert "--contact-sampling expects RING,RIM" in capsys.readouterr().err
+
+
+def test_sweeps_and_yield_estimates_take_the_sampling():
+    """The net kernel names a sampling only when it is not the default (stores written before it
+    existed stay resumable); `yield_estimate` refuses a bad one before compiling."""
+    from origami_jax.fab_yield import yield_estimate
+    from origami_jax.sweep import get_model
+
+    assert "contact_sampling" not in get_model("net-fold", net="corner_cube").settings
+    dense = get_model("net-fold", net="corner_cube", contact_sampling=(8, 6))
+    assert dense.settings["contact_sampling"] == [8, 6]
+    with pytest.raises(ValueError, match="rim_points_per_edge must be a whole number >= 0"):
+        yield_estimate("corner_cube", n_samples=2, contact_sampling=(4, -1), progress=False)
 
 
 def test_net_contact_force_against_a_point_by_point_world_sum():

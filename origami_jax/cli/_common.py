@@ -138,6 +138,29 @@ def int_range(value: int, flag: str, low: int, high: int, *, why: str = "") -> i
     return value
 
 
+def add_contact_sampling_argument(parser: argparse.ArgumentParser) -> None:
+    """`--contact-sampling RING,RIM` (`contact_sampling` of `Net.system`; parse with
+    `contact_sampling`)."""
+    parser.add_argument(
+        "--contact-sampling",
+        default="4,2",
+        metavar="RING,RIM",
+        help="contact points per panel edge on the inner ring and on the rim (default 4,2; denser "
+        "resolves the same contact more finely, to check a verdict where edges meet)",
+    )
+
+
+def contact_sampling(text: str) -> tuple[int, int]:
+    """The two counts of `--contact-sampling`, or a one-line exit (before anything compiles)."""
+    parts = [x.strip() for x in text.split(",")]
+    if len(parts) != 2 or not all(p.isdigit() for p in parts) or int(parts[0]) < 1:
+        fail(
+            f"--contact-sampling expects RING,RIM: two whole numbers, RING >= 1 (e.g. 8,6), got "
+            f"{text!r}."
+        )
+    return int(parts[0]), int(parts[1])
+
+
 def jsonable(value: Any) -> Any:
     """`value` as plain JSON: NumPy and JAX numbers and arrays as Python numbers and lists, NaN and
     infinities as `None` (JSON `null`: strict JSON has no NaN), mappings and sequences recursed."""

@@ -16,8 +16,10 @@ from ._common import (
     EXIT_FAILED,
     EXIT_OK,
     OutputFolder,
+    add_contact_sampling_argument,
     add_figures_argument,
     add_out_argument,
+    contact_sampling,
     dumps_json,
     fail,
     finite,
@@ -119,13 +121,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="release each crease when an etch front moving along (DX, DY) at SPEED µm/µs passes it",
     )
     parser.add_argument("--no-contact", action="store_true", help="panels pass through each other")
-    parser.add_argument(
-        "--contact-sampling",
-        default="4,2",
-        metavar="RING,RIM",
-        help="contact points per panel edge on the inner ring and on the rim (default 4,2; denser "
-        "resolves the same contact more finely, to check a verdict where edges meet)",
-    )
+    add_contact_sampling_argument(parser)
     parser.add_argument("--drag", choices=("panel", "hinge"), default="panel", help="default panel")
     parser.add_argument(
         "--hinges", choices=("point", "arc"), default="point", help="point creases or bending arcs"
@@ -200,16 +196,6 @@ def _floats(text: str | None, what: str) -> list[float] | None:
         raise ValueError(f"{what}: {error}") from None
 
 
-def _sampling(text: str) -> tuple[int, int]:
-    parts = [x.strip() for x in text.split(",")]
-    if len(parts) != 2 or not all(p.isdigit() for p in parts) or int(parts[0]) < 1:
-        raise ValueError(
-            f"--contact-sampling expects RING,RIM: two whole numbers, RING >= 1 (e.g. 8,6), got "
-            f"{text!r}."
-        )
-    return int(parts[0]), int(parts[1])
-
-
 def _params(items: list[str]) -> dict[str, float]:
     out = {}
     for item in items:
@@ -234,9 +220,9 @@ def run(args: argparse.Namespace) -> int:
         targets_deg = _floats(args.targets, "--targets")
         release = _floats(args.release, "--release")
         front = _floats(args.etch_front, "--etch-front")
-        sampling = _sampling(args.contact_sampling)
     except ValueError as error:
         fail(str(error))
+    sampling = contact_sampling(args.contact_sampling)
     if front is not None and len(front) != 3:
         fail("--etch-front expects DX,DY,SPEED (a direction in the plane and a speed in µm/µs).")
     if args.t1 is not None:
@@ -361,7 +347,7 @@ def _run(args, net, system, loops, params, release, theta0, theta_dot0, output) 
         params=params,
         fluid=args.fluid,
         contact=not args.no_contact,
-        contact_sampling=list(_sampling(args.contact_sampling)),
+        contact_sampling=list(contact_sampling(args.contact_sampling)),
         drag=args.drag,
         hinges=args.hinges,
         closed_loops=net.n_loops if loops else 0,

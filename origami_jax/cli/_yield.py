@@ -8,7 +8,9 @@ from pathlib import Path
 from ._common import (
     EXIT_OK,
     OutputFolder,
+    add_contact_sampling_argument,
     check_out_folder,
+    contact_sampling,
     dumps_json,
     fail,
     in_range,
@@ -96,6 +98,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "hinge_width=2,2,2,2,2 in µm): where the scatter is centred and --improve starts",
     )
     parser.add_argument("--fluid", choices=("air", "koh"), default="koh", help="default koh")
+    add_contact_sampling_argument(parser)
     parser.add_argument("--t-end", type=float, default=1500.0, help="simulated time, µs (1500)")
     parser.add_argument(
         "--rtol",
@@ -318,6 +321,7 @@ def run(args: argparse.Namespace) -> int:
     in_range(args.seam_tolerance, "--seam-tolerance", 0.0, 1.0, what=" (a fraction of the panel)")
     if not 0 < args.confidence < 1:
         fail(f"--confidence must lie strictly between 0 and 1, got {args.confidence}.")
+    sampling = contact_sampling(args.contact_sampling)
     factors = _factors(args.widths)
     release = _numbers(args.release, "--release")
     front = _numbers(args.etch_front, "--etch-front")
@@ -358,6 +362,7 @@ def run(args: argparse.Namespace) -> int:
         process=process,
         t_end=args.t_end,
         rtol=args.rtol,
+        contact_sampling=sampling,
         angle_tolerance_deg=args.angle_tolerance,
         seam_tolerance=args.seam_tolerance,
         confidence=args.confidence,
@@ -407,6 +412,7 @@ def run(args: argparse.Namespace) -> int:
         "process": process,
         "t_end_us": args.t_end,
         "rtol": args.rtol,
+        "contact_sampling": list(sampling),
         **estimate.to_dict(),
         "compile_s": float(ds.attrs.get("compile_s", 0.0)),
         "wall_s": elapsed,

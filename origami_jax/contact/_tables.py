@@ -224,8 +224,8 @@ RIM_POINTS_PER_EDGE = 2
 
 
 def sampling_pair(sampling) -> tuple[int, int]:
-    """``(points_per_edge, rim_points_per_edge)`` from a `contact_sampling` argument, or a one-line
-    `ValueError` (the counts themselves are checked by `build_tables`)."""
+    """``(points_per_edge, rim_points_per_edge)`` from a `contact_sampling` argument: whole numbers,
+    at least 1 and 0; otherwise a one-line `ValueError`."""
     try:
         points_per_edge, rim_points_per_edge = sampling
     except (TypeError, ValueError):
@@ -233,7 +233,13 @@ def sampling_pair(sampling) -> tuple[int, int]:
             "contact_sampling must be a pair (points_per_edge, rim_points_per_edge), e.g. "
             f"(4, 2), got {sampling!r}."
         ) from None
-    return points_per_edge, rim_points_per_edge
+    for name, value, least in (
+        ("points_per_edge", points_per_edge, 1),
+        ("rim_points_per_edge", rim_points_per_edge, 0),
+    ):
+        if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < least:
+            raise ValueError(f"{name} must be a whole number >= {least}, got {value!r}.")
+    return int(points_per_edge), int(rim_points_per_edge)
 
 
 def _sample_points(
@@ -308,12 +314,7 @@ def build_tables(
     default's, so that a denser sampling resolves the same contact more finely rather than making
     it stiffer (the default points weigh 1).
     """
-    for name, value, least in (
-        ("points_per_edge", points_per_edge, 1),
-        ("rim_points_per_edge", rim_points_per_edge, 0),
-    ):
-        if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < least:
-            raise ValueError(f"{name} must be a whole number >= {least}, got {value!r}.")
+    points_per_edge, rim_points_per_edge = sampling_pair((points_per_edge, rim_points_per_edge))
     n = len(outlines)
     outlines = [np.asarray(o, dtype=float) for o in outlines]
     for i, outline in enumerate(outlines):

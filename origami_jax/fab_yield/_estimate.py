@@ -211,6 +211,7 @@ def yield_estimate(
     rtol: float | None = None,
     contact: bool = True,
     drag: str = "panel",
+    contact_sampling: tuple[int, int] = (4, 2),
     angle_tolerance_deg: float = 3.0,
     seam_tolerance: float = 0.01,
     confidence: float = 0.95,
@@ -253,7 +254,7 @@ def yield_estimate(
       1e-2 `rtol`, the defaults' ratio). Looser is faster and moves contact events in time: on 16
       scattered cube nets every verdict was the same from 1e-4 to 1e-10, with 40 % fewer steps at
       1e-5 than at the default; check on a few samples of your own net before relying on it.
-    - `contact`, `drag`: as `origami_jax.net.Net.system`.
+    - `contact`, `drag`, `contact_sampling`: as `origami_jax.net.Net.system`.
     - `angle_tolerance_deg` (degrees) and `seam_tolerance` (a fraction of the largest panel's
       size, 0.01: 2 µm on 200 µm panels): the verdict's tolerances
       (`origami_jax.simulation.VerdictTolerances`). The seam tolerance is the stricter of the two
@@ -349,6 +350,7 @@ def yield_estimate(
         atol=None if rtol is None else DEFAULT_ATOL / DEFAULT_RTOL * float(rtol),
         contact=contact,
         drag=drag,
+        contact_sampling=contact_sampling,
         angle_tolerance_deg=angle_tolerance_deg,
         seam_tolerance=seam_tolerance,
     )

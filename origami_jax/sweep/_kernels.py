@@ -419,6 +419,7 @@ def net_fold(
     design: Any = None,
     targets: Any = None,
     hinge_lengths: str = "ideal",
+    contact_sampling: tuple[int, int] = (4, 2),
 ) -> Kernel:
     """Sweep kernel: does a net of panels, or a crease pattern with closed loops, fold? Verdict and
     numbers per design (explicit Tsit5 under the contact guard;
@@ -457,11 +458,14 @@ def net_fold(
       lithography fixes) and a design whose films differ (swept `misfit_strain`, `t_hinge`,
       `t_structural`) bends them to ``l / ρ = θ_target ρ₀ / ρ`` (paper Eq. 7 with ``l = ρ θ``): the
       fold angle of a fabricated hinge whose film stress or thickness is off.
+
+    `contact_sampling`: ``(points_per_edge, rim_points_per_edge)``, as `Net.system`'s.
     """
     import diffrax
     import jax.numpy as jnp
     import numpy as np
 
+    from ..contact._tables import sampling_pair
     from ..loops import CreasePattern, load_pattern
     from ..simulation import DEFAULT_ATOL, DEFAULT_RTOL, RESULTS, Step, VerdictTolerances, simulate
     from ..system import AIR, KOH_SOLUTION, HingeDesign
@@ -472,6 +476,7 @@ def net_fold(
     rtol = DEFAULT_RTOL if rtol is None else _setting(rtol, "rtol", low=0.0)
     atol = DEFAULT_ATOL if atol is None else _setting(atol, "atol", low=0.0)
     tolerances = VerdictTolerances.from_degrees(angle_tolerance_deg, seam_tolerance)
+    sampling = sampling_pair(contact_sampling)
     if design is not None and fluid is not None:
         raise ValueError("give the fluid in the design (HingeDesign(fluid=...)), not both.")
     if design is not None and not isinstance(design, HingeDesign):
@@ -548,7 +553,13 @@ def net_fold(
             aim = intended if aim is None else aim
             aim = aim * design.curvature() / base.curvature()
         system = the_net.system(
-            design, targets=aim, release_times=times, contact=contact, drag=drag, hinges=hinges
+            design,
+            targets=aim,
+            release_times=times,
+            contact=contact,
+            drag=drag,
+            hinges=hinges,
+            contact_sampling=sampling,
         )
         trajectory = simulate(
             system,
@@ -614,6 +625,7 @@ def net_fold(
             **({} if design is None else {"design": design_settings(design)}),
             **({} if aims is None else {"targets": aims.tolist()}),
             **({} if hinge_lengths == "ideal" else {"hinge_lengths": hinge_lengths}),
+            **({} if sampling == (4, 2) else {"contact_sampling": list(sampling)}),
         },
         parameters=parameters,
         output_units={
