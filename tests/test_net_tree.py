@@ -285,33 +285,55 @@ def test_forward_dynamics_gradients(tiny_tree):
     through `jax.vmap` (its batching rule and the custom derivative rule underneath): the JVP along
     a random direction against the difference quotient (step 1e-6, error O(1e-12) relative to the
     O(1) entries, so 1e-6 leaves room for rounding), and the VJP against the JVP by the adjoint
-    identity ``<c, J d> = <Jᵀ c, d>``. One compiled program (`jax.test_util.check_grads` compiled
-    one per mode and evaluation, ~20 s)."""
+    identity ``<c, J d> = <Jᵀ c, d>``. The rule (from the inverse dynamics) against plain autodiff
+    of the whole algorithm along a direction in the tree's own numbers too (axes, points, masses,
+    inertias: what a design gradient moves), to rounding (1e-10). One compiled program
+    (`jax.test_util.check_grads` compiled one per mode and evaluation, ~20 s)."""
     q, v, tau = (jnp.asarray(x) for x in random_states(3, 2, seed=8))
     v = v * 10  # make the velocity terms matter
     rng = np.random.default_rng(18)
     direction = tuple(jnp.asarray(rng.normal(size=x.shape)) for x in (q, v, tau))
     cotangent = jnp.asarray(rng.normal(size=q.shape))
     eps = 1e-6
+    numbers, rest = eqx.partition(tiny_tree, eqx.is_inexact_array)
+    tree_direction = jax.tree_util.tree_map(
+        lambda x: jnp.asarray(rng.normal(size=x.shape)), numbers
+    )
+    # Inertia tensors move symmetrically (a non-symmetric one is no body's: the mass matrix and the
+    # inverse dynamics read different halves of it).
+    tree_direction = eqx.tree_at(
+        lambda t: t.inertias, tree_direction, replace_fn=lambda i: i + jnp.swapaxes(i, -1, -2)
+    )
 
     def accel(q, v, tau):
         return jax.vmap(tiny_tree.forward_dynamics)(q, v, tau)
 
+    def by_rule(numbers):
+        return jax.vmap(eqx.combine(numbers, rest).forward_dynamics)(q, v, tau)
+
+    def by_autodiff(numbers):
+        return net_dynamics.forward_dynamics(eqx.combine(numbers, rest), q.T, v.T, tau.T).T
+
     @quick_jit
-    def probe(args, direction, cotangent):
+    def probe(args, direction, cotangent, numbers, tree_direction):
         _, tangent = jax.jvp(accel, args, direction)
         _, pullback = jax.vjp(accel, *args)
         shifted = [
             tuple(x + s * eps * d for x, d in zip(args, direction, strict=True)) for s in (1, -1)
         ]
         quotient = (accel(*shifted[0]) - accel(*shifted[1])) / (2 * eps)
-        return tangent, pullback(cotangent), quotient
+        in_tree = [jax.jvp(f, (numbers,), (tree_direction,))[1] for f in (by_rule, by_autodiff)]
+        return tangent, pullback(cotangent), quotient, in_tree
 
-    tangent, back, quotient = probe((q, v, tau), direction, cotangent)
+    tangent, back, quotient, in_tree = probe(
+        (q, v, tau), direction, cotangent, numbers, tree_direction
+    )
     assert max_relative_error(tangent, quotient) < 1e-6
     forward = jnp.sum(cotangent * tangent)
     reverse = sum(jnp.sum(b * d) for b, d in zip(back, direction, strict=True))
     assert abs(float(reverse - forward)) < 1e-12 * max(1.0, abs(float(forward)))
+    assert float(jnp.max(jnp.abs(in_tree[1]))) > 0
+    assert max_relative_error(*in_tree) < 1e-10
 
 
 @pytest.mark.slow

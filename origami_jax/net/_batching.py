@@ -14,9 +14,13 @@ tree on a shared 2-core machine, per state):
    caches (21 µs per state), at 256 states it stays in L2 (5–7 µs per state), below ~100 states the
    per-kernel overhead dominates. `rows` therefore loops (`lax.map`) over chunks of `CHUNK` states.
 
-Derivatives: `single` is also a `jax.custom_jvp` whose rule is plain forward-mode autodiff of the
-single-state algorithm, which reverse mode transposes (`custom_vmap` alone has no reverse mode).
-Under `vmap` the rule is batched the plain way: derivatives are exact, just not in the fast layout.
+Derivatives: `single` is also a `jax.custom_jvp` (`custom_vmap` alone has no reverse mode). Its
+rule differentiates the inverse dynamics at the computed acceleration and solves with the forward
+pass's factorization, ``M dq̈ = d force − ∂ID/∂(tree, q, v) · (d tree, dq, dv)``: exact, linear in
+the tangents (so reverse mode transposes it), and smaller than autodiff of the whole algorithm
+(the mass matrix and its factorization are not differentiated). For a cube net's tree: the
+reverse-mode program compiles in about half the time and runs ~2× faster per state. Under `vmap`
+the rule is batched the plain way: derivatives are exact, just not in the fast layout.
 """
 
 import jax
@@ -76,8 +80,17 @@ def _single(tree, q, v, force):
 
 @_single.defjvp
 def _single_jvp(primals, tangents):
-    out, d_out = jax.jvp(_plain, primals, tangents)
-    return _batch_axis_first(out), _batch_axis_first(d_out)
+    # From the inverse dynamics at the computed acceleration: ID(tree, q, v, q̈) = force, so
+    # M dq̈ = d force − ∂ID/∂(tree, q, v) · (d tree, dq, dv), solved on the forward pass's own
+    # factorization. Linear in the tangents (reverse mode transposes it into one RNEA pullback
+    # and one solve, instead of the pullback of the mass matrix, its factorization and the bias).
+    tree, q, v, force = primals
+    d_tree, d_q, d_v, d_force = tangents
+    out, solve = _dynamics.forward_dynamics_and_solve(tree, q, v, force)
+    _, d_id = jax.jvp(
+        lambda t, q, v: _dynamics.inverse_dynamics(t, q, v, out), (tree, q, v), (d_tree, d_q, d_v)
+    )
+    return _batch_axis_first(out), _batch_axis_first(solve(d_force - d_id))
 
 
 def _batch_axis_first(x: Array) -> Array:

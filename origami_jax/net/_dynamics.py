@@ -548,6 +548,13 @@ def forward_dynamics(tree, q, v, force) -> Float[Array, " n *batch"]:
 
     `q`, `v`, `force`: `(n, *batch)` (hinges first, any states trailing), in the tree's order.
     """
+    acc, _ = forward_dynamics_and_solve(tree, q, v, force)
+    return acc
+
+
+def forward_dynamics_and_solve(tree, q, v, force):
+    """`forward_dynamics`, and a function ``r ↦ M(q)⁻¹ r`` (`(n, *batch)`, the tree's order) on the
+    same factorization."""
     data = _ordered(tree, q.ndim - 1)
     topo = data.topo
     kin = frames(data, q)
@@ -563,8 +570,14 @@ def forward_dynamics(tree, q, v, force) -> Float[Array, " n *batch"]:
             (0, 1),
             (-2, -1),
         )
-        acc = jax.scipy.linalg.cho_solve(jax.scipy.linalg.cho_factor(m), jnp.moveaxis(rhs, 0, -1))
-        return _from_order(data, jnp.moveaxis(acc, -1, 0))
+        factor = jax.scipy.linalg.cho_factor(m)
+
+        def solve_dense(r):
+            x = jax.scipy.linalg.cho_solve(factor, jnp.moveaxis(_to_order(data, r), 0, -1))
+            return _from_order(data, jnp.moveaxis(x, -1, 0))
+
+        acc = jax.scipy.linalg.cho_solve(factor, jnp.moveaxis(rhs, 0, -1))
+        return _from_order(data, jnp.moveaxis(acc, -1, 0)), solve_dense
     # Every entry of the factorization reads these: computed once (see `materialize`).
     s, f, rhs = materialize((s, f, rhs))
     parents = _ordered_parents(topo)
@@ -573,5 +586,11 @@ def forward_dynamics(tree, q, v, force) -> Float[Array, " n *batch"]:
     for i in range(n):
         for j in (i, *_path(parents, i)):
             entries[i, j] = sum(a[j] * b[i] for a, b in zip(s, f, strict=True))  # S_j · F_i
-    x = tree_solve(tree_factor(entries, parents), parents, [rhs[i] for i in range(n)])
-    return _from_order(data, jnp.stack(x))
+    factor = tree_factor(entries, parents)
+
+    def solve(r):
+        r = _to_order(data, r)
+        return _from_order(data, jnp.stack(tree_solve(factor, parents, [r[i] for i in range(n)])))
+
+    x = tree_solve(factor, parents, [rhs[i] for i in range(n)])
+    return _from_order(data, jnp.stack(x)), solve
