@@ -222,7 +222,8 @@ class PanelTree(AbstractMechanism):
     def forward_dynamics(self, q, v, force, *, forward_mode_only: bool = False):
         """Accelerations ``q̈ = M⁻¹ (force − C q̇ − G)`` (CRBA, RNEA and the tree-sparse ``LᵀL``
         solve; `_dynamics`). `q`, `v`, `force`: `(n,)`, or `(t, n)` for `t` states (vmapped).
-        `forward_mode_only` is accepted and ignored (one derivative rule, from the inverse dynamics, serves both modes; `_batching`)."""
+        `forward_mode_only` is accepted and ignored (one derivative rule, from the inverse
+        dynamics, serves both modes; `_batching`)."""
         del forward_mode_only
         q, v, force = jnp.asarray(q), jnp.asarray(v), jnp.asarray(force)
         n = self.n_hinges
