@@ -1,5 +1,5 @@
-"""Size limits the command line and the sweep models enforce before compiling anything, and how far
-a folding is continued while its panels still move.
+"""Size limits the command line and the sweep models enforce before compiling anything, how far
+a folding is continued while its panels still move, and the contact's default sampling.
 
 Tracing and compiling a chain grow with its flap count (its dynamics are unrolled over the hinges):
 past these limits a run spends minutes and gigabytes compiling before it computes anything
@@ -20,3 +20,8 @@ settles at ~1,400 µs (two segments); one in air rings for several milliseconds.
 
 MAX_FOLD_SEGMENTS = 8
 """Most segments of such a folding (8,000 µs in the default units)."""
+
+CONTACT_SAMPLING = (4, 2)
+"""Contact sample points per panel edge, ``(inner ring, rim)`` along the longest edge (`origami_jax.
+contact.build_tables`): the default of every `contact_sampling` (`Net.system`, the sweep's net
+kernel, `yield_estimate`, the `--contact-sampling` flag). Its points weigh 1 each."""

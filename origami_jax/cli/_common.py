@@ -25,6 +25,8 @@ from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any, NoReturn
 
+from .._limits import CONTACT_SAMPLING
+
 DEFAULT_OUT = Path("origami_out")
 
 # Exit codes of the CLI. 0 success; 1 the computation ran but its answer is negative or failed
@@ -141,12 +143,13 @@ def int_range(value: int, flag: str, low: int, high: int, *, why: str = "") -> i
 def add_contact_sampling_argument(parser: argparse.ArgumentParser) -> None:
     """`--contact-sampling RING,RIM` (`contact_sampling` of `Net.system`; parse with
     `contact_sampling`)."""
+    default = ",".join(map(str, CONTACT_SAMPLING))
     parser.add_argument(
         "--contact-sampling",
-        default="4,2",
+        default=default,
         metavar="RING,RIM",
-        help="contact points per panel edge on the inner ring and on the rim (default 4,2; denser "
-        "resolves the same contact more finely, to check a verdict where edges meet)",
+        help=f"contact points per panel edge on the inner ring and on the rim (default {default}; "
+        "denser resolves the same contact more finely, to check a verdict where edges meet)",
     )
 
 

@@ -283,11 +283,11 @@ def run(args: argparse.Namespace) -> int:
 
     output = OutputFolder(Path(args.out), command="fold", owns=OWNS, overwrite=args.overwrite)
     with output:
-        code = _run(args, net, system, loops, params, release, theta0, theta_dot0, output)
+        code = _run(args, net, system, loops, params, release, sampling, theta0, theta_dot0, output)
     return code
 
 
-def _run(args, net, system, loops, params, release, theta0, theta_dot0, output) -> int:
+def _run(args, net, system, loops, params, release, sampling, theta0, theta_dot0, output) -> int:
     """Fold, assess and write into the staging folder of `output`; returns the exit code."""
     import diffrax
     import numpy as np
@@ -348,7 +348,7 @@ def _run(args, net, system, loops, params, release, theta0, theta_dot0, output) 
         params=params,
         fluid=args.fluid,
         contact=not args.no_contact,
-        contact_sampling=list(contact_sampling(args.contact_sampling)),
+        contact_sampling=list(sampling),
         drag=args.drag,
         hinges=args.hinges,
         closed_loops=net.n_loops if loops else 0,

@@ -12,6 +12,8 @@ import hashlib
 
 import numpy as np
 
+from .._limits import CONTACT_SAMPLING
+
 
 @dataclasses.dataclass(frozen=True, eq=False)
 class ContactTables:
@@ -219,8 +221,7 @@ def _ring(
 
 # The default sampling (`build_tables`): its points weigh 1 each; denser rings and rims share the
 # same weight per length of ring or rim.
-RING_POINTS_PER_EDGE = 4
-RIM_POINTS_PER_EDGE = 2
+RING_POINTS_PER_EDGE, RIM_POINTS_PER_EDGE = CONTACT_SAMPLING
 
 
 def sampling_pair(sampling) -> tuple[int, int]:
@@ -231,7 +232,7 @@ def sampling_pair(sampling) -> tuple[int, int]:
     except (TypeError, ValueError):
         raise ValueError(
             "contact_sampling must be a pair (points_per_edge, rim_points_per_edge), e.g. "
-            f"(4, 2), got {sampling!r}."
+            f"{CONTACT_SAMPLING}, got {sampling!r}."
         ) from None
     for name, value, least in (
         ("points_per_edge", points_per_edge, 1),

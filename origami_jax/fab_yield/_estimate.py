@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 
+from .._limits import CONTACT_SAMPLING
 from ._scatter import PARAMETERS, Scatter, sample_values, standard_draws
 from ._stats import INTERVAL_METHODS, binomial_interval
 
@@ -211,7 +212,7 @@ def yield_estimate(
     rtol: float | None = None,
     contact: bool = True,
     drag: str = "panel",
-    contact_sampling: tuple[int, int] = (4, 2),
+    contact_sampling: tuple[int, int] = CONTACT_SAMPLING,
     angle_tolerance_deg: float = 3.0,
     seam_tolerance: float = 0.01,
     confidence: float = 0.95,

@@ -26,6 +26,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import ArrayLike, Float
 
+from .._limits import CONTACT_SAMPLING
 from ..fold import FoldFile, FoldFormatError
 from ..fold._catalogue import catalogue_names, catalogue_path
 from ..fold._loop_geometry import LoopGeometry, loop_geometry
@@ -234,7 +235,7 @@ class CreasePattern:
         hinges: str = "point",
         check_rigid: bool = True,
         rate_factor: float = RATE_FACTOR,
-        contact_sampling: tuple[int, int] = (4, 2),
+        contact_sampling: tuple[int, int] = CONTACT_SAMPLING,
     ) -> FoldingSystem:
         """The folding system of this pattern with the hinges, films and fluid of `design`.
 
@@ -428,7 +429,9 @@ def _with_branch(pattern: CreasePattern, report, trajectory, bias: float):
     return LoopFoldReport.from_report(pattern, report, trajectory, bias)
 
 
-def _contact(mechanism: LoopedPanels, stiffness, targets, *, thickness: float, sampling=(4, 2)):
+def _contact(
+    mechanism: LoopedPanels, stiffness, targets, *, thickness: float, sampling=CONTACT_SAMPLING
+):
     """`PanelContact` with the defaults of `PanelContact.for_system`, where panels that share a crease
     (tree or cut) or only a vertex do not meet near what they share; `sampling` is
     ``(points_per_edge, rim_points_per_edge)`` (`build_tables`)."""

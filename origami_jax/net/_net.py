@@ -29,7 +29,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
-from .._limits import FOLD_SEGMENT, MAX_FOLD_SEGMENTS
+from .._limits import CONTACT_SAMPLING, FOLD_SEGMENT, MAX_FOLD_SEGMENTS
 from .._math import safe_norm
 from ..fold import FoldFile, FoldFrame, net_geometry
 from ..fold._catalogue import catalogue_names, catalogue_path
@@ -126,7 +126,7 @@ class Net:
         hinges: str = "point",
         added_mass: bool = False,
         viscous: bool = False,
-        contact_sampling: tuple[int, int] = (4, 2),
+        contact_sampling: tuple[int, int] = CONTACT_SAMPLING,
     ) -> FoldingSystem:
         """The folding system of this net with the hinges, films and fluid of `design`.
 
@@ -215,7 +215,9 @@ class Net:
             )
         return FoldingSystem(tree, hinges_, drag_model, contact=contact_model, units=design.units)
 
-    def contact_tables(self, hinges: str = "point", *, sampling: tuple[int, int] = (4, 2)):
+    def contact_tables(
+        self, hinges: str = "point", *, sampling: tuple[int, int] = CONTACT_SAMPLING
+    ):
         """The panels' contact geometry (`origami_jax.contact.ContactTables`), computed once on the
         host from the pattern (it depends on the geometry only, not on the design's numbers).
         `sampling`: ``(points_per_edge, rim_points_per_edge)``, as `system`'s `contact_sampling`."""

@@ -18,7 +18,7 @@ import dataclasses
 from collections.abc import Callable, Mapping
 from typing import Any
 
-from .._limits import MAX_FLAPS, MAX_SAMPLES
+from .._limits import CONTACT_SAMPLING, MAX_FLAPS, MAX_SAMPLES
 from ._kernel import Kernel
 
 # Result code for a design whose parameters are outside the model's domain (non-positive or
@@ -419,7 +419,7 @@ def net_fold(
     design: Any = None,
     targets: Any = None,
     hinge_lengths: str = "ideal",
-    contact_sampling: tuple[int, int] = (4, 2),
+    contact_sampling: tuple[int, int] = CONTACT_SAMPLING,
 ) -> Kernel:
     """Sweep kernel: does a net of panels, or a crease pattern with closed loops, fold? Verdict and
     numbers per design (explicit Tsit5 under the contact guard;
@@ -625,7 +625,7 @@ def net_fold(
             **({} if design is None else {"design": design_settings(design)}),
             **({} if aims is None else {"targets": aims.tolist()}),
             **({} if hinge_lengths == "ideal" else {"hinge_lengths": hinge_lengths}),
-            **({} if sampling == (4, 2) else {"contact_sampling": list(sampling)}),
+            **({} if sampling == CONTACT_SAMPLING else {"contact_sampling": list(sampling)}),
         },
         parameters=parameters,
         output_units={
