@@ -31,6 +31,8 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
+from ._runtime_errors import on_error
+
 _FOLDER: Path | None = None
 _REFUSED: set[str] = set()  # programs found not exportable in this process (a callback, ...)
 
@@ -53,17 +55,11 @@ def enable_exported_programs(folder: str | os.PathLike | None) -> Path | None:
     return path
 
 
-def _on_error() -> str:
-    """How equinox's runtime errors are raised in this process (`EQX_ON_ERROR`, read at import)."""
-    errors = sys.modules.get("equinox._errors")
-    return getattr(errors, "EQX_ON_ERROR", os.environ.get("EQX_ON_ERROR", "raise"))
-
-
 def _flags() -> bytes:
     """The configuration that changes a trace: float64, the backend, equinox's runtime errors."""
     import jax
 
-    return f"x64={jax.config.jax_enable_x64};{jax.default_backend()};{_on_error()}".encode()
+    return f"x64={jax.config.jax_enable_x64};{jax.default_backend()};{on_error()}".encode()
 
 
 @functools.cache
@@ -161,7 +157,7 @@ def exported_call(name: str, fn, jitted, *args) -> Any:
     import jax
 
     # Raised runtime errors call back into Python, which no exported program can: don't try.
-    if _FOLDER is None or name in _REFUSED or _on_error() not in ("nan", "off"):
+    if _FOLDER is None or name in _REFUSED or on_error() not in ("nan", "off"):
         return jitted(*args)
     dynamic, static = eqx.partition(args, eqx.is_array)
     leaves, in_tree = jax.tree.flatten(dynamic)

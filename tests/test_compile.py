@@ -125,6 +125,41 @@ def test_the_simulate_command_stores_its_solve(tmp_path):
     assert run_python(code, env) == "raise"  # the library's own default is left alone
 
 
+def test_a_script_stores_its_solve_and_still_raises(tmp_path):
+    # `simulate` called from plain Python, throw=True and EQX_ON_ERROR unset: the solve is compiled
+    # without callbacks (stored), a failure still raises from the result code, and equinox's own
+    # setting is the same afterwards (a user's jitted check still raises).
+    code = """
+        import json, diffrax, equinox as eqx, jax, jax.numpy as jnp
+        import equinox._errors as errors
+        import origami_jax
+        from origami_jax import chain, simulation, system
+        folder = origami_jax.enable_compilation_cache()
+        jax.config.update("jax_enable_x64", True)
+        flap = chain.accordion_system(system.HingeDesign.literature(), 1)
+        run = dict(t1=100.0, n_save=11, solver=diffrax.Tsit5())
+        theta = simulation.simulate(flap, simulation.Step(), **run).theta
+        stored = sorted(p.name for p in folder.iterdir() if p.name.startswith("jit__solve-"))
+        try:
+            simulation.simulate(flap, simulation.Step(), max_steps=2, **run)
+            message = None
+        except eqx.EquinoxRuntimeError as error:
+            message = str(error)
+        try:
+            jax.jit(lambda x: eqx.error_if(x, x > 0, "user check"))(1.0)
+            user = None
+        except Exception as error:
+            user = type(error).__name__
+        print(json.dumps({"stored": stored, "message": message, "setting": errors.EQX_ON_ERROR,
+                          "user": user, "final": float(theta[-1, 0])}))
+    """
+    out = run_python(code, _environment(tmp_path, **{CACHE_ENV: str(tmp_path / "cache")}))
+    assert len(out["stored"]) == 1, out  # the one-flap solve, listed before the failing run
+    assert out["message"].startswith("simulate: The maximum number of solver steps"), out
+    assert out["setting"] == "raise" and out["user"] is not None, out
+    assert 0.0 < out["final"] < 2 * jnp.pi  # the flap folds (a real solve, not NaN)
+
+
 @pytest.mark.slow  # two CLI runs in subprocesses
 def test_a_warm_simulate_command_runs_its_exported_solve(tmp_path):
     # The default solver's explicit phase is exported into the cache folder by the first run and

@@ -39,6 +39,8 @@ def two_flaps():
         (dict(t1=10.0, n_save=1), "n_save must be an integer of at least 2"),
         (dict(t1=10.0, n_save=0), "n_save must be an integer of at least 2"),
         (dict(t1=10.0, max_steps=0), "max_steps must be a positive integer"),
+        (dict(t1=10.0, dt0=-0.1), "dt0 must be a positive finite first step"),
+        (dict(t1=10.0, dt0=float("nan")), "dt0 must be a positive finite first step"),
         (dict(t1=10.0, ts=jnp.array([0.0, 20.0])), "ts must lie within"),
         (dict(t1=10.0, ts=jnp.array([5.0, 1.0])), "ts must be non-decreasing"),
         (dict(t1=10.0, theta0=jnp.array([jnp.nan, 0.0])), "theta0 contains NaN"),

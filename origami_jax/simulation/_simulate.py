@@ -6,6 +6,7 @@ system's mechanism (hinge angles and rates for chains and trees); units are the 
 `MICRO`: µm, µs, ng).
 """
 
+import contextlib
 import dataclasses
 from typing import cast
 
@@ -17,6 +18,7 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from .._exported import exported_call
+from .._runtime_errors import checks_as_nan
 from .._validate import check_finite, is_traced
 from ..system import FoldingSystem, HingeDrag
 from ._guard import ContactGuard, WrappedController
@@ -561,6 +563,16 @@ def _checked_times(ts, t0, t1) -> Array:
     return ts
 
 
+def _checked_first_step(dt0) -> Array | None:
+    """`dt0` known: `None` or a positive finite step (diffrax would check it in the compiled solve)."""
+    if dt0 is None:
+        return None
+    step = np.asarray(dt0, dtype=float)
+    if step.ndim or not (np.isfinite(step) and step > 0):
+        raise ValueError(f"dt0 must be a positive finite first step (or None), got {dt0!r}.")
+    return jnp.asarray(step)
+
+
 def _check_system_values(system: FoldingSystem) -> None:
     """Concrete numbers of `system` (a system built outside `jit`): hinges and drag finite, no NaN
     anywhere, positive stiffness, non-negative hinge drag. Traced systems (a sweep's batch) are left
@@ -672,13 +684,15 @@ def simulate(
     **Returns:** a [`origami_jax.simulation.Trajectory`][].
 
     **Raises:** `ValueError`, before anything compiles, for inconsistent shapes and for values that
-    cannot give an answer: `t1 <= t0` or a non-finite time, `rtol` or `atol` not positive and
-    finite, `n_save < 2`, sample times outside `[t0, t1]` or decreasing, a non-finite initial
+    cannot give an answer: `t1 <= t0` or a non-finite time, `rtol`, `atol` or `dt0` not positive
+    and finite, `n_save < 2`, sample times outside `[t0, t1]` or decreasing, a non-finite initial
     state, or a system whose concrete stiffness is not positive or whose drag or any other number
     is negative where it must not be or not finite. When these values are traced (`simulate` under
-    `jit` or `vmap`) the same conditions raise at run time (`eqx.error_if`). With `throw=True`, a
-    runtime error carrying the result message when the solve fails (steps exhausted, step size
-    collapsed, non-finite state).
+    `jit` or `vmap`) the same conditions raise at run time (`eqx.error_if`). With `throw=True`,
+    `equinox.EquinoxRuntimeError` carrying the result message when the solve fails (steps
+    exhausted, step size collapsed, non-finite state). Called outside any transformation, that
+    error is raised in Python from the result code, after the compiled solve returns: the solve
+    then calls nothing back, so the compilation cache can keep it for the next process.
     """
     if not isinstance(system, FoldingSystem):
         raise ValueError(
@@ -719,6 +733,7 @@ def simulate(
     pad = not is_traced(system, inputs, t0, t1, q0, v0, ts, rtol, atol, dt0, stepsize_controller)
     if pad:
         ts = _padded(ts, padded_sample_count(n_samples))
+        dt0 = _checked_first_step(dt0)
     chosen = solver is not None
     solver = default_solver() if solver is None else solver
     if stepsize_controller is None:
@@ -734,7 +749,10 @@ def simulate(
         adjoint=diffrax.RecursiveCheckpointAdjoint() if adjoint is None else adjoint,
         max_steps=max_steps,
         dense=dense,
-        throw=throw,
+        # Outside any transformation every input was checked above and a failure is raised below,
+        # from the result code: the compiled solve then needs no callback into Python and the
+        # compilation cache can keep it (`origami_jax._runtime_errors`).
+        throw=throw and not pad,
         land_on_samples=land_on_samples,
     )
     lazy = (
@@ -761,7 +779,8 @@ def simulate(
     else:
         solve = _solve_jit
     try:
-        trajectory = solve(system, inputs, (t0, t1), (q0, v0), ts, how)
+        with checks_as_nan() if pad else contextlib.nullcontext():
+            trajectory = solve(system, inputs, (t0, t1), (q0, v0), ts, how)
     except TypeError as error:
         # diffrax's default adjoint is a `custom_vjp`: JAX's own message names neither the cause
         # nor the fix.
@@ -774,4 +793,8 @@ def simulate(
                 "reverse mode, jax.grad)."
             ) from error
         raise
-    return _first_samples(trajectory, n_samples) if pad else trajectory
+    if not pad:
+        return trajectory
+    if throw and trajectory.result != RESULTS.successful:
+        raise eqx.EquinoxRuntimeError(f"simulate: {RESULTS[trajectory.result]}")
+    return _first_samples(trajectory, n_samples)
