@@ -9,8 +9,9 @@ afterwards; its program needs no callback. `checks_as_nan` traces that program w
 turned into NaN (as ``EQX_ON_ERROR=nan`` would), which keeps it storable.
 
 Equinox reads ``EQX_ON_ERROR`` once, at import, into a module constant that its checks consult while
-a program is traced; `checks_as_nan` sets that constant for the duration of the trace. Other threads
-tracing at the same moment would see it too: the library traces such programs from one thread.
+a program is traced; `checks_as_nan` sets that constant around the trace (and the asynchronous
+dispatch) of the library's own programs, not around their runs. Code traced in another thread in
+that window sees it too: its checks would also give NaN instead of raising.
 """
 
 from __future__ import annotations

@@ -160,6 +160,34 @@ def test_a_script_stores_its_solve_and_still_raises(tmp_path):
     assert 0.0 < out["final"] < 2 * jnp.pi  # the flap folds (a real solve, not NaN)
 
 
+def test_a_script_stores_a_built_in_sweep_and_still_reports_a_raising_kernel(tmp_path):
+    # A built-in kernel never raises (bad values come back as its result code): its sweep program is
+    # traced with equinox's checks as NaN and stored. A user's kernel that raises is still reported.
+    code = """
+        import json, equinox as eqx, jax
+        import origami_jax
+        from origami_jax.sweep import Table, get_model, sweep
+        folder = origami_jax.enable_compilation_cache()
+        jax.config.update("jax_enable_x64", True)
+        model = get_model("accordion-step", n_flaps=1, t_end=100.0, n_save=11, solver="tsit5")
+        data = sweep(model, Table({"hinge_width": [100.0, -1.0]}), progress=False)
+        stored = sorted(p.name for p in folder.iterdir() if p.name.startswith("jit_member-"))
+        def raising(params):
+            return {"y": eqx.error_if(params["a"], params["a"] < 0, "negative")}
+        try:
+            sweep(raising, Table({"a": [1.0, -1.0]}), progress=False)
+            reported = None
+        except RuntimeError as error:
+            reported = str(error)
+        print(json.dumps({"stored": stored, "result": data["result"].values.tolist(),
+                          "reported": reported}))
+    """
+    out = run_python(code, _environment(tmp_path, **{CACHE_ENV: str(tmp_path / "cache")}))
+    assert len(out["stored"]) == 1, out
+    assert out["result"] == [0, -1], out  # the bad width is reported as invalid input, not NaN
+    assert out["reported"] is not None and "throw=False" in out["reported"], out
+
+
 @pytest.mark.slow  # two CLI runs in subprocesses
 def test_a_warm_simulate_command_runs_its_exported_solve(tmp_path):
     # The default solver's explicit phase is exported into the cache folder by the first run and

@@ -424,20 +424,22 @@ def _solve_lazily(system: FoldingSystem, inputs: AbstractInput, span, y0, ts, ho
     statistics of the one-program solve, bitwise when measured). Each phase has the step budget
     `max_steps`, so a run that turns stiff may take up to twice as many steps before it reports
     `max_steps_reached`; with a progress meter each phase shows its own bar."""
-    explicit, start = exported_call(
-        "solve_until_stiff",
-        _solve_until_stiff,
-        _solve_until_stiff_jit,
-        system,
-        inputs,
-        span,
-        y0,
-        ts,
-        how,
-    )
+    with checks_as_nan():  # top-level calls only: see `simulate`
+        explicit, start = exported_call(
+            "solve_until_stiff",
+            _solve_until_stiff,
+            _solve_until_stiff_jit,
+            system,
+            inputs,
+            span,
+            y0,
+            ts,
+            how,
+        )
     if not bool(start.turned) or not float(start.t) < float(span[1]):
         return explicit
-    implicit = _solve_from_switch_jit(system, inputs, span[1], ts, how, start)
+    with checks_as_nan():
+        implicit = _solve_from_switch_jit(system, inputs, span[1], ts, how, start)
     return _stitched(explicit, implicit, ts, start.t)
 
 
@@ -779,7 +781,10 @@ def simulate(
     else:
         solve = _solve_jit
     try:
-        with checks_as_nan() if pad else contextlib.nullcontext():
+        # The context covers the trace and the asynchronous dispatch, not the run (`_solve_lazily`
+        # sets it around its own calls, since it waits for the first phase between them).
+        checks = checks_as_nan() if pad and not lazy else contextlib.nullcontext()
+        with checks:
             trajectory = solve(system, inputs, (t0, t1), (q0, v0), ts, how)
     except TypeError as error:
         # diffrax's default adjoint is a `custom_vjp`: JAX's own message names neither the cause

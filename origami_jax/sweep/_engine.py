@@ -44,6 +44,7 @@ sweep resumed.
 """
 
 import concurrent.futures
+import contextlib
 import dataclasses
 import json
 import math
@@ -61,6 +62,7 @@ import xarray as xr
 from jax.sharding import Mesh, NamedSharding
 from jax.sharding import PartitionSpec as P
 
+from .._runtime_errors import checks_as_nan
 from ._kernel import Kernel, as_kernel
 from ._space import DesignSpace
 from ._store import RESULT, Store, SweepBusyError, gather, logger
@@ -427,7 +429,9 @@ def _plan(kernel: Kernel, space: DesignSpace) -> _Plan:
         inputs = {**example, **group.extra}
         shapes = _TRACES.get(kernel, ("shapes", _signature(group, inputs)))
         if shapes is None:
-            shapes = jax.eval_shape(plan.member_fn(group.static_values), inputs)
+            # Traced as the compiled kernel will be: JAX reuses the inner programs' traces.
+            with _traced_checks(kernel):
+                shapes = jax.eval_shape(plan.member_fn(group.static_values), inputs)
             _TRACES.put(kernel, ("shapes", _signature(group, inputs)), shapes)
         for name, shape in shapes.items():
             if not isinstance(shape, jax.ShapeDtypeStruct):
@@ -516,6 +520,12 @@ def _from_process_zero(value: np.ndarray, process_count: int) -> np.ndarray:
     return np.asarray(multihost_utils.broadcast_one_to_all(value))
 
 
+def _traced_checks(kernel: Kernel) -> contextlib.AbstractContextManager:
+    """How `kernel`'s programs are traced: with equinox's checks as NaN if it never raises
+    (`Kernel.never_raises`: a program the compilation cache can keep), else as configured."""
+    return checks_as_nan() if kernel.never_raises else contextlib.nullcontext()
+
+
 class _Compiler:
     """Stage 2: compiles the vmapped kernel of a group for a chunk size, sharded along the batch
     axis, and the cost estimate; keeps the seconds spent compiling."""
@@ -541,7 +551,9 @@ class _Compiler:
         batched = jax.vmap(plan.member_fn(group.static_values))
         jitted = jax.jit(batched, in_shardings=sharding, out_shardings=sharding)
         start = time.perf_counter()
-        compiled = jitted.lower(args).compile()
+        with _traced_checks(plan.kernel):
+            lowered = jitted.lower(args)
+        compiled = lowered.compile()
         self.seconds.append(time.perf_counter() - start)
         _TRACES.put(plan.kernel, key, compiled)
         return compiled
@@ -559,7 +571,9 @@ class _Compiler:
             return jnp.asarray(estimate({**params, **statics}), dtype=float).reshape(())
 
         start = time.perf_counter()
-        compiled_cost = jax.jit(jax.vmap(cost)).lower(inputs).compile()
+        with _traced_checks(plan.kernel):
+            lowered = jax.jit(jax.vmap(cost)).lower(inputs)
+        compiled_cost = lowered.compile()
         self.seconds.append(time.perf_counter() - start)
         costs = np.asarray(compiled_cost(inputs))
         return np.where(np.isfinite(costs), costs, np.inf)

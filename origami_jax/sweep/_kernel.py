@@ -50,6 +50,11 @@ class Kernel:
       costs spread widely and cannot be estimated ahead (adaptive solvers through contact): a
       vmapped chunk runs until its slowest member is done, and on a CPU a wider batch buys little,
       so small chunks computed side by side (`sweep`'s `workers`) finish sooner.
+    - `never_raises`: `True` for a kernel that turns every bad value into its result code itself
+      (as the built-in ones do), so that no `equinox.error_if` inside it can fire. `sweep` then
+      traces it with equinox's checks turned into NaN: the compiled program calls nothing back into
+      Python, and the compilation cache keeps it for the next process (a cube net's yield program
+      compiles in about 20 s). Default `False`: a kernel that raises is reported as such.
     """
 
     fn: Callable[..., Any]
@@ -65,6 +70,7 @@ class Kernel:
     prepare: Callable[..., Mapping[str, Any]] | None = None
     cost: Callable[..., Any] | None = None
     cpu_chunk_size: int | None = None
+    never_raises: bool = False
 
     def __call__(self, params: Mapping[str, Any]) -> Any:
         return self.fn(params)

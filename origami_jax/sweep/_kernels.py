@@ -226,6 +226,7 @@ def accordion_step(
     messages.update({int(item._value): name for name, item in RESULTS._name_to_item.items()})
     return Kernel(
         fn=fn,
+        never_raises=True,  # bad values come back as INVALID_INPUT
         name="accordion-step",
         settings={
             "n_flaps": n_flaps,
@@ -366,6 +367,7 @@ def vertex_unfold(
 
     return Kernel(
         fn=fn,
+        never_raises=True,  # bad values come back as INVALID_INPUT
         name="vertex-unfold",
         settings={
             "n_creases": n_creases,
@@ -605,6 +607,7 @@ def net_fold(
     messages.update({int(item._value): name for name, item in RESULTS._name_to_item.items()})
     return Kernel(
         fn=fn,
+        never_raises=True,  # bad values come back as INVALID_INPUT
         name="net-fold",
         settings={
             "net": the_net.name,
