@@ -188,6 +188,27 @@ def test_a_script_stores_a_built_in_sweep_and_still_reports_a_raising_kernel(tmp
     assert out["reported"] is not None and "throw=False" in out["reported"], out
 
 
+@pytest.mark.slow  # a design compiled in a subprocess (~15 s)
+def test_a_script_stores_its_design_fit(tmp_path):
+    # `calibrate` from a script: the fit runs this package's code only, so its program is traced
+    # with equinox's checks as NaN and stored.
+    code = """
+        import json, jax, numpy as np
+        import origami_jax
+        import origami_jax.design as ojd
+        from origami_jax.system import HingeDesign
+        folder = origami_jax.enable_compilation_cache()
+        jax.config.update("jax_enable_x64", True)
+        settings = ojd.SimulationSettings(100.0, n_flaps=1, n_save=16)
+        fit = ojd.calibrate(HingeDesign.literature(), ojd.Targets(rise_time=[30.0]), ["k_scale"],
+                            settings=settings, max_steps=3)
+        stored = sorted(p.name for p in folder.iterdir() if p.name.startswith("jit__fit_and_start-"))
+        print(json.dumps({"stored": stored, "value": float(fit.values[0])}))
+    """
+    out = run_python(code, _environment(tmp_path, **{CACHE_ENV: str(tmp_path / "cache")}))
+    assert len(out["stored"]) == 1 and out["value"] > 0, out
+
+
 @pytest.mark.slow  # two CLI runs in subprocesses
 def test_a_warm_simulate_command_runs_its_exported_solve(tmp_path):
     # The default solver's explicit phase is exported into the cache folder by the first run and

@@ -58,6 +58,15 @@ def test_space_rejects_bad_input(hinge):
         ojd.parameter_space(hinge, ["k_scale", "k_scale"])
     space = ojd.parameter_space(hinge, ["fluid_density"])
     assert space.names == ("fluid.density",)
+    # Bounds reaching outside a parameter's physical range: refused before anything is traced (the
+    # fit would otherwise try a value HingeDesign refuses).
+    with pytest.raises(ValueError, match=r"physical range \(0, inf\)"):
+        ojd.parameter_space(hinge, ["hinge_width"], {"hinge_width": (-10.0, 300.0)})
+    with pytest.raises(ValueError, match=r"physical range \(-1, 0.5\)"):
+        ojd.parameter_space(hinge, ["hinge.poisson_ratio"], {"hinge.poisson_ratio": (0.1, 0.6)})
+    # Default bounds stay inside it: a factor 100 around ν = 0.3 would reach 30.
+    nu = ojd.parameter_space(hinge, ["hinge.poisson_ratio"])
+    assert float(nu.upper[0]) == 0.5 and 0 < float(nu.lower[0]) < float(hinge.hinge.poisson_ratio)
 
 
 def test_targets_rows_and_validation():

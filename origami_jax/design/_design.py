@@ -7,6 +7,7 @@ its metrics next to the targets, the sensitivity of every metric to every parame
 verdict and, for targets that are not met, how far off they are and why.
 """
 
+import contextlib
 import functools
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
@@ -19,8 +20,9 @@ import numpy as np
 import optimistix as optx
 from jaxtyping import Array, Float
 
+from .._runtime_errors import checks_as_nan
 from ..chain import Accordion
-from ..simulation import AbstractInput, Step, response_metrics, simulate
+from ..simulation import AbstractInput, EtchRamp, Step, response_metrics, simulate
 from ..system import AbstractLayout, HingeDesign
 from ._identify import identifiability
 from ._lstsq import fit_batch
@@ -179,6 +181,17 @@ def _fit_and_start(problem: _Problem, z0s, solver, max_steps: int):
     return batch, _evaluate(problem, z0s[0])
 
 
+def _library_only(settings: SimulationSettings) -> bool:
+    """Whether the fit runs only this package's code, whose checks cannot fire there: every value it
+    tries lies within the bounds, checked against each parameter's physical range, and failed
+    simulations come back as result codes. Its program is then traced with equinox's checks as NaN,
+    so that the compilation cache keeps it (`origami_jax._runtime_errors`); a user's input function
+    or layout keeps its checks raising."""
+    own = lambda obj: type(obj).__module__.startswith("origami_jax.")  # noqa: E731
+    inputs = settings.inputs
+    return own(settings.layout) and (inputs is None or isinstance(inputs, (Step, EtchRamp)))
+
+
 def _starts(space: ParameterSpace, start: Array, n_starts: int, key) -> np.ndarray:
     """The given start plus `n_starts − 1` Latin-hypercube points in the inner 90 % of the z-box,
     `(n_starts, p)` (host)."""
@@ -262,7 +275,9 @@ def design(
     start = space.read(hinge)
     problem = _Problem(hinge, space, targets, settings)
     z0s = _starts(space, start, n_starts, key)
-    batch, before = jax.device_get(_fit_and_start(problem, z0s, solver, max_steps))
+    with checks_as_nan() if _library_only(settings) else contextlib.nullcontext():
+        fitted = _fit_and_start(problem, z0s, solver, max_steps)
+    batch, before = jax.device_get(fitted)
     best = batch.best()
     ok = bool(~batch.nonfinite[best]) and bool(batch.aux["simulation_ok"][best])
     if throw and not ok:

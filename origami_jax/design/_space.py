@@ -46,6 +46,10 @@ _NESTED = {
     "hinge.density": "mass/length³",
 }
 _ALIASES = {"fluid_density": "fluid.density", "fluid_viscosity": "fluid.viscosity"}
+# Where each field is physical (`HingeDesign` refuses the rest): strictly positive, Poisson's ratios
+# in (-1, 0.5). Bounds must lie within (the reparametrisation never reaches them), so that no value
+# the optimiser can try is refused at run time.
+_DOMAIN = {"structural.poisson_ratio": (-1.0, 0.5), "hinge.poisson_ratio": (-1.0, 0.5)}
 PARAMETER_NAMES = tuple(_TOP_LEVEL) + tuple(_NESTED)
 """Every name `ParameterSpace` accepts (plus the aliases ``fluid_density`` and ``fluid_viscosity``)."""
 
@@ -220,13 +224,14 @@ def parameter_space(
       or single hinges' entries of a per-hinge field, ``"hinge_width[0]"`` … (the field must then hold
       one value per hinge).
     - `bounds`: ``{name: (lower, upper)}`` in the design's units (MICRO: µm, MPa, ng/µm³); a parameter not
-      listed gets a factor of 100 either side of its value in `hinge`.
+      listed gets a factor of 100 either side of its value in `hinge`, within its physical range.
     - `scale`: ``{name: "log" | "linear"}``; default log when the lower bound is positive.
 
     **Returns:** a [`origami_jax.design.ParameterSpace`][].
 
     **Raises:** `ValueError` for unknown or repeated names, per-joint (non-scalar) fields, bounds that are
-    not ordered, log scale with a non-positive bound, or a start in `hinge` outside its bounds.
+    not ordered or reach outside the parameter's physical range (positive; Poisson's ratios in
+    (-1, 0.5)), log scale with a non-positive bound, or a start in `hinge` outside its bounds.
     """
     bounds = {} if bounds is None else {_canonical(k): v for k, v in bounds.items()}
     scale = {} if scale is None else {_canonical(k): v for k, v in scale.items()}
@@ -260,7 +265,9 @@ def parameter_space(
         default_hi = start * _DEFAULT_FACTOR
         if name == "theta_final":  # a fold angle: at most π (see HingeDesign)
             default_hi = min(default_hi, max(float(np.pi), start))  # float32 π is above π
-        lo, hi = bounds.get(name, (start / _DEFAULT_FACTOR, default_hi))
+        low, high = _DOMAIN.get(field, (0.0, np.inf))
+        default_lo = max(start / _DEFAULT_FACTOR, low)
+        lo, hi = bounds.get(name, (default_lo, min(default_hi, high)))
         lo, hi = float(lo), float(hi)
         if name == "theta_final" and hi > np.pi * (1 + 1e-6):
             raise ValueError(
@@ -271,6 +278,11 @@ def parameter_space(
         if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
             raise ValueError(
                 f"bounds of {name} must be finite with lower < upper, got ({lo}, {hi})."
+            )
+        if lo < low or hi > high:
+            raise ValueError(
+                f"bounds of {name} must lie within its physical range "
+                f"{'(-1, 0.5)' if field.endswith('poisson_ratio') else '(0, inf)'}, got ({lo}, {hi})."
             )
         kind = scale.get(name, "log" if lo > 0 else "linear")
         if kind not in ("log", "linear"):
