@@ -73,8 +73,9 @@ def enable_compilation_cache(path: str | os.PathLike | None = None) -> Path | No
     an entry is written once, by whichever process compiles it first, and a process that reads an
     entry still being written gets a read error, which JAX turns into a warning and a fresh compile.
     Programs that call back into Python (`equinox.error_if` on traced values, progress meters)
-    cannot be stored and compile in every process; `simulate` called from plain Python keeps its
-    solve free of them (it checks its arguments first and raises a failure afterwards).
+    cannot be stored and compile in every process. Called from plain Python, `simulate`, sweeps of
+    the built-in models, `yield_estimate` and `design`/`calibrate` keep their programs free of them
+    (inputs checked before compiling, failures read from result codes).
     """
     folder = _requested(path)
     if folder is None:

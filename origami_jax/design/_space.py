@@ -281,8 +281,8 @@ def parameter_space(
             )
         if lo < low or hi > high:
             raise ValueError(
-                f"bounds of {name} must lie within its physical range "
-                f"{'(-1, 0.5)' if field.endswith('poisson_ratio') else '(0, inf)'}, got ({lo}, {hi})."
+                f"bounds of {name} must lie within its physical range ({low:g}, {high:g}), got "
+                f"({lo}, {hi})."
             )
         kind = scale.get(name, "log" if lo > 0 else "linear")
         if kind not in ("log", "linear"):
