@@ -125,67 +125,53 @@ def test_the_simulate_command_stores_its_solve(tmp_path):
     assert run_python(code, env) == "raise"  # the library's own default is left alone
 
 
-def test_a_script_stores_its_solve_and_still_raises(tmp_path):
-    # `simulate` called from plain Python, throw=True and EQX_ON_ERROR unset: the solve is compiled
-    # without callbacks (stored), a failure still raises from the result code, and equinox's own
-    # setting is the same afterwards (a user's jitted check still raises).
+def test_a_script_stores_its_solve_and_sweep_and_still_raises(tmp_path):
+    # Called from plain Python with EQX_ON_ERROR unset, `simulate` (throw=True) and a sweep of a
+    # built-in model (its kernel turns bad values into result codes) compile without callbacks into
+    # Python, so the cache stores them; a failed solve still raises (from the result code), a user's
+    # raising kernel is still reported, and equinox's own setting is the same afterwards (a user's
+    # jitted check still raises). One process for all: each costs a Python start and an import.
     code = """
-        import json, diffrax, equinox as eqx, jax, jax.numpy as jnp
+        import json, diffrax, equinox as eqx, jax
         import equinox._errors as errors
         import origami_jax
         from origami_jax import chain, simulation, system
-        folder = origami_jax.enable_compilation_cache()
-        jax.config.update("jax_enable_x64", True)
-        flap = chain.accordion_system(system.HingeDesign.literature(), 1)
-        run = dict(t1=100.0, n_save=11, solver=diffrax.Tsit5())
-        theta = simulation.simulate(flap, simulation.Step(), **run).theta
-        stored = sorted(p.name for p in folder.iterdir() if p.name.startswith("jit__solve-"))
-        try:
-            simulation.simulate(flap, simulation.Step(), max_steps=2, **run)
-            message = None
-        except eqx.EquinoxRuntimeError as error:
-            message = str(error)
-        try:
-            jax.jit(lambda x: eqx.error_if(x, x > 0, "user check"))(1.0)
-            user = None
-        except Exception as error:
-            user = type(error).__name__
-        print(json.dumps({"stored": stored, "message": message, "setting": errors.EQX_ON_ERROR,
-                          "user": user, "final": float(theta[-1, 0])}))
-    """
-    out = run_python(code, _environment(tmp_path, **{CACHE_ENV: str(tmp_path / "cache")}))
-    assert len(out["stored"]) == 1, out  # the one-flap solve, listed before the failing run
-    assert out["message"].startswith("simulate: The maximum number of solver steps"), out
-    assert out["setting"] == "raise" and out["user"] is not None, out
-    assert 0.0 < out["final"] < 2 * jnp.pi  # the flap folds (a real solve, not NaN)
-
-
-def test_a_script_stores_a_built_in_sweep_and_still_reports_a_raising_kernel(tmp_path):
-    # A built-in kernel never raises (bad values come back as its result code): its sweep program is
-    # traced with equinox's checks as NaN and stored. A user's kernel that raises is still reported.
-    code = """
-        import json, equinox as eqx, jax
-        import origami_jax
         from origami_jax.sweep import Table, get_model, sweep
         folder = origami_jax.enable_compilation_cache()
         jax.config.update("jax_enable_x64", True)
+        def stored(prefix):
+            return sorted(p.name for p in folder.iterdir() if p.name.startswith(prefix))
+        flap = chain.accordion_system(system.HingeDesign.literature(), 1)
+        run = dict(t1=100.0, n_save=11, solver=diffrax.Tsit5())
+        theta = simulation.simulate(flap, simulation.Step(), **run).theta
+        out = {"solve": stored("jit__solve-"), "final": float(theta[-1, 0])}
+        try:  # the same compiled solve, asked for an error it cannot reach in its step budget
+            simulation.simulate(flap, simulation.Step(), rtol=1e-300, atol=1e-300, **run)
+        except eqx.EquinoxRuntimeError as error:
+            out["message"] = str(error)
         model = get_model("accordion-step", n_flaps=1, t_end=100.0, n_save=11, solver="tsit5")
         data = sweep(model, Table({"hinge_width": [100.0, -1.0]}), progress=False)
-        stored = sorted(p.name for p in folder.iterdir() if p.name.startswith("jit_member-"))
+        out.update(sweep=stored("jit_member-"), result=data["result"].values.tolist())
         def raising(params):
             return {"y": eqx.error_if(params["a"], params["a"] < 0, "negative")}
         try:
             sweep(raising, Table({"a": [1.0, -1.0]}), progress=False)
-            reported = None
         except RuntimeError as error:
-            reported = str(error)
-        print(json.dumps({"stored": stored, "result": data["result"].values.tolist(),
-                          "reported": reported}))
+            out["reported"] = str(error)
+        try:
+            jax.jit(lambda x: eqx.error_if(x, x > 0, "user check"))(1.0)
+        except Exception as error:
+            out["user"] = type(error).__name__
+        out["setting"] = errors.EQX_ON_ERROR
+        print(json.dumps(out))
     """
     out = run_python(code, _environment(tmp_path, **{CACHE_ENV: str(tmp_path / "cache")}))
-    assert len(out["stored"]) == 1, out
+    assert len(out["solve"]) == 1 and 0.0 < out["final"] < 6.3, out  # stored; a real fold, no NaN
+    assert out.get("message", "").startswith("simulate: The maximum number of solver steps"), out
+    assert len(out["sweep"]) == 1, out
     assert out["result"] == [0, -1], out  # the bad width is reported as invalid input, not NaN
-    assert out["reported"] is not None and "throw=False" in out["reported"], out
+    assert "throw=False" in out.get("reported", ""), out
+    assert out["setting"] == "raise" and "user" in out, out
 
 
 @pytest.mark.slow  # a design compiled in a subprocess (~15 s)
