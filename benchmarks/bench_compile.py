@@ -8,6 +8,9 @@ script, where compile time goes, and a notebook's rerun after a parameter change
   Pinocchio (`pin.aba` plus hinge springs and quadratic drag), `solve_ivp(method="LSODA")` over the
   same 2000 µs and 2001 samples, a CSV, the angle plot, and a 24-frame GIF of the panels with
   matplotlib. Also a new process, timed the same way.
+- **Script, end to end:** the library called from a script (`enable_compilation_cache()`, the
+  accordion's step response over the same 2000 µs, its metrics, a CSV; no figures), cold and warm as
+  the CLI: what a script user waits for in each new process.
 - **Where compile time goes** (in this process, no persistent cache): the first `simulate` call,
   the first reverse-mode gradient of a metric through it and its first forward-mode derivative
   (`diffrax.ForwardMode`), split with JAX's monitoring events into
@@ -137,6 +140,24 @@ def _peer_script() -> str:
     )
 
 
+SCRIPT = """
+import sys
+import jax
+import numpy as np
+import origami_jax
+from origami_jax import chain, simulation, system
+
+jax.config.update("jax_enable_x64", True)
+origami_jax.enable_compilation_cache()
+accordion = chain.accordion_system(system.HingeDesign.literature(), 3)
+trajectory = simulation.simulate(accordion, simulation.Step(), t1=2000.0)
+metrics = simulation.response_metrics(trajectory)
+table = np.column_stack([np.asarray(trajectory.times), np.asarray(trajectory.theta)])
+np.savetxt(sys.argv[1], table, delimiter=",")
+print("rise times (us):", np.asarray(metrics.rise_time))
+"""
+
+
 def _wall(argv: list[str], env: dict[str, str]) -> float:
     start = time.perf_counter()
     process = subprocess.run(argv, capture_output=True, text=True, env=env, cwd=ROOT)
@@ -148,7 +169,13 @@ def _wall(argv: list[str], env: dict[str, str]) -> float:
 
 def end_to_end(repeats: int = 1) -> dict[str, list[float]]:
     """Wall seconds of cold and warm CLI runs and of the peer script, each a new process."""
-    times: dict[str, list[float]] = {"cold": [], "warm": [], "peer": []}
+    times: dict[str, list[float]] = {
+        "cold": [],
+        "warm": [],
+        "peer": [],
+        "script_cold": [],
+        "script_warm": [],
+    }
     env = {k: v for k, v in os.environ.items() if k != "JAX_COMPILATION_CACHE_DIR"}
     env["PYTHONPATH"] = str(ROOT)
     with tempfile.TemporaryDirectory(prefix="bench_compile_") as tmp:
@@ -164,6 +191,10 @@ def end_to_end(repeats: int = 1) -> dict[str, list[float]]:
             times["peer"].append(
                 _wall([sys.executable, str(peer), str(Path(tmp) / "peer_out")], env)
             )
+            env["ORIGAMI_JAX_CACHE"] = str(Path(tmp) / f"script_cache{r}")
+            script = [sys.executable, "-c", SCRIPT, str(Path(tmp) / "script.csv")]
+            times["script_cold"].append(_wall(script, env))
+            times["script_warm"].append(_wall(script, env))
         # Same answer first: the angles over the fold and its first ringing (past ~0.5 ms two
         # correct solvers drift apart: see bench_simulate).
         ours = np.loadtxt(Path(tmp) / "out" / "trajectory.csv", delimiter=",", skiprows=1)
@@ -289,6 +320,14 @@ def run(quick: bool) -> list[Result]:
             Timing.of(times["warm"]),
             peer_name="scipy LSODA + pinocchio.aba + matplotlib script (new process)",
             peer=Timing.of(times["peer"]),
+        ),
+        Result(
+            "script: step response, metrics, CSV (no figures), cold cache (new process)",
+            Timing.of(times["script_cold"]),
+        ),
+        Result(
+            "script: step response, metrics, CSV (no figures), warm cache (new process)",
+            Timing.of(times["script_warm"]),
         ),
     ]
     if not quick:
