@@ -11,7 +11,11 @@ turned into NaN (as ``EQX_ON_ERROR=nan`` would), which keeps it storable.
 Equinox reads ``EQX_ON_ERROR`` once, at import, into a module constant that its checks consult while
 a program is traced; `checks_as_nan` sets that constant around the trace (and the asynchronous
 dispatch) of the library's own programs, not around their runs. Code traced in another thread in
-that window sees it too: its checks would also give NaN instead of raising.
+that window sees it too: its checks would also give NaN instead of raising. And JAX reuses a
+jitted function's trace for the same argument structure: diffrax's `diffeqsolve`, traced once so,
+keeps NaN checks of its first step and sample times when the caller's own `jit` later calls
+`simulate(..., throw=False)` with the same structure (such a run then fails with a result code,
+which is what `throw=False` reports; with `throw=True` the solve is another program and raises).
 """
 
 from __future__ import annotations
@@ -30,15 +34,16 @@ def on_error() -> str:
 
 
 @contextlib.contextmanager
-def checks_as_nan() -> Iterator[None]:
+def checks_as_nan(enabled: bool = True) -> Iterator[None]:
     """Programs traced inside this block turn a failed `equinox.error_if` into NaN instead of a
-    callback that raises. For callers that checked every input in Python and read failures from
-    result codes. A user's ``EQX_ON_ERROR`` other than ``raise`` (a breakpoint, say) is left alone,
-    as is an equinox without the constant (then nothing changes: the program is only not stored)."""
+    callback that raises (nothing changes when not `enabled`). For callers that checked every input
+    in Python and read failures from result codes. A user's ``EQX_ON_ERROR`` other than ``raise``
+    (a breakpoint, say) is left alone, as is an equinox without the constant (then nothing changes:
+    the program is only not stored)."""
     import equinox._errors as errors
 
     saved = getattr(errors, "EQX_ON_ERROR", None)
-    if saved != "raise":
+    if not enabled or saved != "raise":
         yield
         return
     errors.EQX_ON_ERROR = "nan"

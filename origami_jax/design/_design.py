@@ -7,7 +7,6 @@ its metrics next to the targets, the sensitivity of every metric to every parame
 verdict and, for targets that are not met, how far off they are and why.
 """
 
-import contextlib
 import functools
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
@@ -275,7 +274,7 @@ def design(
     start = space.read(hinge)
     problem = _Problem(hinge, space, targets, settings)
     z0s = _starts(space, start, n_starts, key)
-    with checks_as_nan() if _library_only(settings) else contextlib.nullcontext():
+    with checks_as_nan(_library_only(settings)):
         fitted = _fit_and_start(problem, z0s, solver, max_steps)
     batch, before = jax.device_get(fitted)
     best = batch.best()

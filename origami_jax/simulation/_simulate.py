@@ -6,7 +6,6 @@ system's mechanism (hinge angles and rates for chains and trees); units are the 
 `MICRO`: µm, µs, ng).
 """
 
-import contextlib
 import dataclasses
 from typing import cast
 
@@ -783,8 +782,7 @@ def simulate(
     try:
         # The context covers the trace and the asynchronous dispatch, not the run (`_solve_lazily`
         # sets it around its own calls, since it waits for the first phase between them).
-        checks = checks_as_nan() if pad and not lazy else contextlib.nullcontext()
-        with checks:
+        with checks_as_nan(pad and not lazy):
             trajectory = solve(system, inputs, (t0, t1), (q0, v0), ts, how)
     except TypeError as error:
         # diffrax's default adjoint is a `custom_vjp`: JAX's own message names neither the cause

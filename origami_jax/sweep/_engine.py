@@ -44,7 +44,6 @@ sweep resumed.
 """
 
 import concurrent.futures
-import contextlib
 import dataclasses
 import json
 import math
@@ -430,7 +429,7 @@ def _plan(kernel: Kernel, space: DesignSpace) -> _Plan:
         shapes = _TRACES.get(kernel, ("shapes", _signature(group, inputs)))
         if shapes is None:
             # Traced as the compiled kernel will be: JAX reuses the inner programs' traces.
-            with _traced_checks(kernel):
+            with checks_as_nan(kernel.never_raises):
                 shapes = jax.eval_shape(plan.member_fn(group.static_values), inputs)
             _TRACES.put(kernel, ("shapes", _signature(group, inputs)), shapes)
         for name, shape in shapes.items():
@@ -520,12 +519,6 @@ def _from_process_zero(value: np.ndarray, process_count: int) -> np.ndarray:
     return np.asarray(multihost_utils.broadcast_one_to_all(value))
 
 
-def _traced_checks(kernel: Kernel) -> contextlib.AbstractContextManager:
-    """How `kernel`'s programs are traced: with equinox's checks as NaN if it never raises
-    (`Kernel.never_raises`: a program the compilation cache can keep), else as configured."""
-    return checks_as_nan() if kernel.never_raises else contextlib.nullcontext()
-
-
 class _Compiler:
     """Stage 2: compiles the vmapped kernel of a group for a chunk size, sharded along the batch
     axis, and the cost estimate; keeps the seconds spent compiling."""
@@ -551,7 +544,7 @@ class _Compiler:
         batched = jax.vmap(plan.member_fn(group.static_values))
         jitted = jax.jit(batched, in_shardings=sharding, out_shardings=sharding)
         start = time.perf_counter()
-        with _traced_checks(plan.kernel):
+        with checks_as_nan(plan.kernel.never_raises):
             lowered = jitted.lower(args)
         compiled = lowered.compile()
         self.seconds.append(time.perf_counter() - start)
@@ -571,7 +564,7 @@ class _Compiler:
             return jnp.asarray(estimate({**params, **statics}), dtype=float).reshape(())
 
         start = time.perf_counter()
-        with _traced_checks(plan.kernel):
+        with checks_as_nan(plan.kernel.never_raises):
             lowered = jax.jit(jax.vmap(cost)).lower(inputs)
         compiled_cost = lowered.compile()
         self.seconds.append(time.perf_counter() - start)
