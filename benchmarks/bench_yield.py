@@ -3,8 +3,8 @@
 Ours: `origami_jax.fab_yield.yield_estimate` of `cube_net_01` under the default `Scatter()` (film
 stress, thicknesses, hinge widths, drag and release times per crease, their documented spreads),
 each sample a folding with panel drag and contact to 1500 µs and a verdict, through the sweep
-engine (chunks `vmap`-ped, sharded over the local devices: one CPU device unless XLA is told
-otherwise). Compile apart: a first estimate of one chunk compiles the chunk's program, the timed
+engine (chunks `vmap`-ped, a chunk of one sample unbatched, sharded over the local devices:
+one CPU device unless XLA is told otherwise). Compile apart: a first estimate of one chunk compiles the chunk's program, the timed
 one reuses it (same chunk size).
 
 Peer: the MuJoCo model of the nets benchmark (`bench_net`: same tree, inertias, axes and spring

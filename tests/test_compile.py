@@ -151,7 +151,7 @@ def test_a_script_stores_its_solve_and_sweep_and_still_raises(tmp_path):
             out["message"] = str(error)
         model = get_model("accordion-step", n_flaps=1, t_end=100.0, n_save=11, solver="tsit5")
         data = sweep(model, Table({"hinge_width": [100.0, -1.0]}), progress=False)
-        out.update(sweep=stored("jit_member-"), result=data["result"].values.tolist())
+        out.update(sweep=stored("jit_sweep_chunk-"), result=data["result"].values.tolist())
         def raising(params):
             return {"y": eqx.error_if(params["a"], params["a"] < 0, "negative")}
         try:

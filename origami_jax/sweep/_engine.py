@@ -222,7 +222,18 @@ class _Plan:
         return self.space.size
 
     def member_fn(self, static_values: dict[str, Any]) -> Callable:
-        """The kernel of one design of the group with `static_values`, outputs checked."""
+        """The jitted kernel of one design of the group with `static_values`, outputs checked: one
+        function object per kernel and static values (kept in `_TRACES`), so that JAX traces it
+        once for the shape probe and every chunk size reuses that trace."""
+        kernel = self.kernel
+        key = ("member", tuple(sorted((k, repr(v)) for k, v in static_values.items())))
+        jitted = _TRACES.get(kernel, key)
+        if jitted is None:
+            jitted = jax.jit(self._checked_member(static_values))
+            _TRACES.put(kernel, key, jitted)
+        return jitted
+
+    def _checked_member(self, static_values: dict[str, Any]) -> Callable:
         kernel = self.kernel
 
         def member(params: dict[str, Any]) -> dict[str, Any]:
@@ -274,10 +285,11 @@ def sweep(
     - `fn`: a `Kernel`, or a plain function `fn(params: dict) -> dict[str, Array]` of one design
       (see `Kernel` for the contract: traceable, no raising, result code under `"result"`).
     - `space`: a `Grid`, `Samples`, `Table` or `Product` of them.
-    - `chunk_size`: designs per compiled call; rounded up to a multiple of the device count. `None`
-      picks one: at least 8 chunks, at most 256 designs per device on CPU (8192 on accelerators;
-      on a CPU the kernel's `cpu_chunk_size` when it gives one), then halved until XLA's memory
-      analysis of the compiled call, times `workers`, fits in half the device's memory.
+    - `chunk_size`: designs per compiled call (`vmap`-ped; a chunk of one runs the kernel itself);
+      rounded up to a multiple of the device count. `None` picks one: at least 8 chunks, at most
+      256 designs per device on CPU (8192 on accelerators; on a CPU the kernel's `cpu_chunk_size`
+      when it gives one), then halved until XLA's memory analysis of the compiled call, times
+      `workers`, fits in half the device's memory.
     - `out`: folder to store the sweep in (created if missing). `None` keeps it in memory only.
     - `resume`: continue the sweep stored in `out`, computing only designs not stored yet. Raises
       if the stored sweep has a different kernel, settings or design space. Without `resume`, an
@@ -428,7 +440,7 @@ def _plan(kernel: Kernel, space: DesignSpace) -> _Plan:
         inputs = {**example, **group.extra}
         shapes = _TRACES.get(kernel, ("shapes", _signature(group, inputs)))
         if shapes is None:
-            # Traced as the compiled kernel will be: JAX reuses the inner programs' traces.
+            # Traced as the compiled kernel will be (checks included): its chunks reuse this trace.
             with checks_as_nan(kernel.never_raises):
                 shapes = jax.eval_shape(plan.member_fn(group.static_values), inputs)
             _TRACES.put(kernel, ("shapes", _signature(group, inputs)), shapes)
@@ -531,18 +543,25 @@ class _Compiler:
     def group(self, group: _Group, size: int) -> Callable:
         """The compiled `(size,)`-batch kernel of `group` (kept per kernel object in `_TRACES`)."""
         plan, sharding = self.plan, self.sharding
-        args = {
-            n: jax.ShapeDtypeStruct((size,), plan.encoded[n].dtype, sharding=sharding)
-            for n in plan.dynamic_names
-        }
+        # The sharding is the jitted call's alone: on the arguments it would reach the member's
+        # inputs under `vmap` too, and JAX would trace the member again instead of reusing the
+        # shape probe's trace.
+        args = {n: jax.ShapeDtypeStruct((size,), plan.encoded[n].dtype) for n in plan.dynamic_names}
         for name, shape in group.extra.items():
-            args[name] = jax.ShapeDtypeStruct((size, *shape.shape), shape.dtype, sharding=sharding)
+            args[name] = jax.ShapeDtypeStruct((size, *shape.shape), shape.dtype)
         key = ("compiled", _signature(group, args), sharding)
         compiled = _TRACES.get(plan.kernel, key)
         if compiled is not None:
             return compiled
-        batched = jax.vmap(plan.member_fn(group.static_values))
-        jitted = jax.jit(batched, in_shardings=sharding, out_shardings=sharding)
+        member = plan.member_fn(group.static_values)
+        # A chunk of one design (the nets' kernel on a CPU) runs the member itself: batching its
+        # traced program under `vmap` costs as much as tracing it again.
+        batched = _one_design(member) if size == 1 else jax.vmap(member)
+
+        def sweep_chunk(params: dict[str, Any]) -> dict[str, Any]:  # names the compiled program
+            return batched(params)
+
+        jitted = jax.jit(sweep_chunk, in_shardings=sharding, out_shardings=sharding)
         start = time.perf_counter()
         with checks_as_nan(plan.kernel.never_raises):
             lowered = jitted.lower(args)
@@ -570,6 +589,17 @@ class _Compiler:
         self.seconds.append(time.perf_counter() - start)
         costs = np.asarray(compiled_cost(inputs))
         return np.where(np.isfinite(costs), costs, np.inf)
+
+
+def _one_design(member: Callable) -> Callable:
+    """`member` over a batch of one design: the batch axis dropped on the way in, added back on
+    the way out."""
+
+    def batch_of_one(params: dict[str, Any]) -> dict[str, Any]:
+        outputs = member(jax.tree.map(lambda x: x[0], params))
+        return jax.tree.map(lambda x: x[None], outputs)
+
+    return batch_of_one
 
 
 def _schedule(
