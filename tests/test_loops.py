@@ -428,6 +428,12 @@ def test_fold_cli_lists_and_refuses(tmp_path, capsys):
     assert code == 2 and "not rigidly foldable" in capsys.readouterr().err
     code = main(["fold", "origami_simulator_miura", "--no-figures", "--out", str(tmp_path / "os")])
     assert code == 2 and "length_scale" in capsys.readouterr().err
+    # A misspelt name: neither a file nor a shipped net, and the message says where the names are.
+    code = main(["fold", "cube_net_1", "--no-figures", "--out", str(tmp_path / "typo")])
+    err = capsys.readouterr().err
+    assert code == 2 and "no shipped net of that name" in err and "fold --list" in err, err
+    with pytest.raises(FileNotFoundError, match="catalogue_names"):
+        load_pattern(tmp_path / "missing.fold")
 
 
 def test_layout_and_sweep_kernel_build_closed_loop_systems():

@@ -94,6 +94,8 @@ def test_release_from_an_etch_front():
 def test_bad_nets_are_refused(tmp_path):
     with pytest.raises(FoldFormatError, match="loop"):
         load_net("tests/data/fold/degree4.fold")
+    with pytest.raises(FileNotFoundError, match="no shipped net of that name"):
+        load_net("cube-net-01")
     net = load_net("cube_net_01")
     with pytest.raises(ValueError, match="one fold angle per crease"):
         net.system(targets=jnp.zeros(3))

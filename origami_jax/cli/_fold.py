@@ -278,6 +278,8 @@ def run(args: argparse.Namespace) -> int:
             options["check_rigid"] = not args.no_rigid_check
         system = net.system(design, **options)
         theta0, theta_dot0 = net.start_state(system, bias=args.bias) if loops else (None, None)
+    except FileNotFoundError as error:
+        fail(str(error))  # it names the file
     except (FoldFormatError, ValueError, TypeError, OSError) as error:
         fail(f"{args.net}: {error}")
 

@@ -26,6 +26,7 @@ them); a test checks that the shipped files are what it generates.
 from __future__ import annotations
 
 import math
+import os
 from collections import deque
 from collections.abc import Callable, Iterable
 from pathlib import Path
@@ -61,6 +62,24 @@ def catalogue_path(name: str) -> Path:
     if stem not in names:
         raise ValueError(f"no catalogue net named {name!r}; the catalogue has: {', '.join(names)}")
     return CATALOGUE_DIR / f"{stem}.fold"
+
+
+def source_and_label(source: str | os.PathLike, label: str | None = None) -> tuple[Path, str]:
+    """The FOLD file a loader reads for `source` (a shipped net's name, else a path) and its label
+    (`label`, else the name or the file's stem).
+
+    **Raises:** `FileNotFoundError` naming both readings when `source` is neither.
+    """
+    if isinstance(source, str) and source in catalogue_names():
+        return catalogue_path(source), label or source
+    path = Path(source)
+    if not path.is_file():
+        raise FileNotFoundError(
+            f"no FOLD file {os.fspath(source)!r}, and no shipped net of that name "
+            "(origami_jax.fold.catalogue_names() lists them; on the command line: "
+            "origami-jax fold --list)."
+        )
+    return path, label or path.stem
 
 
 # --- polyominoes and the eleven cube nets ---------------------------------------------------

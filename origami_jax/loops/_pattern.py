@@ -28,7 +28,7 @@ from jaxtyping import ArrayLike, Float
 
 from .._limits import CONTACT_SAMPLING
 from ..fold import FoldFile, FoldFormatError
-from ..fold._catalogue import catalogue_names, catalogue_path
+from ..fold._catalogue import source_and_label
 from ..fold._loop_geometry import LoopGeometry, loop_geometry
 from ..fold._model import FRAME_UNITS_M
 from ..system import AbstractLayout, FoldingSystem, HingeDesign, Hinges
@@ -512,13 +512,11 @@ def load_pattern(
 
     units = MICRO if units is None else units
     label = name
-    source = pattern
-    if isinstance(pattern, str) and pattern in catalogue_names():
-        source = catalogue_path(pattern)
-        label = label or pattern
-    elif isinstance(pattern, str | os.PathLike):
-        label = label or os.path.splitext(os.path.basename(os.fspath(pattern)))[0]
-    fold = source if isinstance(source, FoldFile) else read_fold(source)
+    if isinstance(pattern, FoldFile):
+        fold = pattern
+    else:
+        path, label = source_and_label(pattern, label)
+        fold = read_fold(path)
     geometry = loop_geometry(fold, root=root, flat_creases=flat_creases)
     if geometry.n_loops == 0 and flat_creases == "hinge":
         return load_net(fold, root=root, length_scale=length_scale, units=units, name=label)

@@ -32,7 +32,7 @@ from jaxtyping import Array, ArrayLike, Float
 from .._limits import CONTACT_SAMPLING, FOLD_SEGMENT, MAX_FOLD_SEGMENTS
 from .._math import safe_norm
 from ..fold import FoldFile, FoldFrame, net_geometry
-from ..fold._catalogue import catalogue_names, catalogue_path
+from ..fold._catalogue import source_and_label
 from ..fold._model import FRAME_UNITS_M
 from ..fold._net_geometry import NetGeometry
 from ..simulation._verdict import SeamGaps
@@ -492,13 +492,11 @@ def load_net(
     if isinstance(net, NetGeometry):
         geometry = net
     else:
-        source = net
-        if isinstance(net, str) and net in catalogue_names():
-            source = catalogue_path(net)
-            label = label or net
-        elif isinstance(net, str | os.PathLike):
-            label = label or os.path.splitext(os.path.basename(os.fspath(net)))[0]
-        fold = source if isinstance(source, FoldFile) else read_fold(source)
+        if isinstance(net, FoldFile):
+            fold = net
+        else:
+            path, label = source_and_label(net, label)
+            fold = read_fold(path)
         geometry = net_geometry(fold, root=root)
         key = fold.frame(0)
     if length_scale is None:
