@@ -21,6 +21,7 @@ program a warm command would otherwise spend most of its own time tracing.
 
 from __future__ import annotations
 
+import copyreg
 import functools
 import hashlib
 import io
@@ -94,7 +95,25 @@ class _KeyPickler(pickle.Pickler):
         module = getattr(obj, "__module__", None) if callable(obj) else type(obj).__module__
         if module is not None and module.split(".")[0] not in _VOUCHED:
             raise _Unvouched(module)
+        # Values a `functools.cached_property` has filled in since (contact tables' packed pairs)
+        # are derived from the rest: left out, so that a second call has the first one's key.
+        cached = _cached_properties(type(obj))
+        state = getattr(obj, "__dict__", None)
+        if cached and isinstance(state, dict) and not cached.isdisjoint(state):
+            kept = {name: value for name, value in state.items() if name not in cached}
+            return copyreg.__newobj__, (type(obj),), kept
         return NotImplemented
+
+
+@functools.cache
+def _cached_properties(cls: type) -> frozenset[str]:
+    """The names of `cls`'s `functools.cached_property` attributes."""
+    return frozenset(
+        name
+        for klass in cls.__mro__
+        for name, value in vars(klass).items()
+        if isinstance(value, functools.cached_property)
+    )
 
 
 def _key(name: str, dynamic_leaves, static) -> str | None:

@@ -332,6 +332,13 @@ def test_values_do_not_recompile(compilations):
         "release times": run(system(release=(3.0, 0.0))),
         "initial state": run(theta0=jnp.asarray([0.1, 0.0])),
     }
+    # A start state placed on a device (committed, as the command line's exported solve returns
+    # its results; the rest state is not): the same program.
+    device = jax.devices()[0]
+    changes["a committed start state"] = run(
+        theta0=jax.device_put(jnp.asarray([0.2, 0.0]), device),
+        theta_dot0=jax.device_put(jnp.zeros(2), device),
+    )
     for what, call in changes.items():
         counts = compilations.during(call)
         assert counts == {"solve": 0, "traces": 0, "compiles": 0}, (what, counts)

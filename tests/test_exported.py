@@ -6,6 +6,7 @@ process equinox raises its runtime errors through Python callbacks, which no exp
 hold, and JAX keeps the traces it made here for the rest of the test session.
 """
 
+import dataclasses
 import os
 
 import diffrax
@@ -98,3 +99,20 @@ def test_the_key_covers_the_environment_and_refuses_what_it_cannot_vouch_for(mon
     assert _exported._key("p", leaves, (_torque,)) is None
     assert _exported._key("p", leaves, (type("Local", (), {})(),)) is None
     assert _exported._key("p", leaves, (diffrax.Tsit5(),)) is not None  # vouched
+
+
+def test_the_key_ignores_what_a_cached_property_filled_in_since():
+    # A net's contact tables pack their pairs on first use (`functools.cached_property`): the solve
+    # of a second folding segment must find the first segment's program, not export another.
+    from origami_jax.net import load_net
+
+    net = load_net("corner_cube")
+    tables = net.contact_tables()
+    fresh = dataclasses.replace(tables)  # equal contents, nothing cached yet
+    assert "blocks" not in vars(fresh)
+    leaves = [jnp.zeros(3)]
+    before = _exported._key("p", leaves, (fresh,))
+    assert fresh.blocks and "blocks" in vars(fresh)
+    assert _exported._key("p", leaves, (fresh,)) == before
+    other = load_net("cube_net_01").contact_tables()
+    assert _exported._key("p", leaves, (other,)) != before

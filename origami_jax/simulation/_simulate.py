@@ -150,6 +150,25 @@ class _Integration(eqx.Module):
     land_on_samples: bool = eqx.field(static=True)
 
 
+def _committed(tree):
+    """`tree` with every array leaf committed to the device of its first committed one (else the
+    default device). `jit` compiles one program per pattern of committed and uncommitted arguments,
+    and a run continued from an earlier run's state (a computed result, so committed) would
+    otherwise compile its solve again: a cube net's, ~10 s."""
+    arrays = [x for x in jax.tree.leaves(tree) if isinstance(x, jax.Array | np.ndarray)]
+    placed = [x for x in arrays if isinstance(x, jax.Array) and x.committed]
+    if len(placed) == len(arrays):
+        return tree
+    device = placed[0].sharding if placed else jax.devices()[0]
+
+    def commit(x):
+        if isinstance(x, np.ndarray) or (isinstance(x, jax.Array) and not x.committed):
+            return jax.device_put(x, device)
+        return x
+
+    return jax.tree.map(commit, tree)
+
+
 def _samples(system: FoldingSystem, inputs: AbstractInput, times, q, v):
     """Hinge angles, rates and accelerations and the input torque at the samples; rows past a failure
     are inf (and their NaN gradients kept out)."""
@@ -170,11 +189,23 @@ def _samples(system: FoldingSystem, inputs: AbstractInput, times, q, v):
     tau = jax.vmap(lambda t, th, thd: inputs.torque(t, th, thd, system))(
         times, theta_safe, theta_dot_safe
     )
-    force = jax.vmap(system.generalized_force)(q_safe, v_safe, tau)
-    # All samples in one call: a mechanism's rows path (the chain's runs on scalars with its custom
-    # JVP outside the vmap over samples; its array path was ~7x slower per sample, a third of a
-    # vmapped sweep's time).
-    acceleration = mechanism.forward_dynamics(q_safe, v_safe, force)
+    if system.contact is None:
+        force = jax.vmap(system.generalized_force)(q_safe, v_safe, tau)
+        # All samples in one call: a mechanism's rows path (the chain's runs on scalars with its
+        # custom JVP outside the vmap over samples; its array path was ~7x slower per sample, a
+        # third of a vmapped sweep's time).
+        acceleration = mechanism.forward_dynamics(q_safe, v_safe, force)
+    else:
+        # With contact the force is most of the program: vmapped over the samples it compiled a
+        # second, batched copy of it, which took XLA longer than the whole solve (7 s against
+        # 5 s for a cube net). One sample at a time compiles one unbatched copy (~1.5 s) and costs
+        # a right-hand side per sample, a few percent of the solve's.
+
+        def one_sample(state):
+            q, v, torque = state
+            return mechanism.forward_dynamics(q, v, system.generalized_force(q, v, torque))
+
+        acceleration = jax.lax.map(one_sample, (q_safe, v_safe, tau))
     if mechanism.coordinates_are_hinge_angles:
         theta_ddot = acceleration
     else:
@@ -783,7 +814,8 @@ def simulate(
         # The context covers the trace and the asynchronous dispatch, not the run (`_solve_lazily`
         # sets it around its own calls, since it waits for the first phase between them).
         with checks_as_nan(pad and not lazy):
-            trajectory = solve(system, inputs, (t0, t1), (q0, v0), ts, how)
+            arguments = (system, inputs, (t0, t1), (q0, v0), ts, how)
+            trajectory = solve(*(_committed(arguments) if pad else arguments))
     except TypeError as error:
         # diffrax's default adjoint is a `custom_vjp`: JAX's own message names neither the cause
         # nor the fix.
