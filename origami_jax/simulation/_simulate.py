@@ -153,8 +153,8 @@ class _Integration(eqx.Module):
 def _committed(tree):
     """`tree` with every array leaf committed to the device of its first committed one (else the
     default device). `jit` compiles one program per pattern of committed and uncommitted arguments,
-    and a run continued from an earlier run's state (a computed result, so committed) would
-    otherwise compile its solve again: a cube net's, ~10 s."""
+    and a run continued from a state placed on a device (the command line's exported solve returns
+    its results so) would otherwise compile its solve again: a cube net's, ~10 s."""
     arrays = [x for x in jax.tree.leaves(tree) if isinstance(x, jax.Array | np.ndarray)]
     placed = [x for x in arrays if isinstance(x, jax.Array) and x.committed]
     if len(placed) == len(arrays):
