@@ -7,8 +7,8 @@ How long a folding takes is not known before it is run (a cube net in the etch b
 `unfinished` with a successful solve (time ran out, not the step budget) runs the next segment from
 the last state. Every segment has the same length and sample count, so the continuations reuse the
 first segment's compiled solve; `join_trajectories` joins them into one `Trajectory`, and `assess`
-judges runs padded to the next power of two of samples, so the growing run compiles a verdict only
-when it crosses one (4 verdicts for 8 segments of 201 samples).
+judges runs padded to the next power of two of samples (at least 1024), so the growing run compiles
+a verdict only when it crosses one (2 verdicts for 8 segments of 201 samples).
 """
 
 from collections.abc import Callable

@@ -150,7 +150,7 @@ class _Integration(eqx.Module):
     land_on_samples: bool = eqx.field(static=True)
 
 
-def _committed(tree):
+def on_one_device(tree):
     """`tree` with every array leaf committed to the device of its first committed one (else the
     default device). `jit` compiles one program per pattern of committed and uncommitted arguments,
     and a run continued from a state placed on a device (the command line's exported solve returns
@@ -815,7 +815,7 @@ def simulate(
         # sets it around its own calls, since it waits for the first phase between them).
         with checks_as_nan(pad and not lazy):
             arguments = (system, inputs, (t0, t1), (q0, v0), ts, how)
-            trajectory = solve(*(_committed(arguments) if pad else arguments))
+            trajectory = solve(*(on_one_device(arguments) if pad else arguments))
     except TypeError as error:
         # diffrax's default adjoint is a `custom_vjp`: JAX's own message names neither the cause
         # nor the fix.

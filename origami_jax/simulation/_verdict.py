@@ -39,7 +39,7 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Bool, Float, Int
 
 from ._results import RESULTS
-from ._simulate import Trajectory, padded_sample_count
+from ._simulate import Trajectory, on_one_device, padded_sample_count
 
 
 class FoldVerdict(enum.StrEnum):
@@ -511,13 +511,20 @@ def _seams_touching(touching, bodies, shape):
     return (touching[:, a, b] | touching[:, b, a]) & known
 
 
+# The fewest samples a verdict is compiled for: a run folded in segments of up to 512 samples (the
+# fold command's are 501) and its first continuation share one program; the padding costs
+# milliseconds (a cube net's verdict: 16 ms at 1024 samples against 13.5 at 512).
+_MIN_VERDICT_SAMPLES = 1024
+
+
 def _front_padded(trajectory: Trajectory) -> Trajectory:
     """`trajectory` with rows of NaN put in front of its samples up to `padded_sample_count` of them
-    (and without its dense solution), so that runs of nearby lengths (a run continued segment by
-    segment) share one compiled verdict: `fold_outcome` judges the padded run as the run itself (a
-    NaN time marks padding; a NaN state is not within any tolerance)."""
+    (at least `_MIN_VERDICT_SAMPLES`; and without its dense solution), so that runs of nearby
+    lengths (a run continued segment by segment) share one compiled verdict: `fold_outcome` judges
+    the padded run as the run itself (a NaN time marks padding; a NaN state is not within any
+    tolerance)."""
     count = trajectory.times.shape[0]
-    extra = padded_sample_count(count) - count
+    extra = max(padded_sample_count(count), _MIN_VERDICT_SAMPLES) - count
 
     def pad(x):
         # On the host: an eager concatenation would compile a program per shape.
@@ -575,8 +582,8 @@ def assess(
     **Returns:** a `FoldReport`.
 
     The verdict runs as one compiled program per model structure and per power of two of samples
-    (the run is padded in front; the verdict is the unpadded run's), so that judging another run of
-    the same model compiles nothing.
+    (at least 1024; the run is padded in front; the verdict is the unpadded run's), so that judging
+    another run of the same model compiles nothing.
     """
     angle_tolerance, seam_tolerance = _tolerances(
         system, tolerances, angle_tolerance, seam_tolerance, panel_size
@@ -594,8 +601,11 @@ def assess(
             f"intended_angles must have shape {trajectory.theta.shape[-1:]}, got {intended.shape}."
         )
     bodies = getattr(seam_gaps, "bodies", None)
-    outcome = jax.device_get(
-        _outcome_compiled(
+    # On one device: a run's arrays are committed to a device or not depending on how they were
+    # computed (the command line's exported solve returns committed ones), and each pattern of
+    # committed arguments would compile the verdict again.
+    arguments = on_one_device(
+        (
             system,
             _front_padded(trajectory),
             intended,
@@ -605,6 +615,7 @@ def assess(
             jnp.asarray(seam_tolerance),
         )
     )
+    outcome = jax.device_get(_outcome_compiled(*arguments))
     contact = system.contact
     if thickness is None and contact is not None:
         thickness = 2 * float(np.min(contact.half_thickness))
