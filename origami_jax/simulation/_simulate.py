@@ -157,7 +157,8 @@ def on_one_device(tree):
     its results so) would otherwise compile its solve again: a cube net's, ~10 s."""
     arrays = [x for x in jax.tree.leaves(tree) if isinstance(x, jax.Array | np.ndarray)]
     placed = [x for x in arrays if isinstance(x, jax.Array) and x.committed]
-    if len(placed) == len(arrays):
+    # Nothing to do, or arrays spread over several devices (the caller's layout: left as it is).
+    if len(placed) == len(arrays) or any(len(x.sharding.device_set) > 1 for x in placed):
         return tree
     device = placed[0].sharding if placed else jax.devices()[0]
 
