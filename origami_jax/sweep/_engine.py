@@ -183,11 +183,15 @@ class _TraceCache:
 _TRACES = _TraceCache()
 
 
+def _statics_key(static_values: Mapping[str, Any]) -> tuple:
+    """A group's static values as a hashable key."""
+    return tuple(sorted((k, repr(v)) for k, v in static_values.items()))
+
+
 def _signature(group: "_Group", inputs: Mapping[str, Any]) -> tuple:
     """What a traced group depends on besides its kernel: static values, input shapes and dtypes."""
-    statics = tuple(sorted((k, repr(v)) for k, v in group.static_values.items()))
     shapes = tuple(sorted((k, tuple(v.shape), str(v.dtype)) for k, v in inputs.items()))
-    return statics, shapes
+    return _statics_key(group.static_values), shapes
 
 
 class _Group:
@@ -226,7 +230,7 @@ class _Plan:
         function object per kernel and static values (kept in `_TRACES`), so that JAX traces it
         once for the shape probe and every chunk size reuses that trace."""
         kernel = self.kernel
-        key = ("member", tuple(sorted((k, repr(v)) for k, v in static_values.items())))
+        key = ("member", _statics_key(static_values))
         jitted = _TRACES.get(kernel, key)
         if jitted is None:
             jitted = jax.jit(self._checked_member(static_values))
@@ -532,8 +536,9 @@ def _from_process_zero(value: np.ndarray, process_count: int) -> np.ndarray:
 
 
 class _Compiler:
-    """Stage 2: compiles the vmapped kernel of a group for a chunk size, sharded along the batch
-    axis, and the cost estimate; keeps the seconds spent compiling."""
+    """Stage 2: compiles the kernel of a group for a chunk size (vmapped; a chunk of one runs it
+    unbatched), sharded along the batch axis, and the cost estimate; keeps the seconds spent
+    compiling."""
 
     def __init__(self, plan: _Plan, sharding: NamedSharding):
         self.plan = plan
