@@ -205,6 +205,8 @@ def test_a_cube_net_still_moving_at_the_first_segments_end_folds_on(tmp_path, ca
     assert result["verdict"] == "folded" and result["segments"] == 2
     assert result["t1"] == pytest.approx(2 * FOLD_SEGMENT)
     assert 1000.0 < result["time_to_fold"] < 2000.0
+    header = (tmp_path / "trajectory.csv").read_text().splitlines()[0]
+    assert header.startswith("time [us],theta_0 [rad]") and "theta_4 [rad]" in header
     times = np.loadtxt(tmp_path / "trajectory.csv", delimiter=",", skiprows=1)[:, 0]
     assert times[-1] == pytest.approx(2 * FOLD_SEGMENT) and np.all(np.diff(times) > 0)
 
@@ -218,3 +220,33 @@ def test_net_fold_runs_until_the_cube_closes_or_to_t1():
     assert float(trajectory.times[-1]) > 1000.0  # the first segment ended still moving
     short, report = net.fold(system, t1=500.0, n_save=101)
     assert report.verdict == "unfinished" and float(short.times[-1]) == 500.0
+
+
+@pytest.mark.parametrize("name", ["cube_net_01", "corner_cube", "waterbomb_base"])
+def test_result_names_each_crease_and_seam_in_the_fold_file(name):
+    # result.json numbers creases and seams from 0 (as the verdict and --targets do) and says
+    # which FOLD edges and faces they are: checked here against the file's own assignments and
+    # faces, read without the package.
+    from origami_jax.cli._fold import numbering
+    from origami_jax.fold import catalogue_path
+    from origami_jax.loops import load_pattern
+
+    raw = json.loads(catalogue_path(name).read_text())
+    assignment = raw["edges_assignment"]
+    faces = [set(face) for face in raw["faces_vertices"]]
+    where = numbering(load_pattern(name))
+    creases = [e for edges in where["crease_edges"] for e in edges]
+    assert sorted(creases) == [e for e, a in enumerate(assignment) if a in "MV"]
+    for crease in where["crease_edges"]:  # a crease's edges lie between the same two faces
+        sides = {
+            tuple(i for i, f in enumerate(faces) if set(raw["edges_vertices"][e]) <= f)
+            for e in crease
+        }
+        assert len(sides) == 1 and len(next(iter(sides))) == 2
+    assert len(where["seam_faces"]) == len(where["seam_edges"])
+    for pair, edges in zip(where["seam_faces"], where["seam_edges"], strict=True):
+        assert pair[0] != pair[1]
+        for face, edge in zip(pair, edges, strict=True):
+            assert assignment[edge] in "BC" and set(raw["edges_vertices"][edge]) <= faces[face]
+    if name == "cube_net_01":  # its 7 seams close the cube: 12 cube edges less 5 creases
+        assert len(where["seam_faces"]) == 7

@@ -614,7 +614,10 @@ def test_fold_figures_name_the_verdict_and_the_time_to_fold(corner_cube, tmp_pat
         angles = saved[str(out / "angles.png")].axes[0]
         assert angles.get_title() == f"corner_cube: {report.verdict}"
         assert angles.get_ylabel() == "crease angle [deg]"
-        assert [t.get_text() for t in angles.get_legend().get_texts()] == ["crease 1", "crease 2"]
+        assert [t.get_text() for t in angles.get_legend().get_texts()] == [
+            "crease 0",
+            "crease 1",
+        ]  # as the verdict numbers them
         marked = [t.get_text().strip() for t in angles.texts]
         assert marked == (["folded at 1354 µs"] if report is folded else [])
         titles = [ax.get_title() for ax in saved[str(out / "frames.png")].axes]

@@ -63,6 +63,10 @@ A closed-loop pattern starts flat, where its folding branches meet, and the hing
 cannot fold to its angles (a square twist) is refused with the closure residual (--no-rigid-check
 simulates it anyway).
 
+Creases and seams are numbered from 0, in the order of --targets and --release, of
+result.json's arrays and of the verdict; result.json's crease_edges gives each crease's FOLD edges,
+seam_faces and seam_edges the two FOLD faces and edges each seam joins.
+
 Verdicts: folded (every crease within tolerance, every seam closed: within tolerance or its panels
 touching), jammed (contact stops a crease short), misfolded (another final state, another branch),
 unfinished (time ran out; without --t1 a net still moving is folded on, 1000 µs at a time,
@@ -363,6 +367,7 @@ def _run(args, net, system, loops, params, release, sampling, theta0, theta_dot0
             for k, v in trajectory.stats.items()
         },
         final_angles_deg=[float(x) for x in np.degrees(report.final_angles)],
+        **numbering(net),
     )
     result["stats"] = {
         k: (v if not isinstance(v, float) or np.isfinite(v) else None)
@@ -371,7 +376,7 @@ def _run(args, net, system, loops, params, release, sampling, theta0, theta_dot0
     (out / "result.json").write_text(dumps_json(result))
     times = np.asarray(trajectory.times)
     theta = np.asarray(trajectory.theta)
-    header = "time [us]," + ",".join(f"theta_{j + 1} [rad]" for j in range(m))
+    header = "time [us]," + ",".join(f"theta_{j} [rad]" for j in range(m))
     np.savetxt(
         out / "trajectory.csv",
         np.column_stack([times, theta]),
@@ -395,6 +400,19 @@ def _run(args, net, system, loops, params, release, sampling, theta0, theta_dot0
     return EXIT_OK if report.verdict == "folded" else EXIT_FAILED
 
 
+def numbering(net) -> dict[str, list]:
+    """Where the creases and seams that the verdict numbers (from 0) are in the FOLD file:
+    `crease_edges` (each crease's FOLD edges), `seam_faces` and `seam_edges` (the two FOLD faces, and
+    their two edges, that each seam joins)."""
+    import numpy as np
+
+    return dict(
+        crease_edges=[[int(e) for e in edges] for edges in net.crease_edge_ids],
+        seam_faces=np.asarray(net.seams.faces, dtype=int).reshape(-1, 2).tolist(),
+        seam_edges=np.asarray(net.seams.edges, dtype=int).reshape(-1, 2).tolist(),
+    )
+
+
 def _figures(
     system, trajectory, report, out: Path, name: str, t_max: float | None, *, animation: bool = True
 ) -> list[str]:
@@ -405,7 +423,7 @@ def _figures(
     from origami_jax.plotting import chain as plots
 
     fig = plots.plot_joint_angles(
-        trajectory, None, title=f"{name}: {report.verdict}", name="crease"
+        trajectory, None, title=f"{name}: {report.verdict}", name="crease", number_from=0
     )
     if report.time_to_fold is not None:
         fig.axes[0].axvline(report.time_to_fold, color="k", lw=0.8, ls="--")

@@ -25,6 +25,7 @@ def plot_joint_angles(
     desired=None,
     title: str | None = None,
     name: str = "joint",
+    number_from: int = 1,
 ):
     """Joint angles (degrees) against time, one line per joint, metrics annotated (paper Figs. 7, 10).
 
@@ -36,6 +37,8 @@ def plot_joint_angles(
     - `desired`: optional callable `t -> θ_des` drawn dashed (e.g. `EtchRamp.desired` returning a pair).
     - `title`: axis title.
     - `name`: what the lines are called in the legend and on the axis (`"crease"` for a net).
+    - `number_from`: the first line's number: 1 for a chain's joints, as the paper numbers them;
+      0 for a net's or a crease pattern's creases, as their arrays and verdicts number them.
 
     **Returns:** the matplotlib `Figure`.
     """
@@ -50,7 +53,7 @@ def plot_joint_angles(
     t_axis = times * time_scale
     for j in range(theta.shape[1]):
         colour = _COLOURS[j % len(_COLOURS)]
-        label = f"{name} {j + 1}"
+        label = f"{name} {j + number_from}"
         if metrics is not None:
             label += (
                 f": rise {float(metrics.rise_time[j]) * time_scale:.3g} {unit}, "
