@@ -14,7 +14,10 @@ against the targets, and the seams' gaps from the net's own rigid folding), then
 trajectory (compile apart), and a batch with scattered hinges (±10 % stiffness per crease, release
 times over 20 µs) in nets/s: ours `jax.vmap` over the batch, MuJoCo one rollout over a list of
 models, on one thread and on two (the target is MuJoCo's throughput on 2 cores). MJX (MuJoCo on
-accelerators) would be the GPU peer; it is not run on a CPU.
+accelerators, the `mujoco-mjx` package) is the accelerator peer: where JAX has a GPU, both batches
+hold the issue's 1,000 nets (64 with `--quick`) and MJX rolls the same models out on the GPU beside
+ours; on a CPU its row runs only when ``NET_MJX=1`` asks for it (there it is many times slower than
+C MuJoCo, a check that the peer runs and agrees, not a throughput).
 
 At equal accuracy too: a fixed-step integrator and an adaptive one at its default tolerance do not
 make the same error. Each model's path (the hinge angles at the saved times) is compared with its own
@@ -28,6 +31,7 @@ can be split into what the contact costs and what the rest does.
 Run: ``python -m benchmarks --only net`` (``--quick``: smaller batches, one repeat).
 """
 
+import os
 import time
 
 import diffrax
@@ -41,6 +45,7 @@ import origami_jax.simulation as sim
 from origami_jax.net import load_net
 from origami_jax.system import KOH_SOLUTION, HingeDesign
 
+from . import _mjx_tree
 from ._harness import Result, Timing, time_calls
 from ._mujoco_tree import critical_damping, hinge_period_step, release_controls, tree_model
 
@@ -203,8 +208,10 @@ def _per_net_row(name, ours_s, mujoco_s, batch_mj, threads, compile_s, notes, ex
 
 def run(quick: bool) -> list[Result]:
     jax.config.update("jax_enable_x64", True)
-    batch_ours = 16 if quick else 128
+    accelerated = jax.default_backend() != "cpu"
     batch_mj = 64 if quick else 1000
+    # On a CPU a wider vmap buys little per net (RESULTS.md); on a GPU the issue's whole batch.
+    batch_ours = batch_mj if accelerated else (16 if quick else 128)
     repeats = 1 if quick else 3
     net = load_net(NET)
     design = HingeDesign.literature(fluid=KOH_SOLUTION)
@@ -299,7 +306,8 @@ def run(quick: bool) -> list[Result]:
     per_net_ours = per_net[sim.DEFAULT_RTOL]
     models = scattered_mujoco(system, design, dt, factor)
     controls = release_controls(release, nstep, dt)
-    _check("MuJoCo (batch)", net, _mujoco_final(models, controls, data), targets)
+    mj_finals = _mujoco_final(models, controls, data)
+    _check("MuJoCo (batch)", net, mj_finals, targets)
     # The target is MuJoCo's throughput on 2 cores: rollout's thread pool, one MjData per thread.
     for threads in (1, 2):
         per_net_mj = mujoco_batch_seconds(models, controls, threads).median / batch_mj
@@ -366,7 +374,68 @@ def run(quick: bool) -> list[Result]:
             {"rtol": EQUAL_RTOL, "batch_ours": batch_ours},
         )
     )
+    if not _mjx_tree.available():
+        print("MJX row skipped: mujoco.mjx does not import (pip install mujoco-mjx)")
+    elif accelerated or os.environ.get("NET_MJX") == "1":
+        batch_mjx = batch_mj if accelerated else (16 if quick else 64)
+        rows.append(
+            _mjx_row(
+                net,
+                models[:batch_mjx],
+                release[:batch_mjx],
+                nstep,
+                mj_finals[:batch_mjx],
+                per_net[EQUAL_RTOL],
+                batch_ours,
+                batch_compile,
+                repeats,
+            )
+        )
+    else:
+        print("MJX row skipped on a CPU (NET_MJX=1 runs it: a check, not a throughput)")
     return rows
+
+
+def _mjx_row(
+    net, models, release, nstep, mj_finals, per_net_ours, batch_ours, compile_s, repeats
+) -> Result:
+    """MJX over `models` (C models of the scattered batch) with their `release` times, on JAX's
+    default device, against ours at equal accuracy (`per_net_ours`, seconds per net); answers
+    checked against the cube and against C MuJoCo's finals of the same models first."""
+    batch = len(models)
+    gains, release = jnp.asarray(_mjx_tree.gains_of(models)), jnp.asarray(release)
+    start = time.perf_counter()
+    rollout = jax.jit(_mjx_tree.batched_rollout(models[0], nstep)).lower(gains, release).compile()
+    mjx_compile = time.perf_counter() - start
+    finals = np.asarray(rollout(gains, release))
+    _check("MJX (batch)", net, finals, np.asarray(net.intended_angles)[None])
+    difference = float(np.max(np.abs(finals - mj_finals)))
+    per_net_mjx = time_calls(lambda: rollout(gains, release), repeats=repeats).median / batch
+    backend = jax.default_backend()
+    return Result(
+        name=(
+            f"{NET} with scattered hinges, nets/s at equal accuracy: ours rtol {EQUAL_RTOL:g} "
+            f"vmap over {batch_ours} vs MJX over {batch} ({backend})"
+        ),
+        ours=Timing.once(per_net_ours),
+        peer_name=f"MJX {mujoco.__version__}, {nstep} steps of {models[0].opt.timestep:.3g} us",
+        peer=Timing.once(per_net_mjx),
+        compile_s=compile_s,
+        max_abs_difference=difference,
+        notes=(
+            f"per net; MJX compile {mjx_compile:.1f} s; MJX's final angles against C MuJoCo's "
+            f"for the same models: {difference:.1e} rad; every member closes the cube"
+        ),
+        extra={
+            "rtol": EQUAL_RTOL,
+            "batch_ours": batch_ours,
+            "batch_mjx": batch,
+            "backend": backend,
+            "mjx_compile_s": mjx_compile,
+            "ours_nets_per_s": 1 / per_net_ours,
+            "mjx_nets_per_s": 1 / per_net_mjx,
+        },
+    )
 
 
 if __name__ == "__main__":

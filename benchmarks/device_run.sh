@@ -7,7 +7,9 @@
 #   pip download --no-deps --only-binary=:all: --python-version 3.12 --platform manylinux_2_28_x86_64 \
 #       --platform any -d .whl pin libpinocchio coal libcoal eigenpy cmeel cmeel-boost cmeel-urdfdom \
 #       cmeel-console-bridge cmeel-tinyxml2 cmeel-octomap cmeel-qhull cmeel-zlib cmeel-assimp \
-#       mujoco mujoco-core glfw pyopengl modern_robotics h5netcdf      (versions as in the local venv)
+#       mujoco mujoco-core glfw pyopengl modern_robotics h5netcdf \
+#       mujoco-mjx trimesh etils absl-py          (versions as in the local venv; mujoco-mjx for the
+#       nets benchmark's MJX row, which runs wherever JAX has a GPU)
 #   pip install --no-deps --target /tmp/site312 --python-version 3.12 --only-binary=:all: \
 #       --platform manylinux_2_28_x86_64 --platform any .whl/*.whl
 #   then delete cmeel.prefix/{include,share,bin}, static libraries and the shared libraries no extension
@@ -50,4 +52,5 @@ run unfold 90
 run simulate 90
 run chain_peers 60
 run design 150
+run net 420  # ours and MJX over the same 1,000 scattered cube nets (--quick: 64) on the GPU
 echo "done $(date +%T)"
