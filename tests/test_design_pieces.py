@@ -188,3 +188,24 @@ def test_result_codes_promote_as_equinox_does_without_device_work(code):
         assert constant == expected
         traced = jax.jit(lambda i, t=target: promote(i, t)._value)(item)
         assert int(traced) == int(expected._value)
+
+
+def test_result_codes_read_the_same_after_a_fetch_to_the_host():
+    # A fit's result codes are fetched to the host before the report words them; equinox words a
+    # NumPy scalar code as "unknown" (a design that ran out of steps said "Optimiser: unknown").
+    from origami_jax._result_codes import message
+    from origami_jax.design._report import _message, _take
+    from origami_jax.simulation import RESULTS as SIM_RESULTS
+
+    def codes(enumeration):
+        pick = lambda ok: enumeration.where(
+            ok, enumeration.successful, enumeration.max_steps_reached
+        )  # noqa: E731
+        return jax.vmap(pick)(jnp.array([True, False]))
+
+    for batch in (codes(ojd.RESULTS), jax.device_get(codes(ojd.RESULTS))):
+        assert _message(_take(batch, 0)) == ""
+        assert _message(_take(batch, 1)).startswith("The maximum number of solver steps")
+    host = _take(jax.device_get(codes(SIM_RESULTS)), 1)
+    assert message(host, SIM_RESULTS) == str(SIM_RESULTS[SIM_RESULTS.max_steps_reached])
+    assert "unknown" not in message(host, SIM_RESULTS)

@@ -182,6 +182,7 @@ def _run(args: argparse.Namespace, params: dict[str, float], out: Path):
     import jax.numpy as jnp
 
     import origami_jax.simulation as sim
+    from origami_jax._result_codes import message
     from origami_jax.chain import accordion_system
     from origami_jax.system import AIR, KOH_SOLUTION, MICRO, HingeDesign
 
@@ -257,7 +258,7 @@ def _run(args: argparse.Namespace, params: dict[str, float], out: Path):
         "stiffness": jnp.asarray(k).tolist(),
         "drag": jnp.asarray(b).tolist(),
         "params": params,
-        "result": "successful" if ok else sim.RESULTS[trajectory.result],
+        "result": "successful" if ok else message(trajectory.result, sim.RESULTS),
         "succeeded": ok,
         "stats": _json_stats(trajectory.stats),
         **extra,

@@ -13,6 +13,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .._result_codes import message
 from ..system import HingeDesign
 from ._identify import Identifiability
 from ._lstsq import RESULTS
@@ -176,7 +177,7 @@ class DesignResult:
 
 
 def _message(result: RESULTS) -> str:
-    return str(RESULTS[result]) if result != RESULTS.successful else ""
+    return message(result, RESULTS) if result != RESULTS.successful else ""
 
 
 def _take(tree, i):

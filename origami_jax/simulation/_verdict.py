@@ -38,6 +38,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Bool, Float, Int
 
+from .._result_codes import message
 from ._results import RESULTS
 from ._simulate import Trajectory, on_one_device, padded_sample_count
 
@@ -629,7 +630,7 @@ def assess(
     if seams_touching.shape != gaps_final.shape:  # a failed run: no final seams
         seams_touching = np.zeros(gaps_final.shape, dtype=bool)
     verdict = list(FoldVerdict)[int(outcome.code)]
-    result = RESULTS[trajectory.result]
+    result = message(trajectory.result, RESULTS)
     if not bool(trajectory.succeeded):
         reason = (
             f"the solver ran out of steps ({result})"

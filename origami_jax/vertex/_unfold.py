@@ -25,6 +25,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float, PRNGKeyArray
 
+from .._result_codes import message
 from ._descent import (
     CERT_MARGIN,
     RESULTS,
@@ -606,7 +607,7 @@ def unfold(
     lam, kkt = _multipliers(jnp.asarray(path[-1]), jnp.asarray(sectors), closed, end_kind, end_p)
     certificate = certify_path(path, sectors, closed=closed, contact_pairs=report.contact_mask)
     verdict = _VERDICT_OF_CODE[int(_code(status))]
-    reason = RESULTS[status]
+    reason = message(status, RESULTS)
     if used is not None:
         reason += f" (after escape '{used}')"
     if verdict == Verdict.FLAT_UNFOLDED and not certificate.ok:
