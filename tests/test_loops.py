@@ -10,6 +10,7 @@ for sectors ``α, β, π − α, π − β``, ``k = ½`` here); the Miura-ori ce
 import functools
 import json
 import math
+import warnings
 
 import diffrax
 import equinox as eqx
@@ -461,3 +462,22 @@ def test_fold_cli_folds_a_closed_loop_pattern(tmp_path, capsys):
     assert result["verdict"] == "folded" and result["closed_loops"] == 1
     assert result["wrong_creases"] == [] and result["closure_drift"] < DRIFT_TOL
     assert (out / "trajectory.fold").is_file()
+
+
+def test_a_hinge_wider_than_its_crease_is_warned_about(capsys):
+    # The literature hinge is 200 µm wide; four creases of the degree-6 vertex are 141 µm long.
+    # The system models such a hinge that wide all the same, and says so; per-crease widths
+    # within the creases are taken silently.
+    from origami_jax.cli._common import _one_line_warning
+
+    pattern = load_pattern("vertex_degree6")
+    lengths = pattern.geometry.lengths * pattern.length_scale
+    assert np.sum(lengths < 200.0) == 4
+    with pytest.warns(UserWarning, match=r"hinges wider than their creases.*crease 0 \(200 on 141"):
+        pattern.system(HingeDesign.literature(), contact=False, check_rigid=False)
+    within = HingeDesign.literature(hinge_width=0.9 * lengths)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        pattern.system(within, contact=False, check_rigid=False)
+    line = _one_line_warning("hinges wider", UserWarning, "x.py", 1)
+    assert line == "origami-jax: warning: hinges wider\n"  # the command line's form

@@ -216,3 +216,21 @@ def test_metric_gradients_reverse_mode_in_koh():
     f = jax.jit(rise)
     fd = jnp.array([(f(x + eps * e) - f(x - eps * e)) / (2 * eps) for e in jnp.eye(2)])
     np.testing.assert_allclose(grad, fd, rtol=GRADIENT_RTOL)
+
+
+def test_t90_target_is_the_time_to_ninety_percent_in_closed_form():
+    # y = 1 − e^{−at} reaches 90 % at ln(10)/a: the design's `t90` target reads that metric, and
+    # its residual vanishes there.
+    import origami_jax.design as ojd
+    from origami_jax.design._targets import achieved_values, residual
+
+    rate = 1.7
+    trajectory = _synthetic(lambda t: 1 - jnp.exp(-rate * t))
+    metrics = sim.response_metrics(trajectory)
+    exact = np.log(10.0) / rate
+    targets = ojd.Targets(t90=[exact])
+    assert targets.labels == ["t90[joint 1]"] and ojd.time_horizon(targets) == 3 * exact
+    np.testing.assert_allclose(achieved_values(targets, metrics), [exact], rtol=1e-9)
+    np.testing.assert_allclose(residual(targets, metrics, trajectory), [0.0], atol=1e-9)
+    with pytest.raises(ValueError, match="positive times"):
+        ojd.Targets(t90=[0.0])

@@ -365,6 +365,9 @@ def setup_runtime(command: str | None = None) -> None:
     warnings.filterwarnings(
         "ignore", message=r"Error (reading|writing) persistent compilation cache"
     )
+    # The package's warnings are for the user (a hinge wider than its crease): one line each, as
+    # the command's own messages, without the file and line they were raised at.
+    warnings.formatwarning = _one_line_warning
     try:
         folder = enable_compilation_cache()
         if folder is not None:
@@ -372,6 +375,10 @@ def setup_runtime(command: str | None = None) -> None:
             enable_exported_programs(folder / "exported")
     except (ValueError, OSError) as error:  # an unwritable cache folder costs time, not the run
         print(f"origami-jax: warning: {error}", file=sys.stderr)
+
+
+def _one_line_warning(message, category, filename, lineno, line=None) -> str:
+    return f"origami-jax: warning: {message}\n"
 
 
 def print_error(command: str | None, message: str) -> None:

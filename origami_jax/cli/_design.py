@@ -48,6 +48,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--target-settling", help="2 %% settling time per joint, seconds")
     parser.add_argument("--target-final", help="final angle per joint, degrees")
     parser.add_argument(
+        "--target-t90", help="time to reach 90 %% of the target angle per joint, seconds"
+    )
+    parser.add_argument(
         "--curve",
         help="measured response: CSV with a header, columns t (s) then theta_1..theta_n (rad)",
     )
@@ -160,10 +163,11 @@ def run(args: argparse.Namespace) -> int:
         peak = _floats(args.target_peak, "--target-peak")
         settling = _floats(args.target_settling, "--target-settling")
         final = _floats(args.target_final, "--target-final")
+        t90 = _floats(args.target_t90, "--target-t90")
     except ValueError as error:
         fail(str(error))
     _check_numbers(args)
-    lists = [v for v in (rise, peak, settling, final) if v is not None]
+    lists = [v for v in (rise, peak, settling, final, t90) if v is not None]
     n = args.n_flaps or (len(lists[0]) if lists else None)
     if n is None and args.curve is None and overshoot is not None:
         n = 3
@@ -179,13 +183,13 @@ def run(args: argparse.Namespace) -> int:
         overwrite=args.overwrite,
     )
     with output:
-        code = _fit(args, output.dir, n, table, rise, overshoot, peak, settling, final)
+        code = _fit(args, output.dir, n, table, rise, overshoot, peak, settling, final, t90)
     if code == EXIT_OK or code == EXIT_FAILED:
         print(f"wrote {output.out / 'design.json'} and {output.out / 'design_response.png'}")
     return code
 
 
-def _fit(args, out: Path, n, table, rise, overshoot, peak, settling, final) -> int:
+def _fit(args, out: Path, n, table, rise, overshoot, peak, settling, final, t90) -> int:
     print(
         "origami-jax design: loading JAX and compiling (the first fit takes a minute) ...",
         flush=True,
@@ -209,6 +213,7 @@ def _fit(args, out: Path, n, table, rise, overshoot, peak, settling, final) -> i
             final_angle=None
             if final is None
             else [math.radians(x) for x in _pad(final, n, "--target-final")],
+            t90=to_time(t90),
             curve=curve,
         )
         free = [name.strip() for name in args.free.split(",") if name.strip()]

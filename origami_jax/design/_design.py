@@ -27,7 +27,15 @@ from ._identify import identifiability
 from ._lstsq import fit_batch
 from ._report import DesignResult, build_report
 from ._space import ParameterSpace, parameter_space
-from ._targets import KINDS, Targets, achieved_values, ill_conditioned_rows, residual, time_horizon
+from ._targets import (
+    KINDS,
+    Targets,
+    achieved_values,
+    ill_conditioned_rows,
+    metric_values,
+    residual,
+    time_horizon,
+)
 
 DEFAULT_N_SAVE = 1201
 """Samples of each simulated response: the metrics refine crossings between samples by cubic Hermite
@@ -129,16 +137,10 @@ class _Problem(eqx.Module):
 
 
 def _all_metrics(metrics) -> Array:
-    """Every metric of every joint, in `KINDS` order (overshoot as a fraction), shape `(5 n,)`."""
-    return jnp.concatenate(
-        [
-            metrics.rise_time,
-            metrics.overshoot / 100.0,
-            metrics.peak_time,
-            metrics.settling_time,
-            metrics.target + metrics.final_error,
-        ]
-    )
+    """Every metric of every joint, in `KINDS` order (overshoot as a fraction), shape
+    `(len(KINDS) n,)`."""
+    values = metric_values(metrics)
+    return jnp.concatenate([values[kind] for kind in KINDS])
 
 
 def _residual_fn(z, problem: _Problem):

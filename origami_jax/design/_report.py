@@ -18,7 +18,7 @@ from ..system import HingeDesign
 from ._identify import Identifiability
 from ._lstsq import RESULTS
 from ._space import parameter_unit
-from ._targets import KIND_UNITS
+from ._targets import KIND_UNITS, metric_values
 
 
 @dataclasses.dataclass(frozen=True)
@@ -188,6 +188,7 @@ def build_report(*, problem, batch, best, start, before, tolerance, identify, me
     # On the host: `design` hands over the fit on the host (op-by-op JAX on these small arrays cost
     # ~4 ms per report, as much as a simulation).
     space = problem.space
+    layout = problem.settings.layout  # names the hinges in labels
     targets = jax.device_get(problem.targets)
     names = space.names
     n = targets.n_joints
@@ -218,7 +219,7 @@ def build_report(*, problem, batch, best, start, before, tolerance, identify, me
         rel = error / scales[i]
         rows.append(
             TargetRow(
-                label=f"{kind}[joint {j + 1}]",
+                label=f"{kind}[{layout.hinge_name(j)}]",
                 kind=kind,
                 joint=j,
                 unit=KIND_UNITS[kind],
@@ -268,7 +269,7 @@ def build_report(*, problem, batch, best, start, before, tolerance, identify, me
             why = (
                 "a peak grazes a rise-time level (or a level is not reached), so the first-crossing time "
                 "can jump by an oscillation under a small parameter change"
-                if row.kind == "rise_time"
+                if row.kind in ("rise_time", "t90")
                 else "the response is not settled for good well before the end of the run (quadratic-only "
                 "drag rings down like 1/t), so the value depends on the run length"
             )
@@ -342,16 +343,9 @@ def build_report(*, problem, batch, best, start, before, tolerance, identify, me
             )
 
     all_metrics = np.asarray(batch.extra[best])
-    before_metrics = np.concatenate(
-        [
-            np.asarray(before["metrics"].rise_time),
-            np.asarray(before["metrics"].overshoot) / 100.0,
-            np.asarray(before["metrics"].peak_time),
-            np.asarray(before["metrics"].settling_time),
-            np.asarray(before["metrics"].target + before["metrics"].final_error),
-        ]
-    )
-    labels = [f"{kind}[joint {j + 1}]" for kind in metric_kinds for j in range(n)]
+    before_values = metric_values(before["metrics"])  # on the host: no device program
+    before_metrics = np.concatenate([np.asarray(before_values[kind]) for kind in metric_kinds])
+    labels = [f"{kind}[{layout.hinge_name(j)}]" for kind in metric_kinds for j in range(n)]
     starts = []
     for k in range(zs.shape[0]):
         starts.append(

@@ -19,7 +19,7 @@ from jaxtyping import Array, ArrayLike, Float
 
 from ..simulation import ResponseMetrics, Trajectory
 
-KINDS = ("rise_time", "overshoot", "peak_time", "settling_time", "final_angle")
+KINDS = ("rise_time", "overshoot", "peak_time", "settling_time", "final_angle", "t90")
 """Metric target kinds, in residual order."""
 
 KIND_UNITS = {
@@ -28,6 +28,7 @@ KIND_UNITS = {
     "peak_time": "time",
     "settling_time": "time",
     "final_angle": "rad",
+    "t90": "time",
 }
 _FLOORS = {
     "rise_time": 0.0,
@@ -35,8 +36,9 @@ _FLOORS = {
     "peak_time": 0.0,
     "settling_time": 0.0,
     "final_angle": 0.01,
+    "t90": 0.0,
 }
-_TIME_KINDS = ("rise_time", "peak_time", "settling_time")
+_TIME_KINDS = ("rise_time", "peak_time", "settling_time", "t90")
 
 
 class MeasuredCurve(eqx.Module):
@@ -81,6 +83,10 @@ class Targets(eqx.Module):
       time (ill-posed under quadratic-only drag: see `origami_jax.simulation.ResponseMetrics`).
     - `overshoot`: **fraction** above the target angle at the highest peak (0.39 for 39 %).
     - `final_angle`: θ at the end of the run, rad.
+    - `t90`: when a joint first reaches 90 % of its target angle: when it has all but finished
+      folding. A crease's finish as a target: smooth in the parameters where a folding that rings
+      makes `settling_time` jump from one swing to the next (e.g. a net's creases all finishing
+      within 10 % of each other).
     - `curve`: a [`origami_jax.design.MeasuredCurve`][].
     - `weights`: ``{kind: weight}``, a scalar or one per joint (default 1).
 
@@ -102,6 +108,7 @@ class Targets(eqx.Module):
         peak_time: Sequence[float] | ArrayLike | None = None,
         settling_time: Sequence[float] | ArrayLike | None = None,
         final_angle: Sequence[float] | ArrayLike | None = None,
+        t90: Sequence[float] | ArrayLike | None = None,
         curve: MeasuredCurve | None = None,
         weights: Mapping[str, float | Sequence[float]] | None = None,
     ):
@@ -111,6 +118,7 @@ class Targets(eqx.Module):
             peak_time=peak_time,
             settling_time=settling_time,
             final_angle=final_angle,
+            t90=t90,
         )
         weights = dict(weights or {})
         for kind in weights:
@@ -173,17 +181,24 @@ class Targets(eqx.Module):
         return jnp.stack([self.weights[k][j] for k, j in self.rows]) if self.rows else jnp.zeros(0)
 
 
-def achieved_values(targets: Targets, metrics: ResponseMetrics) -> Float[Array, " r"]:
-    """The metric of each target row, in the target's unit (overshoot as a fraction)."""
-    if not targets.rows:
-        return jnp.zeros(0)
-    per_kind = {
+def metric_values(metrics: ResponseMetrics) -> dict[str, Array]:
+    """Each target kind's metric `(n,)` (NumPy or JAX, as `metrics` holds them), in the target's
+    unit (overshoot as a fraction)."""
+    return {
         "rise_time": metrics.rise_time,
         "overshoot": metrics.overshoot / 100.0,
         "peak_time": metrics.peak_time,
         "settling_time": metrics.settling_time,
         "final_angle": metrics.target + metrics.final_error,
+        "t90": metrics.t90,
     }
+
+
+def achieved_values(targets: Targets, metrics: ResponseMetrics) -> Float[Array, " r"]:
+    """The metric of each target row, in the target's unit (overshoot as a fraction)."""
+    if not targets.rows:
+        return jnp.zeros(0)
+    per_kind = metric_values(metrics)
     return jnp.stack([per_kind[k][j] for k, j in targets.rows])
 
 
@@ -198,6 +213,7 @@ def ill_conditioned_rows(targets: Targets, metrics: ResponseMetrics) -> Array:
         "peak_time": no,
         "settling_time": metrics.settling_ill_posed,
         "final_angle": no,
+        "t90": metrics.rise_ill_conditioned,  # the 90 % crossing grazed, or never reached
     }
     return jnp.stack([per_kind[k][j] for k, j in targets.rows])
 
@@ -245,7 +261,12 @@ def time_horizon(targets: Targets) -> float | None:
     """A run length that covers the targets: 6× the longest time target (3× for settling, which must
     end before half the run to be well posed), or the end of the measured curve; `None` if neither."""
     candidates = []
-    for kind, factor in (("rise_time", 6.0), ("peak_time", 4.0), ("settling_time", 3.0)):
+    for kind, factor in (
+        ("rise_time", 6.0),
+        ("peak_time", 4.0),
+        ("settling_time", 3.0),
+        ("t90", 3.0),
+    ):
         rows = [j for k, j in targets.rows if k == kind]
         if rows:
             candidates.append(factor * float(jnp.max(targets.values[kind][jnp.asarray(rows)])))

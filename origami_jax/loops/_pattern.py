@@ -273,7 +273,12 @@ class CreasePattern:
                 f"drag={drag!r}: the paper's per-hinge drag is defined for panel trees; closed-loop "
                 "patterns take drag='panel' (each panel's own motion)."
             )
+        from ..net._net import warn_if_hinges_wider_than_creases
+
         design = HingeDesign.literature() if design is None else design
+        warn_if_hinges_wider_than_creases(
+            self.name, design, self.geometry.lengths * self.length_scale
+        )
         m = self.n_creases
         intended = self.intended_angles
         if not np.all(np.isfinite(intended)) and targets is None:
@@ -559,6 +564,9 @@ class PatternLayout(AbstractLayout):
     @property
     def n_hinges(self) -> int:
         return self.pattern.n_creases
+
+    def hinge_name(self, j: int) -> str:
+        return f"crease {j}"
 
     def __call__(self, design: HingeDesign) -> FoldingSystem:
         return self.pattern.system(design, contact=self.contact)

@@ -22,6 +22,7 @@ Lengths: the FOLD file's `frame_unit` is converted into the design's unit system
 
 import dataclasses
 import os
+import warnings
 from typing import Any
 
 import equinox as eqx
@@ -168,6 +169,9 @@ class Net:
                 "every crease needs a finite target: give edges_foldAngle in the FOLD file or "
                 "targets= (rad)."
             )
+        warn_if_hinges_wider_than_creases(
+            self.name, design, self.geometry.crease_lengths * self.length_scale
+        )
         tree = self.tree(design, hinges=hinges, targets=targets)
         # Each crease's bilayer folds to its own target: hinge length ρ |θ_target|.
         per_crease = eqx.tree_at(lambda d: d.theta_final, design, jnp.abs(targets) + 0.0)
@@ -355,6 +359,32 @@ def _traced(x) -> bool:
     return isinstance(x, jax.core.Tracer)
 
 
+def warn_if_hinges_wider_than_creases(name: str, design: HingeDesign, lengths) -> None:
+    """A `UserWarning` when a hinge of `design` (its `hinge_width`, scalar or one per crease, when
+    not traced) is wider than its crease (`lengths`, `(m,)`, the design's length units). The
+    system still models it that wide (its stiffness, and as an arc its strip's mass, grow with the
+    width), which no device can be: the literature hinge is 200 µm wide, the edge of the
+    catalogue's square panels, and longer than the short creases of some patterns."""
+    width = design.hinge_width
+    if _traced(width):
+        return
+    lengths = np.asarray(lengths, dtype=float)
+    width = np.broadcast_to(np.asarray(width, dtype=float), lengths.shape)
+    over = np.flatnonzero(width > lengths * (1 + 1e-9))
+    if not over.size:
+        return
+    unit = design.units.length_symbol
+    shown = ", ".join(f"{j} ({width[j]:g} on {lengths[j]:.4g} {unit})" for j in over[:6])
+    more = f" and {over.size - 6} more" if over.size > 6 else ""
+    warnings.warn(
+        f"{name}: hinges wider than their creases, modelled that wide all the same: crease "
+        f"{shown}{more}. Give hinge_width one value per crease, at most its length "
+        "(HingeDesign(..., hinge_width=[...]); origami-jax fold --param hinge_width=W).",
+        UserWarning,
+        stacklevel=3,
+    )
+
+
 def _vertex_corners(g: NetGeometry) -> tuple[np.ndarray, np.ndarray]:
     """For every FOLD vertex, a (face, corner) that holds it (folded positions agree across a
     crease, and a vertex on a seam only belongs to one face's side of it)."""
@@ -530,6 +560,9 @@ class NetLayout(AbstractLayout):
     @property
     def n_hinges(self) -> int:
         return self.net.n_creases
+
+    def hinge_name(self, j: int) -> str:
+        return f"crease {j}"
 
     def __call__(self, design: HingeDesign) -> FoldingSystem:
         return self.net.system(

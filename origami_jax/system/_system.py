@@ -142,3 +142,9 @@ class AbstractLayout(eqx.Module):
     @abc.abstractmethod
     def __call__(self, design) -> FoldingSystem:
         """The folding system of `design` (a `HingeDesign`) in this layout."""
+
+    def hinge_name(self, j: int) -> str:
+        """What reports call hinge `j` (counted from 0): ``"joint 1"``, … as the paper numbers a
+        chain's joints (a net's or a crease pattern's layout: ``"crease 0"``, … as its arrays and
+        verdicts do)."""
+        return f"joint {j + 1}"
