@@ -258,8 +258,9 @@ def residual(
 
 
 def time_horizon(targets: Targets) -> float | None:
-    """A run length that covers the targets: 6× the longest time target (3× for settling, which must
-    end before half the run to be well posed), or the end of the measured curve; `None` if neither."""
+    """A run length that covers the targets: 6× the longest rise time, 4× the longest peak time, 3×
+    the longest settling time (which must end before half the run to be well posed) or `t90`, or
+    the end of the measured curve (the longest of these); `None` if none is targeted."""
     candidates = []
     for kind, factor in (
         ("rise_time", 6.0),
