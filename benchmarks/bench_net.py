@@ -381,6 +381,7 @@ def run(quick: bool) -> list[Result]:
         rows.append(
             _mjx_row(
                 net,
+                targets,
                 models[:batch_mjx],
                 release[:batch_mjx],
                 nstep,
@@ -397,7 +398,7 @@ def run(quick: bool) -> list[Result]:
 
 
 def _mjx_row(
-    net, models, release, nstep, mj_finals, per_net_ours, batch_ours, compile_s, repeats
+    net, targets, models, release, nstep, mj_finals, per_net_ours, batch_ours, compile_s, repeats
 ) -> Result:
     """MJX over `models` (C models of the scattered batch) with their `release` times, on JAX's
     default device, against ours at equal accuracy (`per_net_ours`, seconds per net); answers
@@ -408,7 +409,7 @@ def _mjx_row(
     rollout = jax.jit(_mjx_tree.batched_rollout(models[0], nstep)).lower(gains, release).compile()
     mjx_compile = time.perf_counter() - start
     finals = np.asarray(rollout(gains, release))
-    _check("MJX (batch)", net, finals, np.asarray(net.intended_angles)[None])
+    _check("MJX (batch)", net, finals, targets)
     difference = float(np.max(np.abs(finals - mj_finals)))
     per_net_mjx = time_calls(lambda: rollout(gains, release), repeats=repeats).median / batch
     backend = jax.default_backend()

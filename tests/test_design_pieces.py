@@ -198,9 +198,9 @@ def test_result_codes_read_the_same_after_a_fetch_to_the_host():
     from origami_jax.simulation import RESULTS as SIM_RESULTS
 
     def codes(enumeration):
-        pick = lambda ok: enumeration.where(
-            ok, enumeration.successful, enumeration.max_steps_reached
-        )  # noqa: E731
+        def pick(ok):
+            return enumeration.where(ok, enumeration.successful, enumeration.max_steps_reached)
+
         return jax.vmap(pick)(jnp.array([True, False]))
 
     for batch in (codes(ojd.RESULTS), jax.device_get(codes(ojd.RESULTS))):

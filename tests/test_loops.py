@@ -465,7 +465,7 @@ def test_fold_cli_folds_a_closed_loop_pattern(tmp_path, capsys):
     assert (out / "trajectory.fold").is_file()
 
 
-def test_a_hinge_wider_than_its_crease_is_warned_about(capsys):
+def test_a_hinge_wider_than_its_crease_is_warned_about():
     # The literature hinge is 200 µm wide; four creases of the degree-6 vertex are 141 µm long.
     # The system models such a hinge that wide all the same, and says so; per-crease widths
     # within the creases are taken silently.

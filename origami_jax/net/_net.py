@@ -32,6 +32,7 @@ from jaxtyping import Array, ArrayLike, Float
 
 from .._limits import CONTACT_SAMPLING, FOLD_SEGMENT, MAX_FOLD_SEGMENTS
 from .._math import safe_norm
+from .._validate import is_traced
 from ..fold import FoldFile, FoldFrame, net_geometry
 from ..fold._catalogue import source_and_label
 from ..fold._model import FRAME_UNITS_M
@@ -164,7 +165,7 @@ class Net:
             raise ValueError(
                 f"targets must have one fold angle per crease ({m}), got shape {targets.shape}."
             )
-        if not np.all(np.isfinite(np.asarray(targets))) if not _traced(targets) else False:
+        if not np.all(np.isfinite(np.asarray(targets))) if not is_traced(targets) else False:
             raise ValueError(
                 "every crease needs a finite target: give edges_foldAngle in the FOLD file or "
                 "targets= (rad)."
@@ -353,12 +354,6 @@ def frame_assignment(key_assignment, degrees: np.ndarray, crease_edges) -> tuple
     return tuple(out)
 
 
-def _traced(x) -> bool:
-    import jax
-
-    return isinstance(x, jax.core.Tracer)
-
-
 def warn_if_hinges_wider_than_creases(name: str, design: HingeDesign, lengths) -> None:
     """A `UserWarning` when a hinge of `design` (its `hinge_width`, scalar or one per crease, when
     not traced) is wider than its crease (`lengths`, `(m,)`, the design's length units). The
@@ -366,7 +361,7 @@ def warn_if_hinges_wider_than_creases(name: str, design: HingeDesign, lengths) -
     width), which no device can be: the literature hinge is 200 µm wide, the edge of the
     catalogue's square panels, and longer than the short creases of some patterns."""
     width = design.hinge_width
-    if _traced(width):
+    if is_traced(width):
         return
     lengths = np.asarray(lengths, dtype=float)
     width = np.broadcast_to(np.asarray(width, dtype=float), lengths.shape)
