@@ -209,3 +209,16 @@ def test_result_codes_read_the_same_after_a_fetch_to_the_host():
     host = _take(jax.device_get(codes(SIM_RESULTS)), 1)
     assert message(host, SIM_RESULTS) == str(SIM_RESULTS[SIM_RESULTS.max_steps_reached])
     assert "unknown" not in message(host, SIM_RESULTS)
+
+
+def test_an_optimiser_out_of_steps_with_targets_met_is_not_worded_as_a_failure():
+    from origami_jax.design._report import optimiser_warning
+
+    spent = optimiser_warning(
+        ojd.RESULTS.max_steps_reached, 32, targets_met=True, tolerance=ojd.DEFAULT_TOLERANCE
+    )
+    assert "every target met" in spent and "32 steps" in spent and "Try increasing" not in spent
+    missed = optimiser_warning(ojd.RESULTS.max_steps_reached, 32, targets_met=False, tolerance=0.01)
+    assert "Try increasing `max_steps`" in missed
+    other = optimiser_warning(ojd.RESULTS.nonfinite_residual, 3, targets_met=True, tolerance=0.01)
+    assert "NaN or infinite" in other

@@ -180,6 +180,18 @@ def _message(result: RESULTS) -> str:
     return message(result, RESULTS) if result != RESULTS.successful else ""
 
 
+def optimiser_warning(result: RESULTS, steps: int, *, targets_met: bool, tolerance: float) -> str:
+    """The report's line on an optimiser that did not stop on its own test (`result` not
+    successful), after `steps` steps. One that spent its budget with every target met gave a usable
+    answer: its own message ("try increasing max_steps") would read as a failure."""
+    if targets_met and result == RESULTS.max_steps_reached:
+        return (
+            f"Optimiser: stopped at its step budget ({steps} steps) with every target met within "
+            f"{100 * tolerance:g} %; more steps (max_steps) would only refine the fit."
+        )
+    return f"Optimiser: {_message(result)}"
+
+
 def _take(tree, i):
     return jax.tree_util.tree_map(lambda x: x[i], tree)
 
@@ -274,8 +286,16 @@ def build_report(*, problem, batch, best, start, before, tolerance, identify, me
                 "drag rings down like 1/t), so the value depends on the run length"
             )
             warnings.append(f"{row.label} is ill-conditioned at the solution: {why}.")
+    missed = [row for row in rows if not row.met]
     if result_message:
-        warnings.append(f"Optimiser: {result_message}")
+        warnings.append(
+            optimiser_warning(
+                result,
+                int(batch.num_steps[best]),
+                targets_met=not missed and not nonfinite,
+                tolerance=tolerance,
+            )
+        )
     if not ident.identifiable or ident.weak:
         warnings.append(f"Identifiability: {ident.verdict}")
     losses = np.asarray(batch.loss)
@@ -303,7 +323,6 @@ def build_report(*, problem, batch, best, start, before, tolerance, identify, me
             "several minima, so a better one may exist; try more starts (n_starts)."
         )
 
-    missed = [row for row in rows if not row.met]
     if nonfinite:
         verdict = (
             "Failed: the residual is not finite at the best start (a simulation failed, or a targeted "
