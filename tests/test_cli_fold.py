@@ -194,6 +194,36 @@ def test_t1_is_optional_and_checked_when_given(capsys):
     assert "--t1" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize(
+    ("param", "message"),
+    [
+        ("hinge_width=100,200", "2 values for 6 creases"),
+        ("hinge_wdth=100", "not a hinge parameter"),
+        ("hinge_width=1e,2", "one number per crease"),
+        ("hinge_width=nan", "finite"),
+        ("hinge_width", "NAME=VALUE"),
+    ],
+)
+def test_bad_hinge_parameters_are_refused_in_one_line(param, message, capsys):
+    assert main(["fold", "vertex_degree6", "--param", param, "--no-figures"]) == 2
+    err = capsys.readouterr().err
+    assert message in err and len(err.strip().splitlines()) == 1 and "Traceback" not in err
+
+
+def test_a_hinge_parameter_given_per_crease_reaches_each_crease():
+    # The hinge-width warning asks for one width per crease: --param takes them in crease order.
+    from origami_jax.cli._fold import _params, _per_crease
+
+    widths = [100.0, 200.0, 100.0, 100.0, 200.0, 100.0]
+    params = _params(["hinge_width=" + ",".join(map(str, widths)), "k_scale=2"])
+    assert params == {"hinge_width": widths, "k_scale": 2.0}
+    design = HingeDesign.literature(fluid=KOH_SOLUTION, **_per_crease(params, 6))
+    np.testing.assert_array_equal(np.asarray(design.hinge_width), widths)
+    stiffness = np.asarray(design.stiffness(6))
+    # A bilayer hinge's stiffness is proportional to its width along the crease.
+    np.testing.assert_allclose(stiffness / stiffness[0], np.asarray(widths) / widths[0], rtol=1e-12)
+
+
 @pytest.mark.slow  # compiles and folds a cube net with contact: about a minute on 2 cores
 def test_a_cube_net_still_moving_at_the_first_segments_end_folds_on(tmp_path, capsys):
     # In the etch bath (the default fluid) the cube net closes at ~1,350 µs: the first 1,000 µs

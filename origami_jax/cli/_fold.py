@@ -19,6 +19,7 @@ from ._common import (
     add_contact_sampling_argument,
     add_figures_argument,
     add_out_argument,
+    capped,
     contact_sampling,
     dumps_json,
     fail,
@@ -50,11 +51,10 @@ NET is a FOLD file, or the name of a shipped pattern (origami-jax fold --list): 
 by creases into a tree; cut seams allowed) or a crease pattern whose creases close loops around
 interior vertices (single vertices, Miura-ori, waterbombs; the loops are held closed as constraints;
 an Origami Simulator export is read as it is, with --length-scale for its unitless coordinates).
-The largest face stays on the substrate; every crease
-is a bilayer hinge of the literature design (200 nm SiNx, 100 nm Cr at 1 GPa; override any HingeDesign
-field with --param NAME=VALUE in MICRO units: µm, µs, ng, MPa) folding to the crease's
-edges_foldAngle, in the KOH etch bath where released devices fold (--fluid air: the paper's
-setting, where panels ring far longer). Panels have the membrane's thickness and meet (contact)
+The largest face stays on the substrate (--root picks another); every crease is a bilayer hinge of
+the literature design (200 nm SiNx, 100 nm Cr at 1 GPa; override any HingeDesign field with --param
+NAME=VALUE in MICRO units: µm, µs, ng, MPa) folding to the crease's edges_foldAngle, in the KOH etch
+bath where released devices fold (--fluid air: the paper's setting, where panels ring far longer). Panels have the membrane's thickness and meet (contact)
 unless --no-contact; drag acts on every panel from its own motion (--drag hinge: the paper's
 per-hinge drag).
 
@@ -103,7 +103,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         action="append",
         default=[],
         metavar="NAME=VALUE",
-        help="override a HingeDesign field (MICRO units), repeatable",
+        help="override a HingeDesign field (MICRO units) on every crease, or give one value per "
+        "crease: NAME=V0,V1,... (e.g. hinge_width=100,200,100); repeatable",
     )
     parser.add_argument(
         "--t1",
@@ -201,13 +202,51 @@ def _floats(text: str | None, what: str) -> list[float] | None:
         raise ValueError(f"{what}: {error}") from None
 
 
-def _params(items: list[str]) -> dict[str, float]:
+def _params(items: list[str]) -> dict[str, float | list[float]]:
+    """`--param NAME=VALUE` (every crease) or `NAME=V0,V1,...` (one value per crease, in crease
+    order; the count is checked once the net is read), MICRO units."""
+    from ._simulate import param_names
+
+    names = param_names()
     out = {}
     for item in items:
         name, sep, value = item.partition("=")
+        name = name.strip()
         if not sep:
-            raise ValueError(f"--param expects NAME=VALUE, got {item!r}.")
-        out[name.strip()] = float(value)
+            raise ValueError(
+                f"--param expects NAME=VALUE or NAME=V0,V1,... (one value per crease), got {item!r}."
+            )
+        if name not in names:
+            raise ValueError(
+                f"--param {name!r} is not a hinge parameter; give one of {capped(names, 20)}."
+            )
+        try:
+            values = [float(v) for v in value.split(",")]
+        except ValueError:
+            raise ValueError(
+                f"--param {name}={value!r}: give a number, or one number per crease separated by "
+                "commas (MICRO units)."
+            ) from None
+        if not all(math.isfinite(v) for v in values):
+            raise ValueError(f"--param {name}={value}: the values must be finite.")
+        out[name] = values[0] if len(values) == 1 else values
+    return out
+
+
+def _per_crease(params: dict, m: int) -> dict:
+    """`params` with each list checked to hold one value per crease (`m`) and made an array."""
+    import numpy as np
+
+    out = {}
+    for name, value in params.items():
+        if isinstance(value, list):
+            if len(value) != m:
+                raise ValueError(
+                    f"--param {name}: {len(value)} values for {m} creases (give one, or one per "
+                    "crease)"
+                )
+            value = np.asarray(value)
+        out[name] = value
     return out
 
 
@@ -256,10 +295,10 @@ def run(args: argparse.Namespace) -> int:
             args.net, root=args.root, length_scale=args.length_scale, flat_creases=args.flat_creases
         )
         loops = isinstance(net, CreasePattern)
-        design = HingeDesign.literature(
-            fluid={"air": AIR, "koh": KOH_SOLUTION}[args.fluid], **params
-        )
         m = net.n_creases
+        design = HingeDesign.literature(
+            fluid={"air": AIR, "koh": KOH_SOLUTION}[args.fluid], **_per_crease(params, m)
+        )
         targets = None
         if targets_deg is not None:
             if len(targets_deg) != m:

@@ -374,7 +374,7 @@ def warn_if_hinges_wider_than_creases(name: str, design: HingeDesign, lengths) -
     warnings.warn(
         f"{name}: hinges wider than their creases, modelled that wide all the same: crease "
         f"{shown}{more}. Give hinge_width one value per crease, at most its length "
-        "(HingeDesign(..., hinge_width=[...]); origami-jax fold --param hinge_width=W).",
+        "(HingeDesign(..., hinge_width=[...]); origami-jax fold --param hinge_width=W0,W1,...).",
         UserWarning,
         stacklevel=3,
     )
