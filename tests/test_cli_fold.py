@@ -199,7 +199,7 @@ def test_t1_is_optional_and_checked_when_given(capsys):
     [
         ("hinge_width=100,200", "2 values for 6 creases"),
         ("hinge_wdth=100", "not a hinge parameter"),
-        ("hinge_width=1e,2", "one number per crease"),
+        ("hinge_width=1e,2", "one number per hinge"),
         ("hinge_width=nan", "finite"),
         ("hinge_width", "NAME=VALUE"),
     ],

@@ -76,6 +76,48 @@ def capped(items: Sequence[Any], limit: int = MESSAGE_LIST_LIMIT) -> str:
     return shown + (f", ... and {len(items) - limit} more" if len(items) > limit else "")
 
 
+# HingeDesign arguments that are not numbers (so not --param).
+_NOT_PARAMS = frozenset({"structural", "hinge", "fluid", "stiffness_model", "drag_model", "units"})
+
+
+def param_names() -> tuple[str, ...]:
+    """The HingeDesign arguments `--param` sets (the numeric ones)."""
+    import inspect
+
+    from origami_jax.system import HingeDesign
+
+    signature = inspect.signature(HingeDesign.__init__)
+    return tuple(n for n in signature.parameters if n != "self" and n not in _NOT_PARAMS)
+
+
+def hinge_params(items: Sequence[str]) -> dict[str, list[float]]:
+    """`--param` items, ``NAME=VALUE`` or ``NAME=V0,V1,...`` (one value per hinge), checked: a
+    known numeric HingeDesign field, finite numbers (MICRO units). `ValueError` (one line) for a
+    bad item; the caller checks how many values each name may have."""
+    names = param_names()
+    out = {}
+    for item in items:
+        name, sep, value = item.partition("=")
+        name = name.strip()
+        if not sep:
+            raise ValueError(f"--param expects NAME=VALUE, got {item!r}.")
+        if name not in names:
+            raise ValueError(
+                f"--param {name!r} is not a hinge parameter; give one of {capped(names, 20)}."
+            )
+        try:
+            values = [float(v) for v in value.split(",")]
+        except ValueError:
+            raise ValueError(
+                f"--param {name}={value!r}: the value must be a number (MICRO units), or one "
+                "number per hinge separated by commas where the command takes them."
+            ) from None
+        if not all(math.isfinite(v) for v in values):
+            raise ValueError(f"--param {name}={value}: the value must be finite.")
+        out[name] = values
+    return out
+
+
 def add_out_argument(parser: argparse.ArgumentParser, default: Path = DEFAULT_OUT) -> None:
     """`--out FOLDER` and `--overwrite` (see the module docstring)."""
     parser.add_argument(

@@ -19,11 +19,11 @@ from ._common import (
     add_contact_sampling_argument,
     add_figures_argument,
     add_out_argument,
-    capped,
     contact_sampling,
     dumps_json,
     fail,
     finite,
+    hinge_params,
     in_range,
     int_range,
     positive,
@@ -205,32 +205,7 @@ def _floats(text: str | None, what: str) -> list[float] | None:
 def _params(items: list[str]) -> dict[str, float | list[float]]:
     """`--param NAME=VALUE` (every crease) or `NAME=V0,V1,...` (one value per crease, in crease
     order; the count is checked once the net is read), MICRO units."""
-    from ._simulate import param_names
-
-    names = param_names()
-    out = {}
-    for item in items:
-        name, sep, value = item.partition("=")
-        name = name.strip()
-        if not sep:
-            raise ValueError(
-                f"--param expects NAME=VALUE or NAME=V0,V1,... (one value per crease), got {item!r}."
-            )
-        if name not in names:
-            raise ValueError(
-                f"--param {name!r} is not a hinge parameter; give one of {capped(names, 20)}."
-            )
-        try:
-            values = [float(v) for v in value.split(",")]
-        except ValueError:
-            raise ValueError(
-                f"--param {name}={value!r}: give a number, or one number per crease separated by "
-                "commas (MICRO units)."
-            ) from None
-        if not all(math.isfinite(v) for v in values):
-            raise ValueError(f"--param {name}={value}: the values must be finite.")
-        out[name] = values[0] if len(values) == 1 else values
-    return out
+    return {name: v[0] if len(v) == 1 else v for name, v in hinge_params(items).items()}
 
 
 def _per_crease(params: dict, m: int) -> dict:

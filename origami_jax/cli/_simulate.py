@@ -3,7 +3,6 @@ etch-rate ramp input; write the trajectory, the metrics and the figures."""
 
 import argparse
 import json
-import math
 from pathlib import Path
 
 from .._limits import MAX_FLAPS, MAX_SAMPLES
@@ -13,18 +12,15 @@ from ._common import (
     OutputFolder,
     add_figures_argument,
     add_out_argument,
-    capped,
     dumps_json,
     fail,
+    hinge_params,
     in_range,
     int_range,
     positive,
     print_error,
     write_atomic,
 )
-
-# HingeDesign arguments that are not numbers (so not --param).
-_NOT_PARAMS = frozenset({"structural", "hinge", "fluid", "stiffness_model", "drag_model", "units"})
 
 HELP = (
     "Simulate the folding of a hinged-flap chain (accordion) under a step or etch-rate ramp input."
@@ -75,34 +71,15 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.set_defaults(func=run)
 
 
-def param_names() -> tuple[str, ...]:
-    """The HingeDesign arguments `--param` sets (the numeric ones)."""
-    import inspect
-
-    from origami_jax.system import HingeDesign
-
-    signature = inspect.signature(HingeDesign.__init__)
-    return tuple(n for n in signature.parameters if n != "self" and n not in _NOT_PARAMS)
-
-
 def _parse_params(items: list[str]) -> dict[str, float]:
-    names = param_names()
-    params = {}
-    for item in items:
-        name, sep, value = item.partition("=")
-        name = name.strip()
-        if not sep:
-            fail(f"--param expects NAME=VALUE, got {item!r}.")
-        if name not in names:
-            fail(f"--param {name!r} is not a hinge parameter; give one of {capped(names, 20)}.")
-        try:
-            number = float(value)
-        except ValueError:
-            fail(f"--param {name}={value!r}: the value must be a number (MICRO units).")
-        if not math.isfinite(number):
-            fail(f"--param {name}={value}: the value must be finite.")
-        params[name] = number
-    return params
+    try:
+        params = hinge_params(items)
+    except ValueError as error:
+        fail(str(error))
+    for name, values in params.items():
+        if len(values) != 1:
+            fail(f"--param {name}: give one value (every hinge of the chain takes it).")
+    return {name: values[0] for name, values in params.items()}
 
 
 def check_arguments(args: argparse.Namespace) -> dict[str, float]:
