@@ -280,3 +280,14 @@ def test_result_names_each_crease_and_seam_in_the_fold_file(name):
             assert assignment[edge] in "BC" and set(raw["edges_vertices"][edge]) <= faces[face]
     if name == "cube_net_01":  # its 7 seams close the cube: 12 cube edges less 5 creases
         assert len(where["seam_faces"]) == 7
+
+
+def test_a_pattern_refused_is_named_once_and_told_which_flag_to_give(capsys):
+    # A unitless Origami Simulator export needs a length scale: the message names the CLI's flag.
+    assert main(["fold", "origami_simulator_miura", "--no-figures"]) == 2
+    err = capsys.readouterr().err
+    assert "--length-scale" in err and len(err.strip().splitlines()) == 1
+    # The square twist is refused by its own check, which names the pattern: named once.
+    assert main(["fold", "square_twist", "--no-figures"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("square_twist:") == 1 and "not rigidly foldable" in err

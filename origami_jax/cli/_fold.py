@@ -299,7 +299,9 @@ def run(args: argparse.Namespace) -> int:
     except FileNotFoundError as error:
         fail(str(error))  # it names the file
     except (FoldFormatError, ValueError, TypeError, OSError) as error:
-        fail(f"{args.net}: {error}")
+        text = str(error)
+        named = text.split(":", 1)[0] in (args.net, Path(args.net).stem)  # the pattern's own name
+        fail(text if named else f"{args.net}: {text}")
 
     output = OutputFolder(Path(args.out), command="fold", owns=OWNS, overwrite=args.overwrite)
     with output:

@@ -53,6 +53,21 @@ FRAME_UNITS_M = {
     "nm": 1e-9,
 }
 
+
+def length_scale_from_unit(unit: str | None, metre_per_length: float) -> float:
+    """Design length units per FOLD unit for a file whose `frame_unit` is `unit` (missing: FOLD's
+    default, "unit"), with `metre_per_length` metres per design length unit. `ValueError` for
+    "unit", which has no physical length: the caller must be given the scale."""
+    metres = FRAME_UNITS_M.get(unit or "unit")
+    if metres is None:
+        raise ValueError(
+            f"the FOLD file's frame_unit is {unit!r}, which has no physical length: give "
+            "length_scale= (origami-jax fold --length-scale), the design's length units per FOLD "
+            "unit, e.g. 1.0 for µm."
+        )
+    return metres / metre_per_length
+
+
 # Frame properties the model has fields for; everything else is kept verbatim in `extra`.
 _FRAME_FIELDS = {
     "vertices_coords": "vertices_coords",

@@ -30,7 +30,7 @@ from .._limits import CONTACT_SAMPLING
 from ..fold import FoldFile, FoldFormatError
 from ..fold._catalogue import source_and_label
 from ..fold._loop_geometry import LoopGeometry, loop_geometry
-from ..fold._model import FRAME_UNITS_M
+from ..fold._model import length_scale_from_unit
 from ..system import AbstractLayout, FoldingSystem, HingeDesign, Hinges
 from . import _kinematics
 from ._mechanism import LoopedPanels
@@ -531,13 +531,7 @@ def load_pattern(
         except FoldFormatError:
             pass  # facets merged make it a net of panels without loops: fold it as one
     if length_scale is None:
-        metres = FRAME_UNITS_M.get(geometry.unit or "unit")
-        if metres is None:
-            raise ValueError(
-                f"the FOLD file's frame_unit is {geometry.unit!r}, which has no physical length: give "
-                "length_scale= (the design's length units per FOLD unit, e.g. 1.0 for µm)."
-            )
-        length_scale = metres / units.metre_per_length
+        length_scale = length_scale_from_unit(geometry.unit, units.metre_per_length)
     return CreasePattern(geometry, label or "pattern", float(length_scale))
 
 

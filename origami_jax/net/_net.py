@@ -35,7 +35,7 @@ from .._math import safe_norm
 from .._validate import is_traced
 from ..fold import FoldFile, FoldFrame, net_geometry
 from ..fold._catalogue import source_and_label
-from ..fold._model import FRAME_UNITS_M
+from ..fold._model import length_scale_from_unit
 from ..fold._net_geometry import NetGeometry
 from ..simulation._verdict import SeamGaps
 from ..system import AbstractLayout, FoldingSystem, HingeDesign, HingeDrag, Hinges
@@ -525,13 +525,7 @@ def load_net(
         geometry = net_geometry(fold, root=root)
         key = fold.frame(0)
     if length_scale is None:
-        metres = FRAME_UNITS_M.get(geometry.unit or "unit")
-        if metres is None:
-            raise ValueError(
-                f"the FOLD file's frame_unit is {geometry.unit!r}, which has no physical length: give "
-                "length_scale= (the design's length units per FOLD unit, e.g. 1.0 for µm)."
-            )
-        length_scale = metres / units.metre_per_length
+        length_scale = length_scale_from_unit(geometry.unit, units.metre_per_length)
     label = label or "net"
     if key is None or key.edges_vertices is None:
         key, crease_edges = _key_frame(geometry, label)
