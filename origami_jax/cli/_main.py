@@ -40,8 +40,10 @@ def build_parser() -> argparse.ArgumentParser:
         prog="origami-jax",
         description=(
             "Differentiable simulator for nanostructured origami: unfold single-vertex origami with "
-            "charge energies, simulate stressed-hinge folding of flap chains, design hinges, sweep "
-            "designs. `origami-jax paper` reproduces the paper's examples."
+            "charge energies, simulate stressed-hinge folding of flap chains, fold nets and crease "
+            "patterns from FOLD files until their panels meet, design hinges, sweep designs, "
+            "estimate a net's yield under fabrication scatter. `origami-jax paper` reproduces the "
+            "paper's examples."
         ),
         epilog=(
             "Results: every command writes into --out as one unit (moved into place when the run "
