@@ -213,7 +213,7 @@ def ill_conditioned_rows(targets: Targets, metrics: ResponseMetrics) -> Array:
         "peak_time": no,
         "settling_time": metrics.settling_ill_posed,
         "final_angle": no,
-        "t90": metrics.rise_ill_conditioned,  # the 90 % crossing grazed, or never reached
+        "t90": metrics.t90_ill_conditioned,  # the 90 % crossing grazed, or never reached
     }
     return jnp.stack([per_kind[k][j] for k, j in targets.rows])
 

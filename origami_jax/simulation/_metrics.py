@@ -123,10 +123,10 @@ def _joint_metrics(times, y, v, a, band, low, high, graze_tol, settle_fraction):
     next_min = jnp.concatenate([next_min[1:], jnp.array([n - 1])])
     dips = (y - y[next_min]) > graze_tol
     considered = local_max & dips & (idx <= first_after90)
-    grazes = considered & (
-        (jnp.abs(y - high) < graze_tol) | ((jnp.abs(y - low) < graze_tol) & (idx <= k10 + 1))
-    )
-    rise_ill = jnp.any(grazes) | ~found90 | ~found10
+    grazes_high = considered & (jnp.abs(y - high) < graze_tol)
+    grazes_low = considered & (jnp.abs(y - low) < graze_tol) & (idx <= k10 + 1)
+    t90_ill = jnp.any(grazes_high) | ~found90
+    rise_ill = t90_ill | jnp.any(grazes_low) | ~found10
 
     # Settling: last exit from the band |y − 1| ≤ band.
     outside = jnp.abs(y - 1.0) > band
@@ -143,6 +143,7 @@ def _joint_metrics(times, y, v, a, band, low, high, graze_tol, settle_fraction):
         t90=t90,
         rise_time=t90 - t10,
         rise_ill_conditioned=rise_ill,
+        t90_ill_conditioned=t90_ill,
         peak_time=t_peak,
         peak_value=y_peak,
         overshoot=100.0 * jnp.maximum(y_peak - 1.0, 0.0),
@@ -161,6 +162,7 @@ class ResponseMetrics(eqx.Module):
     - `t10`, `t90`: the two crossing times.
     - `rise_ill_conditioned`: a local peak grazes a level (within `graze_tol`), so the first-crossing rise
       time can jump by an oscillation under a small parameter change; or a level was not reached.
+    - `t90_ill_conditioned`: the same for `t90` alone (the `high` level grazed or never reached).
     - `overshoot`: percent above the target at the highest peak (0 when never above).
     - `peak_time`, `peak_value`: time and normalised value `θ/θ_target` of the highest peak (the last
       sample when the response is still rising at the end).
@@ -176,6 +178,7 @@ class ResponseMetrics(eqx.Module):
     t10: Float[Array, " n"]
     t90: Float[Array, " n"]
     rise_ill_conditioned: Bool[Array, " n"]
+    t90_ill_conditioned: Bool[Array, " n"]
     overshoot: Float[Array, " n"]
     peak_time: Float[Array, " n"]
     peak_value: Float[Array, " n"]
