@@ -278,9 +278,14 @@ def build_report(*, problem, batch, best, start, before, tolerance, identify, me
     warnings = []
     for row in rows:
         if row.ill_conditioned:
+            crossing = (
+                "a peak grazes the 90 % level (or it is not reached)"
+                if row.kind == "t90"
+                else "a peak grazes a rise-time level (or a level is not reached)"
+            )
             why = (
-                "a peak grazes a rise-time level (or a level is not reached), so the first-crossing time "
-                "can jump by an oscillation under a small parameter change"
+                f"{crossing}, so the first-crossing time can jump by an oscillation under a small "
+                "parameter change"
                 if row.kind in ("rise_time", "t90")
                 else "the response is not settled for good well before the end of the run (quadratic-only "
                 "drag rings down like 1/t), so the value depends on the run length"
