@@ -54,9 +54,9 @@ an Origami Simulator export is read as it is, with --length-scale for its unitle
 The largest face stays on the substrate (--root picks another); every crease is a bilayer hinge of
 the literature design (200 nm SiNx, 100 nm Cr at 1 GPa; override any HingeDesign field with --param
 NAME=VALUE in MICRO units: µm, µs, ng, MPa) folding to the crease's edges_foldAngle, in the KOH etch
-bath where released devices fold (--fluid air: the paper's setting, where panels ring far longer). Panels have the membrane's thickness and meet (contact)
-unless --no-contact; drag acts on every panel from its own motion (--drag hinge: the paper's
-per-hinge drag).
+bath where released devices fold (--fluid air: the paper's setting, where panels ring far longer).
+Panels have the membrane's thickness and meet (contact) unless --no-contact; drag acts on every
+panel from its own motion (--drag hinge: the paper's per-hinge drag).
 
 A closed-loop pattern starts flat, where its folding branches meet, and the hinges pick the branch;
 --bias RAD starts it pre-folded by RAD along the branch the hinges aim at. A pattern that rigid panels
