@@ -260,7 +260,7 @@ def run(args: argparse.Namespace) -> int:
 
     import numpy as np
 
-    from origami_jax.loops import CreasePattern, load_pattern
+    from origami_jax.loops import CreasePattern, NotRigidlyFoldableError, load_pattern
     from origami_jax.loops import release_times_from_front as pattern_front
     from origami_jax.net import release_times_from_front
     from origami_jax.system import AIR, KOH_SOLUTION, HingeDesign
@@ -298,10 +298,10 @@ def run(args: argparse.Namespace) -> int:
         theta0, theta_dot0 = net.start_state(system, bias=args.bias) if loops else (None, None)
     except FileNotFoundError as error:
         fail(str(error))  # it names the file
+    except NotRigidlyFoldableError as error:
+        fail(str(error))  # it names the pattern
     except (FoldFormatError, ValueError, TypeError, OSError) as error:
-        text = str(error)
-        named = text.split(":", 1)[0] in (args.net, Path(args.net).stem)  # the pattern's own name
-        fail(text if named else f"{args.net}: {text}")
+        fail(f"{args.net}: {error}")
 
     output = OutputFolder(Path(args.out), command="fold", owns=OWNS, overwrite=args.overwrite)
     with output:
