@@ -212,16 +212,34 @@ def test_bad_hinge_parameters_are_refused_in_one_line(param, message, capsys):
 
 def test_a_hinge_parameter_given_per_crease_reaches_each_crease():
     # The hinge-width warning asks for one width per crease: --param takes them in crease order.
-    from origami_jax.cli._fold import _params, _per_crease
+    from origami_jax.cli._fold import _design, _params
+    from origami_jax.loops import load_pattern
 
+    pattern = load_pattern("vertex_degree6")
     widths = [100.0, 200.0, 100.0, 100.0, 200.0, 100.0]
     params = _params(["hinge_width=" + ",".join(map(str, widths)), "k_scale=2"])
     assert params == {"hinge_width": widths, "k_scale": 2.0}
-    design = HingeDesign.literature(fluid=KOH_SOLUTION, **_per_crease(params, 6))
+    design = _design(pattern, "koh", params)
+    assert design.fluid.name == KOH_SOLUTION.name and float(design.k_scale) == 2.0
     np.testing.assert_array_equal(np.asarray(design.hinge_width), widths)
     stiffness = np.asarray(design.stiffness(6))
     # A bilayer hinge's stiffness is proportional to its width along the crease.
     np.testing.assert_allclose(stiffness / stiffness[0], np.asarray(widths) / widths[0], rtol=1e-12)
+
+
+def test_without_a_hinge_width_each_hinge_is_at_most_its_crease():
+    # The literature hinge is 200 µm wide; four creases of the degree-6 vertex are 141 µm long.
+    # Without a width of the user's, each hinge is as wide as the narrower of the two (no warning:
+    # pytest turns warnings into errors); a width given is taken as given.
+    from origami_jax.cli._fold import _design
+    from origami_jax.loops import load_pattern
+
+    pattern = load_pattern("vertex_degree6")
+    lengths = pattern.crease_lengths
+    width = np.asarray(_design(pattern, "air", {}).hinge_width)
+    np.testing.assert_allclose(width, np.minimum(lengths, 200.0), rtol=1e-15)
+    assert np.sum(width < 200.0) == 4 and np.isclose(width.min(), 200 / np.sqrt(2), rtol=1e-12)
+    assert float(_design(pattern, "air", {"hinge_width": 150.0}).hinge_width) == 150.0
 
 
 @pytest.mark.slow  # compiles and folds a cube net with contact: about a minute on 2 cores

@@ -308,6 +308,9 @@ def test_the_wrong_branch_is_misfolded():
     assert report.verdict == "misfolded", report.summary()
     assert set(report.wrong_creases) == set(range(4))
     assert "another folding branch" in report.reason
+    # Started flat, where the branches meet: the summary says how to start on the hinges' branch.
+    assert "started flat, where the folding branches meet" in report.summary()
+    assert "--bias 0.05" in report.summary()
 
 
 # --- single vertex: the charge-energy path as dynamics ----------------------------------------
@@ -480,5 +483,14 @@ def test_a_hinge_wider_than_its_crease_is_warned_about():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         pattern.system(within, contact=False, check_rigid=False)
+        # Without a design: the literature hinge, each no wider than its crease.
+        default = pattern.system(contact=False, check_rigid=False)
+    clipped = HingeDesign.literature(hinge_width=np.minimum(lengths, 200.0))
+    expected = pattern.system(clipped, contact=False, check_rigid=False)
+    np.testing.assert_allclose(default.hinges.stiffness, expected.hinges.stiffness, rtol=1e-15)
+    with pytest.warns(UserWarning, match="hinges wider"):
+        wide = pattern.system(HingeDesign.literature(), contact=False, check_rigid=False)
+    ratio = np.asarray(default.hinges.stiffness) / np.asarray(wide.hinges.stiffness)
+    np.testing.assert_allclose(ratio, np.minimum(lengths, 200.0) / 200.0, rtol=1e-12)
     line = _one_line_warning("hinges wider", UserWarning, "x.py", 1)
     assert line == "origami-jax: warning: hinges wider\n"  # the command line's form

@@ -52,11 +52,12 @@ by creases into a tree; cut seams allowed) or a crease pattern whose creases clo
 interior vertices (single vertices, Miura-ori, waterbombs; the loops are held closed as constraints;
 an Origami Simulator export is read as it is, with --length-scale for its unitless coordinates).
 The largest face stays on the substrate (--root picks another); every crease is a bilayer hinge of
-the literature design (200 nm SiNx, 100 nm Cr at 1 GPa; override any HingeDesign field with --param
-NAME=VALUE in MICRO units: µm, µs, ng, MPa) folding to the crease's edges_foldAngle, in the KOH etch
-bath where released devices fold (--fluid air: the paper's setting, where panels ring far longer).
-Panels have the membrane's thickness and meet (contact) unless --no-contact; drag acts on every
-panel from its own motion (--drag hinge: the paper's per-hinge drag).
+the literature design (200 nm SiNx, 100 nm Cr at 1 GPa, 200 µm wide or as wide as a shorter crease;
+override any HingeDesign field with --param NAME=VALUE or NAME=V0,V1,... per crease, in MICRO units:
+µm, µs, ng, MPa) folding to the crease's edges_foldAngle, in the KOH etch bath where released
+devices fold (--fluid air: the paper's setting, where panels ring far longer). Panels have the
+membrane's thickness and meet (contact) unless --no-contact; drag acts on every panel from its own
+motion (--drag hinge: the paper's per-hinge drag).
 
 A closed-loop pattern starts flat, where its folding branches meet, and the hinges pick the branch;
 --bias RAD starts it pre-folded by RAD along the branch the hinges aim at. A pattern that rigid panels
@@ -225,6 +226,20 @@ def _per_crease(params: dict, m: int) -> dict:
     return out
 
 
+def _design(net, fluid: str, params: dict):
+    """The literature `HingeDesign` in `fluid` (`"air"` or `"koh"`) with the `--param` values
+    (one per crease where a list was given); each hinge at most as wide as its crease unless
+    `hinge_width` was given."""
+    from origami_jax.net import hinges_within_creases
+    from origami_jax.system import AIR, KOH_SOLUTION, HingeDesign
+
+    fluid_ = {"air": AIR, "koh": KOH_SOLUTION}[fluid]
+    design = HingeDesign.literature(fluid=fluid_, **_per_crease(params, net.n_creases))
+    if "hinge_width" in params:
+        return design
+    return hinges_within_creases(design, net.crease_lengths)
+
+
 def run(args: argparse.Namespace) -> int:
     from origami_jax.fold import FoldFormatError, catalogue_names
 
@@ -263,7 +278,6 @@ def run(args: argparse.Namespace) -> int:
     from origami_jax.loops import CreasePattern, NotRigidlyFoldableError, load_pattern
     from origami_jax.loops import release_times_from_front as pattern_front
     from origami_jax.net import release_times_from_front
-    from origami_jax.system import AIR, KOH_SOLUTION, HingeDesign
 
     try:
         net = load_pattern(
@@ -271,9 +285,7 @@ def run(args: argparse.Namespace) -> int:
         )
         loops = isinstance(net, CreasePattern)
         m = net.n_creases
-        design = HingeDesign.literature(
-            fluid={"air": AIR, "koh": KOH_SOLUTION}[args.fluid], **_per_crease(params, m)
-        )
+        design = _design(net, args.fluid, params)
         targets = None
         if targets_deg is not None:
             if len(targets_deg) != m:

@@ -83,6 +83,11 @@ class CreasePattern:
         return self.geometry.seams
 
     @property
+    def crease_lengths(self) -> np.ndarray:
+        """Each crease's length (the design's length units, µm by default; `(m,)`)."""
+        return np.asarray(self.geometry.lengths, dtype=float) * self.length_scale
+
+    @property
     def crease_edge_ids(self) -> tuple[tuple[int, ...], ...]:
         """The FOLD edges of each crease (as `origami_jax.net.Net.crease_edge_ids`)."""
         return self.geometry.crease_edges
@@ -240,8 +245,9 @@ class CreasePattern:
         """The folding system of this pattern with the hinges, films and fluid of `design`.
 
         **Arguments** (the design's units, `MICRO` by default):
-        - `design`: a `HingeDesign` (default `HingeDesign.literature()`); as for nets, each crease's
-          bilayer folds to its own target (hinge length ``ρ |θ_target|``).
+        - `design`: a `HingeDesign` (default `HingeDesign.literature()`, each hinge at most as
+          wide as its crease); as for nets, each crease's bilayer folds to its own target (hinge
+          length ``ρ |θ_target|``).
         - `targets`: fold target per crease (rad); default the pattern's angles (they must close:
           `check_angles`).
         - `release_times`: per-crease release time (time units); default all at ``t = 0``.
@@ -273,12 +279,12 @@ class CreasePattern:
                 f"drag={drag!r}: the paper's per-hinge drag is defined for panel trees; closed-loop "
                 "patterns take drag='panel' (each panel's own motion)."
             )
-        from ..net._net import warn_if_hinges_wider_than_creases
+        from ..net._net import hinges_within_creases, warn_if_hinges_wider_than_creases
 
-        design = HingeDesign.literature() if design is None else design
-        warn_if_hinges_wider_than_creases(
-            self.name, design, self.geometry.lengths * self.length_scale
-        )
+        lengths = self.crease_lengths
+        if design is None:
+            design = hinges_within_creases(HingeDesign.literature(), lengths)
+        warn_if_hinges_wider_than_creases(self.name, design, lengths)
         m = self.n_creases
         intended = self.intended_angles
         if not np.all(np.isfinite(intended)) and targets is None:

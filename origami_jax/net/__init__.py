@@ -15,6 +15,7 @@ from ._joints import ArcJoints as ArcJoints
 from ._joints import RevoluteJoints as RevoluteJoints
 from ._net import Net as Net
 from ._net import NetLayout as NetLayout
+from ._net import hinges_within_creases as hinges_within_creases
 from ._net import load_net as load_net
 from ._net import release_times_from_front as release_times_from_front
 from ._plate import Plate as Plate

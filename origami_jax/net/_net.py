@@ -76,6 +76,11 @@ class Net:
     def seams(self):
         return self.geometry.target_seams
 
+    @property
+    def crease_lengths(self) -> np.ndarray:
+        """Each crease's length (the design's length units, µm by default; `(m,)`)."""
+        return np.asarray(self.geometry.crease_lengths, dtype=float) * self.length_scale
+
     def tree(
         self,
         design: HingeDesign,
@@ -133,9 +138,10 @@ class Net:
         """The folding system of this net with the hinges, films and fluid of `design`.
 
         **Arguments** (the design's units, `MICRO` by default: µm, µs, ng):
-        - `design`: a `HingeDesign` (default `HingeDesign.literature()`); its `hinge_width` is each
-          hinge's width (scalar or one per crease), its `theta_final` is not used: each crease's
-          hinge folds to its own target.
+        - `design`: a `HingeDesign` (default `HingeDesign.literature()`, each hinge at most as
+          wide as its crease: `hinges_within_creases`); its `hinge_width` is each hinge's width
+          (scalar or one per crease; a hinge wider than its crease is warned about), its
+          `theta_final` is not used: each crease's hinge folds to its own target.
         - `targets`: fold target per crease (rad); default the pattern's angles.
         - `release_times`: per-crease release time (time units); default all at ``t = 0``.
         - `contact`: panels meet instead of passing through each other (default) or not.
@@ -157,7 +163,9 @@ class Net:
         from ..contact import PanelContact
         from ..fluid import PanelDrag
 
-        design = HingeDesign.literature() if design is None else design
+        lengths = self.crease_lengths
+        if design is None:
+            design = hinges_within_creases(HingeDesign.literature(), lengths)
         m = self.n_creases
         targets = self.intended_angles if targets is None else targets
         targets = jnp.asarray(targets, dtype=jnp.result_type(float))
@@ -170,9 +178,7 @@ class Net:
                 "every crease needs a finite target: give edges_foldAngle in the FOLD file or "
                 "targets= (rad)."
             )
-        warn_if_hinges_wider_than_creases(
-            self.name, design, self.geometry.crease_lengths * self.length_scale
-        )
+        warn_if_hinges_wider_than_creases(self.name, design, lengths)
         tree = self.tree(design, hinges=hinges, targets=targets)
         # Each crease's bilayer folds to its own target: hinge length ρ |θ_target|.
         per_crease = eqx.tree_at(lambda d: d.theta_final, design, jnp.abs(targets) + 0.0)
@@ -352,6 +358,19 @@ def frame_assignment(key_assignment, degrees: np.ndarray, crease_edges) -> tuple
             elif degrees[e] < 0:
                 out[e] = "M"
     return tuple(out)
+
+
+def hinges_within_creases(design: HingeDesign, lengths) -> HingeDesign:
+    """`design` with each hinge no wider than its crease (`lengths`, `(m,)`, the design's length
+    units): ``hinge_width = min(design's width, crease length)``, one per crease where some crease
+    is shorter, else `design` itself. The default for a net or pattern folded without a design of
+    its own: the literature hinge is 200 µm wide, the edge of the catalogue's square panels, and
+    no device has a hinge longer than its crease (the waterbombs' 100 and 141 µm creases)."""
+    lengths = np.asarray(lengths, dtype=float)
+    width = np.asarray(design.hinge_width, dtype=float)
+    if not np.any(width > lengths):
+        return design
+    return eqx.tree_at(lambda d: d.hinge_width, design, jnp.asarray(np.minimum(width, lengths)))
 
 
 def warn_if_hinges_wider_than_creases(name: str, design: HingeDesign, lengths) -> None:
