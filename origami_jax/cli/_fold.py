@@ -51,6 +51,8 @@ NET is a FOLD file, or the name of a shipped pattern (origami-jax fold --list): 
 by creases into a tree; cut seams allowed) or a crease pattern whose creases close loops around
 interior vertices (single vertices, Miura-ori, waterbombs; the loops are held closed as constraints;
 an Origami Simulator export is read as it is, with --length-scale for its unitless coordinates).
+A file that holds only a folded form (3D) is unfolded to its crease pattern, each crease aiming at
+its dihedral angle in the form (a closed polyhedron is cut where a warning says).
 The largest face stays on the substrate (--root picks another); every crease is a bilayer hinge of
 the literature design (200 nm SiNx, 100 nm Cr at 1 GPa, 200 µm wide or as wide as a shorter crease;
 override any HingeDesign field with --param NAME=VALUE or NAME=V0,V1,... per crease, in MICRO units:

@@ -10,7 +10,8 @@ the physics packages build their objects from it (`origami_jax.vertex.load_singl
 - Reading: `read_fold` → `FoldFile` (frames of `FoldFrame`), checked by `check_fold` and, when
   `jsonschema` is installed, by the shipped schema (`fold_schema()`); errors are `FoldFormatError`.
 - Geometry (plain arrays, radians): `list_vertices`, `single_vertex_geometry`, `chain_geometry`,
-  `net_geometry` (a net of rigid panels joined by creases into a tree: polyhedra, corner cubes).
+  `net_geometry` (a net of rigid panels joined by creases into a tree: polyhedra, corner cubes);
+  `unfold_folded_form` (a folded form's flat crease pattern, fold angles from its dihedral angles).
 - Catalogue of shipped nets: `catalogue_names`, `catalogue_path` (accordion, corner cube, the eleven
   cube nets, tetrahedron, octahedron).
 - Writing: `write_fold`, `normalise_fold`; `single_vertex_fold` / `chain_fold` from plain arrays.
@@ -48,6 +49,9 @@ from ._schema import fold_schema as fold_schema
 from ._schema import validate_schema as validate_schema
 from ._states import chain_fold as chain_fold
 from ._states import single_vertex_fold as single_vertex_fold
+from ._unfold import flat_fold as flat_fold
+from ._unfold import is_folded_form as is_folded_form
+from ._unfold import unfold_folded_form as unfold_folded_form
 from ._write import dumps_fold as dumps_fold
 from ._write import normalise_fold as normalise_fold
 from ._write import planar_faces as planar_faces

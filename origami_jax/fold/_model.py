@@ -60,8 +60,9 @@ def length_scale_from_unit(unit: str | None, metre_per_length: float) -> float:
     "unit", which has no physical length: the caller must be given the scale."""
     metres = FRAME_UNITS_M.get(unit or "unit")
     if metres is None:
+        given = "gives no frame_unit" if unit is None else f"gives frame_unit {unit!r}"
         raise ValueError(
-            f"the FOLD file's frame_unit is {unit!r}, which has no physical length: give "
+            f"the FOLD file {given}, which has no physical length: give "
             "length_scale= (origami-jax fold --length-scale), the design's length units per FOLD "
             "unit, e.g. 1.0 for µm."
         )

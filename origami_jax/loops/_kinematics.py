@@ -79,6 +79,26 @@ def project(directions, index, theta, m: int, signs=None) -> np.ndarray:
     return np.asarray(out)
 
 
+@jax.jit
+def _residual_and_jacobian(directions, index, theta):
+    return _full_residual(directions, index, theta), jax.jacfwd(_full_residual, argnums=2)(
+        directions, index, theta
+    )
+
+
+def close_nearby(directions, index, theta, *, rcond: float = 1e-4, steps: int = 8) -> np.ndarray:
+    """`theta` (rad, `(m,)`) moved onto closed loops by Gauss–Newton steps truncated to the
+    well-conditioned directions (singular values above `rcond` of the largest): a state that closes
+    to rounding moves by about its residual, even where the loops are nearly singular (a rigid
+    square twist), where the minimum-norm steps of `project` leap along the soft direction."""
+    directions = jnp.asarray(directions)
+    theta = np.asarray(theta, dtype=float)
+    for _ in range(steps):
+        residual, jac = _residual_and_jacobian(directions, index, jnp.asarray(theta))
+        theta = theta - np.linalg.lstsq(np.asarray(jac), np.asarray(residual), rcond=rcond)[0]
+    return theta
+
+
 def max_residual(directions, index, theta) -> float:
     """Largest closure residual over the loops (the rotation angle, rad)."""
     residual = _closure.closure(jnp.asarray(directions), index, jnp.asarray(theta, dtype=float))

@@ -37,6 +37,9 @@ from ._mechanism import LoopedPanels
 
 # Baumgarte rate of the closure, as a multiple of the fastest hinge's natural frequency sqrt(k/I).
 RATE_FACTOR = 1.0
+# An unfolded form's loops that miss closing by at most this (rad) miss by the rounding of its
+# coordinates (six digits of a unit-size form: ~1e-6), and are closed; more is not a rigid state.
+FORM_CLOSURE_TOL = 1e-4
 
 
 class NotRigidlyFoldableError(ValueError):
@@ -53,14 +56,19 @@ class CreasePattern:
     """A flat crease pattern whose creases close loops (module docstring).
 
     **Fields:** `geometry` (a `LoopGeometry`, lengths in the FOLD unit), `name`, `length_scale`
-    (design length units per FOLD unit). Crease ``j`` of the systems it builds is the geometry's
-    crease ``j`` (tree creases, then cut creases); body ``j`` is face ``geometry.tree.order[j + 1]``;
-    the root face is the fixed base.
+    (design length units per FOLD unit), `precision` (rad; default 0): how closely the pattern's
+    own geometry lets its loops close, for a pattern unfolded from a folded form written to a few
+    digits (its sector angles carry that rounding, so an overconstrained pattern such as a
+    Miura-ori closes only to about it); the closure and rigid-foldability checks accept residuals
+    up to it. Crease ``j`` of the systems it builds is the geometry's crease ``j`` (tree creases,
+    then cut creases); body ``j`` is face ``geometry.tree.order[j + 1]``; the root face is the
+    fixed base.
     """
 
     geometry: LoopGeometry
     name: str
     length_scale: float
+    precision: float = 0.0
     _cache: dict = dataclasses.field(default_factory=dict, repr=False)
 
     # ---- the pattern ----
@@ -106,7 +114,7 @@ class CreasePattern:
     def check_angles(self, angles: Float[ArrayLike, " m"], what: str = "fold angles") -> None:
         """Raise `FoldFormatError` unless `angles` (rad, `(m,)`) are a state rigid panels can take:
         every vertex that folds flat (all its creases at 0 or ±180°) obeys Kawasaki's and Maekawa's
-        theorems, and every loop closes to `CLOSURE_TOL`."""
+        theorems, and every loop closes to `CLOSURE_TOL` (or the pattern's `precision`)."""
         g = self.geometry
         angles = np.asarray(angles, dtype=float)
         if angles.shape != (g.n_creases,):
@@ -144,7 +152,7 @@ class CreasePattern:
                         "|M − V| = 2: flip one crease's assignment"
                     )
         residual = g.closure_residual(angles)
-        if residual.size and float(np.max(residual)) > _kinematics.CLOSURE_TOL:
+        if residual.size and float(np.max(residual)) > max(_kinematics.CLOSURE_TOL, self.precision):
             v = int(np.argmax(residual))
             degree = len(g.loop_creases[v])
             raise FoldFormatError(
@@ -298,7 +306,7 @@ class CreasePattern:
             self._cache[("checked", intended.tobytes())] = True
         if check_rigid and np.all(np.isfinite(intended)):
             report = self.rigid_foldability()
-            if not report.rigid:
+            if not (report.rigid or report.residual <= self.precision):
                 raise NotRigidlyFoldableError(f"{self.name}: {report.summary()}", report)
         targets = intended if targets is None else targets
         targets = jnp.asarray(targets, dtype=jnp.result_type(float))
@@ -506,7 +514,9 @@ def load_pattern(
     """Read a crease pattern: a catalogue name (`origami_jax.fold.catalogue_names()`), a `.fold` path
     or a `FoldFile`. A pattern whose faces form a tree (a net) gives a `Net` (the panel-tree engine,
     `origami_jax.net.load_net`); one whose creases close loops around interior vertices gives a
-    `CreasePattern`.
+    `CreasePattern`. A file that holds a folded form only (3D, no flat frame) is read as the crease
+    pattern it unfolds to, each crease's target its dihedral angle in the form
+    (`origami_jax.fold.unfold_folded_form`).
 
     **Arguments:** `root`: the fixed face (default the largest); `length_scale`: design length units
     per FOLD length unit (default from the file's `frame_unit`; a unitless file, such as Origami
@@ -517,7 +527,7 @@ def load_pattern(
     **Raises:** `FoldFormatError` for a file that is neither (loops round holes, non-manifold
     edges, ...); `ValueError` for a unitless file without `length_scale`.
     """
-    from ..fold import read_fold
+    from ..fold import flat_fold, read_fold
     from ..net import load_net
     from ..system import MICRO
 
@@ -528,7 +538,13 @@ def load_pattern(
     else:
         path, label = source_and_label(pattern, label)
         fold = read_fold(path)
-    geometry = loop_geometry(fold, root=root, flat_creases=flat_creases)
+    unfolded = flat_fold(fold, root=root)
+    geometry = loop_geometry(unfolded, root=root, flat_creases=flat_creases)
+    precision = 0.0
+    if unfolded is not fold and geometry.n_loops:
+        unfolded, precision = _closed_targets(unfolded, geometry, label)
+        geometry = loop_geometry(unfolded, root=root, flat_creases=flat_creases)
+    fold = unfolded
     if geometry.n_loops == 0 and flat_creases == "hinge":
         return load_net(fold, root=root, length_scale=length_scale, units=units, name=label)
     if geometry.n_loops == 0:
@@ -538,7 +554,33 @@ def load_pattern(
             pass  # facets merged make it a net of panels without loops: fold it as one
     if length_scale is None:
         length_scale = length_scale_from_unit(geometry.unit, units.metre_per_length)
-    return CreasePattern(geometry, label or "pattern", float(length_scale))
+    return CreasePattern(geometry, label or "pattern", float(length_scale), precision)
+
+
+def _closed_targets(fold: FoldFile, geometry, label) -> tuple[FoldFile, float]:
+    """An unfolded form's fold angles moved onto the nearest state where its loops close, and the
+    precision of that closure (rad; 0 when it closes to `RIGID_TOL`). A form's
+    coordinates are written to a few digits: its dihedral angles close the loops only to that
+    rounding, and its sector angles carry it too, so an overconstrained pattern closes only to
+    about it whatever the angles. Twice the residual that is left is the pattern's `precision`.
+    Left as they are when the form misses closing by more than `FORM_CLOSURE_TOL` (not a rigid
+    state; `check_angles` says so)."""
+    pattern = CreasePattern(geometry, label or "pattern", 1.0)
+    targets = np.asarray(geometry.targets, dtype=float)
+    residual = float(np.max(pattern.closure_residual(targets)))
+    if residual > FORM_CLOSURE_TOL:
+        return fold, 0.0
+    closed = _kinematics.close_nearby(*pattern._padded(), targets)
+    left = float(np.max(pattern.closure_residual(closed)))
+    frame = fold.key_frame
+    degrees = np.array(frame.edges_fold_angle_deg, dtype=float)
+    for j, edges in enumerate(geometry.crease_edges):
+        degrees[list(edges)] = np.degrees(closed[j])
+    frame = frame.replace(edges_fold_angle_deg=degrees)
+    closed_fold = FoldFile(
+        frames=(frame,), file_spec=fold.file_spec, file_metadata=fold.file_metadata
+    )
+    return closed_fold, 2.0 * left if left > _kinematics.RIGID_TOL else 0.0
 
 
 def release_times_from_front(pattern: CreasePattern, direction, speed: float) -> np.ndarray:

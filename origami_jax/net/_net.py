@@ -521,13 +521,14 @@ def load_net(
 
     **Arguments:** `root`: the fixed face (default: the largest); `length_scale`: design length units
     per FOLD length unit (default from the file's `frame_unit` and `units`, `MICRO` by default);
-    `name`: a label (default the catalogue name or file stem).
+    `name`: a label (default the catalogue name or file stem). A folded form (a file without its
+    flat frame) is read as the net it unfolds to (`origami_jax.fold.unfold_folded_form`).
 
     **Raises:** `FoldFormatError` for a file that is not a net (closed loops, disconnected or
     overlapping faces, a crease without a target); `ValueError` for a unitless file without
     `length_scale`.
     """
-    from ..fold import read_fold
+    from ..fold import flat_fold, read_fold
     from ..system import MICRO
 
     units = MICRO if units is None else units
@@ -541,6 +542,7 @@ def load_net(
         else:
             path, label = source_and_label(net, label)
             fold = read_fold(path)
+        fold = flat_fold(fold, root=root)
         geometry = net_geometry(fold, root=root)
         key = fold.frame(0)
     if length_scale is None:
