@@ -1,5 +1,7 @@
 """Test configuration: float64, a headless matplotlib, a seeded PRNG key."""
 
+import ctypes
+import gc
 import os
 import shutil
 import tempfile
@@ -42,6 +44,50 @@ def getkey():
 def key():
     """A seeded PRNG key."""
     return jax.random.key(SEED)
+
+
+# A test process keeps every program it has compiled, and XLA's CPU code for each takes memory
+# mappings of its own (hundreds per net simulation). Over the slow suite a worker reached the
+# kernel's limit on mappings per process (`vm.max_map_count`, 65,530 by default) and XLA crashed
+# compiling or serialising the next program (SIGSEGV, SIGABRT). Past half that limit, or a quarter
+# of the machine's memory, the programs of the modules run so far are dropped after each module
+# (later modules read them back from the on-disk cache or compile them again).
+_PAGE = os.sysconf("SC_PAGE_SIZE")
+_MEMORY_BYTES = _PAGE * os.sysconf("SC_PHYS_PAGES")
+
+
+def _max_map_count() -> int:
+    try:
+        with open("/proc/sys/vm/max_map_count") as limit:
+            return int(limit.read())
+    except OSError:
+        return 65530
+
+
+_MAPPINGS_LIMIT = _max_map_count()
+
+
+def _mappings_and_resident_bytes() -> tuple[int, int]:
+    with open("/proc/self/maps") as maps:
+        mappings = sum(1 for _ in maps)
+    with open("/proc/self/statm") as statm:
+        return mappings, int(statm.read().split()[1]) * _PAGE
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _drop_compiled_programs_when_the_process_fills_up():
+    yield
+    try:
+        mappings, resident = _mappings_and_resident_bytes()
+    except OSError:  # no /proc: not Linux
+        return
+    if mappings > _MAPPINGS_LIMIT / 2 or resident > _MEMORY_BYTES / 4:
+        jax.clear_caches()
+        gc.collect()
+        try:
+            ctypes.CDLL("libc.so.6").malloc_trim(0)  # hand the freed pages back to the system
+        except (OSError, AttributeError):
+            pass
 
 
 def pytest_sessionfinish(session, exitstatus):
