@@ -191,3 +191,19 @@ def test_a_rounded_form_of_a_closed_loop_pattern_is_closed_to_its_nearest_state(
     rigid = closed.rigid_foldability()
     assert not rigid.rigid and rigid.residual <= closed.precision  # accepted within the rounding
     closed.system(contact=False)  # the checks pass
+
+
+def test_the_fold_command_folds_a_folded_form_and_says_it_unfolded_it(tmp_path, capsys):
+    from origami_jax.cli import main
+
+    path = tmp_path / "square.fold"
+    form = _square_folded(60.0)  # a 200 µm square
+    form = form.replace(vertices_coords=200.0 * form.vertices_coords)
+    path.write_text(json.dumps({"file_spec": 1.2, **form.to_dict()}))
+    out = tmp_path / "out"
+    argv = ["fold", str(path), "--no-contact", "--t1", "300", "--n-save", "31"]
+    assert main(argv + ["--figures", "none", "--out", str(out)]) == 0, capsys.readouterr().err
+    assert "the file holds a folded form: unfolded" in capsys.readouterr().out
+    result = json.loads((out / "result.json").read_text())
+    assert result["unfolded_from_folded_form"] is True and result["verdict"] == "folded"
+    np.testing.assert_allclose(result["intended_angles"], [np.radians(60.0)], rtol=1e-12)

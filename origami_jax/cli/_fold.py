@@ -277,6 +277,8 @@ def run(args: argparse.Namespace) -> int:
 
     import numpy as np
 
+    from origami_jax.fold import is_folded_form, read_fold
+    from origami_jax.fold._catalogue import source_and_label
     from origami_jax.loops import CreasePattern, NotRigidlyFoldableError, load_pattern
     from origami_jax.loops import release_times_from_front as pattern_front
     from origami_jax.net import release_times_from_front
@@ -286,6 +288,7 @@ def run(args: argparse.Namespace) -> int:
             args.net, root=args.root, length_scale=args.length_scale, flat_creases=args.flat_creases
         )
         loops = isinstance(net, CreasePattern)
+        unfolded = is_folded_form(read_fold(source_and_label(args.net)[0]).key_frame)
         m = net.n_creases
         design = _design(net, args.fluid, params)
         targets = None
@@ -319,12 +322,27 @@ def run(args: argparse.Namespace) -> int:
 
     output = OutputFolder(Path(args.out), command="fold", owns=OWNS, overwrite=args.overwrite)
     with output:
-        code = _run(args, net, system, loops, params, release, sampling, theta0, theta_dot0, output)
+        code = _run(
+            args,
+            net,
+            system,
+            loops,
+            params,
+            release,
+            sampling,
+            theta0,
+            theta_dot0,
+            output,
+            unfolded,
+        )
     return code
 
 
-def _run(args, net, system, loops, params, release, sampling, theta0, theta_dot0, output) -> int:
-    """Fold, assess and write into the staging folder of `output`; returns the exit code."""
+def _run(
+    args, net, system, loops, params, release, sampling, theta0, theta_dot0, output, unfolded
+) -> int:
+    """Fold, assess and write into the staging folder of `output`; returns the exit code.
+    `unfolded`: the file held a folded form, read as the crease pattern it unfolds to."""
     import diffrax
     import numpy as np
 
@@ -334,6 +352,12 @@ def _run(args, net, system, loops, params, release, sampling, theta0, theta_dot0
     out = output.dir
     m = net.n_creases
     kind = f"{net.n_loops} closed loop(s), " if loops else ""
+    if unfolded:
+        print(
+            f"[fold] {net.name}: the file holds a folded form: unfolded to its crease pattern, each "
+            "crease aiming at its dihedral angle in the form",
+            flush=True,
+        )
     segment = FOLD_SEGMENT if args.t1 is None else args.t1
     print(
         f"[fold] {net.name}: {m} creases, {kind}{system.mechanism.n_bodies} moving panels, contact "
@@ -388,6 +412,7 @@ def _run(args, net, system, loops, params, release, sampling, theta0, theta_dot0
         drag=args.drag,
         hinges=args.hinges,
         closed_loops=net.n_loops if loops else 0,
+        unfolded_from_folded_form=unfolded,
         bias=args.bias,
         t1=t_end,
         segments=segments,
