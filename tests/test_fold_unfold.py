@@ -12,6 +12,7 @@ from origami_jax.fold import (
     FoldFormatError,
     FoldFrame,
     is_folded_form,
+    read_fold,
     unfold_folded_form,
 )
 from origami_jax.fold._pattern_file import edges_of
@@ -124,11 +125,11 @@ def test_a_closed_cube_is_cut_into_a_net_and_folds_back(outward, tmp_path):
     creases = np.asarray(flat.edges_assignment) != "B"
     assert creases.sum() == 5 and flat.n_vertices == 14
     np.testing.assert_allclose(flat.edges_fold_angle_deg[creases], -90.0 if outward else 90.0)
-    # As a mesh exporter writes it: faces and their edges, no assignments, no fold angles.
-    form = _closed_cube(outward)
-    edges = [sorted(e) for e in edges_of([list(f) for f in form.faces_vertices])[0]]
+    # As a mesh exporter writes it: vertices and faces only (the reader takes the faces' sides as
+    # its edges, unassigned).
     path = tmp_path / "cube_folded.fold"
-    path.write_text(json.dumps({"file_spec": 1.2, **form.to_dict(), "edges_vertices": edges}))
+    path.write_text(json.dumps({"file_spec": 1.2, **_closed_cube(outward).to_dict()}))
+    assert read_fold(path).key_frame.edges_assignment == ("U",) * 12
     with pytest.warns(UserWarning, match="cut along 7"):
         net = load_net(path)
     assert net.n_creases == 5 and net.name == "cube_folded"

@@ -36,6 +36,7 @@ from ._model import (
     FoldFile,
     FoldFrame,
 )
+from ._pattern_file import edges_of
 
 # Legacy (FOLD 1.0) names, read and rewritten under their 1.1+ names.
 _LEGACY = {"edges_foldAngles": "edges_foldAngle", "edges_lengths": "edges_length"}
@@ -78,6 +79,8 @@ def read_fold(path: str | os.PathLike[str]) -> FoldFile:
 
     **Returns:** the `FoldFile`, checked by `check_fold` (structure, indices, counter-clockwise faces,
     assignments against fold angles) and, when `jsonschema` is installed, against the shipped schema.
+    A key frame of vertices and faces only (no edges, as mesh exporters write folded forms) gets
+    its faces' sides as edges: `B` on the boundary, `U` where two faces meet.
 
     **Raises:** `FoldFormatError` for anything unreadable or unsupported (bad JSON, missing keys,
     `J` (join) edges, a newer spec version, ...). A missing file raises `FileNotFoundError`.
@@ -155,6 +158,7 @@ def fold_from_dict(data: Any, *, validate_schema: bool = True) -> FoldFile:
                     "top level only (FOLD 1.2, Multiple Frames)"
                 )
             frames.append(_frame_from_dict(frame_data, i))
+    frames[0] = _with_edges_from_faces(frames[0])
     fold = FoldFile(frames=tuple(frames), file_spec=spec, file_metadata=file_metadata)
     check_fold(fold)
     if validate_schema:
@@ -164,6 +168,26 @@ def fold_from_dict(data: Any, *, validate_schema: bool = True) -> FoldFile:
 
         _validate(_without_parsed_arrays(original))
     return fold
+
+
+def _with_edges_from_faces(frame: FoldFrame) -> FoldFrame:
+    """A key frame of vertices and faces only (a mesh exporter's folded form) with the faces' sides
+    as its edges: `B` on the boundary (a side of one face), `U` where two faces meet (FOLD leaves
+    `edges_vertices` optional; the geometry needs the edges)."""
+    if (
+        frame.edges_vertices is not None
+        or frame.edges_assignment is not None
+        or frame.edges_fold_angle_deg is not None
+        or frame.faces_vertices is None
+        or frame.vertices_coords is None
+    ):
+        return frame
+    edges, count = edges_of([tuple(face) for face in frame.faces_vertices])
+    assignment = tuple("B" if count[frozenset(e)] == 1 else "U" for e in edges)
+    return frame.replace(
+        edges_vertices=np.asarray(edges, dtype=np.int64).reshape(-1, 2),
+        edges_assignment=assignment,
+    )
 
 
 # Frame keys whose values the parsers check at least as strictly as the schema.
