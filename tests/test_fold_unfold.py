@@ -208,3 +208,16 @@ def test_the_fold_command_folds_a_folded_form_and_says_it_unfolded_it(tmp_path, 
     result = json.loads((out / "result.json").read_text())
     assert result["unfolded_from_folded_form"] is True and result["verdict"] == "folded"
     np.testing.assert_allclose(result["intended_angles"], [np.radians(60.0)], rtol=1e-12)
+
+
+def test_the_closest_state_of_a_perturbed_miura_is_near_it():
+    # A 1-DOF pattern has a nearly singular direction besides its motion: minimum-norm Gauss–Newton
+    # steps leapt 20 rad from angles 0.01 rad off a closed state; the closest state is near them.
+    from origami_jax.loops import CLOSURE_TOL
+
+    pattern = load_pattern("miura_3x3")
+    off = pattern.intended_angles + 0.01 * np.random.default_rng(0).standard_normal(12)
+    assert pattern.closure_residual(off).max() > 1e-3
+    closest = pattern.closest_state(off)
+    assert pattern.closure_residual(closest).max() <= CLOSURE_TOL
+    assert np.max(np.abs(closest - off)) < 0.03

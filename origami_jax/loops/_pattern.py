@@ -165,13 +165,31 @@ class CreasePattern:
     def closest_state(
         self, angles: Float[ArrayLike, " m"], *, keep_signs: bool = False
     ) -> np.ndarray:
-        """A state near `angles` (rad) where every loop closes (minimum-norm Gauss–Newton steps);
-        with `keep_signs`, no crease crosses to the other side of flat from its sign in `angles`
-        (the state stays on their branch)."""
+        """A state near `angles` (rad) where every loop closes; with `keep_signs`, no crease
+        crosses to the other side of flat from its sign in `angles` (the state stays on their
+        branch; minimum-norm Gauss–Newton steps).
+
+        Without `keep_signs`, the nearer of two closed states: Gauss–Newton steps truncated to the
+        loops' well-conditioned directions (`_kinematics.close_nearby`), and minimum-norm ones.
+        A pattern that folds with one degree of freedom (a Miura-ori) has a nearly singular
+        direction besides its motion, along which minimum-norm steps leap: from the Miura 3×3's
+        angles perturbed by 0.01 rad they went 20 rad away."""
         directions, index = self._padded()
         angles = np.asarray(angles, float)
         signs = np.sign(angles) if keep_signs else np.zeros_like(angles)
-        return _kinematics.project(directions, index, angles, self.n_creases, signs)
+        projected = _kinematics.project(directions, index, angles, self.n_creases, signs)
+        if keep_signs:
+            return projected
+        nearby = _kinematics.close_nearby(directions, index, angles, steps=20)
+        closes = [
+            _kinematics.max_residual(directions, index, theta) <= _kinematics.CLOSURE_TOL
+            for theta in (nearby, projected)
+        ]
+        if closes[0] and (
+            not closes[1] or np.linalg.norm(nearby - angles) <= np.linalg.norm(projected - angles)
+        ):
+            return nearby
+        return projected
 
     def rigid_foldability(self, targets: Float[ArrayLike, " m"] | None = None, *, steps: int = 20):
         """Can rigid panels fold from flat to `targets` (default the pattern's angles)? A
