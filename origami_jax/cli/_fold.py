@@ -284,11 +284,18 @@ def run(args: argparse.Namespace) -> int:
     from origami_jax.net import release_times_from_front
 
     try:
+        # Read once: the loader takes the file, and whether it held a folded form is told here.
+        path, label = source_and_label(args.net)
+        fold = read_fold(path)
+        unfolded = is_folded_form(fold.key_frame)
         net = load_pattern(
-            args.net, root=args.root, length_scale=args.length_scale, flat_creases=args.flat_creases
+            fold,
+            name=label,
+            root=args.root,
+            length_scale=args.length_scale,
+            flat_creases=args.flat_creases,
         )
         loops = isinstance(net, CreasePattern)
-        unfolded = is_folded_form(read_fold(source_and_label(args.net)[0]).key_frame)
         m = net.n_creases
         design = _design(net, args.fluid, params)
         targets = None

@@ -35,6 +35,7 @@ from ._geometry import _as_fold, _assignment, paper_plane
 from ._model import FoldFile, FoldFrame
 from ._net_build import CREASES
 from ._net_geometry import NetGeometry, Seams, _rotations, net_geometry
+from ._polygons import signed_area
 from ._write import planar_faces
 
 # Sector angles around an interior vertex must sum to 2π within this (rad).
@@ -211,7 +212,7 @@ def loop_geometry(
         on = sides.get(e, [])
         if a in CREASES and len(on) == 2 and on[0] != on[1]:
             pairs.setdefault((min(on), max(on)), []).append(e)
-    areas = np.array([_area(coords[list(face)] @ plane.T) for face in faces])
+    areas = np.array([signed_area(coords[list(face)] @ plane.T) for face in faces])
     if root is None:
         root = int(np.flatnonzero(areas >= areas.max() * (1 - 1e-9))[0])
     elif not 0 <= root < len(faces):
@@ -371,10 +372,6 @@ def loop_geometry(
         seams=seams,
         frame=frame_out,
     )
-
-
-def _area(xy: np.ndarray) -> float:
-    return 0.5 * float(np.sum(xy[:, 0] * np.roll(xy[:, 1], -1) - np.roll(xy[:, 0], -1) * xy[:, 1]))
 
 
 def _runs(face: tuple[int, ...], u: int, v: int) -> bool:

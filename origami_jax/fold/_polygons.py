@@ -21,6 +21,12 @@ import numpy as np
 COLLINEAR_REL_TOL = 1e-12
 
 
+def signed_area(xy: np.ndarray) -> float:
+    """The area of the polygon with corners `xy` `(k, 2)` (shoelace), positive when they run
+    counter-clockwise."""
+    return 0.5 * float(np.sum(xy[:, 0] * np.roll(xy[:, 1], -1) - np.roll(xy[:, 0], -1) * xy[:, 1]))
+
+
 def triangulate(xy: np.ndarray) -> list[tuple[int, int, int]]:
     """Triangles `(i, j, k)` (indices into `xy`, counter-clockwise) covering a simple polygon.
 

@@ -23,13 +23,14 @@ import numpy as np
 from ._errors import FoldFormatError
 from ._geometry import PLANAR_REL_TOL, fold_angles_from_coords, paper_plane
 from ._model import FoldFile, FoldFrame
+from ._net_build import CREASES
+from ._polygons import signed_area
 
 # Two flat images of one vertex closer than this (relative to the model's size) are one vertex of
 # the flat sheet: folded forms are written with a few significant digits.
 MERGE_REL_TOL = 1e-4
 # A face whose corners leave its plane by more than this (relative to the model) is not a panel.
 FACE_PLANAR_REL_TOL = 1e-4
-_CREASES = {"M", "V", "F", "U"}
 
 
 def is_folded_form(frame: FoldFrame) -> bool:
@@ -45,7 +46,7 @@ def is_folded_form(frame: FoldFrame) -> bool:
     if "foldedForm" not in (frame.frame_classes or ()):
         return False
     xy = (coords - coords.mean(axis=0)) @ plane.T
-    return any(_signed_area(xy[list(face)]) < 0 for face in frame.faces_vertices)
+    return any(signed_area(xy[list(face)]) < 0 for face in frame.faces_vertices)
 
 
 def flat_fold(fold: FoldFile, *, root: int | None = None) -> FoldFile:
@@ -104,7 +105,7 @@ def unfold_folded_form(frame: FoldFrame, *, root: int | None = None) -> FoldFram
                 )
             runs[(u, v)] = f
     local = [_face_plane(coords, face, f, size) for f, face in enumerate(faces)]
-    areas = [0.5 * _signed_area(xy) for xy in local]
+    areas = [signed_area(xy) for xy in local]
     root = int(np.argmax(areas)) if root is None else int(root)
     if not 0 <= root < len(faces):
         raise FoldFormatError(
@@ -112,9 +113,8 @@ def unfold_folded_form(frame: FoldFrame, *, root: int | None = None) -> FoldFram
         )
 
     def crease(u: int, v: int) -> bool:
-        return len(sides[frozenset((u, v))]) == 2 and assignment.get(frozenset((u, v)), "U") in (
-            _CREASES
-        )
+        side = frozenset((u, v))
+        return len(sides[side]) == 2 and assignment.get(side, "U") in CREASES
 
     # Breadth first from the root: each face placed by the rigid map (rotation, translation) of
     # its own plane that puts the side it shares with its parent onto the parent's flat side.
@@ -189,9 +189,9 @@ def _flat_frame(frame, faces, flat, sides, assignment, angles, size) -> FoldFram
             ]
             given = assignment.get(frozenset((u, v)), "U")
             edges.append((a, b))
-            if not shared and given in _CREASES and len(sides[frozenset((u, v))]) == 2:
+            if not shared and given in CREASES and len(sides[frozenset((u, v))]) == 2:
                 cut.add(frozenset((u, v)))
-            if not shared or given not in _CREASES:
+            if not shared or given not in CREASES:
                 # Apart in the flat sheet: its boundary (or a cut the folding closes); together
                 # but not a crease: a cut between the two faces.
                 kinds.append("C" if shared else "B")
@@ -293,10 +293,6 @@ def _rigid_onto(xy: np.ndarray, i: int, j: int, a: np.ndarray, b: np.ndarray) ->
     c, s = np.cos(angle), np.sin(angle)
     rotation = np.array([[c, -s], [s, c]])
     return (xy - xy[i]) @ rotation.T + a
-
-
-def _signed_area(xy: np.ndarray) -> float:
-    return float(np.sum(xy[:, 0] * np.roll(xy[:, 1], -1) - np.roll(xy[:, 0], -1) * xy[:, 1]))
 
 
 def _face_sides(face: tuple[int, ...]) -> list[tuple[int, int]]:
