@@ -182,7 +182,7 @@ class CreasePattern:
             return projected
         nearby = _kinematics.close_nearby(directions, index, angles, steps=20)
         closes = [
-            _kinematics.max_residual(directions, index, theta) <= _kinematics.CLOSURE_TOL
+            float(np.max(self.closure_residual(theta), initial=0.0)) <= _kinematics.CLOSURE_TOL
             for theta in (nearby, projected)
         ]
         if closes[0] and (
