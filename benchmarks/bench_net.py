@@ -13,11 +13,11 @@ closed cube (every crease at 90°, every seam closed). Answers are compared ther
 against the targets, and the seams' gaps from the net's own rigid folding), then timed: one
 trajectory (compile apart), and a batch with scattered hinges (±10 % stiffness per crease, release
 times over 20 µs) in nets/s: ours `jax.vmap` over the batch, MuJoCo one rollout over a list of
-models, on one thread and on two (the target is MuJoCo's throughput on 2 cores). MJX (MuJoCo on
-accelerators, the `mujoco-mjx` package) is the accelerator peer: where JAX has a GPU, both batches
-hold the issue's 1,000 nets (64 with `--quick`) and MJX rolls the same models out on the GPU beside
-ours; on a CPU its row runs only when ``NET_MJX=1`` asks for it (there it is many times slower than
-C MuJoCo, a check that the peer runs and agrees, not a throughput).
+models, on one thread and on two (beside a GPU, two only; the target is MuJoCo's throughput on 2
+cores). MJX (MuJoCo on accelerators, the `mujoco-mjx` package) is the accelerator peer: where JAX
+has a GPU, both batches hold the issue's 1,000 nets (64 with `--quick`) and MJX rolls the same
+models out on the GPU beside ours; on a CPU its row runs only when ``NET_MJX=1`` asks for it (there
+it is many times slower than C MuJoCo, a check that the peer runs and agrees, not a throughput).
 
 At equal accuracy too: a fixed-step integrator and an adaptive one at its default tolerance do not
 make the same error. Each model's path (the hinge angles at the saved times) is compared with its own
@@ -131,10 +131,19 @@ def scattered_mujoco(system, design, dt: float, factor: np.ndarray) -> list:
 
 
 def mujoco_batch_seconds(models, controls, threads: int, repeats: int = 1) -> Timing:
-    """Rollout time of `models` under `controls` with one `MjData` per thread."""
-    datas = [mujoco.MjData(models[0]) for _ in range(threads)]
-    data = datas if threads > 1 else datas[0]
-    return time_calls(lambda: _mujoco_final(models, controls, data), repeats=repeats)
+    """Rollout time of `models` under `controls` with one `MjData` per thread (no warm-up call: a
+    C rollout has nothing to compile)."""
+    return time_calls(
+        lambda: _mujoco_final(models, controls, _datas(models[0], threads)),
+        repeats=repeats,
+        warmup=0,
+    )
+
+
+def _datas(model, threads: int):
+    """What `rollout.rollout` takes for `threads` threads: one `MjData`, or a list of them."""
+    datas = [mujoco.MjData(model) for _ in range(threads)]
+    return datas if threads > 1 else datas[0]
 
 
 def mujoco_path(system, design, dt_rule: float, refine: int) -> np.ndarray:
@@ -206,13 +215,27 @@ def _per_net_row(name, ours_s, mujoco_s, batch_mj, threads, compile_s, notes, ex
     )
 
 
+def _progress(message: str) -> None:
+    # Each stage announced as it starts: a run cut short by a time limit (a lent GPU's lease) still
+    # says where its time went.
+    print(f"[net {time.strftime('%H:%M:%S')}] {message}", flush=True)
+
+
+def _kept(rows: list[Result], row: Result) -> None:
+    # Each row printed as soon as it is measured, for the same reason.
+    rows.append(row)
+    print(row.line(), flush=True)
+
+
 def run(quick: bool) -> list[Result]:
     jax.config.update("jax_enable_x64", True)
     accelerated = jax.default_backend() != "cpu"
     batch_mj = 64 if quick else 1000
     # On a CPU a wider vmap buys little per net (RESULTS.md); on a GPU the issue's whole batch.
     batch_ours = batch_mj if accelerated else (16 if quick else 128)
-    repeats = 1 if quick else 3
+    # A batch of 1,000 on a lent GPU is timed once: its device time is scarce, and one call of a
+    # batch that size already averages over its members.
+    repeats = 1 if quick or accelerated else 3
     net = load_net(NET)
     design = HingeDesign.literature(fluid=KOH_SOLUTION)
     system = net.system(design)
@@ -220,6 +243,7 @@ def run(quick: bool) -> list[Result]:
     m = net.n_creases
 
     # Ours: compile apart, check the verdict, then time.
+    _progress(f"{NET}: compiling ours (one trajectory, {jax.default_backend()})")
     default_rtol = jnp.asarray(sim.DEFAULT_RTOL)
     start = time.perf_counter()
     solve = jax.jit(_solve).lower(system, default_rtol).compile()
@@ -234,6 +258,7 @@ def run(quick: bool) -> list[Result]:
     ours = time_calls(lambda: solve(system, default_rtol).theta, repeats=repeats)
 
     # MuJoCo: step 1/200 of the shortest hinge period.
+    _progress("MuJoCo, one trajectory; then each one's path error against its converged path")
     dt, nstep = mujoco_step(system)
     model = _mujoco(system, design, dt)
     data = mujoco.MjData(model)
@@ -260,7 +285,9 @@ def run(quick: bool) -> list[Result]:
         f"rad at rtol {sim.DEFAULT_RTOL:g}, {ours_path_error[EQUAL_RTOL]:.1e} at {EQUAL_RTOL:g}; "
         f"MuJoCo {mj_path_error:.1e} rad at its step (against 1/{MUJOCO_REFINE} of it)"
     )
-    rows = [
+    rows: list[Result] = []
+    _kept(
+        rows,
         Result(
             name=f"{NET} folding with contact, one trajectory to {T1:g} us vs MuJoCo",
             ours=ours,
@@ -283,8 +310,8 @@ def run(quick: bool) -> list[Result]:
                 "ours_path_error_equal_rtol_rad": ours_path_error[EQUAL_RTOL],
                 "mujoco_path_error_rad": mj_path_error,
             },
-        )
-    ]
+        ),
+    )
 
     # A batch with scattered hinges: nets/s.
     factor, release = scattered_draws(batch_mj, m)
@@ -293,25 +320,35 @@ def run(quick: bool) -> list[Result]:
         return _solve(_scattered(system, f, r), rtol).theta[-1]
 
     args = (jnp.asarray(factor[:batch_ours]), jnp.asarray(release[:batch_ours]))
+    _progress(f"compiling ours over a batch of {batch_ours}")
     start = time.perf_counter()
     batched = jax.jit(jax.vmap(member, in_axes=(0, 0, None))).lower(*args, default_rtol).compile()
     batch_compile = time.perf_counter() - start
     per_net = {}
     for rtol in (sim.DEFAULT_RTOL, EQUAL_RTOL):
+        _progress(f"ours over the batch at rtol {rtol:g}")
         rtol_array = jnp.asarray(rtol)
         _check(f"ours (batch, rtol {rtol:g})", net, np.asarray(batched(*args, rtol_array)), targets)
+        # Compiled ahead and called once above: no warm-up call.
         per_net[rtol] = (
-            time_calls(lambda r=rtol_array: batched(*args, r), repeats=1).median / batch_ours
+            time_calls(lambda r=rtol_array: batched(*args, r), repeats=1, warmup=0).median
+            / batch_ours
         )
     per_net_ours = per_net[sim.DEFAULT_RTOL]
+    where_ours = (
+        f"on the {jax.default_backend().upper()}" if accelerated else "XLA's threads on every core"
+    )
+    _progress(f"MuJoCo over the batch of {batch_mj}")
     models = scattered_mujoco(system, design, dt, factor)
     controls = release_controls(release, nstep, dt)
-    mj_finals = _mujoco_final(models, controls, data)
+    mj_finals = _mujoco_final(models, controls, _datas(model, 2))
     _check("MuJoCo (batch)", net, mj_finals, targets)
     # The target is MuJoCo's throughput on 2 cores: rollout's thread pool, one MjData per thread.
-    for threads in (1, 2):
+    # Beside a GPU the one-thread row is left out (the lease's time goes to the GPU rows).
+    for threads in (2,) if accelerated else (1, 2):
         per_net_mj = mujoco_batch_seconds(models, controls, threads).median / batch_mj
-        rows.append(
+        _kept(
+            rows,
             _per_net_row(
                 f"{NET} with scattered hinges, nets/s: ours vmap over {batch_ours} vs "
                 f"MuJoCo over {batch_mj} on {threads} thread{'s' if threads > 1 else ''}",
@@ -320,12 +357,49 @@ def run(quick: bool) -> list[Result]:
                 batch_mj,
                 threads,
                 batch_compile,
-                f"per net; ours {1 / per_net_ours:.3g} nets/s (XLA's threads on every core), "
+                f"per net; ours {1 / per_net_ours:.3g} nets/s ({where_ours}), "
                 f"MuJoCo {1 / per_net_mj:.3g} nets/s; every member of both batches closes the "
                 f"cube (±{SCATTER:.0%} stiffness, release over {RELEASE_SPAN:g} us)",
                 {"batch_ours": batch_ours},
-            )
+            ),
         )
+    # At equal accuracy (the same path error as MuJoCo at its step), against MuJoCo on two threads.
+    _kept(
+        rows,
+        _per_net_row(
+            f"{NET} with scattered hinges, nets/s at equal accuracy: ours rtol {EQUAL_RTOL:g} "
+            f"vmap over {batch_ours} vs MuJoCo over {batch_mj} on 2 threads",
+            per_net[EQUAL_RTOL],
+            per_net_mj,
+            batch_mj,
+            2,
+            batch_compile,
+            f"per net; {accuracy}; every member closes the cube",
+            {"rtol": EQUAL_RTOL, "batch_ours": batch_ours},
+        ),
+    )
+    if not _mjx_tree.available():
+        print("MJX row skipped: mujoco.mjx does not import (pip install mujoco-mjx)")
+    elif accelerated or os.environ.get("NET_MJX") == "1":
+        batch_mjx = batch_mj if accelerated else (16 if quick else 64)
+        _progress(f"MJX over {batch_mjx} of the batch's models")
+        _kept(
+            rows,
+            _mjx_row(
+                net,
+                targets,
+                models[:batch_mjx],
+                release[:batch_mjx],
+                nstep,
+                mj_finals[:batch_mjx],
+                per_net[EQUAL_RTOL],
+                batch_ours,
+                batch_compile,
+                repeats,
+            ),
+        )
+    else:
+        print("MJX row skipped on a CPU (NET_MJX=1 runs it: a check, not a throughput)")
 
     # The same batch with the contact removed (the panels pass through each other): a floor, what
     # the rest of the right-hand side costs at the steps a contact-free folding takes.
@@ -333,13 +407,17 @@ def run(quick: bool) -> list[Result]:
         trajectory = _solve(_scattered(system, f, r, contact=False), rtol)
         return trajectory.theta[-1], trajectory.stats["num_steps"]
 
+    _progress("ours over the batch with the contact removed")
     start = time.perf_counter()
     free = jax.jit(jax.vmap(free_member, in_axes=(0, 0, None))).lower(*args, default_rtol).compile()
     free_compile = time.perf_counter() - start
     equal_rtol = jnp.asarray(EQUAL_RTOL)
     _, free_steps = jax.device_get(free(*args, equal_rtol))
-    per_net_free = time_calls(lambda: free(*args, equal_rtol), repeats=repeats).median / batch_ours
-    rows.append(
+    per_net_free = (
+        time_calls(lambda: free(*args, equal_rtol), repeats=repeats, warmup=0).median / batch_ours
+    )
+    _kept(
+        rows,
         _per_net_row(
             f"{NET} with scattered hinges and NO contact (a floor), nets/s: ours rtol "
             f"{EQUAL_RTOL:g} vmap over {batch_ours} vs MuJoCo (with contact) on 2 threads",
@@ -358,42 +436,8 @@ def run(quick: bool) -> list[Result]:
                 "ours_steps_max": int(free_steps.max()),
                 "ours_steps_mean": float(free_steps.mean()),
             },
-        )
+        ),
     )
-    # At equal accuracy (the same path error as MuJoCo at its step), against MuJoCo on two threads.
-    rows.append(
-        _per_net_row(
-            f"{NET} with scattered hinges, nets/s at equal accuracy: ours rtol {EQUAL_RTOL:g} "
-            f"vmap over {batch_ours} vs MuJoCo over {batch_mj} on 2 threads",
-            per_net[EQUAL_RTOL],
-            per_net_mj,
-            batch_mj,
-            2,
-            batch_compile,
-            f"per net; {accuracy}; every member closes the cube",
-            {"rtol": EQUAL_RTOL, "batch_ours": batch_ours},
-        )
-    )
-    if not _mjx_tree.available():
-        print("MJX row skipped: mujoco.mjx does not import (pip install mujoco-mjx)")
-    elif accelerated or os.environ.get("NET_MJX") == "1":
-        batch_mjx = batch_mj if accelerated else (16 if quick else 64)
-        rows.append(
-            _mjx_row(
-                net,
-                targets,
-                models[:batch_mjx],
-                release[:batch_mjx],
-                nstep,
-                mj_finals[:batch_mjx],
-                per_net[EQUAL_RTOL],
-                batch_ours,
-                batch_compile,
-                repeats,
-            )
-        )
-    else:
-        print("MJX row skipped on a CPU (NET_MJX=1 runs it: a check, not a throughput)")
     return rows
 
 
@@ -411,7 +455,9 @@ def _mjx_row(
     finals = np.asarray(rollout(gains, release))
     _check("MJX (batch)", net, finals, targets)
     difference = float(np.max(np.abs(finals - mj_finals)))
-    per_net_mjx = time_calls(lambda: rollout(gains, release), repeats=repeats).median / batch
+    per_net_mjx = (
+        time_calls(lambda: rollout(gains, release), repeats=repeats, warmup=0).median / batch
+    )
     backend = jax.default_backend()
     return Result(
         name=(

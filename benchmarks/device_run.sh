@@ -26,6 +26,15 @@ set -u
 OUT=${OUT:-$PWD/device_out}
 mkdir -p "$OUT"
 PY=${PY:-python3}
+# Or, simpler, the missing packages as wheels in `.whl/` (ignored by git; the device README's recipe:
+# pip download --no-deps --only-binary=:all: --python-version 3.12 ... -d .whl mujoco==4.0.1
+# mujoco-core==4.0.1 mujoco-mjx==3.17.0 glfw pyopengl trimesh h5netcdf), carried with the call.
+if ls .whl/*.whl >/dev/null 2>&1; then
+    $PY -m pip install -q --no-index --no-deps --no-compile --no-cache-dir --upgrade --target /tmp/site .whl/*.whl || exit
+    export PYTHONPATH=/tmp/site:$PWD
+fi
+# A rerun on the same (warm) machine reuses what the first run compiled.
+export JAX_COMPILATION_CACHE_DIR=${JAX_COMPILATION_CACHE_DIR:-/tmp/jax_cache}
 if [ -f .site/site312.tgz ] && [ "$($PY -c 'import sys; print(sys.version_info[:2] == (3, 12))')" = True ]; then
     mkdir -p /tmp/site && tar xzf .site/site312.tgz -C /tmp/site
     export PYTHONPATH=/tmp/site:/tmp/site/cmeel.prefix/lib/python3.12/site-packages:$PWD
@@ -35,7 +44,8 @@ export PYTHONUNBUFFERED=1
 {
     nvidia-smi --query-gpu=name,memory.total,driver_version,clocks.sm --format=csv
     $PY -c "import jax, diffrax, equinox, optimistix; print('jax', jax.__version__, jax.devices()); print('diffrax', diffrax.__version__, 'equinox', equinox.__version__, 'optimistix', optimistix.__version__)"
-    $PY -c "import pinocchio, mujoco; print('pinocchio', pinocchio.__version__, 'mujoco', mujoco.__version__)"
+    $PY -c "import mujoco; print('mujoco', mujoco.__version__)"
+    $PY -c "import pinocchio; print('pinocchio', pinocchio.__version__)"
 } 2>&1 | tee "$OUT/env.txt"
 
 run() {  # run NAME SECONDS [extra args]
@@ -52,5 +62,5 @@ run unfold 90
 run simulate 90
 run chain_peers 60
 run design 150
-run net 420  # ours and MJX over the same 1,000 scattered cube nets (--quick: 64) on the GPU
+run net ${NET_LIMIT:-420}  # ours and MJX over the same 1,000 scattered cube nets (--quick: 64) on the GPU
 echo "done $(date +%T)"
