@@ -3,6 +3,7 @@ against hand-built folds, a closed cube cut into a net, and bad forms refused in
 
 import json
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -21,6 +22,7 @@ from origami_jax.net import load_net
 
 # Unfolding composes one rotation per face of the tree: round-off only.
 ROUND_TRIP_TOL = 1e-12
+DATA = Path(__file__).parent / "data" / "fold"
 
 
 def _aligned(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -136,6 +138,33 @@ def test_a_closed_cube_is_cut_into_a_net_and_folds_back(outward, tmp_path):
     np.testing.assert_allclose(np.abs(net.intended_angles), np.pi / 2, atol=1e-12)
     # Folded to its angles, the net's seams close: the cube it came from.
     assert np.max(net.seam_gaps(net.intended_angles)) < 1e-9 * 200.0
+
+
+def test_a_polyhedron_is_unfolded_from_a_face_whose_net_lies_flat(monkeypatch):
+    # The hull of 87 random points (25 vertices, 46 triangles, written to 0.01 µm): its
+    # breadth-first net from its largest face overlaps itself, as do those of other roots; the
+    # unfolding goes down the faces by area to the first whose net does not.
+    path = DATA / "random_hull_folded.fold"
+    frame = read_fold(path).key_frame
+    corners = frame.coords3[np.asarray(frame.faces_vertices)]
+    areas = np.linalg.norm(
+        np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]), axis=1
+    )
+    largest = int(np.argmax(areas))
+    with pytest.raises(FoldFormatError, match=rf"unfolded from face {largest} overlaps itself"):
+        unfold_folded_form(frame, root=largest)
+    with pytest.warns(UserWarning, match=r"cut along 24 of its creases .* from face 8;"):
+        net = load_net(path)
+    assert net.n_creases == 45
+    # Folded to its angles, the seams close: the polyhedron it came from (to its rounding).
+    size = np.ptp(frame.coords3, axis=0).max()
+    assert np.max(net.seam_gaps(net.intended_angles)) < 1e-9 * size
+    # Where no root of those tried lies flat, one line says so and how to choose the seams.
+    monkeypatch.setattr("origami_jax.fold._unfold.ROOTS_TRIED", 1)
+    with pytest.raises(
+        FoldFormatError, match=r"overlaps itself unfolded from each of its 1 largest faces .* C"
+    ):
+        unfold_folded_form(frame)
 
 
 def test_bad_folded_forms_are_refused_in_one_line():

@@ -10,7 +10,9 @@ A crease that the tree does not use closes a loop of faces. Where its two faces'
 (a vertex surrounded by creases, as in a Miura-ori) it is a crease of a closed loop; where they do
 not (the edges of a closed polyhedron, which no flat sheet can keep joined) the sheet is cut there:
 it becomes two boundary edges, a seam that the folding closes. For a polyhedron the cut depends on
-the tree (breadth first from the root face), so `unfold_folded_form` returns one of its nets.
+the tree (breadth first from the root face), so `unfold_folded_form` returns one of its nets: the
+first, from the largest face down, whose faces do not overlap in the plane (a net is cut from one
+sheet).
 """
 
 from __future__ import annotations
@@ -24,13 +26,16 @@ from ._errors import FoldFormatError
 from ._geometry import PLANAR_REL_TOL, fold_angles_from_coords, paper_plane
 from ._model import FoldFile, FoldFrame
 from ._net_build import CREASES
-from ._polygons import signed_area
+from ._polygons import overlapping_pairs, signed_area, triangulate
 
 # Two flat images of one vertex closer than this (relative to the model's size) are one vertex of
 # the flat sheet: folded forms are written with a few significant digits.
 MERGE_REL_TOL = 1e-4
 # A face whose corners leave its plane by more than this (relative to the model) is not a panel.
 FACE_PLANAR_REL_TOL = 1e-4
+# Roots tried, largest face first, for a net of a polyhedron whose faces do not overlap: each try
+# is a breadth-first layout and an overlap test, milliseconds for hundreds of faces.
+ROOTS_TRIED = 32
 
 
 def is_folded_form(frame: FoldFrame) -> bool:
@@ -65,7 +70,8 @@ def unfold_folded_form(frame: FoldFrame, *, root: int | None = None) -> FoldFram
     **Arguments:** `frame`: a FOLD frame with `vertices_coords` (3D) and `faces_vertices`
     (counter-clockwise seen from each face's front), `edges_vertices` and `edges_assignment`
     optional (an edge shared by two faces is a crease unless assigned `B` or `C`); `root`: the face
-    laid out first, which keeps its place and orientation (default the largest). Faces wound
+    laid out first, which keeps its place and orientation (default: the largest face whose
+    breadth-first net does not overlap itself, of the `ROOTS_TRIED` largest). Faces wound
     clockwise seen from the side the file's `M` and `V` refer to (every `M`/`V` crease folded the
     other way) are read reversed, and the sheet is seen from that side.
 
@@ -81,8 +87,8 @@ def unfold_folded_form(frame: FoldFrame, *, root: int | None = None) -> FoldFram
 
     **Raises:** `FoldFormatError` (one line) for a face that is not planar or degenerate, an edge
     of more than two faces, two faces that run a shared edge the same way (not orientable), faces
-    not joined to the root by creases, or `M`/`V` edges of which some agree with the form's
-    folds and some do not.
+    not joined to the root by creases, `M`/`V` edges of which some agree with the form's folds
+    and some do not, or a flat sheet whose faces overlap from every root tried.
     """
     if frame.faces_vertices is None or frame.vertices_coords is None:
         raise FoldFormatError(
@@ -106,18 +112,47 @@ def unfold_folded_form(frame: FoldFrame, *, root: int | None = None) -> FoldFram
             runs[(u, v)] = f
     local = [_face_plane(coords, face, f, size) for f, face in enumerate(faces)]
     areas = [signed_area(xy) for xy in local]
-    root = int(np.argmax(areas)) if root is None else int(root)
-    if not 0 <= root < len(faces):
+    if root is not None and not 0 <= int(root) < len(faces):
         raise FoldFormatError(
             f"root={root}: the form has {len(faces)} faces (0 to {len(faces) - 1})"
         )
+    # Largest first; equal areas (a cube's faces) in the file's order.
+    by_area = sorted(range(len(faces)), key=lambda f: -areas[f])
+    roots = [int(root)] if root is not None else by_area[:ROOTS_TRIED]
 
     def crease(u: int, v: int) -> bool:
         side = frozenset((u, v))
         return len(sides[side]) == 2 and assignment.get(side, "U") in CREASES
 
-    # Breadth first from the root: each face placed by the rigid map (rotation, translation) of
-    # its own plane that puts the side it shares with its parent onto the parent's flat side.
+    triangles = [_triangles(xy, f) for f, xy in enumerate(local)]
+    first_overlap = None
+    for tried in roots:
+        flat = _layout(faces, local, sides, crease, tried)
+        overlaps = _overlapping_faces(flat, triangles, size)
+        if not overlaps:
+            break
+        first_overlap = first_overlap or (tried, overlaps)
+    else:
+        first, (f, g) = first_overlap[0], first_overlap[1][0]
+        if root is not None:
+            raise FoldFormatError(
+                f"the folded form's flat sheet unfolded from face {first} overlaps itself (faces "
+                f"{f} and {g}): a net is cut from one sheet; pick another root=, or assign C to "
+                "the creases to cut in the file"
+            )
+        raise FoldFormatError(
+            f"the folded form's flat sheet overlaps itself unfolded from each of its "
+            f"{len(roots)} largest faces (from face {first}: faces {f} and {g}): a net is cut "
+            "from one sheet; assign C to the creases to cut in the file"
+        )
+    angles = fold_angles_from_coords(coords, faces, _side_array(faces))
+    return _flat_frame(frame, faces, flat, sides, assignment, angles, size, tried)
+
+
+def _layout(faces, local, sides, crease, root: int) -> list[np.ndarray]:
+    """Each face's flat corners `(k, 2)`, breadth first from `root`: each face placed by the rigid
+    map (rotation, translation) of its own plane that puts the side it shares with its parent onto
+    the parent's flat side."""
     flat: list[np.ndarray | None] = [None] * len(faces)
     flat[root] = local[root] - local[root][0]
     queue = collections.deque([root])
@@ -140,11 +175,33 @@ def unfold_folded_form(frame: FoldFrame, *, root: int | None = None) -> FoldFram
             f"faces {missing[:8]} are not joined to face {root} by creases: a folded form is "
             "unfolded across the edges its faces share"
         )
-    angles = fold_angles_from_coords(coords, faces, _side_array(faces))
-    return _flat_frame(frame, faces, flat, sides, assignment, angles, size)
+    return flat  # pyright: ignore[reportReturnType]
 
 
-def _flat_frame(frame, faces, flat, sides, assignment, angles, size) -> FoldFrame:
+def _triangles(xy: np.ndarray, f: int) -> list[tuple[int, int, int]]:
+    """`triangulate` of face `f`'s corners in its own plane, refused in one line."""
+    try:
+        return triangulate(xy)
+    except ValueError as error:
+        raise FoldFormatError(f"face {f}: {error}") from None
+
+
+def _overlapping_faces(flat, triangles, size: float) -> list[tuple[int, int]]:
+    """Pairs of faces whose flat images overlap by more than the vertices' merging tolerance
+    (touching does not count; a form written to a few digits lays a loop's faces out a little
+    apart or over each other)."""
+    corners = np.concatenate(
+        [
+            np.pad(xy[list(t)], ((0, 0), (0, 1)))
+            for xy, tris in zip(flat, triangles, strict=True)
+            for t in tris
+        ]
+    ).reshape(-1, 3, 3)
+    owners = np.repeat(np.arange(len(flat)), [len(t) for t in triangles])
+    return overlapping_pairs(corners, owners, MERGE_REL_TOL * size)
+
+
+def _flat_frame(frame, faces, flat, sides, assignment, angles, size, root: int) -> FoldFrame:
     """The flat frame: vertices merged where their images coincide, one edge per face side (a
     crease where both faces' images of it agree, a boundary edge per face otherwise)."""
     tolerance = MERGE_REL_TOL * size
@@ -205,7 +262,7 @@ def _flat_frame(frame, faces, flat, sides, assignment, angles, size) -> FoldFram
         warnings.warn(
             f"the folded form closes on itself: the flat sheet is cut along {len(cut)} of its "
             f"creases ({shown}{' ...' if len(cut) > 6 else ''}), chosen by a breadth-first tree of "
-            "faces from the root; to choose the seams, assign them C in the file (or pick root=)",
+            f"faces from face {root}; to choose the seams, assign them C in the file (or pick root=)",
             UserWarning,
             stacklevel=4,
         )
