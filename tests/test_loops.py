@@ -454,6 +454,37 @@ def test_layout_and_sweep_kernel_build_closed_loop_systems():
     assert kernel.settings["closed_loops"] == 1 and "release[3]" in kernel.parameters
 
 
+def test_a_sweep_folds_a_closed_loop_pattern_with_contact_as_its_own_system_does():
+    # The kernel builds the system inside a trace: the pattern's checks and its contact tables
+    # must still be computed on the host (both once failed there), and each member must fold as
+    # the pattern's own system with that design does. Default hinges: no wider than the creases.
+    from origami_jax.net import hinges_within_creases
+    from origami_jax.sweep import Table, get_model, sweep
+
+    pattern = load_pattern("vertex_degree4")
+    strains = [0.004, 0.006]
+    settings = dict(t_end=150.0, n_save=11, bias=1e-3)
+    kernel = get_model("net-fold", net="vertex_degree4", **settings)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        swept = sweep(kernel, Table({"misfit_strain": strains}), progress=False)
+    assert list(swept["result"].values) == [0, 0]
+    base = hinges_within_creases(KOH, pattern.crease_lengths)
+    theta0 = pattern.start_state(bias=settings["bias"])[0]
+    for strain, final in zip(strains, swept["final_angle"].values, strict=True):
+        system = pattern.system(eqx.tree_at(lambda d: d.misfit_strain, base, strain))
+        trajectory = sim.simulate(
+            system,
+            sim.Step(),
+            theta0=theta0,
+            t1=settings["t_end"],
+            n_save=settings["n_save"],
+            solver=diffrax.Tsit5(),
+        )
+        # The same equations and solver, one member of a vmap against one call: round-off.
+        np.testing.assert_allclose(final, trajectory.theta[-1], atol=1e-9)
+
+
 @pytest.mark.slow
 def test_fold_cli_folds_a_closed_loop_pattern(tmp_path, capsys):
     from origami_jax.cli import main

@@ -22,11 +22,13 @@ import dataclasses
 import os
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import ArrayLike, Float
 
 from .._limits import CONTACT_SAMPLING
+from .._validate import is_traced
 from ..fold import FoldFile, FoldFormatError
 from ..fold._catalogue import source_and_label
 from ..fold._loop_geometry import LoopGeometry, loop_geometry
@@ -318,14 +320,17 @@ class CreasePattern:
                 "every crease needs a finite target: give edges_foldAngle in the FOLD file or "
                 "targets= (rad)."
             )
-        if not self._cache.get(("checked", intended.tobytes())):
-            if np.all(np.isfinite(intended)):
-                self.check_angles(intended, "the pattern's fold angles")
-            self._cache[("checked", intended.tobytes())] = True
-        if check_rigid and np.all(np.isfinite(intended)):
-            report = self.rigid_foldability()
-            if not (report.rigid or report.residual <= self.precision):
-                raise NotRigidlyFoldableError(f"{self.name}: {report.summary()}", report)
+        # The pattern's own checks, on its own (concrete) angles: evaluated now even when this
+        # system is built inside a trace (a sweep kernel's), where JAX would otherwise stage them.
+        with jax.ensure_compile_time_eval():
+            if not self._cache.get(("checked", intended.tobytes())):
+                if np.all(np.isfinite(intended)):
+                    self.check_angles(intended, "the pattern's fold angles")
+                self._cache[("checked", intended.tobytes())] = True
+            if check_rigid and np.all(np.isfinite(intended)):
+                report = self.rigid_foldability()
+                if not (report.rigid or report.residual <= self.precision):
+                    raise NotRigidlyFoldableError(f"{self.name}: {report.summary()}", report)
         targets = intended if targets is None else targets
         targets = jnp.asarray(targets, dtype=jnp.result_type(float))
         if targets.shape != (m,):
@@ -347,12 +352,21 @@ class CreasePattern:
         )
         contact_model = None
         if contact:
-            contact_model = _contact(
-                mechanism,
-                stiffness,
-                targets,
-                thickness=float(np.asarray(design.t_structural)),
-                sampling=contact_sampling,
+            # The tables are the flat geometry's, computed on the host: from the design's own
+            # panels, or the literature design's when its numbers are traced (a sweep's), as a
+            # net's always are (`Net.contact_tables`).
+            traced = is_traced(design)
+            with jax.ensure_compile_time_eval():
+                geometric = HingeDesign.literature(design.units) if traced else design
+                tables = _contact_tables(
+                    self.mechanism(geometric), geometric.t_structural, contact_sampling
+                )
+            # Stiffness and damping as `PanelContact.for_system` sets them, traceable in the
+            # hinges (a sweep over hinge parameters builds contact inside `vmap`).
+            from ..contact import PanelContact
+
+            contact_model = PanelContact.for_system(
+                mechanism, stiffness, targets, thickness=design.t_structural, tables=tables
             )
         return FoldingSystem(
             mechanism, hinges_, drag_model, contact=contact_model, units=design.units
@@ -466,16 +480,15 @@ def _with_branch(pattern: CreasePattern, report, trajectory, bias: float):
     return LoopFoldReport.from_report(pattern, report, trajectory, bias)
 
 
-def _contact(
-    mechanism: LoopedPanels, stiffness, targets, *, thickness: float, sampling=CONTACT_SAMPLING
-):
-    """`PanelContact` with the defaults of `PanelContact.for_system`, where panels that share a crease
-    (tree or cut) or only a vertex do not meet near what they share; `sampling` is
+def _contact_tables(mechanism: LoopedPanels, thickness: float, sampling=CONTACT_SAMPLING):
+    """`ContactTables` of a mechanism whose numbers are known, for `PanelContact.for_system`: panels
+    that share a crease (tree or cut) or only a vertex do not meet near what they share; the rims
+    inset by twice the contact's edge width at the film `thickness`; `sampling` is
     ``(points_per_edge, rim_points_per_edge)`` (`build_tables`)."""
-
     from ..contact import PanelContact
     from ..contact._tables import build_tables, sampling_pair
 
+    thickness = float(np.asarray(thickness))
     points_per_edge, rim_points_per_edge = sampling_pair(sampling)
 
     n = mechanism.n_bodies
@@ -513,11 +526,7 @@ def _contact(
         points_per_edge=points_per_edge,
         rim_points_per_edge=rim_points_per_edge,
     )
-    # Stiffness and damping as `PanelContact.for_system` sets them, traceable in the hinges (a sweep
-    # over hinge parameters builds contact inside `vmap`); the tables are the flat geometry's.
-    return PanelContact.for_system(
-        mechanism, stiffness, targets, thickness=thickness, tables=tables
-    )
+    return tables
 
 
 def load_pattern(

@@ -426,7 +426,7 @@ def net_fold(
     """Sweep kernel: does a net of panels, or a crease pattern with closed loops, fold? Verdict and
     numbers per design (explicit Tsit5 under the contact guard;
     `origami_jax.loops.load_pattern(net).system(design, ...)` with the literature design for what is
-    not swept, in MICRO units). A closed-loop pattern starts flat, or pre-folded by `bias` rad along
+    not swept, in MICRO units, each hinge no wider than its crease). A closed-loop pattern starts flat, or pre-folded by `bias` rad along
     its own angles (`CreasePattern.start_state`); its verdict is `misfolded` on another branch.
 
     **Parameters** (swept): `hinge_width`, `t_hinge`, `misfit_strain`, `k_scale` for every crease, or
@@ -469,6 +469,7 @@ def net_fold(
 
     from ..contact._tables import sampling_pair
     from ..loops import CreasePattern, load_pattern
+    from ..net import hinges_within_creases
     from ..simulation import DEFAULT_ATOL, DEFAULT_RTOL, RESULTS, Step, VerdictTolerances, simulate
     from ..system import AIR, KOH_SOLUTION, HingeDesign
 
@@ -497,7 +498,11 @@ def net_fold(
     theta0 = the_net.start_state(bias=bias)[0] if loops else None
     m = the_net.n_creases
     if design is None:
-        base = HingeDesign.literature(fluid=AIR if fluid == "air" else KOH_SOLUTION)
+        # As `system` without a design: the literature hinge, each no wider than its crease.
+        base = hinges_within_creases(
+            HingeDesign.literature(fluid=AIR if fluid == "air" else KOH_SOLUTION),
+            the_net.crease_lengths,
+        )
     else:
         base = design
     aims = None
