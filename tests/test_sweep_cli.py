@@ -3,6 +3,7 @@
 The model is the engine tests' damped-oscillator fixture, registered for these tests only.
 """
 
+import pytest
 import xarray as xr
 
 from origami_jax.cli import main
@@ -74,3 +75,26 @@ def test_cli_reports_models_and_bad_configs(tmp_path, capsys):
     assert main(["sweep", str(bad), "--out", str(tmp_path / "o")]) == 2
     assert "unknown model" in capsys.readouterr().err
     assert main(["sweep"]) == 2
+
+
+def test_every_example_config_loads():
+    # The shipped examples name real models, settings and parameters (they are run in full by
+    # the slow test below and by users).
+    from pathlib import Path
+
+    examples = sorted((Path(__file__).parent.parent / "examples").glob("sweep_*.toml"))
+    assert len(examples) >= 4
+    for path in examples:
+        load_config(path)
+
+
+@pytest.mark.slow
+def test_the_waterbomb_example_sweeps_a_closed_loop_pattern_with_contact(tmp_path):
+    # A closed-loop pattern with contact through the command line: every design folds.
+    from pathlib import Path
+
+    example = Path(__file__).parent.parent / "examples" / "sweep_waterbomb.toml"
+    out = tmp_path / "out"
+    assert main(["sweep", str(example), "--out", str(out), "--no-progress", "--no-plots"]) == 0
+    ds = xr.load_dataset(out / "sweep.nc")
+    assert ds.sizes["design"] == 6 and (ds["verdict"].values == 0).all()
