@@ -357,10 +357,13 @@ class CreasePattern:
             # net's always are (`Net.contact_tables`).
             traced = is_traced(design)
             with jax.ensure_compile_time_eval():
-                geometric = HingeDesign.literature(design.units) if traced else design
-                tables = _contact_tables(
-                    self.mechanism(geometric), geometric.t_structural, contact_sampling
-                )
+                if traced:
+                    geometric = HingeDesign.literature(design.units)
+                    tables = _contact_tables(
+                        self.mechanism(geometric), geometric.t_structural, contact_sampling
+                    )
+                else:
+                    tables = _contact_tables(mechanism, design.t_structural, contact_sampling)
             # Stiffness and damping as `PanelContact.for_system` sets them, traceable in the
             # hinges (a sweep over hinge parameters builds contact inside `vmap`).
             from ..contact import PanelContact

@@ -426,8 +426,9 @@ def net_fold(
     """Sweep kernel: does a net of panels, or a crease pattern with closed loops, fold? Verdict and
     numbers per design (explicit Tsit5 under the contact guard;
     `origami_jax.loops.load_pattern(net).system(design, ...)` with the literature design for what is
-    not swept, in MICRO units, each hinge no wider than its crease). A closed-loop pattern starts flat, or pre-folded by `bias` rad along
-    its own angles (`CreasePattern.start_state`); its verdict is `misfolded` on another branch.
+    not swept, in MICRO units, each hinge no wider than its crease). A closed-loop pattern starts
+    flat, or pre-folded by `bias` rad along its own angles (`CreasePattern.start_state`); its
+    verdict is `misfolded` on another branch.
 
     **Parameters** (swept): `hinge_width`, `t_hinge`, `misfit_strain`, `k_scale` for every crease, or
     per crease as `name[j]` (e.g. `misfit_strain[3]`: the film stress scatter of one hinge);
