@@ -183,8 +183,10 @@ def test_bad_estimates_are_refused_before_compiling(tmp_path):
         ojy.yield_estimate(NET, ojy.Scatter(release=ojy.Spread("uniform", 0.2, relative=True)))
     with pytest.raises(ValueError, match="release_times must be 2"):
         ojy.yield_estimate(NET, release_times=[0.0, 1.0, 2.0])
-    with pytest.raises(ValueError, match="a tree of panels"):
-        ojy.yield_estimate("tests/data/fold/degree4.fold")
+    with pytest.raises(ValueError, match="bias pre-folds closed-loop patterns only"):
+        ojy.yield_estimate(NET, bias=0.05)
+    with pytest.raises(ValueError, match=r"bias must be a pre-fold angle in \[0, 1\) rad"):
+        ojy.yield_estimate("vertex_degree4", bias=-0.1)
     with pytest.raises(ValueError, match="interval"):
         ojy.yield_estimate(NET, interval="wald")
     for rtol in (0.0, 1.5, True, "1e-5"):
@@ -250,6 +252,26 @@ def test_zero_scatter_gives_yield_zero_for_a_net_aimed_at_80_degrees():
     assert estimate.fraction == 0.0 and estimate.counts["misfolded"] == 4, estimate.summary()
     assert estimate.interval[0] == 0.0
     np.testing.assert_allclose(np.degrees(estimate.dataset["final_angle"]), 80.0, atol=0.2)
+
+
+def test_a_closed_loop_pattern_folds_on_its_branch_or_is_misfolded_on_the_other():
+    # A single degree-4 vertex (one closed loop), pre-folded 0.01 rad along its own angles: with
+    # no scatter every sample folds to the pattern. Its hinges aimed at the mirror image (every
+    # target negated) flip it onto the other branch, which the verdict judges against the
+    # pattern: misfolded. One compiled kernel for both (the targets are data).
+    from origami_jax.loops import load_pattern
+
+    pattern = load_pattern("vertex_degree4")
+    run = {**RUN, "n_samples": 4, "seed": 1, "bias": 0.01}
+    folds = ojy.yield_estimate("vertex_degree4", ojy.Scatter.none(), **run)
+    assert folds.counts["folded"] == 4, folds.summary()
+    mirrored = ojy.yield_estimate(
+        "vertex_degree4", ojy.Scatter.none(), targets=-pattern.intended_angles, **run
+    )
+    assert mirrored.counts["misfolded"] == 4, mirrored.summary()
+    final = np.asarray(mirrored.dataset["final_angle"].values)
+    # At rest on the mirror branch, within the ring-down left at 600 µs.
+    assert np.max(np.abs(final + pattern.intended_angles)) < np.radians(0.2)
 
 
 def _timoshenko_curvature(e1, t1, e2, t2, strain):
@@ -374,6 +396,15 @@ def test_cli_writes_result_and_figure(tmp_path, capsys):
     config.write_text("[misfit_strain]\nwidth = -1\n")
     assert main([*argv[:-2], "--out", str(tmp_path / "bad")]) == 2
     assert "width must be finite and >= 0" in capsys.readouterr().err
+    # A pre-fold is for closed-loop patterns; those take no etch front or ascent (one line each).
+    config.write_text("[misfit_strain]\nwidth = 0.05\n")
+    assert main([*bad, "--bias", "0.05"]) == 2
+    assert "--bias pre-folds closed-loop patterns" in capsys.readouterr().err
+    loop = ["yield", "vertex_degree4", "--out", str(tmp_path / "loop"), "--no-progress"]
+    assert main([*loop, "--improve", "2"]) == 2
+    assert "--etch-front and --improve take nets" in capsys.readouterr().err
+    assert main([*loop, "--bias", "1.5"]) == 2
+    assert "--bias must be a pre-fold angle" in capsys.readouterr().err
 
 
 # ---- the differentiable surrogate --------------------------------------------------------------

@@ -25,15 +25,20 @@ DESCRIPTION = (
     HELP
     + """
 
-NET is a FOLD file or the name of a shipped net (origami-jax fold --list). Every sample is the net
-with its hinges' film stress (misfit strain), film thicknesses, hinge widths, drag coefficient and
+NET is a FOLD file or the name of a shipped net or crease pattern (origami-jax fold --list). Every
+sample is the net with its hinges' film stress (misfit strain), film thicknesses, hinge widths, drag coefficient and
 release times drawn from the scatter, folded with contact in the KOH bath (--fluid air: in air) and
 judged folded, jammed, misfolded, unfinished or invalid: folded when every crease is within
 --angle-tolerance of the pattern's angle (3 degrees) and every seam's gap below --seam-tolerance
 times the largest panel's size (0.01: 2 µm on 200 µm panels, about 0.6 degrees of crease error, so
 the seams decide most verdicts; 0.05 makes the two equally strict). The hinges are fabricated: their lengths
 are the nominal design's, so a film that bends more or less than nominal folds its crease past or
-short of the pattern's angle.
+short of the pattern's angle. Each hinge is the literature's, at most as wide as its crease.
+
+A crease pattern with closed loops (a waterbomb, a Miura sheet) starts flat, where its branch is
+left to the inputs, or pre-folded by --bias rad along its own angles (0.05: a membrane is never
+quite flat); a sample that folds onto another branch is misfolded. --improve and --etch-front take
+nets (trees of panels) only.
 
 --scatter CONFIG.toml gives one table per parameter (misfit_strain, t_hinge, hinge_width,
 t_structural, drag_coefficient, release) with distribution ("normal", "lognormal", "uniform"), width
@@ -100,6 +105,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--fluid", choices=("air", "koh"), default="koh", help="default koh")
     add_contact_sampling_argument(parser)
     parser.add_argument("--t-end", type=float, default=1500.0, help="simulated time, µs (1500)")
+    parser.add_argument(
+        "--bias",
+        type=float,
+        default=0.0,
+        help="a closed-loop pattern's pre-fold along its own angles, rad (default 0: flat)",
+    )
     parser.add_argument(
         "--rtol",
         type=float,
@@ -201,14 +212,13 @@ def _numbers(text: str | None, flag: str) -> list[float] | None:
     return values
 
 
-def _process(entries: list[str], net: str) -> dict | None:
-    """The --process nominal values, checked against the net's crease count before anything
+def _process(entries: list[str], n_creases: int) -> dict | None:
+    """The --process nominal values, checked against the pattern's crease count before anything
     compiles (None without --process)."""
     if not entries:
         return None
     from ..fab_yield import PARAMETERS
     from ..fab_yield._estimate import _process as check_process
-    from ..net import load_net
 
     known = [n for n in PARAMETERS if n != "release"]
     values: dict = {}
@@ -224,10 +234,6 @@ def _process(entries: list[str], net: str) -> dict | None:
             fail(f"--process {name} is given twice.")
         numbers = _numbers(text, f"--process {name}")
         values[name] = numbers[0] if len(numbers) == 1 else numbers
-    try:
-        n_creases = load_net(net).n_creases
-    except (ValueError, OSError) as error:
-        fail(f"cannot load {net}: {error}")
     try:
         check_process(values, n_creases)
     except ValueError as error:
@@ -335,17 +341,38 @@ def run(args: argparse.Namespace) -> int:
             scatter = load_scatter(args.scatter)
         except (ValueError, OSError) as error:
             fail(f"bad scatter config {args.scatter}: {error}")
+    from ..fold import FoldFormatError
+    from ..loops import CreasePattern, load_pattern
+    from ..net import hinges_within_creases
+
+    try:
+        pattern = load_pattern(args.net)
+    except (FoldFormatError, ValueError, OSError) as error:
+        fail(f"cannot load {args.net}: {error}")
+    loops = isinstance(pattern, CreasePattern)
+    if not 0 <= args.bias < 1:
+        fail(f"--bias must be a pre-fold angle in [0, 1) rad, got {args.bias}.")
+    if args.bias and not loops:
+        fail(f"--bias pre-folds closed-loop patterns; {args.net} is a net, which starts flat.")
+    if loops and (front is not None or args.improve):
+        fail(
+            f"{args.net} is a crease pattern with closed loops: --etch-front and --improve take "
+            "nets (trees of panels); give --release times per crease instead of a front."
+        )
     if front is not None:
-        from ..net import load_net, release_times_from_front
+        from ..net import release_times_from_front
 
         try:
-            release = list(release_times_from_front(load_net(args.net), front[:2], front[2]))
+            release = list(release_times_from_front(pattern, front[:2], front[2]))
         except ValueError as error:
             fail(f"--etch-front: {error}")
     improve = _improve_parameters(args, scatter)
-    process = _process(args.process, args.net)
+    process = _process(args.process, pattern.n_creases)
     out = check_out_folder(Path(args.out))
-    design = HingeDesign.literature(fluid=KOH_SOLUTION if args.fluid == "koh" else AIR)
+    design = hinges_within_creases(
+        HingeDesign.literature(fluid=KOH_SOLUTION if args.fluid == "koh" else AIR),
+        pattern.crease_lengths,
+    )
     print(
         f"[yield] {args.net}: {args.samples} samples, seed {args.seed}, scatter "
         + (", ".join(f"{n} {s.width:g}" for n, s in scatter.active().items()) or "none")
@@ -365,6 +392,7 @@ def run(args: argparse.Namespace) -> int:
         contact_sampling=sampling,
         angle_tolerance_deg=args.angle_tolerance,
         seam_tolerance=args.seam_tolerance,
+        **({"bias": args.bias} if loops else {}),
         confidence=args.confidence,
         interval=args.interval,
         chunk_size=args.chunk_size,
@@ -411,6 +439,7 @@ def run(args: argparse.Namespace) -> int:
         "release_us": None if release is None else [float(t) for t in release],
         "process": process,
         "t_end_us": args.t_end,
+        **({"bias_rad": args.bias} if loops else {}),
         "rtol": args.rtol,
         "contact_sampling": list(sampling),
         **estimate.to_dict(),
@@ -438,7 +467,7 @@ def run(args: argparse.Namespace) -> int:
             fig = yield_figure(estimate, title=f"{args.net}: yield under fabrication scatter")
             fig.savefig(output.dir / "yield.png", dpi=120)
             plt.close(fig)
-            fig = misfold_figure(args.net, estimate, title=f"{args.net}: misfold modes")
+            fig = misfold_figure(pattern, estimate, title=f"{args.net}: misfold modes")
             fig.savefig(output.dir / "misfolds.png", dpi=120)
             plt.close(fig)
             if factors:

@@ -57,7 +57,11 @@ estimate.dataset            # xarray.Dataset: the drawn parameters and every sam
 - The verdict's tolerances: `angle_tolerance_deg` and `seam_tolerance` (a fraction of the panel
   size; `origami_jax.simulation.VerdictTolerances`).
 
-Not done yet: closed-loop patterns (only trees of panels), arc hinges with designed lengths.
+`yield_estimate` also takes crease patterns with closed loops (pre-folded by `bias`; a sample on
+another branch is misfolded); the ascent, the order search and the surrogate take nets only.
+
+Not done yet: arc hinges with designed lengths; the ascent, order search and surrogate for
+closed-loop patterns.
 """
 
 from ._ascent import AscentIterate as AscentIterate

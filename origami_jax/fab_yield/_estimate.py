@@ -213,6 +213,7 @@ def yield_estimate(
     contact: bool = True,
     drag: str = "panel",
     contact_sampling: tuple[int, int] = CONTACT_SAMPLING,
+    bias: float = 0.0,
     angle_tolerance_deg: float = 3.0,
     seam_tolerance: float = 0.01,
     confidence: float = 0.95,
@@ -238,11 +239,14 @@ def yield_estimate(
 
     **Arguments** (lengths µm, times µs: the MICRO units):
     - `net`: a catalogue name (`origami_jax.fold.catalogue_names()`, e.g. `"cube_net_01"`) or a
-      `.fold` path of a net (a tree of panels).
+      `.fold` path: a net (a tree of panels), or a crease pattern with closed loops (a waterbomb,
+      a Miura sheet), whose samples start flat or pre-folded by `bias` and are `misfolded` when
+      they take another branch.
     - `scatter`: a `Scatter` (default `Scatter()`, the documented defaults) or a mapping of one.
     - `n_samples`, `seed`: how many nets to draw, and from which seed.
-    - `design`: the nominal `HingeDesign` (default `HingeDesign.literature(fluid=KOH_SOLUTION)`:
-      the fold happens in the etch bath); its `theta_final` is not used.
+    - `design`: the nominal `HingeDesign` (default `HingeDesign.literature(fluid=KOH_SOLUTION)`,
+      each hinge no wider than its crease: the fold happens in the etch bath); its `theta_final`
+      is not used.
     - `targets`: the angles the hinges are drawn to fold to (rad, one per crease; default the
       pattern's); `release_times`: nominal release time per crease (µs, default all 0).
     - `process`: the fabrication's nominal values where they differ from the design's, e.g.
@@ -256,6 +260,10 @@ def yield_estimate(
       scattered cube nets every verdict was the same from 1e-4 to 1e-10, with 40 % fewer steps at
       1e-5 than at the default; check on a few samples of your own net before relying on it.
     - `contact`, `drag`, `contact_sampling`: as `origami_jax.net.Net.system`.
+    - `bias`: a closed-loop pattern's pre-fold (rad, `CreasePattern.start_state`): 0 (default)
+      starts every sample flat, a bifurcation where the inputs pick the branch; a membrane is
+      never quite flat, and a small bias along the pattern's own angles (0.05) is what most
+      devices start from. Nets take 0.
     - `angle_tolerance_deg` (degrees) and `seam_tolerance` (a fraction of the largest panel's
       size, 0.01: 2 µm on 200 µm panels): the verdict's tolerances
       (`origami_jax.simulation.VerdictTolerances`). The seam tolerance is the stricter of the two
@@ -269,11 +277,12 @@ def yield_estimate(
 
     **Returns:** a `YieldEstimate`.
 
-    **Raises:** `ValueError` (before anything compiles) for a bad scatter, a net that is not a tree
-    of panels, bad counts or settings; the sweep's errors for a folder that holds another estimate.
+    **Raises:** `ValueError` (before anything compiles) for a bad scatter, a pattern that cannot
+    be read, bad counts or settings; the sweep's errors for a folder that holds another estimate.
     """
     from ..fold import FoldFormatError
-    from ..net import load_net
+    from ..loops import CreasePattern, load_pattern
+    from ..net import hinges_within_creases
     from ..simulation import DEFAULT_ATOL, DEFAULT_RTOL, FoldVerdict, VerdictTolerances
     from ..sweep import Table, sweep
     from ..system import KOH_SOLUTION, HingeDesign
@@ -297,9 +306,7 @@ def yield_estimate(
         raise ValueError(f"interval must be one of {INTERVAL_METHODS}, got {interval!r}.")
     if not (isinstance(confidence, int | float) and 0 < confidence < 1):
         raise ValueError(f"confidence must lie strictly between 0 and 1, got {confidence!r}.")
-    if design is None:
-        design = HingeDesign.literature(fluid=KOH_SOLUTION)
-    elif not isinstance(design, HingeDesign):
+    if design is not None and not isinstance(design, HingeDesign):
         raise ValueError(f"design must be a HingeDesign, got {type(design).__name__}.")
     if out is not None and not resume and (Path(out) / "sweep.json").exists():
         raise FileExistsError(
@@ -307,9 +314,21 @@ def yield_estimate(
             "it, or choose another output folder."
         )
     try:
-        the_net = load_net(net)
+        the_net = load_pattern(net)
     except FoldFormatError as error:
-        raise ValueError(f"{net}: yield_estimate takes a net (a tree of panels): {error}") from None
+        raise ValueError(f"{net}: {error}") from None
+    loops = isinstance(the_net, CreasePattern)
+    if not (isinstance(bias, int | float) and not isinstance(bias, bool) and 0 <= bias < 1):
+        raise ValueError(f"bias must be a pre-fold angle in [0, 1) rad, got {bias!r}.")
+    if bias and not loops:
+        raise ValueError(
+            f"{net} is a net (a tree of panels), which starts flat: bias pre-folds closed-loop "
+            "patterns only."
+        )
+    if design is None:
+        design = hinges_within_creases(
+            HingeDesign.literature(fluid=KOH_SOLUTION), the_net.crease_lengths
+        )
     m = the_net.n_creases
     if release_times is not None:
         release_times = np.asarray(release_times, dtype=float)
@@ -354,6 +373,7 @@ def yield_estimate(
         contact_sampling=contact_sampling,
         angle_tolerance_deg=angle_tolerance_deg,
         seam_tolerance=seam_tolerance,
+        **({"bias": float(bias)} if loops else {}),
     )
     columns, units = _columns(values)
     # The hinges' drawn angles are data, not settings: nets aimed elsewhere share the compiled call.

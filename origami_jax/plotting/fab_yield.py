@@ -120,16 +120,17 @@ def misfold_figure(net, estimate, *, title: str | None = None):
     representative sample (`representative_samples`), the panels folded rigidly to its final crease
     angles (`NetGeometry.fold`; the base in grey), next to the intended shape.
 
-    **Arguments:** `net`: the `origami_jax.net.Net` (or a catalogue name or `.fold` path);
-    `estimate`: its `YieldEstimate`. **Returns:** the matplotlib `Figure`.
+    **Arguments:** `net`: the `origami_jax.net.Net` or closed-loop `CreasePattern` (or a catalogue
+    name or `.fold` path; a pattern is folded along its spanning tree); `estimate`: its
+    `YieldEstimate`. **Returns:** the matplotlib `Figure`.
     """
     import numpy as np
     from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
-    from ..net import load_net
+    from ..loops import load_pattern
 
     if not hasattr(net, "geometry"):
-        net = load_net(net)
+        net = load_pattern(net)
     g = net.geometry
     picks = representative_samples(estimate)
     counts = estimate.counts
@@ -142,7 +143,7 @@ def misfold_figure(net, estimate, *, title: str | None = None):
     points = points[np.all(np.isfinite(points), axis=1)]
     centre = 0.5 * (points.min(axis=0) + points.max(axis=0))
     half = 0.5 * float(np.max(points.max(axis=0) - points.min(axis=0))) or 1.0
-    root = int(g.order[0])
+    root = int(getattr(g, "tree", g).order[0])
     fig = plt.figure(figsize=(3.0 * len(panels), 3.3), layout="constrained")
     for k, ((verdict, a, caption), corners) in enumerate(zip(panels, frames, strict=True)):
         ax = fig.add_subplot(1, len(panels), k + 1, projection="3d")
