@@ -454,6 +454,7 @@ def test_layout_and_sweep_kernel_build_closed_loop_systems():
     assert kernel.settings["closed_loops"] == 1 and "release[3]" in kernel.parameters
 
 
+@pytest.mark.slow  # the yield tests sweep a closed-loop pattern with contact by default
 def test_a_sweep_folds_a_closed_loop_pattern_with_contact_as_its_own_system_does():
     # The kernel builds the system inside a trace: the pattern's checks and its contact tables
     # must still be computed on the host (both once failed there), and each member must fold as

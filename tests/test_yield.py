@@ -357,6 +357,29 @@ def test_resume_after_an_interruption_gives_the_same_samples(tmp_path):
     assert resumed.counts == _estimate("default", 8).counts
 
 
+def test_a_step_budget_runs_the_stragglers_again_and_gives_the_same_samples(tmp_path):
+    # With a budget of the median sample's steps about half the samples reach it in the first
+    # pass; run again together with the full max_steps they give exactly what one pass gives (a
+    # member's result does not depend on its chunk), and a resumed estimate recomputes nothing.
+    reference = _estimate("default", 8)
+    steps = np.asarray(reference.dataset["num_steps"].values)
+    budget = int(np.median(steps))
+    out = tmp_path / "budget"
+    kwargs = {**RUN, "n_samples": 8, "seed": 1, "step_budget": budget, "out": out}
+    two = ojy.yield_estimate(NET, ojy.Scatter(), **kwargs)
+    assert two.dataset.attrs["stragglers"] == int(np.sum(steps > budget)) > 0
+    assert (out / "stragglers" / "sweep.nc").is_file()
+    for name in ("verdict", "result", "num_steps", "final_angle", "max_seam_gap"):
+        np.testing.assert_array_equal(
+            two.dataset[name].values, reference.dataset[name].values, err_msg=name
+        )
+    assert two.counts == reference.counts
+    again = ojy.yield_estimate(NET, ojy.Scatter(), resume=True, **kwargs)
+    assert again.counts == reference.counts and again.seconds_per_sample == 0
+    with pytest.raises(ValueError, match="step_budget must be a whole number"):
+        ojy.yield_estimate(NET, step_budget=200_000)
+
+
 def test_cli_writes_result_and_figure(tmp_path, capsys):
     from origami_jax.cli import main
 
@@ -405,6 +428,8 @@ def test_cli_writes_result_and_figure(tmp_path, capsys):
     assert "--etch-front and --improve take nets" in capsys.readouterr().err
     assert main([*loop, "--bias", "1.5"]) == 2
     assert "--bias must be a pre-fold angle" in capsys.readouterr().err
+    assert main([*bad, "--step-budget", "0"]) == 2
+    assert "--step-budget must be between 1 and 199999" in capsys.readouterr().err
 
 
 # ---- the differentiable surrogate --------------------------------------------------------------

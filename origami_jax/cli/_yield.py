@@ -57,6 +57,11 @@ estimate, the --widths and the --improve ascent start (default the design's valu
 the folding order (the release scatter is added to them); e.g. for examples/flap_under_flap.fold,
 --etch-front 1,0,0.5 frees the left flap 600 µs before the right one.
 
+--step-budget N runs every sample for at most N solver steps first, then the samples that reached
+N again, all together, with the full budget (OUT/stragglers/): the same results, and on a GPU (or
+with --chunk-size on a CPU) less time, since a vmapped chunk steps until its slowest member is done.
+Take a few times the median sample's steps (sweep.nc's num_steps); result.json counts the stragglers.
+
 --widths 0.5,1,2 also estimates the yield with every scatter width multiplied by each factor (the
 same draws, so the same fabricated nets made more or less carefully; each in OUT/widths/xF/) and
 plots it against the factor (OUT/yield_widths.png).
@@ -153,6 +158,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="verdict: seam gap tolerance, a fraction of the largest panel's size (default 0.01)",
     )
     parser.add_argument("--chunk-size", type=int, default=None, help="samples per compiled call")
+    parser.add_argument(
+        "--step-budget",
+        type=int,
+        default=None,
+        help="solver steps per sample in a first pass; the samples that reach it run again "
+        "together (pays where chunks are wide: a GPU, or --chunk-size on a CPU)",
+    )
     parser.add_argument(
         "--workers",
         type=int,
@@ -321,6 +333,10 @@ def run(args: argparse.Namespace) -> int:
         in_range(args.rtol, "--rtol", 0.0, 1.0)
     if args.chunk_size is not None:
         int_range(args.chunk_size, "--chunk-size", 1, 10_000_000)
+    if args.step_budget is not None:
+        int_range(
+            args.step_budget, "--step-budget", 1, 199_999, why=" (the solver's limit is 200,000)"
+        )
     if args.workers is not None:
         int_range(args.workers, "--workers", 1, 4096)
     in_range(args.angle_tolerance, "--angle-tolerance", 0.0, 180.0, what=" degrees")
@@ -398,6 +414,7 @@ def run(args: argparse.Namespace) -> int:
         chunk_size=args.chunk_size,
         workers=args.workers,
         progress=not args.no_progress,
+        **({"step_budget": args.step_budget} if args.step_budget is not None else {}),
     )
 
     def estimate_at(scatter, folder):
@@ -444,6 +461,11 @@ def run(args: argparse.Namespace) -> int:
         "contact_sampling": list(sampling),
         **estimate.to_dict(),
         "compile_s": float(ds.attrs.get("compile_s", 0.0)),
+        **(
+            {"step_budget": args.step_budget, "stragglers": int(ds.attrs["stragglers"])}
+            if args.step_budget is not None
+            else {}
+        ),
         "wall_s": elapsed,
         "gradient": _gradients(estimate),
     }

@@ -183,6 +183,29 @@ def _kernel(**options):
     return _KERNELS[key]
 
 
+def _stragglers_finished(dataset, kernel, columns, units, **sweep_options):
+    """`dataset` (a first pass under a step budget) with its samples that reached the budget run
+    again by `kernel` (the full `max_steps`), all in one sweep; its `run_s` and `compile_s` then
+    include that pass, and its attributes say how many there were (`stragglers`)."""
+    from ..simulation import RESULTS
+    from ..sweep import Table, sweep
+
+    over = np.flatnonzero(
+        np.asarray(dataset["result"].values) == int(RESULTS.max_steps_reached._value)
+    )
+    dataset = dataset.copy(deep=True)
+    dataset.attrs["stragglers"] = int(over.size)
+    if not over.size:
+        return dataset
+    rows = Table({name: np.asarray(c)[over] for name, c in columns.items()}, units=units)
+    rest = sweep(kernel, rows, **sweep_options)
+    for name in dataset.data_vars:
+        dataset[name].values[over] = rest[name].values
+    for key in ("run_s", "compile_s"):
+        dataset.attrs[key] = float(dataset.attrs.get(key, 0.0)) + float(rest.attrs.get(key, 0.0))
+    return dataset
+
+
 def _stored_samples(out) -> int:
     """Samples a resumed estimate finds stored (the sweep's chunk files name their counts)."""
     if out is None:
@@ -214,6 +237,7 @@ def yield_estimate(
     drag: str = "panel",
     contact_sampling: tuple[int, int] = CONTACT_SAMPLING,
     bias: float = 0.0,
+    step_budget: int | None = None,
     angle_tolerance_deg: float = 3.0,
     seam_tolerance: float = 0.01,
     confidence: float = 0.95,
@@ -264,6 +288,14 @@ def yield_estimate(
       starts every sample flat, a bifurcation where the inputs pick the branch; a membrane is
       never quite flat, and a small bias along the pattern's own angles (0.05) is what most
       devices start from. Nets take 0.
+    - `step_budget`: solver steps per sample in a first pass (default `None`: one pass of
+      `max_steps`). A vmapped chunk steps until its slowest member is done, and under scatter a
+      few samples take ten times the median's steps: with a budget, the samples that reach it are
+      run again, all together, in a second pass with `max_steps` (stored in `out/stragglers`).
+      The samples' results are the same either way; it pays where chunks are wide (accelerators,
+      or a `chunk_size` on a CPU; the CPU default of one sample per call has no lockstep) at the
+      price of one more compilation. A budget of a few times the median sample's steps (the
+      dataset's `num_steps`) keeps the second pass small.
     - `angle_tolerance_deg` (degrees) and `seam_tolerance` (a fraction of the largest panel's
       size, 0.01: 2 µm on 200 µm panels): the verdict's tolerances
       (`origami_jax.simulation.VerdictTolerances`). The seam tolerance is the stricter of the two
@@ -325,6 +357,15 @@ def yield_estimate(
             f"{net} is a net (a tree of panels), which starts flat: bias pre-folds closed-loop "
             "patterns only."
         )
+    if step_budget is not None and not (
+        isinstance(step_budget, int | np.integer)
+        and not isinstance(step_budget, bool)
+        and 1 <= step_budget < max_steps
+    ):
+        raise ValueError(
+            f"step_budget must be a whole number of solver steps from 1 to max_steps - 1 "
+            f"({max_steps - 1}), got {step_budget!r}."
+        )
     if design is None:
         design = hinges_within_creases(
             HingeDesign.literature(fluid=KOH_SOLUTION), the_net.crease_lengths
@@ -359,13 +400,12 @@ def yield_estimate(
     aims = the_net.intended_angles if targets is None else np.asarray(targets, dtype=float)
     if aims.shape != (m,) or not np.all(np.isfinite(aims)):
         raise ValueError(f"targets must be {m} finite angles (rad, one per crease).")
-    kernel = _kernel(
+    options = dict(
         net=os.fspath(net),
         design=design,
         hinge_lengths="designed",
         t_end=t_end,
         n_save=n_save,
-        max_steps=max_steps,
         rtol=None if rtol is None else float(rtol),
         atol=None if rtol is None else DEFAULT_ATOL / DEFAULT_RTOL * float(rtol),
         contact=contact,
@@ -375,6 +415,8 @@ def yield_estimate(
         seam_tolerance=seam_tolerance,
         **({"bias": float(bias)} if loops else {}),
     )
+    first_pass = max_steps if step_budget is None else int(step_budget)
+    kernel = _kernel(**options, max_steps=first_pass)
     columns, units = _columns(values)
     # The hinges' drawn angles are data, not settings: nets aimed elsewhere share the compiled call.
     for j in range(m):
@@ -391,6 +433,18 @@ def yield_estimate(
         progress=progress,
         on_chunk=on_chunk,
     )
+    if step_budget is not None:
+        dataset = _stragglers_finished(
+            dataset,
+            _kernel(**options, max_steps=max_steps),
+            columns,
+            units,
+            out=None if out is None else Path(out) / "stragglers",
+            resume=resume,
+            chunk_size=chunk_size,
+            workers=workers,
+            progress=progress,
+        )
     codes = np.asarray(dataset["verdict"].values)
     counts = {str(v): int(np.sum(codes == i)) for i, v in enumerate(FoldVerdict)}
     folded = counts[str(FoldVerdict.FOLDED)]
