@@ -570,7 +570,7 @@ def yield_ascent(
     `yield_estimate` refuses.
     """
     from ..fold import FoldFormatError
-    from ..net import load_net
+    from ..net import hinges_within_creases, load_net
     from ..system import KOH_SOLUTION, HingeDesign
     from ._estimate import _nominal, _process, yield_estimate
 
@@ -580,9 +580,7 @@ def yield_ascent(
         scatter = Scatter.from_mapping(scatter)
     elif not isinstance(scatter, Scatter):
         raise ValueError(f"scatter must be a Scatter or a mapping, got {type(scatter).__name__}.")
-    if design is None:
-        design = HingeDesign.literature(fluid=KOH_SOLUTION)
-    elif not isinstance(design, HingeDesign):
+    if design is not None and not isinstance(design, HingeDesign):
         raise ValueError(f"design must be a HingeDesign, got {type(design).__name__}.")
     for name in ("resume", "n_samples", "seed"):
         if name in options:
@@ -590,9 +588,15 @@ def yield_ascent(
                 f"yield_ascent has no {name} option (every iterate is a new estimate)."
             )
     try:
-        m = load_net(net).n_creases
+        the_net = load_net(net)
     except FoldFormatError as error:
         raise ValueError(f"{net}: yield_ascent takes a net (a tree of panels): {error}") from None
+    m = the_net.n_creases
+    if design is None:
+        # As `yield_estimate`'s: the literature hinge, each no wider than its crease.
+        design = hinges_within_creases(
+            HingeDesign.literature(fluid=KOH_SOLUTION), the_net.crease_lengths
+        )
     if release_times is not None:
         release_times = np.asarray(release_times, dtype=float)
         if release_times.shape != (m,) or not np.all(np.isfinite(release_times)):

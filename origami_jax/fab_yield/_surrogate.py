@@ -91,7 +91,7 @@ def soft_yield(
     **Raises:** `ValueError` before anything compiles, as `yield_estimate`, and for a temperature
     that is not positive.
     """
-    from ..net import load_net
+    from ..net import hinges_within_creases, load_net
     from ..simulation import VerdictTolerances
     from ..system import KOH_SOLUTION, HingeDesign
     from ._estimate import _GLOBAL, _kernel, _nominal
@@ -103,8 +103,12 @@ def soft_yield(
     scatter = Scatter() if scatter is None else scatter
     if isinstance(n_samples, bool) or not isinstance(n_samples, int) or n_samples < 1:
         raise ValueError(f"n_samples must be an integer >= 1, got {n_samples!r}.")
-    design = HingeDesign.literature(fluid=KOH_SOLUTION) if design is None else design
     the_net = load_net(net)
+    if design is None:
+        # As `yield_estimate`'s: the literature hinge, each no wider than its crease.
+        design = hinges_within_creases(
+            HingeDesign.literature(fluid=KOH_SOLUTION), the_net.crease_lengths
+        )
     m = the_net.n_creases
     intended = np.asarray(the_net.intended_angles)
     aims = intended if targets is None else np.asarray(targets, dtype=float)
