@@ -203,6 +203,7 @@ def _stragglers_finished(dataset, kernel, columns, units, **sweep_options):
         dataset[name].values[over] = rest[name].values
     for key in ("run_s", "compile_s"):
         dataset.attrs[key] = float(dataset.attrs.get(key, 0.0)) + float(rest.attrs.get(key, 0.0))
+    dataset.attrs["n_failed"] = int(np.sum(np.asarray(dataset["result"].values) != 0))
     return dataset
 
 
@@ -445,6 +446,8 @@ def yield_estimate(
             workers=workers,
             progress=progress,
         )
+        # The first pass's kernel settings say max_steps = the budget; the second pass's did not.
+        dataset.attrs.update({"step_budget": int(step_budget), "max_steps": int(max_steps)})
     codes = np.asarray(dataset["verdict"].values)
     counts = {str(v): int(np.sum(codes == i)) for i, v in enumerate(FoldVerdict)}
     folded = counts[str(FoldVerdict.FOLDED)]
