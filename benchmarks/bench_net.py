@@ -133,11 +133,8 @@ def scattered_mujoco(system, design, dt: float, factor: np.ndarray) -> list:
 def mujoco_batch_seconds(models, controls, threads: int, repeats: int = 1) -> Timing:
     """Rollout time of `models` under `controls` with one `MjData` per thread (no warm-up call: a
     C rollout has nothing to compile)."""
-    return time_calls(
-        lambda: _mujoco_final(models, controls, _datas(models[0], threads)),
-        repeats=repeats,
-        warmup=0,
-    )
+    data = _datas(models[0], threads)
+    return time_calls(lambda: _mujoco_final(models, controls, data), repeats=repeats, warmup=0)
 
 
 def _datas(model, threads: int):

@@ -323,7 +323,7 @@ def _improve_parameters(args: argparse.Namespace, scatter) -> tuple[str, ...]:
 
 def run(args: argparse.Namespace) -> int:
     from ..fab_yield import Scatter, load_scatter, yield_estimate
-    from ..system import AIR, KOH_SOLUTION, HingeDesign
+    from ..system import AIR, KOH_SOLUTION
 
     int_range(args.samples, "--samples", 1, 10_000_000)
     if args.seed < 0:
@@ -359,7 +359,7 @@ def run(args: argparse.Namespace) -> int:
             fail(f"bad scatter config {args.scatter}: {error}")
     from ..fold import FoldFormatError
     from ..loops import CreasePattern, load_pattern
-    from ..net import hinges_within_creases
+    from ..net._net import default_design
 
     try:
         pattern = load_pattern(args.net)
@@ -385,10 +385,7 @@ def run(args: argparse.Namespace) -> int:
     improve = _improve_parameters(args, scatter)
     process = _process(args.process, pattern.n_creases)
     out = check_out_folder(Path(args.out))
-    design = hinges_within_creases(
-        HingeDesign.literature(fluid=KOH_SOLUTION if args.fluid == "koh" else AIR),
-        pattern.crease_lengths,
-    )
+    design = default_design(pattern, KOH_SOLUTION if args.fluid == "koh" else AIR)
     print(
         f"[yield] {args.net}: {args.samples} samples, seed {args.seed}, scatter "
         + (", ".join(f"{n} {s.width:g}" for n, s in scatter.active().items()) or "none")

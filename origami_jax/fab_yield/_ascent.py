@@ -570,7 +570,8 @@ def yield_ascent(
     `yield_estimate` refuses.
     """
     from ..fold import FoldFormatError
-    from ..net import hinges_within_creases, load_net
+    from ..net import load_net
+    from ..net._net import default_design
     from ..system import KOH_SOLUTION, HingeDesign
     from ._estimate import _nominal, _process, yield_estimate
 
@@ -593,10 +594,7 @@ def yield_ascent(
         raise ValueError(f"{net}: yield_ascent takes a net (a tree of panels): {error}") from None
     m = the_net.n_creases
     if design is None:
-        # As `yield_estimate`'s: the literature hinge, each no wider than its crease.
-        design = hinges_within_creases(
-            HingeDesign.literature(fluid=KOH_SOLUTION), the_net.crease_lengths
-        )
+        design = default_design(the_net, KOH_SOLUTION)  # as `yield_estimate`'s
     if release_times is not None:
         release_times = np.asarray(release_times, dtype=float)
         if release_times.shape != (m,) or not np.all(np.isfinite(release_times)):

@@ -315,7 +315,7 @@ def yield_estimate(
     """
     from ..fold import FoldFormatError
     from ..loops import CreasePattern, load_pattern
-    from ..net import hinges_within_creases
+    from ..net._net import default_design
     from ..simulation import DEFAULT_ATOL, DEFAULT_RTOL, FoldVerdict, VerdictTolerances
     from ..sweep import Table, sweep
     from ..system import KOH_SOLUTION, HingeDesign
@@ -368,9 +368,7 @@ def yield_estimate(
             f"({max_steps - 1}), got {step_budget!r}."
         )
     if design is None:
-        design = hinges_within_creases(
-            HingeDesign.literature(fluid=KOH_SOLUTION), the_net.crease_lengths
-        )
+        design = default_design(the_net, KOH_SOLUTION)
     m = the_net.n_creases
     if release_times is not None:
         release_times = np.asarray(release_times, dtype=float)

@@ -91,9 +91,10 @@ def soft_yield(
     **Raises:** `ValueError` before anything compiles, as `yield_estimate`, and for a temperature
     that is not positive.
     """
-    from ..net import hinges_within_creases, load_net
+    from ..net import load_net
+    from ..net._net import default_design
     from ..simulation import VerdictTolerances
-    from ..system import KOH_SOLUTION, HingeDesign
+    from ..system import KOH_SOLUTION
     from ._estimate import _GLOBAL, _kernel, _nominal
 
     tolerances = VerdictTolerances.from_degrees(angle_tolerance_deg, seam_tolerance)
@@ -105,10 +106,7 @@ def soft_yield(
         raise ValueError(f"n_samples must be an integer >= 1, got {n_samples!r}.")
     the_net = load_net(net)
     if design is None:
-        # As `yield_estimate`'s: the literature hinge, each no wider than its crease.
-        design = hinges_within_creases(
-            HingeDesign.literature(fluid=KOH_SOLUTION), the_net.crease_lengths
-        )
+        design = default_design(the_net, KOH_SOLUTION)  # as `yield_estimate`'s
     m = the_net.n_creases
     intended = np.asarray(the_net.intended_angles)
     aims = intended if targets is None else np.asarray(targets, dtype=float)

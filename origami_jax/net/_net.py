@@ -165,7 +165,7 @@ class Net:
 
         lengths = self.crease_lengths
         if design is None:
-            design = hinges_within_creases(HingeDesign.literature(), lengths)
+            design = default_design(self)
         m = self.n_creases
         targets = self.intended_angles if targets is None else targets
         targets = jnp.asarray(targets, dtype=jnp.result_type(float))
@@ -371,6 +371,14 @@ def hinges_within_creases(design: HingeDesign, lengths) -> HingeDesign:
     if not np.any(width > lengths):
         return design
     return eqx.tree_at(lambda d: d.hinge_width, design, jnp.asarray(np.minimum(width, lengths)))
+
+
+def default_design(pattern, fluid=None) -> HingeDesign:
+    """The design a net or pattern is folded with when none is given: the literature hinge
+    (`HingeDesign.literature`, in `fluid`, default air), each hinge no wider than its crease of
+    `pattern` (a `Net` or `CreasePattern`; `hinges_within_creases`)."""
+    overrides = {} if fluid is None else {"fluid": fluid}
+    return hinges_within_creases(HingeDesign.literature(**overrides), pattern.crease_lengths)
 
 
 def warn_if_hinges_wider_than_creases(name: str, design: HingeDesign, lengths) -> None:

@@ -470,7 +470,7 @@ def net_fold(
 
     from ..contact._tables import sampling_pair
     from ..loops import CreasePattern, load_pattern
-    from ..net import hinges_within_creases
+    from ..net._net import default_design
     from ..simulation import DEFAULT_ATOL, DEFAULT_RTOL, RESULTS, Step, VerdictTolerances, simulate
     from ..system import AIR, KOH_SOLUTION, HingeDesign
 
@@ -499,11 +499,8 @@ def net_fold(
     theta0 = the_net.start_state(bias=bias)[0] if loops else None
     m = the_net.n_creases
     if design is None:
-        # As `system` without a design: the literature hinge, each no wider than its crease.
-        base = hinges_within_creases(
-            HingeDesign.literature(fluid=AIR if fluid == "air" else KOH_SOLUTION),
-            the_net.crease_lengths,
-        )
+        # As `system` without a design.
+        base = default_design(the_net, AIR if fluid == "air" else KOH_SOLUTION)
     else:
         base = design
     aims = None
