@@ -19,12 +19,16 @@ from ._version import __version__ as __version__
 
 # Subpackages load on first use so that `origami-jax --help` and `import origami_jax` stay fast;
 # `origami_jax.chain`, `origami_jax.simulation`, ... behave as ordinary attributes.
+# Every folder of the package is listed (a test checks it).
 _SUBPACKAGES = (
     "chain",
+    "cli",
     "contact",
     "design",
+    "fab_yield",
     "fluid",
     "fold",
+    "loops",
     "net",
     "plotting",
     "simulation",
@@ -37,10 +41,13 @@ _SUBPACKAGES = (
 if _TYPE_CHECKING:
     from . import (  # noqa: F401
         chain,
+        cli,
         contact,
         design,
+        fab_yield,
         fluid,
         fold,
+        loops,
         net,
         plotting,
         simulation,
@@ -65,10 +72,13 @@ __all__ = [  # noqa: RUF022  (listed literally so type checkers can read it)
     "__version__",
     "enable_compilation_cache",
     "chain",
+    "cli",
     "contact",
     "design",
+    "fab_yield",
     "fluid",
     "fold",
+    "loops",
     "net",
     "plotting",
     "simulation",

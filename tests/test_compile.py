@@ -387,6 +387,29 @@ def test_start_up_imports_nothing_heavy(statement, tmp_path):
     assert run_python(code, _environment(tmp_path)) == []
 
 
+def test_every_subpackage_is_an_attribute_of_the_package(tmp_path):
+    """`origami_jax.<name>` after a plain `import origami_jax`, for every folder of the package: the
+    subpackages load on first use (a fresh process, where no test has imported them already), and
+    none of them on `import origami_jax`."""
+    folders = sorted(p.parent.name for p in (ROOT / "origami_jax").glob("*/__init__.py"))
+    assert {"loops", "fab_yield", "cli"} <= set(folders)
+    code = """
+        import json, sys
+        import origami_jax
+        names = sys.argv[1:]
+        loaded = sorted(n for n in names if f"origami_jax.{n}" in sys.modules)
+        found = {n: getattr(origami_jax, n).__name__ for n in names}
+        print(json.dumps({"loaded": loaded, "found": found, "dir": dir(origami_jax),
+                          "all": origami_jax.__all__}))
+    """
+    out = run_python(code, _environment(tmp_path), *folders)
+    assert out["loaded"] == []
+    assert out["found"] == {name: f"origami_jax.{name}" for name in folders}
+    assert set(folders) <= set(out["dir"]) and set(folders) <= set(out["all"])
+    with pytest.raises(AttributeError, match="no attribute 'nonexistent'"):
+        _ = origami_jax.nonexistent  # pyright: ignore[reportAttributeAccessIssue]
+
+
 # ---- figures ------------------------------------------------------------------------------------
 
 
