@@ -311,7 +311,8 @@ class NetGeometry:
         """Radius of gyration of the flat net's face centroids, in `unit`.
 
         `sqrt(Σ w_f |c_f − c̄|² / Σ w_f)` with `c̄ = Σ w_f c_f / Σ w_f`, `c_f` the face centroids
-        and `w_f = 1` (default; the measure of Pandey et al., PNAS 108, 2011, "compactness", whose
+        and `w_f = 1` (default; the "compactness" of Azam et al., PLoS ONE 4, e4451, 2009, for the
+        cube and octahedron nets, and of Pandey et al., PNAS 108, 2011, for higher polyhedra, whose
         faces are all alike) or `w_f` = the face areas (`weighted=True`: the radius of gyration of
         the flat membrane as a uniform plate, up to each face's own spread).
         """
@@ -323,8 +324,9 @@ class NetGeometry:
         """The net's vertex connections: flat vertices where a seam starts between two faces that
         already share that corner in the flat net.
 
-        Pandey et al. (PNAS 108, 2011) found that nets with more vertex connections fold with
-        higher yield; Araújo et al. (Phys. Rev. Lett. 120, 188001, 2018) restate the measure as the
+        Azam et al. (PLoS ONE 4, e4451, 2009) found that cube and octahedron nets with more vertex
+        connections fold with higher yield, as Pandey et al. (PNAS 108, 2011) did for higher
+        polyhedra; Araújo et al. (Phys. Rev. Lett. 120, 188001, 2018) restate the measure as the
         polyhedron's vertices that have only two of their faces cut apart in the net. Such a vertex
         is one point of the flat net, with its faces joined around it by creases except across one
         cut: its two boundary sides there close onto each other as one seam, which is what this
