@@ -168,6 +168,7 @@ def machine_description() -> dict[str, str]:
         "jax": jax.__version__,
         "jax_backend": jax.default_backend(),
         "devices": ", ".join(str(d) for d in jax.devices()),
+        "device_kind": jax.devices()[0].device_kind,  # e.g. "NVIDIA H200"
         "peak_gflops_matmul": f"{machine_peak_flops() / 1e9:.1f}",
     }
     for module in ("equinox", "diffrax", "optimistix", "pinocchio", "mujoco", "scipy"):

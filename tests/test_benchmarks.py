@@ -4,7 +4,8 @@ Every benchmark checks that ours and the peer agree before it times anything and
 passing run here means the peers installed by the `test` extra (Pinocchio, MuJoCo, modern_robotics,
 scipy) still give our answers. The heavier quick benchmarks (simulate, design, sweep: each compiles an
 implicit ODE solve) run with `-m slow`. Timings are not asserted: performance is recorded in
-benchmarks/RESULTS.md, not tested.
+benchmarks/RESULTS.md, not tested; its table is checked against the recorded JSON it is generated
+from.
 """
 
 import json
@@ -26,6 +27,28 @@ def _run(names, tmp_path, capsys):
     rows = results["results"]
     assert rows, "no benchmark rows"
     return rows
+
+
+def test_results_table_is_the_recorded_json(tmp_path, monkeypatch, capsys):
+    """benchmarks/RESULTS.md's table is what `python -m benchmarks.make_results` makes of the
+    `benchmarks/results*.json` files (rerun it after recording results), every file is in it, and
+    `--check` notices a table edited by hand."""
+    from benchmarks import make_results
+
+    assert make_results.main(["--check"]) == 0, capsys.readouterr().err
+    text = make_results.RESULTS.read_text()
+    files = make_results.load()
+    assert files
+    for name, data in files:
+        assert f"`{name}`" in text
+        for result in data["results"]:
+            assert result["name"].replace("|", "/") in text
+    edited = tmp_path / "RESULTS.md"
+    edited.write_text(text.replace("| 1 (`results_cpu.json`) |", "| 2 (`results_cpu.json`) |", 1))
+    assert edited.read_text() != text
+    monkeypatch.setattr(make_results, "RESULTS", edited)
+    assert make_results.main(["--check"]) == 1
+    assert "differs from the JSON" in capsys.readouterr().err
 
 
 @pytest.mark.slow  # the peers' agreement is tested where each quantity is (Pinocchio, MuJoCo, scipy)

@@ -293,5 +293,7 @@ def test_strict_build_documents_every_public_name(tmp_path):
         assert f"origami-jax {command}" in cli, f"the CLI reference lacks `{command}`"
     benchmarks = (site / "benchmarks" / "index.html").read_text(encoding="utf-8")
     assert "Benchmark results" in benchmarks
+    history = (site / "benchmarks" / "history" / "index.html").read_text(encoding="utf-8")
+    assert "Benchmark history" in history
     for notebook in sorted((ROOT / "notebooks").glob("*.ipynb")):
         assert (site / "notebooks" / notebook.stem / "index.html").is_file(), notebook.name

@@ -645,7 +645,7 @@ def net_fold(
         output_dims={"final_angle": ("crease",)},
         result_messages=messages,
         # Contact makes the step counts of scattered nets spread tenfold and unpredictably: on a
-        # CPU, chunks of one net side by side beat wide vmapped chunks (benchmarks/RESULTS.md).
+        # CPU, chunks of one net side by side beat wide vmapped chunks (benchmarks/history.md).
         cpu_chunk_size=1,
     )
 
