@@ -3,7 +3,8 @@
 What self-folding labs report is yield, the fraction of fabricated nets that close into the shape
 they were drawn for (Azam et al., PLoS ONE 4, e4451, 2009; Pandey et al., PNAS 108, 2011). Films
 vary in stress and thickness across a wafer and hinges release at different times, so a net that
-folds perfectly with ideal hinges can jam or misfold with real ones. `yield_estimate` measures this by Monte Carlo:
+folds perfectly with ideal hinges can jam or misfold with real ones. `yield_estimate` measures
+this by Monte Carlo:
 
 ```python
 import origami_jax.fab_yield as ojy
