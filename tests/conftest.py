@@ -20,7 +20,7 @@ import jax  # noqa: E402  (after the environment is set)
 import pytest  # noqa: E402
 
 # The physics spans nanometres to hundreds of microns and microseconds to hours: tests run in float64.
-# (The library itself never flips this switch; see README "Precision".)
+# (The library itself never flips this switch; see docs/getting-started.md, "Float64, always".)
 jax.config.update("jax_enable_x64", True)
 jax.config.update("jax_compilation_cache_dir", os.environ["JAX_COMPILATION_CACHE_DIR"])
 jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.5)

@@ -295,5 +295,6 @@ def test_strict_build_documents_every_public_name(tmp_path):
     assert "Benchmark results" in benchmarks
     history = (site / "benchmarks" / "history" / "index.html").read_text(encoding="utf-8")
     assert "Benchmark history" in history
+    assert "Capabilities" in (site / "status" / "index.html").read_text(encoding="utf-8")
     for notebook in sorted((ROOT / "notebooks").glob("*.ipynb")):
         assert (site / "notebooks" / notebook.stem / "index.html").is_file(), notebook.name

@@ -4,7 +4,7 @@ Geometry is checked against independent computations: a mechanism's own `panel_p
 stored coordinates, `fold_angles_from_coords` on rigidly folded crease patterns, the vertex package's
 arc clearances. Browser tests drive Debian's headless Chromium over the DevTools pipe
 (`tests/browser.py`); they skip, saying why, where no Chromium is installed (`apt-get install -y
-chromium` as root; see the README, "Development").
+chromium` as root; see docs/development.md, "Tests").
 """
 
 import base64
