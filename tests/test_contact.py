@@ -232,7 +232,7 @@ def test_contact_sampling_sets_every_panels_points():
         tables = net.contact_tables(sampling=sampling)
         counts = [len(np.unique(p, axis=0)) for p in tables.points]
         assert counts == [1 + 4 * sum(sampling)] * 3, (sampling, counts)
-    system = net.system(contact_sampling=(8, 6))
+    system = net.system(contact="sampled", contact_sampling=(8, 6))
     assert system.contact.tables is net.contact_tables(sampling=(8, 6))
     assert system.contact.tables.n_pairs > net.contact_tables().n_pairs
     for bad, message in (
@@ -242,7 +242,7 @@ def test_contact_sampling_sets_every_panels_points():
         ((4.5, 2), "points_per_edge must be a whole number"),
     ):
         with pytest.raises(ValueError, match=message):
-            net.system(contact_sampling=bad)
+            net.system(contact="sampled", contact_sampling=bad)
 
 
 def test_closed_loop_patterns_and_the_command_line_take_the_sampling(tmp_path, capsys):
@@ -251,7 +251,8 @@ def test_closed_loop_patterns_and_the_command_line_take_the_sampling(tmp_path, c
 
     pattern = load_pattern("vertex_degree4")
     default, dense = (
-        pattern.system(contact_sampling=sampling).contact.tables for sampling in ((4, 2), (8, 6))
+        pattern.system(contact="sampled", contact_sampling=sampling).contact.tables
+        for sampling in ((4, 2), (8, 6))
     )
     assert dense.n_pairs > default.n_pairs
     np.testing.assert_allclose(dense.weights.sum(axis=1), default.weights.sum(axis=1), rtol=1e-12)
@@ -269,10 +270,14 @@ def test_sweeps_and_yield_estimates_take_the_sampling():
     from origami_jax.sweep import get_model
 
     assert "contact_sampling" not in get_model("net-fold", net="corner_cube").settings
-    dense = get_model("net-fold", net="corner_cube", contact_sampling=(8, 6))
+    dense = get_model("net-fold", net="corner_cube", contact="sampled", contact_sampling=(8, 6))
     assert dense.settings["contact_sampling"] == [8, 6]
     with pytest.raises(ValueError, match="rim_points_per_edge must be a whole number >= 0"):
-        yield_estimate("corner_cube", n_samples=2, contact_sampling=(4, -1), progress=False)
+        yield_estimate(
+            "corner_cube", n_samples=2, contact="sampled", contact_sampling=(4, -1), progress=False
+        )
+    with pytest.raises(ValueError, match="applies to contact='sampled' only"):
+        get_model("net-fold", net="corner_cube", contact_sampling=(8, 6))
 
 
 def test_net_contact_force_against_a_point_by_point_world_sum():
@@ -285,7 +290,9 @@ def test_net_contact_force_against_a_point_by_point_world_sum():
     from origami_jax.contact import smoothstep
     from origami_jax.net import load_net
 
-    system = load_net("cube_net_01").system(HingeDesign.literature(fluid=KOH_SOLUTION))
+    system = load_net("cube_net_01").system(
+        HingeDesign.literature(fluid=KOH_SOLUTION), contact="sampled"
+    )
     contact, tree = system.contact, system.mechanism
     tables = contact.tables
     points = tables.points
@@ -339,7 +346,7 @@ def _dragless_cube():
     from origami_jax.net import load_net
 
     system = load_net("cube_net_01").system(
-        HingeDesign.literature(fluid=KOH_SOLUTION), drag="hinge"
+        HingeDesign.literature(fluid=KOH_SOLUTION), drag="hinge", contact="sampled"
     )
     return eqx.tree_at(lambda s: s.drag, system, HingeDrag(jnp.zeros(system.n_hinges)))
 

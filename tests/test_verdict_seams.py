@@ -29,7 +29,7 @@ FOLDED, MISFOLDED = sim.VERDICT_CODES["folded"], sim.VERDICT_CODES["misfolded"]
 @pytest.fixture(scope="module")
 def cube():
     net = load_net("cube_net_01")
-    return net, net.system(KOH)
+    return net, net.system(KOH, contact="sampled")
 
 
 def _angles(past_deg: float) -> np.ndarray:

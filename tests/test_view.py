@@ -511,9 +511,10 @@ def test_net_hinges_ride_their_creases_and_contacts_are_marked(corner_cube):
         for body in (int(layout.child[h]) + 1, int(layout.parent[h]) + 1):
             distance = np.linalg.norm(ends[:, None] - polygons[body][None], axis=-1).min(axis=1)
             assert np.all(distance < GEOMETRY_TOL), (h, body, distance)
-    # Contacts: none flat; flap 1 on the base at θ = π (the base is the square [0, 200]² µm).
-    assert set(scene.contact_frames.tolist()) == {2}
-    points = scene.contact_points
+    # Contacts: none flat; folded, the flaps' rims meet at their seam (plates of the film's
+    # thickness); flap 1 on the base at θ = π (the base is the square [0, 200]² µm).
+    assert set(scene.contact_frames.tolist()) == {1, 2}
+    points = scene.contact_points[scene.contact_frames == 2]
     assert np.all((points[:, :2] > 0) & (points[:, :2] < 200)) and np.all(np.abs(points[:, 2]) < 1)
     flap = 1 + int(layout.child[0])
     assert scene.highlight_panels.tolist() == [i in (0, flap) for i in range(3)]
@@ -555,7 +556,7 @@ def test_fold_result_file_carries_verdict_and_contacts(corner_cube, tmp_path):
         assert scene.verdict.startswith("verdict: jammed (contact stops a crease short)")
         assert scene.verdict_level == "fail"
         assert scene.highlight_hinges.tolist() == [True, True]
-        assert set(scene.contact_frames.tolist()) == {2}
+        assert set(scene.contact_frames.tolist()) == {1, 2}  # the seam's rims, then the base
     # The file's contact points are the trajectory's, in the FOLD file's unit.
     np.testing.assert_allclose(
         np.sort(from_file.contact_points, axis=0),

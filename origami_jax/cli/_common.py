@@ -183,27 +183,44 @@ def int_range(value: int, flag: str, low: int, high: int, *, why: str = "") -> i
 
 
 def add_contact_sampling_argument(parser: argparse.ArgumentParser) -> None:
-    """`--contact-sampling RING,RIM` (`contact_sampling` of `Net.system`; parse with
-    `contact_sampling`)."""
+    """`--contact {plate,sampled}` and `--contact-sampling RING,RIM` (`contact` and
+    `contact_sampling` of `Net.system`; parse the sampling with `contact_sampling`)."""
     default = ",".join(map(str, CONTACT_SAMPLING))
+    parser.add_argument(
+        "--contact",
+        choices=("plate", "sampled"),
+        default="plate",
+        help="the contact model: plate (default: the plates' exact geometry, with continuous "
+        "collision detection, so no panel passes through another) or sampled (points sampled on "
+        "each panel's rings and rim: cheaper, but corners and edges between its points go "
+        "unchecked)",
+    )
     parser.add_argument(
         "--contact-sampling",
         default=default,
         metavar="RING,RIM",
-        help=f"contact points per panel edge on the inner ring and on the rim (default {default}; "
-        "denser resolves the same contact more finely, to check a verdict where edges meet)",
+        help=f"--contact sampled: contact points per panel edge on the inner ring and on the rim "
+        f"(default {default}; denser resolves the same contact more finely, to check a verdict "
+        "where edges meet)",
     )
 
 
-def contact_sampling(text: str) -> tuple[int, int]:
-    """The two counts of `--contact-sampling`, or a one-line exit (before anything compiles)."""
+def contact_sampling(text: str, model: str = "sampled") -> tuple[int, int]:
+    """The two counts of `--contact-sampling`, or a one-line exit (before anything compiles); a
+    sampling other than the default is refused unless `model` (`--contact`) is `"sampled"`."""
     parts = [x.strip() for x in text.split(",")]
     if len(parts) != 2 or not all(p.isdigit() for p in parts) or int(parts[0]) < 1:
         fail(
             f"--contact-sampling expects RING,RIM: two whole numbers, RING >= 1 (e.g. 8,6), got "
             f"{text!r}."
         )
-    return int(parts[0]), int(parts[1])
+    sampling = int(parts[0]), int(parts[1])
+    if model != "sampled" and sampling != tuple(CONTACT_SAMPLING):
+        fail(
+            f"--contact-sampling sets the sampled contact model's points; add --contact sampled "
+            f"(the {model} contact is exact and takes no sampling)."
+        )
+    return sampling
 
 
 def jsonable(value: Any) -> Any:

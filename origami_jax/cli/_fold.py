@@ -258,7 +258,7 @@ def run(args: argparse.Namespace) -> int:
         front = _floats(args.etch_front, "--etch-front")
     except ValueError as error:
         fail(str(error))
-    sampling = contact_sampling(args.contact_sampling)
+    sampling = contact_sampling(args.contact_sampling, args.contact)
     if front is not None and len(front) != 3:
         fail("--etch-front expects DX,DY,SPEED (a direction in the plane and a speed in µm/µs).")
     if args.t1 is not None:
@@ -311,7 +311,7 @@ def run(args: argparse.Namespace) -> int:
         options = dict(
             targets=targets,
             release_times=release,
-            contact=not args.no_contact,
+            contact=False if args.no_contact else args.contact,
             drag=args.drag,
             hinges=args.hinges,
             contact_sampling=sampling,
@@ -414,7 +414,7 @@ def _run(
         units={"time": "us", "length": "um", "angle": "rad"},
         params=params,
         fluid=args.fluid,
-        contact=not args.no_contact,
+        contact=False if args.no_contact else args.contact,
         contact_sampling=list(sampling),
         drag=args.drag,
         hinges=args.hinges,

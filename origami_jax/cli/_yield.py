@@ -343,7 +343,7 @@ def run(args: argparse.Namespace) -> int:
     in_range(args.seam_tolerance, "--seam-tolerance", 0.0, 1.0, what=" (a fraction of the panel)")
     if not 0 < args.confidence < 1:
         fail(f"--confidence must lie strictly between 0 and 1, got {args.confidence}.")
-    sampling = contact_sampling(args.contact_sampling)
+    sampling = contact_sampling(args.contact_sampling, args.contact)
     factors = _factors(args.widths)
     release = _numbers(args.release, "--release")
     front = _numbers(args.etch_front, "--etch-front")
@@ -402,6 +402,7 @@ def run(args: argparse.Namespace) -> int:
         process=process,
         t_end=args.t_end,
         rtol=args.rtol,
+        contact=args.contact,
         contact_sampling=sampling,
         angle_tolerance_deg=args.angle_tolerance,
         seam_tolerance=args.seam_tolerance,
@@ -455,6 +456,7 @@ def run(args: argparse.Namespace) -> int:
         "t_end_us": args.t_end,
         **({"bias_rad": args.bias} if loops else {}),
         "rtol": args.rtol,
+        "contact": args.contact,
         "contact_sampling": list(sampling),
         **estimate.to_dict(),
         "compile_s": float(ds.attrs.get("compile_s", 0.0)),

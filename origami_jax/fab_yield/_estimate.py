@@ -234,7 +234,7 @@ def yield_estimate(
     n_save: int = 301,
     max_steps: int = 200_000,
     rtol: float | None = None,
-    contact: bool = True,
+    contact: bool | str = True,
     drag: str = "panel",
     contact_sampling: tuple[int, int] = CONTACT_SAMPLING,
     bias: float = 0.0,

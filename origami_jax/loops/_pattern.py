@@ -263,7 +263,7 @@ class CreasePattern:
         *,
         targets: Float[ArrayLike, " m"] | None = None,
         release_times: Float[ArrayLike, " m"] | None = None,
-        contact: bool = True,
+        contact: bool | str = True,
         drag: str = "panel",
         hinges: str = "point",
         check_rigid: bool = True,
@@ -279,7 +279,8 @@ class CreasePattern:
         - `targets`: fold target per crease (rad); default the pattern's angles (they must close:
           `check_angles`).
         - `release_times`: per-crease release time (time units); default all at ``t = 0``.
-        - `contact`: panels meet (default) or pass through each other.
+        - `contact`: panels meet (default) or pass through each other (`False`); the model,
+          `"plate"` (default) or `"sampled"`, as for nets (`origami_jax.net.Net.system`).
         - `drag`: `"panel"` (each panel's own motion); the paper's per-hinge drag is defined for
           trees only.
         - `hinges`: `"point"` creases. Bending arcs of finite length (the net engine's `"arc"`) do not
@@ -288,12 +289,13 @@ class CreasePattern:
           rigid panels cannot fold to its angles.
         - `rate_factor`: the closure's Baumgarte rate in units of the fastest hinge's natural
           frequency ``sqrt(k / I)``.
-        - `contact_sampling`: ``(points_per_edge, rim_points_per_edge)``, as for nets
+        - `contact_sampling`: the sampled model's ``(points_per_edge, rim_points_per_edge)``, as for nets
           (`origami_jax.net.Net.system`).
 
         **Raises:** `ValueError` for bad arguments, `FoldFormatError` for target angles that do not
         close or violate Kawasaki/Maekawa at a flat-folded vertex, `NotRigidlyFoldableError`.
         """
+        from ..contact import PanelContact, PlateContact, check_sampling, contact_kind
         from ..fluid import PanelDrag
 
         if hinges != "point":
@@ -351,7 +353,9 @@ class CreasePattern:
             scale=0.5 if design.drag_model == "paper" else 1.0,
         )
         contact_model = None
-        if contact:
+        kind = contact_kind(contact)
+        check_sampling(kind, contact_sampling)
+        if kind is not None:
             # The tables are the flat geometry's, computed on the host: from the design's own
             # panels, or the literature design's when its numbers are traced (a sweep's), as a
             # net's always are (`Net.contact_tables`).
@@ -360,15 +364,14 @@ class CreasePattern:
                 if traced:
                     geometric = HingeDesign.literature(design.units)
                     tables = _contact_tables(
-                        self.mechanism(geometric), geometric.t_structural, contact_sampling
+                        self.mechanism(geometric), geometric.t_structural, contact_sampling, kind
                     )
                 else:
-                    tables = _contact_tables(mechanism, design.t_structural, contact_sampling)
-            # Stiffness and damping as `PanelContact.for_system` sets them, traceable in the
-            # hinges (a sweep over hinge parameters builds contact inside `vmap`).
-            from ..contact import PanelContact
-
-            contact_model = PanelContact.for_system(
+                    tables = _contact_tables(mechanism, design.t_structural, contact_sampling, kind)
+            # Stiffness and damping as `for_system` sets them, traceable in the hinges (a sweep
+            # over hinge parameters builds contact inside `vmap`).
+            model = PlateContact if kind == "plate" else PanelContact
+            contact_model = model.for_system(
                 mechanism, stiffness, targets, thickness=design.t_structural, tables=tables
             )
         return FoldingSystem(
@@ -483,19 +486,19 @@ def _with_branch(pattern: CreasePattern, report, trajectory, bias: float):
     return LoopFoldReport.from_report(pattern, report, trajectory, bias)
 
 
-def _contact_tables(mechanism: LoopedPanels, thickness: float, sampling=CONTACT_SAMPLING):
-    """`ContactTables` of a mechanism whose numbers are known, for `PanelContact.for_system`: panels
-    that share a crease (tree or cut) or only a vertex do not meet near what they share; the rims
-    inset by twice the contact's edge width at the film `thickness`; `sampling` is
+def _contact_tables(
+    mechanism: LoopedPanels, thickness: float, sampling=CONTACT_SAMPLING, kind: str = "sampled"
+):
+    """The contact geometry of a mechanism whose numbers are known: `PlateTables` for the
+    `"plate"` model, else `ContactTables` for `PanelContact.for_system`. Panels that share a
+    crease (tree or cut) or only a vertex do not meet near what they share; the sampled model's
+    rims are inset by twice its edge width at the film `thickness`, `sampling` its
     ``(points_per_edge, rim_points_per_edge)`` (`build_tables`)."""
     from ..contact import PanelContact
+    from ..contact._plate_tables import build_plate_tables
     from ..contact._tables import build_tables, sampling_pair
 
-    thickness = float(np.asarray(thickness))
-    points_per_edge, rim_points_per_edge = sampling_pair(sampling)
-
     n = mechanism.n_bodies
-    probe = PanelContact.from_mechanism(mechanism, thickness=thickness, stiffness=1.0, damping=0.0)
     layout = mechanism.hinge_layout()
     parents, children, ends = [layout.parent], [layout.child], [layout.ends]
     # Panels around an interior vertex that share only the vertex: a degenerate crease there.
@@ -518,18 +521,21 @@ def _contact_tables(mechanism: LoopedPanels, thickness: float, sampling=CONTACT_
                 parents.append(np.array([min(a, b)]))
                 children.append(np.array([max(a, b)]))
                 ends.append(np.stack([point, point])[None])
-    tables = build_tables(
+    layout_args = (np.concatenate(parents), np.concatenate(children), np.concatenate(ends))
+    if kind == "plate":
+        return build_plate_tables(outlines, poses, base, *layout_args)
+    thickness = float(np.asarray(thickness))
+    points_per_edge, rim_points_per_edge = sampling_pair(sampling)
+    probe = PanelContact.from_mechanism(mechanism, thickness=thickness, stiffness=1.0, damping=0.0)
+    return build_tables(
         outlines,
         poses,
         base,
-        np.concatenate(parents),
-        np.concatenate(children),
-        np.concatenate(ends),
+        *layout_args,
         inset=2 * float(probe.edge_width),
         points_per_edge=points_per_edge,
         rim_points_per_edge=rim_points_per_edge,
     )
-    return tables
 
 
 def load_pattern(

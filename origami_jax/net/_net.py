@@ -128,7 +128,7 @@ class Net:
         *,
         targets: Float[ArrayLike, " m"] | None = None,
         release_times: Float[ArrayLike, " m"] | None = None,
-        contact: bool = True,
+        contact: bool | str = True,
         drag: str = "panel",
         hinges: str = "point",
         added_mass: bool = False,
@@ -144,8 +144,12 @@ class Net:
           `theta_final` is not used: each crease's hinge folds to its own target.
         - `targets`: fold target per crease (rad); default the pattern's angles.
         - `release_times`: per-crease release time (time units); default all at ``t = 0``.
-        - `contact`: panels meet instead of passing through each other (default) or not.
-        - `contact_sampling`: ``(points_per_edge, rim_points_per_edge)``, how densely each panel's
+        - `contact`: panels meet instead of passing through each other (default) or not (`False`);
+          which model: `"plate"` (the default: exact plate geometry, continuous collision detection,
+          `origami_jax.contact.PlateContact`) or `"sampled"` (points sampled on every panel's rings
+          and rim, `origami_jax.contact.PanelContact`: cheaper, but corners and the stretches of
+          edge between its points are not checked).
+        - `contact_sampling`: the `"sampled"` model's ``(points_per_edge, rim_points_per_edge)``, how densely each panel's
           inner ring and rim are sampled for contact (`origami_jax.contact.build_tables`; default
           ``(4, 2)``). Each point carries its share of the ring's or rim's length, so a denser
           sampling resolves the same contact more finely: fold again with, e.g., ``(16, 12)`` to
@@ -160,7 +164,7 @@ class Net:
           `origami_jax.fluid.fluid_loads`, docs/physics.md "The fluid moves with the flap"); off by
           default.
         """
-        from ..contact import PanelContact
+        from ..contact import PanelContact, PlateContact, check_sampling, contact_kind
         from ..fluid import PanelDrag
 
         lengths = self.crease_lengths
@@ -215,7 +219,18 @@ class Net:
             if loads.viscous is not None:
                 drag_model = CombinedDrag((drag_model, loads.viscous))
         contact_model = None
-        if contact:
+        kind = contact_kind(contact)
+        check_sampling(kind, contact_sampling)
+        if kind == "plate":
+            contact_model = PlateContact.for_system(
+                tree,
+                stiffness,
+                targets,
+                thickness=design.t_structural,
+                base_thickness=design.t_structural,
+                tables=self.plate_tables(hinges),
+            )
+        elif kind == "sampled":
             contact_model = PanelContact.for_system(
                 tree,
                 stiffness,
@@ -245,6 +260,20 @@ class Net:
                 self._tables[key] = PanelContact.tables_for(
                     tree, points_per_edge=points_per_edge, rim_points_per_edge=rim_points_per_edge
                 )
+        return self._tables[key]
+
+    def plate_tables(self, hinges: str = "point"):
+        """The panels' exact plate geometry (`origami_jax.contact.PlateTables`), computed once on
+        the host from the pattern (geometry only, not the design's numbers)."""
+        import jax
+
+        from ..contact import PlateContact
+
+        key = (hinges, "plate")
+        if key not in self._tables:
+            with jax.ensure_compile_time_eval():
+                tree = self.tree(HingeDesign.literature(), hinges=hinges)
+                self._tables[key] = PlateContact.tables_for(tree)
         return self._tables[key]
 
     def seam_gaps(self, angles: ArrayLike) -> np.ndarray:

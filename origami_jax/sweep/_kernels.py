@@ -412,7 +412,7 @@ def net_fold(
     rtol: float | None = None,
     atol: float | None = None,
     max_steps: int = 200_000,
-    contact: bool = True,
+    contact: bool | str = True,
     drag: str = "panel",
     hinges: str = "point",
     angle_tolerance_deg: float = 3.0,
@@ -462,12 +462,15 @@ def net_fold(
       `t_structural`) bends them to ``l / ρ = θ_target ρ₀ / ρ`` (paper Eq. 7 with ``l = ρ θ``): the
       fold angle of a fabricated hinge whose film stress or thickness is off.
 
-    `contact_sampling`: ``(points_per_edge, rim_points_per_edge)``, as `Net.system`'s.
+    `contact` (`True`: the default model, `"plate"` or `"sampled"`, or `False`) and
+    `contact_sampling` (the sampled model's ``(points_per_edge, rim_points_per_edge)``), as
+    `Net.system`'s.
     """
     import diffrax
     import jax.numpy as jnp
     import numpy as np
 
+    from ..contact import check_sampling, contact_kind
     from ..contact._tables import sampling_pair
     from ..loops import CreasePattern, load_pattern
     from ..net._net import default_design
@@ -481,6 +484,7 @@ def net_fold(
     atol = DEFAULT_ATOL if atol is None else _setting(atol, "atol", low=0.0)
     tolerances = VerdictTolerances.from_degrees(angle_tolerance_deg, seam_tolerance)
     sampling = sampling_pair(contact_sampling)
+    check_sampling(contact_kind(contact), sampling)
     if design is not None and fluid is not None:
         raise ValueError("give the fluid in the design (HingeDesign(fluid=...)), not both.")
     if design is not None and not isinstance(design, HingeDesign):
@@ -620,7 +624,9 @@ def net_fold(
             "rtol": rtol,
             "atol": atol,
             "max_steps": max_steps,
-            "contact": contact,
+            # The model by name ("plate", "sampled", or false): stores written with the sampled
+            # model recorded `true`, and are not resumed with another.
+            "contact": contact_kind(contact) or False,
             "drag": drag,
             "hinges": hinges,
             "angle_tolerance_deg": angle_tolerance_deg,

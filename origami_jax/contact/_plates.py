@@ -1,0 +1,368 @@
+"""`PlateContact`: contact between thin plates from their exact geometry, with continuous collision
+detection.
+
+**Model.** Every panel is a plate: its polygon (the convex hull of its outline, the mid-surface)
+swept by a ball of half its thickness. Two plates are apart by the distance between their polygons
+less their two half-thicknesses. That distance is the least over the primitive pairs of
+Incremental Potential Contact (Li et al., SIGGRAPH 2020): every vertex of one polygon against the
+other polygon, and every edge of one against every edge of the other (`PlateTables`; exact for
+disjoint convex polygons, corners and edges between vertices included). For each primitive pair
+with gap ``g``:
+
+- energy ``κ m B(g/ĝ)``, IPC's barrier ``B(x) = −(x − 1)² ln x`` (zero beyond the activation gap
+  ``ĝ``, unbounded as the gap closes; below ``x = 0.1`` continued by its Taylor polynomial, so that
+  a state past contact still has a finite, steep restoring force), ``m`` = 1 but for edge–edge
+  pairs of nearly parallel edges, where IPC's mollifier ``m`` takes the energy smoothly to zero
+  (parallel edges meet at their ends, which the vertex–face pairs hold, so that the force does not
+  jump as the closest points slide along them);
+- a dissipative force ``−c a(g) ġ ∇g`` (``a`` a C² ramp from 0 at ``ĝ`` to 1 at contact), so contact
+  never adds energy: ``v · f = −dE/dt − c Σ a ġ² ≤ −dE/dt``.
+
+Forces act at the primitives' points (``−∂E/∂x`` on every polygon vertex, by automatic
+differentiation of the energy in the world vertex positions) and add up to one wrench per body,
+which the mechanism maps to its coordinates.
+
+**Continuous collision detection.** `crossed` is the step guard of `simulate`
+(`ContactGuard`): a step is refused when, with every vertex moving on the straight path between
+the step's two states, a primitive pair would come closer than half the two plates'
+half-thicknesses (``ξ``; additive CCD, `additive_ccd`), or when the two polygons of any pair of
+bodies, including panels joined by a crease, overlap more at its end than at its start (exact,
+`overlap_depth`). So no accepted step carries a plate through another, at corners and between
+vertices alike.
+
+**Reports.** `report`'s penetration is the exact depth by which two plates overlap (the shortest
+translation that separates them, `overlap_depth`): as prisms of their thicknesses for panels apart
+in the flat state; on their mid-surfaces for panels that touch in the flat state (a shared crease,
+corner or cut edge), whose plates overlap along it by construction (a point hinge).
+
+Defaults (`PlateContact.for_system`) as `PanelContact`'s: ``ĝ`` = the larger of the panel thickness
+and 0.5 % of the largest panel, ``κ = Σ ½ k θ_target²`` (the energy the hinges can release), ``c`` from
+a damping ratio of the contact's stiffness at ``g = ĝ/2`` and the lightest panel's mass.
+"""
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, ArrayLike, Float
+
+from .._validate import is_traced
+from ..system import AbstractContact, AbstractMechanism
+from ._model import _D2B_HALF, _rest_inertia, _rest_poses, barrier, smoothstep
+from ._plate_tables import PlateTables, build_plate_tables
+from ._primitives import (
+    additive_ccd,
+    closest_on_segments,
+    overlap_depth,
+    point_polygon_sq,
+    polygon_normal,
+    segment_segment_sq,
+)
+
+# IPC's edge–edge mollifier switches on below this fraction of |e_a|²|e_b|² for |e_a × e_b|².
+_PARALLEL = 1e-3
+# The guard's impact distance ξ, as a fraction of the two plates' half-thicknesses added.
+_CCD_SEPARATION = 0.5
+
+
+def _mollifier(ea, eb):
+    """IPC's ``m(x) = (2 − x/ε) x/ε`` below ``ε``, 1 beyond, with ``x = |e_a × e_b|²``."""
+    cross = jnp.cross(ea, eb)
+    x = jnp.sum(cross * cross, axis=-1)
+    eps = _PARALLEL * jnp.sum(ea * ea, axis=-1) * jnp.sum(eb * eb, axis=-1)
+    r = x / eps
+    return jnp.where(r < 1, (2 - r) * r, 1.0)
+
+
+class PlateContact(AbstractContact):
+    """Exact contact between the plates of a mechanism and its fixed base, with continuous collision
+    detection (module docstring: the model).
+
+    **Fields:**
+    - `tables` (static): the [`origami_jax.contact.PlateTables`][] geometry.
+    - `stiffness`: ``κ``, energy units (µN·µm = pJ in `MICRO`).
+    - `activation`: ``ĝ``, the gap at which contact switches on, length.
+    - `damping`: ``c``, force·time/length, per primitive pair in contact.
+    - `half_thickness`: half of each body's thickness, the base last, `(n,)`, length.
+
+    Build it with [`origami_jax.contact.PlateContact.for_system`][] (defaults from the hinges and
+    panels) or `PlateContact.from_mechanism`.
+    """
+
+    tables: PlateTables = eqx.field(static=True)
+    stiffness: Float[Array, ""]
+    activation: Float[Array, ""]
+    damping: Float[Array, ""]
+    half_thickness: Float[Array, " n"]
+
+    @classmethod
+    def from_mechanism(
+        cls,
+        mechanism: AbstractMechanism,
+        *,
+        thickness: Float[ArrayLike, "*#b"],
+        stiffness: Float[ArrayLike, ""],
+        damping: Float[ArrayLike, ""],
+        activation: Float[ArrayLike, ""] | None = None,
+        base_outline: np.ndarray | None = None,
+        base_thickness: Float[ArrayLike, ""] | None = None,
+        tables: PlateTables | None = None,
+    ) -> "PlateContact":
+        """Contact of `mechanism`'s panels (their `outlines()`) with each other and with its base.
+
+        **Arguments** (the mechanism's units): `thickness` per panel (scalar or `(b,)`), `stiffness`
+        ``κ``, `damping` ``c``, `activation` ``ĝ`` (default: the larger of the thickness and 0.5 % of
+        the largest panel), `base_outline` (world polygon; default the mechanism's
+        `base_outline()`), `base_thickness` (default the largest panel thickness), `tables` (the
+        geometry, from `tables_for`, when at hand: under `jit` the mechanism's own arrays are traced
+        and cannot give it). The numbers may be traced; the geometry may not.
+
+        **Raises:** `ValueError` for non-positive values (when known) or degenerate outlines.
+        """
+        n = mechanism.n_bodies
+        dtype = jnp.result_type(float)
+        thickness = jnp.broadcast_to(jnp.asarray(thickness, dtype), (n,))
+        base_thickness = jnp.max(thickness) if base_thickness is None else base_thickness
+        half = jnp.concatenate([thickness, jnp.asarray(base_thickness, dtype)[None]]) / 2
+        if tables is None:
+            tables = cls.tables_for(mechanism, base_outline=base_outline)
+        if activation is None:
+            activation = jnp.maximum(jnp.max(thickness), 0.005 * tables.scale)
+        activation = jnp.asarray(activation, dtype)
+        for name, value, strict in (
+            ("thickness", thickness, True),
+            ("stiffness", stiffness, False),
+            ("damping", damping, False),
+            ("activation", activation, True),
+        ):
+            if not is_traced(value):
+                host = np.asarray(value)
+                ok = np.all(np.isfinite(host)) & np.all(host > 0 if strict else host >= 0)
+                if not ok:
+                    raise ValueError(
+                        f"contact {name} must be finite and {'> 0' if strict else '>= 0'}, got "
+                        f"{host}."
+                    )
+        n_all = tables.vertices.shape[0]
+        return cls(
+            tables=tables,
+            stiffness=jnp.asarray(stiffness, dtype),
+            activation=activation,
+            damping=jnp.asarray(damping, dtype),
+            half_thickness=half[:n_all],
+        )
+
+    @staticmethod
+    def tables_for(
+        mechanism: AbstractMechanism, *, base_outline: np.ndarray | None = None
+    ) -> PlateTables:
+        """The plate geometry of a mechanism whose arrays are known (host; `PlateTables`): its
+        outlines, rest poses and hinge layout."""
+        base = mechanism.base_outline() if base_outline is None else base_outline
+        try:
+            rest = np.asarray(_rest_poses(mechanism))
+        except jax.errors.TracerArrayConversionError as error:
+            raise ValueError(
+                "contact needs the panels' geometry before compilation, but this mechanism was built "
+                "from traced values (under jit, vmap or grad): build its PlateTables outside "
+                "(PlateContact.tables_for) and pass tables=, or vary hinge parameters only."
+            ) from error
+        layout = mechanism.hinge_layout()
+        return build_plate_tables(
+            mechanism.outlines(), rest, base, layout.parent, layout.child, layout.ends
+        )
+
+    @classmethod
+    def for_system(
+        cls,
+        mechanism: AbstractMechanism,
+        hinge_stiffness: Float[ArrayLike, " h"],
+        hinge_target: Float[ArrayLike, " h"],
+        *,
+        thickness: Float[ArrayLike, "*#b"],
+        damping_ratio: float = 1.0,
+        **kwargs,
+    ) -> "PlateContact":
+        """Contact with defaults from the hinges and panels (module docstring, "Defaults"):
+        ``κ = Σ ½ k θ_target²``; ``c = 2 ζ sqrt(k_c m)`` with ``k_c = κ B''(½)/ĝ²`` and ``m`` the
+        lightest panel's mass (the smallest diagonal entry of ``M(0)`` over its squared lever arm,
+        the panel size), ``ζ`` = `damping_ratio`. Other keyword arguments go to `from_mechanism`.
+        Traceable in the hinges, the thickness and the mechanism's masses."""
+        energy = jnp.sum(0.5 * jnp.asarray(hinge_stiffness) * jnp.asarray(hinge_target) ** 2)
+        probe = cls.from_mechanism(
+            mechanism, thickness=thickness, stiffness=energy, damping=0.0, **kwargs
+        )
+        contact_stiffness = energy * _D2B_HALF / probe.activation**2
+        mass = jnp.min(_rest_inertia(mechanism)) / probe.tables.scale**2
+        damping = 2 * damping_ratio * jnp.sqrt(contact_stiffness * mass)
+        return eqx.tree_at(lambda c: c.damping, probe, damping.astype(probe.damping.dtype))
+
+    # ---- geometry ----
+
+    def _frames(self, poses):
+        """World poses `(n, 4, 4)` of every body, the base last, from the moving bodies' poses."""
+        if self.tables.has_base:
+            base = jnp.asarray(self.tables.base_pose, poses.dtype)[None]
+            poses = jnp.concatenate([poses, base], axis=0)
+        return poses
+
+    def vertices(self, mechanism: AbstractMechanism, q: Float[Array, " nq"]) -> Array:
+        """World positions of every body's polygon vertices at ``q``, `(n, v, 3)` (the base last;
+        padded by repeating a vertex), length units."""
+        return self._world(self._frames(mechanism.body_poses(q)))
+
+    def _world(self, poses):
+        local = jnp.asarray(self.tables.vertices, poses.dtype)
+        return jnp.einsum("nij,nvj->nvi", poses[:, :3, :3], local) + poses[:, None, :3, 3]
+
+    def _vertex_face_points(self, x):
+        """The vertex–face pairs' points: each vertex `(k, 3)` and the other polygon `(k, v, 3)`."""
+        a, i, b = self.tables.vertex_face.T
+        return x[a, i], x[b]
+
+    def _edge_edge_points(self, x):
+        """The edge–edge pairs' end points, four `(m, 3)` arrays."""
+        a, i0, i1, b, j0, j1 = self.tables.edge_edge.T
+        return x[a, i0], x[a, i1], x[b, j0], x[b, j1]
+
+    def _half_sums(self, dtype):
+        half = self.half_thickness.astype(dtype)
+        vf, ee = self.tables.vertex_face, self.tables.edge_edge
+        return half[vf[:, 0]] + half[vf[:, 2]], half[ee[:, 0]] + half[ee[:, 3]]
+
+    def _gaps(self, x):
+        """Every primitive pair's gap (length; vertex–face pairs first, then edge–edge) and the
+        edge–edge pairs' mollifier, at world vertices `x`."""
+        tiny = 1e-6 * self.activation
+        point, polygon = self._vertex_face_points(x)
+        d_vf = point_polygon_sq(point, polygon, polygon_normal(polygon))
+        p0, p1, q0, q1 = self._edge_edge_points(x)
+        d_ee = segment_segment_sq(p0, p1, q0, q1)
+        half_vf, half_ee = self._half_sums(x.dtype)
+        distance = jnp.sqrt(jnp.concatenate([d_vf, d_ee]) + tiny**2) - tiny
+        return distance - jnp.concatenate([half_vf, half_ee]), _mollifier(p1 - p0, q1 - q0)
+
+    def _energy(self, x):
+        gap, mollifier = self._gaps(x)
+        n_vf = len(self.tables.vertex_face)
+        weight = jnp.concatenate([jnp.ones(n_vf, x.dtype), mollifier])
+        return self.stiffness * jnp.sum(weight * barrier(gap / self.activation))
+
+    def _wrenches(self, x, forces):
+        """One world wrench ``(F, x × F)`` about the origin per body from forces on its vertices."""
+        return jnp.concatenate(
+            [jnp.sum(forces, axis=1), jnp.sum(jnp.cross(x, forces), axis=1)], axis=-1
+        )
+
+    # ---- the contact force ----
+
+    def potential(self, mechanism, q):
+        return self._energy(self.vertices(mechanism, q))
+
+    def force(self, mechanism, q, v):
+        poses, velocity, wrench_force = mechanism.body_motion(q, v)
+        poses = self._frames(poses)
+        if self.tables.has_base:
+            velocity = jnp.concatenate([velocity, jnp.zeros((1, 6), velocity.dtype)], axis=0)
+        x = self._world(poses)
+        x_dot = velocity[:, None, :3] + jnp.cross(velocity[:, None, 3:], x)
+        elastic = -jax.grad(self._energy)(x)
+        gap, vjp = jax.vjp(lambda x: self._gaps(x)[0], x)
+        rate = jax.jvp(lambda x: self._gaps(x)[0], (x,), (x_dot,))[1]
+        engaged = smoothstep(1 - gap / self.activation)
+        (dissipative,) = vjp(-self.damping * engaged * rate)
+        wrenches = self._wrenches(x, elastic + dissipative)
+        return wrench_force(wrenches[: self.tables.n_bodies])
+
+    # ---- continuous collision detection (the step guard) ----
+
+    def crossed(self, mechanism, q0, q1) -> Array:
+        """Whether the straight path of every vertex from ``q0`` to ``q1`` brings a primitive pair
+        closer than ``ξ`` (half the two half-thicknesses added; pairs already closer at ``q0`` are
+        not counted, the barrier pushes them apart), or the polygons of two bodies overlap more at
+        ``q1`` than at ``q0`` (boolean scalar): a step that would let a plate through another."""
+        x0, x1 = self.vertices(mechanism, q0), self.vertices(mechanism, q1)
+        half_vf, half_ee = self._half_sums(x0.dtype)
+        hit = jnp.asarray(False)
+        if len(self.tables.vertex_face):
+            start, end = self._vertex_face_points(x0), self._vertex_face_points(x1)
+            toi = additive_ccd(
+                lambda p, poly: point_polygon_sq(p, poly, polygon_normal(poly)),
+                start,
+                tuple(e - s for s, e in zip(start, end, strict=True)),
+                _CCD_SEPARATION * half_vf,
+            )
+            hit = hit | jnp.any((toi > 0) & (toi <= 1))
+        if len(self.tables.edge_edge):
+            start, end = self._edge_edge_points(x0), self._edge_edge_points(x1)
+            toi = additive_ccd(
+                segment_segment_sq,
+                start,
+                tuple(e - s for s, e in zip(start, end, strict=True)),
+                _CCD_SEPARATION * half_ee,
+            )
+            hit = hit | jnp.any((toi > 0) & (toi <= 1))
+        a, b = self.tables.body_pairs.T
+        before = overlap_depth(x0[a], x0[b])
+        after = overlap_depth(x1[a], x1[b])
+        grew = after > before + 1e-9 * self.tables.scale
+        return hit | jnp.any(grew)
+
+    # ---- reports ----
+
+    def penetration(self, mechanism: AbstractMechanism, q: Float[Array, " nq"]) -> Array:
+        """The exact overlap of every pair of bodies at ``q`` (`(p,)` over `tables.body_pairs`,
+        length): the prisms of their thicknesses for bodies apart in the flat state, their
+        mid-surfaces for bodies that touch there (module docstring, "Reports")."""
+        x = self.vertices(mechanism, q)
+        a, b = self.tables.body_pairs.T
+        joined = self.tables.joined[a, b]
+        thickness = 2 * self.half_thickness.astype(x.dtype)
+        depth = overlap_depth(
+            x[a], x[b], jnp.where(joined, 0.0, thickness[a]), jnp.where(joined, 0.0, thickness[b])
+        )
+        # Polygons that touch (at a shared crease or corner) overlap by rounding alone.
+        return jnp.where(depth > 1e-9 * self.tables.scale, depth, 0.0)
+
+    def _pair_bodies(self):
+        vf, ee = self.tables.vertex_face, self.tables.edge_edge
+        return np.concatenate([vf[:, 0], ee[:, 0]]), np.concatenate([vf[:, 2], ee[:, 3]])
+
+    def report(self, mechanism, q) -> dict[str, Array]:
+        """Contact state at ``q``: the smallest primitive gap (length, `inf` if none is checked), how
+        many primitive pairs are engaged (``g < 1.1 ĝ``), the penetration (the largest exact overlap
+        of two bodies, `penetration`, length), and `touching` `(n, n)` bool over body pairs (the
+        base last, symmetric): some primitive pair of the two is engaged, i.e. one rests on or meets
+        the other (the verdict's seams closed by contact)."""
+        x = self.vertices(mechanism, q)
+        gap, _ = self._gaps(x)
+        near = gap < 1.1 * self.activation
+        n = self.tables.vertices.shape[0]
+        a, b = self._pair_bodies()
+        touching = jnp.zeros((n, n), bool).at[a, b].max(near)
+        touching = touching | touching.T
+        return {
+            "min_gap": jnp.min(gap, initial=jnp.inf),
+            "engaged": jnp.sum(near),
+            "penetration": jnp.max(self.penetration(mechanism, q), initial=0.0),
+            "touching": touching,
+        }
+
+    def engaged_points(
+        self, mechanism: AbstractMechanism, q: Float[Array, " nq"]
+    ) -> tuple[Float[Array, "n n 3"], Float[Array, "n n"]]:
+        """Where the plates touch at ``q``, for drawing: for every ordered pair of bodies `(a, b)`
+        (the base last) the mean world position of their engaged primitive pairs (``g < 1.1 ĝ``:
+        the vertex of a vertex–face pair, the midpoint of an edge–edge pair's closest points),
+        shape `(n, n, 3)` (length; zeros where none), and how many there are, `(n, n)`."""
+        x = self.vertices(mechanism, q)
+        gap, _ = self._gaps(x)
+        near = (gap < 1.1 * self.activation).astype(x.dtype)
+        point, _ = self._vertex_face_points(x)
+        on_p, on_q = closest_on_segments(*self._edge_edge_points(x))
+        where = jnp.concatenate([point, 0.5 * (on_p + on_q)], axis=0)
+        n = self.tables.vertices.shape[0]
+        a, b = self._pair_bodies()
+        count = jnp.zeros((n, n), x.dtype).at[a, b].add(near)
+        total = jnp.zeros((n, n, 3), x.dtype).at[a, b].add(near[:, None] * where)
+        return total / jnp.maximum(count, 1)[..., None], count.astype(jnp.int32)
