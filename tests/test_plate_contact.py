@@ -313,3 +313,56 @@ def test_sampled_contact_lets_the_air_fold_through():
     system, trajectory = _fold("air", "sampled")
     q = trajectory.theta if trajectory.state is None else trajectory.state[0]
     assert through_at_samples(system, q) != []
+
+
+# ---- impacts: a lid launched into a closed box, flaps meeting edge on edge, no energy gain ----
+
+
+@eqx.filter_jit  # one compiled call per system structure
+def _step_energy(system, trajectory):
+    """Mechanical energy (the contact's stored energy included) with the step's potential
+    ``−Σ k θ_target θ``: conserved without drag and contact damping, so it may only fall."""
+    k, target = system.hinges.stiffness, system.hinges.target
+    q, v = trajectory.theta, trajectory.theta_dot
+    return jax.vmap(system.energy)(q, v) - q @ (k * target)
+
+
+def _launched(name: str, kick) -> tuple:
+    """Net `name` (100 µm panels) folded to its targets, no drag, crease velocities `kick`
+    (rad/µs) at its closed state; 100 µs under the contact guard, Tsit5 at rtol 1e-8."""
+    net = load_net(name, length_scale=SCALE)
+    system = net.system(drag="hinge")
+    system = eqx.tree_at(lambda s: s.drag, system, HingeDrag(jnp.zeros(system.n_hinges)))
+    closed = jnp.asarray(net.intended_angles)
+    trajectory = sim.simulate(
+        system, sim.Step(), t1=100.0, n_save=201, theta0=closed * 0.98,
+        theta_dot0=jnp.asarray(kick), solver=diffrax.Tsit5(), rtol=1e-8, atol=1e-10,
+        max_steps=100_000,
+    )  # fmt: skip
+    return net, system, trajectory
+
+
+# Energy may rise between samples by no more than the integrator's error (rtol 1e-8 local errors
+# over ~1e3 steps) relative to the energy in play.
+ENERGY_RTOL = 1e-6
+
+
+@pytest.mark.parametrize(
+    "name, kick",
+    [
+        # The corner cube's two flaps launched at each other (their far corners and rims meet).
+        ("corner_cube", [0.02, 0.02]),
+        # The cube's lid launched inward onto the walls' top edges (corner on face, edge on edge).
+        pytest.param("cube_net_01", [0.0, 0.02, 0.0, 0.0, 0.0], marks=pytest.mark.slow),
+    ],
+)
+def test_launched_panels_stop_on_each_other_without_gaining_energy(name, kick):
+    net, system, trajectory = _launched(name, kick)
+    assert bool(trajectory.succeeded), trajectory.result
+    assert through_at_samples(system, trajectory.theta) == []
+    energy = np.asarray(_step_energy(system, trajectory))
+    scale = np.max(np.abs(energy))
+    assert np.max(np.diff(energy)) <= ENERGY_RTOL * scale
+    assert energy[-1] < energy[0]  # the contact's damping took some out
+    thickness = 2 * float(np.min(np.asarray(system.contact.half_thickness)))
+    assert float(net.outcome(system, trajectory).penetration) < thickness
