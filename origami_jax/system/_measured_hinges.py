@@ -171,7 +171,7 @@ _ZHANG = MeasuredHinge(
         'rolled into tubes of 1.3 μm diameter."',
         "https://studylib.net/doc/18140127/dual-chirality-helical-nanobelts--linear-to (the "
         'abstract): "The conversion ratios of displacement and load for a SiGe/Si DCHNB (an '
-        '8-nm-thick Si0.6 Ge0.4 and a 10-nm-thick Si layer) are found to be 171.3◦ /µm and '
+        "8-nm-thick Si0.6 Ge0.4 and a 10-nm-thick Si layer) are found to be 171.3◦ /µm and "
         '2.110 × 10−6 N · m/N, respectively."',
         _MATERIAL_QUOTES["Si"],
         _MATERIAL_QUOTES["Ge"],
