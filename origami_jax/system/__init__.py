@@ -8,6 +8,9 @@
   contact models.
 - Hinge physics shared by every mechanism: [`origami_jax.system.HingeDesign`][] (bilayer films,
   Timoshenko curvature, stiffness and drag, paper Eqs. 7 and 11), materials, fluids, unit systems.
+- Published measurements of stressed bilayers against that curvature:
+  [`origami_jax.system.MEASURED_HINGES`][], [`origami_jax.system.compare_measured_hinges`][]
+  (docs/guides/hinge-measurements.md).
 """
 
 from ._drag import AbstractDrag as AbstractDrag
@@ -22,6 +25,12 @@ from ._hinge import Material as Material
 from ._hinge import biaxial_modulus as biaxial_modulus
 from ._hinge import bilayer_curvature as bilayer_curvature
 from ._hinges import Hinges as Hinges
+from ._measured_hinges import MEASURED_HINGES as MEASURED_HINGES
+from ._measured_hinges import HingeComparison as HingeComparison
+from ._measured_hinges import MeasuredFilm as MeasuredFilm
+from ._measured_hinges import MeasuredHinge as MeasuredHinge
+from ._measured_hinges import compare_measured_hinges as compare_measured_hinges
+from ._measured_hinges import measured_hinges_table as measured_hinges_table
 from ._mechanism import AbstractMechanism as AbstractMechanism
 from ._mechanism import HingeLayout as HingeLayout
 from ._system import AbstractContact as AbstractContact
