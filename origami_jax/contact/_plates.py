@@ -276,32 +276,48 @@ class PlateContact(AbstractContact):
 
     # ---- continuous collision detection (the step guard) ----
 
+    def time_of_impact(
+        self, mechanism: AbstractMechanism, q0: Float[Array, " nq"], q1: Float[Array, " nq"]
+    ) -> Float[Array, ""]:
+        """The largest fraction of the straight step from ``q0`` to ``q1`` (in the vertices'
+        positions) that no primitive pair is known to take closer than ``ξ``: a conservative time of
+        impact in ``[0, 1]``, 1 where the whole step is clear (a line search's cap, as in IPC)."""
+        x0, x1 = self.vertices(mechanism, q0), self.vertices(mechanism, q1)
+        return jnp.minimum(jnp.min(self._impacts(x0, x1), initial=jnp.inf), 1.0)
+
+    def _impacts(self, x0, x1):
+        """Every primitive pair's conservative time of impact (`additive_ccd`) between world
+        vertices `x0` and `x1`; pairs already closer than ``ξ`` at `x0` get ``inf`` (the barrier
+        pushes them apart; a step cannot be refused for them)."""
+        half_vf, half_ee = self._half_sums(x0.dtype)
+        times = []
+        for points, distance_sq, half in (
+            (
+                self._vertex_face_points,
+                lambda p, poly: point_polygon_sq(p, poly, polygon_normal(poly)),
+                half_vf,
+            ),
+            (self._edge_edge_points, segment_segment_sq, half_ee),
+        ):
+            if not len(half):
+                continue
+            start, end = points(x0), points(x1)
+            toi = additive_ccd(
+                distance_sq,
+                start,
+                tuple(e - s for s, e in zip(start, end, strict=True)),
+                _CCD_SEPARATION * half,
+            )
+            times.append(jnp.where(toi > 0, toi, jnp.inf))
+        return jnp.concatenate(times) if times else jnp.full((0,), jnp.inf, x0.dtype)
+
     def crossed(self, mechanism, q0, q1) -> Array:
         """Whether the straight path of every vertex from ``q0`` to ``q1`` brings a primitive pair
         closer than ``ξ`` (half the two half-thicknesses added; pairs already closer at ``q0`` are
         not counted, the barrier pushes them apart), or the polygons of two bodies overlap more at
         ``q1`` than at ``q0`` (boolean scalar): a step that would let a plate through another."""
         x0, x1 = self.vertices(mechanism, q0), self.vertices(mechanism, q1)
-        half_vf, half_ee = self._half_sums(x0.dtype)
-        hit = jnp.asarray(False)
-        if len(self.tables.vertex_face):
-            start, end = self._vertex_face_points(x0), self._vertex_face_points(x1)
-            toi = additive_ccd(
-                lambda p, poly: point_polygon_sq(p, poly, polygon_normal(poly)),
-                start,
-                tuple(e - s for s, e in zip(start, end, strict=True)),
-                _CCD_SEPARATION * half_vf,
-            )
-            hit = hit | jnp.any((toi > 0) & (toi <= 1))
-        if len(self.tables.edge_edge):
-            start, end = self._edge_edge_points(x0), self._edge_edge_points(x1)
-            toi = additive_ccd(
-                segment_segment_sq,
-                start,
-                tuple(e - s for s, e in zip(start, end, strict=True)),
-                _CCD_SEPARATION * half_ee,
-            )
-            hit = hit | jnp.any((toi > 0) & (toi <= 1))
+        hit = jnp.any(self._impacts(x0, x1) <= 1)
         a, b = self.tables.body_pairs.T
         before = overlap_depth(x0[a], x0[b])
         after = overlap_depth(x1[a], x1[b])
