@@ -351,7 +351,7 @@ ENERGY_RTOL = 1e-6
     "name, kick",
     [
         # The corner cube's two flaps launched at each other (their far corners and rims meet).
-        ("corner_cube", [0.02, 0.02]),
+        pytest.param("corner_cube", [0.02, 0.02], marks=pytest.mark.slow),
         # The cube's lid launched inward onto the walls' top edges (corner on face, edge on edge).
         pytest.param("cube_net_01", [0.0, 0.02, 0.0, 0.0, 0.0], marks=pytest.mark.slow),
     ],
@@ -366,3 +366,23 @@ def test_launched_panels_stop_on_each_other_without_gaining_energy(name, kick):
     assert energy[-1] < energy[0]  # the contact's damping took some out
     thickness = 2 * float(np.min(np.asarray(system.contact.half_thickness)))
     assert float(net.outcome(system, trajectory).penetration) < thickness
+
+
+def test_the_model_is_chosen_by_name_and_a_sampling_needs_the_sampled_model(tmp_path, capsys):
+    from origami_jax.cli import main
+    from origami_jax.contact import PanelContact
+
+    net = load_net("corner_cube")
+    assert isinstance(net.system().contact, PlateContact)
+    assert isinstance(net.system(contact="sampled").contact, PanelContact)
+    assert net.system(contact=False).contact is None
+    with pytest.raises(ValueError, match="contact must be True, False or one of 'plate', 'sampled'"):
+        net.system(contact="exact")
+    with pytest.raises(ValueError, match="applies to contact='sampled' only"):
+        net.system(contact_sampling=(8, 6))
+    for command in ("fold", "yield"):
+        argv = [command, "corner_cube", "--contact-sampling", "8,6", "--out", str(tmp_path / "x")]
+        assert main(argv) == 2
+        err = capsys.readouterr().err
+        assert "add --contact sampled" in err and len(err.strip().splitlines()) == 1
+        assert not (tmp_path / "x").exists()

@@ -71,6 +71,7 @@ from jaxtyping import Array, ArrayLike, Float
 
 from .._validate import is_traced
 from ..system import AbstractContact, AbstractMechanism
+from ._plate_tables import PlateTables
 from ._tables import RIM_POINTS_PER_EDGE, RING_POINTS_PER_EDGE, ContactTables, build_tables
 
 _X_MIN = 0.1  # below this fraction of the activation gap the barrier continues as a quadratic
@@ -126,6 +127,8 @@ class PanelContact(AbstractContact):
     - `edge_width`: ``δ``, the width over which a face's rim is rounded (and `report`'s coverage
       ramp), length.
     - `half_thickness`: half of each body's thickness, the base last, `(n,)`, length.
+    - `plates` (static): the panels' exact polygons ([`origami_jax.contact.PlateTables`][]), from
+      which `report` measures the penetration exactly (`None`: from the sample points' gaps).
 
     Build it with [`origami_jax.contact.PanelContact.for_system`][] (defaults from the hinges and
     panels) or `PanelContact.from_mechanism`.
@@ -137,6 +140,7 @@ class PanelContact(AbstractContact):
     damping: Float[Array, ""]
     edge_width: Float[Array, ""]
     half_thickness: Float[Array, " n"]
+    plates: PlateTables | None = eqx.field(static=True, default=None)
 
     @classmethod
     def from_mechanism(
@@ -153,6 +157,7 @@ class PanelContact(AbstractContact):
         points_per_edge: int = RING_POINTS_PER_EDGE,
         rim_points_per_edge: int = RIM_POINTS_PER_EDGE,
         tables: ContactTables | None = None,
+        plates: PlateTables | None = None,
     ) -> "PanelContact":
         """Contact of `mechanism`'s panels (their `outlines()`) with each other and with its base.
 
@@ -163,7 +168,8 @@ class PanelContact(AbstractContact):
         `points_per_edge`, `rim_points_per_edge` (samples along a panel's longest edge on its inner
         ring and on its rim, see `build_tables`), `tables` (the geometry,
         from `tables_for`, when it is at hand: under `jit` the mechanism's own arrays are traced and
-        cannot give it). The numbers may be traced (a fit or a sweep over the thickness or the
+        cannot give it), `plates` (the exact polygons for `report`'s penetration, from
+        `PlateContact.tables_for`; default: built here with the tables, when they are). The numbers may be traced (a fit or a sweep over the thickness or the
         hinges); the geometry may not.
 
         **Raises:** `ValueError` for non-positive values (when known) or degenerate outlines.
@@ -204,6 +210,10 @@ class PanelContact(AbstractContact):
                 points_per_edge=points_per_edge,
                 rim_points_per_edge=rim_points_per_edge,
             )
+            if plates is None:
+                from ._plates import PlateContact
+
+                plates = PlateContact.tables_for(mechanism, base_outline=base)
         return cls(
             tables=tables,
             stiffness=jnp.asarray(stiffness, dtype),
@@ -211,6 +221,7 @@ class PanelContact(AbstractContact):
             damping=jnp.asarray(damping, dtype),
             edge_width=edge_width,
             half_thickness=half[: tables.points.shape[0]],
+            plates=plates,
         )
 
     @staticmethod
@@ -492,20 +503,32 @@ class PanelContact(AbstractContact):
     def report(self, mechanism, q) -> dict[str, Array]:
         """Contact state at ``q``: the smallest gap over the pairs checked (length, `inf` if none),
         how many are engaged (``g < 1.1 ĝ``: a panel resting on another hovers at the edge of the
-        activation layer, where the barrier's force rises from zero), the penetration
-        ``max(0, −g)`` (length), and `touching` `(n, n)` bool over (point body `a`, face body `b`,
+        activation layer, where the barrier's force rises from zero), the penetration (length: the
+        exact overlap of the panels' plates, `origami_jax.contact.PlateContact.penetration`, when
+        `plates` is known; else ``max(0, −g)`` at the sample points), and `touching` `(n, n)` bool over (point body `a`, face body `b`,
         the base last): some point of `a` has ``g < 1.1 ĝ`` against `b`'s face or rim, i.e. `a`
         rests on `b` or meets its edge (the verdict's seams closed by contact,
         `origami_jax.simulation.fold_outcome`)."""
-        _, _, local = self._local(mechanism, q)
+        poses = mechanism.body_poses(q)
+        _, _, local = self._local(mechanism, q, poses)
         gap, _ = self._gap(local)
         checked = self.tables.pairs
         smallest = jnp.min(jnp.where(checked, gap, jnp.inf))
         near = checked & (gap < 1.1 * self.activation)
+        if self.plates is None:
+            penetration = jnp.maximum(-smallest, 0.0)
+        else:
+            from ._plates import plate_overlaps
+
+            if self.tables.has_base:
+                base = jnp.asarray(self.tables.base_pose, poses.dtype)[None]
+                poses = jnp.concatenate([poses, base], axis=0)
+            depths = plate_overlaps(self.plates, self.half_thickness, poses)
+            penetration = jnp.max(depths, initial=0.0)
         return {
             "min_gap": smallest,
             "engaged": jnp.sum(near),
-            "penetration": jnp.maximum(-smallest, 0.0),
+            "penetration": penetration,
             "touching": jnp.any(near, axis=-1),
         }
 

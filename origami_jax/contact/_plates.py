@@ -328,17 +328,9 @@ class PlateContact(AbstractContact):
 
     def penetration(self, mechanism: AbstractMechanism, q: Float[Array, " nq"]) -> Array:
         """The exact overlap of every pair of bodies at ``q`` (`(p,)` over `tables.body_pairs`,
-        length): the prisms of their thicknesses for bodies apart in the flat state, their
-        mid-surfaces for bodies that touch there (module docstring, "Reports")."""
-        x = self.vertices(mechanism, q)
-        a, b = self.tables.body_pairs.T
-        joined = self.tables.joined[a, b]
-        thickness = 2 * self.half_thickness.astype(x.dtype)
-        depth = overlap_depth(
-            x[a], x[b], jnp.where(joined, 0.0, thickness[a]), jnp.where(joined, 0.0, thickness[b])
-        )
-        # Polygons that touch (at a shared crease or corner) overlap by rounding alone.
-        return jnp.where(depth > 1e-9 * self.tables.scale, depth, 0.0)
+        length): `plate_overlaps` (module docstring, "Reports")."""
+        poses = self._frames(mechanism.body_poses(q))
+        return plate_overlaps(self.tables, self.half_thickness, poses)
 
     def _pair_bodies(self):
         vf, ee = self.tables.vertex_face, self.tables.edge_edge
@@ -382,3 +374,23 @@ class PlateContact(AbstractContact):
         count = jnp.zeros((n, n), x.dtype).at[a, b].add(near)
         total = jnp.zeros((n, n, 3), x.dtype).at[a, b].add(near[:, None] * where)
         return total / jnp.maximum(count, 1)[..., None], count.astype(jnp.int32)
+
+
+def plate_overlaps(
+    tables: PlateTables, half_thickness: Float[Array, " n"], poses: Float[Array, "n 4 4"]
+) -> Float[Array, " p"]:
+    """The exact overlap of every pair of bodies (`(p,)` over `tables.body_pairs`, length) with
+    world poses `poses` (the base last) and half-thicknesses `half_thickness` `(n,)`: the depth of
+    the prisms of their thicknesses for bodies apart in the flat state, of their mid-surfaces for
+    bodies that touch there (a shared crease, corner or cut edge: their plates overlap along it by
+    construction); `overlap_depth`. Depths within rounding of zero (``1e-9`` × the largest panel)
+    are 0."""
+    local = jnp.asarray(tables.vertices, poses.dtype)
+    x = jnp.einsum("nij,nvj->nvi", poses[:, :3, :3], local) + poses[:, None, :3, 3]
+    a, b = tables.body_pairs.T
+    joined = tables.joined[a, b]
+    thickness = 2 * half_thickness.astype(x.dtype)
+    depth = overlap_depth(
+        x[a], x[b], jnp.where(joined, 0.0, thickness[a]), jnp.where(joined, 0.0, thickness[b])
+    )
+    return jnp.where(depth > 1e-9 * tables.scale, depth, 0.0)

@@ -363,16 +363,18 @@ class CreasePattern:
             with jax.ensure_compile_time_eval():
                 if traced:
                     geometric = HingeDesign.literature(design.units)
-                    tables = _contact_tables(
-                        self.mechanism(geometric), geometric.t_structural, contact_sampling, kind
-                    )
+                    host, thickness = self.mechanism(geometric), geometric.t_structural
                 else:
-                    tables = _contact_tables(mechanism, design.t_structural, contact_sampling, kind)
+                    host, thickness = mechanism, design.t_structural
+                tables = _contact_tables(host, thickness, contact_sampling, kind)
+                # The exact polygons: the plate model's geometry, the sampled model's report.
+                plates = tables if kind == "plate" else _contact_tables(host, thickness, kind="plate")
             # Stiffness and damping as `for_system` sets them, traceable in the hinges (a sweep
             # over hinge parameters builds contact inside `vmap`).
+            extra = {} if kind == "plate" else {"plates": plates}
             model = PlateContact if kind == "plate" else PanelContact
             contact_model = model.for_system(
-                mechanism, stiffness, targets, thickness=design.t_structural, tables=tables
+                mechanism, stiffness, targets, thickness=design.t_structural, tables=tables, **extra
             )
         return FoldingSystem(
             mechanism, hinges_, drag_model, contact=contact_model, units=design.units

@@ -238,6 +238,7 @@ class Net:
                 thickness=design.t_structural,
                 base_thickness=design.t_structural,
                 tables=self.contact_tables(hinges, sampling=contact_sampling),
+                plates=self.plate_tables(hinges),
             )
         return FoldingSystem(tree, hinges_, drag_model, contact=contact_model, units=design.units)
 
