@@ -5,7 +5,8 @@ Every command writes its results through an `OutputFolder`: files go to a stagin
 always those of one complete run. A kill mid-run leaves the earlier results untouched (and a
 `.partial-*` folder that the next run removes). A folder that already holds results of the same
 command is refused unless `--overwrite` is given; with it the earlier run's files are replaced, and
-those the new run does not write are removed.
+those the new run does not write are removed. While a run writes, it holds the folder's lock (the
+one a sweep takes, `origami_jax._folder_lock`): a second run into the same folder is refused.
 
 Errors a command reports are `CLIError`s (one line, exit code 2 or 1); `_main.main` turns anything
 else into one line too, and `--debug` shows the traceback.
@@ -25,6 +26,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any, NoReturn
 
+from .._folder_lock import FolderBusyError, FolderLock, lock_folder
 from .._limits import CONTACT_SAMPLING
 
 DEFAULT_OUT = Path("origami_out")
@@ -290,35 +292,66 @@ class OutputFolder:
       means the folder holds an earlier run's results: refused unless `overwrite`; with `overwrite`
       the matches this run does not write again are removed when it commits.
     - `overwrite`: replace earlier results (the `--overwrite` flag).
+    - `refuse_hint`: what the message refusing earlier results tells the user to do.
+    - `lend`: lend the folder's lock to library calls of this process that write into `out` (a
+      sweep store: `origami_jax._folder_lock`).
+
+    The folder is locked from here until `commit()` or `discard()`: a second run into `out` (of any
+    command, or a sweep) is refused meanwhile.
 
     Write into `dir` (a staging folder inside `out`, same layout); `commit()` moves every file into
     `out` and returns their final paths. As a context manager it commits on success and discards
     the staging folder on an exception (Ctrl-C included).
 
-    **Raises:** `CLIError` when `out` is a file, cannot be written, or holds results (see `owns`).
+    **Raises:** `CLIError` when `out` is a file, cannot be written, is in use by another run, or
+    holds results (see `owns`).
     """
 
-    def __init__(self, out: Path, *, command: str, owns: Sequence[str], overwrite: bool = False):
+    def __init__(
+        self,
+        out: Path,
+        *,
+        command: str,
+        owns: Sequence[str],
+        overwrite: bool = False,
+        lend: bool = False,
+        refuse_hint: str = "pass --overwrite to replace them, or choose another --out",
+    ):
         self.out = check_out_folder(Path(out))
         self.command = command
         self.owns = tuple(owns)
         self.overwrite = overwrite
-        for stale in _stale_staging(self.out):
-            shutil.rmtree(stale, ignore_errors=True)
-        earlier = self.existing()
-        if earlier and not overwrite:
-            names = [str(p.relative_to(self.out)) for p in earlier]
-            fail(
-                f"{self.out} already holds results of an earlier run ({capped(names, 4)}); pass "
-                "--overwrite to replace them, or choose another --out."
-            )
-        self.dir = self.out / f"{STAGING_PREFIX}{command}-{os.getpid()}-{uuid.uuid4().hex[:8]}"
+        # Held until commit or discard: a second run into `out` meanwhile is refused (the folder
+        # was checked at the start only, and two runs each wrote half of the results).
         try:
-            self.dir.mkdir()
-        except OSError as error:
-            fail(f"cannot write into the output folder {self.out}: {error.strerror or error}.")
+            self._lock: FolderLock | None = lock_folder(self.out, command=command, lend=lend)
+        except FolderBusyError as error:
+            fail(f"{error}".replace("another output folder", "another --out"))
+        try:
+            for stale in _stale_staging(self.out):
+                shutil.rmtree(stale, ignore_errors=True)
+            earlier = self.existing()
+            if earlier and not overwrite:
+                names = [str(p.relative_to(self.out)) for p in earlier]
+                fail(
+                    f"{self.out} already holds results of an earlier run ({capped(names, 4)}); "
+                    f"{refuse_hint}."
+                )
+            self.dir = self.out / f"{STAGING_PREFIX}{command}-{os.getpid()}-{uuid.uuid4().hex[:8]}"
+            try:
+                self.dir.mkdir()
+            except OSError as error:
+                fail(f"cannot write into the output folder {self.out}: {error.strerror or error}.")
+        except BaseException:
+            self._release()
+            raise
         self.committed: list[Path] = []
         self.discarded = False
+
+    def _release(self) -> None:
+        if self._lock is not None:
+            self._lock.close()
+            self._lock = None
 
     def existing(self) -> list[Path]:
         """Files in `out` that match `owns` (results of an earlier run)."""
@@ -340,6 +373,12 @@ class OutputFolder:
         files this run did not write (with `overwrite`), and return the final paths."""
         if self.discarded:
             return []
+        try:
+            return self._commit()
+        finally:
+            self._release()
+
+    def _commit(self) -> list[Path]:
         staged = sorted(p for p in self.dir.rglob("*") if p.is_file())
         finals = [self.final(p) for p in staged]
         if self.overwrite:
@@ -358,6 +397,7 @@ class OutputFolder:
         """Drop everything staged: `out` keeps what it held."""
         shutil.rmtree(self.dir, ignore_errors=True)
         self.discarded = True
+        self._release()
 
     def __enter__(self) -> OutputFolder:
         return self

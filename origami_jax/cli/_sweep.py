@@ -10,7 +10,6 @@ from ._common import (
     EXIT_OK,
     Interrupted,
     OutputFolder,
-    check_out_folder,
     fail,
     write_atomic,
 )
@@ -88,14 +87,25 @@ def run(args: argparse.Namespace) -> int:
         return EXIT_OK
     if args.config is None:
         fail("give a CONFIG.toml (or --list-models).")
-    out = check_out_folder(Path(args.out))
-    from ..sweep import load_config, sweep
+    from ..sweep import load_config
 
     try:
         config = load_config(args.config)
     except (ValueError, OSError) as error:
         fail(f"bad config {args.config}: {error}")
+    # The summary and plots describe the dataset: replaced together (the sweep itself decides,
+    # through its manifest, that this run may write here). The folder is held for the whole run
+    # (the sweep's store borrows its lock): another run into it meanwhile is refused.
+    owns = ("summary.txt",) if args.no_plots else ("summary.txt", "plots/*.png")
+    output = OutputFolder(Path(args.out), command="sweep", owns=owns, overwrite=True, lend=True)
+    with output:
+        return _run(args, config, output)
 
+
+def _run(args: argparse.Namespace, config, output: OutputFolder) -> int:
+    from ..sweep import sweep
+
+    out = output.out
     print(
         f"[sweep] model {config.kernel.name}: {config.space.size} designs over "
         f"{', '.join(config.space.names)} -> {out}",
@@ -134,17 +144,13 @@ def run(args: argparse.Namespace) -> int:
             lines.append(
                 f"  result {code} ({meanings.get(code, '?')}): {(codes == code).sum()} designs"
             )
-    # The summary and plots describe this dataset: replaced together (the sweep itself decided,
-    # through its manifest, that this run may write here).
-    owns = ("summary.txt",) if args.no_plots else ("summary.txt", "plots/*.png")
-    with OutputFolder(out, command="sweep", owns=owns, overwrite=True) as output:
-        if not args.no_plots:
-            from ..plotting import sweep as sweep_plots
+    if not args.no_plots:
+        from ..plotting import sweep as sweep_plots
 
-            paths = sweep_plots.summary_plots(
-                dataset, output.dir / "plots", metrics=config.plot_metrics
-            )
-            lines.append(f"plots: {len(paths)} in {out / 'plots'}")
-        write_atomic(output.dir / "summary.txt", "\n".join(lines) + "\n")
+        paths = sweep_plots.summary_plots(
+            dataset, output.dir / "plots", metrics=config.plot_metrics
+        )
+        lines.append(f"plots: {len(paths)} in {out / 'plots'}")
+    write_atomic(output.dir / "summary.txt", "\n".join(lines) + "\n")
     print("\n".join(lines))
     return EXIT_FAILED if failed else EXIT_OK

@@ -9,7 +9,6 @@ from ._common import (
     EXIT_OK,
     OutputFolder,
     add_contact_sampling_argument,
-    check_out_folder,
     contact_sampling,
     dumps_json,
     fail,
@@ -211,6 +210,50 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.set_defaults(func=run)
 
 
+# Every file a yield run writes at the top of --out (its sweep stores aside): a folder holding any
+# is refused without --resume; with it, those this run does not write again are removed, so that
+# result.json and the figures describe one run.
+OWNS = (
+    "result.json",
+    "yield.png",
+    "misfolds.png",
+    "yield_widths.png",
+    "improve.png",
+)
+
+
+def _check_resumable(out: Path, factors: list[float]) -> None:
+    """`--resume` into `out`: its result.json, if any, is a yield estimate's that this run rewrites
+    whole (not another command's; not a finished --improve ascent, which cannot be resumed; no
+    --widths factor left out)."""
+    import json
+
+    path = out / "result.json"
+    if not path.is_file():
+        return
+    try:
+        stored = json.loads(path.read_text())
+    except (OSError, ValueError):
+        stored = None
+    if not isinstance(stored, dict) or "yield" not in stored or "n_samples" not in stored:
+        fail(
+            f"{out} holds a result.json that is not a yield estimate's: --resume continues an "
+            "estimate in its own folder; choose another --out."
+        )
+    if "improve" in stored:
+        fail(
+            f"{out} holds a finished estimate with an --improve ascent, which --resume cannot "
+            "continue (it would drop the ascent): its results are complete; choose another --out."
+        )
+    dropped = sorted({float(w["factor"]) for w in stored.get("widths", [])} - set(factors))
+    if dropped:
+        fail(
+            f"cannot resume {out} without --widths {','.join(f'{w:g}' for w in dropped)}: its "
+            "result.json holds the yield at those widths, which this run would drop; give them "
+            "in --widths."
+        )
+
+
 def _numbers(text: str | None, flag: str) -> list[float] | None:
     """Comma-separated finite numbers, or None."""
     if text is None:
@@ -322,8 +365,7 @@ def _improve_parameters(args: argparse.Namespace, scatter) -> tuple[str, ...]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..fab_yield import Scatter, load_scatter, yield_estimate
-    from ..system import AIR, KOH_SOLUTION
+    from ..fab_yield import Scatter, load_scatter
 
     int_range(args.samples, "--samples", 1, 10_000_000)
     if args.seed < 0:
@@ -359,7 +401,6 @@ def run(args: argparse.Namespace) -> int:
             fail(f"bad scatter config {args.scatter}: {error}")
     from ..fold import FoldFormatError
     from ..loops import CreasePattern, load_pattern
-    from ..net._net import default_design
 
     try:
         pattern = load_pattern(args.net)
@@ -384,7 +425,33 @@ def run(args: argparse.Namespace) -> int:
             fail(f"--etch-front: {error}")
     improve = _improve_parameters(args, scatter)
     process = _process(args.process, pattern.n_creases)
-    out = check_out_folder(Path(args.out))
+    # Held for the whole run (the estimates' sweep stores borrow its lock): another run into the
+    # folder meanwhile is refused, and so is a folder holding results without --resume (a yield
+    # never replaces results).
+    output = OutputFolder(
+        Path(args.out),
+        command="yield",
+        owns=OWNS,
+        overwrite=args.resume,
+        lend=True,
+        refuse_hint="a yield never replaces results: choose another --out (--resume continues the "
+        "estimate stored there)",
+    )
+    with output:
+        return _run(
+            args, output, pattern, loops, scatter, sampling, factors, release, process, improve
+        )
+
+
+def _run(args, output, pattern, loops, scatter, sampling, factors, release, process, improve):
+    """The estimates (and the ascent) into `output.out`, the results staged in `output.dir`."""
+    from ..fab_yield import yield_estimate
+    from ..net._net import default_design
+    from ..system import AIR, KOH_SOLUTION
+
+    out = output.out
+    if args.resume:
+        _check_resumable(out, factors)
     design = default_design(pattern, KOH_SOLUTION if args.fluid == "koh" else AIR)
     print(
         f"[yield] {args.net}: {args.samples} samples, seed {args.seed}, scatter "
@@ -473,32 +540,29 @@ def run(args: argparse.Namespace) -> int:
         ]
     if ascent is not None:
         result["improve"] = ascent.to_dict()
-    figures = ("yield.png", "misfolds.png") + (("yield_widths.png",) if factors else ())
-    figures += ("improve.png",) if ascent is not None else ()
-    owns = ("result.json",) if args.no_figures else ("result.json", *figures)
-    with OutputFolder(out, command="yield", owns=owns, overwrite=True) as output:
-        write_atomic(output.dir / "result.json", dumps_json(result))
-        if not args.no_figures:
-            import matplotlib.pyplot as plt
+    # Staged in output.dir: moved into --out, with the figures, when `run`'s `with output` ends.
+    write_atomic(output.dir / "result.json", dumps_json(result))
+    if not args.no_figures:
+        import matplotlib.pyplot as plt
 
-            from ..plotting.fab_yield import misfold_figure, width_figure, yield_figure
+        from ..plotting.fab_yield import misfold_figure, width_figure, yield_figure
 
-            fig = yield_figure(estimate, title=f"{args.net}: yield under fabrication scatter")
-            fig.savefig(output.dir / "yield.png", dpi=120)
+        fig = yield_figure(estimate, title=f"{args.net}: yield under fabrication scatter")
+        fig.savefig(output.dir / "yield.png", dpi=120)
+        plt.close(fig)
+        fig = misfold_figure(pattern, estimate, title=f"{args.net}: misfold modes")
+        fig.savefig(output.dir / "misfolds.png", dpi=120)
+        plt.close(fig)
+        if factors:
+            fig = width_figure(
+                sorted(at_width), [at_width[f] for f in sorted(at_width)], title=args.net
+            )
+            fig.savefig(output.dir / "yield_widths.png", dpi=120)
             plt.close(fig)
-            fig = misfold_figure(pattern, estimate, title=f"{args.net}: misfold modes")
-            fig.savefig(output.dir / "misfolds.png", dpi=120)
+        if ascent is not None:
+            fig = ascent.figure(title=f"{args.net}: yield ascent")
+            fig.savefig(output.dir / "improve.png", dpi=120)
             plt.close(fig)
-            if factors:
-                fig = width_figure(
-                    sorted(at_width), [at_width[f] for f in sorted(at_width)], title=args.net
-                )
-                fig.savefig(output.dir / "yield_widths.png", dpi=120)
-                plt.close(fig)
-            if ascent is not None:
-                fig = ascent.figure(title=f"{args.net}: yield ascent")
-                fig.savefig(output.dir / "improve.png", dpi=120)
-                plt.close(fig)
     print(estimate.summary())
     if ascent is not None:
         print(ascent.summary())

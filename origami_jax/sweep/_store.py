@@ -31,8 +31,6 @@ is atomic on POSIX file systems, including the shared ones multi-host runs write
 import json
 import logging
 import os
-import socket
-import time
 import uuid
 from collections.abc import Iterable, Mapping
 from pathlib import Path
@@ -41,20 +39,21 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from .._folder_lock import FolderBusyError, lock_folder
 from ._space import config_equal
 
 MANIFEST = "sweep.json"
 CHUNKS = "chunks"
 RESULT = "sweep.nc"
-LOCK = ".lock"
 ENGINE = "h5netcdf"
 BAD_SUFFIX = ".bad"
 
 logger = logging.getLogger("origami_jax.sweep")
 
 
-class SweepBusyError(RuntimeError):
-    """The output folder is in use by another running sweep (it holds the folder's lock)."""
+class SweepBusyError(FolderBusyError):
+    """The output folder is in use by another running sweep or command (it holds the folder's
+    lock)."""
 
 
 def write_atomic(path: Path, data: bytes | str) -> Path:
@@ -109,27 +108,9 @@ def _differences(old: Mapping[str, Any], new: Mapping[str, Any], prefix: str = "
 
 
 def _lock(root: Path):
-    """Take the folder's lock (see the module docstring); return the open lock file."""
-    import fcntl
-
-    handle = open(root / LOCK, "a+")  # noqa: SIM115 (held open for the sweep's lifetime)
-    try:
-        fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
-    except OSError:
-        handle.seek(0)
-        holder = handle.read().strip() or "another process"
-        handle.close()
-        raise SweepBusyError(
-            f"{root} is in use by another sweep ({holder}); wait for it to finish, or choose "
-            "another output folder."
-        ) from None
-    handle.seek(0)
-    handle.truncate()
-    handle.write(
-        f"pid {os.getpid()} on {socket.gethostname()}, since {time.strftime('%Y-%m-%d %H:%M:%S')}\n"
-    )
-    handle.flush()
-    return handle
+    """Take the folder's lock (see the module docstring; the same lock every command that writes
+    results takes, `origami_jax._folder_lock`); return it (`close()` releases it)."""
+    return lock_folder(root, command="sweep", error=SweepBusyError)
 
 
 class Store:

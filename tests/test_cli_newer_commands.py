@@ -1,0 +1,150 @@
+"""The newer commands (`fold`, `yield`, `view`), FOLD files and the library under bad input and
+faults (issue 50): nothing mixed or lost, no hang, no silent wrong answer, one line for bad input.
+
+Every refusal here comes before anything compiles (exit 2, one line on stderr, no traceback, the
+folder's earlier results untouched), so each test costs about a second.
+"""
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from origami_jax._folder_lock import FolderBusyError, lock_folder
+from origami_jax.cli import main
+from origami_jax.cli._common import CLIError, OutputFolder
+
+ROOT = Path(__file__).resolve().parents[1]
+DATA = Path(__file__).parent / "data" / "fold"
+
+
+def _one_line(err: str) -> str:
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert len(lines) == 1, err
+    assert "Traceback" not in err
+    return lines[0]
+
+
+def _snapshot(folder: Path) -> dict[str, bytes]:
+    """Every file under `folder` but the lock file (not a result), by relative path."""
+    return {
+        str(p.relative_to(folder)): p.read_bytes()
+        for p in folder.rglob("*")
+        if p.is_file() and p.name != ".lock"
+    }
+
+
+# 1. One output-folder lock, held by every command while it writes --------------------------------
+
+
+@pytest.fixture(scope="module")
+def held_folder(tmp_path_factory):
+    """A folder whose lock another process holds (a `fold` run, as far as the lock says), with an
+    earlier run's results in it."""
+    folder = tmp_path_factory.mktemp("held")
+    (folder / "result.json").write_text('{"earlier": true}\n')
+    (folder / "trajectory.csv").write_text("time [us]\n0\n")
+    holder = subprocess.Popen(
+        [
+            sys.executable,
+            "-c",
+            "import sys; from origami_jax._folder_lock import lock_folder; "
+            "lock = lock_folder(sys.argv[1], command='fold'); print('held', flush=True); "
+            "sys.stdin.read()",
+            str(folder),
+        ],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        text=True,
+        env={"PYTHONPATH": str(ROOT), "PATH": "/usr/bin:/bin"},
+    )
+    assert holder.stdout is not None and holder.stdout.readline().strip() == "held"
+    yield folder
+    holder.communicate("")
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["fold", "cube_net_01", "--t1", "1", "--overwrite"],
+        ["simulate", "--flaps", "1", "--overwrite"],
+        ["unfold", "open-chain", "--overwrite"],
+        ["export", "corner-cube", "--overwrite"],
+        ["design", "--target-rise", "37e-6", "--overwrite"],
+        ["yield", "cube_net_01", "--samples", "2", "--resume"],
+    ],
+    ids=lambda argv: argv[0],
+)
+def test_a_folder_in_use_by_another_run_is_refused_by_every_command(argv, held_folder, capsys):
+    """Two runs into one --out used to both print "wrote" and leave one's result.json beside the
+    other's figures: the second is refused (one line naming the holder), the folder untouched."""
+    before = _snapshot(held_folder)
+    assert main([*argv, "--out", str(held_folder)]) == 2
+    line = _one_line(capsys.readouterr().err)
+    assert "is in use by another fold run" in line and "choose another --out" in line, line
+    assert _snapshot(held_folder) == before
+
+
+def test_the_sweep_refuses_a_folder_a_command_is_writing(held_folder, tmp_path, capsys):
+    config = tmp_path / "sweep.toml"
+    config.write_text('[model]\nname = "accordion-step"\n[parameters]\nk_scale = {values=[1.0]}\n')
+    before = _snapshot(held_folder)
+    assert main(["sweep", str(config), "--out", str(held_folder), "--resume"]) == 2
+    assert "is in use by another fold run" in _one_line(capsys.readouterr().err)
+    assert _snapshot(held_folder) == before
+
+
+def test_the_lock_is_held_until_the_results_are_in_place_and_lent_only_when_asked(tmp_path):
+    with OutputFolder(tmp_path, command="fold", owns=("*.txt",)) as output:
+        (output.dir / "a.txt").write_text("first")
+        # Not lent: a second writer in this process too is refused (a library sweep, a command).
+        with pytest.raises(FolderBusyError, match="in use by another fold run"):
+            lock_folder(tmp_path, command="sweep")
+        with pytest.raises(CLIError, match="in use by another fold run"):
+            OutputFolder(tmp_path, command="fold", owns=("*.txt",), overwrite=True)
+    assert (tmp_path / "a.txt").read_text() == "first"
+    # Released at commit (and at discard): the next run may write.
+    with OutputFolder(tmp_path, command="yield", owns=(), lend=True):
+        lock_folder(tmp_path, command="sweep").close()  # lent: the estimate's store shares it
+    OutputFolder(tmp_path, command="fold", owns=("*.txt",), overwrite=True).discard()
+    lock_folder(tmp_path, command="sweep").close()
+
+
+# 2. and 3. `yield` never replaces results, nor drops a finished run's parts on --resume ---------
+
+
+def _results(folder: Path, result: dict) -> dict[str, bytes]:
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "result.json").write_text(json.dumps(result))
+    (folder / "angles.png").write_bytes(b"figure")
+    return _snapshot(folder)
+
+
+YIELD = ["yield", "cube_net_01", "--samples", "2", "--no-progress"]
+
+
+def test_yield_refuses_a_folder_holding_another_commands_results(tmp_path, capsys):
+    before = _results(tmp_path, {"verdict": "folded", "net": "cube_net_01"})
+    assert main([*YIELD, "--out", str(tmp_path)]) == 2
+    line = _one_line(capsys.readouterr().err)
+    assert "already holds results" in line and "choose another --out" in line, line
+    assert main([*YIELD, "--out", str(tmp_path), "--resume"]) == 2
+    assert "not a yield estimate's" in _one_line(capsys.readouterr().err)
+    assert _snapshot(tmp_path) == before
+
+
+def test_yield_resume_refuses_to_drop_a_finished_ascent_or_widths(tmp_path, capsys):
+    finished = {"yield": 0.5, "n_samples": 2, "improve": {"iterates": []}}
+    before = _results(tmp_path / "improved", finished)
+    (tmp_path / "improved" / "improve.png").write_bytes(b"figure")
+    before = _snapshot(tmp_path / "improved")
+    assert main([*YIELD, "--out", str(tmp_path / "improved"), "--resume"]) == 2
+    assert "--improve ascent, which --resume cannot" in _one_line(capsys.readouterr().err)
+    assert _snapshot(tmp_path / "improved") == before
+    widths = {"yield": 0.5, "n_samples": 2, "widths": [{"factor": 0.5}, {"factor": 1.0}]}
+    before = _results(tmp_path / "widths", widths)
+    assert main([*YIELD, "--out", str(tmp_path / "widths"), "--resume", "--widths", "1"]) == 2
+    assert "without --widths 0.5" in _one_line(capsys.readouterr().err)
+    assert _snapshot(tmp_path / "widths") == before
