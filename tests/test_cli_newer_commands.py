@@ -148,3 +148,31 @@ def test_yield_resume_refuses_to_drop_a_finished_ascent_or_widths(tmp_path, caps
     assert main([*YIELD, "--out", str(tmp_path / "widths"), "--resume", "--widths", "1"]) == 2
     assert "without --widths 0.5" in _one_line(capsys.readouterr().err)
     assert _snapshot(tmp_path / "widths") == before
+
+
+# 4. Vertices no edge or face uses: read without them; writing a long animation stays fast --------
+
+
+def test_unused_vertices_are_left_out_and_the_animation_writes_fast(tmp_path):
+    import time
+
+    import numpy as np
+
+    from origami_jax.fold import dumps_fold, read_fold
+    from origami_jax.fold._catalogue import source_and_label
+    from origami_jax.loops import load_pattern
+
+    data = json.loads(Path(source_and_label("cube_net_01")[0]).read_text())
+    used = len(data["vertices_coords"])
+    data["vertices_coords"] += [[1000.0 + i, 2000.0] for i in range(20_000)]
+    path = tmp_path / "unused.fold"
+    path.write_text(json.dumps(data))
+    with pytest.warns(UserWarning, match="20000 of the 20014 vertices belong to no edge or face"):
+        net = load_pattern(read_fold(path))
+    start = time.perf_counter()
+    angles = np.linspace(0.0, 1.0, 200)[:, None] * np.ones(net.n_creases)
+    text = dumps_fold(net.to_fold(angles=angles, times=np.arange(200.0)))
+    assert time.perf_counter() - start < 10  # was minutes: the schema walked every coordinate
+    written = json.loads(text)
+    assert len(written["vertices_coords"]) == used
+    assert all(len(f["vertices_coords"]) == used for f in written["file_frames"])
