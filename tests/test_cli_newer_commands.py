@@ -176,3 +176,34 @@ def test_unused_vertices_are_left_out_and_the_animation_writes_fast(tmp_path):
     written = json.loads(text)
     assert len(written["vertices_coords"]) == used
     assert all(len(f["vertices_coords"]) == used for f in written["file_frames"])
+
+
+# 5. Every size-like option has an upper limit, refused in one line before anything compiles ------
+
+
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["fold", "cube_net_01", "--contact-sampling", "100000,100000"], "at most 32 points"),
+        (["fold", "cube_net_01", "--contact-sampling", "4,33"], "at most 32 points"),
+        (["yield", "cube_net_01", "--contact-sampling", "33,2"], "at most 32 points"),
+        (["fold", "cube_net_01", "--n-save", str(10**9)], "--n-save must be between 2 and"),
+        (["yield", "cube_net_01", "--samples", str(10**9)], "--samples must be between 1 and"),
+        (["yield", "cube_net_01", "--chunk-size", str(10**9)], "--chunk-size must be between"),
+        (["yield", "cube_net_01", "--workers", str(10**6)], "--workers must be between 1 and"),
+        (["yield", "cube_net_01", "--improve", str(10**6)], "--improve must be between 1 and"),
+        (["yield", "cube_net_01", "--widths", ",".join(["1"] * 17)], "1 to 16 factors"),
+        (["view", str(DATA / "frames.fold"), "--frames", str(10**9)], "--frames must be 0"),
+    ],
+)
+def test_size_like_options_have_an_upper_limit(argv, message, tmp_path, capsys):
+    assert main([*argv, "--out", str(tmp_path / "out")]) == 2
+    assert message in _one_line(capsys.readouterr().err)
+    assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())
+
+
+def test_the_sweep_kernel_limits_the_contact_sampling():
+    from origami_jax.sweep import get_model
+
+    with pytest.raises(ValueError, match="at most 32 points per edge"):
+        get_model("net-fold", net="cube_net_01", contact_sampling=(100_000, 100_000))

@@ -27,7 +27,7 @@ from pathlib import Path
 from typing import Any, NoReturn
 
 from .._folder_lock import FolderBusyError, FolderLock, lock_folder
-from .._limits import CONTACT_SAMPLING
+from .._limits import CONTACT_SAMPLING, MAX_CONTACT_SAMPLING
 
 DEFAULT_OUT = Path("origami_out")
 
@@ -192,8 +192,9 @@ def add_contact_sampling_argument(parser: argparse.ArgumentParser) -> None:
         "--contact-sampling",
         default=default,
         metavar="RING,RIM",
-        help=f"contact points per panel edge on the inner ring and on the rim (default {default}; "
-        "denser resolves the same contact more finely, to check a verdict where edges meet)",
+        help=f"contact points per panel edge on the inner ring and on the rim (default {default}, "
+        f"at most {MAX_CONTACT_SAMPLING}; denser resolves the same contact more finely, to check a "
+        "verdict where edges meet)",
     )
 
 
@@ -205,7 +206,13 @@ def contact_sampling(text: str) -> tuple[int, int]:
             f"--contact-sampling expects RING,RIM: two whole numbers, RING >= 1 (e.g. 8,6), got "
             f"{text!r}."
         )
-    return int(parts[0]), int(parts[1])
+    ring, rim = int(parts[0]), int(parts[1])
+    if max(ring, rim) > MAX_CONTACT_SAMPLING:
+        fail(
+            f"--contact-sampling takes at most {MAX_CONTACT_SAMPLING} points per edge on the ring "
+            f"and on the rim (the contact's work grows with their square), got {text!r}."
+        )
+    return ring, rim
 
 
 def jsonable(value: Any) -> Any:

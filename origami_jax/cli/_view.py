@@ -4,6 +4,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from .._limits import MAX_SAMPLES
 from ._common import EXIT_OK, check_out_folder, fail, one_line
 
 HELP = "Write an interactive 3D view of a result (one offline HTML page) and open it if asked."
@@ -69,8 +70,8 @@ def _target(args: argparse.Namespace) -> Path:
 def run(args: argparse.Namespace) -> int:
     from ..view import DEFAULT_MAX_FRAMES, load_scene, open_in_browser, resample, write_html
 
-    if args.frames is not None and args.frames < 0 or args.frames == 1:
-        fail("--frames must be 0 (all samples) or at least 2")
+    if args.frames is not None and (args.frames < 0 or args.frames == 1 or args.frames > MAX_SAMPLES):
+        fail(f"--frames must be 0 (all samples) or between 2 and {MAX_SAMPLES}, got {args.frames}.")
     max_frames = DEFAULT_MAX_FRAMES if args.frames is None else (args.frames or None)
     if args.member is not None and args.result.suffix.lower() != ".nc":
         fail("--member only applies to a sweep.nc")
