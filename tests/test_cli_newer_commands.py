@@ -187,7 +187,7 @@ def test_unused_vertices_are_left_out_and_the_animation_writes_fast(tmp_path):
         (["fold", "cube_net_01", "--contact-sampling", "100000,100000"], "at most 32 points"),
         (["fold", "cube_net_01", "--contact-sampling", "4,33"], "at most 32 points"),
         (["yield", "cube_net_01", "--contact-sampling", "33,2"], "at most 32 points"),
-        (["fold", "cube_net_01", "--n-save", str(10**9)], "--n-save must be between 2 and"),
+        (["fold", "cube_net_01", "--n-save", str(10**9)], "--n-save must be between 21 and"),
         (["yield", "cube_net_01", "--samples", str(10**9)], "--samples must be between 1 and"),
         (["yield", "cube_net_01", "--chunk-size", str(10**9)], "--chunk-size must be between"),
         (["yield", "cube_net_01", "--workers", str(10**6)], "--workers must be between 1 and"),
@@ -207,3 +207,82 @@ def test_the_sweep_kernel_limits_the_contact_sampling():
 
     with pytest.raises(ValueError, match="at most 32 points per edge"):
         get_model("net-fold", net="cube_net_01", contact_sampling=(100_000, 100_000))
+
+
+# 8. and 9. `fold` refuses what it would ignore or misreport (as `yield` does) --------------------
+
+
+@pytest.mark.parametrize(
+    "flags, message",
+    [
+        (["--etch-front", "1,0,0.5", "--release", "0,0,0,0,0"], "--release or --etch-front, not"),
+        (["--bias", "0.05"], "--bias pre-folds closed-loop patterns; cube_net_01 is a net"),
+        (["--bias", "100"], "--bias must be a pre-fold angle in [0, 1) rad"),
+        (["--length-scale", "2"], "gives its lengths in 'um': --length-scale is for unitless"),
+        (["--length-scale", "0"], "--length-scale must be a positive finite number"),
+        (["--length-scale", "nan"], "--length-scale must be a positive finite number"),
+        (["--n-save", "2"], "--n-save must be between 21 and"),
+    ],
+)
+def test_fold_refuses_options_it_would_ignore(flags, message, tmp_path, capsys):
+    assert main(["fold", "cube_net_01", *flags, "--out", str(tmp_path)]) == 2
+    assert message in _one_line(capsys.readouterr().err)
+    assert not any(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("command", ["fold", "yield", "simulate", "sweep", "view"])
+def test_an_empty_out_is_refused(command, tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    argv = {
+        "fold": ["fold", "cube_net_01"],
+        "yield": ["yield", "cube_net_01"],
+        "simulate": ["simulate", "--flaps", "1"],
+        "sweep": ["sweep", "config.toml"],
+        "view": ["view", str(DATA / "frames.fold")],
+    }[command]
+    with pytest.raises(SystemExit) as exit_:
+        main([*argv, "--out", ""])
+    assert exit_.value.code == 2
+    assert "argument --out: empty: give a folder" in _one_line(capsys.readouterr().err)
+    assert not any(tmp_path.iterdir())
+
+
+def test_a_frame_parent_that_names_no_frame_is_refused():
+    from origami_jax.fold import FoldFormatError, loads_fold
+
+    data = json.loads((DATA / "frames.fold").read_text())
+    data["file_frames"][0]["frame_parent"] = 7
+    data["file_frames"][0]["frame_inherit"] = False
+    with pytest.raises(FoldFormatError, match="frame 1 has frame_parent 7, which does not exist"):
+        loads_fold(json.dumps(data))
+
+
+# 10. and 12. The library's loaders and seam gaps name a bad argument --------------------------
+
+
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        ({"length_scale": -1.0}, "length_scale must be a positive finite number"),
+        ({"length_scale": float("nan")}, "length_scale must be a positive finite number"),
+        ({"length_scale": 0}, "length_scale must be a positive finite number"),
+        ({"root": 1.5}, "root must be a face index"),
+    ],
+)
+def test_loaders_refuse_a_bad_scale_or_root(kwargs, message):
+    from origami_jax.loops import load_pattern
+    from origami_jax.net import load_net
+
+    for load in (load_net, load_pattern):
+        with pytest.raises(ValueError, match=message):
+            load("cube_net_01", **kwargs)
+
+
+def test_seam_gaps_refuse_nan_angles():
+    from origami_jax.net import load_net
+
+    net = load_net("cube_net_01")
+    with pytest.raises(ValueError, match="angles must be finite"):
+        net.seam_gaps([float("nan")] * net.n_creases)
+    with pytest.raises(ValueError, match="one fold angle per crease"):
+        net.seam_gaps([0.0])

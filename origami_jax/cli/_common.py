@@ -120,11 +120,19 @@ def hinge_params(items: Sequence[str]) -> dict[str, list[float]]:
     return out
 
 
+def out_path(text: str) -> Path:
+    """An `--out` value as a path (argparse `type`): an empty one is refused (it wrote into the
+    current folder)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError('empty: give a folder ("." for the current one)')
+    return Path(text)
+
+
 def add_out_argument(parser: argparse.ArgumentParser, default: Path = DEFAULT_OUT) -> None:
     """`--out FOLDER` and `--overwrite` (see the module docstring)."""
     parser.add_argument(
         "--out",
-        type=Path,
+        type=out_path,
         default=default,
         help=f"output folder, created if missing (default: ./{default})",
     )

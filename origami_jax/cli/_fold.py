@@ -11,7 +11,7 @@ import argparse
 import math
 from pathlib import Path
 
-from .._limits import FOLD_SEGMENT, MAX_FOLD_SEGMENTS
+from .._limits import FOLD_SEGMENT, MAX_FOLD_SEGMENTS, MAX_SAMPLES
 from ._common import (
     EXIT_FAILED,
     EXIT_OK,
@@ -22,7 +22,6 @@ from ._common import (
     contact_sampling,
     dumps_json,
     fail,
-    finite,
     hinge_params,
     in_range,
     int_range,
@@ -116,7 +115,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help=f"end time, µs (default {FOLD_SEGMENT:g}, continued by {FOLD_SEGMENT:g} µs at a time while "
         f"the panels still move, up to {MAX_FOLD_SEGMENTS * FOLD_SEGMENT:g})",
     )
-    parser.add_argument("--n-save", type=int, default=501, help="samples (default 501)")
+    parser.add_argument(
+        "--n-save", type=int, default=501, help="samples per segment (default 501, at least 21)"
+    )
     parser.add_argument(
         "--targets", default=None, help="fold target per crease, degrees, comma-separated"
     )
@@ -182,6 +183,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add_out_argument(parser)
     parser.set_defaults(func=run)
 
+
+MIN_SAMPLES = 21
+"""Fewest samples of a `fold` run (`--n-save`): the time to fold is the first sample from which the
+net stays folded, so it is known to a twentieth of the run at worst (2 samples reported the run's
+end)."""
 
 PROGRESS_CREASES = 24
 """`--progress auto`: a bar for patterns with more creases than this (sheets that fold for minutes);
@@ -259,12 +265,23 @@ def run(args: argparse.Namespace) -> int:
     except ValueError as error:
         fail(str(error))
     sampling = contact_sampling(args.contact_sampling)
+    if release is not None and front is not None:
+        fail("give --release or --etch-front, not both (the front sets every release time).")
     if front is not None and len(front) != 3:
         fail("--etch-front expects DX,DY,SPEED (a direction in the plane and a speed in µm/µs).")
     if args.t1 is not None:
         positive(args.t1, "--t1", "µs")
-    int_range(args.n_save, "--n-save", 2, 1_000_000)
-    finite(args.bias, "--bias")
+    int_range(
+        args.n_save,
+        "--n-save",
+        MIN_SAMPLES,
+        MAX_SAMPLES,
+        why=" (the time to fold is read off the samples: fewer resolve it no better than the run)",
+    )
+    if not 0 <= args.bias < 1:
+        fail(f"--bias must be a pre-fold angle in [0, 1) rad, got {args.bias}.")
+    if args.length_scale is not None:
+        positive(args.length_scale, "--length-scale", "µm per FOLD length unit")
     in_range(args.tolerance, "--tolerance", 0.0, 180.0, what=" degrees")
     in_range(args.seam_tolerance, "--seam-tolerance", 0.0, 1.0, what=" (a fraction of the panel)")
     for flag, values in (
@@ -278,6 +295,7 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
 
     from origami_jax.fold import is_folded_form, read_fold
+    from origami_jax.fold._model import FRAME_UNITS_M
     from origami_jax.fold._catalogue import source_and_label
     from origami_jax.loops import CreasePattern, NotRigidlyFoldableError, load_pattern
     from origami_jax.loops import release_times_from_front as pattern_front
@@ -287,6 +305,12 @@ def run(args: argparse.Namespace) -> int:
         # Read once: the loader takes the file, and whether it held a folded form is told here.
         path, label = source_and_label(args.net)
         fold = read_fold(path)
+        unit = fold.key_frame.frame_unit
+        if args.length_scale is not None and FRAME_UNITS_M.get(unit or "unit") is not None:
+            fail(
+                f"{args.net} gives its lengths in {unit!r}: --length-scale is for unitless files "
+                "(Origami Simulator's export); drop it."
+            )
         unfolded = is_folded_form(fold.key_frame)
         net = load_pattern(
             fold,
@@ -296,6 +320,8 @@ def run(args: argparse.Namespace) -> int:
             flat_creases=args.flat_creases,
         )
         loops = isinstance(net, CreasePattern)
+        if args.bias and not loops:
+            fail(f"--bias pre-folds closed-loop patterns; {args.net} is a net, which starts flat.")
         m = net.n_creases
         design = _design(net, args.fluid, params)
         targets = None

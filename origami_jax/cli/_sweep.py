@@ -11,6 +11,7 @@ from ._common import (
     Interrupted,
     OutputFolder,
     fail,
+    out_path,
     write_atomic,
 )
 
@@ -40,7 +41,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("config", type=Path, nargs="?", help="sweep configuration (TOML)")
     parser.add_argument(
         "--out",
-        type=Path,
+        type=out_path,
         default=Path("origami_out/sweep"),
         help="output folder, created if missing (default: ./origami_out/sweep)",
     )

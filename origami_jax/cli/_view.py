@@ -5,7 +5,7 @@ import sys
 from pathlib import Path
 
 from .._limits import MAX_SAMPLES
-from ._common import EXIT_OK, check_out_folder, fail, one_line
+from ._common import EXIT_OK, check_out_folder, fail, one_line, out_path
 
 HELP = "Write an interactive 3D view of a result (one offline HTML page) and open it if asked."
 DESCRIPTION = """\
@@ -35,7 +35,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("result", type=Path, metavar="RESULT", help="the result to view (above)")
     parser.add_argument(
         "--out",
-        type=Path,
+        type=out_path,
         default=None,
         help="the page to write (FILE.html), or a folder for it (default: beside RESULT, "
         "RESULT's name with .html; a sweep member: sweep_member_K.html)",

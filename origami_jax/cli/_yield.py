@@ -14,6 +14,7 @@ from ._common import (
     fail,
     in_range,
     int_range,
+    out_path,
     positive,
     write_atomic,
 )
@@ -203,7 +204,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     parser.add_argument(
         "--out",
-        type=Path,
+        type=out_path,
         default=Path("origami_out/yield"),
         help="output folder, created if missing (default: ./origami_out/yield)",
     )

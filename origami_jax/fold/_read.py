@@ -159,6 +159,14 @@ def fold_from_dict(data: Any, *, validate_schema: bool = True) -> FoldFile:
                 )
             frames.append(_frame_from_dict(frame_data, i))
     frames[0] = _with_edges_from_faces(frames[0])
+    for i, frame in enumerate(frames):
+        # Inheriting or not, a parent must be a frame of the file (checked on inheritance only, a
+        # dangling link was read and exported again).
+        if frame.frame_parent is not None and not frame.frame_parent < len(frames):
+            raise FoldFormatError(
+                f"frame {i} has frame_parent {frame.frame_parent}, which does not exist (the file "
+                f"has frames 0 to {len(frames) - 1}): fix the link or remove it"
+            )
     fold = FoldFile(frames=tuple(frames), file_spec=spec, file_metadata=file_metadata)
     check_fold(fold)
     if validate_schema:

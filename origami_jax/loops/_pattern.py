@@ -559,8 +559,10 @@ def load_pattern(
     """
     from ..fold import flat_fold, read_fold
     from ..net import load_net
+    from ..net._net import check_loader_arguments
     from ..system import MICRO
 
+    check_loader_arguments(root, length_scale)
     units = MICRO if units is None else units
     label = name
     if isinstance(pattern, FoldFile):
