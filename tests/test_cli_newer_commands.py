@@ -286,3 +286,25 @@ def test_seam_gaps_refuse_nan_angles():
         net.seam_gaps([float("nan")] * net.n_creases)
     with pytest.raises(ValueError, match="one fold angle per crease"):
         net.seam_gaps([0.0])
+
+
+# 6. A yield whose creases are released after the run's end is refused (it could only be 0) -------
+
+
+def test_yield_refuses_a_release_at_or_after_the_end(tmp_path, capsys):
+    import origami_jax.fab_yield as ojy
+
+    n = 5  # cube_net_01's creases
+    release = ",".join(["0"] * (n - 1) + ["2000"])
+    argv = [*YIELD, "--release", release, "--t-end", "1500", "--out", str(tmp_path)]
+    assert main(argv) == 2
+    line = _one_line(capsys.readouterr().err)
+    assert "--release: crease 4 is released at 2000 µs, at or after --t-end 1500 µs" in line
+    assert main([*YIELD, "--etch-front", "1,0,0.001", "--out", str(tmp_path)]) == 2
+    assert "--etch-front: crease" in _one_line(capsys.readouterr().err)
+    assert not any(tmp_path.iterdir())
+    with pytest.raises(ValueError, match="at or after t_end 100 µs"):
+        ojy.yield_estimate("cube_net_01", release_times=[0, 0, 0, 0, 200.0], t_end=100.0)
+    # 11: a NaN release time is named as such (it was reported as a shape error).
+    with pytest.raises(ValueError, match=r"release_times must be finite \(µs\), got \[nan"):
+        ojy.yield_estimate("cube_net_01", release_times=[float("nan"), 0, 0, 0, 0])

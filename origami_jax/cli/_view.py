@@ -70,7 +70,8 @@ def _target(args: argparse.Namespace) -> Path:
 def run(args: argparse.Namespace) -> int:
     from ..view import DEFAULT_MAX_FRAMES, load_scene, open_in_browser, resample, write_html
 
-    if args.frames is not None and (args.frames < 0 or args.frames == 1 or args.frames > MAX_SAMPLES):
+    frames = args.frames
+    if frames is not None and (frames < 0 or frames == 1 or frames > MAX_SAMPLES):
         fail(f"--frames must be 0 (all samples) or between 2 and {MAX_SAMPLES}, got {args.frames}.")
     max_frames = DEFAULT_MAX_FRAMES if args.frames is None else (args.frames or None)
     if args.member is not None and args.result.suffix.lower() != ".nc":

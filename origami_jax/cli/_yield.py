@@ -424,6 +424,18 @@ def run(args: argparse.Namespace) -> int:
             release = list(release_times_from_front(pattern, front[:2], front[2]))
         except ValueError as error:
             fail(f"--etch-front: {error}")
+    if release is not None:
+        if len(release) != pattern.n_creases:
+            n = pattern.n_creases
+            fail(f"--release: {len(release)} values for {n} creases (give one per crease).")
+        late = [j for j, t in enumerate(release) if t >= args.t_end]
+        if late:
+            flag = "--etch-front" if front is not None else "--release"
+            fail(
+                f"{flag}: crease {late[0]} is released at {release[late[0]]:g} µs, at or after "
+                f"--t-end {args.t_end:g} µs, so no sample could fold (a yield of 0 that says "
+                "nothing); give a longer --t-end or earlier release times."
+            )
     improve = _improve_parameters(args, scatter)
     process = _process(args.process, pattern.n_creases)
     # Held for the whole run (the estimates' sweep stores borrow its lock): another run into the
