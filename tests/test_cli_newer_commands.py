@@ -308,3 +308,72 @@ def test_yield_refuses_a_release_at_or_after_the_end(tmp_path, capsys):
     # 11: a NaN release time is named as such (it was reported as a shape error).
     with pytest.raises(ValueError, match=r"release_times must be finite \(µs\), got \[nan"):
         ojy.yield_estimate("cube_net_01", release_times=[float("nan"), 0, 0, 0, 0])
+
+
+# 7. and 11. `view` refuses another command's trajectory, a file cut short, a folder -------------
+
+
+def _fold_result(folder: Path) -> Path:
+    """A `fold` result folder as the command writes it (result.json, trajectory.csv of hinge
+    angles numbered from 0, trajectory.fold)."""
+    folder.mkdir()
+    (folder / "result.json").write_text(json.dumps({"verdict": "folded", "creases": 2}))
+    rows = "\n".join(f"{t},{0.01 * t},{0.02 * t}" for t in range(5))
+    (folder / "trajectory.csv").write_text("time [us],theta_0 [rad],theta_1 [rad]\n" + rows + "\n")
+    (folder / "trajectory.fold").write_text((DATA / "frames.fold").read_text())
+    return folder
+
+
+def _simulate_result(folder: Path, rows: int, samples: int) -> Path:
+    """A `simulate` result folder: metrics.json saying `samples` samples to 10 µs, and a CSV of
+    the first `rows` of them (a copy cut at a row boundary when fewer)."""
+    import numpy as np
+
+    folder.mkdir()
+    metrics = {"flaps": 1, "fluid": "KOH", "params": {}, "succeeded": True, "samples": samples}
+    metrics["t1"] = 10.0
+    (folder / "metrics.json").write_text(json.dumps(metrics))
+    times = np.linspace(0.0, 10.0, samples)[:rows]
+    header = "time [us],theta_1 [rad],theta_dot_1 [rad/us],tau_1 [pN*m]"
+    data = np.column_stack([times, 0.1 * times, 0.1 + 0 * times, 0 * times])
+    np.savetxt(folder / "trajectory.csv", data, delimiter=",", header=header, comments="")
+    return folder
+
+
+def _view(path: Path, tmp_path: Path, capsys) -> str:
+    assert main(["view", str(path), "--out", str(tmp_path / "page.html")]) == 2
+    assert not (tmp_path / "page.html").exists()
+    return _one_line(capsys.readouterr().err)
+
+
+def test_view_refuses_a_fold_runs_trajectory_csv(tmp_path, capsys):
+    out = _fold_result(tmp_path / "fold_out")
+    line = _view(out / "trajectory.csv", tmp_path, capsys)
+    assert "hinge angles of a `fold` run" in line and str(out / "trajectory.fold") in line
+
+
+def test_view_refuses_a_result_folder_and_names_the_file_in_it(tmp_path, capsys):
+    out = _fold_result(tmp_path / "fold_out")
+    line = _view(out, tmp_path, capsys)
+    assert "is a folder: give the result file in it" in line, line
+    assert str(out / "trajectory.fold") in line
+
+
+def test_view_refuses_files_cut_short(tmp_path, capsys):
+    cut = _simulate_result(tmp_path / "cut", rows=6, samples=11)
+    line = _view(cut / "trajectory.csv", tmp_path, capsys)
+    assert "holds 6 samples to 5 µs but metrics.json says 11 samples to 10 µs" in line, line
+    mid_row = _simulate_result(tmp_path / "mid_row", rows=11, samples=11)
+    text = (mid_row / "trajectory.csv").read_text()
+    (mid_row / "trajectory.csv").write_text(text[: len(text) - 40])  # the last row: 2 columns
+    assert "cannot read" in _view(mid_row / "trajectory.csv", tmp_path, capsys)
+    metrics = _simulate_result(tmp_path / "metrics", rows=11, samples=11) / "metrics.json"
+    metrics.write_text(metrics.read_text()[:20])
+    assert "cannot read" in _view(metrics.with_name("trajectory.csv"), tmp_path, capsys)
+    import numpy as np
+
+    npz = tmp_path / "npz" / "trajectory.npz"
+    npz.parent.mkdir()
+    np.savez(npz, times=np.linspace(0, 1, 50), theta=np.zeros((50, 1)))
+    npz.write_bytes(npz.read_bytes()[:300])
+    assert "cannot read" in _view(npz, tmp_path, capsys)

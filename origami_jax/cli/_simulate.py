@@ -237,6 +237,9 @@ def _run(args: argparse.Namespace, params: dict[str, float], out: Path):
         "params": params,
         "result": "successful" if ok else message(trajectory.result, sim.RESULTS),
         "succeeded": ok,
+        # What the trajectory file holds, so that a copy cut short is told from a shorter run.
+        "samples": int(jnp.shape(trajectory.times)[0]),
+        "t1": float(trajectory.times[-1]),
         "stats": _json_stats(trajectory.stats),
         **extra,
     }
