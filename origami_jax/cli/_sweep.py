@@ -68,12 +68,21 @@ def stored_sweep_errors(out: Path):
     that says how many chunks are kept for `--resume`."""
     from ..sweep import SweepBusyError
 
+    with chunks_kept_on_interrupt(out):
+        try:
+            yield
+        except (FileExistsError, ValueError, SweepBusyError) as error:
+            fail(str(error))
+        except OSError as error:
+            fail(f"{error.strerror or error}", EXIT_FAILED)
+
+
+@contextlib.contextmanager
+def chunks_kept_on_interrupt(out: Path):
+    """Ctrl-C anywhere in a run that stores chunks in `out` (`sweep`, `yield`; its figures and
+    summary included): an interruption that says how many chunks are kept for `--resume`."""
     try:
         yield
-    except (FileExistsError, ValueError, SweepBusyError) as error:
-        fail(str(error))
-    except OSError as error:
-        fail(f"{error.strerror or error}", EXIT_FAILED)
     except KeyboardInterrupt:
         stored = len(list((out / "chunks").glob("part-*.nc")))
         raise Interrupted(
@@ -99,7 +108,7 @@ def run(args: argparse.Namespace) -> int:
     # (the sweep's store borrows its lock): another run into it meanwhile is refused.
     owns = ("summary.txt",) if args.no_plots else ("summary.txt", "plots/*.png")
     output = OutputFolder(Path(args.out), command="sweep", owns=owns, overwrite=True, lend=True)
-    with output:
+    with output, chunks_kept_on_interrupt(output.out):
         return _run(args, config, output)
 
 

@@ -18,7 +18,7 @@ from ._common import (
     positive,
     write_atomic,
 )
-from ._sweep import stored_sweep_errors
+from ._sweep import chunks_kept_on_interrupt, stored_sweep_errors
 
 HELP = "Estimate a net's yield under fabrication scatter (Monte Carlo, resumable)."
 DESCRIPTION = (
@@ -450,7 +450,7 @@ def run(args: argparse.Namespace) -> int:
         refuse_hint="a yield never replaces results: choose another --out (--resume continues the "
         "estimate stored there)",
     )
-    with output:
+    with output, chunks_kept_on_interrupt(output.out):
         return _run(
             args, output, pattern, loops, scatter, sampling, factors, release, process, improve
         )
