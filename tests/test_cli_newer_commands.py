@@ -377,3 +377,133 @@ def test_view_refuses_files_cut_short(tmp_path, capsys):
     np.savez(npz, times=np.linspace(0, 1, 50), theta=np.zeros((50, 1)))
     npz.write_bytes(npz.read_bytes()[:300])
     assert "cannot read" in _view(npz, tmp_path, capsys)
+
+
+# 11. Messages that name the real cause and the fix ---------------------------------------------
+
+
+def _cube_net(tmp_path: Path, name: str, change) -> Path:
+    """cube_net_01's FOLD data changed by `change` (in place), written to `tmp_path/name`."""
+    from origami_jax.fold._catalogue import source_and_label
+
+    data = json.loads(Path(source_and_label("cube_net_01")[0]).read_text())
+    change(data)
+    path = tmp_path / name
+    path.write_text(json.dumps(data))
+    return path
+
+
+def _scaled(factor):
+    def change(data):
+        data["vertices_coords"] = [[x * factor for x in v] for v in data["vertices_coords"]]
+
+    return change
+
+
+def _first_face(transform):
+    def change(data):
+        data["faces_vertices"][0] = transform(data["faces_vertices"][0])
+
+    return change
+
+
+def _flat_creases(data):
+    data["edges_foldAngle"] = [
+        0 if a in "MV" else angle
+        for a, angle in zip(data["edges_assignment"], data["edges_foldAngle"], strict=True)
+    ]
+
+
+def _one_face(data):
+    data.update(
+        vertices_coords=[[0, 0], [200, 0], [200, 200], [0, 200]],
+        edges_vertices=[[0, 1], [1, 2], [2, 3], [3, 0]],
+        edges_assignment=["B"] * 4,
+        edges_foldAngle=[0] * 4,
+        faces_vertices=[[0, 1, 2, 3]],
+    )
+
+
+def _collinear(data):
+    coords = data["vertices_coords"]
+    face = data["faces_vertices"][0]
+    for k, v in enumerate(face):
+        coords[v] = [float(k), 0.0]
+
+
+@pytest.mark.parametrize(
+    "change, commands, message",
+    [
+        (_scaled(1e-12), ("fold", "yield"), "wide (2·area/perimeter), not wider than the panels'"),
+        (_scaled(1e10), ("fold", "yield"), "float64 cannot resolve the film against it"),
+        (_first_face(lambda f: [f[0] + 0.0, *f[1:]]), ("fold",), "0.0 is not one (whole numbers"),
+        (_first_face(lambda f: [*f[:2], f[1], *f[2:]]), ("fold",), "lists vertex"),
+        (_flat_creases, ("fold", "yield"), "folds to 0°: a stressed hinge folds to a non-zero"),
+        (_one_face, ("fold", "yield"), "has no creases (one face): nothing folds"),
+        (_collinear, ("fold",), "has zero area (its corners are on one line or at one point)"),
+    ],
+    ids=["tiny", "huge", "float-index", "repeated-vertex", "zero-target", "one-face", "zero-area"],
+)
+def test_bad_geometry_is_named_before_anything_compiles(change, commands, message, tmp_path, capsys):
+    path = _cube_net(tmp_path, "net.fold", change)
+    for command in commands:
+        out = tmp_path / f"out_{command}"
+        assert main([command, str(path), "--out", str(out)]) == 2, command
+        line = _one_line(capsys.readouterr().err)
+        assert message in line, (command, line)
+        assert line.count("net.fold:") <= 1, line  # the file named once
+        assert not out.exists() or not any(out.iterdir())
+
+
+def test_a_folder_or_a_dangling_link_given_as_fold_is_named(tmp_path, capsys):
+    (tmp_path / "folder.fold").mkdir()
+    (tmp_path / "link.fold").symlink_to(tmp_path / "gone.fold")
+    for name, message in (("folder.fold", "is a folder"), ("link.fold", "which does not exist")):
+        assert main(["fold", str(tmp_path / name), "--out", str(tmp_path / "out")]) == 2
+        line = _one_line(capsys.readouterr().err)
+        assert message in line and "no shipped net" not in line, line
+
+
+def test_a_net_without_faces_in_its_file_writes_its_faces():
+    """A FOLD file without faces_vertices was simulated in full and refused only when its
+    animation was written: the net's key frame gets the faces its geometry traced."""
+    import numpy as np
+
+    from origami_jax.fold import dumps_fold, loads_fold
+    from origami_jax.fold._catalogue import source_and_label
+    from origami_jax.net import load_net
+
+    data = json.loads(Path(source_and_label("cube_net_01")[0]).read_text())
+    faces = data.pop("faces_vertices")
+    net = load_net(loads_fold(json.dumps(data)))
+    written = json.loads(dumps_fold(net.to_fold(angles=np.zeros((2, net.n_creases)))))
+    assert sorted(map(sorted, written["faces_vertices"])) == sorted(map(sorted, faces))
+
+
+def test_resume_with_other_settings_says_which_differ_in_one_line(tmp_path):
+    from origami_jax.sweep._store import Store
+
+    manifest = {"model": "net-fold", "settings": {"t_end": 1500.0}, "space": {"sha256": "a"}}
+    Store.open(tmp_path, manifest, resume=False, writer=True).close()
+    other = {"model": "net-fold", "settings": {"t_end": 1000.0}, "space": {"sha256": "b"}}
+    with pytest.raises(ValueError) as error:
+        Store.open(tmp_path, other, resume=True, writer=True)
+    message = str(error.value)
+    assert "\n" not in message
+    assert "settings.t_end: stored 1500.0, new 1000.0" in message
+    assert "the design space's values differ (for a yield estimate: --samples, --seed" in message
+    assert "sha256" not in message
+
+
+# 12. A per-crease design value of the wrong length names its field ------------------------------
+
+
+@pytest.mark.parametrize("name", ["cube_net_01", "vertex_degree4"])
+def test_a_per_crease_value_of_the_wrong_length_is_named(name):
+    from origami_jax.loops import load_pattern
+    from origami_jax.system import HingeDesign
+
+    pattern = load_pattern(name)
+    design = HingeDesign.literature(hinge_width=[1.0, 2.0])
+    with pytest.raises(ValueError, match=r"design.hinge_width has shape \(2,\) for \d creases"):
+        pattern.system(design)

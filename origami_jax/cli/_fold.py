@@ -27,6 +27,7 @@ from ._common import (
     int_range,
     positive,
 )
+from ._panels import check_has_creases, check_panels_thicker_than_film, check_targets
 
 # Every file `run` writes into --out (an earlier run's are refused without --overwrite).
 OWNS = (
@@ -320,15 +321,18 @@ def run(args: argparse.Namespace) -> int:
             flat_creases=args.flat_creases,
         )
         loops = isinstance(net, CreasePattern)
+        check_has_creases(net, args.net)
         if args.bias and not loops:
             fail(f"--bias pre-folds closed-loop patterns; {args.net} is a net, which starts flat.")
         m = net.n_creases
         design = _design(net, args.fluid, params)
+        check_panels_thicker_than_film(net, design, args.net)
         targets = None
         if targets_deg is not None:
             if len(targets_deg) != m:
                 raise ValueError(f"--targets: {len(targets_deg)} values for {m} creases")
             targets = np.radians(targets_deg)
+        check_targets(net, targets, args.net)
         if release is not None and len(release) != m:
             raise ValueError(f"--release: {len(release)} values for {m} creases")
         if front is not None:
@@ -351,7 +355,8 @@ def run(args: argparse.Namespace) -> int:
     except NotRigidlyFoldableError as error:
         fail(str(error))  # it names the pattern
     except (FoldFormatError, ValueError, TypeError, OSError) as error:
-        fail(f"{args.net}: {error}")
+        text = str(error)  # a file's own errors start with its path already
+        fail(text if text.startswith(f"{args.net}:") else f"{args.net}: {text}")
 
     output = OutputFolder(Path(args.out), command="fold", owns=OWNS, overwrite=args.overwrite)
     with output:

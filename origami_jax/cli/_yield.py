@@ -18,6 +18,7 @@ from ._common import (
     positive,
     write_atomic,
 )
+from ._panels import check_has_creases, check_panels_thicker_than_film, check_targets
 from ._sweep import chunks_kept_on_interrupt, stored_sweep_errors
 
 HELP = "Estimate a net's yield under fabrication scatter (Monte Carlo, resumable)."
@@ -408,6 +409,11 @@ def run(args: argparse.Namespace) -> int:
     except (FoldFormatError, ValueError, OSError) as error:
         fail(f"cannot load {args.net}: {error}")
     loops = isinstance(pattern, CreasePattern)
+    check_has_creases(pattern, args.net)
+    from ..net._net import default_design
+
+    check_panels_thicker_than_film(pattern, default_design(pattern), args.net)
+    check_targets(pattern, None, args.net)
     if not 0 <= args.bias < 1:
         fail(f"--bias must be a pre-fold angle in [0, 1) rad, got {args.bias}.")
     if args.bias and not loops:

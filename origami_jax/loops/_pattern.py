@@ -307,11 +307,12 @@ class CreasePattern:
                 f"drag={drag!r}: the paper's per-hinge drag is defined for panel trees; closed-loop "
                 "patterns take drag='panel' (each panel's own motion)."
             )
-        from ..net._net import default_design, warn_if_hinges_wider_than_creases
+        from ..net._net import check_per_crease, default_design, warn_if_hinges_wider_than_creases
 
         lengths = self.crease_lengths
         if design is None:
             design = default_design(self)
+        check_per_crease(design, self.n_creases)
         warn_if_hinges_wider_than_creases(self.name, design, lengths)
         m = self.n_creases
         intended = self.intended_angles

@@ -179,6 +179,7 @@ class Net:
                 "every crease needs a finite target: give edges_foldAngle in the FOLD file or "
                 "targets= (rad)."
             )
+        check_per_crease(design, m)
         warn_if_hinges_wider_than_creases(self.name, design, lengths)
         tree = self.tree(design, hinges=hinges, targets=targets)
         # Each crease's bilayer folds to its own target: hinge length ρ |θ_target|.
@@ -392,6 +393,21 @@ def default_design(pattern, fluid=None) -> HingeDesign:
     return hinges_within_creases(HingeDesign.literature(**overrides), pattern.crease_lengths)
 
 
+def check_per_crease(design: HingeDesign, m: int) -> None:
+    """Every number of `design` one value, or one per crease (`m`): a one-line `ValueError`
+    naming the field otherwise (a list of another length broadcast deep inside JAX)."""
+    for field in dataclasses.fields(design):
+        value = getattr(design, field.name)
+        if isinstance(value, str) or value is None or is_traced(value):
+            continue
+        shape = np.shape(value) if isinstance(value, int | float | np.ndarray | jnp.ndarray) else ()
+        if shape not in ((), (1,), (m,)):
+            raise ValueError(
+                f"design.{field.name} has shape {shape} for {m} creases: give one value, or one per "
+                "crease."
+            )
+
+
 def warn_if_hinges_wider_than_creases(name: str, design: HingeDesign, lengths) -> None:
     """A `UserWarning` when a hinge of `design` (its `hinge_width`, scalar or one per crease, when
     not traced) is wider than its crease (`lengths`, `(m,)`, the design's length units). The
@@ -565,6 +581,10 @@ def load_net(
         fold = flat_fold(fold, root=root)
         geometry = net_geometry(fold, root=root)
         key = fold.frame(0)
+        if key.faces_vertices is None:
+            # Traced from the planar graph by the geometry: written with the folding (a FOLD file
+            # without faces was simulated, then refused when its animation was written).
+            key = key.replace(faces_vertices=tuple(tuple(map(int, f)) for f in geometry.faces))
     if length_scale is None:
         length_scale = length_scale_from_unit(geometry.unit, units.metre_per_length)
     label = label or "net"

@@ -107,6 +107,25 @@ def _differences(old: Mapping[str, Any], new: Mapping[str, Any], prefix: str = "
     return lines
 
 
+# What a difference of the design space's digest means to a user (its other entries name the
+# parameters, ranges and counts).
+_SPACE_VALUES = "space.sha256"
+
+
+def _summary(lines: list[str], limit: int = 3) -> str:
+    """The differences of `_differences` on one line: the design space's digest as what it is (its
+    values differ), at most `limit` of them, then how many more."""
+    lines = [
+        "the design space's values differ (for a yield estimate: --samples, --seed, --scatter, "
+        "--process or the release times)"
+        if line.startswith(f"{_SPACE_VALUES}:")
+        else line
+        for line in lines
+    ]
+    shown = "; ".join(lines[:limit])
+    return shown + (f"; and {len(lines) - limit} more" if len(lines) > limit else "")
+
+
 def _lock(root: Path):
     """Take the folder's lock (see the module docstring; the same lock every command that writes
     results takes, `origami_jax._folder_lock`); return it (`close()` releases it)."""
@@ -158,11 +177,10 @@ class Store:
                         "continue it, or choose another output folder."
                     )
                 if not config_equal(stored, manifest):
-                    lines = "\n  ".join(_differences(stored, manifest))
                     raise ValueError(
-                        f"cannot resume: {root} holds a different sweep. Differences:\n  {lines}\n"
-                        "Resume with the same model, settings and design space, or choose another "
-                        "output folder."
+                        f"cannot resume: {root} holds a different sweep "
+                        f"({_summary(_differences(stored, manifest))}); resume with the same model, "
+                        "settings and design space, or choose another output folder."
                     )
             elif writer:
                 write_atomic(path, json.dumps(manifest, indent=2, sort_keys=True))
