@@ -507,3 +507,163 @@ def test_a_per_crease_value_of_the_wrong_length_is_named(name):
     design = HingeDesign.literature(hinge_width=[1.0, 2.0])
     with pytest.raises(ValueError, match=r"design.hinge_width has shape \(2,\) for \d creases"):
         pattern.system(design)
+
+
+# The fuzz: fold, yield and view under drawn flags and FOLD files, interrupted, side by side ------
+
+from hypothesis import HealthCheck, given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+_FUZZ = settings(
+    max_examples=25,
+    deadline=None,
+    derandomize=True,
+    suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
+)
+_NOT_FINITE = st.sampled_from(["nan", "inf", "-inf"])
+# One bad value per flag (each refused before anything compiles).
+_BAD_FOLD = {
+    "--t1": st.one_of(_NOT_FINITE, st.sampled_from(["0", "-1"])),
+    "--n-save": st.sampled_from(["-1", "0", "20", str(10**9)]),
+    "--contact-sampling": st.sampled_from(["0,2", "33,2", "4,-1", "4", "a,b", "4,100000"]),
+    "--bias": st.one_of(_NOT_FINITE, st.sampled_from(["-0.1", "1", "100", "0.05"])),
+    "--tolerance": st.one_of(_NOT_FINITE, st.sampled_from(["0", "180", "-3"])),
+    "--seam-tolerance": st.one_of(_NOT_FINITE, st.sampled_from(["0", "1", "-0.5"])),
+    "--length-scale": st.one_of(_NOT_FINITE, st.sampled_from(["0", "-1", "2"])),
+    "--release": st.sampled_from(["0", "nan,0,0,0,0", "0,0", "x"]),
+    "--targets": st.sampled_from(["90", "inf,90,90,90,90", "0,90,90,90,90"]),
+    "--root": st.sampled_from(["-1", "99"]),
+    "--param": st.sampled_from(["k_scale=nan", "nope=1", "hinge_width=1,2"]),
+}
+_BAD_YIELD = {
+    "--samples": st.sampled_from(["0", "-3", str(10**9)]),
+    "--t-end": st.one_of(_NOT_FINITE, st.sampled_from(["0", "-5"])),
+    "--contact-sampling": st.sampled_from(["0,2", "33,2", "9,x"]),
+    "--chunk-size": st.sampled_from(["0", str(10**9)]),
+    "--workers": st.sampled_from(["0", str(10**6)]),
+    "--release": st.sampled_from(["0", "nan,0,0,0,0", "0,0,0,0,1e9"]),
+    "--confidence": st.sampled_from(["0", "1", "nan"]),
+    "--widths": st.sampled_from(["0", "-1,1", "nan"]),
+    "--bias": st.sampled_from(["0.05", "-1", "nan"]),
+    "--step-budget": st.sampled_from(["0", "200000"]),
+}
+
+
+@st.composite
+def _bad_flags(draw, table):
+    names = draw(st.lists(st.sampled_from(sorted(table)), min_size=1, max_size=3, unique=True))
+    flags = []
+    for name in names:
+        flags += [f"{name}={draw(table[name])}"]
+    return flags
+
+
+@_FUZZ
+@given(flags=_bad_flags(_BAD_FOLD))
+def test_fuzz_fold_refuses_bad_flags_before_compiling(flags, tmp_path, capsys, monkeypatch):
+    import origami_jax.cli._fold as fold_cli
+
+    monkeypatch.setattr(fold_cli, "_run", _no_compiling)
+    out = tmp_path / "fold_fuzz"
+    code = main(["fold", "cube_net_01", *flags, "--out", str(out)])
+    assert code == 2, (flags, capsys.readouterr())
+    _one_line(capsys.readouterr().err)
+    assert not out.exists() or not any(out.iterdir())
+
+
+@_FUZZ
+@given(flags=_bad_flags(_BAD_YIELD))
+def test_fuzz_yield_refuses_bad_flags_before_compiling(flags, tmp_path, capsys, monkeypatch):
+    import origami_jax.cli._yield as yield_cli
+
+    monkeypatch.setattr(yield_cli, "_run", _no_compiling)
+    out = tmp_path / "yield_fuzz"
+    code = main(["yield", "cube_net_01", *flags, "--no-progress", "--out", str(out)])
+    assert code == 2, (flags, capsys.readouterr())
+    _one_line(capsys.readouterr().err)
+    assert not out.exists() or not any(out.iterdir())
+
+
+def _no_compiling(*args, **kwargs):
+    raise AssertionError("a bad flag was not refused before the run")
+
+
+# FOLD data drawn by mutating a net: fold (stopped where it would compile) and view read it,
+# and either accept it or refuse it in one line (exit 2), never a traceback.
+_VALUES = st.one_of(
+    st.none(),
+    st.booleans(),
+    st.integers(-3, 40),
+    st.floats(allow_nan=False),
+    st.sampled_from([1e-12, 1e12, 0.5, -0.0, "x", [], {}, [0, 1], [[0, 1, 2]]]),
+)
+_KEYS = st.sampled_from(
+    [
+        "vertices_coords",
+        "edges_vertices",
+        "edges_assignment",
+        "edges_foldAngle",
+        "faces_vertices",
+        "frame_unit",
+        "frame_parent",
+        "file_frames",
+    ]
+)
+
+
+@st.composite
+def _mutated_net(draw):
+    from origami_jax.fold._catalogue import source_and_label
+
+    data = json.loads(Path(source_and_label("cube_net_01")[0]).read_text())
+    for _ in range(draw(st.integers(1, 3))):
+        key = draw(_KEYS)
+        value = data.get(key)
+        if isinstance(value, list) and value and draw(st.booleans()):
+            i = draw(st.integers(0, len(value) - 1))
+            entry = value[i]
+            if isinstance(entry, list) and entry and draw(st.booleans()):
+                entry[draw(st.integers(0, len(entry) - 1))] = draw(_VALUES)
+            else:
+                value[i] = draw(_VALUES)
+        elif draw(st.booleans()):
+            data.pop(key, None)
+        else:
+            data[key] = draw(_VALUES)
+    return data
+
+
+@_FUZZ
+@given(data=_mutated_net())
+def test_fuzz_fold_and_view_of_drawn_fold_files(data, tmp_path, capsys, monkeypatch):
+    import origami_jax.cli._fold as fold_cli
+
+    monkeypatch.setattr(fold_cli, "_run", lambda *a, **k: 0)  # accepted: stop before compiling
+    path = tmp_path / "drawn.fold"
+    path.write_text(json.dumps(data))
+    for argv in (["fold", str(path)], ["view", str(path), "--overwrite"]):
+        code = main([*argv, "--out", str(tmp_path / "out")])
+        err = capsys.readouterr().err
+        lines = [line for line in err.splitlines() if line.strip() and "warning:" not in line]
+        assert "Traceback" not in err and code in (0, 2), (argv[0], code, err)
+        if code == 2:
+            assert len(lines) == 1, err
+
+
+def test_fold_interrupted_keeps_the_earlier_results_and_no_staging(tmp_path, capsys, monkeypatch):
+    import origami_jax.cli._fold as fold_cli
+    from origami_jax.cli._common import STAGING_PREFIX
+
+    before = _results(tmp_path, {"verdict": "folded", "net": "cube_net_01"})
+
+    def interrupted(*args, **kwargs):
+        output = args[-2]
+        (output.dir / "result.json").write_text("half")
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(fold_cli, "_run", interrupted)
+    assert main(["fold", "cube_net_01", "--out", str(tmp_path), "--overwrite"]) == 130
+    assert "interrupted" in _one_line(capsys.readouterr().err)
+    assert _snapshot(tmp_path) == before
+    assert not list(tmp_path.glob(f"{STAGING_PREFIX}*"))
+    lock_folder(tmp_path, command="fold").close()  # released

@@ -452,6 +452,7 @@ def _run(
         closed_loops=net.n_loops if loops else 0,
         unfolded_from_folded_form=unfolded,
         bias=args.bias,
+        length_scale=float(net.length_scale),  # µm per FOLD length unit, as used
         t1=t_end,
         segments=segments,
         release_times=None if release is None else [float(x) for x in release],
