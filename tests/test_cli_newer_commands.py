@@ -106,10 +106,52 @@ def test_the_lock_is_held_until_the_results_are_in_place_and_lent_only_when_aske
             OutputFolder(tmp_path, command="fold", owns=("*.txt",), overwrite=True)
     assert (tmp_path / "a.txt").read_text() == "first"
     # Released at commit (and at discard): the next run may write.
-    with OutputFolder(tmp_path, command="yield", owns=(), lend=True):
-        lock_folder(tmp_path, command="sweep").close()  # lent: the estimate's store shares it
     OutputFolder(tmp_path, command="fold", owns=("*.txt",), overwrite=True).discard()
     lock_folder(tmp_path, command="sweep").close()
+    with OutputFolder(tmp_path / "yield", command="yield", owns=(), lend=True):
+        lock_folder(tmp_path / "yield", command="sweep").close()  # lent: its store shares it
+
+
+# A relative of 2: every run records which command wrote which files, so that another command's
+# results are never mixed with a new run's, and a yield's or sweep's folder is no one else's.
+
+
+def _run_of(folder: Path, command: str, files: dict[str, str], **options) -> None:
+    with OutputFolder(folder, command=command, owns=tuple(files), **options) as output:
+        for name, text in files.items():
+            (output.dir / name).write_text(text)
+
+
+def test_another_commands_results_are_replaced_whole_or_refused(tmp_path):
+    _run_of(tmp_path, "simulate", {"metrics.json": "{}", "trajectory.csv": "simulate"})
+    with pytest.raises(CLIError, match=r"earlier `simulate` run \(metrics.json, trajectory.csv\); "
+                       "pass --overwrite"):
+        _run_of(tmp_path, "fold", {"result.json": "{}", "trajectory.csv": "fold"})
+    # With --overwrite the whole earlier run goes (its metrics.json would have made view draw the
+    # fold's angles as an accordion).
+    _run_of(tmp_path, "fold", {"result.json": "{}", "trajectory.csv": "fold"}, overwrite=True)
+    assert sorted(p.name for p in tmp_path.iterdir() if not p.name.startswith(".")) == [
+        "result.json",
+        "trajectory.csv",
+    ]
+    assert (tmp_path / "trajectory.csv").read_text() == "fold"
+    # The same command's other files stay listed (exports of other names side by side).
+    _run_of(tmp_path / "exports", "export", {"a.fold": "a"})
+    _run_of(tmp_path / "exports", "export", {"b.fold": "b"})
+    _run_of(tmp_path / "exports", "fold", {"result.json": "{}"}, overwrite=True)
+    assert not (tmp_path / "exports" / "a.fold").exists()
+    assert not (tmp_path / "exports" / "b.fold").exists()
+
+
+def test_a_yield_or_sweep_folder_is_no_other_commands_and_takes_no_others(tmp_path):
+    _run_of(tmp_path / "y", "yield", {"result.json": "yield"}, exclusive=True)
+    with pytest.raises(CLIError, match="earlier `yield` run .*; choose another --out"):
+        _run_of(tmp_path / "y", "fold", {"result.json": "fold"}, overwrite=True)
+    assert (tmp_path / "y" / "result.json").read_text() == "yield"
+    _run_of(tmp_path / "f", "fold", {"angles.png": "fold"})
+    with pytest.raises(CLIError, match="earlier `fold` run .*; choose another --out"):
+        _run_of(tmp_path / "f", "sweep", {"summary.txt": "s"}, overwrite=True, exclusive=True)
+    assert (tmp_path / "f" / "angles.png").read_text() == "fold"
 
 
 # 2. and 3. `yield` never replaces results, nor drops a finished run's parts on --resume ---------

@@ -5,8 +5,11 @@ Every command writes its results through an `OutputFolder`: files go to a stagin
 always those of one complete run. A kill mid-run leaves the earlier results untouched (and a
 `.partial-*` folder that the next run removes). A folder that already holds results of the same
 command is refused unless `--overwrite` is given; with it the earlier run's files are replaced, and
-those the new run does not write are removed. While a run writes, it holds the folder's lock (the
-one a sweep takes, `origami_jax._folder_lock`): a second run into the same folder is refused.
+those the new run does not write are removed. Each run records which command wrote which files
+(`RESULTS_MARKER`): another command's results count as earlier results too (replaced together
+with `--overwrite`, never mixed), and a sweep's or yield's folder is never another command's.
+While a run writes, it holds the folder's lock (the one a sweep takes, `origami_jax._folder_lock`):
+a second run into the same folder is refused.
 
 Errors a command reports are `CLIError`s (one line, exit code 2 or 1); `_main.main` turns anything
 else into one line too, and `--debug` shows the traceback.
@@ -39,6 +42,10 @@ EXIT_USAGE = 2
 EXIT_INTERRUPTED = 130
 
 STAGING_PREFIX = ".partial-"
+# Written by every run's commit: the command and the files it wrote (JSON), so that a later run of
+# another command neither mixes its results with them nor, without --overwrite, replaces them.
+RESULTS_MARKER = ".origami-jax-results.json"
+_OVERWRITE_HINT = "pass --overwrite to replace them, or choose another --out"
 # Longest list a message prints in full; longer ones are cut with "... and N more".
 MESSAGE_LIST_LIMIT = 8
 
@@ -308,6 +315,9 @@ class OutputFolder:
       the matches this run does not write again are removed when it commits.
     - `overwrite`: replace earlier results (the `--overwrite` flag).
     - `refuse_hint`: what the message refusing earlier results tells the user to do.
+    - `exclusive`: the folder is this command's alone (`sweep`, `yield`: their stores live
+      there): another command's results in it are refused even with `overwrite`, and other
+      commands refuse it once this one has written there.
     - `lend`: lend the folder's lock to library calls of this process that write into `out` (a
       sweep store: `origami_jax._folder_lock`).
 
@@ -330,12 +340,14 @@ class OutputFolder:
         owns: Sequence[str],
         overwrite: bool = False,
         lend: bool = False,
-        refuse_hint: str = "pass --overwrite to replace them, or choose another --out",
+        refuse_hint: str = _OVERWRITE_HINT,
+        exclusive: bool = False,
     ):
         self.out = check_out_folder(Path(out))
         self.command = command
         self.owns = tuple(owns)
         self.overwrite = overwrite
+        self.exclusive = exclusive
         # Held until commit or discard: a second run into `out` meanwhile is refused (the folder
         # was checked at the start only, and two runs each wrote half of the results).
         try:
@@ -345,6 +357,20 @@ class OutputFolder:
         try:
             for stale in _stale_staging(self.out):
                 shutil.rmtree(stale, ignore_errors=True)
+            self._marker = _read_marker(self.out)
+            other = self._other()
+            theirs = self._listed(other)
+            if theirs and (not overwrite or exclusive or other.get("exclusive")):
+                names = [str(p.relative_to(self.out)) for p in theirs]
+                hint = (
+                    "choose another --out"
+                    if exclusive or other.get("exclusive") or refuse_hint != _OVERWRITE_HINT
+                    else refuse_hint
+                )
+                fail(
+                    f"{self.out} holds the results of an earlier `{other['command']}` run "
+                    f"({capped(names, 4)}); {hint}."
+                )
             earlier = self.existing()
             if earlier and not overwrite:
                 names = [str(p.relative_to(self.out)) for p in earlier]
@@ -368,9 +394,21 @@ class OutputFolder:
             self._lock.close()
             self._lock = None
 
+    def _other(self) -> dict | None:
+        """The folder's marker when another command wrote the results there."""
+        marker = self._marker
+        return marker if marker is not None and marker["command"] != self.command else None
+
+    def _listed(self, marker: dict | None) -> list[Path]:
+        """The files `marker` lists that are still in `out`."""
+        if marker is None:
+            return []
+        return sorted(p for p in (self.out / f for f in marker["files"]) if p.is_file())
+
     def existing(self) -> list[Path]:
-        """Files in `out` that match `owns` (results of an earlier run)."""
-        found: set[Path] = set()
+        """Files in `out` that match `owns`, or that another command's run wrote there (its
+        marker lists them): results of an earlier run."""
+        found: set[Path] = set(self._listed(self._other()))
         for pattern in self.owns:
             found.update(p for p in self.out.glob(pattern) if p.is_file())
         return sorted(found)
@@ -405,6 +443,13 @@ class OutputFolder:
             target.parent.mkdir(parents=True, exist_ok=True)
             os.replace(source, target)
         shutil.rmtree(self.dir, ignore_errors=True)
+        # Which command's results the folder holds, and which files they are (an earlier run of
+        # this command that still has files there keeps them listed: `export`s of other names).
+        mine = self._marker if self._other() is None else None
+        listed = {str(p.relative_to(self.out)) for p in finals}
+        listed.update(str(p.relative_to(self.out)) for p in self._listed(mine))
+        marker = {"command": self.command, "files": sorted(listed), "exclusive": self.exclusive}
+        write_atomic(self.out / RESULTS_MARKER, json.dumps(marker, indent=1) + "\n")
         self.committed = finals
         return finals
 
@@ -422,6 +467,25 @@ class OutputFolder:
             self.commit()
         else:
             self.discard()
+
+
+def _read_marker(out: Path) -> dict | None:
+    """The folder's `RESULTS_MARKER` (`command`, `files`, `exclusive`), or `None` when there is
+    none or it cannot be read (a folder written before it existed: `owns` alone decides)."""
+    try:
+        marker = json.loads((out / RESULTS_MARKER).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    if not (
+        isinstance(marker, dict)
+        and isinstance(marker.get("command"), str)
+        and isinstance(marker.get("files"), list)
+        and all(isinstance(f, str) and f and not Path(f).is_absolute() for f in marker["files"])
+    ):
+        return None
+    # Only files inside the folder (a hand-edited "../x" is not ours to remove).
+    files = [f for f in marker["files"] if ".." not in Path(f).parts]
+    return {"command": marker["command"], "files": files, "exclusive": bool(marker.get("exclusive"))}
 
 
 def prepare_out(out: Path) -> Path:

@@ -107,7 +107,9 @@ def run(args: argparse.Namespace) -> int:
     # through its manifest, that this run may write here). The folder is held for the whole run
     # (the sweep's store borrows its lock): another run into it meanwhile is refused.
     owns = ("summary.txt",) if args.no_plots else ("summary.txt", "plots/*.png")
-    output = OutputFolder(Path(args.out), command="sweep", owns=owns, overwrite=True, lend=True)
+    output = OutputFolder(
+        Path(args.out), command="sweep", owns=owns, overwrite=True, lend=True, exclusive=True
+    )
     with output, chunks_kept_on_interrupt(output.out):
         return _run(args, config, output)
 

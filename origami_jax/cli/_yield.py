@@ -453,6 +453,7 @@ def run(args: argparse.Namespace) -> int:
         owns=OWNS,
         overwrite=args.resume,
         lend=True,
+        exclusive=True,
         refuse_hint="a yield never replaces results: choose another --out (--resume continues the "
         "estimate stored there)",
     )
