@@ -82,8 +82,10 @@ samples, see origami_jax.fab_yield.yield_gradient), the figures unless --no-figu
 counts and the yield; OUT/misfolds.png: the final state of one typical sample of each verdict other
 than folded, in 3D, next to the intended shape), and the samples as a sweep store: OUT/sweep.nc
 (every sample's parameters and verdict) and OUT/chunks/ (one file per finished chunk). An interrupted run continues with
---resume (the same net, settings, scatter, seed and samples); a folder holding an estimate is never
-overwritten.
+--resume (the same net, settings, scatter, seed and samples; not a finished --improve run, nor
+without a --widths factor it was run with); a folder holding an estimate is never overwritten, and
+one holding another command's results is refused. A nominal release at or after --t-end is refused
+(no sample could fold).
 Exit codes: 0 done, 1 the run stopped (disk full), 2 bad input or a folder in use, 130 interrupted.
 """
 )
