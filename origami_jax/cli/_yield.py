@@ -405,6 +405,7 @@ def run(args: argparse.Namespace) -> int:
             fail(f"bad scatter config {args.scatter}: {error}")
     from ..fold import FoldFormatError
     from ..loops import CreasePattern, load_pattern
+    from ..net._net import default_design
 
     try:
         pattern = load_pattern(args.net)
@@ -412,8 +413,6 @@ def run(args: argparse.Namespace) -> int:
         fail(f"cannot load {args.net}: {error}")
     loops = isinstance(pattern, CreasePattern)
     check_has_creases(pattern, args.net)
-    from ..net._net import default_design
-
     check_panels_thicker_than_film(pattern, default_design(pattern), args.net)
     check_targets(pattern, None, args.net)
     if not 0 <= args.bias < 1:
