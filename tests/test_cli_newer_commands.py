@@ -533,7 +533,7 @@ def test_resume_with_other_settings_says_which_differ_in_one_line(tmp_path):
     message = str(error.value)
     assert "\n" not in message
     assert "settings.t_end: stored 1500.0, new 1000.0" in message
-    assert "the design space's values differ (for a yield estimate: --samples, --seed" in message
+    assert "the design space's values differ: for a yield estimate, --samples, --seed" in message
     assert "sha256" not in message
 
 

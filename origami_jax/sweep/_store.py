@@ -116,8 +116,8 @@ def _summary(lines: list[str], limit: int = 3) -> str:
     """The differences of `_differences` on one line: the design space's digest as what it is (its
     values differ), at most `limit` of them, then how many more."""
     lines = [
-        "the design space's values differ (for a yield estimate: --samples, --seed, --scatter, "
-        "--process or the release times)"
+        "the design space's values differ: for a yield estimate, --samples, --seed, --scatter, "
+        "--process or the release times"
         if line.startswith(f"{_SPACE_VALUES}:")
         else line
         for line in lines
