@@ -73,6 +73,7 @@ def held_folder(tmp_path_factory):
         ["unfold", "open-chain", "--overwrite"],
         ["export", "corner-cube", "--overwrite"],
         ["design", "--target-rise", "37e-6", "--overwrite"],
+        ["paper", "--overwrite"],
         ["yield", "cube_net_01", "--samples", "2", "--resume"],
     ],
     ids=lambda argv: argv[0],
@@ -399,6 +400,11 @@ def test_view_refuses_a_result_folder_and_names_the_file_in_it(tmp_path, capsys)
     line = _view(out, tmp_path, capsys)
     assert "is a folder: give the result file in it" in line, line
     assert str(out / "trajectory.fold") in line
+
+
+def test_view_names_a_dangling_link(tmp_path, capsys):
+    (tmp_path / "link.fold").symlink_to(tmp_path / "gone.fold")
+    assert "is a link to" in _view(tmp_path / "link.fold", tmp_path, capsys)
 
 
 def test_view_refuses_files_cut_short(tmp_path, capsys):

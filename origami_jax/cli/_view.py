@@ -1,6 +1,7 @@
 """`origami-jax view`: an interactive 3D view of a result, as one self-contained HTML page."""
 
 import argparse
+import os
 import sys
 from pathlib import Path
 
@@ -78,6 +79,8 @@ def run(args: argparse.Namespace) -> int:
         fail("--member only applies to a sweep.nc")
     if args.member is not None and args.member < 0:
         fail(f"--member must be a design index >= 0, got {args.member}")
+    if args.result.is_symlink() and not args.result.exists():
+        fail(f"{args.result} is a link to {os.readlink(args.result)}, which does not exist")
     if not args.result.exists():
         fail(f"no such file: {args.result}")
     target = _target(args)
