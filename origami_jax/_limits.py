@@ -25,3 +25,9 @@ CONTACT_SAMPLING = (4, 2)
 """Contact sample points per panel edge, ``(inner ring, rim)`` along the longest edge (`origami_jax.
 contact.build_tables`): the default of every `contact_sampling` (`Net.system`, the sweep's net
 kernel, `yield_estimate`, the `--contact-sampling` flag). Its points weigh 1 each."""
+
+MAX_CONTACT_SAMPLING = 32
+"""Most contact points per panel edge, on the inner ring or on the rim, of a command-line or sweep
+run (`--contact-sampling`, a sweep's `contact_sampling`): 8 times the default's density. The
+contact's work grows with the square of the points (each point against every face), and 100,000
+per edge compiled and ran without end."""

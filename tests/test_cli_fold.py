@@ -171,6 +171,35 @@ def test_a_crease_still_moving_slowly_is_not_at_rest():
     assert tail_motion < 1.5  # the first segment's tail alone would have looked at rest
 
 
+def test_a_run_too_short_or_a_crease_released_late_is_unfinished_not_misfolded():
+    """Issue 50: a tiny end time, or a crease released near or after the end, was judged
+    `misfolded` (and `settled`). Synthetic runs of one crease aimed at 90°, 101 samples."""
+    system, _ = _flap_in_koh()
+
+    def judged(system, t1, angles):
+        held = _segment(0.0, t1, 101, 0.0, 10)
+        run = eqx.tree_at(lambda t: t.theta, held, jnp.asarray(angles)[:, None])
+        return sim.assess(system, run)
+
+    # The first µs after release: the crease speeds up from flat, 0.001° by the end.
+    times = np.linspace(0.0, 1.0, 101)
+    report = judged(system, 1.0, np.radians(1e-3) * times**2)
+    assert (report.verdict, report.settled) == ("unfinished", False), report.reason
+    # At rest at 0 for the whole run, released after its end (3000 µs of a 1000 µs run) or in its
+    # last tenth (950 µs): unfinished, and the reason names the crease and its release time.
+    for release in (3000.0, 950.0):
+        late = accordion_system(
+            HingeDesign.literature(fluid=KOH_SOLUTION), 1, release_times=[release]
+        )
+        report = judged(late, 1000.0, np.zeros(101))
+        assert (report.verdict, report.settled) == ("unfinished", False)
+        assert f"crease 0 released at {release:g} µs" in report.reason
+    # Released well before the tail and at rest short of its angle: misfolded, as before.
+    early = accordion_system(HingeDesign.literature(fluid=KOH_SOLUTION), 1, release_times=[500.0])
+    report = judged(early, 1000.0, np.full(101, 0.5))
+    assert (report.verdict, report.settled) == ("misfolded", True)
+
+
 @pytest.mark.parametrize(
     ("options", "message"),
     [

@@ -256,7 +256,7 @@ def test_degenerate_face():
         "edges_vertices": [[0, 1], [1, 2]],
         "faces_vertices": [[0, 1, 2]],
     }
-    with pytest.raises(FoldFormatError, match="degenerate"):
+    with pytest.raises(FoldFormatError, match="has zero area"):
         fold_from_dict(data)
 
 

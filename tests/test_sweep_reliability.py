@@ -252,34 +252,45 @@ def test_a_full_disk_stops_with_one_line_and_resume_completes(tmp_path, referenc
     _same_data(resumed, reference)
 
 
-def test_ctrl_c_stops_with_one_line_and_resume_completes(tmp_path, reference):
+# Where the child interrupts itself (a real SIGINT, sent from its own main thread, so that it lands
+# at a known point whatever the machine's load; waiting here for chunk files to appear raced the
+# child, which may store several at once): after its second chunk file, or while it draws the
+# summary plots once every chunk and sweep.nc are stored.
+_INTERRUPTS = {
+    "mid-sweep": (
+        "    from origami_jax.sweep._store import Store\n"
+        "    write = Store.write_chunk\n"
+        "    def interrupting(self, chunk):\n"
+        "        path = write(self, chunk)\n"
+        "        if len(self.chunk_files()) == 2:\n"
+        "            os.kill(os.getpid(), signal.SIGINT)\n"
+        "        return path\n"
+        "    Store.write_chunk = interrupting\n"
+    ),
+    "at-the-end": (
+        "    from origami_jax.plotting import sweep as plots\n"
+        "    plots.summary_plots = lambda *a, **k: os.kill(os.getpid(), signal.SIGINT)\n"
+    ),
+}
+
+
+@pytest.mark.parametrize("when", sorted(_INTERRUPTS))
+def test_ctrl_c_stops_with_one_line_and_resume_completes(tmp_path, reference, when):
     config = tmp_path / "sweep.toml"
     config.write_text(CONFIG)
     out = tmp_path / "out"
-    # Each stored chunk takes a while, so that SIGINT arrives mid-sweep even when this process is
-    # slow to see the second chunk on a loaded machine (the nine chunks left take 18 s). At 0.5 s
-    # each, a run on a loaded machine once exited 1 with nothing on stderr: most likely the sweep
-    # had finished and the signal came during the interpreter's shutdown.
-    slow = CLI.replace(
+    code = CLI.replace(
         "from origami_jax.cli import main",
-        "import time\n    from origami_jax.sweep._store import Store\n"
-        "    write = Store.write_chunk\n"
-        "    Store.write_chunk = lambda self, c: (write(self, c), time.sleep(2.0))[0]\n"
-        "    from origami_jax.cli import main",
+        "import os, signal\n" + _INTERRUPTS[when] + "    from origami_jax.cli import main",
     )
-    child = _python(slow, "sweep", str(config), "--out", str(out), "--no-progress")
-    deadline = time.monotonic() + 240
-    while len(list((out / "chunks").glob("part-*.nc"))) < 2:
-        assert child.poll() is None and time.monotonic() < deadline, child.communicate()[1]
-        time.sleep(0.05)
-    child.send_signal(signal.SIGINT)
-    stdout, stderr = child.communicate(timeout=120)
+    child = _python(code, "sweep", str(config), "--out", str(out), "--no-progress")
+    stdout, stderr = child.communicate(timeout=300)
     assert child.returncode == 130, (child.returncode, stdout[-2000:], stderr)
     lines = [line for line in stderr.splitlines() if line.strip()]
     assert len(lines) == 1 and "continue with --resume" in lines[0], stderr
     _no_temporary_files(out)
     stored = len(list((out / "chunks").glob("part-*.nc")))
-    assert 2 <= stored < 11
+    assert stored == (2 if when == "mid-sweep" else 11), stored
     resumed = sweep(KERNEL, SPACE, chunk_size=4, out=out, resume=True, progress=False)
     _same_data(resumed, reference)
 

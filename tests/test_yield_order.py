@@ -224,7 +224,7 @@ def test_yield_cli_release_flags_are_checked_before_compiling(tmp_path, capsys):
     from origami_jax.cli import main
 
     for extra, message in (
-        (["--release", "0"], "release_times must be 2 finite times"),
+        (["--release", "0"], "--release: 1 values for 2 creases"),
         (["--release", "0,x"], "--release expects comma-separated numbers"),
         (["--etch-front", "1,0"], "--etch-front expects DX,DY,SPEED"),
         (["--etch-front", "1,0,0"], "speed must be positive"),

@@ -5,7 +5,11 @@ Every command writes its results through an `OutputFolder`: files go to a stagin
 always those of one complete run. A kill mid-run leaves the earlier results untouched (and a
 `.partial-*` folder that the next run removes). A folder that already holds results of the same
 command is refused unless `--overwrite` is given; with it the earlier run's files are replaced, and
-those the new run does not write are removed.
+those the new run does not write are removed. Each run records which command wrote which files
+(`RESULTS_MARKER`): another command's results count as earlier results too (replaced together
+with `--overwrite`, never mixed), and a sweep's or yield's folder is never another command's.
+While a run writes, it holds the folder's lock (the one a sweep takes, `origami_jax._folder_lock`):
+a second run into the same folder is refused.
 
 Errors a command reports are `CLIError`s (one line, exit code 2 or 1); `_main.main` turns anything
 else into one line too, and `--debug` shows the traceback.
@@ -25,7 +29,8 @@ from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any, NoReturn
 
-from .._limits import CONTACT_SAMPLING
+from .._folder_lock import FolderBusyError, FolderLock, lock_folder
+from .._limits import CONTACT_SAMPLING, MAX_CONTACT_SAMPLING
 
 DEFAULT_OUT = Path("origami_out")
 
@@ -37,6 +42,10 @@ EXIT_USAGE = 2
 EXIT_INTERRUPTED = 130
 
 STAGING_PREFIX = ".partial-"
+# Written by every run's commit: the command and the files it wrote (JSON), so that a later run of
+# another command neither mixes its results with them nor, without --overwrite, replaces them.
+RESULTS_MARKER = ".origami-jax-results.json"
+_OVERWRITE_HINT = "pass --overwrite to replace them, or choose another --out"
 # Longest list a message prints in full; longer ones are cut with "... and N more".
 MESSAGE_LIST_LIMIT = 8
 
@@ -118,11 +127,19 @@ def hinge_params(items: Sequence[str]) -> dict[str, list[float]]:
     return out
 
 
+def out_path(text: str) -> Path:
+    """An `--out` value as a path (argparse `type`): an empty one is refused (it wrote into the
+    current folder)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError('empty: give a folder ("." for the current one)')
+    return Path(text)
+
+
 def add_out_argument(parser: argparse.ArgumentParser, default: Path = DEFAULT_OUT) -> None:
     """`--out FOLDER` and `--overwrite` (see the module docstring)."""
     parser.add_argument(
         "--out",
-        type=Path,
+        type=out_path,
         default=default,
         help=f"output folder, created if missing (default: ./{default})",
     )
@@ -200,8 +217,8 @@ def add_contact_sampling_argument(parser: argparse.ArgumentParser) -> None:
         default=default,
         metavar="RING,RIM",
         help=f"--contact sampled: contact points per panel edge on the inner ring and on the rim "
-        f"(default {default}; denser resolves the same contact more finely, to check a verdict "
-        "where edges meet)",
+        f"(default {default}, at most {MAX_CONTACT_SAMPLING}; denser resolves the same contact more "
+        "finely, to check a verdict where edges meet)",
     )
 
 
@@ -214,13 +231,18 @@ def contact_sampling(text: str, model: str = "sampled") -> tuple[int, int]:
             f"--contact-sampling expects RING,RIM: two whole numbers, RING >= 1 (e.g. 8,6), got "
             f"{text!r}."
         )
-    sampling = int(parts[0]), int(parts[1])
-    if model != "sampled" and sampling != tuple(CONTACT_SAMPLING):
+    ring, rim = int(parts[0]), int(parts[1])
+    if max(ring, rim) > MAX_CONTACT_SAMPLING:
+        fail(
+            f"--contact-sampling takes at most {MAX_CONTACT_SAMPLING} points per edge on the ring "
+            f"and on the rim (the contact's work grows with their square), got {text!r}."
+        )
+    if model != "sampled" and (ring, rim) != tuple(CONTACT_SAMPLING):
         fail(
             f"--contact-sampling sets the sampled contact model's points; add --contact sampled "
             f"(the {model} contact is exact and takes no sampling)."
         )
-    return sampling
+    return ring, rim
 
 
 def jsonable(value: Any) -> Any:
@@ -307,39 +329,101 @@ class OutputFolder:
       means the folder holds an earlier run's results: refused unless `overwrite`; with `overwrite`
       the matches this run does not write again are removed when it commits.
     - `overwrite`: replace earlier results (the `--overwrite` flag).
+    - `refuse_hint`: what the message refusing earlier results tells the user to do.
+    - `exclusive`: the folder is this command's alone (`sweep`, `yield`: their stores live
+      there): another command's results in it are refused even with `overwrite`, and other
+      commands refuse it once this one has written there.
+    - `lend`: lend the folder's lock to library calls of this process that write into `out` (a
+      sweep store: `origami_jax._folder_lock`).
+
+    The folder is locked from here until `commit()` or `discard()`: a second run into `out` (of any
+    command, or a sweep) is refused meanwhile.
 
     Write into `dir` (a staging folder inside `out`, same layout); `commit()` moves every file into
     `out` and returns their final paths. As a context manager it commits on success and discards
     the staging folder on an exception (Ctrl-C included).
 
-    **Raises:** `CLIError` when `out` is a file, cannot be written, or holds results (see `owns`).
+    **Raises:** `CLIError` when `out` is a file, cannot be written, is in use by another run, or
+    holds results (see `owns`).
     """
 
-    def __init__(self, out: Path, *, command: str, owns: Sequence[str], overwrite: bool = False):
+    def __init__(
+        self,
+        out: Path,
+        *,
+        command: str,
+        owns: Sequence[str],
+        overwrite: bool = False,
+        lend: bool = False,
+        refuse_hint: str = _OVERWRITE_HINT,
+        exclusive: bool = False,
+    ):
         self.out = check_out_folder(Path(out))
         self.command = command
         self.owns = tuple(owns)
         self.overwrite = overwrite
-        for stale in _stale_staging(self.out):
-            shutil.rmtree(stale, ignore_errors=True)
-        earlier = self.existing()
-        if earlier and not overwrite:
-            names = [str(p.relative_to(self.out)) for p in earlier]
-            fail(
-                f"{self.out} already holds results of an earlier run ({capped(names, 4)}); pass "
-                "--overwrite to replace them, or choose another --out."
-            )
-        self.dir = self.out / f"{STAGING_PREFIX}{command}-{os.getpid()}-{uuid.uuid4().hex[:8]}"
+        self.exclusive = exclusive
+        # Held until commit or discard: a second run into `out` meanwhile is refused (the folder
+        # was checked at the start only, and two runs each wrote half of the results).
         try:
-            self.dir.mkdir()
-        except OSError as error:
-            fail(f"cannot write into the output folder {self.out}: {error.strerror or error}.")
+            self._lock: FolderLock | None = lock_folder(self.out, command=command, lend=lend)
+        except FolderBusyError as error:
+            fail(f"{error}".replace("another output folder", "another --out"))
+        try:
+            for stale in _stale_staging(self.out):
+                shutil.rmtree(stale, ignore_errors=True)
+            self._marker = _read_marker(self.out)
+            other = self._other()
+            theirs = self._listed(other)
+            if theirs and (not overwrite or exclusive or other.get("exclusive")):
+                names = [str(p.relative_to(self.out)) for p in theirs]
+                hint = (
+                    "choose another --out"
+                    if exclusive or other.get("exclusive") or refuse_hint != _OVERWRITE_HINT
+                    else refuse_hint
+                )
+                fail(
+                    f"{self.out} holds the results of an earlier `{other['command']}` run "
+                    f"({capped(names, 4)}); {hint}."
+                )
+            earlier = self.existing()
+            if earlier and not overwrite:
+                names = [str(p.relative_to(self.out)) for p in earlier]
+                fail(
+                    f"{self.out} already holds results of an earlier run ({capped(names, 4)}); "
+                    f"{refuse_hint}."
+                )
+            self.dir = self.out / f"{STAGING_PREFIX}{command}-{os.getpid()}-{uuid.uuid4().hex[:8]}"
+            try:
+                self.dir.mkdir()
+            except OSError as error:
+                fail(f"cannot write into the output folder {self.out}: {error.strerror or error}.")
+        except BaseException:
+            self._release()
+            raise
         self.committed: list[Path] = []
         self.discarded = False
 
+    def _release(self) -> None:
+        if self._lock is not None:
+            self._lock.close()
+            self._lock = None
+
+    def _other(self) -> dict | None:
+        """The folder's marker when another command wrote the results there."""
+        marker = self._marker
+        return marker if marker is not None and marker["command"] != self.command else None
+
+    def _listed(self, marker: dict | None) -> list[Path]:
+        """The files `marker` lists that are still in `out`."""
+        if marker is None:
+            return []
+        return sorted(p for p in (self.out / f for f in marker["files"]) if p.is_file())
+
     def existing(self) -> list[Path]:
-        """Files in `out` that match `owns` (results of an earlier run)."""
-        found: set[Path] = set()
+        """Files in `out` that match `owns`, or that another command's run wrote there (its
+        marker lists them): results of an earlier run."""
+        found: set[Path] = set(self._listed(self._other()))
         for pattern in self.owns:
             found.update(p for p in self.out.glob(pattern) if p.is_file())
         return sorted(found)
@@ -357,6 +441,12 @@ class OutputFolder:
         files this run did not write (with `overwrite`), and return the final paths."""
         if self.discarded:
             return []
+        try:
+            return self._commit()
+        finally:
+            self._release()
+
+    def _commit(self) -> list[Path]:
         staged = sorted(p for p in self.dir.rglob("*") if p.is_file())
         finals = [self.final(p) for p in staged]
         if self.overwrite:
@@ -368,6 +458,13 @@ class OutputFolder:
             target.parent.mkdir(parents=True, exist_ok=True)
             os.replace(source, target)
         shutil.rmtree(self.dir, ignore_errors=True)
+        # Which command's results the folder holds, and which files they are (an earlier run of
+        # this command that still has files there keeps them listed: `export`s of other names).
+        mine = self._marker if self._other() is None else None
+        listed = {str(p.relative_to(self.out)) for p in finals}
+        listed.update(str(p.relative_to(self.out)) for p in self._listed(mine))
+        marker = {"command": self.command, "files": sorted(listed), "exclusive": self.exclusive}
+        write_atomic(self.out / RESULTS_MARKER, json.dumps(marker, indent=1) + "\n")
         self.committed = finals
         return finals
 
@@ -375,6 +472,7 @@ class OutputFolder:
         """Drop everything staged: `out` keeps what it held."""
         shutil.rmtree(self.dir, ignore_errors=True)
         self.discarded = True
+        self._release()
 
     def __enter__(self) -> OutputFolder:
         return self
@@ -384,6 +482,25 @@ class OutputFolder:
             self.commit()
         else:
             self.discard()
+
+
+def _read_marker(out: Path) -> dict | None:
+    """The folder's `RESULTS_MARKER` (`command`, `files`, `exclusive`), or `None` when there is
+    none or it cannot be read (a folder written before it existed: `owns` alone decides)."""
+    try:
+        marker = json.loads((out / RESULTS_MARKER).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    if not (
+        isinstance(marker, dict)
+        and isinstance(marker.get("command"), str)
+        and isinstance(marker.get("files"), list)
+        and all(isinstance(f, str) and f and not Path(f).is_absolute() for f in marker["files"])
+    ):
+        return None
+    # Only files inside the folder (a hand-edited "../x" is not ours to remove).
+    files = [f for f in marker["files"] if ".." not in Path(f).parts]
+    return {"command": marker["command"], "files": files, "exclusive": bool(marker.get("exclusive"))}
 
 
 def prepare_out(out: Path) -> Path:

@@ -11,7 +11,7 @@ import argparse
 import math
 from pathlib import Path
 
-from .._limits import FOLD_SEGMENT, MAX_FOLD_SEGMENTS
+from .._limits import FOLD_SEGMENT, MAX_FOLD_SEGMENTS, MAX_SAMPLES
 from ._common import (
     EXIT_FAILED,
     EXIT_OK,
@@ -22,12 +22,12 @@ from ._common import (
     contact_sampling,
     dumps_json,
     fail,
-    finite,
     hinge_params,
     in_range,
     int_range,
     positive,
 )
+from ._panels import check_has_creases, check_panels_thicker_than_film, check_targets
 
 # Every file `run` writes into --out (an earlier run's are refused without --overwrite).
 OWNS = (
@@ -116,7 +116,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help=f"end time, µs (default {FOLD_SEGMENT:g}, continued by {FOLD_SEGMENT:g} µs at a time while "
         f"the panels still move, up to {MAX_FOLD_SEGMENTS * FOLD_SEGMENT:g})",
     )
-    parser.add_argument("--n-save", type=int, default=501, help="samples (default 501)")
+    parser.add_argument(
+        "--n-save", type=int, default=501, help="samples per segment (default 501, at least 21)"
+    )
     parser.add_argument(
         "--targets", default=None, help="fold target per crease, degrees, comma-separated"
     )
@@ -182,6 +184,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add_out_argument(parser)
     parser.set_defaults(func=run)
 
+
+MIN_SAMPLES = 21
+"""Fewest samples of a `fold` run (`--n-save`): the time to fold is the first sample from which the
+net stays folded, so it is known to a twentieth of the run at worst (2 samples reported the run's
+end)."""
 
 PROGRESS_CREASES = 24
 """`--progress auto`: a bar for patterns with more creases than this (sheets that fold for minutes);
@@ -259,12 +266,23 @@ def run(args: argparse.Namespace) -> int:
     except ValueError as error:
         fail(str(error))
     sampling = contact_sampling(args.contact_sampling, args.contact)
+    if release is not None and front is not None:
+        fail("give --release or --etch-front, not both (the front sets every release time).")
     if front is not None and len(front) != 3:
         fail("--etch-front expects DX,DY,SPEED (a direction in the plane and a speed in µm/µs).")
     if args.t1 is not None:
         positive(args.t1, "--t1", "µs")
-    int_range(args.n_save, "--n-save", 2, 1_000_000)
-    finite(args.bias, "--bias")
+    int_range(
+        args.n_save,
+        "--n-save",
+        MIN_SAMPLES,
+        MAX_SAMPLES,
+        why=" (the time to fold is read off the samples: fewer resolve it no better than the run)",
+    )
+    if not 0 <= args.bias < 1:
+        fail(f"--bias must be a pre-fold angle in [0, 1) rad, got {args.bias}.")
+    if args.length_scale is not None:
+        positive(args.length_scale, "--length-scale", "µm per FOLD length unit")
     in_range(args.tolerance, "--tolerance", 0.0, 180.0, what=" degrees")
     in_range(args.seam_tolerance, "--seam-tolerance", 0.0, 1.0, what=" (a fraction of the panel)")
     for flag, values in (
@@ -278,6 +296,7 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
 
     from origami_jax.fold import is_folded_form, read_fold
+    from origami_jax.fold._model import FRAME_UNITS_M
     from origami_jax.fold._catalogue import source_and_label
     from origami_jax.loops import CreasePattern, NotRigidlyFoldableError, load_pattern
     from origami_jax.loops import release_times_from_front as pattern_front
@@ -287,6 +306,12 @@ def run(args: argparse.Namespace) -> int:
         # Read once: the loader takes the file, and whether it held a folded form is told here.
         path, label = source_and_label(args.net)
         fold = read_fold(path)
+        unit = fold.key_frame.frame_unit
+        if args.length_scale is not None and FRAME_UNITS_M.get(unit or "unit") is not None:
+            fail(
+                f"{args.net} gives its lengths in {unit!r}: --length-scale is for unitless files "
+                "(Origami Simulator's export); drop it."
+            )
         unfolded = is_folded_form(fold.key_frame)
         net = load_pattern(
             fold,
@@ -296,13 +321,18 @@ def run(args: argparse.Namespace) -> int:
             flat_creases=args.flat_creases,
         )
         loops = isinstance(net, CreasePattern)
+        check_has_creases(net, args.net)
+        if args.bias and not loops:
+            fail(f"--bias pre-folds closed-loop patterns; {args.net} is a net, which starts flat.")
         m = net.n_creases
         design = _design(net, args.fluid, params)
+        check_panels_thicker_than_film(net, design, args.net)
         targets = None
         if targets_deg is not None:
             if len(targets_deg) != m:
                 raise ValueError(f"--targets: {len(targets_deg)} values for {m} creases")
             targets = np.radians(targets_deg)
+        check_targets(net, targets, args.net)
         if release is not None and len(release) != m:
             raise ValueError(f"--release: {len(release)} values for {m} creases")
         if front is not None:
@@ -325,7 +355,8 @@ def run(args: argparse.Namespace) -> int:
     except NotRigidlyFoldableError as error:
         fail(str(error))  # it names the pattern
     except (FoldFormatError, ValueError, TypeError, OSError) as error:
-        fail(f"{args.net}: {error}")
+        text = str(error)  # a file's own errors start with its path already
+        fail(text if text.startswith(f"{args.net}:") else f"{args.net}: {text}")
 
     output = OutputFolder(Path(args.out), command="fold", owns=OWNS, overwrite=args.overwrite)
     with output:
@@ -421,6 +452,7 @@ def _run(
         closed_loops=net.n_loops if loops else 0,
         unfolded_from_folded_form=unfolded,
         bias=args.bias,
+        length_scale=float(net.length_scale),  # µm per FOLD length unit, as used
         t1=t_end,
         segments=segments,
         release_times=None if release is None else [float(x) for x in release],

@@ -7,7 +7,9 @@ with `--debug`.
 """
 
 import argparse
+import signal
 import sys
+import threading
 from collections.abc import Sequence
 
 from .._version import __version__
@@ -75,14 +77,25 @@ def _input_of(args: argparse.Namespace, argv: Sequence[str]) -> str:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    """Run the command line `argv` (default `sys.argv[1:]`, a process of its own: the console
+    script, ``python -m origami_jax``); returns the exit code (module docstring)."""
+    code = _run(argv)
+    if argv is None and threading.current_thread() is threading.main_thread():
+        # The command is done and has said so: a Ctrl-C from here on (the interpreter's shutdown)
+        # would turn its exit code into 1 without a word.
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+    return code
+
+
+def _run(argv: Sequence[str] | None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     parser = build_parser()
     args = parser.parse_args(argv)
     if args.command is None:
         parser.print_help(sys.stderr)
         return EXIT_USAGE
-    setup_runtime(args.command)
     try:
+        setup_runtime(args.command)  # imports JAX: seconds in which a Ctrl-C may come too
         return int(args.func(args))
     except CLIError as error:
         print_error(args.command, str(error))

@@ -137,6 +137,7 @@ FIGURE_PATTERNS = ("*_angles.png", "*_frames.png", "*_animation.gif")
 
 def run(args: argparse.Namespace) -> int:
     params = check_arguments(args)
+    design = _design(args, params)  # a bad --param is refused before the folder is taken
     output = OutputFolder(
         Path(args.out),
         command="simulate",
@@ -144,7 +145,7 @@ def run(args: argparse.Namespace) -> int:
         overwrite=args.overwrite,
     )
     with output:
-        code, lines, problem = _run(args, params, output.dir)
+        code, lines, problem = _run(args, params, design, output.dir)
     for line in lines:
         print(line.replace(str(output.dir), str(output.out)))
     if problem:
@@ -152,7 +153,23 @@ def run(args: argparse.Namespace) -> int:
     return code
 
 
-def _run(args: argparse.Namespace, params: dict[str, float], out: Path):
+def _design(args: argparse.Namespace, params: dict[str, float]):
+    """The literature `HingeDesign` in the chosen fluid with the `--param` values; a one-line
+    exit for a bad one."""
+    from origami_jax.system import AIR, KOH_SOLUTION, HingeDesign
+
+    fluid = {"air": AIR, "koh": KOH_SOLUTION}[args.fluid]
+    try:
+        # A misplaced name such as units= is a runtime TypeError, reported below.
+        return HingeDesign.literature(
+            fluid=fluid,
+            **params,  # pyright: ignore[reportArgumentType]
+        )
+    except (TypeError, ValueError) as error:
+        fail(f"bad --param: {error}")
+
+
+def _run(args: argparse.Namespace, params: dict[str, float], design, out: Path):
     """The run itself, writing into `out` (the staging folder). Returns the exit code, the lines
     to print and a one-line problem to report (or `None`)."""
     import diffrax
@@ -161,17 +178,8 @@ def _run(args: argparse.Namespace, params: dict[str, float], out: Path):
     import origami_jax.simulation as sim
     from origami_jax._result_codes import message
     from origami_jax.chain import accordion_system
-    from origami_jax.system import AIR, KOH_SOLUTION, MICRO, HingeDesign
+    from origami_jax.system import MICRO
 
-    fluid = {"air": AIR, "koh": KOH_SOLUTION}[args.fluid]
-    try:
-        # A misplaced name such as units= is a runtime TypeError, reported below.
-        design = HingeDesign.literature(
-            fluid=fluid,
-            **params,  # pyright: ignore[reportArgumentType]
-        )
-    except (TypeError, ValueError) as error:
-        fail(f"bad --param: {error}")
     n = args.flaps
     system = accordion_system(design, n)
     k, b = system.hinges.stiffness, system.drag.coefficient
@@ -230,13 +238,16 @@ def _run(args: argparse.Namespace, params: dict[str, float], out: Path):
     report = {
         "input": args.input,
         "flaps": n,
-        "fluid": fluid.name,
+        "fluid": design.fluid.name,
         "units": {"time": "us", "angle": "rad", "stiffness": "pN*m/rad", "drag": "pN*m*us^2/rad^2"},
         "stiffness": jnp.asarray(k).tolist(),
         "drag": jnp.asarray(b).tolist(),
         "params": params,
         "result": "successful" if ok else message(trajectory.result, sim.RESULTS),
         "succeeded": ok,
+        # What the trajectory file holds, so that a copy cut short is told from a shorter run.
+        "samples": int(jnp.shape(trajectory.times)[0]),
+        "t1": float(trajectory.times[-1]),
         "stats": _json_stats(trajectory.stats),
         **extra,
     }

@@ -10,8 +10,8 @@ from ._common import (
     EXIT_OK,
     Interrupted,
     OutputFolder,
-    check_out_folder,
     fail,
+    out_path,
     write_atomic,
 )
 
@@ -41,7 +41,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("config", type=Path, nargs="?", help="sweep configuration (TOML)")
     parser.add_argument(
         "--out",
-        type=Path,
+        type=out_path,
         default=Path("origami_out/sweep"),
         help="output folder, created if missing (default: ./origami_out/sweep)",
     )
@@ -68,12 +68,21 @@ def stored_sweep_errors(out: Path):
     that says how many chunks are kept for `--resume`."""
     from ..sweep import SweepBusyError
 
+    with chunks_kept_on_interrupt(out):
+        try:
+            yield
+        except (FileExistsError, ValueError, SweepBusyError) as error:
+            fail(str(error))
+        except OSError as error:
+            fail(f"{error.strerror or error}", EXIT_FAILED)
+
+
+@contextlib.contextmanager
+def chunks_kept_on_interrupt(out: Path):
+    """Ctrl-C anywhere in a run that stores chunks in `out` (`sweep`, `yield`; its figures and
+    summary included): an interruption that says how many chunks are kept for `--resume`."""
     try:
         yield
-    except (FileExistsError, ValueError, SweepBusyError) as error:
-        fail(str(error))
-    except OSError as error:
-        fail(f"{error.strerror or error}", EXIT_FAILED)
     except KeyboardInterrupt:
         stored = len(list((out / "chunks").glob("part-*.nc")))
         raise Interrupted(
@@ -88,14 +97,27 @@ def run(args: argparse.Namespace) -> int:
         return EXIT_OK
     if args.config is None:
         fail("give a CONFIG.toml (or --list-models).")
-    out = check_out_folder(Path(args.out))
-    from ..sweep import load_config, sweep
+    from ..sweep import load_config
 
     try:
         config = load_config(args.config)
     except (ValueError, OSError) as error:
         fail(f"bad config {args.config}: {error}")
+    # The summary and plots describe the dataset: replaced together (the sweep itself decides,
+    # through its manifest, that this run may write here). The folder is held for the whole run
+    # (the sweep's store borrows its lock): another run into it meanwhile is refused.
+    owns = ("summary.txt",) if args.no_plots else ("summary.txt", "plots/*.png")
+    output = OutputFolder(
+        Path(args.out), command="sweep", owns=owns, overwrite=True, lend=True, exclusive=True
+    )
+    with output, chunks_kept_on_interrupt(output.out):
+        return _run(args, config, output)
 
+
+def _run(args: argparse.Namespace, config, output: OutputFolder) -> int:
+    from ..sweep import sweep
+
+    out = output.out
     print(
         f"[sweep] model {config.kernel.name}: {config.space.size} designs over "
         f"{', '.join(config.space.names)} -> {out}",
@@ -134,17 +156,13 @@ def run(args: argparse.Namespace) -> int:
             lines.append(
                 f"  result {code} ({meanings.get(code, '?')}): {(codes == code).sum()} designs"
             )
-    # The summary and plots describe this dataset: replaced together (the sweep itself decided,
-    # through its manifest, that this run may write here).
-    owns = ("summary.txt",) if args.no_plots else ("summary.txt", "plots/*.png")
-    with OutputFolder(out, command="sweep", owns=owns, overwrite=True) as output:
-        if not args.no_plots:
-            from ..plotting import sweep as sweep_plots
+    if not args.no_plots:
+        from ..plotting import sweep as sweep_plots
 
-            paths = sweep_plots.summary_plots(
-                dataset, output.dir / "plots", metrics=config.plot_metrics
-            )
-            lines.append(f"plots: {len(paths)} in {out / 'plots'}")
-        write_atomic(output.dir / "summary.txt", "\n".join(lines) + "\n")
+        paths = sweep_plots.summary_plots(
+            dataset, output.dir / "plots", metrics=config.plot_metrics
+        )
+        lines.append(f"plots: {len(paths)} in {out / 'plots'}")
+    write_atomic(output.dir / "summary.txt", "\n".join(lines) + "\n")
     print("\n".join(lines))
     return EXIT_FAILED if failed else EXIT_OK

@@ -1,10 +1,12 @@
 """`origami-jax view`: an interactive 3D view of a result, as one self-contained HTML page."""
 
 import argparse
+import os
 import sys
 from pathlib import Path
 
-from ._common import EXIT_OK, check_out_folder, fail, one_line
+from .._limits import MAX_SAMPLES
+from ._common import EXIT_OK, check_out_folder, fail, one_line, out_path
 
 HELP = "Write an interactive 3D view of a result (one offline HTML page) and open it if asked."
 DESCRIPTION = """\
@@ -34,7 +36,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("result", type=Path, metavar="RESULT", help="the result to view (above)")
     parser.add_argument(
         "--out",
-        type=Path,
+        type=out_path,
         default=None,
         help="the page to write (FILE.html), or a folder for it (default: beside RESULT, "
         "RESULT's name with .html; a sweep member: sweep_member_K.html)",
@@ -69,13 +71,16 @@ def _target(args: argparse.Namespace) -> Path:
 def run(args: argparse.Namespace) -> int:
     from ..view import DEFAULT_MAX_FRAMES, load_scene, open_in_browser, resample, write_html
 
-    if args.frames is not None and args.frames < 0 or args.frames == 1:
-        fail("--frames must be 0 (all samples) or at least 2")
+    frames = args.frames
+    if frames is not None and (frames < 0 or frames == 1 or frames > MAX_SAMPLES):
+        fail(f"--frames must be 0 (all samples) or between 2 and {MAX_SAMPLES}, got {args.frames}.")
     max_frames = DEFAULT_MAX_FRAMES if args.frames is None else (args.frames or None)
     if args.member is not None and args.result.suffix.lower() != ".nc":
         fail("--member only applies to a sweep.nc")
     if args.member is not None and args.member < 0:
         fail(f"--member must be a design index >= 0, got {args.member}")
+    if args.result.is_symlink() and not args.result.exists():
+        fail(f"{args.result} is a link to {os.readlink(args.result)}, which does not exist")
     if not args.result.exists():
         fail(f"no such file: {args.result}")
     target = _target(args)

@@ -9,16 +9,17 @@ from ._common import (
     EXIT_OK,
     OutputFolder,
     add_contact_sampling_argument,
-    check_out_folder,
     contact_sampling,
     dumps_json,
     fail,
     in_range,
     int_range,
+    out_path,
     positive,
     write_atomic,
 )
-from ._sweep import stored_sweep_errors
+from ._panels import check_has_creases, check_panels_thicker_than_film, check_targets
+from ._sweep import chunks_kept_on_interrupt, stored_sweep_errors
 
 HELP = "Estimate a net's yield under fabrication scatter (Monte Carlo, resumable)."
 DESCRIPTION = (
@@ -81,8 +82,10 @@ samples, see origami_jax.fab_yield.yield_gradient), the figures unless --no-figu
 counts and the yield; OUT/misfolds.png: the final state of one typical sample of each verdict other
 than folded, in 3D, next to the intended shape), and the samples as a sweep store: OUT/sweep.nc
 (every sample's parameters and verdict) and OUT/chunks/ (one file per finished chunk). An interrupted run continues with
---resume (the same net, settings, scatter, seed and samples); a folder holding an estimate is never
-overwritten.
+--resume (the same net, settings, scatter, seed and samples; not a finished --improve run, nor
+without a --widths factor it was run with); a folder holding an estimate is never overwritten, and
+one holding another command's results is refused. A nominal release at or after --t-end is refused
+(no sample could fold).
 Exit codes: 0 done, 1 the run stopped (disk full), 2 bad input or a folder in use, 130 interrupted.
 """
 )
@@ -204,11 +207,55 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     parser.add_argument(
         "--out",
-        type=Path,
+        type=out_path,
         default=Path("origami_out/yield"),
         help="output folder, created if missing (default: ./origami_out/yield)",
     )
     parser.set_defaults(func=run)
+
+
+# Every file a yield run writes at the top of --out (its sweep stores aside): a folder holding any
+# is refused without --resume; with it, those this run does not write again are removed, so that
+# result.json and the figures describe one run.
+OWNS = (
+    "result.json",
+    "yield.png",
+    "misfolds.png",
+    "yield_widths.png",
+    "improve.png",
+)
+
+
+def _check_resumable(out: Path, factors: list[float]) -> None:
+    """`--resume` into `out`: its result.json, if any, is a yield estimate's that this run rewrites
+    whole (not another command's; not a finished --improve ascent, which cannot be resumed; no
+    --widths factor left out)."""
+    import json
+
+    path = out / "result.json"
+    if not path.is_file():
+        return
+    try:
+        stored = json.loads(path.read_text())
+    except (OSError, ValueError):
+        stored = None
+    if not isinstance(stored, dict) or "yield" not in stored or "n_samples" not in stored:
+        fail(
+            f"{out} holds a result.json that is not a yield estimate's: --resume continues an "
+            "estimate in its own folder; choose another --out."
+        )
+    if "improve" in stored:
+        fail(
+            f"{out} holds a finished estimate with an --improve ascent, which --resume cannot "
+            "continue (it would drop the ascent): its results are complete; choose another --out."
+        )
+    dropped = sorted({float(w["factor"]) for w in stored.get("widths", [])} - set(factors))
+    if dropped:
+        fail(
+            f"cannot resume {out} without --widths {','.join(f'{w:g}' for w in dropped)}: its "
+            "result.json holds the yield at those widths, which this run would drop; give them "
+            "in --widths."
+        )
 
 
 def _numbers(text: str | None, flag: str) -> list[float] | None:
@@ -322,8 +369,7 @@ def _improve_parameters(args: argparse.Namespace, scatter) -> tuple[str, ...]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..fab_yield import Scatter, load_scatter, yield_estimate
-    from ..system import AIR, KOH_SOLUTION
+    from ..fab_yield import Scatter, load_scatter
 
     int_range(args.samples, "--samples", 1, 10_000_000)
     if args.seed < 0:
@@ -366,6 +412,9 @@ def run(args: argparse.Namespace) -> int:
     except (FoldFormatError, ValueError, OSError) as error:
         fail(f"cannot load {args.net}: {error}")
     loops = isinstance(pattern, CreasePattern)
+    check_has_creases(pattern, args.net)
+    check_panels_thicker_than_film(pattern, default_design(pattern), args.net)
+    check_targets(pattern, None, args.net)
     if not 0 <= args.bias < 1:
         fail(f"--bias must be a pre-fold angle in [0, 1) rad, got {args.bias}.")
     if args.bias and not loops:
@@ -382,9 +431,48 @@ def run(args: argparse.Namespace) -> int:
             release = list(release_times_from_front(pattern, front[:2], front[2]))
         except ValueError as error:
             fail(f"--etch-front: {error}")
+    if release is not None:
+        if len(release) != pattern.n_creases:
+            n = pattern.n_creases
+            fail(f"--release: {len(release)} values for {n} creases (give one per crease).")
+        late = [j for j, t in enumerate(release) if t >= args.t_end]
+        if late:
+            flag = "--etch-front" if front is not None else "--release"
+            fail(
+                f"{flag}: crease {late[0]} is released at {release[late[0]]:g} µs, at or after "
+                f"--t-end {args.t_end:g} µs, so no sample could fold (a yield of 0 that says "
+                "nothing); give a longer --t-end or earlier release times."
+            )
     improve = _improve_parameters(args, scatter)
     process = _process(args.process, pattern.n_creases)
-    out = check_out_folder(Path(args.out))
+    # Held for the whole run (the estimates' sweep stores borrow its lock): another run into the
+    # folder meanwhile is refused, and so is a folder holding results without --resume (a yield
+    # never replaces results).
+    output = OutputFolder(
+        Path(args.out),
+        command="yield",
+        owns=OWNS,
+        overwrite=args.resume,
+        lend=True,
+        exclusive=True,
+        refuse_hint="a yield never replaces results: choose another --out (--resume continues the "
+        "estimate stored there)",
+    )
+    with output, chunks_kept_on_interrupt(output.out):
+        return _run(
+            args, output, pattern, loops, scatter, sampling, factors, release, process, improve
+        )
+
+
+def _run(args, output, pattern, loops, scatter, sampling, factors, release, process, improve):
+    """The estimates (and the ascent) into `output.out`, the results staged in `output.dir`."""
+    from ..fab_yield import yield_estimate
+    from ..net._net import default_design
+    from ..system import AIR, KOH_SOLUTION
+
+    out = output.out
+    if args.resume:
+        _check_resumable(out, factors)
     design = default_design(pattern, KOH_SOLUTION if args.fluid == "koh" else AIR)
     print(
         f"[yield] {args.net}: {args.samples} samples, seed {args.seed}, scatter "
@@ -475,32 +563,29 @@ def run(args: argparse.Namespace) -> int:
         ]
     if ascent is not None:
         result["improve"] = ascent.to_dict()
-    figures = ("yield.png", "misfolds.png") + (("yield_widths.png",) if factors else ())
-    figures += ("improve.png",) if ascent is not None else ()
-    owns = ("result.json",) if args.no_figures else ("result.json", *figures)
-    with OutputFolder(out, command="yield", owns=owns, overwrite=True) as output:
-        write_atomic(output.dir / "result.json", dumps_json(result))
-        if not args.no_figures:
-            import matplotlib.pyplot as plt
+    # Staged in output.dir: moved into --out, with the figures, when `run`'s `with output` ends.
+    write_atomic(output.dir / "result.json", dumps_json(result))
+    if not args.no_figures:
+        import matplotlib.pyplot as plt
 
-            from ..plotting.fab_yield import misfold_figure, width_figure, yield_figure
+        from ..plotting.fab_yield import misfold_figure, width_figure, yield_figure
 
-            fig = yield_figure(estimate, title=f"{args.net}: yield under fabrication scatter")
-            fig.savefig(output.dir / "yield.png", dpi=120)
+        fig = yield_figure(estimate, title=f"{args.net}: yield under fabrication scatter")
+        fig.savefig(output.dir / "yield.png", dpi=120)
+        plt.close(fig)
+        fig = misfold_figure(pattern, estimate, title=f"{args.net}: misfold modes")
+        fig.savefig(output.dir / "misfolds.png", dpi=120)
+        plt.close(fig)
+        if factors:
+            fig = width_figure(
+                sorted(at_width), [at_width[f] for f in sorted(at_width)], title=args.net
+            )
+            fig.savefig(output.dir / "yield_widths.png", dpi=120)
             plt.close(fig)
-            fig = misfold_figure(pattern, estimate, title=f"{args.net}: misfold modes")
-            fig.savefig(output.dir / "misfolds.png", dpi=120)
+        if ascent is not None:
+            fig = ascent.figure(title=f"{args.net}: yield ascent")
+            fig.savefig(output.dir / "improve.png", dpi=120)
             plt.close(fig)
-            if factors:
-                fig = width_figure(
-                    sorted(at_width), [at_width[f] for f in sorted(at_width)], title=args.net
-                )
-                fig.savefig(output.dir / "yield_widths.png", dpi=120)
-                plt.close(fig)
-            if ascent is not None:
-                fig = ascent.figure(title=f"{args.net}: yield ascent")
-                fig.savefig(output.dir / "improve.png", dpi=120)
-                plt.close(fig)
     print(estimate.summary())
     if ascent is not None:
         print(ascent.summary())

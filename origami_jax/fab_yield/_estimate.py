@@ -372,13 +372,24 @@ def yield_estimate(
     m = the_net.n_creases
     if release_times is not None:
         release_times = np.asarray(release_times, dtype=float)
-        if release_times.shape != (m,) or not np.all(np.isfinite(release_times)):
+        if release_times.shape != (m,):
             raise ValueError(
-                f"release_times must be {m} finite times (µs, one per crease), got shape "
+                f"release_times must be {m} times (µs, one per crease), got shape "
                 f"{release_times.shape}."
             )
+        if not np.all(np.isfinite(release_times)):
+            raise ValueError(f"release_times must be finite (µs), got {release_times.tolist()}.")
         if np.any(release_times < 0):
             raise ValueError(f"release_times must be >= 0 µs, got {release_times.tolist()}.")
+        late = np.flatnonzero(release_times >= t_end) if isinstance(t_end, int | float) else []
+        if len(late):
+            # Every sample would be unfinished (the crease never moves): a yield of 0 that says
+            # nothing about the net.
+            raise ValueError(
+                f"release_times: crease {int(late[0])} is released at "
+                f"{release_times[late[0]]:g} µs, at or after t_end {t_end:g} µs, so no sample "
+                "could fold; give a longer t_end (CLI: --t-end) or earlier release times."
+            )
     nominal = _nominal(design, release_times, m)
     nominal.update(_process(process, m))
     release = scatter.release

@@ -73,6 +73,13 @@ def source_and_label(source: str | os.PathLike, label: str | None = None) -> tup
     if isinstance(source, str) and source in catalogue_names():
         return catalogue_path(source), label or source
     path = Path(source)
+    if path.is_dir():
+        raise FileNotFoundError(f"{os.fspath(source)!r} is a folder: give a FOLD file in it.")
+    if path.is_symlink() and not path.exists():
+        raise FileNotFoundError(
+            f"{os.fspath(source)!r} is a link to {os.readlink(path)!r}, which does not exist: "
+            "fix the link or give the FOLD file itself."
+        )
     if not path.is_file():
         raise FileNotFoundError(
             f"no FOLD file {os.fspath(source)!r}, and no shipped net of that name "

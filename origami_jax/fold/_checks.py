@@ -167,10 +167,14 @@ def _check_faces(frame: FoldFrame, where: str) -> None:
             np.sum(xy[:, 0] * np.roll(xy[:, 1], -1) - np.roll(xy[:, 0], -1) * xy[:, 1])
         )
         size = float(np.max(np.ptp(xy, axis=0))) ** 2
-        state = "clockwise" if area < -AREA_REL_TOL * size else "degenerate (zero area)"
+        if area < -AREA_REL_TOL * size:
+            raise FoldFormatError(
+                f"{where}: faces_vertices[{worst}] = {_short(list(face))} is clockwise; FOLD faces "
+                "are listed counter-clockwise seen from +z: reverse its vertex order"
+            )
         raise FoldFormatError(
-            f"{where}: faces_vertices[{worst}] = {_short(list(face))} is {state}; FOLD faces are "
-            "listed counter-clockwise seen from +z: reverse its vertex order"
+            f"{where}: faces_vertices[{worst}] = {_short(list(face))} has zero area (its corners "
+            "are on one line or at one point): fix its vertices_coords, or drop the face"
         )
 
 

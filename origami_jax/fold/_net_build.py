@@ -85,6 +85,12 @@ def build_net(
         edge_of[key] = e
     sides: dict[int, list[tuple[int, int]]] = {}
     for f, face in enumerate(faces):
+        if len(set(face)) < len(face):
+            twice = next(u for u in face if face.count(u) > 1)
+            raise FoldFormatError(
+                f"{where}: faces_vertices[{f}] = {list(face)} lists vertex {twice} more than once: "
+                "a panel lists each corner once"
+            )
         for k, u in enumerate(face):
             v = face[(k + 1) % len(face)]
             e = edge_of.get(frozenset((u, v)))

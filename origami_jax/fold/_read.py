@@ -159,6 +159,14 @@ def fold_from_dict(data: Any, *, validate_schema: bool = True) -> FoldFile:
                 )
             frames.append(_frame_from_dict(frame_data, i))
     frames[0] = _with_edges_from_faces(frames[0])
+    for i, frame in enumerate(frames):
+        # Inheriting or not, a parent must be a frame of the file (checked on inheritance only, a
+        # dangling link was read and exported again).
+        if frame.frame_parent is not None and not frame.frame_parent < len(frames):
+            raise FoldFormatError(
+                f"frame {i} has frame_parent {frame.frame_parent}, which does not exist (the file "
+                f"has frames 0 to {len(frames) - 1}): fix the link or remove it"
+            )
     fold = FoldFile(frames=tuple(frames), file_spec=spec, file_metadata=file_metadata)
     check_fold(fold)
     if validate_schema:
@@ -329,7 +337,8 @@ def _edges(value: Any, where: str) -> np.ndarray:
     for i, row in enumerate(rows):
         if not (isinstance(row, list) and len(row) == 2 and all(_is_index(v) for v in row)):
             raise FoldFormatError(
-                f"{where}: edges_vertices[{i}] = {_short(row)} must be a pair [u, v] of vertex ids"
+                f"{where}: edges_vertices[{i}] = {_short(row)} must be a pair [u, v] of vertex ids "
+                "(whole numbers >= 0)"
             )
         if row[0] == row[1]:
             raise FoldFormatError(f"{where}: edges_vertices[{i}] = {row!r} is a loop (u = v)")
@@ -410,8 +419,10 @@ def _faces(value: Any, where: str) -> tuple[tuple[int, ...], ...]:
     out = []
     for i, row in enumerate(rows):
         if not (isinstance(row, list) and len(row) >= 3 and all(_is_index(v) for v in row)):
+            not_id = next((v for v in row if not _is_index(v)), None) if isinstance(row, list) else None
+            why = f": {_short(not_id)} is not one (whole numbers >= 0)" if not_id is not None else ""
             raise FoldFormatError(
-                f"{where}: faces_vertices[{i}] = {_short(row)} must list at least 3 vertex ids"
+                f"{where}: faces_vertices[{i}] = {_short(row)} must list at least 3 vertex ids{why}"
             )
         out.append(tuple(row))
     return tuple(out)

@@ -57,11 +57,47 @@ def is_folded_form(frame: FoldFrame) -> bool:
 def flat_fold(fold: FoldFile, *, root: int | None = None) -> FoldFile:
     """`fold` itself, or, when its key frame is a folded form (`is_folded_form`), a file whose one
     frame is that form's flat crease pattern (`unfold_folded_form`; the other frames animate the
-    form's vertices and are dropped)."""
+    form's vertices and are dropped). A key frame with vertices that no edge or face uses is read
+    without them (a warning says how many; the outputs would carry every one, and writing them
+    took minutes for thousands)."""
+    fold = used_vertices_only(fold)
     if not is_folded_form(fold.key_frame):
         return fold
     frame = unfold_folded_form(fold.key_frame, root=root)
     return FoldFile(frames=(frame,), file_spec=fold.file_spec, file_metadata=fold.file_metadata)
+
+
+def used_vertices_only(fold: FoldFile) -> FoldFile:
+    """`fold` itself, or, when some vertices of its key frame belong to no edge and no face, a file
+    of that key frame alone without them (the other ids renumbered in order; per-vertex properties
+    the model does not know are dropped, and so are the other frames, which the loaders do not
+    read), with a `UserWarning` naming how many."""
+    frame = fold.key_frame
+    if frame.vertices_coords is None or frame.edges_vertices is None:
+        return fold
+    n = len(frame.vertices_coords)
+    used = np.zeros(n, dtype=bool)
+    used[np.asarray(frame.edges_vertices, dtype=np.int64).reshape(-1)] = True
+    for face in frame.faces_vertices or ():
+        used[list(face)] = True
+    if used.all():
+        return fold
+    new_id = np.cumsum(used) - 1
+    warnings.warn(
+        f"{n - int(used.sum())} of the {n} vertices belong to no edge or face: read without them "
+        "(the outputs number the vertices without them)",
+        stacklevel=3,
+    )
+    faces = frame.faces_vertices
+    key = frame.replace(
+        vertices_coords=np.asarray(frame.vertices_coords)[used],
+        edges_vertices=new_id[np.asarray(frame.edges_vertices, dtype=np.int64)],
+        faces_vertices=None
+        if faces is None
+        else tuple(tuple(int(new_id[v]) for v in face) for face in faces),
+        extra={k: v for k, v in frame.extra.items() if not k.startswith("vertices_")},
+    )
+    return FoldFile(frames=(key,), file_spec=fold.file_spec, file_metadata=fold.file_metadata)
 
 
 def unfold_folded_form(frame: FoldFrame, *, root: int | None = None) -> FoldFrame:

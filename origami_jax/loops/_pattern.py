@@ -309,11 +309,12 @@ class CreasePattern:
                 f"drag={drag!r}: the paper's per-hinge drag is defined for panel trees; closed-loop "
                 "patterns take drag='panel' (each panel's own motion)."
             )
-        from ..net._net import default_design, warn_if_hinges_wider_than_creases
+        from ..net._net import check_per_crease, default_design, warn_if_hinges_wider_than_creases
 
         lengths = self.crease_lengths
         if design is None:
             design = default_design(self)
+        check_per_crease(design, self.n_creases)
         warn_if_hinges_wider_than_creases(self.name, design, lengths)
         m = self.n_creases
         intended = self.intended_angles
@@ -567,8 +568,10 @@ def load_pattern(
     """
     from ..fold import flat_fold, read_fold
     from ..net import load_net
+    from ..net._net import check_loader_arguments
     from ..system import MICRO
 
+    check_loader_arguments(root, length_scale)
     units = MICRO if units is None else units
     label = name
     if isinstance(pattern, FoldFile):

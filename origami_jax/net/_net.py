@@ -21,6 +21,7 @@ Lengths: the FOLD file's `frame_unit` is converted into the design's unit system
 """
 
 import dataclasses
+import math
 import os
 import warnings
 from typing import Any
@@ -182,6 +183,7 @@ class Net:
                 "every crease needs a finite target: give edges_foldAngle in the FOLD file or "
                 "targets= (rad)."
             )
+        check_per_crease(design, m)
         warn_if_hinges_wider_than_creases(self.name, design, lengths)
         tree = self.tree(design, hinges=hinges, targets=targets)
         # Each crease's bilayer folds to its own target: hinge length ρ |θ_target|.
@@ -279,8 +281,18 @@ class Net:
 
     def seam_gaps(self, angles: ArrayLike) -> np.ndarray:
         """Largest end-to-end gap of each seam with the creases at `angles` (rad), in design length
-        units (host, rigid folding of the flat pattern)."""
-        positions = self.geometry.fold(np.asarray(angles, dtype=float))
+        units (host, rigid folding of the flat pattern).
+
+        **Raises:** `ValueError` unless `angles` holds one finite angle per crease."""
+        angles = np.asarray(angles, dtype=float)
+        if angles.shape != (self.n_creases,):
+            raise ValueError(
+                f"angles must hold one fold angle per crease, shape ({self.n_creases},), got "
+                f"{angles.shape}."
+            )
+        if not np.all(np.isfinite(angles)):
+            raise ValueError(f"angles must be finite (rad), got {angles.tolist()}.")
+        positions = self.geometry.fold(angles)
         return self.geometry.seam_gaps(positions, self.seams) * self.length_scale
 
     def panel_size(self, system: FoldingSystem | None = None) -> float:
@@ -409,6 +421,21 @@ def default_design(pattern, fluid=None) -> HingeDesign:
     `pattern` (a `Net` or `CreasePattern`; `hinges_within_creases`)."""
     overrides = {} if fluid is None else {"fluid": fluid}
     return hinges_within_creases(HingeDesign.literature(**overrides), pattern.crease_lengths)
+
+
+def check_per_crease(design: HingeDesign, m: int) -> None:
+    """Every number of `design` one value, or one per crease (`m`): a one-line `ValueError`
+    naming the field otherwise (a list of another length broadcast deep inside JAX)."""
+    for field in dataclasses.fields(design):
+        value = getattr(design, field.name)
+        if isinstance(value, str) or value is None or is_traced(value):
+            continue
+        shape = np.shape(value) if isinstance(value, int | float | np.ndarray | jnp.ndarray) else ()
+        if shape not in ((), (1,), (m,)):
+            raise ValueError(
+                f"design.{field.name} has shape {shape} for {m} creases: give one value, or one per "
+                "crease."
+            )
 
 
 def warn_if_hinges_wider_than_creases(name: str, design: HingeDesign, lengths) -> None:
@@ -569,6 +596,7 @@ def load_net(
     from ..fold import flat_fold, read_fold
     from ..system import MICRO
 
+    check_loader_arguments(root, length_scale)
     units = MICRO if units is None else units
     label = name
     key = None
@@ -583,6 +611,10 @@ def load_net(
         fold = flat_fold(fold, root=root)
         geometry = net_geometry(fold, root=root)
         key = fold.frame(0)
+        if key.faces_vertices is None:
+            # Traced from the planar graph by the geometry: written with the folding (a FOLD file
+            # without faces was simulated, then refused when its animation was written).
+            key = key.replace(faces_vertices=tuple(tuple(map(int, f)) for f in geometry.faces))
     if length_scale is None:
         length_scale = length_scale_from_unit(geometry.unit, units.metre_per_length)
     label = label or "net"
@@ -591,6 +623,23 @@ def load_net(
     else:
         crease_edges = tuple(tuple(int(e) for e in edges) for edges in geometry.crease_edges)
     return Net(geometry, label, float(length_scale), key, crease_edges)
+
+
+def check_loader_arguments(root, length_scale) -> None:
+    """`root` a face index (a whole number) or `None`, `length_scale` a positive finite number or
+    `None` (`load_net`, `load_pattern`): one-line `ValueError`s naming the argument."""
+    if root is not None and (isinstance(root, bool) or not isinstance(root, int | np.integer)):
+        raise ValueError(f"root must be a face index (a whole number), got {root!r}.")
+    if root is not None and root < 0:
+        raise ValueError(f"root must be a face index >= 0, got {root}.")
+    if length_scale is not None:
+        if isinstance(length_scale, bool) or not isinstance(length_scale, int | float | np.number):
+            raise ValueError(f"length_scale must be a number, got {length_scale!r}.")
+        if not (math.isfinite(length_scale) and length_scale > 0):
+            raise ValueError(
+                "length_scale must be a positive finite number (design length units per FOLD "
+                f"length unit), got {length_scale}."
+            )
 
 
 class NetLayout(AbstractLayout):

@@ -39,6 +39,7 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Bool, Float, Int
 
 from .._result_codes import message
+from .._validate import is_traced
 from ._results import RESULTS
 from ._simulate import Trajectory, on_one_device, padded_sample_count
 
@@ -351,7 +352,9 @@ def fold_outcome(
         seams_touching = touch[-1] & finite[-1]
         final_gaps = gaps[-1]
     final = theta[-1]
-    settled = _settled(times, theta, angle_tolerance)
+    # A crease released in the run's last tenth (or after its end) has had no time to come to
+    # rest: the run is unfinished, not misfolded, whatever its angles.
+    settled = _settled(times, theta, angle_tolerance) & ~jnp.any(_released_late(system, times))
     # Stays within from sample k on: a reversed cumulative AND.
     stays = jnp.flip(jnp.cumprod(jnp.flip(within).astype(jnp.int32))).astype(bool)
     first = jnp.argmax(stays)
@@ -405,6 +408,8 @@ def _settled(times, theta, angle_tolerance):
     crease that turned within the tail is ringing (or at rest, within rounding), bounded by the
     first condition. Without the drift, an overdamped crease still creeping towards its angle, or
     one only starting to move, could move less than the bound in the tail and be judged at rest.
+    A crease speeding up one way over the whole tail (each step at least as long as the one before)
+    is never at rest: a run too short to see it move far (a tiny end time) is unfinished.
 
     Rows with a NaN time are padding (`assess` pads runs of nearby lengths to one shape) and are not
     counted; a run of one or two samples is its own tail, without a drift to judge."""
@@ -435,7 +440,29 @@ def _settled(times, theta, angle_tolerance):
     ratio = jnp.abs(late) / jnp.where(decaying, jnp.abs(early), 1.0)
     carried = jnp.where(decaying, jnp.minimum(ratio / (1 - ratio), horizon), horizon)
     to_go = jnp.max(jnp.where(one_way & (tail >= 3), jnp.abs(late) * carried, 0.0))
-    return (moved < angle_tolerance / 2) & (to_go < angle_tolerance / 2)
+    # Speeding up one way over the whole tail (every step at least as long as the one before, the
+    # last not zero): a crease starting to move, as at the start of a run too short to see it go
+    # far (a tiny end time), is not at rest however little it has moved.
+    speeding = False
+    if total >= 3:
+        sizes = jnp.abs(steps)
+        growing = jnp.all((sizes[1:] >= sizes[:-1]) | outside[:-1], axis=0) & (sizes[-1] > 0)
+        speeding = jnp.any(one_way & growing & (tail >= 3))
+    return (moved < angle_tolerance / 2) & (to_go < angle_tolerance / 2) & ~speeding
+
+
+def _released_late(system, times):
+    """Per crease `(h,)`, whether it is released after the first sample of the run's last tenth
+    (the tail `_settled` judges; padding rows of NaN time not counted); all `False` without release
+    times. Works on host and traced arrays alike."""
+    release = system.hinges.release_time
+    xp = jnp if is_traced(times, release) else np
+    if release is None:
+        return xp.zeros(system.hinges.target.shape, dtype=bool)
+    total = times.shape[0]
+    count = xp.sum(xp.isfinite(times))
+    tail = xp.minimum(xp.maximum(3, count // 10), count)
+    return release > times[total - tail]
 
 
 @eqx.filter_jit
@@ -646,7 +673,15 @@ def assess(
                 f"{np.max(gaps_final[by_contact]):.3g} above the tolerance {seam_tolerance:.3g})"
             )
     elif verdict == FoldVerdict.UNFINISHED:
+        late = np.flatnonzero(_released_late(system, np.asarray(trajectory.times)))
         reason = "still moving at the end of the run"
+        if len(late):
+            when = np.asarray(system.hinges.release_time)[late]
+            reason = (
+                f"crease {', '.join(map(str, late))} released at "
+                f"{', '.join(f'{t:g}' for t in when)} {system.units.time_symbol}, too near the end "
+                "of the run (or after it) to judge: run longer"
+            )
     elif verdict == FoldVerdict.JAMMED:
         creases = ", ".join(str(i) for i in np.nonzero(outcome.short)[0])
         reason = f"contact stops crease(s) {creases} short"

@@ -18,7 +18,7 @@ import dataclasses
 from collections.abc import Callable, Mapping
 from typing import Any
 
-from .._limits import CONTACT_SAMPLING, MAX_FLAPS, MAX_SAMPLES
+from .._limits import CONTACT_SAMPLING, MAX_CONTACT_SAMPLING, MAX_FLAPS, MAX_SAMPLES
 from ._kernel import Kernel
 
 # Result code for a design whose parameters are outside the model's domain (non-positive or
@@ -484,6 +484,11 @@ def net_fold(
     atol = DEFAULT_ATOL if atol is None else _setting(atol, "atol", low=0.0)
     tolerances = VerdictTolerances.from_degrees(angle_tolerance_deg, seam_tolerance)
     sampling = sampling_pair(contact_sampling)
+    if max(sampling) > MAX_CONTACT_SAMPLING:
+        raise ValueError(
+            f"contact_sampling takes at most {MAX_CONTACT_SAMPLING} points per edge on the ring and "
+            f"on the rim (the contact's work grows with their square), got {sampling}."
+        )
     check_sampling(contact_kind(contact), sampling)
     if design is not None and fluid is not None:
         raise ValueError("give the fluid in the design (HingeDesign(fluid=...)), not both.")

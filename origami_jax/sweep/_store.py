@@ -31,8 +31,6 @@ is atomic on POSIX file systems, including the shared ones multi-host runs write
 import json
 import logging
 import os
-import socket
-import time
 import uuid
 from collections.abc import Iterable, Mapping
 from pathlib import Path
@@ -41,20 +39,21 @@ from typing import Any
 import numpy as np
 import xarray as xr
 
+from .._folder_lock import FolderBusyError, lock_folder
 from ._space import config_equal
 
 MANIFEST = "sweep.json"
 CHUNKS = "chunks"
 RESULT = "sweep.nc"
-LOCK = ".lock"
 ENGINE = "h5netcdf"
 BAD_SUFFIX = ".bad"
 
 logger = logging.getLogger("origami_jax.sweep")
 
 
-class SweepBusyError(RuntimeError):
-    """The output folder is in use by another running sweep (it holds the folder's lock)."""
+class SweepBusyError(FolderBusyError):
+    """The output folder is in use by another running sweep or command (it holds the folder's
+    lock)."""
 
 
 def write_atomic(path: Path, data: bytes | str) -> Path:
@@ -108,28 +107,29 @@ def _differences(old: Mapping[str, Any], new: Mapping[str, Any], prefix: str = "
     return lines
 
 
-def _lock(root: Path):
-    """Take the folder's lock (see the module docstring); return the open lock file."""
-    import fcntl
+# What a difference of the design space's digest means to a user (its other entries name the
+# parameters, ranges and counts).
+_SPACE_VALUES = "space.sha256"
 
-    handle = open(root / LOCK, "a+")  # noqa: SIM115 (held open for the sweep's lifetime)
-    try:
-        fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
-    except OSError:
-        handle.seek(0)
-        holder = handle.read().strip() or "another process"
-        handle.close()
-        raise SweepBusyError(
-            f"{root} is in use by another sweep ({holder}); wait for it to finish, or choose "
-            "another output folder."
-        ) from None
-    handle.seek(0)
-    handle.truncate()
-    handle.write(
-        f"pid {os.getpid()} on {socket.gethostname()}, since {time.strftime('%Y-%m-%d %H:%M:%S')}\n"
-    )
-    handle.flush()
-    return handle
+
+def _summary(lines: list[str], limit: int = 3) -> str:
+    """The differences of `_differences` on one line: the design space's digest as what it is (its
+    values differ), at most `limit` of them, then how many more."""
+    lines = [
+        "the design space's values differ: for a yield estimate, --samples, --seed, --scatter, "
+        "--process or the release times"
+        if line.startswith(f"{_SPACE_VALUES}:")
+        else line
+        for line in lines
+    ]
+    shown = "; ".join(lines[:limit])
+    return shown + (f"; and {len(lines) - limit} more" if len(lines) > limit else "")
+
+
+def _lock(root: Path):
+    """Take the folder's lock (see the module docstring; the same lock every command that writes
+    results takes, `origami_jax._folder_lock`); return it (`close()` releases it)."""
+    return lock_folder(root, command="sweep", error=SweepBusyError)
 
 
 class Store:
@@ -177,11 +177,10 @@ class Store:
                         "continue it, or choose another output folder."
                     )
                 if not config_equal(stored, manifest):
-                    lines = "\n  ".join(_differences(stored, manifest))
                     raise ValueError(
-                        f"cannot resume: {root} holds a different sweep. Differences:\n  {lines}\n"
-                        "Resume with the same model, settings and design space, or choose another "
-                        "output folder."
+                        f"cannot resume: {root} holds a different sweep "
+                        f"({_summary(_differences(stored, manifest))}); resume with the same model, "
+                        "settings and design space, or choose another output folder."
                     )
             elif writer:
                 write_atomic(path, json.dumps(manifest, indent=2, sort_keys=True))

@@ -9,10 +9,12 @@ the `sweep.nc` of an "accordion-step" `origami-jax sweep` (a member is rebuilt a
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import os
 import sys
+import zipfile
 from pathlib import Path
 from typing import Any
 
@@ -114,10 +116,51 @@ def scene_from(
     return resample(scene, max_frames)
 
 
+# What a file that cannot be read raises: a truncated CSV (ValueError), NPZ (BadZipFile, EOFError),
+# NetCDF (OSError) or a missing array (KeyError).
+_UNREADABLE = (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile)
+
+
 def load_scene(path: Path, *, member: int | None = None, title: str | None = None) -> Scene:
-    """A scene of a result file (see the module docstring); `ValueError` for what cannot be read."""
+    """A scene of a result file (see the module docstring); `ValueError` for what cannot be read
+    (a folder, a file cut short, a file of another command), naming the file to give instead."""
+    path = Path(path)
+    if path.is_dir():
+        raise ValueError(_folder_message(path))
     if not path.is_file():
         raise ValueError(f"no such file: {path}")
+    return _load_scene(path, member=member, title=title)
+
+
+@contextlib.contextmanager
+def _reading(path: Path):
+    """Errors of reading `path` (a truncated CSV, NPZ, NetCDF or JSON file; a missing array) as one
+    `ValueError` saying the file is cut short, instead of the library's own words."""
+    try:
+        yield
+    except _UNREADABLE as error:
+        text = str(error).splitlines()[0] if str(error) else ""
+        raise ValueError(
+            f"cannot read {path} ({type(error).__name__}: {text[:160]}): it is cut short or not a "
+            "result file; write it again (rerun the command)"
+        ) from None
+
+
+# Result files a command's folder holds, in the order `view` suggests them.
+_VIEWABLE = ("trajectory.fold", "path.npz", "trajectory.csv", "trajectory.npz", "sweep.nc")
+
+
+def _folder_message(path: Path) -> str:
+    found = [name for name in _VIEWABLE if (path / name).is_file()]
+    if found:
+        return f"{path} is a folder: give the result file in it, e.g. {path / found[0]}"
+    return (
+        f"{path} is a folder: give a result file (a .fold file, the path.npz of unfold, the "
+        "trajectory.csv of simulate, the trajectory.fold of fold, or a sweep.nc with --member)"
+    )
+
+
+def _load_scene(path: Path, *, member: int | None = None, title: str | None = None) -> Scene:
     suffix = path.suffix.lower()
     kwargs = {} if title is None else {"title": title}
     if suffix == ".fold":
@@ -130,29 +173,50 @@ def load_scene(path: Path, *, member: int | None = None, title: str | None = Non
     if suffix == ".nc":
         import xarray as xr
 
-        with xr.open_dataset(path) as dataset:
-            return scene_from_sweep_member(dataset.load(), member, **kwargs)
+        with _reading(path), xr.open_dataset(path) as dataset:
+            loaded = dataset.load()
+        return scene_from_sweep_member(loaded, member, **kwargs)
+    if suffix in (".csv", ".npz"):
+        _refuse_other_commands(path)
     if suffix == ".npz":
-        with np.load(path, allow_pickle=False) as data:
+        # Through our own handle: NumPy leaves its own open when the archive is cut short.
+        with _reading(path), path.open("rb") as handle, np.load(handle, allow_pickle=False) as data:
             keys = set(data.files)
+            arrays = {k: data[k] for k in ("times", "theta") if k in keys}
         if "directions" in keys:
-            scene = scene_from_unfold_npz(path)
+            with _reading(path):
+                scene = scene_from_unfold_npz(path)
             return scene if title is None else scene.replace(title=title)
         if "theta" in keys:
-            with np.load(path, allow_pickle=False) as data:
-                return _simulated_file(path, data["times"], data["theta"], **kwargs)
+            with _reading(path):
+                times, theta = arrays["times"], arrays["theta"]
+            return _simulated_file(path, times, theta, **kwargs)
     if suffix == ".csv":
-        with path.open(encoding="utf-8") as handle:
+        with _reading(path), path.open(encoding="utf-8") as handle:
             header = handle.readline()
         if header.startswith("time"):
             columns = header.strip().split(",")
-            data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+            with _reading(path):
+                data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
             theta = [i for i, c in enumerate(columns) if c.startswith("theta_") and "dot" not in c]
             return _simulated_file(path, data[:, 0], data[:, theta], **kwargs)
     raise ValueError(
         f"cannot view {path.name}: give a .fold file, the path.npz of `origami-jax unfold`, the "
         "trajectory.csv/.npz of `origami-jax simulate` or a sweep.nc with --member"
     )
+
+
+def _refuse_other_commands(path: Path) -> None:
+    """A trajectory file beside another command's results than `simulate`'s: `fold` writes a
+    `trajectory.csv` of hinge angles too, which `view` would draw as an accordion."""
+    if path.with_name("metrics.json").is_file():
+        return
+    fold = path.with_name("trajectory.fold")
+    if fold.is_file() or path.with_name("result.json").is_file():
+        raise ValueError(
+            f"{path.name} beside result.json is the hinge angles of a `fold` run, not of a chain "
+            f"`simulate` run: view {fold}, which holds the folding"
+        )
 
 
 def _simulated_file(path: Path, times, theta, *, title: str | None = None) -> Scene:
@@ -165,9 +229,26 @@ def _simulated_file(path: Path, times, theta, *, title: str | None = None) -> Sc
     notes = []
     report: dict[str, Any] = {}
     if metrics_path.is_file():
-        report = json.loads(metrics_path.read_text(encoding="utf-8"))
+        with _reading(metrics_path):
+            report = json.loads(metrics_path.read_text(encoding="utf-8"))
+        if not isinstance(report, dict):
+            raise ValueError(f"{metrics_path} is not simulate's metrics (not a JSON object)")
     else:
         notes.append(f"no {metrics_path.name} beside the file: literature design assumed")
+    samples, t1 = report.get("samples"), report.get("t1")
+    times = np.asarray(times, dtype=float)
+    cut = samples is not None and len(times) != samples
+    if t1 is not None and len(times) and not math.isclose(times[-1], t1, rel_tol=1e-9):
+        cut = True  # the file holds its times to 12 significant digits
+    if cut:
+        said = f"{samples} samples" if samples is not None else "another end"
+        said += f" to {t1:g} µs" if t1 is not None else ""
+        # A copy cut at a row boundary reads as a shorter run, which would show as successful.
+        raise ValueError(
+            f"{path.name} holds {len(times)} samples to {float(times[-1]):g} µs but "
+            f"{metrics_path.name} says {said}: the file is cut short; write it again (rerun "
+            "simulate)"
+        )
     flaps = int(report.get("flaps", theta.shape[1]))
     if flaps != theta.shape[1]:
         raise ValueError(f"{metrics_path} says {flaps} flaps but {path.name} has {theta.shape[1]}")

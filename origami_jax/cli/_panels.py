@@ -1,0 +1,75 @@
+"""Checks of a pattern's panels that `fold` and `yield` make before anything compiles."""
+
+import numpy as np
+
+from ._common import fail
+
+# Widest panel, in film thicknesses: beyond it float64 cannot resolve the film (and the contact
+# gaps, a fraction of it) against the panel's coordinates (2e12 µm panels failed deep in the
+# geometry with "x_axis is along the polygon's normal").
+MAX_WIDTH_IN_THICKNESSES = 1e8
+
+
+def check_has_creases(pattern, label: str) -> None:
+    """Refuse (one line) a pattern without creases (a single face): nothing folds, and the
+    estimates failed deep inside on empty arrays."""
+    if pattern.n_creases == 0:
+        fail(
+            f"{label} has no creases (one face): nothing folds; give a net or pattern of at least "
+            "two faces joined by a crease (an M or V edge)."
+        )
+
+
+def face_widths(geometry, length_scale: float) -> np.ndarray:
+    """Each face's width, ``2 · area / perimeter`` (design length units, `(F,)`): half the side of
+    a square panel, the inradius of a triangle; near 0 for a sliver."""
+    coords = np.asarray(geometry.vertices_coords, dtype=float)
+    plane = np.asarray(geometry.plane, dtype=float)
+    widths = []
+    for face in geometry.faces:
+        xy = (coords[list(face)] - coords[face[0]]) @ plane.T
+        x, y = xy[:, 0], xy[:, 1]
+        area = 0.5 * abs(float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y)))
+        perimeter = float(np.sum(np.linalg.norm(xy - np.roll(xy, -1, axis=0), axis=1)))
+        widths.append(2.0 * area / perimeter if perimeter > 0 else 0.0)
+    return np.asarray(widths) * float(length_scale)
+
+
+def check_panels_thicker_than_film(pattern, design, label: str) -> None:
+    """Refuse (one line) a pattern with a panel narrower than the film it is made of
+    (`design.t_structural`): the contact model's panels are that thick, and a sliver or a pattern
+    drawn in the wrong unit ran for minutes to "ran out of steps"; or one wider than
+    `MAX_WIDTH_IN_THICKNESSES` films."""
+    thickness = float(np.max(np.asarray(design.t_structural, dtype=float)))
+    widths = face_widths(pattern.geometry, pattern.length_scale)
+    thin = np.flatnonzero(~(widths > thickness))
+    if len(thin):
+        face = int(thin[np.argmin(widths[thin])])
+        fail(
+            f"{label}: face {face} is {widths[face]:.3g} µm wide (2·area/perimeter), not wider "
+            f"than the panels' film ({thickness:.3g} µm thick): merge or drop the sliver, or "
+            "rescale the pattern (its frame_unit, or --length-scale for a unitless file)."
+        )
+    wide = int(np.argmax(widths))
+    if widths[wide] > MAX_WIDTH_IN_THICKNESSES * thickness:
+        fail(
+            f"{label}: face {wide} is {widths[wide]:.3g} µm wide, more than "
+            f"{MAX_WIDTH_IN_THICKNESSES:g} times the panels' film ({thickness:.3g} µm): float64 "
+            "cannot resolve the film against it; rescale the pattern (its frame_unit, or "
+            "--length-scale for a unitless file)."
+        )
+
+
+def check_targets(net, targets, label: str) -> None:
+    """Refuse (one line) a crease aimed at 0 (flat): a stressed hinge's stiffness is set by the angle
+    it folds to, and a zero angle gave "stiffness contains NaN or inf"."""
+    targets = np.asarray(net.intended_angles if targets is None else targets, dtype=float)
+    flat = np.flatnonzero(targets == 0)
+    if len(flat):
+        j = int(flat[0])
+        edges = ", ".join(map(str, net.crease_edge_ids[j]))
+        fail(
+            f"{label}: crease {j} (FOLD edge {edges}) folds to 0°: a stressed hinge folds to a "
+            "non-zero angle; give its edges_foldAngle (or --targets), or assign it F (flat) to "
+            "join its faces as one panel."
+        )
