@@ -125,8 +125,11 @@ def _run_of(folder: Path, command: str, files: dict[str, str], **options) -> Non
 
 def test_another_commands_results_are_replaced_whole_or_refused(tmp_path):
     _run_of(tmp_path, "simulate", {"metrics.json": "{}", "trajectory.csv": "simulate"})
-    with pytest.raises(CLIError, match=r"earlier `simulate` run \(metrics.json, trajectory.csv\); "
-                       "pass --overwrite"):
+    with pytest.raises(
+        CLIError,
+        match=r"earlier `simulate` run \(metrics.json, trajectory.csv\); "
+        "pass --overwrite",
+    ):
         _run_of(tmp_path, "fold", {"result.json": "{}", "trajectory.csv": "fold"})
     # With --overwrite the whole earlier run goes (its metrics.json would have made view draw the
     # fold's angles as an accordion).
@@ -492,7 +495,9 @@ def _collinear(data):
     ],
     ids=["tiny", "huge", "float-index", "repeated-vertex", "zero-target", "one-face", "zero-area"],
 )
-def test_bad_geometry_is_named_before_anything_compiles(change, commands, message, tmp_path, capsys):
+def test_bad_geometry_is_named_before_anything_compiles(
+    change, commands, message, tmp_path, capsys
+):
     path = _cube_net(tmp_path, "net.fold", change)
     for command in commands:
         out = tmp_path / f"out_{command}"

@@ -376,7 +376,9 @@ def test_the_model_is_chosen_by_name_and_a_sampling_needs_the_sampled_model(tmp_
     assert isinstance(net.system().contact, PlateContact)
     assert isinstance(net.system(contact="sampled").contact, PanelContact)
     assert net.system(contact=False).contact is None
-    with pytest.raises(ValueError, match="contact must be True, False or one of 'plate', 'sampled'"):
+    with pytest.raises(
+        ValueError, match="contact must be True, False or one of 'plate', 'sampled'"
+    ):
         net.system(contact="exact")
     with pytest.raises(ValueError, match="applies to contact='sampled' only"):
         net.system(contact_sampling=(8, 6))

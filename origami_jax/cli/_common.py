@@ -500,7 +500,11 @@ def _read_marker(out: Path) -> dict | None:
         return None
     # Only files inside the folder (a hand-edited "../x" is not ours to remove).
     files = [f for f in marker["files"] if ".." not in Path(f).parts]
-    return {"command": marker["command"], "files": files, "exclusive": bool(marker.get("exclusive"))}
+    return {
+        "command": marker["command"],
+        "files": files,
+        "exclusive": bool(marker.get("exclusive")),
+    }
 
 
 def prepare_out(out: Path) -> Path:

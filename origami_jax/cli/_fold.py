@@ -296,8 +296,8 @@ def run(args: argparse.Namespace) -> int:
     import numpy as np
 
     from origami_jax.fold import is_folded_form, read_fold
-    from origami_jax.fold._model import FRAME_UNITS_M
     from origami_jax.fold._catalogue import source_and_label
+    from origami_jax.fold._model import FRAME_UNITS_M
     from origami_jax.loops import CreasePattern, NotRigidlyFoldableError, load_pattern
     from origami_jax.loops import release_times_from_front as pattern_front
     from origami_jax.net import release_times_from_front

@@ -74,6 +74,9 @@ from ..system import AbstractContact, AbstractMechanism
 from ._plate_tables import PlateTables
 from ._tables import RIM_POINTS_PER_EDGE, RING_POINTS_PER_EDGE, ContactTables, build_tables
 
+# The contact's damping ratio at half its activation gap (`with_default_damping`): enough to take a
+# landing's energy out over a few rebounds without holding panels apart.
+DEFAULT_DAMPING_RATIO = 0.5
 _X_MIN = 0.1  # below this fraction of the activation gap the barrier continues as a quadratic
 _LOG_X_MIN = float(np.log(_X_MIN))
 _B_MIN = -((_X_MIN - 1) ** 2) * _LOG_X_MIN
@@ -269,7 +272,7 @@ class PanelContact(AbstractContact):
         hinge_target: Float[ArrayLike, " h"],
         *,
         thickness: Float[ArrayLike, "*#b"],
-        damping_ratio: float = 0.5,
+        damping_ratio: float = DEFAULT_DAMPING_RATIO,
         **kwargs,
     ) -> "PanelContact":
         """Contact with defaults from the hinges and panels (module docstring, "Defaults").
@@ -280,18 +283,11 @@ class PanelContact(AbstractContact):
         `damping_ratio`. Other keyword arguments go to `from_mechanism`. Traceable in the hinges,
         the thickness and the mechanism's masses.
         """
-        k = jnp.asarray(hinge_stiffness)
-        target = jnp.asarray(hinge_target)
-        energy = jnp.sum(0.5 * k * target**2)
+        energy = released_energy(hinge_stiffness, hinge_target)
         probe = cls.from_mechanism(
             mechanism, thickness=thickness, stiffness=energy, damping=0.0, **kwargs
         )
-        curvature = _D2B_HALF
-        contact_stiffness = energy * curvature / probe.activation**2
-        inertia = _rest_inertia(mechanism)
-        mass = jnp.min(inertia) / probe.tables.scale**2
-        damping = 2 * damping_ratio * jnp.sqrt(contact_stiffness * mass)
-        return eqx.tree_at(lambda c: c.damping, probe, damping.astype(probe.damping.dtype))
+        return with_default_damping(probe, mechanism, damping_ratio)
 
     # ---- kernels ----
     #
@@ -531,6 +527,22 @@ class PanelContact(AbstractContact):
             "penetration": penetration,
             "touching": jnp.any(near, axis=-1),
         }
+
+
+def released_energy(hinge_stiffness, hinge_target) -> Array:
+    """``Σ ½ k θ_target²``: the energy the hinges can release, the contact's default stiffness."""
+    return jnp.sum(0.5 * jnp.asarray(hinge_stiffness) * jnp.asarray(hinge_target) ** 2)
+
+
+def with_default_damping(contact, mechanism, damping_ratio: float):
+    """`contact` (with `stiffness`, `activation`, `tables.scale`) with its default damping
+    ``c = 2 ζ sqrt(k_c m)``: ``k_c = κ B''(½)/ĝ²`` the contact's stiffness half-way into the
+    activation gap, ``m`` the lightest panel's mass (the smallest diagonal entry of ``M(0)`` over
+    its squared lever arm, the largest panel's size), ``ζ`` = `damping_ratio`. Traceable."""
+    contact_stiffness = contact.stiffness * _D2B_HALF / contact.activation**2
+    mass = jnp.min(_rest_inertia(mechanism)) / contact.tables.scale**2
+    damping = 2 * damping_ratio * jnp.sqrt(contact_stiffness * mass)
+    return eqx.tree_at(lambda c: c.damping, contact, damping.astype(contact.damping.dtype))
 
 
 def _carried(relative, shift, points, shape):

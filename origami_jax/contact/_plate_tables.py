@@ -14,11 +14,10 @@ two plates of thickness ``t`` meeting there would otherwise start ``t`` deep in 
 """
 
 import dataclasses
-import hashlib
 
 import numpy as np
 
-from ._tables import _convex_hull, _distance_to_segment, plane_frame
+from ._tables import _convex_hull, _distance_to_segment, content_digest, plane_frame
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -51,14 +50,9 @@ class PlateTables:
     digest: str = dataclasses.field(default="", repr=False)
 
     def __post_init__(self):
-        h = hashlib.sha256()
-        for name in ("base_pose", "vertices", "vertex_face", "edge_edge", "joined"):
-            array = np.ascontiguousarray(getattr(self, name))
-            h.update(name.encode())
-            h.update(str(array.shape).encode())
-            h.update(array.tobytes())
-        h.update(repr((self.n_bodies, self.has_base, self.scale)).encode())
-        object.__setattr__(self, "digest", h.hexdigest())
+        arrays = ("base_pose", "vertices", "vertex_face", "edge_edge", "joined")
+        scalars = (self.n_bodies, self.has_base, self.scale)
+        object.__setattr__(self, "digest", content_digest(self, arrays, scalars))
 
     def __hash__(self) -> int:
         return hash(self.digest)
@@ -102,7 +96,9 @@ def _point_polygon_distance(p, polygon) -> float:
     inward = np.cross(normal, nxt - polygon)
     if np.all(np.einsum("ki,ki->k", p - polygon, inward) >= 0):
         return float(abs((p - polygon[0]) @ normal))
-    return float(min(_distance_to_segment(p[None], a, b)[0] for a, b in zip(polygon, nxt)))
+    return float(
+        min(_distance_to_segment(p[None], a, b)[0] for a, b in zip(polygon, nxt, strict=True))
+    )
 
 
 def build_plate_tables(

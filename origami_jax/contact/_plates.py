@@ -48,7 +48,14 @@ from jaxtyping import Array, ArrayLike, Float
 
 from .._validate import is_traced
 from ..system import AbstractContact, AbstractMechanism
-from ._model import _D2B_HALF, _rest_inertia, _rest_poses, barrier, smoothstep
+from ._model import (
+    DEFAULT_DAMPING_RATIO,
+    _rest_poses,
+    barrier,
+    released_energy,
+    smoothstep,
+    with_default_damping,
+)
 from ._plate_tables import PlateTables, build_plate_tables
 from ._primitives import (
     additive_ccd,
@@ -180,7 +187,7 @@ class PlateContact(AbstractContact):
         hinge_target: Float[ArrayLike, " h"],
         *,
         thickness: Float[ArrayLike, "*#b"],
-        damping_ratio: float = 1.0,
+        damping_ratio: float = DEFAULT_DAMPING_RATIO,
         **kwargs,
     ) -> "PlateContact":
         """Contact with defaults from the hinges and panels (module docstring, "Defaults"):
@@ -188,14 +195,11 @@ class PlateContact(AbstractContact):
         lightest panel's mass (the smallest diagonal entry of ``M(0)`` over its squared lever arm,
         the panel size), ``ζ`` = `damping_ratio`. Other keyword arguments go to `from_mechanism`.
         Traceable in the hinges, the thickness and the mechanism's masses."""
-        energy = jnp.sum(0.5 * jnp.asarray(hinge_stiffness) * jnp.asarray(hinge_target) ** 2)
+        energy = released_energy(hinge_stiffness, hinge_target)
         probe = cls.from_mechanism(
             mechanism, thickness=thickness, stiffness=energy, damping=0.0, **kwargs
         )
-        contact_stiffness = energy * _D2B_HALF / probe.activation**2
-        mass = jnp.min(_rest_inertia(mechanism)) / probe.tables.scale**2
-        damping = 2 * damping_ratio * jnp.sqrt(contact_stiffness * mass)
-        return eqx.tree_at(lambda c: c.damping, probe, damping.astype(probe.damping.dtype))
+        return with_default_damping(probe, mechanism, damping_ratio)
 
     # ---- geometry ----
 

@@ -15,6 +15,19 @@ import numpy as np
 from .._limits import CONTACT_SAMPLING
 
 
+def content_digest(tables, arrays: tuple[str, ...], scalars: tuple) -> str:
+    """A SHA-256 of host tables' named arrays (names, shapes, bytes) and scalars: what makes static
+    geometry hashable, so that a compiled simulation is reused for the same geometry."""
+    h = hashlib.sha256()
+    for name in arrays:
+        array = np.ascontiguousarray(getattr(tables, name))
+        h.update(name.encode())
+        h.update(str(array.shape).encode())
+        h.update(array.tobytes())
+    h.update(repr(scalars).encode())
+    return h.hexdigest()
+
+
 @dataclasses.dataclass(frozen=True, eq=False)
 class ContactTables:
     """The static geometry of `PanelContact`, laid out densely by body (host NumPy arrays; body index
@@ -54,14 +67,15 @@ class ContactTables:
     def __post_init__(self):
         if self.weights is None:
             object.__setattr__(self, "weights", np.ones(self.points.shape[:2]))
-        h = hashlib.sha256()
-        for name in ("base_pose", "points", "face_edges", "pairs", "weights"):
-            array = np.ascontiguousarray(getattr(self, name))
-            h.update(name.encode())
-            h.update(str(array.shape).encode())
-            h.update(array.tobytes())
-        h.update(repr((self.n_bodies, self.has_base, self.scale, self.face_inset)).encode())
-        object.__setattr__(self, "digest", h.hexdigest())
+        object.__setattr__(
+            self,
+            "digest",
+            content_digest(
+                self,
+                ("base_pose", "points", "face_edges", "pairs", "weights"),
+                (self.n_bodies, self.has_base, self.scale, self.face_inset),
+            ),
+        )
 
     def __hash__(self) -> int:
         return hash(self.digest)

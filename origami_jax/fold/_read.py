@@ -419,8 +419,12 @@ def _faces(value: Any, where: str) -> tuple[tuple[int, ...], ...]:
     out = []
     for i, row in enumerate(rows):
         if not (isinstance(row, list) and len(row) >= 3 and all(_is_index(v) for v in row)):
-            not_id = next((v for v in row if not _is_index(v)), None) if isinstance(row, list) else None
-            why = f": {_short(not_id)} is not one (whole numbers >= 0)" if not_id is not None else ""
+            not_id = (
+                next((v for v in row if not _is_index(v)), None) if isinstance(row, list) else None
+            )
+            why = (
+                f": {_short(not_id)} is not one (whole numbers >= 0)" if not_id is not None else ""
+            )
             raise FoldFormatError(
                 f"{where}: faces_vertices[{i}] = {_short(row)} must list at least 3 vertex ids{why}"
             )

@@ -369,7 +369,9 @@ class CreasePattern:
                     host, thickness = mechanism, design.t_structural
                 tables = _contact_tables(host, thickness, contact_sampling, kind)
                 # The exact polygons: the plate model's geometry, the sampled model's report.
-                plates = tables if kind == "plate" else _contact_tables(host, thickness, kind="plate")
+                plates = (
+                    tables if kind == "plate" else _contact_tables(host, thickness, kind="plate")
+                )
             # Stiffness and damping as `for_system` sets them, traceable in the hinges (a sweep
             # over hinge parameters builds contact inside `vmap`).
             extra = {} if kind == "plate" else {"plates": plates}

@@ -223,24 +223,23 @@ class Net:
         contact_model = None
         kind = contact_kind(contact)
         check_sampling(kind, contact_sampling)
-        if kind == "plate":
-            contact_model = PlateContact.for_system(
-                tree,
-                stiffness,
-                targets,
-                thickness=design.t_structural,
-                base_thickness=design.t_structural,
-                tables=self.plate_tables(hinges),
+        if kind is not None:
+            geometry = (
+                {"tables": self.plate_tables(hinges)}
+                if kind == "plate"
+                else {
+                    "tables": self.contact_tables(hinges, sampling=contact_sampling),
+                    "plates": self.plate_tables(hinges),
+                }
             )
-        elif kind == "sampled":
-            contact_model = PanelContact.for_system(
+            model = PlateContact if kind == "plate" else PanelContact
+            contact_model = model.for_system(
                 tree,
                 stiffness,
                 targets,
                 thickness=design.t_structural,
                 base_thickness=design.t_structural,
-                tables=self.contact_tables(hinges, sampling=contact_sampling),
-                plates=self.plate_tables(hinges),
+                **geometry,
             )
         return FoldingSystem(tree, hinges_, drag_model, contact=contact_model, units=design.units)
 
