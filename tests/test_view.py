@@ -517,8 +517,9 @@ def test_net_hinges_ride_their_creases_and_contacts_are_marked(corner_cube):
     points = scene.contact_points[scene.contact_frames == 2]
     inside = (points[:, :2] >= -1e-9) & (points[:, :2] <= 200 + 1e-9)  # on the base, rims included
     assert np.all(inside) and np.all(np.abs(points[:, 2]) < 1)
-    flap = 1 + int(layout.child[0])
-    assert scene.highlight_panels.tolist() == [i in (0, flap) for i in range(3)]
+    # At the end all three touch: flap 1 lies on the base, its rim along the crease of flap 2
+    # (flat beside the base) within the contact's activation gap.
+    assert scene.highlight_panels.tolist() == [True, True, True]
 
 
 def test_fold_result_file_carries_verdict_and_contacts(corner_cube, tmp_path):
