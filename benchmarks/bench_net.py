@@ -1,8 +1,10 @@
 """A cube net folding with contact: ours vs MuJoCo (C) with the same panels, hinge springs and contacts.
 
 The net: `cube_net_01` (six 200 µm SiNx squares, five creases to 90°, literature bilayer hinges, KOH
-solution), folded from flat by a step release; ours with panel drag and `PanelContact` (smooth IPC
-barrier), explicit Tsit5 at the default tolerances, jitted. MuJoCo (`benchmarks._mujoco_tree`): the
+solution), folded from flat by a step release; ours with panel drag and the net's default contact,
+`PlateContact` (the plates' exact geometry, IPC barrier, continuous collision detection; rows
+named "plate contact"; ``NET_CONTACT=sampled`` times the sampled `PanelContact`, the rows of the
+files recorded before 2026-12-04 without a model in their names), explicit Tsit5 at the default tolerances, jitted. MuJoCo (`benchmarks._mujoco_tree`): the
 same bodies, inertias, hinge axes and spring constants on the same tree, switched-on springs (an
 actuator per hinge whose control steps from 0 to 1 at its release time), linear joint damping at
 critical for each hinge (MuJoCo has no panel drag), each panel a thin convex prism with frictionless
@@ -50,6 +52,9 @@ from ._harness import Result, Timing, time_calls
 from ._mujoco_tree import critical_damping, hinge_period_step, release_controls, tree_model
 
 NET = "cube_net_01"
+# The contact model timed (`Net.system(contact=...)`), named in the rows of the plate model.
+CONTACT = os.environ.get("NET_CONTACT", "plate")
+LABEL = f"{NET} ({CONTACT} contact)"
 T1 = 1500.0  # µs: both have folded and settled by then
 N_SAVE = 301
 # rad: each model's final angles against the 90° targets (the verdict allows 3°). Ours rests on the
@@ -235,7 +240,7 @@ def run(quick: bool) -> list[Result]:
     repeats = 1 if quick or accelerated else 3
     net = load_net(NET)
     design = HingeDesign.literature(fluid=KOH_SOLUTION)
-    system = net.system(design)
+    system = net.system(design, contact=CONTACT)
     targets = np.asarray(system.hinges.target)
     m = net.n_creases
 
@@ -286,7 +291,7 @@ def run(quick: bool) -> list[Result]:
     _kept(
         rows,
         Result(
-            name=f"{NET} folding with contact, one trajectory to {T1:g} us vs MuJoCo",
+            name=f"{LABEL} folding, one trajectory to {T1:g} us vs MuJoCo",
             ours=ours,
             peer_name=f"MuJoCo rollout (C), dt {dt:.3g} us, mesh contacts",
             peer=mj,
@@ -347,7 +352,7 @@ def run(quick: bool) -> list[Result]:
         _kept(
             rows,
             _per_net_row(
-                f"{NET} with scattered hinges, nets/s: ours vmap over {batch_ours} vs "
+                f"{LABEL} with scattered hinges, nets/s: ours vmap over {batch_ours} vs "
                 f"MuJoCo over {batch_mj} on {threads} thread{'s' if threads > 1 else ''}",
                 per_net_ours,
                 per_net_mj,
@@ -364,7 +369,7 @@ def run(quick: bool) -> list[Result]:
     _kept(
         rows,
         _per_net_row(
-            f"{NET} with scattered hinges, nets/s at equal accuracy: ours rtol {EQUAL_RTOL:g} "
+            f"{LABEL} with scattered hinges, nets/s at equal accuracy: ours rtol {EQUAL_RTOL:g} "
             f"vmap over {batch_ours} vs MuJoCo over {batch_mj} on 2 threads",
             per_net[EQUAL_RTOL],
             per_net_mj,
@@ -458,7 +463,7 @@ def _mjx_row(
     backend = jax.default_backend()
     return Result(
         name=(
-            f"{NET} with scattered hinges, nets/s at equal accuracy: ours rtol {EQUAL_RTOL:g} "
+            f"{LABEL} with scattered hinges, nets/s at equal accuracy: ours rtol {EQUAL_RTOL:g} "
             f"vmap over {batch_ours} vs MJX over {batch} ({backend})"
         ),
         ours=Timing.once(per_net_ours),
