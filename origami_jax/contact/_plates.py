@@ -50,6 +50,7 @@ from .._validate import is_traced
 from ..system import AbstractContact, AbstractMechanism
 from ._model import (
     DEFAULT_DAMPING_RATIO,
+    _barrier_slope,
     _rest_poses,
     barrier,
     released_energy,
@@ -219,15 +220,27 @@ class PlateContact(AbstractContact):
         local = jnp.asarray(self.tables.vertices, poses.dtype)
         return jnp.einsum("nij,nvj->nvi", poses[:, :3, :3], local) + poses[:, None, :3, 3]
 
+    # The primitives' points are picked from the world vertices by constant one-hot matrices rather
+    # than by indexing: a gather's derivative is a scatter-add, which runs element by element on a
+    # CPU and does not vectorise over a batch; a small dense product does both.
+
     def _vertex_face_points(self, x):
         """The vertex–face pairs' points: each vertex `(k, 3)` and the other polygon `(k, v, 3)`."""
         a, i, b = self.tables.vertex_face.T
-        return x[a, i], x[b]
+        n, v = x.shape[:2]
+        flat = x.reshape(n * v, 3)
+        point = _pick(a * v + i, n * v, flat)
+        polygon = _pick((b[:, None] * v + np.arange(v)).ravel(), n * v, flat)
+        return point, polygon.reshape(len(a), v, 3)
 
     def _edge_edge_points(self, x):
         """The edge–edge pairs' end points, four `(m, 3)` arrays."""
         a, i0, i1, b, j0, j1 = self.tables.edge_edge.T
-        return x[a, i0], x[a, i1], x[b, j0], x[b, j1]
+        n, v = x.shape[:2]
+        flat = x.reshape(n * v, 3)
+        return tuple(
+            _pick(body * v + k, n * v, flat) for body, k in ((a, i0), (a, i1), (b, j0), (b, j1))
+        )
 
     def _half_sums(self, dtype):
         half = self.half_thickness.astype(dtype)
@@ -270,12 +283,20 @@ class PlateContact(AbstractContact):
             velocity = jnp.concatenate([velocity, jnp.zeros((1, 6), velocity.dtype)], axis=0)
         x = self._world(poses)
         x_dot = velocity[:, None, :3] + jnp.cross(velocity[:, None, 3:], x)
-        elastic = -jax.grad(self._energy)(x)
-        gap, vjp = jax.vjp(lambda x: self._gaps(x)[0], x)
-        rate = jax.jvp(lambda x: self._gaps(x)[0], (x,), (x_dot,))[1]
-        engaged = smoothstep(1 - gap / self.activation)
-        (dissipative,) = vjp(-self.damping * engaged * rate)
-        wrenches = self._wrenches(x, elastic + dissipative)
+        # One linearisation of the gaps (and the edge pairs' mollifier) gives the rates (forward)
+        # and the forces (reverse): the energy's gradient and the damping together, one pass each.
+        (gap, mollifier), tangent = jax.linearize(self._gaps, x)
+        rate, _ = tangent(x_dot)
+        n_vf = len(self.tables.vertex_face)
+        ratio = gap / self.activation
+        weight = jnp.concatenate([jnp.ones(n_vf, x.dtype), mollifier])
+        push = (
+            self.stiffness * weight * _barrier_slope(ratio) / self.activation
+            + self.damping * smoothstep(1 - ratio) * rate
+        )
+        on_mollifier = self.stiffness * barrier(ratio[n_vf:])
+        (gradient,) = jax.linear_transpose(tangent, x)((push, on_mollifier))
+        wrenches = self._wrenches(x, -gradient)
         return wrench_force(wrenches[: self.tables.n_bodies])
 
     # ---- continuous collision detection (the step guard) ----
@@ -378,6 +399,12 @@ class PlateContact(AbstractContact):
         count = jnp.zeros((n, n), x.dtype).at[a, b].add(near)
         total = jnp.zeros((n, n, 3), x.dtype).at[a, b].add(near[:, None] * where)
         return total / jnp.maximum(count, 1)[..., None], count.astype(jnp.int32)
+
+
+def _pick(rows: np.ndarray, size: int, flat: Array) -> Array:
+    """``flat[rows]`` as the product of a constant one-hot matrix `(len(rows), size)` (host) with
+    `flat` `(size, 3)`."""
+    return jnp.asarray(np.eye(size)[rows], flat.dtype) @ flat
 
 
 def plate_overlaps(
