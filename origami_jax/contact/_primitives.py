@@ -24,15 +24,58 @@ def _dot(a, b):
     return jnp.sum(a * b, axis=-1)
 
 
+# The primitives are computed component by component (``(x, y, z)`` tuples of arrays): every
+# operation is then elementwise over the pairs, which XLA vectorises (over a batch too), where a
+# trailing axis of three does not.
+
+
+def _split(a):
+    return a[..., 0], a[..., 1], a[..., 2]
+
+
+def _sub(a, b):
+    return tuple(u - v for u, v in zip(a, b, strict=True))
+
+
+def _vdot(a, b):
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+def _vcross(a, b):
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+def _along(a, s, d):
+    """``a + s d`` by component."""
+    return tuple(u + s * w for u, w in zip(a, d, strict=True))
+
+
+def _point_segment_sq(p, a, b):
+    ab = _sub(b, a)
+    length_sq = _vdot(ab, ab)
+    s = jnp.clip(_vdot(_sub(p, a), ab) / jnp.where(length_sq > 0, length_sq, 1.0), 0.0, 1.0)
+    d = _sub(p, _along(a, s, ab))
+    return _vdot(d, d)
+
+
 def point_segment_sq(
     p: Float[Array, "*b 3"], a: Float[Array, "*b 3"], b: Float[Array, "*b 3"]
 ) -> Float[Array, "*b"]:
     """Squared distance from points `p` to segments ``[a, b]`` (a zero-length segment is a point)."""
-    ab = b - a
-    length_sq = _dot(ab, ab)
-    s = jnp.clip(_dot(p - a, ab) / jnp.where(length_sq > 0, length_sq, 1.0), 0.0, 1.0)
-    d = p - (a + s[..., None] * ab)
-    return _dot(d, d)
+    return _point_segment_sq(_split(p), _split(a), _split(b))
+
+
+def _closest(p0, p1, q0, q1):
+    d1, d2, r = _sub(p1, p0), _sub(q1, q0), _sub(p0, q0)
+    a, e = _vdot(d1, d1), _vdot(d2, d2)
+    b, c, f = _vdot(d1, d2), _vdot(d1, r), _vdot(d2, r)
+    denom = a * e - b * b
+    parallel = denom <= 1e-12 * a * e
+    s = jnp.where(parallel, 0.0, jnp.clip((b * f - c * e) / jnp.where(parallel, 1.0, denom), 0, 1))
+    t = (b * s + f) / e
+    s = jnp.where(t < 0, jnp.clip(-c / a, 0, 1), jnp.where(t > 1, jnp.clip((b - c) / a, 0, 1), s))
+    t = jnp.clip(t, 0.0, 1.0)
+    return _along(p0, s, d1), _along(q0, t, d2)
 
 
 def closest_on_segments(
@@ -44,16 +87,8 @@ def closest_on_segments(
     """The closest points of segments ``[p0, p1]`` and ``[q0, q1]`` (Ericson, *Real-Time Collision
     Detection* §5.1.9: the closest parameters clamped to the segments, parallel segments included:
     then one of the closest pairs). Segments must have positive length."""
-    d1, d2, r = p1 - p0, q1 - q0, p0 - q0
-    a, e = _dot(d1, d1), _dot(d2, d2)
-    b, c, f = _dot(d1, d2), _dot(d1, r), _dot(d2, r)
-    denom = a * e - b * b
-    parallel = denom <= 1e-12 * a * e
-    s = jnp.where(parallel, 0.0, jnp.clip((b * f - c * e) / jnp.where(parallel, 1.0, denom), 0, 1))
-    t = (b * s + f) / e
-    s = jnp.where(t < 0, jnp.clip(-c / a, 0, 1), jnp.where(t > 1, jnp.clip((b - c) / a, 0, 1), s))
-    t = jnp.clip(t, 0.0, 1.0)
-    return p0 + s[..., None] * d1, q0 + t[..., None] * d2
+    on_p, on_q = _closest(*map(_split, (p0, p1, q0, q1)))
+    return jnp.stack(on_p, axis=-1), jnp.stack(on_q, axis=-1)
 
 
 def segment_segment_sq(
@@ -63,17 +98,26 @@ def segment_segment_sq(
     q1: Float[Array, "*b 3"],
 ) -> Float[Array, "*b"]:
     """Squared distance between segments ``[p0, p1]`` and ``[q0, q1]`` (`closest_on_segments`)."""
-    on_p, on_q = closest_on_segments(p0, p1, q0, q1)
-    d = on_p - on_q
-    return _dot(d, d)
+    on_p, on_q = _closest(*map(_split, (p0, p1, q0, q1)))
+    d = _sub(on_p, on_q)
+    return _vdot(d, d)
+
+
+def _roll(components):
+    return tuple(jnp.roll(c, -1, axis=-1) for c in components)
+
+
+def _normal(vertices):
+    """Newell's unit normal of polygons given by component `(…, v)` arrays."""
+    total = tuple(jnp.sum(c, axis=-1) for c in _vcross(vertices, _roll(vertices)))
+    norm = jnp.sqrt(_vdot(total, total))
+    return tuple(c / norm for c in total)
 
 
 def polygon_normal(vertices: Float[Array, "*b v 3"]) -> Float[Array, "*b 3"]:
     """Unit normal of planar polygons (Newell's sum: right-handed with counter-clockwise vertices;
     repeated vertices, the padding of shorter polygons, add nothing)."""
-    nxt = jnp.roll(vertices, -1, axis=-2)
-    normal = jnp.sum(jnp.cross(vertices, nxt), axis=-2)
-    return normal / jnp.linalg.norm(normal, axis=-1, keepdims=True)
+    return jnp.stack(_normal(_split(vertices)), axis=-1)
 
 
 def point_polygon_sq(
@@ -82,12 +126,14 @@ def point_polygon_sq(
     """Squared distance from points `p` to convex planar polygons (`vertices` counter-clockwise
     about `normal`, padded by repeating a vertex): the squared height over the plane where the
     point projects inside, else the squared distance to the nearest edge."""
-    nxt = jnp.roll(vertices, -1, axis=-2)
-    edge = nxt - vertices
-    inward = jnp.cross(normal[..., None, :], edge)  # unnormalised; zero for padding edges
-    inside = jnp.all(_dot(p[..., None, :] - vertices, inward) >= 0, axis=-1)
-    height = _dot(p - vertices[..., 0, :], normal)
-    to_edges = point_segment_sq(p[..., None, :], vertices, nxt)
+    corners = _split(vertices)
+    nxt = _roll(corners)
+    n = tuple(c[..., None] for c in _split(normal))
+    point = tuple(c[..., None] for c in _split(p))
+    inward = _vcross(n, _sub(nxt, corners))  # unnormalised; zero for padding edges
+    inside = jnp.all(_vdot(_sub(point, corners), inward) >= 0, axis=-1)
+    height = _vdot(_sub(point, corners), n)[..., 0]
+    to_edges = _point_segment_sq(point, corners, nxt)
     return jnp.where(inside, height**2, jnp.min(to_edges, axis=-1))
 
 
