@@ -21,7 +21,7 @@ contact's continuous collision detection: the largest step moves no coordinate m
 few chords of it (`PlateContact.time_of_impact`; models without it, such as the sampled
 `PanelContact`, are capped in size only), then a fixed number of halvings
 (`ImplicitStep.halvings`) looks for a decrease of ``|r|²`` (the first with Armijo's decrease, else
-the best, else the shortest trial). Every count is fixed, so the members of a `vmap`ped batch do the same work
+the best, else no move). Every count is fixed, so the members of a `vmap`ped batch do the same work
 and none waits for another; the price is that a step whose Newton iterations did not converge is
 not refused: `Trajectory.stats["newton_error"]` reports the largest remaining Newton update of any
 step (rad; small against the motion when the steps converged).
@@ -171,10 +171,8 @@ def _step(system: FoldingSystem, inputs: AbstractInput, solver: ImplicitStep, t_
 
         zero = jnp.zeros((), q.dtype)
         start = (largest_step(q, dq), jnp.full((), jnp.nan, q.dtype), zero, m0)
-        (after, first, best, _), _ = jax.lax.scan(trial, start, None, length=solver.halvings)
-        # No trial decreased |r|: the shortest one all the same (from rest, a drag quadratic in
-        # the rate is missing from the Jacobian and every longer trial overshoots).
-        alpha = jnp.where(jnp.isnan(first), jnp.where(best > 0, best, 2 * after), first)
+        (_, first, best, _), _ = jax.lax.scan(trial, start, None, length=solver.halvings)
+        alpha = jnp.where(jnp.isnan(first), best, first)
         return q + alpha * dq, None
 
     # The predictor, capped like an update (q_n is clear of contact).
