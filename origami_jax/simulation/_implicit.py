@@ -72,7 +72,10 @@ class ImplicitStep(eqx.Module):
     a 0.2 µm film); raise `ccd_pieces` for larger nets or thinner films.
 
     First-order accurate (the error halves with `dt`) and dissipative; use the adaptive default of
-    `simulate` for accurate trajectories and this engine for robust contact and for batches.
+    `simulate` for accurate trajectories and this engine for robust contact and for batches. Steps
+    long against an impact need more `newton_iterations` (an unconverged step may gain energy);
+    contact models without `time_of_impact` (the sampled `PanelContact`) get no collision cap, and
+    long steps let their panels tunnel through each other.
     """
 
     dt: float = eqx.field(static=True)
@@ -167,7 +170,12 @@ def _step(system: FoldingSystem, inputs: AbstractInput, solver: ImplicitStep, t_
             armijo = (m <= (1 - 2 * _ARMIJO * alpha) * m0) & jnp.isnan(first)
             first = jnp.where(armijo, alpha, first)
             better = m < best_m
-            return (0.5 * alpha, first, jnp.where(better, alpha, best), jnp.minimum(m, best_m)), None
+            return (
+                0.5 * alpha,
+                first,
+                jnp.where(better, alpha, best),
+                jnp.minimum(m, best_m),
+            ), None
 
         zero = jnp.zeros((), q.dtype)
         start = (largest_step(q, dq), jnp.full((), jnp.nan, q.dtype), zero, m0)

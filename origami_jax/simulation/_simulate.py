@@ -578,7 +578,9 @@ def _simulate_implicit(system, inputs, solver, times, q0, v0, *, dense: bool, th
             "panel trees); use the adaptive solvers for this one."
         )
     if dense:
-        raise ValueError("ImplicitStep has no dense output; ask for samples (n_save or ts) instead.")
+        raise ValueError(
+            "ImplicitStep has no dense output; ask for samples (n_save or ts) instead."
+        )
     t0, ts = times
     steps = steps_per_interval(solver, t0, ts)
     top_level = not is_traced(system, inputs, q0, v0)
