@@ -131,3 +131,17 @@ def test_vmapped_batch_of_designs():
     single, _ = jax.jit(run)(scales[2])
     np.testing.assert_allclose(theta[2], single, rtol=1e-10, atol=1e-12)
     assert len({float(x) for x in theta[:, -1, 0]}) == 4  # the designs differ
+
+
+def test_early_exit_gives_the_fixed_count_result():
+    """`early_exit` (Newton stops when converged, line searches at their first acceptable trial)
+    lands on the same roots as the fixed counts, to the convergence threshold."""
+    system = _two_flaps()
+    runs = [
+        sim.simulate(
+            system, sim.Step(), t1=20.0, n_save=3, solver=sim.ImplicitStep(dt=1.0, early_exit=e)
+        )
+        for e in (False, True)
+    ]
+    np.testing.assert_allclose(runs[1].theta, runs[0].theta, rtol=0, atol=1e-9)
+    assert float(runs[1].stats["newton_error"]) < 1e-9
