@@ -21,6 +21,7 @@ from .._runtime_errors import checks_as_nan
 from .._validate import check_finite, is_traced
 from ..system import FoldingSystem, HingeDrag
 from ._guard import ContactGuard, WrappedController
+from ._implicit import ImplicitStep, integrate, steps_per_interval
 from ._inputs import AbstractInput
 from ._results import RESULTS, promote
 from ._switching import TURNED_STIFF, StiffnessSwitching
@@ -541,6 +542,60 @@ def _first_samples(trajectory: Trajectory, n: int) -> Trajectory:
     return trajectory
 
 
+def _implicit_solve(system, inputs, solver, t0, ts, q0, v0, steps: int) -> Trajectory:
+    q, v, stats, result = integrate(system, inputs, solver, t0, ts, q0, v0, steps)
+    return _trajectory(system, inputs, ts, q, v, stats, result, None)
+
+
+_implicit_solve_jit = eqx.filter_jit(_implicit_solve)
+
+
+def _host_times(t0, t1, ts, n_save: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(t0, ts)`` on the host for `ImplicitStep` (its step count is fixed from them): `ts`, or
+    `n_save` evenly spaced times from `t0` to `t1`; raises when any of them is traced."""
+    if is_traced(t0, t1, ts):
+        raise ValueError(
+            "ImplicitStep fixes its step count from the time span and sample times, so t0, t1 and "
+            "ts must be known values (not traced under jit or vmap)."
+        )
+    start, end = float(t0), float(t1)
+    times = np.linspace(start, end, n_save) if ts is None else np.asarray(ts, dtype=float)
+    if times.ndim != 1 or times.size < 1 or not np.all(np.isfinite(times)):
+        raise ValueError("ts must be a non-empty one-dimensional array of finite times.")
+    if np.any(np.diff(times) < 0) or times[0] < start or times[-1] > end:
+        raise ValueError(f"ts must be non-decreasing and within [t0, t1] = [{start:g}, {end:g}].")
+    return np.asarray(start), times
+
+
+def _simulate_implicit(system, inputs, solver, times, q0, v0, *, dense: bool, throw: bool):
+    """`simulate` with the fixed-step engine ([`origami_jax.simulation.ImplicitStep`][]): the step
+    count between samples is fixed on the host from `times` ``(t0, ts)``; the tolerances,
+    controller, `dt0`, `max_steps` and `adjoint` do not apply."""
+    mechanism = system.mechanism
+    if mechanism.n_coordinates != mechanism.n_velocities:
+        raise ValueError(
+            "ImplicitStep needs a mechanism whose velocities are its coordinates' rates (chains and "
+            "panel trees); use the adaptive solvers for this one."
+        )
+    if dense:
+        raise ValueError(
+            "ImplicitStep has no dense output; ask for samples (n_save or ts) instead."
+        )
+    t0, ts = times
+    steps = steps_per_interval(solver, t0, ts)
+    top_level = not is_traced(system, inputs, q0, v0)
+    trajectory = _implicit_solve_jit(system, inputs, solver, t0, ts, q0, v0, steps)
+    if throw:
+        if top_level:
+            if trajectory.result != RESULTS.successful:
+                raise eqx.EquinoxRuntimeError(f"simulate: {RESULTS[trajectory.result]}")
+        else:
+            failed = trajectory.result != RESULTS.successful
+            theta = trajectory.result.error_if(trajectory.theta, failed)
+            trajectory = eqx.tree_at(lambda t: t.theta, trajectory, theta)
+    return trajectory
+
+
 # Argument checks of `simulate` (tier 1 when the values are known, tier 2 when traced: see
 # `origami_jax._validate`). A bad time span or tolerance otherwise runs the solver to its step budget
 # and ends with a misleading "max steps" (a negative t1 even integrated backwards and succeeded).
@@ -648,7 +703,7 @@ def simulate(
     theta_dot0: Float[ArrayLike, " n"] | None = None,
     ts: Float[ArrayLike, " t"] | None = None,
     n_save: int = DEFAULT_N_SAVE,
-    solver: diffrax.AbstractSolver | None = None,
+    solver: "diffrax.AbstractSolver | ImplicitStep | None" = None,
     rtol: float = DEFAULT_RTOL,
     atol: float = DEFAULT_ATOL,
     stepsize_controller: diffrax.AbstractStepSizeController | None = None,
@@ -696,7 +751,11 @@ def simulate(
       switching to Kvaerno5 when the problem turns stiff; differentiated, its Tsit5 phase only,
       see above). Explicit solvers (`diffrax.Tsit5()`) are
       faster on the non-stiff fast ramp in air but can give wrong gradients in stiff regimes at loose
-      tolerances.
+      tolerances. Or [`origami_jax.simulation.ImplicitStep`][]`(dt=...)`: the fixed-step engine
+      (implicit Euler with Newton iterations capped by the contact's collision detection), robust
+      through contact and with the same work for every member of a batch, but first-order
+      accurate and dissipative; the tolerances, controller, `dt0`, `max_steps`, `adjoint` and
+      `dense` do not apply to it, and its time span and sample times must be known values.
     - `rtol`, `atol`: step-size controller tolerances (default 1e-7 and 1e-9; see `DEFAULT_ATOL`).
       Metrics of the accordion step agree with rtol 1e-9 to about 1e-6 relative.
     - `stepsize_controller`: overrides [`origami_jax.simulation.default_controller`][] (an integral
@@ -748,6 +807,7 @@ def simulate(
     if not isinstance(max_steps, int) or max_steps < 1:
         raise ValueError(f"max_steps must be a positive integer, got {max_steps!r}.")
     _check_system_values(system)
+    span_given = (t0, t1)
     t0, t1 = _checked_span(t0, t1)
     q_rest, v_rest = mechanism.rest_state()
     q0 = q_rest if theta0 is None else jnp.asarray(theta0, dtype=float)
@@ -758,6 +818,9 @@ def simulate(
         )
     q0 = check_finite(q0, "theta0")
     v0 = check_finite(v0, "theta_dot0")
+    if isinstance(solver, ImplicitStep):
+        times = _host_times(*span_given, ts, n_save)
+        return _simulate_implicit(system, inputs, solver, times, q0, v0, dense=dense, throw=throw)
     ts = jnp.linspace(t0, t1, n_save) if ts is None else _checked_times(ts, t0, t1)
     n_samples = ts.shape[0]
     # Called outside any transformation, the solve runs on sample times padded to a size bucket, so

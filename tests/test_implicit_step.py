@@ -1,0 +1,147 @@
+"""The fixed-step engine `ImplicitStep`: first-order convergence to the adaptive solve, no energy
+gain and no plate through another in contact, gradients against central differences, a vmapped
+batch.
+
+Tolerances: the convergence order from errors at three steps (ratio of successive errors within
+[1.6, 2.5]: 2 for a first-order method, off by the next order's share); energy may rise between
+samples by no more than 1e-6 of the energy in play (the Newton iterations' remaining error);
+gradients against central differences to 1e-4 relative (the difference step's truncation and the
+Newton iterations' convergence).
+"""
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import origami_jax.simulation as sim
+from origami_jax.chain import accordion_system
+from origami_jax.net import load_net
+from origami_jax.system import AIR, KOH_SOLUTION, HingeDesign, HingeDrag
+
+SCALE = 0.5  # the catalogue's nets at half scale: 100 µm panels
+
+
+def _two_flaps(fluid=KOH_SOLUTION):
+    """The paper's accordion with two flaps (hinge drag, no contact), in KOH by default."""
+    return accordion_system(HingeDesign.literature(fluid=fluid), 2)
+
+
+def test_arguments_are_checked():
+    with pytest.raises(ValueError, match="dt"):
+        sim.ImplicitStep(dt=0.0)
+    with pytest.raises(ValueError, match="newton_iterations"):
+        sim.ImplicitStep(dt=1.0, newton_iterations=0)
+    with pytest.raises(ValueError, match="dense"):
+        sim.simulate(_two_flaps(), sim.Step(), t1=1.0, solver=sim.ImplicitStep(dt=0.1), dense=True)
+
+
+@pytest.mark.slow
+def test_converges_at_first_order_to_the_adaptive_solve():
+    """Halving the step halves the error at a fixed time (against the adaptive solve at rtol
+    1e-10): the two-flap accordion in air, 20 µs into its first swing (steps of 1/40 to 1/160 of
+    it; in KOH the first microseconds' transient, as fast as a step, keeps the ratio near 1.7
+    until steps far below it)."""
+    system = _two_flaps(AIR)
+    t1 = 20.0
+    reference = sim.simulate(system, sim.Step(), t1=t1, n_save=2, rtol=1e-10, atol=1e-12)
+    errors = []
+    for dt in (0.5, 0.25, 0.125):
+        run = sim.simulate(system, sim.Step(), t1=t1, n_save=2, solver=sim.ImplicitStep(dt=dt))
+        assert bool(run.succeeded)
+        assert int(run.stats["num_steps"]) == round(t1 / dt)
+        errors.append(float(jnp.max(jnp.abs(run.theta[-1] - reference.theta[-1]))))
+    ratios = np.array(errors[:-1]) / np.array(errors[1:])
+    assert np.all((ratios > 1.6) & (ratios < 2.5)), (errors, ratios)
+
+
+@eqx.filter_jit
+def _step_energy(system, trajectory):
+    """Mechanical energy with the step's potential ``−Σ k θ_target θ``: conserved without drag and
+    contact damping, so it may only fall (implicit Euler dissipates besides)."""
+    k, target = system.hinges.stiffness, system.hinges.target
+    q, v = trajectory.theta, trajectory.theta_dot
+    return jax.vmap(system.energy)(q, v) - q @ (k * target)
+
+
+@pytest.mark.slow  # the plate contact's Jacobian: ~40 s to compile
+@pytest.mark.parametrize("dt, n_save, iterations", [(0.5, 61, 6), (4.0, 16, 20)])
+def test_launched_flaps_stop_on_each_other_without_gaining_energy(dt, n_save, iterations):
+    """The corner cube's two flaps, no drag, launched at each other from near their closed state:
+    their corners and rims meet under the exact plate contact. The energy never rises, the
+    contact stopped them, and the plates overlap by less than the film's thickness at every
+    sample; with steps of 0.5 µs and of 4 µs (the flaps close their last 0.03 rad in ~1.5 µs).
+    The 4 µs steps need more Newton iterations than the default: with 6, the step after the
+    impact ends unconverged against the barrier and the energy rose by 0.2 % of that in play."""
+    net = load_net("corner_cube", length_scale=SCALE)
+    system = net.system(drag="hinge")
+    system = eqx.tree_at(lambda s: s.drag, system, HingeDrag(jnp.zeros(system.n_hinges)))
+    closed = jnp.asarray(net.intended_angles)
+    solver = sim.ImplicitStep(dt=dt, newton_iterations=iterations)
+    trajectory = sim.simulate(
+        system, sim.Step(), t1=60.0, n_save=n_save, theta0=closed * 0.98,
+        theta_dot0=jnp.asarray([0.02, 0.02]), solver=solver,
+    )  # fmt: skip
+    assert bool(trajectory.succeeded)
+    energy = np.asarray(_step_energy(system, trajectory))
+    assert np.max(np.diff(energy)) <= 1e-6 * np.max(np.abs(energy))
+    assert energy[-1] < energy[0]
+    report = jax.vmap(lambda q: system.contact.report(system.mechanism, q))(trajectory.theta)
+    assert int(jnp.max(report["engaged"])) > 0  # they did meet
+    thickness = 2 * float(np.min(np.asarray(system.contact.half_thickness)))
+    assert float(jnp.max(report["penetration"])) < thickness
+    assert float(net.outcome(system, trajectory).penetration) < thickness
+
+
+def test_gradient_matches_central_differences_away_from_contact():
+    """d θ(t1) / d(stiffness scale) of the two-flap accordion (no contact) through the implicit
+    function theorem at every step, against central differences of the same discrete map."""
+    system = _two_flaps()
+    solver = sim.ImplicitStep(dt=1.0)
+
+    def final_angle(scale):
+        scaled = eqx.tree_at(lambda s: s.hinges.stiffness, system, system.hinges.stiffness * scale)
+        run = sim.simulate(scaled, sim.Step(), t1=20.0, n_save=2, solver=solver)
+        return run.theta[-1, 1]
+
+    value_and_grad = jax.jit(jax.value_and_grad(final_angle))
+    _, gradient = value_and_grad(1.0)
+    step = 1e-5
+    f = jax.jit(final_angle)
+    difference = (f(1.0 + step) - f(1.0 - step)) / (2 * step)
+    assert abs(float(gradient) - float(difference)) <= 1e-4 * abs(float(difference))
+
+
+def test_vmapped_batch_of_designs():
+    """Four stiffness scales of the two-flap accordion in one vmapped call: the same fixed work per
+    member, each member's samples those of its own run."""
+    system = _two_flaps()
+    solver = sim.ImplicitStep(dt=1.0)
+
+    def run(scale):
+        scaled = eqx.tree_at(lambda s: s.hinges.stiffness, system, system.hinges.stiffness * scale)
+        trajectory = sim.simulate(scaled, sim.Step(), t1=10.0, n_save=3, solver=solver)
+        return trajectory.theta, trajectory.stats["num_steps"]
+
+    scales = jnp.asarray([0.5, 1.0, 1.5, 2.0])
+    theta, steps = jax.jit(jax.vmap(run))(scales)
+    assert theta.shape == (4, 3, 2)
+    assert np.all(np.asarray(steps) == 10)
+    single, _ = jax.jit(run)(scales[2])
+    np.testing.assert_allclose(theta[2], single, rtol=1e-10, atol=1e-12)
+    assert len({float(x) for x in theta[:, -1, 0]}) == 4  # the designs differ
+
+
+def test_early_exit_gives_the_fixed_count_result():
+    """`early_exit` (Newton stops when converged, line searches at their first acceptable trial)
+    lands on the same roots as the fixed counts, to the convergence threshold."""
+    system = _two_flaps()
+    runs = [
+        sim.simulate(
+            system, sim.Step(), t1=20.0, n_save=3, solver=sim.ImplicitStep(dt=1.0, early_exit=e)
+        )
+        for e in (False, True)
+    ]
+    np.testing.assert_allclose(runs[1].theta, runs[0].theta, rtol=0, atol=1e-9)
+    assert float(runs[1].stats["newton_error"]) < 1e-9
