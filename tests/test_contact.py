@@ -166,7 +166,7 @@ def test_guard_lets_a_seam_close_where_a_point_passes_a_face_edge():
     from origami_jax.net import load_net
 
     net = load_net("cube_net_01")
-    system = net.system(HingeDesign.literature(fluid=KOH_SOLUTION))
+    system = net.system(HingeDesign.literature(fluid=KOH_SOLUTION), contact="sampled")
     factor = jnp.array([1.0273923374642908, 0.9539573427527741, 0.908194704787239,
                         0.9033055271057058, 1.0626540478400546])  # fmt: skip
     release = jnp.array([2.342128161031858, 4.946824408097116, 16.127206391499524,
@@ -181,7 +181,9 @@ def test_guard_lets_a_seam_close_where_a_point_passes_a_face_edge():
     assert int(trajectory.stats["num_steps"]) < 5_000
     report = net.assess(system, trajectory)
     assert report.verdict == "folded", report.summary()
-    assert report.max_penetration == 0.0
+    # The plates' exact overlap: 0.22 µm (just over the film) where the sampled points leave the
+    # rims unchecked; the plate model's own run is in tests/test_plate_contact.py.
+    assert report.max_penetration < 0.3
 
 
 @pytest.mark.parametrize("name", ["cube_net_01", "octahedron", "corner_cube"])
@@ -400,7 +402,11 @@ def test_lid_launched_into_the_cube_stops_at_the_side_panels_edges_without_gaini
     assert np.max(np.diff(energy)) <= ENERGY_RTOL * abs(energy[0])
     assert energy[-1] < energy[0]  # the contact's damping took some out
     report = _reports(system.contact, system.mechanism, trajectory.theta)
-    assert float(jnp.max(report["penetration"])) == 0.0
+    # The report is the plates' exact overlap: the closed cube's rims overlap by half the film (two
+    # perpendicular plates meeting edge on edge), and at the lid's impact its plate goes 0.46 µm
+    # (2.3 films) into the walls between the sampled points, which stop its rim only where they
+    # are; the plate model holds it within the film (tests/test_plate_contact.py).
+    assert 0.1 <= float(jnp.max(report["penetration"])) < 0.6
 
 
 @pytest.mark.slow  # energy balance through contact is also checked by the accordion stack below
@@ -424,7 +430,7 @@ def test_flap_rebounds_from_the_base_without_gaining_energy():
     assert np.max(np.diff(energy)) <= ENERGY_RTOL * scale
     assert energy[-1] < energy[0]  # the contact's damping took some out
     report = _reports(contact, chain, trajectory.theta)
-    assert float(jnp.max(report["penetration"])) == 0.0
+    assert float(jnp.max(report["penetration"])) < 0.01 * 0.2  # the plates' exact overlap
 
 
 def _mirror(chain):
@@ -508,7 +514,7 @@ def test_verdicts():
     system, koh = _accordion("koh")
     folded = sim.assess(system, koh)
     assert folded.verdict == "folded" and folded.settled and folded.time_to_fold is not None
-    assert folded.max_penetration == 0.0 and folded.contacts > 0
+    assert folded.max_penetration < 0.01 * 0.2 and folded.contacts > 0  # exact, < 1 % of the film
     assert "folded" in folded.summary() and folded.to_dict()["verdict"] == "folded"
     _, air = _accordion("air")
     assert sim.assess(system, air).verdict == "unfinished"  # still rattling after 1.5 ms in air
