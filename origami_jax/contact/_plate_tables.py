@@ -17,6 +17,7 @@ import dataclasses
 
 import numpy as np
 
+from ._primitives import point_polygon_sq, polygon_normal, segment_segment_sq
 from ._tables import _convex_hull, _distance_to_segment, content_digest, plane_frame
 
 
@@ -72,35 +73,6 @@ class PlateTables:
         return np.asarray([(a, b) for a in range(n) for b in range(a + 1, n)], dtype=np.int64)
 
 
-def _segment_distance(p0, p1, q0, q1) -> float:
-    """Distance between two segments (host; sampled finely enough for a table's decision: the
-    exact answer of the closest endpoints and the closed form of crossing interiors)."""
-    d1, d2, r = p1 - p0, q1 - q0, p0 - q0
-    a, e, b = d1 @ d1, d2 @ d2, d1 @ d2
-    c, f = d1 @ r, d2 @ r
-    denom = a * e - b * b
-    s = np.clip((b * f - c * e) / denom, 0, 1) if denom > 1e-12 * a * e else 0.0
-    t = (b * s + f) / e
-    if t < 0:
-        t, s = 0.0, np.clip(-c / a, 0, 1)
-    elif t > 1:
-        t, s = 1.0, np.clip((b - c) / a, 0, 1)
-    return float(np.linalg.norm(p0 + s * d1 - q0 - t * d2))
-
-
-def _point_polygon_distance(p, polygon) -> float:
-    """Distance from a point to a planar convex polygon (host, counter-clockwise `(v, 3)`)."""
-    normal = np.cross(polygon[1] - polygon[0], polygon[2] - polygon[0])
-    normal /= np.linalg.norm(normal)
-    nxt = np.roll(polygon, -1, axis=0)
-    inward = np.cross(normal, nxt - polygon)
-    if np.all(np.einsum("ki,ki->k", p - polygon, inward) >= 0):
-        return float(abs((p - polygon[0]) @ normal))
-    return float(
-        min(_distance_to_segment(p[None], a, b)[0] for a, b in zip(polygon, nxt, strict=True))
-    )
-
-
 def build_plate_tables(
     outlines: list[np.ndarray],
     rest_poses: np.ndarray,
@@ -148,60 +120,62 @@ def build_plate_tables(
 
     parent = np.where(np.asarray(crease_parent) < 0, n, np.asarray(crease_parent))
     child = np.asarray(crease_child)
-    creases: dict[tuple[int, int], list] = {}
+    counts = np.asarray([len(h) for h in hulls])
+    padded = np.stack([w[np.minimum(np.arange(width), len(w) - 1)] for w in world])  # (n, v, 3)
+    # Near a shared crease (within `crease_clearance` × the smaller panel): each vertex, and each
+    # edge sampled at 33 points, of either panel against the other.
+    near_vertex = np.zeros((n_all, width, n_all), bool)  # vertex i of a, near its crease with b
+    near_edge = np.zeros((n_all, width, n_all), bool)  # edge i → i+1 of a, likewise
+    ramp = np.linspace(0, 1, 33)[:, None, None]
+    ends = padded[:, (np.arange(width) + 1) % width]
+    ends = np.where((np.arange(width) + 1 < counts[:, None])[..., None], ends, padded[:, :1])
+    crease_pair = np.zeros((n_all, n_all), bool)
     for h in range(len(child)):
-        key = tuple(sorted((int(parent[h]), int(child[h]))))
-        creases.setdefault(key, []).append(np.asarray(crease_ends[h], dtype=float))
+        a, b = int(parent[h]), int(child[h])
+        crease_pair[a, b] = crease_pair[b, a] = True
+        reach = crease_clearance * min(sizes[a], sizes[b])
+        for one, other in ((a, b), (b, a)):
+            segment = np.asarray(crease_ends[h], dtype=float)
+            near_vertex[one, :, other] |= _distance_to_segment(padded[one], *segment) < reach
+            samples = padded[one] + ramp * (ends[one] - padded[one])  # (33, v, 3)
+            edge = _distance_to_segment(samples.reshape(-1, 3), *segment).reshape(33, width)
+            near_edge[one, :, other] |= edge.min(axis=0) < reach
 
-    def near_crease(key, points) -> bool:
-        reach = crease_clearance * min(sizes[key[0]], sizes[key[1]])
-        return any(
-            np.min(_distance_to_segment(np.asarray(points), *ends)) < reach
-            for ends in creases.get(key, [])
-        )
+    # Every candidate in the order (a, b, i) and (a, b, i, j); kept unless near a shared crease;
+    # those already touching in the flat state are left out and join their bodies.
+    a, b, i = np.nonzero(
+        (np.arange(width)[None, None, :] < counts[:, None, None])
+        & ~np.eye(n_all, dtype=bool)[..., None]
+    )
+    keep = ~near_vertex[a, i, b]
+    a, b, i = a[keep], b[keep], i[keep]
+    polygon = padded[b]
+    gap = np.sqrt(point_polygon_sq(padded[a, i], polygon, polygon_normal(polygon, xp=np), xp=np))
+    joined = crease_pair.copy()
+    joined[a[gap < touching], b[gap < touching]] = True
+    vertex_face = np.stack([a, i, b], axis=1)[gap >= touching]
 
-    def edge_points(w, i0, i1):
-        return w[i0] + np.linspace(0, 1, 33)[:, None] * (w[i1] - w[i0])
-
-    vertex_face, edge_edge = [], []
-    joined = np.zeros((n_all, n_all), bool)
-    for a in range(n_all):
-        for b in range(n_all):
-            if a == b:
-                continue
-            key = (min(a, b), max(a, b))
-            if key in creases:
-                joined[a, b] = True
-            for i, p in enumerate(world[a]):
-                if key in creases and near_crease(key, p[None]):
-                    continue
-                if _point_polygon_distance(p, world[b]) < touching:
-                    joined[a, b] = joined[b, a] = True
-                    continue
-                vertex_face.append((a, i, b))
-            if b <= a:
-                continue
-            ka, kb = len(world[a]), len(world[b])
-            for i in range(ka):
-                ea = (i, (i + 1) % ka)
-                if key in creases and near_crease(key, edge_points(world[a], *ea)):
-                    continue
-                for j in range(kb):
-                    eb = (j, (j + 1) % kb)
-                    if key in creases and near_crease(key, edge_points(world[b], *eb)):
-                        continue
-                    gap = _segment_distance(world[a][ea[0]], world[a][ea[1]], *world[b][list(eb)])
-                    if gap < touching:
-                        joined[a, b] = joined[b, a] = True
-                        continue
-                    edge_edge.append((a, *ea, b, *eb))
+    edges = np.arange(width)[None, :] < counts[:, None]  # (n, v)
+    a, b, i, j = np.nonzero(
+        np.triu(np.ones((n_all, n_all), bool), 1)[:, :, None, None]
+        & edges[:, None, :, None]
+        & edges[None, :, None, :]
+    )
+    keep = ~near_edge[a, i, b] & ~near_edge[b, j, a]
+    a, b, i, j = a[keep], b[keep], i[keep], j[keep]
+    i1, j1 = (i + 1) % counts[a], (j + 1) % counts[b]
+    gap = np.sqrt(
+        segment_segment_sq(padded[a, i], padded[a, i1], padded[b, j], padded[b, j1], xp=np)
+    )
+    joined[a[gap < touching], b[gap < touching]] = True
+    edge_edge = np.stack([a, i, i1, b, j, j1], axis=1)[gap >= touching]
     return PlateTables(
         n_bodies=n,
         has_base=base_outline is not None,
         base_pose=base_pose,
         vertices=vertices,
-        vertex_face=np.asarray(vertex_face, dtype=np.int64).reshape(-1, 3),
-        edge_edge=np.asarray(edge_edge, dtype=np.int64).reshape(-1, 6),
+        vertex_face=vertex_face.astype(np.int64).reshape(-1, 3),
+        edge_edge=edge_edge.astype(np.int64).reshape(-1, 6),
         joined=joined | joined.T,
         scale=scale,
     )

@@ -26,7 +26,8 @@ def _dot(a, b):
 
 # The primitives are computed component by component (``(x, y, z)`` tuples of arrays): every
 # operation is then elementwise over the pairs, which XLA vectorises (over a batch too), where a
-# trailing axis of three does not.
+# trailing axis of three does not. The distances take the array module `xp` (`jax.numpy` by
+# default, NumPy for the host-side tables in float64, `build_plate_tables`): one formula for both.
 
 
 def _split(a):
@@ -50,10 +51,10 @@ def _along(a, s, d):
     return tuple(u + s * w for u, w in zip(a, d, strict=True))
 
 
-def _point_segment_sq(p, a, b):
+def _point_segment_sq(p, a, b, xp=jnp):
     ab = _sub(b, a)
     length_sq = _vdot(ab, ab)
-    s = jnp.clip(_vdot(_sub(p, a), ab) / jnp.where(length_sq > 0, length_sq, 1.0), 0.0, 1.0)
+    s = xp.clip(_vdot(_sub(p, a), ab) / xp.where(length_sq > 0, length_sq, 1.0), 0.0, 1.0)
     d = _sub(p, _along(a, s, ab))
     return _vdot(d, d)
 
@@ -65,16 +66,16 @@ def point_segment_sq(
     return _point_segment_sq(_split(p), _split(a), _split(b))
 
 
-def _closest(p0, p1, q0, q1):
+def _closest(p0, p1, q0, q1, xp=jnp):
     d1, d2, r = _sub(p1, p0), _sub(q1, q0), _sub(p0, q0)
     a, e = _vdot(d1, d1), _vdot(d2, d2)
     b, c, f = _vdot(d1, d2), _vdot(d1, r), _vdot(d2, r)
     denom = a * e - b * b
     parallel = denom <= 1e-12 * a * e
-    s = jnp.where(parallel, 0.0, jnp.clip((b * f - c * e) / jnp.where(parallel, 1.0, denom), 0, 1))
+    s = xp.where(parallel, 0.0, xp.clip((b * f - c * e) / xp.where(parallel, 1.0, denom), 0, 1))
     t = (b * s + f) / e
-    s = jnp.where(t < 0, jnp.clip(-c / a, 0, 1), jnp.where(t > 1, jnp.clip((b - c) / a, 0, 1), s))
-    t = jnp.clip(t, 0.0, 1.0)
+    s = xp.where(t < 0, xp.clip(-c / a, 0, 1), xp.where(t > 1, xp.clip((b - c) / a, 0, 1), s))
+    t = xp.clip(t, 0.0, 1.0)
     return _along(p0, s, d1), _along(q0, t, d2)
 
 
@@ -96,45 +97,53 @@ def segment_segment_sq(
     p1: Float[Array, "*b 3"],
     q0: Float[Array, "*b 3"],
     q1: Float[Array, "*b 3"],
+    *,
+    xp=jnp,
 ) -> Float[Array, "*b"]:
-    """Squared distance between segments ``[p0, p1]`` and ``[q0, q1]`` (`closest_on_segments`)."""
-    on_p, on_q = _closest(*map(_split, (p0, p1, q0, q1)))
+    """Squared distance between segments ``[p0, p1]`` and ``[q0, q1]`` (`closest_on_segments`;
+    `xp` the array module)."""
+    on_p, on_q = _closest(*map(_split, (p0, p1, q0, q1)), xp=xp)
     d = _sub(on_p, on_q)
     return _vdot(d, d)
 
 
-def _roll(components):
-    return tuple(jnp.roll(c, -1, axis=-1) for c in components)
+def _roll(components, xp=jnp):
+    return tuple(xp.roll(c, -1, axis=-1) for c in components)
 
 
-def _normal(vertices):
+def _normal(vertices, xp=jnp):
     """Newell's unit normal of polygons given by component `(…, v)` arrays."""
-    total = tuple(jnp.sum(c, axis=-1) for c in _vcross(vertices, _roll(vertices)))
-    norm = jnp.sqrt(_vdot(total, total))
+    total = tuple(xp.sum(c, axis=-1) for c in _vcross(vertices, _roll(vertices, xp)))
+    norm = xp.sqrt(_vdot(total, total))
     return tuple(c / norm for c in total)
 
 
-def polygon_normal(vertices: Float[Array, "*b v 3"]) -> Float[Array, "*b 3"]:
+def polygon_normal(vertices: Float[Array, "*b v 3"], *, xp=jnp) -> Float[Array, "*b 3"]:
     """Unit normal of planar polygons (Newell's sum: right-handed with counter-clockwise vertices;
-    repeated vertices, the padding of shorter polygons, add nothing)."""
-    return jnp.stack(_normal(_split(vertices)), axis=-1)
+    repeated vertices, the padding of shorter polygons, add nothing; `xp` the array module)."""
+    return xp.stack(_normal(_split(vertices), xp), axis=-1)
 
 
 def point_polygon_sq(
-    p: Float[Array, "*b 3"], vertices: Float[Array, "*b v 3"], normal: Float[Array, "*b 3"]
+    p: Float[Array, "*b 3"],
+    vertices: Float[Array, "*b v 3"],
+    normal: Float[Array, "*b 3"],
+    *,
+    xp=jnp,
 ) -> Float[Array, "*b"]:
     """Squared distance from points `p` to convex planar polygons (`vertices` counter-clockwise
     about `normal`, padded by repeating a vertex): the squared height over the plane where the
-    point projects inside, else the squared distance to the nearest edge."""
+    point projects inside, else the squared distance to the nearest edge (`xp` the array
+    module)."""
     corners = _split(vertices)
-    nxt = _roll(corners)
+    nxt = _roll(corners, xp)
     n = tuple(c[..., None] for c in _split(normal))
     point = tuple(c[..., None] for c in _split(p))
     inward = _vcross(n, _sub(nxt, corners))  # unnormalised; zero for padding edges
-    inside = jnp.all(_vdot(_sub(point, corners), inward) >= 0, axis=-1)
+    inside = xp.all(_vdot(_sub(point, corners), inward) >= 0, axis=-1)
     height = _vdot(_sub(point, corners), n)[..., 0]
-    to_edges = _point_segment_sq(point, corners, nxt)
-    return jnp.where(inside, height**2, jnp.min(to_edges, axis=-1))
+    to_edges = _point_segment_sq(point, corners, nxt, xp)
+    return xp.where(inside, height**2, xp.min(to_edges, axis=-1))
 
 
 def overlap_depth(
