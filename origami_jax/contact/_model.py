@@ -514,12 +514,13 @@ class PanelContact(AbstractContact):
         if self.plates is None:
             penetration = jnp.maximum(-smallest, 0.0)
         else:
-            from ._plates import plate_overlaps
+            from ._plates import plate_overlaps, plate_vertices
 
             if self.tables.has_base:
                 base = jnp.asarray(self.tables.base_pose, poses.dtype)[None]
                 poses = jnp.concatenate([poses, base], axis=0)
-            depths = plate_overlaps(self.plates, self.half_thickness, poses)
+            x = plate_vertices(self.plates, poses)
+            depths = plate_overlaps(self.plates, self.half_thickness, x)
             penetration = jnp.max(depths, initial=0.0)
         return {
             "min_gap": smallest,

@@ -217,8 +217,7 @@ class PlateContact(AbstractContact):
         return self._world(self._frames(mechanism.body_poses(q)))
 
     def _world(self, poses):
-        local = jnp.asarray(self.tables.vertices, poses.dtype)
-        return jnp.einsum("nij,nvj->nvi", poses[:, :3, :3], local) + poses[:, None, :3, 3]
+        return plate_vertices(self.tables, poses)
 
     # The primitives' points are picked from the world vertices by constant one-hot matrices rather
     # than by indexing: a gather's derivative is a scatter-add, which runs element by element on a
@@ -354,8 +353,7 @@ class PlateContact(AbstractContact):
     def penetration(self, mechanism: AbstractMechanism, q: Float[Array, " nq"]) -> Array:
         """The exact overlap of every pair of bodies at ``q`` (`(p,)` over `tables.body_pairs`,
         length): `plate_overlaps` (module docstring, "Reports")."""
-        poses = self._frames(mechanism.body_poses(q))
-        return plate_overlaps(self.tables, self.half_thickness, poses)
+        return plate_overlaps(self.tables, self.half_thickness, self.vertices(mechanism, q))
 
     def _pair_bodies(self):
         vf, ee = self.tables.vertex_face, self.tables.edge_edge
@@ -377,7 +375,9 @@ class PlateContact(AbstractContact):
         return {
             "min_gap": jnp.min(gap, initial=jnp.inf),
             "engaged": jnp.sum(near),
-            "penetration": jnp.max(self.penetration(mechanism, q), initial=0.0),
+            "penetration": jnp.max(
+                plate_overlaps(self.tables, self.half_thickness, x), initial=0.0
+            ),
             "touching": touching,
         }
 
@@ -407,17 +407,22 @@ def _pick(rows: np.ndarray, size: int, flat: Array) -> Array:
     return jnp.asarray(np.eye(size)[rows], flat.dtype) @ flat
 
 
+def plate_vertices(tables: PlateTables, poses: Float[Array, "n 4 4"]) -> Float[Array, "n v 3"]:
+    """World positions of every body's polygon vertices (`tables.vertices`, padded) with world
+    poses `poses` (the base last), length units."""
+    local = jnp.asarray(tables.vertices, poses.dtype)
+    return jnp.einsum("nij,nvj->nvi", poses[:, :3, :3], local) + poses[:, None, :3, 3]
+
+
 def plate_overlaps(
-    tables: PlateTables, half_thickness: Float[Array, " n"], poses: Float[Array, "n 4 4"]
+    tables: PlateTables, half_thickness: Float[Array, " n"], x: Float[Array, "n v 3"]
 ) -> Float[Array, " p"]:
     """The exact overlap of every pair of bodies (`(p,)` over `tables.body_pairs`, length) with
-    world poses `poses` (the base last) and half-thicknesses `half_thickness` `(n,)`: the depth of
-    the prisms of their thicknesses for bodies apart in the flat state, of their mid-surfaces for
-    bodies that touch there (a shared crease, corner or cut edge: their plates overlap along it by
-    construction); `overlap_depth`. Depths within rounding of zero (``1e-9`` × the largest panel)
-    are 0."""
-    local = jnp.asarray(tables.vertices, poses.dtype)
-    x = jnp.einsum("nij,nvj->nvi", poses[:, :3, :3], local) + poses[:, None, :3, 3]
+    world vertices `x` (`plate_vertices`) and half-thicknesses `half_thickness` `(n,)`: the depth
+    of the prisms of their thicknesses for bodies apart in the flat state, of their mid-surfaces
+    for bodies that touch there (a shared crease, corner or cut edge: their plates overlap along
+    it by construction); `overlap_depth`. Depths within rounding of zero (``1e-9`` × the largest
+    panel) are 0."""
     a, b = tables.body_pairs.T
     joined = tables.joined[a, b]
     thickness = 2 * half_thickness.astype(x.dtype)

@@ -367,11 +367,8 @@ class CreasePattern:
                     host, thickness = self.mechanism(geometric), geometric.t_structural
                 else:
                     host, thickness = mechanism, design.t_structural
-                tables = _contact_tables(host, thickness, contact_sampling, kind)
                 # The exact polygons: the plate model's geometry, the sampled model's report.
-                plates = (
-                    tables if kind == "plate" else _contact_tables(host, thickness, kind="plate")
-                )
+                tables, plates = _contact_tables(host, thickness, contact_sampling, kind)
             # Stiffness and damping as `for_system` sets them, traceable in the hinges (a sweep
             # over hinge parameters builds contact inside `vmap`).
             extra = {} if kind == "plate" else {"plates": plates}
@@ -494,8 +491,9 @@ def _with_branch(pattern: CreasePattern, report, trajectory, bias: float):
 def _contact_tables(
     mechanism: LoopedPanels, thickness: float, sampling=CONTACT_SAMPLING, kind: str = "sampled"
 ):
-    """The contact geometry of a mechanism whose numbers are known: `PlateTables` for the
-    `"plate"` model, else `ContactTables` for `PanelContact.for_system`. Panels that share a
+    """The contact geometry of a mechanism whose numbers are known, `(tables, plates)`: the model's
+    tables (`PlateTables` for the `"plate"` model, else `ContactTables` for
+    `PanelContact.for_system`) and the exact `PlateTables` (the same for the plate model). Panels that share a
     crease (tree or cut) or only a vertex do not meet near what they share; the sampled model's
     rims are inset by twice its edge width at the film `thickness`, `sampling` its
     ``(points_per_edge, rim_points_per_edge)`` (`build_tables`)."""
@@ -527,11 +525,14 @@ def _contact_tables(
                 children.append(np.array([max(a, b)]))
                 ends.append(np.stack([point, point])[None])
     layout_args = (np.concatenate(parents), np.concatenate(children), np.concatenate(ends))
+    plates = build_plate_tables(outlines, poses, base, *layout_args)
     if kind == "plate":
-        return build_plate_tables(outlines, poses, base, *layout_args)
+        return plates, plates
     thickness = float(np.asarray(thickness))
     points_per_edge, rim_points_per_edge = sampling_pair(sampling)
-    probe = PanelContact.from_mechanism(mechanism, thickness=thickness, stiffness=1.0, damping=0.0)
+    probe = PanelContact.from_mechanism(
+        mechanism, thickness=thickness, stiffness=1.0, damping=0.0, plates=plates
+    )
     return build_tables(
         outlines,
         poses,
@@ -540,7 +541,7 @@ def _contact_tables(
         inset=2 * float(probe.edge_width),
         points_per_edge=points_per_edge,
         rim_points_per_edge=rim_points_per_edge,
-    )
+    ), plates
 
 
 def load_pattern(

@@ -249,33 +249,33 @@ class Net:
         """The panels' contact geometry (`origami_jax.contact.ContactTables`), computed once on the
         host from the pattern (it depends on the geometry only, not on the design's numbers).
         `sampling`: ``(points_per_edge, rim_points_per_edge)``, as `system`'s `contact_sampling`."""
-        import jax
-
         from ..contact import PanelContact
         from ..contact._tables import sampling_pair
 
         points_per_edge, rim_points_per_edge = sampling_pair(sampling)
-        key = (hinges, points_per_edge, rim_points_per_edge)
-        if key not in self._tables:
-            with jax.ensure_compile_time_eval():
-                tree = self.tree(HingeDesign.literature(), hinges=hinges)
-                self._tables[key] = PanelContact.tables_for(
-                    tree, points_per_edge=points_per_edge, rim_points_per_edge=rim_points_per_edge
-                )
-        return self._tables[key]
+        return self._host_tables(
+            (hinges, points_per_edge, rim_points_per_edge),
+            lambda tree: PanelContact.tables_for(
+                tree, points_per_edge=points_per_edge, rim_points_per_edge=rim_points_per_edge
+            ),
+        )
 
     def plate_tables(self, hinges: str = "point"):
         """The panels' exact plate geometry (`origami_jax.contact.PlateTables`), computed once on
         the host from the pattern (geometry only, not the design's numbers)."""
-        import jax
-
         from ..contact import PlateContact
 
-        key = (hinges, "plate")
+        return self._host_tables((hinges, "plate"), PlateContact.tables_for)
+
+    def _host_tables(self, key: tuple, build):
+        """`build(tree)` of the literature design's tree with `key[0]`'s hinges, computed once per
+        `key` and kept (host geometry, whatever the design's numbers)."""
+        import jax
+
         if key not in self._tables:
             with jax.ensure_compile_time_eval():
-                tree = self.tree(HingeDesign.literature(), hinges=hinges)
-                self._tables[key] = PlateContact.tables_for(tree)
+                tree = self.tree(HingeDesign.literature(), hinges=key[0])
+                self._tables[key] = build(tree)
         return self._tables[key]
 
     def seam_gaps(self, angles: ArrayLike) -> np.ndarray:
