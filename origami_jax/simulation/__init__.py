@@ -16,6 +16,8 @@ from ._inputs import UserTorque as UserTorque
 from ._inputs import fast_ramp as fast_ramp
 from ._metrics import ResponseMetrics as ResponseMetrics
 from ._metrics import response_metrics as response_metrics
+from ._options import SaveAt as SaveAt
+from ._options import SolveOptions as SolveOptions
 from ._results import RESULTS as RESULTS
 from ._simulate import DEFAULT_ATOL as DEFAULT_ATOL
 from ._simulate import DEFAULT_RTOL as DEFAULT_RTOL
