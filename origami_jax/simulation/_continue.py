@@ -17,6 +17,7 @@ import jax
 import numpy as np
 
 from .._limits import FOLD_SEGMENT, MAX_FOLD_SEGMENTS
+from ._options import SolveOptions
 from ._simulate import Trajectory, simulate
 from ._verdict import FoldReport
 
@@ -59,6 +60,7 @@ def fold_until_settled(
     system,
     inputs,
     judge: Callable[[Trajectory], FoldReport],
+    options: SolveOptions | None = None,
     *,
     segment: float = FOLD_SEGMENT,
     max_segments: int = MAX_FOLD_SEGMENTS,
@@ -66,7 +68,6 @@ def fold_until_settled(
     theta0=None,
     theta_dot0=None,
     on_continue: Callable[[float, float], None] | None = None,
-    **simulate_kwargs,
 ) -> tuple[Trajectory, FoldReport, int]:
     """Simulate `system` under `inputs` for `segment` (time units of the system; default 1000, µs in
     the default units), judge the run with `judge`, and while the verdict is `unfinished` with a
@@ -74,33 +75,35 @@ def fold_until_settled(
     segments in all (default 8).
 
     **Arguments:** `judge` maps a trajectory to its `FoldReport` (e.g. ``lambda tr:
-    net.assess(system, tr)``); `t0`, `theta0`, `theta_dot0` the start (defaults: the system's rest);
-    `on_continue(end, next_end)` is called before each continuation (e.g. to print progress); other
-    keyword arguments go to `simulate` for every segment (`n_save`, `solver`, `max_steps`, ...;
-    `throw` defaults to `False`, so that a failed segment is reported by the verdict).
+    net.assess(system, tr)``); `options`, a [`origami_jax.simulation.SolveOptions`][] for every
+    segment (default ``SolveOptions(throw=False)``, so that a failed segment is reported by the
+    verdict; its `t1` must be `None`: the segments decide it); `t0`, `theta0`, `theta_dot0` the
+    start (defaults: the system's rest); `on_continue(end, next_end)` is called before each
+    continuation (e.g. to print progress).
 
     **Returns:** `(trajectory, report, segments)`: the joined run, its verdict, how many segments
     it took. The verdict is the whole run's (the same `judge` on the joined trajectory).
 
-    **Raises:** `ValueError` for a non-positive or non-finite `segment`, or `max_segments < 1`.
+    **Raises:** `ValueError` for a non-positive or non-finite `segment`, `max_segments < 1`, or
+    options with a `t1`.
     """
     if not (np.isfinite(segment) and segment > 0):
         raise ValueError(f"segment must be a positive, finite time, got {segment}.")
     if int(max_segments) != max_segments or max_segments < 1:
         raise ValueError(f"max_segments must be a whole number >= 1, got {max_segments}.")
-    if "t1" in simulate_kwargs:
-        raise ValueError("fold_until_settled runs segments: give segment=, not t1=.")
-    simulate_kwargs.setdefault("throw", False)
+    options = SolveOptions(throw=False) if options is None else options
+    if options.t1 is not None:
+        raise ValueError("fold_until_settled runs segments: give segment=, not SolveOptions(t1=).")
 
     def run(start, theta, theta_dot):
         return simulate(
             system,
             inputs,
+            options,
             t0=start,
             t1=start + segment,
             theta0=theta,
             theta_dot0=theta_dot,
-            **simulate_kwargs,
         )
 
     trajectory = run(t0, theta0, theta_dot0)

@@ -1,4 +1,4 @@
-"""`ImplicitStep`: a fixed-step engine for contact-rich folding, selected by `simulate(..., solver=...)`.
+"""`ImplicitStep`: a fixed-step engine for contact-rich folding, selected by `SolveOptions(solver=...)`.
 
 Each step of length ``h`` from ``(q_n, v_n)`` finds ``q_{n+1}`` as the root of the incremental
 problem of implicit (backward) Euler, as Incremental Potential Contact does (Li et al., SIGGRAPH
@@ -57,7 +57,7 @@ _ARMIJO = 1e-4
 
 class ImplicitStep(eqx.Module):
     """Fixed-step implicit Euler with Newton iterations and a contact-capped line search (module
-    docstring: the scheme). Pass it as `simulate(..., solver=ImplicitStep(dt=1.0))`.
+    docstring: the scheme). Pass it as `SolveOptions(solver=ImplicitStep(dt=1.0))`.
 
     **Fields** (all static: they fix the compiled program):
     - `dt`: the largest step, time units (MICRO: µs). The steps divide every interval between

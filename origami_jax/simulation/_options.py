@@ -10,7 +10,11 @@ from typing import Any
 
 import diffrax
 import equinox as eqx
+import jax
+import numpy as np
 from jaxtyping import ArrayLike, Float
+
+from ._switching import implicit_solver
 
 DEFAULT_RTOL = 1e-7
 """Default relative tolerance (error per step, relative to |θ| and |θ̇|)."""
@@ -21,6 +25,14 @@ DEFAULT_MAX_STEPS = 16_384
 """Default step budget of one solve."""
 DEFAULT_N_SAVE = 2001
 """Default number of evenly spaced samples (both ends included)."""
+
+
+def _as_value(x):
+    """A number as a NumPy float64 array, so that `eqx.filter_jit` traces it (a Python float would be
+    static: each new value a new compilation); arrays and tracers are kept as they are."""
+    if x is None or isinstance(x, jax.Array | np.ndarray):
+        return x
+    return np.asarray(x, dtype=float)
 
 
 class SaveAt(eqx.Module):
@@ -37,7 +49,7 @@ class SaveAt(eqx.Module):
     several samples per oscillation period.
     """
 
-    ts: Float[ArrayLike, " t"] | None = None
+    ts: Float[ArrayLike, " t"] | None = eqx.field(default=None, converter=_as_value)
     n: int = eqx.field(static=True, default=DEFAULT_N_SAVE)
     dense: bool = eqx.field(static=True, default=False)
 
@@ -46,6 +58,10 @@ class SaveAt(eqx.Module):
             isinstance(self.n, bool) or not isinstance(self.n, int) or self.n < 2
         ):
             raise ValueError(f"SaveAt(n=...) must be an integer of at least 2, got {self.n!r}.")
+        if self.ts is not None and np.ndim(self.ts) != 1:
+            raise ValueError(
+                f"SaveAt(ts=...) must be one-dimensional sample times, got shape {np.shape(self.ts)}."
+            )
 
 
 class SolveOptions(eqx.Module):
@@ -58,7 +74,8 @@ class SolveOptions(eqx.Module):
     - `solver`: any diffrax ODE solver, or [`origami_jax.simulation.ImplicitStep`][]; `None` for
       [`origami_jax.simulation.default_solver`][].
     - `rtol`, `atol`: the step-size controller's tolerances (defaults `DEFAULT_RTOL`,
-      `DEFAULT_ATOL`; arrays or floats: a new value does not compile a new solve).
+      `DEFAULT_ATOL`). Numbers are kept as arrays (also `t1`, `dt0`, `saveat.ts`), so that a new
+      value passed through `jit` does not compile a new solve.
     - `stepsize_controller`: overrides [`origami_jax.simulation.default_controller`][].
     - `dt0`: the first step (default: diffrax's estimate).
     - `max_steps` (static): the step budget (default `DEFAULT_MAX_STEPS`); running out gives
@@ -73,13 +90,13 @@ class SolveOptions(eqx.Module):
     Change one setting with `options.replace(rtol=1e-9)`.
     """
 
-    t1: Float[ArrayLike, ""] | None = None
+    t1: Float[ArrayLike, ""] | None = eqx.field(default=None, converter=_as_value)
     saveat: SaveAt = SaveAt()
     solver: Any = None
-    rtol: Float[ArrayLike, ""] = DEFAULT_RTOL
-    atol: Float[ArrayLike, ""] = DEFAULT_ATOL
+    rtol: Float[ArrayLike, ""] = eqx.field(default=DEFAULT_RTOL, converter=_as_value)
+    atol: Float[ArrayLike, ""] = eqx.field(default=DEFAULT_ATOL, converter=_as_value)
     stepsize_controller: diffrax.AbstractStepSizeController | None = None
-    dt0: Float[ArrayLike, ""] | None = None
+    dt0: Float[ArrayLike, ""] | None = eqx.field(default=None, converter=_as_value)
     max_steps: int = eqx.field(static=True, default=DEFAULT_MAX_STEPS)
     throw: bool = eqx.field(static=True, default=True)
     progress_meter: diffrax.AbstractProgressMeter | None = None
@@ -92,12 +109,61 @@ class SolveOptions(eqx.Module):
             or not isinstance(self.max_steps, int)
             or self.max_steps < 1
         ):
-            raise ValueError(f"max_steps must be a positive integer, got {self.max_steps!r}.")
+            raise ValueError(
+                f"SolveOptions(max_steps=...) must be a positive integer, got {self.max_steps!r}."
+            )
         if not isinstance(self.saveat, SaveAt):
             raise ValueError(
-                f"saveat must be an origami_jax.simulation.SaveAt, got {type(self.saveat).__name__}."
+                f"SolveOptions(saveat=...) must be an origami_jax.simulation.SaveAt, got "
+                f"{type(self.saveat).__name__}."
             )
 
     def replace(self, **changes: Any) -> "SolveOptions":
         """A copy with the given fields changed (`dataclasses.replace`)."""
         return dataclasses.replace(self, **changes)
+
+
+FIT_RTOL = 1e-8
+"""Relative tolerance of the solves inside a fit (`origami_jax.design.design`, `calibrate`), ten times
+tighter than `DEFAULT_RTOL`: the fit's Jacobian is the forward-mode derivative of an adaptive solve,
+whose step-size decisions add tolerance-level noise to the residuals; checked against central
+differences (step 1e-4 in z) that noise is divided by the step, and the fit stops on a relative
+change of 1e-6."""
+FIT_ATOL = 1e-10
+"""Absolute tolerance of the solves inside a fit (see `FIT_RTOL`), two orders below `FIT_RTOL`
+like `DEFAULT_ATOL` below `DEFAULT_RTOL`."""
+FIT_N_SAVE = 1201
+"""Samples of each response inside a fit: the metrics refine crossings between samples by cubic
+Hermite interpolation, so a few dozen samples per oscillation suffice; 1201 over a run of 6× the
+longest rise time gives ~200 per rise."""
+FIT_OPTIONS = SolveOptions(
+    saveat=SaveAt(n=FIT_N_SAVE),
+    solver=diffrax.Tsit5(),
+    rtol=FIT_RTOL,
+    atol=FIT_ATOL,
+)
+"""The default solve of `origami_jax.design.design` and `calibrate` (their `t1` comes from the
+targets). `Tsit5`, not the switching default: under the fit's multi-start `vmap` the switching
+solver would run both of its branches; for the accordion in air Tsit5 compiles ~6× and runs ~10×
+faster than Kvaerno5, with derivatives matching finite differences. Pass
+`solver=implicit_solver()` for stiff cases (very stiff hinges, KOH at high drag). The fit always
+solves with `throw=False` and `diffrax.ForwardMode()` (its Jacobian is forward mode)."""
+
+SLOW_RAMP_N_SAVE = 1001
+"""Samples of the slow etch ramp's large-step solve (each one a step end)."""
+SLOW_RAMP_OPTIONS = SolveOptions(
+    saveat=SaveAt(n=SLOW_RAMP_N_SAVE),
+    solver=implicit_solver(),
+    rtol=1e-8,
+    atol=1e-10,
+    max_steps=20 * SLOW_RAMP_N_SAVE,
+    land_on_samples=True,
+)
+"""The default large-step solve of `simulate_slow_ramp`: L-stable Kvaerno5 (hour-long steps need it
+from the first step), every sample a step end (`land_on_samples`, which `simulate_slow_ramp`
+always sets), a budget of 20 steps per sample."""
+SLOW_RAMP_WINDOW_OPTIONS = SolveOptions(
+    saveat=SaveAt(n=3001), rtol=1e-9, atol=1e-13, max_steps=65_536
+)
+"""The default resolved check of `simulate_slow_ramp` over its start window (`t1` is the window):
+tight enough to resolve the ringing of ~1e-8 rad that the large steps do not."""

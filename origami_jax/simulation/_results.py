@@ -18,8 +18,8 @@ class RESULTS(diffrax.RESULTS):  # pyright: ignore[reportGeneralTypeIssues]
     )
     stiff_while_differentiated = (
         "The run turned stiff, and a differentiated simulate with the default solver takes explicit "
-        "steps only (the implicit ones would triple its compile time). Pass "
-        "solver=origami_jax.simulation.StiffnessSwitching() to differentiate through both phases."
+        "steps only (the implicit ones would triple its compile time). Pass SolveOptions("
+        "solver=origami_jax.simulation.StiffnessSwitching()) to differentiate through both phases."
     )
 
 

@@ -23,16 +23,9 @@ from ..system import FoldingSystem, HingeDrag
 from ._guard import ContactGuard, WrappedController
 from ._implicit import ImplicitStep, integrate, steps_per_interval
 from ._inputs import AbstractInput
+from ._options import DEFAULT_ATOL, DEFAULT_RTOL, SolveOptions
 from ._results import RESULTS, promote
 from ._switching import TURNED_STIFF, StiffnessSwitching
-
-DEFAULT_RTOL = 1e-7
-"""Default relative tolerance of `simulate` (error per step, relative to |θ| and |θ̇|)."""
-DEFAULT_ATOL = 1e-9
-"""Default absolute tolerance of `simulate`, in the chain's units (rad and rad/time unit). In `MICRO`
-a 3-flap accordion step moves θ by π and θ̇ by ~0.1 rad/µs, so 1e-9 is far below both."""
-DEFAULT_MAX_STEPS = 16_384
-DEFAULT_N_SAVE = 2001
 
 
 def default_solver() -> diffrax.AbstractSolver:
@@ -80,7 +73,7 @@ class Trajectory(eqx.Module):
       with [`origami_jax.simulation.StiffnessSwitching`][] (the default) also `switch_time`, the time the
       solver turned implicit (`inf` if it never did).
     - `result`: a [`origami_jax.simulation.RESULTS`][] code; samples after a failure are `inf`.
-    - `solution`: the diffrax solution with dense output when `simulate(..., dense=True)`, else `None`.
+    - `solution`: the diffrax solution with dense output when `SaveAt(dense=True)`, else `None`.
     - `state`: the mechanism's samples ``(q, v)`` when its coordinates are not its hinge angles (else
       `None`: they are `theta` and `theta_dot`).
     """
@@ -106,9 +99,11 @@ class Trajectory(eqx.Module):
         return jnp.asarray(self.result._value == RESULTS.successful._value)
 
     def evaluate(self, t: Float[ArrayLike, ""]) -> tuple[Float[Array, " n"], Float[Array, " n"]]:
-        """Dense output: `(θ(t), θ̇(t))` anywhere in the solved interval (needs `dense=True`)."""
+        """Dense output: `(θ(t), θ̇(t))` anywhere in the solved interval (needs `SaveAt(dense=True)`)."""
         if self.solution is None:
-            raise ValueError("This trajectory has no dense output: simulate(..., dense=True).")
+            raise ValueError(
+                "This trajectory has no dense output: simulate with SolveOptions(saveat=SaveAt(dense=True))."
+            )
         return self.solution.evaluate(t)  # pyright: ignore[reportArgumentType] (a real scalar)
 
 
@@ -556,14 +551,18 @@ def _host_times(t0, t1, ts, n_save: int) -> tuple[np.ndarray, np.ndarray]:
     if is_traced(t0, t1, ts):
         raise ValueError(
             "ImplicitStep fixes its step count from the time span and sample times, so t0, t1 and "
-            "ts must be known values (not traced under jit or vmap)."
+            "SaveAt(ts=...) must be known values (not traced under jit or vmap)."
         )
     start, end = float(t0), float(t1)
     times = np.linspace(start, end, n_save) if ts is None else np.asarray(ts, dtype=float)
     if times.ndim != 1 or times.size < 1 or not np.all(np.isfinite(times)):
-        raise ValueError("ts must be a non-empty one-dimensional array of finite times.")
+        raise ValueError(
+            "SaveAt(ts=...) must be a non-empty one-dimensional array of finite times."
+        )
     if np.any(np.diff(times) < 0) or times[0] < start or times[-1] > end:
-        raise ValueError(f"ts must be non-decreasing and within [t0, t1] = [{start:g}, {end:g}].")
+        raise ValueError(
+            f"SaveAt(ts=...) must be non-decreasing and within [t0, t1] = [{start:g}, {end:g}]."
+        )
     return np.asarray(start), times
 
 
@@ -579,7 +578,7 @@ def _simulate_implicit(system, inputs, solver, times, q0, v0, *, dense: bool, th
         )
     if dense:
         raise ValueError(
-            "ImplicitStep has no dense output; ask for samples (n_save or ts) instead."
+            "ImplicitStep has no dense output; ask for samples (SaveAt(n=...) or SaveAt(ts=...))."
         )
     t0, ts = times
     steps = steps_per_interval(solver, t0, ts)
@@ -599,6 +598,26 @@ def _simulate_implicit(system, inputs, solver, times, q0, v0, *, dense: bool, th
 # Argument checks of `simulate` (tier 1 when the values are known, tier 2 when traced: see
 # `origami_jax._validate`). A bad time span or tolerance otherwise runs the solver to its step budget
 # and ends with a misleading "max steps" (a negative t1 even integrated backwards and succeeded).
+def _end_time(t1, options_t1):
+    """The end time from `simulate(t1=...)` or `SolveOptions(t1=...)`: one of them, or both equal."""
+    if t1 is None and options_t1 is None:
+        raise ValueError("simulate needs an end time: give t1=... or SolveOptions(t1=...).")
+    if t1 is None or options_t1 is None:
+        return options_t1 if t1 is None else t1
+    if is_traced(t1, options_t1):
+        return eqx.error_if(
+            jnp.asarray(t1, dtype=float),
+            jnp.asarray(t1) != jnp.asarray(options_t1),
+            "simulate: t1 and SolveOptions(t1=...) differ; give one of them.",
+        )
+    if np.shape(t1) != np.shape(options_t1) or np.any(np.asarray(t1) != np.asarray(options_t1)):
+        raise ValueError(
+            f"simulate got t1={np.asarray(t1)} and SolveOptions(t1={np.asarray(options_t1)}); "
+            "give one of them."
+        )
+    return t1
+
+
 def _checked_span(t0, t1) -> tuple[Array, Array]:
     t0, t1 = jnp.asarray(t0, dtype=float), jnp.asarray(t1, dtype=float)
     if t0.ndim or t1.ndim:
@@ -620,14 +639,17 @@ def _checked_span(t0, t1) -> tuple[Array, Array]:
 def _checked_tolerance(value, name: str) -> Array:
     array = jnp.asarray(value, dtype=float)
     if array.ndim:
-        raise ValueError(f"{name} must be a scalar, got shape {array.shape}.")
+        raise ValueError(f"SolveOptions({name}=...) must be a scalar, got shape {array.shape}.")
     if is_traced(array):
         bad = ~(jnp.isfinite(array) & (array > 0))
-        return eqx.error_if(array, bad, f"simulate: {name} must be positive and finite.")
+        return eqx.error_if(
+            array, bad, f"simulate: SolveOptions({name}=...) must be positive and finite."
+        )
     if not (np.isfinite(float(array)) and float(array) > 0):
         example = DEFAULT_RTOL if name == "rtol" else DEFAULT_ATOL
         raise ValueError(
-            f"{name} must be a positive finite tolerance (e.g. {example:g}), got {float(array)!r}."
+            f"SolveOptions({name}=...) must be a positive finite tolerance (e.g. {example:g}), "
+            f"got {float(array)!r}."
         )
     return array
 
@@ -635,17 +657,21 @@ def _checked_tolerance(value, name: str) -> Array:
 def _checked_times(ts, t0, t1) -> Array:
     ts = jnp.asarray(ts, dtype=float)
     if ts.ndim != 1 or ts.shape[0] < 1:
-        raise ValueError(f"ts must be a non-empty one-dimensional array, got shape {ts.shape}.")
-    ts = check_finite(ts, "ts")
+        raise ValueError(
+            f"SaveAt(ts=...) must be a non-empty one-dimensional array, got shape {ts.shape}."
+        )
+    ts = check_finite(ts, "SaveAt(ts=...)")
     if is_traced(ts, t0, t1):
         outside = jnp.any(ts < t0) | jnp.any(ts > t1) | jnp.any(jnp.diff(ts) < 0)
-        return eqx.error_if(ts, outside, "simulate: ts must be increasing and within [t0, t1].")
+        return eqx.error_if(
+            ts, outside, "simulate: SaveAt(ts=...) must be increasing and within [t0, t1]."
+        )
     host = np.asarray(ts)
     if np.any(np.diff(host) < 0):
-        raise ValueError("ts must be non-decreasing (sample times in order).")
+        raise ValueError("SaveAt(ts=...) must be non-decreasing (sample times in order).")
     if host[0] < float(t0) or host[-1] > float(t1):
         raise ValueError(
-            f"ts must lie within [t0, t1] = [{float(t0):g}, {float(t1):g}], got "
+            f"SaveAt(ts=...) must lie within [t0, t1] = [{float(t0):g}, {float(t1):g}], got "
             f"[{host[0]:g}, {host[-1]:g}]."
         )
     return ts
@@ -657,7 +683,9 @@ def _checked_first_step(dt0) -> Array | None:
         return None
     step = np.asarray(dt0, dtype=float)
     if step.ndim or not (np.isfinite(step) and step > 0):
-        raise ValueError(f"dt0 must be a positive finite first step (or None), got {dt0!r}.")
+        raise ValueError(
+            f"SolveOptions(dt0=...) must be a positive finite first step (or None), got {dt0!r}."
+        )
     return jnp.asarray(step)
 
 
@@ -696,36 +724,24 @@ def _check_system_values(system: FoldingSystem) -> None:
 def simulate(
     system: FoldingSystem,
     inputs: AbstractInput,
+    options: SolveOptions | None = None,
     *,
-    t1: Float[ArrayLike, ""],
+    t1: Float[ArrayLike, ""] | None = None,
     t0: Float[ArrayLike, ""] = 0.0,
     theta0: Float[ArrayLike, " n"] | None = None,
     theta_dot0: Float[ArrayLike, " n"] | None = None,
-    ts: Float[ArrayLike, " t"] | None = None,
-    n_save: int = DEFAULT_N_SAVE,
-    solver: "diffrax.AbstractSolver | ImplicitStep | None" = None,
-    rtol: float = DEFAULT_RTOL,
-    atol: float = DEFAULT_ATOL,
-    stepsize_controller: diffrax.AbstractStepSizeController | None = None,
-    dt0: Float[ArrayLike, ""] | None = None,
-    max_steps: int = DEFAULT_MAX_STEPS,
-    dense: bool = False,
-    throw: bool = True,
-    progress_meter: diffrax.AbstractProgressMeter | None = None,
-    adjoint: diffrax.AbstractAdjoint | None = None,
-    land_on_samples: bool = False,
 ) -> Trajectory:
     """Simulate the folding of `system` under `inputs`:
     ``M v̇ + C v + G = J_hᵀ (τ(t, θ, θ̇) − K θ) + f_drag + f_contact``.
 
-    Works under `jax.jit`, `jax.vmap` (batch the system or the input) and `jax.grad` (reverse mode
-    through diffrax's checkpointed adjoint). The compiled solve is cached per structure (mechanism
-    size, solver, `dense`, `throw`, `max_steps`, the input's type and its Python functions), not
-    per value: times, tolerances, initial state, targets, release times and every physical number
-    are traced, so a new value reruns without compiling. The sample count (`n_save` or the length
-    of `ts`) is padded to the next power of two (`padded_sample_count`): a new count within
-    it costs a few milliseconds, not a new solve (under `jit` or `vmap` the caller's program is
-    compiled for its own count, and nothing is padded). See
+    Works under `jax.jit`, `jax.vmap` (batch the system, the input or the options' numbers) and
+    `jax.grad` (reverse mode through diffrax's checkpointed adjoint). The compiled solve is cached
+    per structure (mechanism size, solver, `saveat.dense`, `throw`, `max_steps`, the input's type and
+    its Python functions), not per value: times, tolerances, initial state, targets, release times
+    and every physical number are traced, so a new value reruns without compiling. The sample count
+    (`saveat.n` or the length of `saveat.ts`) is padded to the next power of two
+    (`padded_sample_count`): a new count within it costs a few milliseconds, not a new solve (under
+    `jit` or `vmap` the caller's program is compiled for its own count, and nothing is padded). See
     [`origami_jax.enable_compilation_cache`][] to keep compiled solves between processes. Called
     outside any transformation with the default solver, the solve runs as two programs: explicit
     steps up to the switch, then, only for a run that turns stiff, implicit ones from there, so a
@@ -733,59 +749,75 @@ def simulate(
     the time); the steps, samples and statistics are those of the single program. Differentiated
     (`jax.grad`, `jax.jvp`, ...), the default solver compiles its explicit phase only (a third of
     the gradient's compile time): a run that turns stiff then ends with
-    `RESULTS.stiff_while_differentiated`; pass `solver=StiffnessSwitching()` to differentiate both
-    phases.
+    `RESULTS.stiff_while_differentiated`; pass `SolveOptions(solver=StiffnessSwitching())` to
+    differentiate both phases.
 
     **Arguments:**
     - `system`: a [`origami_jax.system.FoldingSystem`][] (e.g. from
       [`origami_jax.chain.accordion_system`][]); its units fix every other unit below.
     - `inputs`: a [`origami_jax.simulation.Step`][], [`origami_jax.simulation.EtchRamp`][],
       [`origami_jax.simulation.UserTorque`][] or your own `AbstractInput`.
-    - `t1`, `t0`: time span, time units (MICRO: µs).
+    - `options`: how to solve and what to save, a [`origami_jax.simulation.SolveOptions`][]
+      (default `SolveOptions()`: every setting's default is there). Its fields as they apply here:
+        - `saveat`: a [`origami_jax.simulation.SaveAt`][]: sample times `ts` (within `[t0, t1]`), or
+          `n` evenly spaced samples including both ends; `dense=True` keeps diffrax's dense output
+          (`Trajectory.evaluate`).
+        - `solver`: any diffrax ODE solver; default [`origami_jax.simulation.default_solver`][]
+          (Tsit5 switching to Kvaerno5 when the problem turns stiff; differentiated, its Tsit5 phase
+          only, see above). Explicit solvers (`diffrax.Tsit5()`) are faster on the non-stiff fast
+          ramp in air but can give wrong gradients in stiff regimes at loose tolerances. Or
+          [`origami_jax.simulation.ImplicitStep`][]`(dt=...)`: the fixed-step engine (implicit
+          Euler with Newton iterations capped by the contact's collision detection), robust through
+          contact and with the same work for every member of a batch, but first-order accurate and
+          dissipative; the tolerances, controller, `dt0`, `max_steps`, `adjoint` and dense output do
+          not apply to it, and its time span and sample times must be known values.
+        - `rtol`, `atol`: step-size controller tolerances (`DEFAULT_RTOL`, `DEFAULT_ATOL`). Metrics
+          of the accordion step agree with rtol 1e-9 to about 1e-6 relative.
+        - `stepsize_controller`: overrides [`origami_jax.simulation.default_controller`][] (an
+          integral controller for explicit Runge–Kutta solvers, a PID controller otherwise). Input
+          corners are added as `jump_ts` in either case.
+        - `dt0`: first step (default: diffrax's estimate).
+        - `max_steps`: step budget; running out gives `RESULTS.max_steps_reached`.
+        - `throw`: raise on failure (default). Pass `throw=False` in batches and read
+          `Trajectory.result`.
+        - `progress_meter`: e.g. `diffrax.TqdmProgressMeter()` for long runs.
+        - `adjoint`: diffrax adjoint (default `RecursiveCheckpointAdjoint`;
+          `diffrax.ForwardMode()` for `jax.jvp`/`jax.jacfwd`).
+        - `land_on_samples`: make every sample time a step end (`step_ts`). Needed when steps are
+          far longer than the dynamics (the slow etch ramp): interpolating inside a step of hours
+          with end rates that carry unresolved µs ringing would be wrong by up to `h·|Δθ̇|/4`; see
+          [`origami_jax.simulation.simulate_slow_ramp`][].
+    - `t1`: end time, time units (MICRO: µs); or `options.t1`. One of them is needed; given both,
+      they must agree.
+    - `t0`: start time, time units (default 0).
     - `theta0`, `theta_dot0`: initial coordinates and velocities (hinge angles in rad and rates in
       rad/time for chains and trees), default the mechanism's flat rest state.
-    - `ts`: sample times (within `[t0, t1]`), or `n_save` evenly spaced samples including both ends.
-      Metrics refine crossings between samples with cubic Hermite interpolation of `(θ, θ̇)`, so keep
-      several samples per oscillation period.
-    - `solver`: any diffrax ODE solver; default [`origami_jax.simulation.default_solver`][] (Tsit5
-      switching to Kvaerno5 when the problem turns stiff; differentiated, its Tsit5 phase only,
-      see above). Explicit solvers (`diffrax.Tsit5()`) are
-      faster on the non-stiff fast ramp in air but can give wrong gradients in stiff regimes at loose
-      tolerances. Or [`origami_jax.simulation.ImplicitStep`][]`(dt=...)`: the fixed-step engine
-      (implicit Euler with Newton iterations capped by the contact's collision detection), robust
-      through contact and with the same work for every member of a batch, but first-order
-      accurate and dissipative; the tolerances, controller, `dt0`, `max_steps`, `adjoint` and
-      `dense` do not apply to it, and its time span and sample times must be known values.
-    - `rtol`, `atol`: step-size controller tolerances (default 1e-7 and 1e-9; see `DEFAULT_ATOL`).
-      Metrics of the accordion step agree with rtol 1e-9 to about 1e-6 relative.
-    - `stepsize_controller`: overrides [`origami_jax.simulation.default_controller`][] (an integral
-      controller for explicit Runge–Kutta solvers, a PID controller otherwise). Input corners are added
-      as `jump_ts` in either case.
-    - `dt0`: first step (default: diffrax's estimate).
-    - `max_steps`: step budget; running out gives `RESULTS.max_steps_reached`.
-    - `dense`: keep diffrax's dense output (`Trajectory.evaluate`).
-    - `throw`: raise on failure (default). Pass `throw=False` in batches and read `Trajectory.result`.
-    - `progress_meter`: e.g. `diffrax.TqdmProgressMeter()` for long runs.
-    - `adjoint`: diffrax adjoint (default `RecursiveCheckpointAdjoint`; `diffrax.ForwardMode()` for
-      `jax.jvp`/`jax.jacfwd`).
-    - `land_on_samples`: make every sample time a step end (`step_ts`). Needed when steps are far
-      longer than the dynamics (the slow etch ramp): interpolating inside a step of hours with end
-      rates that carry unresolved µs ringing would be wrong by up to `h·|Δθ̇|/4`; see
-      [`origami_jax.simulation.simulate_slow_ramp`][].
 
     **Returns:** a [`origami_jax.simulation.Trajectory`][].
 
     **Raises:** `ValueError`, before anything compiles, for inconsistent shapes and for values that
-    cannot give an answer: `t1 <= t0` or a non-finite time, `rtol`, `atol` or `dt0` not positive
-    and finite, `n_save < 2`, sample times outside `[t0, t1]` or decreasing, a non-finite initial
-    state, or a system whose concrete stiffness is not positive or whose drag or any other number
-    is negative where it must not be or not finite. When these values are traced (`simulate` under
-    `jit` or `vmap`) the same conditions raise at run time (`eqx.error_if`). With `throw=True`,
-    `equinox.EquinoxRuntimeError` carrying the result message when the solve fails (steps
-    exhausted, step size collapsed, non-finite state). Called outside any transformation, that
-    error is raised in Python from the result code, after the compiled solve returns: the solve
-    then calls nothing back, so the compilation cache can keep it for the next process.
+    cannot give an answer: no `t1` (or two different ones), `t1 <= t0` or a non-finite time,
+    `rtol`, `atol` or `dt0` not positive and finite, sample times outside `[t0, t1]` or decreasing,
+    a non-finite initial state, or a system whose concrete stiffness is not positive or whose drag
+    or any other number is negative where it must not be or not finite (`SaveAt(n < 2)` and
+    `max_steps < 1` already raise when the options are built). When these values are traced
+    (`simulate` under `jit` or `vmap`) the same conditions raise at run time (`eqx.error_if`). With
+    `throw=True`, `equinox.EquinoxRuntimeError` carrying the result message when the solve fails
+    (steps exhausted, step size collapsed, non-finite state). Called outside any transformation,
+    that error is raised in Python from the result code, after the compiled solve returns: the
+    solve then calls nothing back, so the compilation cache can keep it for the next process.
     """
+    if options is None:
+        options = SolveOptions()
+    elif not isinstance(options, SolveOptions):
+        raise ValueError(
+            f"options must be an origami_jax.simulation.SolveOptions, got {type(options).__name__}."
+        )
+    t1 = _end_time(t1, options.t1)
+    saveat = options.saveat
+    ts, n_save, dense = saveat.ts, saveat.n, saveat.dense
+    solver, throw, dt0 = options.solver, options.throw, options.dt0
+    rtol, atol, stepsize_controller = options.rtol, options.atol, options.stepsize_controller
     if not isinstance(system, FoldingSystem):
         raise ValueError(
             f"system must be a FoldingSystem (e.g. origami_jax.chain.accordion_system(design)), "
@@ -802,10 +834,6 @@ def simulate(
         raise ValueError(
             f"the input is for {jnp.shape(target)} hinges but the system has {n} hinges."
         )
-    if ts is None and (isinstance(n_save, bool) or not isinstance(n_save, int) or n_save < 2):
-        raise ValueError(f"n_save must be an integer of at least 2, got {n_save!r}.")
-    if not isinstance(max_steps, int) or max_steps < 1:
-        raise ValueError(f"max_steps must be a positive integer, got {max_steps!r}.")
     _check_system_values(system)
     span_given = (t0, t1)
     t0, t1 = _checked_span(t0, t1)
@@ -841,15 +869,19 @@ def simulate(
         solver=solver,
         controller=stepsize_controller,
         dt0=None if dt0 is None else jnp.asarray(dt0, dtype=float),
-        progress_meter=diffrax.NoProgressMeter() if progress_meter is None else progress_meter,
-        adjoint=diffrax.RecursiveCheckpointAdjoint() if adjoint is None else adjoint,
-        max_steps=max_steps,
+        progress_meter=(
+            diffrax.NoProgressMeter() if options.progress_meter is None else options.progress_meter
+        ),
+        adjoint=(
+            diffrax.RecursiveCheckpointAdjoint() if options.adjoint is None else options.adjoint
+        ),
+        max_steps=options.max_steps,
         dense=dense,
         # Outside any transformation every input was checked above and a failure is raised below,
         # from the result code: the compiled solve then needs no callback into Python and the
         # compilation cache can keep it (`origami_jax._runtime_errors`).
         throw=throw and not pad,
-        land_on_samples=land_on_samples,
+        land_on_samples=options.land_on_samples,
     )
     lazy = (
         pad
@@ -888,8 +920,8 @@ def simulate(
         ):
             raise TypeError(
                 "simulate was differentiated in forward mode (jax.jvp, jax.jacfwd), which its "
-                "default adjoint does not support: pass adjoint=diffrax.ForwardMode() (or use "
-                "reverse mode, jax.grad)."
+                "default adjoint does not support: pass "
+                "SolveOptions(adjoint=diffrax.ForwardMode()) (or use reverse mode, jax.grad)."
             ) from error
         raise
     if not pad:

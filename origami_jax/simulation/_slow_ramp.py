@@ -27,8 +27,8 @@ from jaxtyping import Array, Float
 
 from ..system import FoldingSystem
 from ._inputs import EtchRamp
+from ._options import SLOW_RAMP_OPTIONS, SLOW_RAMP_WINDOW_OPTIONS, SolveOptions
 from ._simulate import Trajectory, simulate
-from ._switching import implicit_solver
 
 
 class SlowRampResult(eqx.Module):
@@ -57,59 +57,48 @@ def _departure(system: FoldingSystem, ramp: EtchRamp, trajectory: Trajectory) ->
 def simulate_slow_ramp(
     system: FoldingSystem,
     ramp: EtchRamp,
+    options: SolveOptions | None = None,
     *,
-    n_save: int = 1001,
     tail: float = 0.2,
     window: float | None = None,
-    rtol: float = 1e-8,
-    atol: float = 1e-10,
-    window_rtol: float = 1e-9,
-    window_atol: float = 1e-13,
-    progress_meter=None,
+    window_options: SolveOptions | None = None,
 ) -> SlowRampResult:
     """Simulate an etch ramp of hours with the full model and check it against a resolved window.
 
     **Arguments:**
     - `system`, `ramp`: as for [`origami_jax.simulation.simulate`][] (a mechanism whose coordinates
       are its hinge angles).
-    - `n_save`: samples over `[0, (1 + tail) T]`; each is a step end.
+    - `options`: the large-step solve over `[0, (1 + tail) T]` (default `SLOW_RAMP_OPTIONS`: 1001
+      samples, L-stable Kvaerno5, rtol 1e-8, atol 1e-10). Every sample is made a step end
+      (`land_on_samples` is set); its `t1` must be `None` (the ramp decides it).
     - `tail`: run on after the ramp ends, as a fraction of `T`.
     - `window`: length of the resolved check at the start, time units (default 30 periods).
-    - `rtol`, `atol`: tolerances of the large-step solve; `window_rtol`, `window_atol` of the check.
+    - `window_options`: the resolved check's solve (default `SLOW_RAMP_WINDOW_OPTIONS`; its `t1`
+      must be `None`: `window` decides it).
 
     **Returns:** a [`origami_jax.simulation.SlowRampResult`][].
+
+    **Raises:** `ValueError` when either options carry a `t1`.
     """
+    options = SLOW_RAMP_OPTIONS if options is None else options
+    window_options = SLOW_RAMP_WINDOW_OPTIONS if window_options is None else window_options
+    if options.t1 is not None or window_options.t1 is not None:
+        raise ValueError(
+            "simulate_slow_ramp decides its end times (the ramp's duration and the window): "
+            "give SolveOptions(t1=None)."
+        )
     q_rest, _ = system.mechanism.rest_state()
     inertia = jnp.diag(system.mechanism.mass_matrix(q_rest))
     period = jnp.max(2 * jnp.pi * jnp.sqrt(inertia / system.hinges.stiffness))
     t1 = (1.0 + tail) * ramp.duration(system)
-    trajectory = simulate(
-        system,
-        ramp,
-        t1=t1,
-        n_save=n_save,
-        solver=implicit_solver(),  # hour-long steps need L-stability from the first step
-        rtol=rtol,
-        atol=atol,
-        max_steps=max(20 * n_save, 4096),
-        land_on_samples=True,
-        progress_meter=progress_meter,
-    )
+    trajectory = simulate(system, ramp, options.replace(land_on_samples=True), t1=t1)
     # From here `window` is an Array (the parameter's declared type is the caller's float).
     window = (
         30.0 * period  # pyright: ignore[reportAssignmentType]
         if window is None
         else jnp.asarray(window, dtype=float)
     )
-    resolved = simulate(
-        system,
-        ramp,
-        t1=window,  # pyright: ignore[reportArgumentType]
-        n_save=3001,
-        rtol=window_rtol,
-        atol=window_atol,
-        max_steps=65_536,
-    )
+    resolved = simulate(system, ramp, window_options, t1=window)
     return SlowRampResult(
         trajectory=trajectory,
         window=resolved,
