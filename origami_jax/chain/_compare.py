@@ -13,9 +13,12 @@ the KOH bath, all from the literature design (`HingeDesign.literature()`), nothi
 
 import dataclasses
 import math
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+if TYPE_CHECKING:  # the simulation sits above the chain: imported where it runs
+    from ..simulation import SolveOptions
 
 CASES = ("step_air", "step_koh", "ramp_koh")
 """The runs `compare_models` makes: Fig. 7's step in air and in KOH, and the fast etch ramp in KOH."""
@@ -176,13 +179,18 @@ def _reasons(air: dict, koh: dict, lags: dict | None, peaks: dict) -> list[str]:
 
 
 def compare_models(
-    cases=CASES, *, run_lengths: dict[str, float] | None = None, n_save: int = 4001
+    cases=CASES,
+    options: "SolveOptions | None" = None,
+    *,
+    run_lengths: dict[str, float] | None = None,
 ) -> ModelComparison:
     """Simulate the literature accordion with the paper's and the extended model on `cases`
     (module docstring; each case a name from `CASES`).
 
-    **Arguments:** `cases`; `run_lengths` (µs, per step case; default `RUN_LENGTH_US`); `n_save`,
-    samples per run.
+    **Arguments:** `cases`; `options`, every run's
+    [`origami_jax.simulation.SolveOptions`][] (default ``SolveOptions(saveat=SaveAt(n=4001),
+    max_steps=400_000, throw=False)``; its `t1` must be `None`: each case has its own);
+    `run_lengths` (µs, per step case; default `RUN_LENGTH_US`).
 
     **Returns:** a [`ModelComparison`][origami_jax.chain.ModelComparison].
 
@@ -205,6 +213,12 @@ def compare_models(
     unknown = [c for c in cases if c not in CASES]
     if unknown or not cases:
         raise ValueError(f"cases must be among {CASES}, got {list(cases)!r}.")
+    if options is None:
+        options = sim.SolveOptions(saveat=sim.SaveAt(n=4001), max_steps=400_000, throw=False)
+    if options.t1 is not None:
+        raise ValueError(
+            "compare_models runs each case for its own time: give SolveOptions(t1=None)."
+        )
     lengths = dict(RUN_LENGTH_US, **(run_lengths or {}))
     paper_runs, extended_runs, seconds, lags = {}, {}, {}, None
     for case in cases:
@@ -224,9 +238,7 @@ def compare_models(
                     system.hinges.target, duration=MICRO.time(sim.FAST_RAMP_DURATION_SI)
                 )
                 t1 = 1.2 * float(inputs.duration(system))
-            trajectory = sim.simulate(
-                system, inputs, t1=t1, n_save=n_save, max_steps=400_000, throw=False
-            )
+            trajectory = sim.simulate(system, inputs, options, t1=t1)
             metrics = sim.response_metrics(trajectory)
             if case.startswith("ramp"):
                 desired = jax.vmap(lambda t, s=system, r=inputs: r.desired(t, s)[0])(

@@ -195,6 +195,7 @@ def _fit(args, out: Path, n, table, rise, overshoot, peak, settling, final, t90)
         flush=True,
     )
     import origami_jax.design as ojd
+    import origami_jax.simulation as sim
     from origami_jax.system import AIR, KOH_SOLUTION, MICRO, HingeDesign
 
     units = MICRO
@@ -244,8 +245,7 @@ def _fit(args, out: Path, n, table, rise, overshoot, peak, settling, final, t90)
             targets,
             free,
             bounds=bounds,
-            t1=t1,
-            n_flaps=n,
+            options=sim.FIT_OPTIONS.replace(t1=t1),
             n_starts=args.starts,
             max_steps=args.max_steps,
             tolerance=args.tolerance,

@@ -426,10 +426,13 @@ def _run(
         theta0=theta0,
         theta_dot0=theta_dot0,
         on_continue=still_moving,
-        solver=solver,
-        n_save=args.n_save,
-        max_steps=500_000,
-        progress_meter=_progress_meter(args.progress, m),
+        options=sim.SolveOptions(
+            saveat=sim.SaveAt(n=args.n_save),
+            solver=solver,
+            max_steps=500_000,
+            throw=False,
+            progress_meter=_progress_meter(args.progress, m),
+        ),
     )
     t_end = float(trajectory.times[-1])
     if segments == MAX_FOLD_SEGMENTS and report.verdict == "unfinished":

@@ -39,7 +39,7 @@ def run(out: Path) -> list[str]:
         system = accordion_system(HingeDesign.literature(fluid=fluid), 3)
 
         # Step (Figs. 7, 8).
-        step = sim.simulate(system, sim.Step(), t1=2000.0, max_steps=100_000)
+        step = sim.simulate(system, sim.Step(), sim.SolveOptions(max_steps=100_000), t1=2000.0)
         m = sim.response_metrics(step)
         write_trajectory(step, out / f"fig7_step_{tag}_trajectory")
         write_figures(system, step, m, out, name=f"fig7_8_step_{tag}")
@@ -63,9 +63,8 @@ def run(out: Path) -> list[str]:
         fast = sim.simulate(
             system,
             ramp,
+            sim.SolveOptions(saveat=sim.SaveAt(n=4001), max_steps=400_000),
             t1=1.2 * float(ramp.duration(system)),
-            n_save=4001,
-            max_steps=400_000,
         )
         mr = sim.response_metrics(fast)
         write_trajectory(fast, out / f"fig10_fast_ramp_{tag}_trajectory")
@@ -82,7 +81,9 @@ def run(out: Path) -> list[str]:
     system = accordion_system(HingeDesign.literature(fluid=KOH_SOLUTION), 3)
     beta = MICRO.length(sim.KOH_ETCH_RATE_SI) / MICRO.time(1.0)
     ramp = sim.EtchRamp(beta)
-    slow = sim.simulate_slow_ramp(system, ramp, n_save=501)
+    slow = sim.simulate_slow_ramp(
+        system, ramp, sim.SLOW_RAMP_OPTIONS.replace(saveat=sim.SaveAt(n=501), max_steps=10_020)
+    )
     write_trajectory(slow.trajectory, out / "slow_ramp_koh_trajectory")
     record["slow_ramp_koh"] = {
         "duration_hours": float(ramp.duration(system)) * 1e-6 / 3600,
@@ -131,7 +132,9 @@ def _contact_comparison(out: Path, record: dict) -> list[str]:
     for row, (label, design) in enumerate(cases.items()):
         for col, contact in enumerate((False, True)):
             system = accordion_system(design, 3, contact=contact)
-            trajectory = sim.simulate(system, sim.Step(), t1=600.0, max_steps=200_000)
+            trajectory = sim.simulate(
+                system, sim.Step(), sim.SolveOptions(max_steps=200_000), t1=600.0
+            )
             metrics = sim.response_metrics(trajectory)
             title = f"{label}, {'with contact' if contact else 'paper model (no contact)'}"
             chain_plots.plot_joint_angles(trajectory, metrics, ax=axes[row, col], title=title)

@@ -211,19 +211,29 @@ def _run(args: argparse.Namespace, params: dict[str, float], design, out: Path):
         trajectory = sim.simulate(
             system,
             inputs,
+            sim.SolveOptions(
+                saveat=sim.SaveAt(n=args.n_save),
+                solver=solver,
+                rtol=rtol,
+                atol=atol,
+                max_steps=max_steps,
+                throw=False,
+                progress_meter=progress,
+            ),
             t1=default_t1 if args.t1 is None else args.t1,
-            n_save=args.n_save,
-            solver=solver,
-            rtol=rtol,
-            atol=atol,
-            throw=False,
-            progress_meter=progress,
-            max_steps=max_steps,
         )
     else:
         beta = MICRO.length(sim.KOH_ETCH_RATE_SI) / MICRO.time(1.0)
         ramp = inputs = sim.EtchRamp(beta)
-        slow = sim.simulate_slow_ramp(system, ramp, n_save=args.n_save, progress_meter=progress)
+        slow = sim.simulate_slow_ramp(
+            system,
+            ramp,
+            sim.SLOW_RAMP_OPTIONS.replace(
+                saveat=sim.SaveAt(n=args.n_save),
+                max_steps=max(20 * args.n_save, 4096),
+                progress_meter=progress,
+            ),
+        )
         trajectory = slow.trajectory
         extra = {
             "ramp_duration_us": float(ramp.duration(system)),

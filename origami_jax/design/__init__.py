@@ -25,7 +25,6 @@ print(result.summary())
 - Plots: `origami_jax.design.plot_response` (imports matplotlib when called).
 """
 
-from ._design import DEFAULT_N_SAVE as DEFAULT_N_SAVE
 from ._design import DEFAULT_TOLERANCE as DEFAULT_TOLERANCE
 from ._design import SimulationSettings as SimulationSettings
 from ._design import calibrate as calibrate

@@ -21,7 +21,15 @@ from jaxtyping import Array, Float
 
 from .._runtime_errors import checks_as_nan
 from ..chain import Accordion
-from ..simulation import AbstractInput, EtchRamp, Step, response_metrics, simulate
+from ..simulation import (
+    FIT_OPTIONS,
+    AbstractInput,
+    EtchRamp,
+    SolveOptions,
+    Step,
+    response_metrics,
+    simulate,
+)
 from ..system import AbstractLayout, HingeDesign
 from ._identify import identifiability
 from ._lstsq import fit_batch
@@ -37,72 +45,73 @@ from ._targets import (
     time_horizon,
 )
 
-DEFAULT_N_SAVE = 1201
-"""Samples of each simulated response: the metrics refine crossings between samples by cubic Hermite
-interpolation, so a few dozen samples per oscillation suffice; 1201 over a run of 6× the longest rise
-time gives ~200 per rise."""
 DEFAULT_TOLERANCE = 0.05
 """A target counts as met when its achieved value is within 5 % of it (relative; overshoot and final
 angle relative to ``max(|target|, floor)``, see `Targets`)."""
 
 
 class SimulationSettings(eqx.Module):
-    """How each candidate design is simulated (all in the design's units, MICRO: µs).
+    """What each candidate design builds and how it is simulated (all in the design's units, MICRO:
+    µs).
 
     **Fields:**
-    - `t1`: run length (time units). Rise times, peaks and settling must happen well inside it.
     - `layout`: what the design builds (static), an [`origami_jax.system.AbstractLayout`][]; default
       the accordion with `n_flaps` flaps ([`origami_jax.chain.Accordion`][]).
     - `inputs`: the input (default the step `Step()` to the system's hinge targets, paper Eq. 12), or
       a function `HingeDesign -> AbstractInput`.
-    - `n_save`: samples of the response (static: part of the compiled fit, which runs `simulate`
-      under `jit`, where sample counts are not padded).
-    - `solver`: diffrax solver. Default `Tsit5`: for the accordion in air it compiles ~6× and runs ~10×
-      faster than Kvaerno5 with derivatives matching finite differences (tests); pass
-      `origami_jax.simulation.implicit_solver()` for stiff cases (very stiff hinges, KOH at high drag).
-      Not the simulation's switching default: under the multi-start `vmap` it would run both branches.
-    - `rtol`, `atol`: step-size tolerances (static).
-    - `max_steps`: ODE step budget (static).
+    - `options`: the solve, a [`origami_jax.simulation.SolveOptions`][] with its end time `t1` (default
+      [`origami_jax.simulation.FIT_OPTIONS`][]: Tsit5, rtol 1e-8, 1201 samples). Rise times, peaks
+      and settling must happen well inside `t1`. Its sample count is part of the compiled fit, which
+      runs `simulate` under `jit`, where sample counts are not padded. The fit always solves with
+      `throw=False` and `diffrax.ForwardMode()`.
     """
 
-    t1: Float[Array, ""]
     layout: AbstractLayout = eqx.field(static=True)
     inputs: AbstractInput | Callable | None
-    n_save: int = eqx.field(static=True)
-    solver: diffrax.AbstractSolver
-    rtol: float = eqx.field(static=True)
-    atol: float = eqx.field(static=True)
-    max_steps: int = eqx.field(static=True)
+    options: SolveOptions
 
     def __init__(
         self,
-        t1: float,
+        t1: float | None = None,
         *,
         n_flaps: int = 3,
         layout: AbstractLayout | None = None,
         inputs: AbstractInput | Callable | None = None,
-        n_save: int = DEFAULT_N_SAVE,
-        solver: diffrax.AbstractSolver | None = None,
-        rtol: float = 1e-8,
-        atol: float = 1e-10,
-        max_steps: int = 16_384,
+        options: SolveOptions | None = None,
     ):
-        if not t1 > 0:
+        """**Arguments:** `t1`, the run length (time units), or `options.t1` (one of them, or both
+        equal); `n_flaps`, the accordion's flaps when `layout` is `None`; `layout`, `inputs`,
+        `options` as the fields (`options` default `FIT_OPTIONS`)."""
+        options = FIT_OPTIONS if options is None else options
+        if t1 is None:
+            t1 = options.t1
+        elif options.t1 is not None and float(options.t1) != float(t1):
+            raise ValueError(
+                f"SimulationSettings got t1={t1} and SolveOptions(t1={float(options.t1)}); give one."
+            )
+        if t1 is None:
+            raise ValueError(
+                "SimulationSettings needs a run length: t1=... or SolveOptions(t1=...)."
+            )
+        if not float(t1) > 0:
             raise ValueError(f"t1 must be a positive run length, got {t1}.")
-        if n_save < 16:
-            raise ValueError(f"n_save must be at least 16 to resolve the response, got {n_save}.")
-        self.t1 = jnp.asarray(float(t1))
+        saveat = options.saveat
+        if saveat.ts is None and saveat.n < 16:
+            raise ValueError(
+                f"SaveAt(n=...) must be at least 16 to resolve the response, got {saveat.n}."
+            )
         self.layout = Accordion(int(n_flaps)) if layout is None else layout
         self.inputs = inputs
-        self.n_save = int(n_save)
-        self.solver = diffrax.Tsit5() if solver is None else solver
-        self.rtol = float(rtol)
-        self.atol = float(atol)
-        self.max_steps = int(max_steps)
+        self.options = options.replace(t1=float(t1))
 
     @property
     def n_hinges(self) -> int:
         return self.layout.n_hinges
+
+    @property
+    def t1(self) -> Float[Array, ""]:
+        """The run length, time units."""
+        return jnp.asarray(self.options.t1)
 
 
 def response(hinge: HingeDesign, settings: SimulationSettings):
@@ -114,18 +123,8 @@ def response(hinge: HingeDesign, settings: SimulationSettings):
         inputs = settings.inputs
     else:
         inputs = settings.inputs(hinge)
-    trajectory = simulate(
-        system,
-        inputs,
-        t1=settings.t1,
-        n_save=settings.n_save,
-        solver=settings.solver,
-        rtol=settings.rtol,
-        atol=settings.atol,
-        max_steps=settings.max_steps,
-        throw=False,
-        adjoint=diffrax.ForwardMode(),
-    )
+    options = settings.options.replace(throw=False, adjoint=diffrax.ForwardMode())
+    trajectory = simulate(system, inputs, options)
     return trajectory, response_metrics(trajectory)
 
 
@@ -220,11 +219,10 @@ def design(
     hinge: HingeDesign,
     targets: Targets,
     free: Sequence[str],
+    options: SolveOptions | None = None,
     *,
     bounds: Mapping[str, tuple[float, float]] | None = None,
     settings: SimulationSettings | None = None,
-    t1: float | None = None,
-    n_flaps: int | None = None,
     n_starts: int = 8,
     key: Any = None,
     solver: optx.AbstractLeastSquaresSolver | optx.AbstractMinimiser | None = None,
@@ -243,13 +241,17 @@ def design(
       ``["hinge_width", "t_hinge"]`` (see [`origami_jax.design.parameter_space`][]).
     - `bounds`: ``{name: (lower, upper)}`` in the design's units; default a factor 100 around the start.
       Enforced by a sigmoid reparametrisation (log-scaled for positive bounds), never by clipping.
-    - `settings`: [`origami_jax.design.SimulationSettings`][]; by default a step input on the accordion
-      with `n_flaps` flaps (default: the targets' joint count) over `t1` (default from the targets, see
-      `time_horizon`).
+    - `options`: how each candidate is simulated, a [`origami_jax.simulation.SolveOptions`][]
+      (default [`origami_jax.simulation.FIT_OPTIONS`][]: Tsit5 at rtol 1e-8, ten times tighter than
+      `simulate`'s default, see `FIT_RTOL`; change one setting with
+      ``FIT_OPTIONS.replace(rtol=1e-9)``). Its `t1`, the run length, defaults to the targets'
+      horizon (`time_horizon`). Give it here or in `settings`, not both.
+    - `settings`: [`origami_jax.design.SimulationSettings`][]: the layout, the input and the options;
+      by default a step input on the accordion with the targets' joint count of flaps.
     - `n_starts`: starting points: `hinge`'s values plus Latin-hypercube points inside the bounds, all
       solved in one vmapped batch; the best is reported, every start is listed.
     - `key`: PRNG key for the extra starts (default: a fixed seed, so results are reproducible).
-    - `solver`: optimistix least-squares solver (default: a Levenberg–Marquardt,
+    - `solver`: the optimiser, an optimistix least-squares solver (default: a Levenberg–Marquardt,
       `origami_jax.design.default_solver`), or a minimiser such as `optimistix.BFGS`.
     - `max_steps`: optimiser steps per start.
     - `tolerance`: relative miss below which a target counts as met.
@@ -259,14 +261,26 @@ def design(
 
     **Returns:** a [`origami_jax.design.DesignResult`][].
 
-    **Raises:** `ValueError` for unknown parameters, bad bounds or targets for another number of joints.
+    **Raises:** `ValueError` for unknown parameters, bad bounds, targets for another number of joints,
+    no run length, or options given both here and in `settings`.
     """
     space = parameter_space(hinge, free, bounds)
     if settings is None:
-        horizon = time_horizon(targets) if t1 is None else t1
+        options = FIT_OPTIONS if options is None else options
+        horizon = time_horizon(targets) if options.t1 is None else options.t1
         if horizon is None:
-            raise ValueError("Give t1 (run length): the targets hold no time to derive it from.")
-        settings = SimulationSettings(horizon, n_flaps=n_flaps or targets.n_joints)
+            raise ValueError(
+                "Give the run length as SolveOptions(t1=...): the targets hold no time to derive it "
+                "from."
+            )
+        settings = SimulationSettings(
+            n_flaps=targets.n_joints, options=options.replace(t1=float(horizon))
+        )
+    elif options is not None:
+        raise ValueError(
+            "design got options and settings: give the options once, in "
+            "SimulationSettings(options=...)."
+        )
     if settings.n_hinges != targets.n_joints:
         raise ValueError(
             f"targets are for {targets.n_joints} hinges but the system has {settings.n_hinges}."

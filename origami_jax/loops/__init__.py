@@ -15,6 +15,7 @@ sets the charge-energy unfolding path of a single vertex beside its dynamic fold
 See docs/physics.md, "Closed loops".
 """
 
+from ._compare import UNFOLDING_OPTIONS as UNFOLDING_OPTIONS
 from ._compare import PathComparison as PathComparison
 from ._compare import compare_unfolding as compare_unfolding
 from ._kinematics import CLOSURE_TOL as CLOSURE_TOL

@@ -27,7 +27,7 @@ import numpy as np
 from jaxtyping import Array, Float
 
 from ..fold import FoldFile, FoldFrame
-from ..simulation import AbstractInput
+from ..simulation import FIT_ATOL, FIT_RTOL, AbstractInput, SaveAt, SolveOptions
 from ..system import HingeDesign
 
 # The flaps of `vertex_pattern` reach this far from the vertex (µm).
@@ -160,27 +160,38 @@ def _deviation(angles, progress, reference, reference_progress) -> float:
     return float(np.max(np.abs(angles[inside] - interpolated)))
 
 
+UNFOLDING_OPTIONS = SolveOptions(
+    saveat=SaveAt(n=401),
+    solver=diffrax.Tsit5(),
+    rtol=FIT_RTOL,
+    atol=FIT_ATOL,
+    max_steps=400_000,
+    throw=False,
+)
+"""The default runs of `compare_unfolding`: explicit Tsit5 (the vertex runs without contact), 401
+samples, rtol 1e-8 and atol 1e-10 (`FIT_RTOL`, `FIT_ATOL`), a budget of 400 000 steps for the slow
+driven path, failures reported in the comparison rather than raised."""
+
+
 def compare_unfolding(
     vertex=None,
     design: HingeDesign | None = None,
+    options: SolveOptions | None = None,
     *,
     duration: float = 500.0,
-    t1: float | None = None,
     released: bool = True,
     energy: str = "separable",
-    n_save: int = 401,
-    rtol: float = 1e-8,
-    atol: float = 1e-10,
 ) -> PathComparison:
     """Charge-energy path of `vertex` against the dynamic folding of the same vertex (module
     docstring), in one call.
 
     **Arguments:** `vertex`: a closed `SingleVertex` in its folded state (default the corner cube);
     `design`: the hinges, films and fluid (default `HingeDesign.literature()` in KOH solution);
-    `duration`: time over which the driven hinges follow the path (µs); `t1`: end of the runs
-    (default ``3 × duration``); `released`: also run the all-at-once release; `energy`: the
-    unfolding energy (`"separable"` or `"nonseparable"`); `n_save`, `rtol`, `atol`: as in
-    `simulate` (explicit Tsit5).
+    `options`: the runs' [`origami_jax.simulation.SolveOptions`][] (default
+    `UNFOLDING_OPTIONS`: explicit Tsit5, 401 samples, rtol 1e-8; its `t1`, the end of the runs,
+    default ``3 × duration``); `duration`: time over which the driven hinges follow the path (µs);
+    `released`: also run the all-at-once release; `energy`: the unfolding energy (`"separable"` or
+    `"nonseparable"`).
 
     **Returns:** a `PathComparison`.
     """
@@ -192,7 +203,9 @@ def compare_unfolding(
 
     vertex = corner_cube() if vertex is None else vertex
     design = HingeDesign.literature(fluid=KOH_SOLUTION) if design is None else design
-    t1 = 3.0 * duration if t1 is None else float(t1)
+    options = UNFOLDING_OPTIONS if options is None else options
+    t1 = 3.0 * duration if options.t1 is None else float(options.t1)
+    options = options.replace(t1=t1)
     pattern = load_pattern(vertex_pattern(vertex), name="vertex")
     g = pattern.geometry
     # The pattern's creases (tree, then cut) against the vertex's order (rays at increasing angle).
@@ -221,17 +234,7 @@ def compare_unfolding(
         return certify_path(nodes, sectors, closed=True)
 
     def run(inputs) -> DynamicPath:
-        trajectory = simulate(
-            system,
-            inputs,
-            t1=t1,
-            n_save=n_save,
-            solver=diffrax.Tsit5(),
-            rtol=rtol,
-            atol=atol,
-            max_steps=400_000,
-            throw=False,
-        )
+        trajectory = simulate(system, inputs, options)
         report = pattern.assess(system, trajectory)
         theta = np.asarray(trajectory.theta)
         angles = np.empty_like(theta)

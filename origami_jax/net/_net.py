@@ -345,18 +345,22 @@ class Net:
 
         **Returns:** `(trajectory, report)`, the whole run and its `FoldReport`.
         """
-        from ..simulation import Step, fold_until_settled
+        from ..simulation import SaveAt, SolveOptions, Step, fold_until_settled
 
         if t1 is not None:
             segment, max_segments = float(t1), 1
+        # The loose `simulate` keywords of this method, as `SolveOptions` (`n_save` is `SaveAt(n=)`).
+        if "n_save" in simulate_kwargs:
+            simulate_kwargs["saveat"] = SaveAt(n=simulate_kwargs.pop("n_save"))
+        simulate_kwargs.setdefault("throw", False)
         trajectory, report, _ = fold_until_settled(
             system,
             Step() if inputs is None else inputs,
             lambda run: self.assess(system, run, tolerances=tolerances),
+            SolveOptions(**simulate_kwargs),
             segment=segment,
             max_segments=max_segments,
             on_continue=on_continue,
-            **simulate_kwargs,
         )
         return trajectory, report
 

@@ -121,6 +121,8 @@ def accordion_step(
         DEFAULT_ATOL,
         DEFAULT_RTOL,
         RESULTS,
+        SaveAt,
+        SolveOptions,
         Step,
         implicit_solver,
         response_metrics,
@@ -189,13 +191,15 @@ def accordion_step(
         trajectory = simulate(
             system,
             Step(),
+            SolveOptions(
+                saveat=SaveAt(n=n_save),
+                solver=solvers[solver],
+                rtol=rtol,
+                atol=atol,
+                max_steps=max_steps,
+                throw=False,
+            ),
             t1=t_end,
-            n_save=n_save,
-            rtol=rtol,
-            atol=atol,
-            max_steps=max_steps,
-            solver=solvers[solver],
-            throw=False,
         )
         metrics = response_metrics(trajectory)
         result = jnp.where(invalid, INVALID_INPUT, trajectory.result._value).astype(jnp.int32)
@@ -474,7 +478,16 @@ def net_fold(
     from ..contact._tables import sampling_pair
     from ..loops import CreasePattern, load_pattern
     from ..net._net import default_design
-    from ..simulation import DEFAULT_ATOL, DEFAULT_RTOL, RESULTS, Step, VerdictTolerances, simulate
+    from ..simulation import (
+        DEFAULT_ATOL,
+        DEFAULT_RTOL,
+        RESULTS,
+        SaveAt,
+        SolveOptions,
+        Step,
+        VerdictTolerances,
+        simulate,
+    )
     from ..system import AIR, KOH_SOLUTION, HingeDesign
 
     t_end = _setting(t_end, "t_end", low=0.0)
@@ -578,14 +591,16 @@ def net_fold(
         trajectory = simulate(
             system,
             Step(),
+            SolveOptions(
+                saveat=SaveAt(n=n_save),
+                solver=diffrax.Tsit5(),
+                rtol=rtol,
+                atol=atol,
+                max_steps=max_steps,
+                throw=False,
+            ),
             theta0=theta0,
             t1=t_end,
-            n_save=n_save,
-            rtol=rtol,
-            atol=atol,
-            max_steps=max_steps,
-            solver=diffrax.Tsit5(),
-            throw=False,
         )
         outcome = the_net.outcome(
             system, trajectory, intended_angles=intended, tolerances=tolerances

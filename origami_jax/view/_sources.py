@@ -338,21 +338,20 @@ def scene_from_sweep_member(dataset: Any, member: int | None, *, title: str | No
     the sweep's settings: end time, samples, tolerances, solver), as a scene."""
     import diffrax
 
-    from ..simulation import Step, implicit_solver, simulate
+    from ..simulation import SaveAt, SolveOptions, Step, implicit_solver, simulate
 
     system, design, settings, description = sweep_member_system(dataset, member)
     solver = {"kvaerno5": implicit_solver, "tsit5": diffrax.Tsit5}[settings["solver"]]()
-    trajectory = simulate(
-        system,
-        Step(),
+    options = SolveOptions(
         t1=settings["t_end_us"],
-        n_save=settings["n_save"],
+        saveat=SaveAt(n=settings["n_save"]),
+        solver=solver,
         rtol=settings["rtol"],
         atol=settings["atol"],
         max_steps=settings["max_steps"],
-        solver=solver,
         throw=False,
     )
+    trajectory = simulate(system, Step(), options)
     scene = scene_from_trajectory(
         trajectory, system, thickness=float(design.t_structural), title=title or description
     )
