@@ -251,7 +251,7 @@ def in_process() -> dict[str, dict]:
 
     def response(k_scale, adjoint=None):
         system = accordion_system(HingeDesign.literature(k_scale=k_scale), 3)
-        return sim.simulate(system, sim.Step(), t1=2000.0, adjoint=adjoint).theta
+        return sim.simulate(system, sim.Step(), sim.SolveOptions(adjoint=adjoint), t1=2000.0).theta
 
     def overshoot_like(k_scale, adjoint=None):
         # A smooth metric of the response: the mean square angle of joint 1 over the run.
@@ -283,7 +283,7 @@ def first_calls_of_design_and_unfold() -> dict[str, dict]:
     starts) and the first `unfold` (the corner cube vertex), with their stages. Compile time
     dominates both; the wall time includes the (short) runs."""
     import origami_jax.design as ojd
-    from origami_jax import vertex
+    from origami_jax import simulation, vertex
     from origami_jax.system import HingeDesign
 
     rows = {}
@@ -293,7 +293,7 @@ def first_calls_of_design_and_unfold() -> dict[str, dict]:
             HingeDesign.literature(),
             targets,
             ["k_scale", "b_scale"],
-            t1=400.0,
+            simulation.FIT_OPTIONS.replace(t1=400.0),
             n_starts=4,
             max_steps=16,
             throw=False,

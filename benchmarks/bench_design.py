@@ -108,11 +108,8 @@ def _fit_flops(hinge, t1: float, n_save: int, *, n_lanes: int, steps: int) -> fl
     trajectory = sim.simulate(
         accordion_system(hinge, 3),
         sim.Step(),
+        sim.SolveOptions(saveat=sim.SaveAt(n=n_save), rtol=RTOL, atol=ATOL, solver=diffrax.Tsit5()),
         t1=t1,
-        n_save=n_save,
-        rtol=RTOL,
-        atol=ATOL,
-        solver=diffrax.Tsit5(),  # the design's default solver
     )
     solve_steps = int(trajectory.stats["num_steps"])
     # Each tangent lane counted as one more solve at the right-hand side's cost.
@@ -189,13 +186,15 @@ def _sensitivity_row(quick: bool) -> Result:
         trajectory = sim.simulate(
             scaled,
             sim.Step(),
+            sim.SolveOptions(
+                saveat=sim.SaveAt(n=n_save),
+                rtol=RTOL,
+                atol=ATOL,
+                solver=diffrax.Tsit5(),
+                adjoint=diffrax.ForwardMode(),
+                throw=False,
+            ),
             t1=t1,
-            n_save=n_save,
-            rtol=RTOL,
-            atol=ATOL,
-            solver=diffrax.Tsit5(),
-            adjoint=diffrax.ForwardMode(),
-            throw=False,
         )
         return trajectory.theta
 
@@ -241,6 +240,7 @@ def _sensitivity_row(quick: bool) -> Result:
 
 def run(quick: bool) -> list[Result]:
     import origami_jax.design as ojd
+    import origami_jax.simulation as sim
     from origami_jax.chain import accordion_system, alternating_targets
     from origami_jax.system import HingeDesign
 
@@ -248,7 +248,8 @@ def run(quick: bool) -> list[Result]:
     chain = accordion_system(literature, 3).mechanism
     n_save = 601
     t1 = 400.0
-    settings = ojd.SimulationSettings(t1, n_flaps=3, n_save=n_save, rtol=RTOL, atol=ATOL)
+    options = sim.FIT_OPTIONS.replace(saveat=sim.SaveAt(n=n_save), rtol=RTOL, atol=ATOL)
+    settings = ojd.SimulationSettings(t1, n_flaps=3, options=options)
     free = ["k_scale", "b_scale"]
     bounds = {"k_scale": (0.1, 100.0), "b_scale": (0.1, 1000.0)}
 

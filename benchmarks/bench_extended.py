@@ -79,7 +79,10 @@ def run(quick: bool) -> list[Result]:
         def ours(design, options=options):
             system = accordion_system(design, 3, **options)
             trajectory = sim.simulate(
-                system, sim.Step(), t1=t1, n_save=n_save, rtol=RTOL, atol=ATOL, throw=False
+                system,
+                sim.Step(),
+                sim.SolveOptions(saveat=sim.SaveAt(n=n_save), rtol=RTOL, atol=ATOL, throw=False),
+                t1=t1,
             )
             return trajectory.theta, trajectory.stats["num_steps"]
 

@@ -52,6 +52,7 @@ def run(quick: bool) -> list[Result]:
     from scipy.integrate import solve_ivp
 
     import origami_jax.design as ojd
+    import origami_jax.simulation as sim
     from origami_jax.chain import Accordion, accordion_system, alternating_targets
     from origami_jax.system import HingeDesign
 
@@ -103,7 +104,9 @@ def run(quick: bool) -> list[Result]:
     for name, fluid in VARIANTS[2:] if quick else VARIANTS:
         viscous = "viscous" in fluid
         settings = ojd.SimulationSettings(
-            t1, n_save=n_save, rtol=RTOL, atol=ATOL, layout=Accordion(n, fluid=fluid)
+            t1,
+            layout=Accordion(n, fluid=fluid),
+            options=sim.FIT_OPTIONS.replace(saveat=sim.SaveAt(n=n_save), rtol=RTOL, atol=ATOL),
         )
         targets = known_truth_targets(truth_design, free, bounds, settings)
 

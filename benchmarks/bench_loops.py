@@ -71,13 +71,15 @@ def _solve(system, t1, n_save=51, rtol=1e-6, atol=1e-9):
     return sim.simulate(
         system,
         sim.Step(),
+        sim.SolveOptions(
+            saveat=sim.SaveAt(n=n_save),
+            rtol=rtol,
+            atol=atol,
+            solver=diffrax.Tsit5(),
+            max_steps=200_000,
+            throw=False,
+        ),
         t1=t1,
-        n_save=n_save,
-        rtol=rtol,
-        atol=atol,
-        solver=diffrax.Tsit5(),
-        max_steps=200_000,
-        throw=False,
     )
 
 
@@ -380,7 +382,7 @@ def _bar_hinge_row(n, t1, pattern, system, ours, compile_s, ours_final, steps) -
             f"the targets are not an equilibrium of the bar-and-hinge model: {residual}"
         )
     start = time.perf_counter()
-    sol, x = bars.simulate(t1, n_save=51)
+    sol, x = bars.simulate(t1, bars.SolveOptions(saveat=bars.SaveAt(n=51)))
     bh_time = time.perf_counter() - start
     angles = bars.crease_angles(x, pattern.n_creases)
     bh_error = float(np.max(np.abs(angles[-1] - targets)))
@@ -426,7 +428,7 @@ def _scaling_rows(size: int, horizon: float = 60.0, reuse=None, built=None) -> l
     mj_t = time_calls(lambda: _mujoco_run(mj_model, mj_steps), repeats=1)
     bars = bar_hinge_model(p, s)
     start = time.perf_counter()
-    sol, _ = bars.simulate(horizon, n_save=2)
+    sol, _ = bars.simulate(horizon, bars.SolveOptions(saveat=bars.SaveAt(n=2)))
     bh_s = time.perf_counter() - start
     bh_rate = sol.nfev / 6 / bh_s
     mj_rate = mj_steps / mj_t.median

@@ -79,13 +79,15 @@ def _solve(system, rtol=sim.DEFAULT_RTOL):
     return sim.simulate(
         system,
         sim.Step(),
+        sim.SolveOptions(
+            saveat=sim.SaveAt(n=N_SAVE),
+            solver=diffrax.Tsit5(),
+            rtol=rtol,
+            atol=ATOL_PER_RTOL * rtol,
+            max_steps=200_000,
+            throw=False,
+        ),
         t1=T1,
-        n_save=N_SAVE,
-        solver=diffrax.Tsit5(),
-        rtol=rtol,
-        atol=ATOL_PER_RTOL * rtol,
-        max_steps=200_000,
-        throw=False,
     )
 
 

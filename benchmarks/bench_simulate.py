@@ -149,11 +149,8 @@ def run(quick: bool) -> list[Result]:
             trajectory = sim.simulate(
                 scaled,
                 inputs,
+                sim.SolveOptions(saveat=sim.SaveAt(n=n_save), solver=solver, rtol=RTOL, atol=ATOL),
                 t1=t1,
-                n_save=n_save,
-                solver=solver,
-                rtol=RTOL,
-                atol=ATOL,
             )
             switch = trajectory.stats.get("switch_time", jnp.nan)
             return trajectory.theta, trajectory.stats["num_steps"], switch

@@ -34,11 +34,8 @@ def step_simulation(
     return sim.simulate(
         system,
         sim.Step(),
+        sim.SolveOptions(saveat=sim.SaveAt(n=N_SAVE), rtol=RTOL, atol=ATOL, solver=solver),
         t1=t1,
-        n_save=N_SAVE,
-        rtol=RTOL,
-        atol=ATOL,
-        solver=solver,
     )
 
 

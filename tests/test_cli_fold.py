@@ -15,7 +15,7 @@ from origami_jax._limits import FOLD_SEGMENT, MAX_FOLD_SEGMENTS
 from origami_jax.chain import accordion_system
 from origami_jax.cli import build_parser, main
 from origami_jax.net import load_net
-from origami_jax.simulation import fold_until_settled, join_trajectories
+from origami_jax.simulation import SaveAt, SolveOptions, fold_until_settled, join_trajectories
 from origami_jax.system import KOH_SOLUTION, HingeDesign
 
 
@@ -93,8 +93,8 @@ def test_a_run_folds_on_until_it_settles_and_is_one_run_continued():
         system,
         sim.Step(),
         judge,
+        SolveOptions(saveat=SaveAt(n=101), throw=False),
         segment=100.0,
-        n_save=101,
         on_continue=lambda end, next_end: calls.append((end, next_end)),
     )
     assert report.verdict == "folded" and 1 < segments < 8, report.summary()
@@ -107,13 +107,20 @@ def test_a_run_folds_on_until_it_settles_and_is_one_run_continued():
     # make ~1e-7 rad each, 1e-5 leaves room for the error's growth over the run.
     # (101 samples, every sixth of the joined run's 601: the segments' compiled solve.)
     assert times.size == 601
-    whole = sim.simulate(system, sim.Step(), t1=times[-1], n_save=101, throw=False)
+    whole = sim.simulate(
+        system, sim.Step(), sim.SolveOptions(saveat=sim.SaveAt(n=101), throw=False), t1=times[-1]
+    )
     np.testing.assert_allclose(whole.times, times[::6], rtol=1e-12)
     np.testing.assert_allclose(trajectory.theta[::6], whole.theta, atol=1e-5)
     assert sim.assess(system, whole).verdict == "folded"
     # Capped: the verdict says it was still moving.
     capped, report, segments = fold_until_settled(
-        system, sim.Step(), judge, segment=100.0, n_save=101, max_segments=2
+        system,
+        sim.Step(),
+        judge,
+        SolveOptions(saveat=SaveAt(n=101), throw=False),
+        segment=100.0,
+        max_segments=2,
     )
     assert (report.verdict, segments, float(capped.times[-1])) == ("unfinished", 2, 200.0)
     # `assess` pads a run to the next power of two of samples (one compiled verdict for runs of
@@ -164,7 +171,12 @@ def test_a_crease_still_moving_slowly_is_not_at_rest():
     # folded on.
     slow = accordion_system(HingeDesign.literature(fluid=KOH_SOLUTION, k_scale=0.1), 1)
     run, report, segments = fold_until_settled(
-        slow, sim.Step(), lambda tr: sim.assess(slow, tr), segment=100.0, n_save=101, max_segments=2
+        slow,
+        sim.Step(),
+        lambda tr: sim.assess(slow, tr),
+        SolveOptions(saveat=SaveAt(n=101), throw=False),
+        segment=100.0,
+        max_segments=2,
     )
     assert (report.verdict, segments) == ("unfinished", 2), report.summary()
     tail_motion = np.degrees(np.ptp(np.asarray(run.theta[91:101, 0])))
@@ -206,7 +218,7 @@ def test_a_run_too_short_or_a_crease_released_late_is_unfinished_not_misfolded()
         (dict(segment=0.0), "segment"),
         (dict(segment=float("nan")), "segment"),
         (dict(segment=10.0, max_segments=0), "max_segments"),
-        (dict(segment=10.0, t1=5.0), "not t1"),
+        (dict(segment=10.0, options=SolveOptions(t1=5.0)), r"not SolveOptions\(t1=\)"),
     ],
 )
 def test_bad_continuations_are_refused_before_any_run(options, message):

@@ -182,10 +182,12 @@ def test_a_script_stores_its_design_fit(tmp_path):
         import json, jax, numpy as np
         import origami_jax
         import origami_jax.design as ojd
+        import origami_jax.simulation as sim
         from origami_jax.system import HingeDesign
         folder = origami_jax.enable_compilation_cache()
         jax.config.update("jax_enable_x64", True)
-        settings = ojd.SimulationSettings(100.0, n_flaps=1, n_save=16)
+        options = sim.FIT_OPTIONS.replace(saveat=sim.SaveAt(n=16))
+        settings = ojd.SimulationSettings(100.0, n_flaps=1, options=options)
         fit = ojd.calibrate(HingeDesign.literature(), ojd.Targets(rise_time=[30.0]), ["k_scale"],
                             settings=settings, max_steps=3)
         stored = sorted(p.name for p in folder.iterdir() if p.name.startswith("jit__fit_and_start-"))
@@ -308,14 +310,18 @@ def test_values_do_not_recompile(compilations):
             design, 2, release_times=jnp.asarray(release), targets=jnp.asarray(targets)
         )
 
-    def run(sys_=None, inputs=None, **options):
-        kwargs = dict(t1=100.0, n_save=101, solver=diffrax.Tsit5(), rtol=1e-6, atol=1e-8)
-        kwargs.update(options)
+    def run(sys_=None, inputs=None, n_save=101, **changes):
+        options = sim.SolveOptions(
+            t1=100.0, saveat=sim.SaveAt(n=n_save), solver=diffrax.Tsit5(), rtol=1e-6, atol=1e-8
+        )
+        at = {k: changes.pop(k) for k in ("theta0", "theta_dot0") if k in changes}
+        options = options.replace(**changes)
         return lambda: (
             sim.simulate(
                 system() if sys_ is None else sys_,
                 sim.Step() if inputs is None else inputs,
-                **kwargs,
+                options,
+                **at,
             ).theta
         )
 

@@ -33,14 +33,16 @@ def _solve(system, t1, theta0=None, theta_dot0=None, inputs=None):
     return sim.simulate(
         system,
         sim.Step() if inputs is None else inputs,
+        sim.SolveOptions(
+            saveat=sim.SaveAt(n=N_SAVE),
+            solver=diffrax.Tsit5(),
+            rtol=1e-8,
+            atol=1e-10,
+            max_steps=200_000,
+        ),
         t1=t1,
-        n_save=N_SAVE,
         theta0=theta0,
         theta_dot0=theta_dot0,
-        solver=diffrax.Tsit5(),
-        rtol=1e-8,
-        atol=1e-10,
-        max_steps=200_000,
     )
 
 
@@ -174,10 +176,7 @@ def test_guard_lets_a_seam_close_where_a_point_passes_a_face_edge():
     h = system.hinges
     hinges = type(h)(h.stiffness * factor, h.target, h.radius, release)
     system = eqx.tree_at(lambda s: s.hinges, system, hinges)
-    trajectory = sim.simulate(
-        system, sim.Step(), t1=1500.0, n_save=301, solver=diffrax.Tsit5(), max_steps=20_000,
-        throw=False,
-    )  # fmt: skip
+    trajectory = sim.simulate(system, sim.Step(), sim.SolveOptions(saveat=sim.SaveAt(n=301), solver=diffrax.Tsit5(), max_steps=20_000, throw=False), t1=1500.0)  # fmt: skip
     assert int(trajectory.stats["num_steps"]) < 5_000
     report = net.assess(system, trajectory)
     assert report.verdict == "folded", report.summary()
@@ -390,11 +389,7 @@ def test_lid_launched_into_the_cube_stops_at_the_side_panels_edges_without_gaini
     # rises by more than the integrator's error.
     system = _dragless_cube()
     closed = jnp.asarray(system.hinges.target)
-    trajectory = sim.simulate(
-        system, sim.Step(), t1=100.0, n_save=201, theta0=closed,
-        theta_dot0=jnp.array([0.0, 0.01, 0.0, 0.0, 0.0]), solver=diffrax.Tsit5(), rtol=1e-8,
-        atol=1e-10, max_steps=100_000,
-    )  # fmt: skip
+    trajectory = sim.simulate(system, sim.Step(), sim.SolveOptions(saveat=sim.SaveAt(n=201), solver=diffrax.Tsit5(), rtol=1e-8, atol=1e-10, max_steps=100_000), t1=100.0, theta0=closed, theta_dot0=jnp.array([0.0, 0.01, 0.0, 0.0, 0.0]))  # fmt: skip
     past = np.degrees(np.asarray(trajectory.theta[:, 1] - closed[1]))
     assert past.max() < 0.3
     assert past.min() < -1.0  # it came back out
@@ -486,13 +481,15 @@ def test_metric_gradients_through_contact_match_finite_differences():
         trajectory = sim.simulate(
             system,
             sim.Step(),
+            sim.SolveOptions(
+                saveat=sim.SaveAt(n=401),
+                solver=diffrax.Tsit5(),
+                rtol=1e-8,
+                atol=1e-10,
+                max_steps=200_000,
+                adjoint=adjoint,
+            ),
             t1=600.0,
-            n_save=401,
-            solver=diffrax.Tsit5(),
-            rtol=1e-8,
-            atol=1e-10,
-            max_steps=200_000,
-            adjoint=adjoint,
         )
         m = sim.response_metrics(trajectory)
         return jnp.stack([m.rise_time[0], m.peak_value[0], m.peak_value[1]])

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 import origami_jax.design as ojd
+import origami_jax.simulation as sim
 from origami_jax.design._design import _evaluate, _Problem
 from origami_jax.system import HingeDesign
 
@@ -26,7 +27,9 @@ tolerance-level noise (rtol 1e-8) divided by the step, plus the O(h²) truncatio
 
 @pytest.fixture(scope="module")
 def settings():
-    return ojd.SimulationSettings(300.0, n_flaps=3, n_save=301)
+    return ojd.SimulationSettings(
+        300.0, n_flaps=3, options=sim.FIT_OPTIONS.replace(saveat=sim.SaveAt(n=301))
+    )
 
 
 @pytest.fixture(scope="module")
@@ -143,8 +146,8 @@ def test_unreachable_metric_target_is_reported():
         HingeDesign.literature(),
         targets,
         ["k_scale"],
+        sim.FIT_OPTIONS.replace(t1=400.0),
         bounds={"k_scale": (0.5, 10.0)},
-        t1=400.0,
         n_starts=2,
     )
     assert not result.reached and result.at_bound == {"k_scale": "upper"}

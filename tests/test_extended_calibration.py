@@ -129,7 +129,9 @@ def test_reported_numbers_are_those_of_an_independent_simulation(calibration):
     for fit in calibration.fits:
         v = fit.variant
         system = accordion_system(fit.result.hinge, 3, hinges=v.hinges, fluid=v.fluid)
-        trajectory = sim.simulate(system, sim.Step(), t1=606.0, n_save=2401)
+        trajectory = sim.simulate(
+            system, sim.Step(), sim.SolveOptions(saveat=sim.SaveAt(n=2401)), t1=606.0
+        )
         metrics = sim.response_metrics(trajectory)
         fresh = np.concatenate([np.asarray(metrics.rise_time), [metrics.overshoot[0] / 100]])
         np.testing.assert_allclose(fit.achieved, fresh, rtol=5e-3, err_msg=v.name)
@@ -154,7 +156,12 @@ def test_sensitivity_matches_finite_differences(calibration):
             fit.result.hinge, misfit_strain=fit.result.hinge.misfit_strain * scale
         )
         system = accordion_system(hinge, 3, hinges="arc", fluid="extended")
-        trajectory = sim.simulate(system, sim.Step(), t1=606.0, n_save=1201, rtol=1e-10, atol=1e-12)
+        trajectory = sim.simulate(
+            system,
+            sim.Step(),
+            sim.SolveOptions(saveat=sim.SaveAt(n=1201), rtol=1e-10, atol=1e-12),
+            t1=606.0,
+        )
         return float(sim.response_metrics(trajectory).rise_time[0])
 
     central = (rise(math.exp(h)) - rise(math.exp(-h))) / (2 * h)

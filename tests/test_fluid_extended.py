@@ -188,10 +188,12 @@ def koh_folding():
     trajectory = sim.simulate(
         system,
         sim.Step(),
+        sim.SolveOptions(
+            saveat=sim.SaveAt(n=1501),
+            solver=diffrax.Tsit5(),
+            stepsize_controller=diffrax.PIDController(rtol=1e-10, atol=1e-12),
+        ),
         t1=3000.0,
-        n_save=1501,
-        solver=diffrax.Tsit5(),
-        stepsize_controller=diffrax.PIDController(rtol=1e-10, atol=1e-12),
     )
     return system, trajectory
 
@@ -273,11 +275,13 @@ def test_derivatives_through_a_simulation_match_finite_differences():
         trajectory = sim.simulate(
             system,
             sim.Step(),
+            sim.SolveOptions(
+                saveat=sim.SaveAt(n=2),
+                solver=diffrax.Tsit5(),
+                stepsize_controller=diffrax.PIDController(rtol=1e-10, atol=1e-12),
+                adjoint=diffrax.ForwardMode(),
+            ),
             t1=40.0,
-            n_save=2,
-            solver=diffrax.Tsit5(),
-            stepsize_controller=diffrax.PIDController(rtol=1e-10, atol=1e-12),
-            adjoint=diffrax.ForwardMode(),
         )
         return trajectory.theta[-1]
 

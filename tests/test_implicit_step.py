@@ -34,7 +34,12 @@ def test_arguments_are_checked():
     with pytest.raises(ValueError, match="newton_iterations"):
         sim.ImplicitStep(dt=1.0, newton_iterations=0)
     with pytest.raises(ValueError, match="dense"):
-        sim.simulate(_two_flaps(), sim.Step(), t1=1.0, solver=sim.ImplicitStep(dt=0.1), dense=True)
+        sim.simulate(
+            _two_flaps(),
+            sim.Step(),
+            sim.SolveOptions(saveat=sim.SaveAt(dense=True), solver=sim.ImplicitStep(dt=0.1)),
+            t1=1.0,
+        )
 
 
 @pytest.mark.slow
@@ -45,10 +50,17 @@ def test_converges_at_first_order_to_the_adaptive_solve():
     until steps far below it)."""
     system = _two_flaps(AIR)
     t1 = 20.0
-    reference = sim.simulate(system, sim.Step(), t1=t1, n_save=2, rtol=1e-10, atol=1e-12)
+    reference = sim.simulate(
+        system, sim.Step(), sim.SolveOptions(saveat=sim.SaveAt(n=2), rtol=1e-10, atol=1e-12), t1=t1
+    )
     errors = []
     for dt in (0.5, 0.25, 0.125):
-        run = sim.simulate(system, sim.Step(), t1=t1, n_save=2, solver=sim.ImplicitStep(dt=dt))
+        run = sim.simulate(
+            system,
+            sim.Step(),
+            sim.SolveOptions(saveat=sim.SaveAt(n=2), solver=sim.ImplicitStep(dt=dt)),
+            t1=t1,
+        )
         assert bool(run.succeeded)
         assert int(run.stats["num_steps"]) == round(t1 / dt)
         errors.append(float(jnp.max(jnp.abs(run.theta[-1] - reference.theta[-1]))))
@@ -79,10 +91,7 @@ def test_launched_flaps_stop_on_each_other_without_gaining_energy(dt, n_save, it
     system = eqx.tree_at(lambda s: s.drag, system, HingeDrag(jnp.zeros(system.n_hinges)))
     closed = jnp.asarray(net.intended_angles)
     solver = sim.ImplicitStep(dt=dt, newton_iterations=iterations)
-    trajectory = sim.simulate(
-        system, sim.Step(), t1=60.0, n_save=n_save, theta0=closed * 0.98,
-        theta_dot0=jnp.asarray([0.02, 0.02]), solver=solver,
-    )  # fmt: skip
+    trajectory = sim.simulate(system, sim.Step(), sim.SolveOptions(saveat=sim.SaveAt(n=n_save), solver=solver), t1=60.0, theta0=closed * 0.98, theta_dot0=jnp.asarray([0.02, 0.02]))  # fmt: skip
     assert bool(trajectory.succeeded)
     energy = np.asarray(_step_energy(system, trajectory))
     assert np.max(np.diff(energy)) <= 1e-6 * np.max(np.abs(energy))
@@ -102,7 +111,9 @@ def test_gradient_matches_central_differences_away_from_contact():
 
     def final_angle(scale):
         scaled = eqx.tree_at(lambda s: s.hinges.stiffness, system, system.hinges.stiffness * scale)
-        run = sim.simulate(scaled, sim.Step(), t1=20.0, n_save=2, solver=solver)
+        run = sim.simulate(
+            scaled, sim.Step(), sim.SolveOptions(saveat=sim.SaveAt(n=2), solver=solver), t1=20.0
+        )
         return run.theta[-1, 1]
 
     value_and_grad = jax.jit(jax.value_and_grad(final_angle))
@@ -121,7 +132,9 @@ def test_vmapped_batch_of_designs():
 
     def run(scale):
         scaled = eqx.tree_at(lambda s: s.hinges.stiffness, system, system.hinges.stiffness * scale)
-        trajectory = sim.simulate(scaled, sim.Step(), t1=10.0, n_save=3, solver=solver)
+        trajectory = sim.simulate(
+            scaled, sim.Step(), sim.SolveOptions(saveat=sim.SaveAt(n=3), solver=solver), t1=10.0
+        )
         return trajectory.theta, trajectory.stats["num_steps"]
 
     scales = jnp.asarray([0.5, 1.0, 1.5, 2.0])
@@ -139,7 +152,10 @@ def test_early_exit_gives_the_fixed_count_result():
     system = _two_flaps()
     runs = [
         sim.simulate(
-            system, sim.Step(), t1=20.0, n_save=3, solver=sim.ImplicitStep(dt=1.0, early_exit=e)
+            system,
+            sim.Step(),
+            sim.SolveOptions(saveat=sim.SaveAt(n=3), solver=sim.ImplicitStep(dt=1.0, early_exit=e)),
+            t1=20.0,
         )
         for e in (False, True)
     ]

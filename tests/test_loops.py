@@ -48,14 +48,16 @@ def _simulate(system, theta0=None, t1=3000.0, inputs=None, rtol=RTOL):
     return sim.simulate(
         system,
         sim.Step() if inputs is None else inputs,
+        sim.SolveOptions(
+            saveat=sim.SaveAt(n=N_SAVE),
+            rtol=rtol,
+            atol=rtol * 1e-2,
+            solver=diffrax.Tsit5(),
+            max_steps=200_000,
+            throw=False,
+        ),
         t1=t1,
         theta0=theta0,
-        n_save=N_SAVE,
-        rtol=rtol,
-        atol=rtol * 1e-2,
-        solver=diffrax.Tsit5(),
-        max_steps=200_000,
-        throw=False,
     )
 
 
@@ -477,10 +479,9 @@ def test_a_sweep_folds_a_closed_loop_pattern_with_contact_as_its_own_system_does
         trajectory = sim.simulate(
             system,
             sim.Step(),
+            sim.SolveOptions(saveat=sim.SaveAt(n=settings["n_save"]), solver=diffrax.Tsit5()),
             theta0=theta0,
             t1=settings["t_end"],
-            n_save=settings["n_save"],
-            solver=diffrax.Tsit5(),
         )
         # The same equations and solver, one member of a vmap against one call: round-off.
         np.testing.assert_allclose(final, trajectory.theta[-1], atol=1e-9)

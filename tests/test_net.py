@@ -110,7 +110,10 @@ def _cube(targets_deg: float):
     net = load_net("cube_net_01")
     system = net.system(KOH, targets=jnp.full(5, np.radians(targets_deg)))
     trajectory = sim.simulate(
-        system, sim.Step(), t1=1500.0, n_save=301, solver=diffrax.Tsit5(), max_steps=200_000
+        system,
+        sim.Step(),
+        sim.SolveOptions(saveat=sim.SaveAt(n=301), solver=diffrax.Tsit5(), max_steps=200_000),
+        t1=1500.0,
     )
     return net, system, trajectory
 
@@ -178,8 +181,7 @@ def test_a_batch_members_folding_does_not_depend_on_the_others():
             member = type(system)(
                 system.mechanism, hinges, system.drag, system.contact, system.units
             )
-            run = sim.simulate(member, sim.Step(), t1=1500.0, n_save=31, solver=diffrax.Tsit5(),
-                               max_steps=200_000, throw=False)  # fmt: skip
+            run = sim.simulate(member, sim.Step(), sim.SolveOptions(saveat=sim.SaveAt(n=31), solver=diffrax.Tsit5(), max_steps=200_000, throw=False), t1=1500.0)  # fmt: skip
             return run.theta, run.stats["num_steps"]
 
         return jax.vmap(one)(factor, release)
@@ -198,7 +200,10 @@ def _finish_times(system, t1: float) -> tuple[np.ndarray, object]:
     """When each crease first reaches 90 % of its target (µs, `(m,)`), read off a simulation on its
     own fine grid by linear interpolation in NumPy (not through the design's metrics), and the run."""
     trajectory = sim.simulate(
-        system, sim.Step(), t1=t1, n_save=2001, solver=diffrax.Tsit5(), max_steps=200_000
+        system,
+        sim.Step(),
+        sim.SolveOptions(saveat=sim.SaveAt(n=2001), solver=diffrax.Tsit5(), max_steps=200_000),
+        t1=t1,
     )
     times, theta = np.asarray(trajectory.times), np.asarray(trajectory.theta)
     fraction = theta / np.asarray(system.hinges.target)
@@ -229,7 +234,9 @@ def test_hinge_widths_designed_so_a_cube_nets_creases_finish_within_ten_percent(
     assert before.max() / before.min() > 1.5  # far from finishing together to start with
 
     settings = ojd.SimulationSettings(
-        t1, layout=NetLayout(net, contact=False), n_save=401, rtol=1e-7, atol=1e-9
+        t1,
+        layout=NetLayout(net, contact=False),
+        options=sim.FIT_OPTIONS.replace(saveat=sim.SaveAt(n=401), rtol=1e-7, atol=1e-9),
     )
     result = ojd.design(
         hinge,

@@ -15,7 +15,7 @@ import origami_jax.chain as oc
 from origami_jax.net import ArcJoints, PanelTree, _batching, panel_tree
 from origami_jax.net import _dynamics as net_dynamics
 from origami_jax.net._joints import arc_functions
-from origami_jax.simulation import Step, simulate
+from origami_jax.simulation import SaveAt, SolveOptions, Step, simulate
 from origami_jax.system import FoldingSystem, HingeDrag, Hinges
 
 from .chain_cases import FAST_COMPILE, random_chain
@@ -506,10 +506,12 @@ def cube_trajectory():
     solution = simulate(
         system,
         Step(),
+        SolveOptions(
+            saveat=SaveAt(n=81),
+            solver=diffrax.Tsit5(),
+            stepsize_controller=diffrax.PIDController(rtol=1e-9, atol=1e-12),
+        ),
         t1=8.0,
-        n_save=81,
-        solver=diffrax.Tsit5(),
-        stepsize_controller=diffrax.PIDController(rtol=1e-9, atol=1e-12),
     )
     return system, solution
 

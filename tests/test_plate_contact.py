@@ -286,7 +286,9 @@ def _fold(case: str, model: str):
     system = net.system(targets=targets, drag=drag, contact=model)
     if case == "dragless":
         system = eqx.tree_at(lambda s: s.drag, system, HingeDrag(jnp.zeros(system.n_hinges)))
-    trajectory = sim.simulate(system, sim.Step(), t1=150.0, n_save=151, max_steps=100_000)
+    trajectory = sim.simulate(
+        system, sim.Step(), sim.SolveOptions(saveat=sim.SaveAt(n=151), max_steps=100_000), t1=150.0
+    )
     return system, trajectory
 
 
@@ -334,11 +336,7 @@ def _launched(name: str, kick) -> tuple:
     system = net.system(drag="hinge")
     system = eqx.tree_at(lambda s: s.drag, system, HingeDrag(jnp.zeros(system.n_hinges)))
     closed = jnp.asarray(net.intended_angles)
-    trajectory = sim.simulate(
-        system, sim.Step(), t1=100.0, n_save=201, theta0=closed * 0.98,
-        theta_dot0=jnp.asarray(kick), solver=diffrax.Tsit5(), rtol=1e-8, atol=1e-10,
-        max_steps=100_000,
-    )  # fmt: skip
+    trajectory = sim.simulate(system, sim.Step(), sim.SolveOptions(saveat=sim.SaveAt(n=201), solver=diffrax.Tsit5(), rtol=1e-8, atol=1e-10, max_steps=100_000), t1=100.0, theta0=closed * 0.98, theta_dot0=jnp.asarray(kick))  # fmt: skip
     return net, system, trajectory
 
 

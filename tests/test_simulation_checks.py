@@ -26,29 +26,49 @@ def two_flaps():
 
 
 @pytest.mark.parametrize(
-    "kwargs, message",
+    "kwargs, options, message",
     [
-        (dict(t1=-5.0), "t1 must be greater than t0"),
-        (dict(t1=0.0), "t1 must be greater than t0"),
-        (dict(t1=float("inf")), "t1 must be a finite time"),
-        (dict(t1=float("nan")), "t1 must be a finite time"),
-        (dict(t1=10.0, t0=float("nan")), "t0 must be a finite time"),
-        (dict(t1=10.0, rtol=-1.0), "rtol must be a positive finite tolerance"),
-        (dict(t1=10.0, rtol=float("nan")), "rtol must be a positive finite tolerance"),
-        (dict(t1=10.0, atol=0.0), "atol must be a positive finite tolerance"),
-        (dict(t1=10.0, n_save=1), "n_save must be an integer of at least 2"),
-        (dict(t1=10.0, n_save=0), "n_save must be an integer of at least 2"),
-        (dict(t1=10.0, max_steps=0), "max_steps must be a positive integer"),
-        (dict(t1=10.0, dt0=-0.1), "dt0 must be a positive finite first step"),
-        (dict(t1=10.0, dt0=float("nan")), "dt0 must be a positive finite first step"),
-        (dict(t1=10.0, ts=jnp.array([0.0, 20.0])), "ts must lie within"),
-        (dict(t1=10.0, ts=jnp.array([5.0, 1.0])), "ts must be non-decreasing"),
-        (dict(t1=10.0, theta0=jnp.array([jnp.nan, 0.0])), "theta0 contains NaN"),
+        (dict(t1=-5.0), {}, "t1 must be greater than t0"),
+        (dict(t1=0.0), {}, "t1 must be greater than t0"),
+        (dict(t1=float("inf")), {}, "t1 must be a finite time"),
+        (dict(t1=float("nan")), {}, "t1 must be a finite time"),
+        (dict(t1=10.0, t0=float("nan")), {}, "t0 must be a finite time"),
+        ({}, dict(rtol=-1.0), r"SolveOptions\(rtol=...\) must be a positive finite tolerance"),
+        ({}, dict(rtol=float("nan")), r"SolveOptions\(rtol=...\) must be a positive finite"),
+        ({}, dict(atol=0.0), r"SolveOptions\(atol=...\) must be a positive finite tolerance"),
+        ({}, dict(dt0=-0.1), r"SolveOptions\(dt0=...\) must be a positive finite first step"),
+        ({}, dict(dt0=float("nan")), r"SolveOptions\(dt0=...\) must be a positive finite"),
+        ({}, dict(saveat=sim.SaveAt(ts=jnp.array([0.0, 20.0]))), r"SaveAt\(ts=...\) must lie"),
+        (
+            {},
+            dict(saveat=sim.SaveAt(ts=jnp.array([5.0, 1.0]))),
+            r"SaveAt\(ts=...\) must be non-dec",
+        ),
+        (dict(t1=10.0, theta0=jnp.array([jnp.nan, 0.0])), {}, "theta0 contains NaN"),
     ],
 )
-def test_bad_arguments_are_refused_before_compiling(two_flaps, kwargs, message):
+def test_bad_arguments_are_refused_before_compiling(two_flaps, kwargs, options, message):
+    options = (
+        sim.SolveOptions(**options) if "t1" in kwargs else sim.SolveOptions(t1=10.0, **options)
+    )
     with pytest.raises(ValueError, match=message):
-        sim.simulate(two_flaps, sim.Step(), **kwargs)
+        sim.simulate(two_flaps, sim.Step(), options, **kwargs)
+
+
+@pytest.mark.parametrize(
+    "build, message",
+    [
+        (lambda: sim.SaveAt(n=1), r"SaveAt\(n=...\) must be an integer of at least 2"),
+        (lambda: sim.SaveAt(n=0), r"SaveAt\(n=...\) must be an integer of at least 2"),
+        (
+            lambda: sim.SolveOptions(max_steps=0),
+            r"SolveOptions\(max_steps=...\) must be a positive",
+        ),
+    ],
+)
+def test_bad_options_are_refused_when_built(build, message):
+    with pytest.raises(ValueError, match=message):
+        build()
 
 
 def test_negative_or_non_finite_system_values_are_refused(two_flaps):
@@ -72,7 +92,7 @@ def test_forward_mode_without_its_adjoint_says_which_adjoint_to_pass(two_flaps):
         )
         return sim.simulate(system, sim.Step(), t1=10.0).theta[-1, 0]
 
-    with pytest.raises(TypeError, match=r"adjoint=diffrax\.ForwardMode\(\)"):
+    with pytest.raises(TypeError, match=r"SolveOptions\(adjoint=diffrax\.ForwardMode\(\)\)"):
         jax.jacfwd(metric)(1.0)
 
 
@@ -83,7 +103,12 @@ def test_traced_end_time_is_checked_when_the_solve_runs():
 
     @eqx.filter_jit
     def final_angle(t1):
-        return sim.simulate(system, sim.Step(), t1=t1, n_save=2, solver=diffrax.Tsit5()).theta[-1]
+        return sim.simulate(
+            system,
+            sim.Step(),
+            sim.SolveOptions(saveat=sim.SaveAt(n=2), solver=diffrax.Tsit5()),
+            t1=t1,
+        ).theta[-1]
 
     assert np.isfinite(final_angle(jnp.asarray(1.0))).all()
     with pytest.raises(Exception, match="t1 > t0"):
@@ -152,7 +177,13 @@ def test_samples_carry_the_solvers_accuracy_on_a_free_chain():
     free = FoldingSystem(mechanism=base.mechanism, hinges=hinges, drag=HingeDrag(jnp.zeros(1)))
     no_input = sim.UserTorque(lambda t, theta, theta_dot: jnp.zeros_like(theta))
     v0 = jnp.array([0.02])
-    trajectory = sim.simulate(free, no_input, t1=400.0, theta_dot0=v0, n_save=801, dense=True)
+    trajectory = sim.simulate(
+        free,
+        no_input,
+        sim.SolveOptions(saveat=sim.SaveAt(n=801, dense=True)),
+        t1=400.0,
+        theta_dot0=v0,
+    )
     assert trajectory.succeeded and trajectory.stats["switch_time"] == jnp.inf
     at_steps, at_samples, with_hermite = (
         float(x) for x in _drifts(free, trajectory, free.energy(jnp.zeros(1), v0))

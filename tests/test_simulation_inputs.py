@@ -82,7 +82,9 @@ def test_fast_ramp_tracks_with_minimal_overshoot():
     _, system = literature()
     ramp = sim.fast_ramp(alternating_targets(3), duration=2000.0)
     np.testing.assert_allclose(ramp.rate(system), np.pi / 2000.0)
-    trajectory = sim.simulate(system, ramp, t1=3000.0, n_save=601, solver=diffrax.Tsit5())
+    trajectory = sim.simulate(
+        system, ramp, sim.SolveOptions(saveat=sim.SaveAt(n=601), solver=diffrax.Tsit5()), t1=3000.0
+    )
     metrics = sim.response_metrics(trajectory)
     desired = jax.vmap(lambda t: ramp.desired(t, system)[0])(trajectory.times)
     # The only departure is the ringing launched by the rate jumps (≈ 0.2 rad for this 2 ms ramp, weakly
@@ -110,7 +112,11 @@ def test_user_torque_and_shape_checks():
 def test_slow_ramp_is_affordable_and_validated():
     _, system = literature("koh")
     beta = MICRO.length(sim.KOH_ETCH_RATE_SI) / MICRO.time(1.0)
-    result = sim.simulate_slow_ramp(system, sim.EtchRamp(beta), n_save=201)
+    result = sim.simulate_slow_ramp(
+        system,
+        sim.EtchRamp(beta),
+        sim.SLOW_RAMP_OPTIONS.replace(saveat=sim.SaveAt(n=201), max_steps=4096),
+    )
     assert bool(result.trajectory.succeeded) and bool(result.window.succeeded)
     assert int(result.trajectory.stats["num_steps"]) < 5000
     assert float(jnp.max(result.quasi_static_error)) < 1e-6

@@ -44,11 +44,8 @@ def test_linear_single_flap_matches_closed_form():
     trajectory = sim.simulate(
         make_system(chain, k, 0.0, target),
         inputs,
+        sim.SolveOptions(saveat=sim.SaveAt(n=2001), solver=diffrax.Tsit5(), rtol=1e-11, atol=1e-13),
         t1=t1,
-        n_save=2001,
-        solver=diffrax.Tsit5(),
-        rtol=1e-11,
-        atol=1e-13,
     )
     metrics = sim.response_metrics(trajectory)
     y, omega_d = _second_order(zeta, omega)
@@ -173,11 +170,8 @@ def test_metric_gradients_match_finite_differences_in_koh():
         trajectory = sim.simulate(
             scaled,
             sim.Step(),
+            sim.SolveOptions(saveat=sim.SaveAt(n=N_SAVE), rtol=RTOL, atol=ATOL, adjoint=adjoint),
             t1=1500.0,
-            n_save=N_SAVE,
-            rtol=RTOL,
-            atol=ATOL,
-            adjoint=adjoint,
         )
         m = sim.response_metrics(trajectory)
         return jnp.stack([m.rise_time[0], m.t90[1], m.settling_time[2], m.peak_value[0]])
@@ -210,7 +204,10 @@ def test_metric_gradients_reverse_mode_in_koh():
             ),
         )
         trajectory = sim.simulate(
-            scaled, sim.Step(), t1=1500.0, n_save=N_SAVE, rtol=RTOL, atol=ATOL
+            scaled,
+            sim.Step(),
+            sim.SolveOptions(saveat=sim.SaveAt(n=N_SAVE), rtol=RTOL, atol=ATOL),
+            t1=1500.0,
         )
         return jnp.sum(sim.response_metrics(trajectory).rise_time)
 

@@ -99,10 +99,8 @@ def test_failed_solve_raises_by_default():
         sim.simulate(
             _flap(),
             sim.Step(),
+            sim.SolveOptions(saveat=sim.SaveAt(n=11), solver=diffrax.Tsit5(), max_steps=8),
             t1=5000.0,
-            n_save=11,
-            solver=diffrax.Tsit5(),
-            max_steps=8,
         )
 
 
@@ -113,11 +111,10 @@ def test_throw_false_under_vmap_reports_failed_members():
         return sim.simulate(
             system,
             sim.Step(),
+            sim.SolveOptions(
+                saveat=sim.SaveAt(n=11), solver=diffrax.Tsit5(), max_steps=64, throw=False
+            ),
             t1=t1,
-            n_save=11,
-            solver=diffrax.Tsit5(),
-            max_steps=64,
-            throw=False,
         )
 
     batch = jax.vmap(run)(jnp.array([50.0, 100.0, 1e6]))
@@ -136,12 +133,10 @@ def test_dense_output():
     trajectory = sim.simulate(
         _flap(),
         sim.Step(),
+        sim.SolveOptions(
+            saveat=sim.SaveAt(n=21, dense=True), solver=diffrax.Tsit5(), rtol=1e-10, atol=1e-12
+        ),
         t1=200.0,
-        n_save=21,
-        solver=diffrax.Tsit5(),
-        rtol=1e-10,
-        atol=1e-12,
-        dense=True,
     )
     theta_at_sample, theta_dot_at_sample = trajectory.evaluate(trajectory.times[7])
     np.testing.assert_allclose(theta_at_sample, trajectory.theta[7], atol=1e-8)

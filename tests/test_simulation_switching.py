@@ -157,7 +157,9 @@ def test_top_level_simulate_compiles_the_implicit_phase_only_when_a_run_turns_st
     )
     single = _simulate._solve_jit._cached._cache_size()
     implicit = _simulate._solve_from_switch_jit._cached._cache_size()
-    run = lambda r: sim.simulate(system, viscous(r), t1=100 / omega, n_save=201)  # noqa: E731
+    run = lambda r: sim.simulate(
+        system, viscous(r), sim.SolveOptions(saveat=sim.SaveAt(n=201)), t1=100 / omega
+    )  # noqa: E731
 
     mild = run(0.3)
     assert np.isinf(mild.stats["switch_time"]) and mild.succeeded
@@ -173,9 +175,9 @@ def test_top_level_simulate_compiles_the_implicit_phase_only_when_a_run_turns_st
     # The same run as one program (under jit nothing is split): the second program restarts from
     # the first one's solver state, controller state and next step, so the steps are the same and
     # the samples agree to rounding (1e-12 rad; they were bitwise equal when measured).
-    whole = jax.jit(lambda s, u: sim.simulate(s, u, t1=100 / omega, n_save=201))(
-        system, viscous(30.0)
-    )
+    whole = jax.jit(
+        lambda s, u: sim.simulate(s, u, sim.SolveOptions(saveat=sim.SaveAt(n=201)), t1=100 / omega)
+    )(system, viscous(30.0))
     for key in ("num_steps", "num_accepted_steps", "num_rejected_steps", "switch_time"):
         assert stiff.stats[key] == whole.stats[key], key
     for field in ("times", "theta", "theta_dot", "theta_ddot", "tau"):
@@ -209,11 +211,10 @@ def test_differentiated_simulate_compiles_the_explicit_phase_only(monkeypatch):
         trajectory = sim.simulate(
             system,
             torque,
+            sim.SolveOptions(
+                saveat=sim.SaveAt(n=65), solver=solver, stepsize_controller=controller, throw=throw
+            ),
             t1=t1,
-            n_save=65,
-            solver=solver,
-            stepsize_controller=controller,
-            throw=throw,
         )
         return jnp.mean(trajectory.theta**2), trajectory.result
 

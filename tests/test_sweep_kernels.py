@@ -30,7 +30,14 @@ def test_accordion_refuses_unknown_parameters_and_fluids_before_compiling():
 @pytest.mark.slow  # one compilation of the vmapped Kvaerno5 solve: minutes on a 2-core CPU
 def test_accordion_step_matches_a_direct_simulation():
     from origami_jax.chain import accordion_system
-    from origami_jax.simulation import Step, implicit_solver, response_metrics, simulate
+    from origami_jax.simulation import (
+        SaveAt,
+        SolveOptions,
+        Step,
+        implicit_solver,
+        response_metrics,
+        simulate,
+    )
     from origami_jax.system import KOH_SOLUTION, MICRO, HingeDesign
 
     kernel = get_model("accordion-step", t_end=1500.0, n_save=1501)
@@ -55,9 +62,8 @@ def test_accordion_step_matches_a_direct_simulation():
         trajectory = simulate(
             accordion_system(design, 3),
             Step(),
+            SolveOptions(saveat=SaveAt(n=1501), solver=implicit_solver()),
             t1=1500.0,
-            n_save=1501,
-            solver=implicit_solver(),  # the kernel's "kvaerno5", not the default switching solver
         )
         metrics = response_metrics(trajectory)
         np.testing.assert_allclose(ds["rise_time"].values[i], metrics.rise_time, rtol=1e-6)

@@ -25,7 +25,10 @@ def _reference():
     design = HingeDesign.literature(theta_final=THETA_FINAL)
     system = accordion_system(design, 3)
     trajectory = sim.simulate(
-        system, sim.Step(), t1=T1, n_save=N_SAVE, solver=diffrax.Tsit5(), rtol=RTOL, atol=ATOL
+        system,
+        sim.Step(),
+        sim.SolveOptions(saveat=sim.SaveAt(n=N_SAVE), solver=diffrax.Tsit5(), rtol=RTOL, atol=ATOL),
+        t1=T1,
     )
     return design, system, trajectory
 
@@ -70,7 +73,8 @@ def test_same_design_through_every_entry_point(tmp_path):
     hinge = HingeDesign.literature(theta_final=3.0)
     space = ojd.parameter_space(hinge, ["theta_final"], {"theta_final": (1.0, float(np.pi))})
     candidate = space.apply(hinge, jnp.array([THETA_FINAL]))
-    settings = ojd.SimulationSettings(T1, n_flaps=3, n_save=N_SAVE, rtol=RTOL, atol=ATOL)
+    options = sim.FIT_OPTIONS.replace(saveat=sim.SaveAt(n=N_SAVE), rtol=RTOL, atol=ATOL)
+    settings = ojd.SimulationSettings(T1, n_flaps=3, options=options)
     trajectory, _ = ojd.response(candidate, settings)
     np.testing.assert_allclose(trajectory.theta, reference.theta, atol=SAME_MODEL_RAD)
 

@@ -218,7 +218,10 @@ def test_a_flap_held_on_its_neighbours_edge_closes_the_seam():
         KOH, targets=jnp.radians(jnp.full(2, 92.0)), release_times=jnp.array([0.0, 200.0])
     )
     trajectory = sim.simulate(
-        system, sim.Step(), t1=1500.0, n_save=301, solver=diffrax.Tsit5(), max_steps=200_000
+        system,
+        sim.Step(),
+        sim.SolveOptions(saveat=sim.SaveAt(n=301), solver=diffrax.Tsit5(), max_steps=200_000),
+        t1=1500.0,
     )
     report = net.assess(system, trajectory)
     assert report.verdict == "folded", report.summary()
