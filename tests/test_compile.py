@@ -142,11 +142,12 @@ def test_a_script_stores_its_solve_and_sweep_and_still_raises(tmp_path):
         def stored(prefix):
             return sorted(p.name for p in folder.iterdir() if p.name.startswith(prefix))
         flap = chain.accordion_system(system.HingeDesign.literature(), 1)
-        run = dict(t1=100.0, n_save=11, solver=diffrax.Tsit5())
-        theta = simulation.simulate(flap, simulation.Step(), **run).theta
+        run = simulation.SolveOptions(saveat=simulation.SaveAt(n=11), solver=diffrax.Tsit5())
+        theta = simulation.simulate(flap, simulation.Step(), run, t1=100.0).theta
         out = {"solve": stored("jit__solve-"), "final": float(theta[-1, 0])}
         try:  # the same compiled solve, asked for an error it cannot reach in its step budget
-            simulation.simulate(flap, simulation.Step(), rtol=1e-300, atol=1e-300, **run)
+            tiny = run.replace(rtol=1e-300, atol=1e-300)
+            simulation.simulate(flap, simulation.Step(), tiny, t1=100.0)
         except eqx.EquinoxRuntimeError as error:
             out["message"] = str(error)
         model = get_model("accordion-step", n_flaps=1, t_end=100.0, n_save=11, solver="tsit5")

@@ -36,7 +36,7 @@ _RUN = """
     solve = _simulate._solve_until_stiff
     _simulate._solve_until_stiff = lambda *a: traced.append(1) or solve(*a)
     system = accordion_system(HingeDesign.literature(), 1)
-    run = lambda: sim.simulate(system, sim.Step(), t1=300.0, n_save=101, throw=False)  # noqa
+    run = lambda: sim.simulate(system, sim.Step(), sim.SolveOptions(saveat=sim.SaveAt(n=101), throw=False), t1=300.0)  # noqa
     plain = run()  # the ordinary jitted solve
     traced.clear()
     _exported.enable_exported_programs(folder + "/exported")
