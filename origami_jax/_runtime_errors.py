@@ -14,8 +14,9 @@ dispatch) of the library's own programs, not around their runs. Code traced in a
 that window sees it too: its checks would also give NaN instead of raising. And JAX reuses a
 jitted function's trace for the same argument structure: diffrax's `diffeqsolve`, traced once so,
 keeps NaN checks of its first step and sample times when the caller's own `jit` later calls
-`simulate(..., throw=False)` with the same structure (such a run then fails with a result code,
-which is what `throw=False` reports; with `throw=True` the solve is another program and raises).
+`simulate` with `SolveOptions(throw=False)` and the same structure (such a run then fails with a
+result code, which is what `throw=False` reports; with `throw=True` the solve is another program
+and raises).
 """
 
 from __future__ import annotations

@@ -340,8 +340,9 @@ class Net:
 
         **Arguments:** `inputs` (default a step release, `origami_jax.simulation.Step()`);
         `tolerances` (a `VerdictTolerances`, for `assess`); `on_continue(end, next_end)`, called
-        before each continuation; other keyword arguments go to `simulate` (`n_save`, `solver`,
-        `rtol`, `max_steps`, ...).
+        before each continuation; other keyword arguments are the fields of
+        `origami_jax.simulation.SolveOptions` (`solver`, `rtol`, `max_steps`, ...; `throw` default
+        `False`), and `n_save`, the samples per segment (`SaveAt(n=...)`).
 
         **Returns:** `(trajectory, report)`, the whole run and its `FoldReport`.
         """

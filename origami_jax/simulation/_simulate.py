@@ -547,7 +547,7 @@ _implicit_solve_jit = eqx.filter_jit(_implicit_solve)
 
 def _host_times(t0, t1, ts, n_save: int) -> tuple[np.ndarray, np.ndarray]:
     """``(t0, ts)`` on the host for `ImplicitStep` (its step count is fixed from them): `ts`, or
-    `n_save` evenly spaced times from `t0` to `t1`; raises when any of them is traced."""
+    `SaveAt(n=...)` evenly spaced times from `t0` to `t1`; raises when any of them is traced."""
     if is_traced(t0, t1, ts):
         raise ValueError(
             "ImplicitStep fixes its step count from the time span and sample times, so t0, t1 and "
