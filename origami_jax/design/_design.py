@@ -317,17 +317,18 @@ def calibrate(
     hinge: HingeDesign,
     targets: Targets,
     free: Sequence[str],
+    options: SolveOptions | None = None,
     *,
     n_starts: int = 1,
     **kwargs,
 ) -> DesignResult:
     """Calibrate unknown parameters to measured metrics or a measured θ(t) curve.
 
-    The same computation as [`origami_jax.design.design`][] (all its keyword arguments apply), but a
+    The same computation as [`origami_jax.design.design`][] (its `options` and all its keyword arguments apply), but a
     local fit from `hinge`'s values (literature or prior estimates) by default: `n_starts=1`. Pass more
     starts when the prior is poor.
     """
-    return design(hinge, targets, free, n_starts=n_starts, **kwargs)
+    return design(hinge, targets, free, options, n_starts=n_starts, **kwargs)
 
 
 def evaluate(result: DesignResult, which="after"):
