@@ -35,10 +35,12 @@ from ._measured_hinges import compare_measured_hinges as compare_measured_hinges
 from ._measured_hinges import measured_hinges_table as measured_hinges_table
 from ._mechanism import AbstractMechanism as AbstractMechanism
 from ._mechanism import HingeLayout as HingeLayout
-from ._pattern import AbstractPattern as AbstractLayout  # its former name
 from ._pattern import AbstractPattern as AbstractPattern
 from ._system import AbstractContact as AbstractContact
 from ._system import FoldingSystem as FoldingSystem
 from ._units import MICRO as MICRO
 from ._units import SI as SI
 from ._units import UnitSystem as UnitSystem
+
+AbstractLayout = AbstractPattern
+"""The former name of [`origami_jax.system.AbstractPattern`][] (a layout is now its pattern)."""
