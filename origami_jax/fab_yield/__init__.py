@@ -66,10 +66,12 @@ closed-loop patterns.
 """
 
 from ._ascent import AscentIterate as AscentIterate
+from ._ascent import AscentSettings as AscentSettings
 from ._ascent import YieldAscent as YieldAscent
 from ._ascent import ascend as ascend
 from ._ascent import check_ascent as check_ascent
 from ._ascent import yield_ascent as yield_ascent
+from ._estimate import RunOptions as RunOptions
 from ._estimate import YieldEstimate as YieldEstimate
 from ._estimate import yield_estimate as yield_estimate
 from ._gradient import YieldGradient as YieldGradient

@@ -135,6 +135,10 @@ class CreasePattern(AbstractPattern):
 
         return fold_kernel(self, **settings)
 
+    def release_times_from_front(self, direction, speed: float) -> np.ndarray:
+        """Release times of an etch front (`origami_jax.loops.release_times_from_front`)."""
+        return release_times_from_front(self, direction, speed)
+
     def resume_settings(self) -> dict:
         """What a stored sweep of this pattern records: its name and its closed loops."""
         return {"net": self.name, "closed_loops": self.n_loops}

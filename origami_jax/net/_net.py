@@ -96,11 +96,6 @@ class Net(AbstractPattern):
         return self.geometry.n_creases
 
     @property
-    def n_loops(self) -> int:
-        """Closed loops of creases: none (a net's faces form a tree)."""
-        return 0
-
-    @property
     def continues_from_angles(self) -> bool:
         return True  # a panel tree's state is its hinge angles and rates
 
@@ -135,6 +130,10 @@ class Net(AbstractPattern):
         from ._kernel import fold_kernel
 
         return fold_kernel(self, **settings)
+
+    def release_times_from_front(self, direction, speed: float) -> np.ndarray:
+        """Release times of an etch front (`origami_jax.net.release_times_from_front`)."""
+        return release_times_from_front(self, direction, speed)
 
     def resume_settings(self) -> dict:
         """What a stored sweep of this net records: its name and its closed loops (none)."""

@@ -32,6 +32,7 @@ class AbstractPattern(abc.ABC):
     **Members** (abstract unless said):
     - `n_hinges`: hinges of the systems it builds (static).
     - `hinge_name(j)`: what reports call hinge `j` (counted from 0).
+    - `n_loops` (concrete, 0): closed loops of hinges.
     - `intended_angles`: the fold angle each hinge should reach (rad, `(n_hinges,)`): what counts
       as folded.
     - `seams`: the seams that close when it folds (`origami_jax.fold.SeamSet`), or `None`.
@@ -77,6 +78,11 @@ class AbstractPattern(abc.ABC):
     @abc.abstractmethod
     def seams(self) -> Any:
         """The seams that close when the pattern folds, or `None` (none)."""
+
+    @property
+    def n_loops(self) -> int:
+        """Closed loops of hinges (0: the panels form a tree, as a net's and a chain's do)."""
+        return 0
 
     @property
     @abc.abstractmethod
