@@ -87,6 +87,22 @@ def test_the_physics_model_travels_with_the_pattern():
         net.with_model(check_rigid=False)
 
 
+def test_the_accordion_folds_as_a_pattern():
+    # `fold` is the pattern's one path to `simulate` (from its start state, judged by its
+    # `assess`): the same run as a direct simulation, sample for sample.
+    import origami_jax.simulation as sim
+
+    accordion = Accordion(2)
+    system = accordion.system(KOH)
+    trajectory, report = accordion.fold(system, t1=300.0, n_save=101)
+    direct = sim.simulate(system, sim.Step(), t1=300.0, n_save=101, throw=False)
+    np.testing.assert_array_equal(trajectory.theta, direct.theta)
+    assert report.verdict == "unfinished"  # 300 µs in KOH: still on its way to ±180°
+    assert accordion.kernel().settings["n_flaps"] == 2
+    with pytest.raises(ValueError, match="paper's model"):
+        accordion.with_model(hinges="arc").kernel()
+
+
 # ---- the kernel from a pattern object --------------------------------------------------------
 
 # Recorded on the code before patterns were objects (commit 8f20fdb, `get_model("net-fold",
