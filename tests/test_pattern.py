@@ -227,3 +227,18 @@ def test_no_pattern_type_branches_above_the_engines():
         text = (PACKAGE / name).read_text()
         assert not branch.search(text), name
         assert "fold_until_settled" not in text or name == "net/_kernel.py", name
+
+
+def test_no_public_function_of_the_pattern_layer_takes_over_12_parameters():
+    import inspect
+
+    from origami_jax.net import fold_kernel
+    from origami_jax.sweep._kernels import net_fold
+
+    functions = [
+        ojy.yield_estimate, ojy.yield_ascent, ojy.ascend, ojy.soft_yield, ojy.order_search,
+        fold_kernel, net_fold,
+    ]  # fmt: skip
+    for function in functions:
+        count = len(inspect.signature(function).parameters)
+        assert count <= 12, (function.__name__, count)
