@@ -25,8 +25,8 @@ import time
 
 import jax
 
-from origami_jax.fab_yield import Scatter, yield_estimate
-from origami_jax.net import load_net
+from origami_jax.fab_yield import RunOptions, Scatter, yield_estimate
+from origami_jax.net import FOLD_KERNEL_SOLVE, load_net
 from origami_jax.system import KOH_SOLUTION, HingeDesign
 
 from ._harness import Result, Timing
@@ -42,16 +42,16 @@ from .bench_net import (
 
 
 def _estimate(n_samples: int, chunk: int | None = None, workers: int | None = None, **kwargs):
+    """`kwargs`: more `RunOptions` (`progress`, `out`, `resume`)."""
     return yield_estimate(
         NET,
         Scatter(),
         n_samples=n_samples,
         seed=0,
-        t_end=T1,
-        chunk_size=chunk,
-        workers=workers,
-        progress=kwargs.pop("progress", False),
-        **kwargs,
+        solve=FOLD_KERNEL_SOLVE.replace(t1=T1),
+        run=RunOptions(
+            chunk_size=chunk, workers=workers, progress=kwargs.pop("progress", False), **kwargs
+        ),
     )
 
 

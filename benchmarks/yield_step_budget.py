@@ -8,6 +8,7 @@ of 4,000 steps; about 10 minutes on 2 cores). Not part of ``python -m benchmarks
 settings of our own code, there is no peer.
 """
 
+import dataclasses
 import sys
 import time
 
@@ -15,6 +16,7 @@ import jax
 import numpy as np
 
 import origami_jax.fab_yield as ojy
+from origami_jax.net import FOLD_KERNEL_SOLVE
 
 NET, CHUNK, WORKERS = "cube_net_01", 16, 2
 
@@ -26,10 +28,9 @@ def lockstep(steps: np.ndarray, width: int) -> int:
 
 def main(n: int = 256, budget: int = 4000) -> None:
     jax.config.update("jax_enable_x64", True)
-    common = dict(
-        n_samples=n, seed=0, t_end=1500.0, chunk_size=CHUNK, workers=WORKERS, progress=False
-    )
-    one = ojy.yield_estimate(NET, ojy.Scatter(), **common)
+    run = ojy.RunOptions(chunk_size=CHUNK, workers=WORKERS, progress=False)
+    common = dict(n_samples=n, seed=0, solve=FOLD_KERNEL_SOLVE.replace(t1=1500.0))
+    one = ojy.yield_estimate(NET, ojy.Scatter(), run=run, **common)
     print(f"one pass: {one.seconds_per_sample:.3f} s/sample", flush=True)
     steps = np.asarray(one.dataset["num_steps"].values)
     print(
@@ -37,7 +38,8 @@ def main(n: int = 256, budget: int = 4000) -> None:
         f"max {steps.max()}"
     )
     start = time.perf_counter()
-    two = ojy.yield_estimate(NET, ojy.Scatter(), step_budget=budget, **common)
+    budgeted = dataclasses.replace(run, step_budget=budget)
+    two = ojy.yield_estimate(NET, ojy.Scatter(), run=budgeted, **common)
     print(
         f"budget {budget}: {two.seconds_per_sample:.3f} s/sample "
         f"({two.dataset.attrs['stragglers']} stragglers; wall {time.perf_counter() - start:.0f} s "

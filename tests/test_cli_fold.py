@@ -304,10 +304,12 @@ def test_a_cube_net_still_moving_at_the_first_segments_end_folds_on(tmp_path, ca
 def test_net_fold_runs_until_the_cube_closes_or_to_t1():
     net = load_net("cube_net_01")
     system = net.system(HingeDesign.literature(fluid=KOH_SOLUTION), contact=False)
-    trajectory, report = net.fold(system, n_save=101)
+    trajectory, report = net.fold(system, sim.SolveOptions(saveat=sim.SaveAt(n=101), throw=False))
     assert report.verdict == "folded", report.summary()
     assert float(trajectory.times[-1]) > 1000.0  # the first segment ended still moving
-    short, report = net.fold(system, t1=500.0, n_save=101)
+    short, report = net.fold(
+        system, sim.SolveOptions(saveat=sim.SaveAt(n=101), throw=False), t1=500.0
+    )
     assert report.verdict == "unfinished" and float(short.times[-1]) == 500.0
 
 

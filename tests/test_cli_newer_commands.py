@@ -339,6 +339,7 @@ def test_seam_gaps_refuse_nan_angles():
 
 def test_yield_refuses_a_release_at_or_after_the_end(tmp_path, capsys):
     import origami_jax.fab_yield as ojy
+    from origami_jax.net import FOLD_KERNEL_SOLVE
 
     n = 5  # cube_net_01's creases
     release = ",".join(["0"] * (n - 1) + ["2000"])
@@ -350,7 +351,11 @@ def test_yield_refuses_a_release_at_or_after_the_end(tmp_path, capsys):
     assert "--etch-front: crease" in _one_line(capsys.readouterr().err)
     assert not any(tmp_path.iterdir())
     with pytest.raises(ValueError, match="at or after t_end 100 µs"):
-        ojy.yield_estimate("cube_net_01", release_times=[0, 0, 0, 0, 200.0], t_end=100.0)
+        ojy.yield_estimate(
+            "cube_net_01",
+            release_times=[0, 0, 0, 0, 200.0],
+            solve=FOLD_KERNEL_SOLVE.replace(t1=100.0),
+        )
     # 11: a NaN release time is named as such (it was reported as a shape error).
     with pytest.raises(ValueError, match=r"release_times must be finite \(µs\), got \[nan"):
         ojy.yield_estimate("cube_net_01", release_times=[float("nan"), 0, 0, 0, 0])

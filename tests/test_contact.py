@@ -268,6 +268,7 @@ def test_sweeps_and_yield_estimates_take_the_sampling():
     """The net kernel names a sampling only when it is not the default (stores written before it
     existed stay resumable); `yield_estimate` refuses a bad one before compiling."""
     from origami_jax.fab_yield import yield_estimate
+    from origami_jax.net import load_net
     from origami_jax.sweep import get_model
 
     assert "contact_sampling" not in get_model("net-fold", net="corner_cube").settings
@@ -275,7 +276,8 @@ def test_sweeps_and_yield_estimates_take_the_sampling():
     assert dense.settings["contact_sampling"] == [8, 6]
     with pytest.raises(ValueError, match="rim_points_per_edge must be a whole number >= 0"):
         yield_estimate(
-            "corner_cube", n_samples=2, contact="sampled", contact_sampling=(4, -1), progress=False
+            load_net("corner_cube").with_model(contact="sampled", contact_sampling=(4, -1)),
+            n_samples=2,
         )
     with pytest.raises(ValueError, match="applies to contact='sampled' only"):
         get_model("net-fold", net="corner_cube", contact_sampling=(8, 6))

@@ -444,11 +444,10 @@ def test_fold_cli_lists_and_refuses(tmp_path, capsys):
 
 
 def test_layout_and_sweep_kernel_build_closed_loop_systems():
-    from origami_jax.loops import PatternLayout
     from origami_jax.sweep import get_model
 
     pattern, system = _degree4()
-    layout = PatternLayout(pattern, contact=False)
+    layout = pattern.with_model(contact=False)
     built = layout(KOH)
     assert layout.n_hinges == 4 and isinstance(built.mechanism, LoopedPanels)
     np.testing.assert_allclose(built.hinges.stiffness, system.hinges.stiffness, rtol=1e-15)

@@ -225,7 +225,6 @@ def test_hinge_widths_designed_so_a_cube_nets_creases_finish_within_ten_percent(
     # The fit runs without contact (panels meet only as the cube closes, after the 90 % crossings)
     # and its answer is checked with contact, where the net must still fold.
     import origami_jax.design as ojd
-    from origami_jax.net import NetLayout
 
     net = load_net("cube_net_01")
     m, t1 = net.n_creases, 2000.0
@@ -235,7 +234,7 @@ def test_hinge_widths_designed_so_a_cube_nets_creases_finish_within_ten_percent(
 
     settings = ojd.SimulationSettings(
         t1,
-        layout=NetLayout(net, contact=False),
+        layout=net.with_model(contact=False),
         options=sim.FIT_OPTIONS.replace(saveat=sim.SaveAt(n=401), rtol=1e-7, atol=1e-9),
     )
     result = ojd.design(
@@ -257,13 +256,12 @@ def test_hinge_widths_designed_so_a_cube_nets_creases_finish_within_ten_percent(
     assert report.verdict == "folded", report.summary()  # and it still closes the cube
 
 
-def test_layouts_name_hinges_as_their_reports_number_them():
-    # A design's report names each target's hinge through its layout: a chain's joints from 1, as
+def test_patterns_name_hinges_as_their_reports_number_them():
+    # A design's report names each target's hinge through its pattern: a chain's joints from 1, as
     # the paper numbers them; a net's or a pattern's creases from 0, as their verdicts do.
     from origami_jax.chain import Accordion
-    from origami_jax.loops import PatternLayout, load_pattern
-    from origami_jax.net import NetLayout
+    from origami_jax.loops import load_pattern
 
     assert [Accordion(3).hinge_name(j) for j in range(3)] == ["joint 1", "joint 2", "joint 3"]
-    assert NetLayout(load_net("cube_net_01")).hinge_name(0) == "crease 0"
-    assert PatternLayout(load_pattern("vertex_degree4")).hinge_name(2) == "crease 2"
+    assert load_net("cube_net_01").hinge_name(0) == "crease 0"
+    assert load_pattern("vertex_degree4").hinge_name(2) == "crease 2"

@@ -62,11 +62,11 @@ def test_bad_tolerances_are_refused_before_compiling(corner_cube):
     """Every entry point checks them before building or compiling anything (each call below would
     otherwise take seconds to minutes)."""
     with pytest.raises(ValueError, match="angle tolerance must lie in \\(0, 180\\) degrees"):
-        ojy.yield_estimate(NET, n_samples=4, angle_tolerance_deg=-1.0)
-    with pytest.raises(ValueError, match="seam tolerance must lie"):
-        ojy.yield_estimate(NET, n_samples=4, seam_tolerance=0.0)
-    with pytest.raises(ValueError, match="seam tolerance must lie"):
-        ojy.soft_yield(NET, seam_tolerance=2.0)
+        ojy.yield_estimate(NET, n_samples=4, tolerances=sim.VerdictTolerances.from_degrees(-1.0))
+    with pytest.raises(ValueError, match="tolerances must be a VerdictTolerances"):
+        ojy.yield_estimate(NET, n_samples=4, tolerances=0.0)
+    with pytest.raises(ValueError, match="tolerances must be a VerdictTolerances"):
+        ojy.soft_yield(NET, tolerances={"seam": 2.0})
     with pytest.raises(ValueError, match="seam tolerance must lie"):
         get_model("net-fold", net=NET, seam_tolerance=-1.0)
     net, system = corner_cube

@@ -6,6 +6,7 @@ Every simulated case runs the smallest net of the catalogue, the corner cube (tw
 seam), for 600 µs in KOH (its nominal folding is done by ~320 µs), in chunks of 4 samples: the cases
 share two compiled kernels (the persistent compilation cache of `conftest.py`)."""
 
+import dataclasses
 import functools
 import json
 import math
@@ -16,12 +17,21 @@ from scipy import stats
 
 import origami_jax.fab_yield as ojy
 from origami_jax.fab_yield._scatter import _resolved
+from origami_jax.net import FOLD_KERNEL_SOLVE
 from origami_jax.system import KOH_SOLUTION, HingeDesign
 
 NET = "corner_cube"
 T_END = 600.0  # µs
 CHUNK = 4
-RUN = {"t_end": T_END, "chunk_size": CHUNK, "progress": False}
+SOLVE = FOLD_KERNEL_SOLVE.replace(t1=T_END)
+RUN = {"solve": SOLVE, "run": ojy.RunOptions(chunk_size=CHUNK, progress=False)}
+
+
+def _run(**changes):
+    """`RUN`'s run options with `changes` (`out`, `resume`, `on_chunk`, `step_budget`)."""
+    return {**RUN, "run": dataclasses.replace(RUN["run"], **changes)}
+
+
 # The final angle of a crease that no contact holds against the Timoshenko ratio: what is left of
 # the quadratic-drag ring-down at 600 µs (0.06° with the nominal films), well inside the verdict's 3°.
 ANGLE_ATOL_DEG = 0.2
@@ -188,10 +198,10 @@ def test_bad_estimates_are_refused_before_compiling(tmp_path):
     with pytest.raises(ValueError, match=r"bias must be a pre-fold angle in \[0, 1\) rad"):
         ojy.yield_estimate("vertex_degree4", bias=-0.1)
     with pytest.raises(ValueError, match="interval"):
-        ojy.yield_estimate(NET, interval="wald")
+        _estimate("none", 4).with_interval(0.95, "wald")
     for rtol in (0.0, 1.5, True, "1e-5"):
         with pytest.raises(ValueError, match="rtol must be a number strictly between 0 and 1"):
-            ojy.yield_estimate(NET, rtol=rtol)
+            ojy.yield_estimate(NET, solve=SOLVE.replace(rtol=rtol))
     path = tmp_path / "scatter.toml"
     path.write_text("[misfit_strain]\nwidth = 0.05\nper = 'wafer'\n")
     with pytest.raises(ValueError, match="per must be 'crease' or 'net'"):
@@ -214,8 +224,9 @@ def test_rtol_reaches_the_solver(monkeypatch):
 
     monkeypatch.setattr(sweep_module, "sweep", fake_sweep)
     for rtol, expected in ((1e-5, (1e-5, 1e-7)), (None, (1e-7, 1e-9))):
+        solve = SOLVE if rtol is None else SOLVE.replace(rtol=rtol, atol=1e-2 * rtol)
         with pytest.raises(RuntimeError, match="stop here"):
-            ojy.yield_estimate(NET, n_samples=2, rtol=rtol, **RUN)
+            ojy.yield_estimate(NET, n_samples=2, **{**RUN, "solve": solve})
         settings = kernels[-1].settings
         assert (settings["rtol"], settings["atol"]) == pytest.approx(expected, rel=1e-12)
 
@@ -235,6 +246,14 @@ def test_zero_scatter_gives_yield_one_for_a_net_that_folds():
     assert estimate.fraction == 1.0 and estimate.counts["folded"] == 4, estimate.summary()
     low, high = estimate.interval
     assert high == 1.0 and low == pytest.approx(4 / (4 + stats.norm.ppf(0.975) ** 2))
+    # Another interval of the same counts: statistics only, nothing simulated again.
+    wider = estimate.with_interval(0.99, "clopper-pearson")
+    assert wider.interval == ojy.binomial_interval(4, 4, 0.99, "clopper-pearson")
+    assert (wider.confidence, wider.method, wider.counts) == (
+        0.99,
+        "clopper-pearson",
+        estimate.counts,
+    )
     assert estimate.seconds_per_sample > 0
     ds = estimate.dataset
     assert ds.sizes["design"] == 4 and "misfit_strain[1]" in ds.coords
@@ -263,10 +282,10 @@ def test_a_closed_loop_pattern_folds_on_its_branch_or_is_misfolded_on_the_other(
 
     pattern = load_pattern("vertex_degree4")
     run = {**RUN, "n_samples": 4, "seed": 1, "bias": 0.01}
-    folds = ojy.yield_estimate("vertex_degree4", ojy.Scatter.none(), **run)
+    folds = ojy.yield_estimate(pattern, ojy.Scatter.none(), **run)
     assert folds.counts["folded"] == 4, folds.summary()
     mirrored = ojy.yield_estimate(
-        "vertex_degree4", ojy.Scatter.none(), targets=-pattern.intended_angles, **run
+        pattern, ojy.Scatter.none(), targets=-pattern.intended_angles, **run
     )
     assert mirrored.counts["misfolded"] == 4, mirrored.summary()
     final = np.asarray(mirrored.dataset["final_angle"].values)
@@ -341,13 +360,11 @@ def test_resume_after_an_interruption_gives_the_same_samples(tmp_path):
         raise _Stop
 
     with pytest.raises(_Stop):
-        ojy.yield_estimate(NET, ojy.Scatter(), n_samples=8, seed=1, out=out, on_chunk=stop, **RUN)
+        ojy.yield_estimate(NET, ojy.Scatter(), 8, 1, **_run(out=out, on_chunk=stop))
     assert len(list((out / "chunks").glob("part-*.nc"))) == 1
     with pytest.raises(FileExistsError, match="resume=True"):  # checked before compiling
-        ojy.yield_estimate(NET, ojy.Scatter(), n_samples=8, seed=1, out=out, **RUN)
-    resumed = ojy.yield_estimate(
-        NET, ojy.Scatter(), n_samples=8, seed=1, out=out, resume=True, **RUN
-    )
+        ojy.yield_estimate(NET, ojy.Scatter(), 8, 1, **_run(out=out))
+    resumed = ojy.yield_estimate(NET, ojy.Scatter(), 8, 1, **_run(out=out, resume=True))
     assert resumed.seconds_per_sample > 0
     ds = resumed.dataset
     for name in reference.coords:
@@ -365,8 +382,7 @@ def test_a_step_budget_runs_the_stragglers_again_and_gives_the_same_samples(tmp_
     steps = np.asarray(reference.dataset["num_steps"].values)
     budget = int(np.median(steps))
     out = tmp_path / "budget"
-    kwargs = {**RUN, "n_samples": 8, "seed": 1, "step_budget": budget, "out": out}
-    two = ojy.yield_estimate(NET, ojy.Scatter(), **kwargs)
+    two = ojy.yield_estimate(NET, ojy.Scatter(), 8, 1, **_run(step_budget=budget, out=out))
     assert two.dataset.attrs["stragglers"] == int(np.sum(steps > budget)) > 0
     assert (out / "stragglers" / "sweep.nc").is_file()
     for name in ("verdict", "result", "num_steps", "final_angle", "max_seam_gap"):
@@ -374,10 +390,12 @@ def test_a_step_budget_runs_the_stragglers_again_and_gives_the_same_samples(tmp_
             two.dataset[name].values, reference.dataset[name].values, err_msg=name
         )
     assert two.counts == reference.counts
-    again = ojy.yield_estimate(NET, ojy.Scatter(), resume=True, **kwargs)
+    again = ojy.yield_estimate(
+        NET, ojy.Scatter(), 8, 1, **_run(step_budget=budget, out=out, resume=True)
+    )
     assert again.counts == reference.counts and again.seconds_per_sample == 0
     with pytest.raises(ValueError, match="step_budget must be a whole number"):
-        ojy.yield_estimate(NET, step_budget=200_000)
+        ojy.yield_estimate(NET, run=ojy.RunOptions(step_budget=200_000))
 
 
 def test_cli_writes_result_and_figure(tmp_path, capsys):
@@ -452,8 +470,15 @@ def test_soft_yield_gradient_matches_finite_differences_without_contact():
     import jax
     import jax.numpy as jnp
 
+    from origami_jax.net import load_net
+
     surrogate = ojy.soft_yield(
-        NET, ojy.Scatter(), n_samples=4, seed=1, t_end=T_END, temperature_deg=3.0, contact=False
+        load_net(NET).with_model(contact=False),
+        ojy.Scatter(),
+        n_samples=4,
+        seed=1,
+        solve=SOLVE,
+        temperature_deg=3.0,
     )
     with pytest.raises(ValueError, match="unknown design variable"):
         surrogate({"misfit_strain": np.ones(2)})

@@ -39,6 +39,13 @@ START = {n: np.ones(M) for n in ojy.PARAMETERS} | {
 }
 
 
+def _ascend(estimate_at, start, scatter, parameters, *args, **kwargs):
+    """`ojy.ascend` with its `AscentSettings` given as keywords (`steps=`, `bounds=`, ...)."""
+    call = {k: kwargs.pop(k) for k in ("n_samples", "seed") if k in kwargs}
+    settings = ojy.AscentSettings(**kwargs)
+    return ojy.ascend(estimate_at, start, scatter, parameters, *args, settings=settings, **call)
+
+
 def _synthetic(scatter, windows):
     """An `estimate_at` for `ascend`: the draws `yield_estimate` would make (`standard_draws`,
     `sample_values`), a sample folded iff every windowed parameter's value of every crease lies in
@@ -117,7 +124,7 @@ def test_ascent_climbs_a_synthetic_yield_to_near_its_maximum(fresh_draws):
     values end nearer their windows than they started; the best iterate's closed-form yield is
     within 0.06 of the maximum (the stopping rule stops where the gradient is within 2 standard
     errors of 0: near the top, the yield changes by less than the noise of 400 samples, ±0.05)."""
-    result = ojy.ascend(
+    result = _ascend(
         _synthetic(SCATTER, WINDOWS),
         START,
         SCATTER,
@@ -155,7 +162,7 @@ def test_ascent_climbs_a_synthetic_yield_to_near_its_maximum(fresh_draws):
 def test_steps_halve_when_the_yield_falls_and_stay_in_the_trust_region():
     """The rule as documented: each step's largest move is `step` spread widths (ln μ / w for the
     relative spread, Δμ / w for the absolute one), halved after an iterate whose yield fell."""
-    result = ojy.ascend(
+    result = _ascend(
         _synthetic(SCATTER, WINDOWS), START, SCATTER, ["misfit_strain", "hinge_width"], 200, 3,
         steps=12, step=0.8,
     )  # fmt: skip
@@ -191,7 +198,7 @@ def test_per_net_lognormal_and_release_times():
         "release": (np.array([60.0, 80.0]), np.array([15.0, 15.0])),
     }
     start = {**START, "t_hinge": np.array([0.1, 0.1]), "release": np.array([40.0, 80.0])}
-    result = ojy.ascend(
+    result = _ascend(
         _synthetic(scatter, windows), start, scatter, ("t_hinge", "release"), 400, 5, steps=15
     )
     truth = np.array(
@@ -212,7 +219,7 @@ def test_per_net_lognormal_and_release_times():
     assert np.allclose(path[:, 0], path[:, 1], rtol=1e-12)
     assert result.path("release").min() >= 0.0
     # A bound below the window holds the per-net thickness there, every crease alike.
-    held = ojy.ascend(
+    held = _ascend(
         _synthetic(scatter, windows), start, scatter, "t_hinge", 400, 5, steps=15,
         bounds={"t_hinge": (0.09, 0.105)},
     )  # fmt: skip
@@ -225,17 +232,17 @@ def test_stops_where_the_samples_show_no_direction():
     """Every sample folds (windows far wider than the spread) or every sample fails: the
     estimator is exactly 0 with standard error 0, so the ascent stops at the start and says why."""
     wide = {n: (c, 100 * h) for n, (c, h) in WINDOWS.items()}
-    result = ojy.ascend(_synthetic(SCATTER, wide), START, SCATTER, "misfit_strain", 50, 0)
+    result = _ascend(_synthetic(SCATTER, wide), START, SCATTER, "misfit_strain", 50, 0)
     assert len(result.iterates) == 1 and result.best == 0
     assert "every sample folded" in result.stopped
     narrow = {n: (c + 50 * h, h) for n, (c, h) in WINDOWS.items()}
-    result = ojy.ascend(_synthetic(SCATTER, narrow), START, SCATTER, "hinge_width", 50, 0)
+    result = _ascend(_synthetic(SCATTER, narrow), START, SCATTER, "hinge_width", 50, 0)
     assert "every sample failed" in result.stopped and "widen" in result.stopped
 
 
 def test_bounds_hold_the_ascent():
     """Crease 0's hinge-width window is centred on 9 µm; bounds at 9.6 µm stop it there."""
-    result = ojy.ascend(
+    result = _ascend(
         _synthetic(SCATTER, WINDOWS), START, SCATTER, "hinge_width", 400, 2, steps=10,
         bounds={"hinge_width": (9.6, 12.0)},
     )  # fmt: skip
@@ -246,7 +253,7 @@ def test_bounds_hold_the_ascent():
 def test_paired_comparison_counts_the_same_nets():
     """Gained and lost samples between two iterates on the same draws, and McNemar's exact p-value
     against the two-sided binomial tail computed here from its definition."""
-    result = ojy.ascend(
+    result = _ascend(
         _synthetic(SCATTER, WINDOWS), START, SCATTER, ["misfit_strain", "hinge_width"], 300, 4,
         steps=4,
     )  # fmt: skip
@@ -260,7 +267,7 @@ def test_paired_comparison_counts_the_same_nets():
     assert "gained" in result.summary()
     data = result.to_dict()
     assert len(data["iterations"]) == len(result.iterates) and data["best_vs_start"] == paired
-    fresh = ojy.ascend(
+    fresh = _ascend(
         _synthetic(SCATTER, WINDOWS), START, SCATTER, "hinge_width", 400, 4, steps=1,
         fresh_draws=True,
     )  # fmt: skip
@@ -274,7 +281,7 @@ def test_ascent_figure():
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    result = ojy.ascend(
+    result = _ascend(
         _synthetic(SCATTER, WINDOWS), START, SCATTER, ["misfit_strain", "hinge_width"], 100, 0,
         steps=3,
     )  # fmt: skip
@@ -315,7 +322,7 @@ def test_ascend_refuses_bad_input_before_estimating(change, message):
     call = {"parameters": "hinge_width", **CALL, **change}
     parameters = call.pop("parameters")
     with pytest.raises(ValueError, match=message):
-        ojy.ascend(never, START, SCATTER, parameters, **call)
+        _ascend(never, START, SCATTER, parameters, **call)
 
 
 def test_uniform_and_relative_release_spreads_are_refused():
@@ -337,10 +344,12 @@ def test_yield_ascent_checks_before_compiling():
     with pytest.raises(ValueError, match="not inside its bounds"):
         ojy.yield_ascent(
             "corner_cube", "misfit_strain", scatter, process={"misfit_strain": 0.02},
-            bounds={"misfit_strain": (0.001, 0.01)},
+            settings=ojy.AscentSettings(bounds={"misfit_strain": (0.001, 0.01)}),
         )  # fmt: skip
-    with pytest.raises(ValueError, match="no resume option"):
-        ojy.yield_ascent("corner_cube", "misfit_strain", scatter, resume=True)
+    with pytest.raises(ValueError, match="cannot resume"):
+        ojy.yield_ascent("corner_cube", "misfit_strain", scatter, run=ojy.RunOptions(resume=True))
+    with pytest.raises(ValueError, match="takes a net"):
+        ojy.yield_ascent("vertex_degree4", "misfit_strain", scatter)
     elsewhere = ojy.YieldEstimate(
         0.5, (0.2, 0.8), 0.95, "wilson", {}, 64, 7, scatter, None, 0.0, nominal=START
     )
@@ -386,7 +395,7 @@ def test_cli_process_and_rtol_reach_the_estimate_and_the_ascent(tmp_path, capsys
 
     seen = {}
 
-    def fake_estimate(net, scatter, **options):
+    def fake_estimate(pattern, scatter, n_samples, seed, **options):
         seen.update(options)
         raise RuntimeError("stop here")
 
@@ -396,7 +405,7 @@ def test_cli_process_and_rtol_reach_the_estimate_and_the_ascent(tmp_path, capsys
     assert main(argv + ["--rtol", "1e-5"]) == 1
     assert "stop here" in capsys.readouterr().err
     assert seen["process"] == {"misfit_strain": 0.0105, "hinge_width": [2.5, 3.0]}
-    assert seen["rtol"] == 1e-5
+    assert seen["solve"].rtol == 1e-5 and seen["solve"].atol == pytest.approx(1e-7, rel=1e-12)
 
 
 @pytest.mark.slow  # two or three estimates of 8 corner cubes with contact (~3-15 min)
@@ -442,6 +451,8 @@ def test_yield_ascent_raises_an_underfolding_corner_cubes_yield():
     only on the underfolding side."""
     import jax
 
+    from origami_jax.net import FOLD_KERNEL_SOLVE
+    from origami_jax.simulation import VerdictTolerances
     from origami_jax.system import KOH_SOLUTION, HingeDesign
 
     jax.config.update("jax_enable_x64", True)
@@ -454,16 +465,12 @@ def test_yield_ascent_raises_an_underfolding_corner_cubes_yield():
         scatter,
         n_samples=32,
         seed=0,
-        steps=4,
-        step=1.0,
+        settings=ojy.AscentSettings(steps=4, step=1.0, confirm_samples=32),
         design=design,
         process={"misfit_strain": 0.97 * eps},
-        confirm_samples=32,
-        seam_tolerance=0.05,
-        t_end=600.0,
-        max_steps=20_000,
-        chunk_size=8,
-        progress=False,
+        tolerances=VerdictTolerances(seam=0.05),
+        solve=FOLD_KERNEL_SOLVE.replace(t1=600.0, max_steps=20_000),
+        run=ojy.RunOptions(chunk_size=8, progress=False),
     )
     print(result.summary())
     start = result.iterates[0].estimate

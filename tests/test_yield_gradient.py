@@ -182,6 +182,7 @@ def test_yield_gradient_matches_finite_differences_of_the_monte_carlo_yield_with
     not exist; the score function does not need it."""
     import jax
 
+    from origami_jax.net import FOLD_KERNEL_SOLVE
     from origami_jax.system import KOH_SOLUTION, HingeDesign
 
     jax.config.update("jax_enable_x64", True)
@@ -189,7 +190,10 @@ def test_yield_gradient_matches_finite_differences_of_the_monte_carlo_yield_with
     scatter = ojy.Scatter(**{**_off(), "misfit_strain": ojy.Spread("normal", 0.01)})
     n, h, seed = 192, 0.005, 2
     eps0 = 1.01 * float(design.misfit_strain)
-    run = {"t_end": 600.0, "max_steps": 20_000, "chunk_size": 4, "progress": False}
+    run = {
+        "solve": FOLD_KERNEL_SOLVE.replace(t1=600.0, max_steps=20_000),
+        "run": ojy.RunOptions(chunk_size=4, progress=False),
+    }
 
     def estimate(scale):
         process = {"misfit_strain": scale * eps0}

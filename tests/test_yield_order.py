@@ -20,7 +20,7 @@ import pytest
 
 import origami_jax.fab_yield as ojy
 from origami_jax.fab_yield import _order
-from origami_jax.net import load_net, release_times_from_front
+from origami_jax.net import FOLD_KERNEL_SOLVE, load_net, release_times_from_front
 
 TWO_FLAPS = str(Path(__file__).parents[1] / "examples" / "two_flaps.fold")
 T_END = 1100.0  # µs: the second flap, released 150 µs after the first, has settled by ~900 µs
@@ -107,7 +107,8 @@ def test_bad_searches_are_refused_before_compiling():
 
 @pytest.mark.slow  # builds the surrogate (the net's contact tables and kernel: ~20 s here)
 def test_soft_yield_takes_an_etch_front():
-    surrogate = ojy.soft_yield(TWO_FLAPS, ojy.Scatter.none(), n_samples=1, t_end=T_END)
+    solve = FOLD_KERNEL_SOLVE.replace(t1=T_END)
+    surrogate = ojy.soft_yield(TWO_FLAPS, ojy.Scatter.none(), n_samples=1, solve=solve)
     assert "front_angle" in ojy.DESIGN_VARIABLES and "front_speed" in ojy.DESIGN_VARIABLES
     with pytest.raises(ValueError, match="both front_angle and front_speed"):
         surrogate({"front_angle": 0.0})
@@ -148,7 +149,12 @@ def test_released_together_the_flap_jams_and_released_first_it_folds():
         "front 0°": ojy.front_release_times(FLAP_UNDER_FLAP, 0.0, ORDER_SPEED),
     }
     search = ojy.order_search(
-        FLAP_UNDER_FLAP, schedules, ojy.Scatter.none(), 1, t_end=ORDER_T_END, progress=False
+        FLAP_UNDER_FLAP,
+        schedules,
+        ojy.Scatter.none(),
+        1,
+        solve=FOLD_KERNEL_SOLVE.replace(t1=ORDER_T_END),
+        run=ojy.RunOptions(progress=False),
     )
     together, ordered = search.estimates["simultaneous"], search.estimates["front 0°"]
     assert together.counts["jammed"] == 1, together.summary()
@@ -206,9 +212,8 @@ def test_choosing_the_order_raises_the_yield():
         scatter,
         8,
         seed=1,
-        t_end=ORDER_T_END,
-        chunk_size=8,
-        progress=False,
+        solve=FOLD_KERNEL_SOLVE.replace(t1=ORDER_T_END),
+        run=ojy.RunOptions(chunk_size=8, progress=False),
     )
     ordered = search.estimates["front 0°"]
     assert search.best == "front 0°", search.summary()

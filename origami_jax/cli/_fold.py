@@ -298,9 +298,7 @@ def run(args: argparse.Namespace) -> int:
     from origami_jax.fold import is_folded_form, read_fold
     from origami_jax.fold._catalogue import source_and_label
     from origami_jax.fold._model import FRAME_UNITS_M
-    from origami_jax.loops import CreasePattern, NotRigidlyFoldableError, load_pattern
-    from origami_jax.loops import release_times_from_front as pattern_front
-    from origami_jax.net import release_times_from_front
+    from origami_jax.loops import NotRigidlyFoldableError, load_pattern
 
     try:
         # Read once: the loader takes the file, and whether it held a folded form is told here.
@@ -320,7 +318,7 @@ def run(args: argparse.Namespace) -> int:
             length_scale=args.length_scale,
             flat_creases=args.flat_creases,
         )
-        loops = isinstance(net, CreasePattern)
+        loops = net.n_loops > 0
         check_has_creases(net, args.net)
         if args.bias and not loops:
             fail(f"--bias pre-folds closed-loop patterns; {args.net} is a net, which starts flat.")
@@ -336,20 +334,19 @@ def run(args: argparse.Namespace) -> int:
         if release is not None and len(release) != m:
             raise ValueError(f"--release: {len(release)} values for {m} creases")
         if front is not None:
-            from_front = pattern_front if loops else release_times_from_front
-            release = from_front(net, front[:2], front[2])
-        options = dict(
-            targets=targets,
-            release_times=release,
+            release = net.release_times_from_front(front[:2], front[2])
+        model = dict(
             contact=False if args.no_contact else args.contact,
             drag=args.drag,
             hinges=args.hinges,
             contact_sampling=sampling,
         )
         if loops:
-            options["check_rigid"] = not args.no_rigid_check
-        system = net.system(design, **options)
-        theta0, theta_dot0 = net.start_state(system, bias=args.bias) if loops else (None, None)
+            model["check_rigid"] = not args.no_rigid_check
+        net = net.with_model(**model)
+        system = net.system(design, targets=targets, release_times=release)
+        if args.bias:
+            net.start_state(system, bias=args.bias)  # refused here, before the output folder
     except FileNotFoundError as error:
         fail(str(error))  # it names the file
     except NotRigidlyFoldableError as error:
@@ -360,25 +357,11 @@ def run(args: argparse.Namespace) -> int:
 
     output = OutputFolder(Path(args.out), command="fold", owns=OWNS, overwrite=args.overwrite)
     with output:
-        code = _run(
-            args,
-            net,
-            system,
-            loops,
-            params,
-            release,
-            sampling,
-            theta0,
-            theta_dot0,
-            output,
-            unfolded,
-        )
+        code = _run(args, net, system, params, release, sampling, output, unfolded)
     return code
 
 
-def _run(
-    args, net, system, loops, params, release, sampling, theta0, theta_dot0, output, unfolded
-) -> int:
+def _run(args, net, system, params, release, sampling, output, unfolded) -> int:
     """Fold, assess and write into the staging folder of `output`; returns the exit code.
     `unfolded`: the file held a folded form, read as the crease pattern it unfolds to."""
     import diffrax
@@ -389,6 +372,7 @@ def _run(
 
     out = output.dir
     m = net.n_creases
+    loops = net.n_loops > 0
     kind = f"{net.n_loops} closed loop(s), " if loops else ""
     if unfolded:
         print(
@@ -406,25 +390,22 @@ def _run(
     # constraint solve and compiles for minutes).
     solver = diffrax.Tsit5() if loops else None
     tolerances = sim.VerdictTolerances.from_degrees(args.tolerance, args.seam_tolerance)
-
-    def judge(trajectory):
-        if loops:
-            return net.assess(system, trajectory, tolerances=tolerances, bias=args.bias)
-        return net.assess(system, trajectory, tolerances=tolerances)
+    segments = 1
 
     def still_moving(end, next_end):
+        nonlocal segments
+        segments += 1
         print(f"[fold] still moving at {end:g} µs; folding on to {next_end:g} µs ...", flush=True)
 
-    # Closed loops are left at one segment: their state is not their hinge angles.
-    extend = args.t1 is None and not loops
-    trajectory, report, segments = sim.fold_until_settled(
+    # The pattern's fold: continued while still moving unless --t1 (a closed-loop pattern's state
+    # is not its hinge angles: one segment).
+    trajectory, report = net.fold(
         system,
         sim.Step(),
-        judge,
+        t1=args.t1,
+        bias=args.bias,
+        tolerances=tolerances,
         segment=segment,
-        max_segments=MAX_FOLD_SEGMENTS if extend else 1,
-        theta0=theta0,
-        theta_dot0=theta_dot0,
         on_continue=still_moving,
         options=sim.SolveOptions(
             saveat=sim.SaveAt(n=args.n_save),

@@ -404,16 +404,17 @@ def run(args: argparse.Namespace) -> int:
         except (ValueError, OSError) as error:
             fail(f"bad scatter config {args.scatter}: {error}")
     from ..fold import FoldFormatError
-    from ..loops import CreasePattern, load_pattern
-    from ..net._net import default_design
+    from ..loops import load_pattern
 
     try:
+        # The one place the yield command reads the pattern: the estimates, the kernel and the
+        # figures take this object.
         pattern = load_pattern(args.net)
     except (FoldFormatError, ValueError, OSError) as error:
         fail(f"cannot load {args.net}: {error}")
-    loops = isinstance(pattern, CreasePattern)
+    loops = pattern.n_loops > 0
     check_has_creases(pattern, args.net)
-    check_panels_thicker_than_film(pattern, default_design(pattern), args.net)
+    check_panels_thicker_than_film(pattern, pattern.default_design(), args.net)
     check_targets(pattern, None, args.net)
     if not 0 <= args.bias < 1:
         fail(f"--bias must be a pre-fold angle in [0, 1) rad, got {args.bias}.")
@@ -425,10 +426,8 @@ def run(args: argparse.Namespace) -> int:
             "nets (trees of panels); give --release times per crease instead of a front."
         )
     if front is not None:
-        from ..net import release_times_from_front
-
         try:
-            release = list(release_times_from_front(pattern, front[:2], front[2]))
+            release = list(pattern.release_times_from_front(front[:2], front[2]))
         except ValueError as error:
             fail(f"--etch-front: {error}")
     if release is not None:
@@ -445,6 +444,10 @@ def run(args: argparse.Namespace) -> int:
             )
     improve = _improve_parameters(args, scatter)
     process = _process(args.process, pattern.n_creases)
+    try:
+        pattern = pattern.with_model(contact=args.contact, contact_sampling=sampling)
+    except ValueError as error:
+        fail(f"{args.net}: {error}")
     # Held for the whole run (the estimates' sweep stores borrow its lock): another run into the
     # folder meanwhile is refused, and so is a folder holding results without --resume (a yield
     # never replaces results).
@@ -466,14 +469,17 @@ def run(args: argparse.Namespace) -> int:
 
 def _run(args, output, pattern, loops, scatter, sampling, factors, release, process, improve):
     """The estimates (and the ascent) into `output.out`, the results staged in `output.dir`."""
-    from ..fab_yield import yield_estimate
-    from ..net._net import default_design
+    import dataclasses
+
+    from ..fab_yield import RunOptions, yield_estimate
+    from ..net import FOLD_KERNEL_SOLVE
+    from ..simulation import DEFAULT_ATOL, DEFAULT_RTOL, VerdictTolerances
     from ..system import AIR, KOH_SOLUTION
 
     out = output.out
     if args.resume:
         _check_resumable(out, factors)
-    design = default_design(pattern, KOH_SOLUTION if args.fluid == "koh" else AIR)
+    design = pattern.default_design(KOH_SOLUTION if args.fluid == "koh" else AIR)
     print(
         f"[yield] {args.net}: {args.samples} samples, seed {args.seed}, scatter "
         + (", ".join(f"{n} {s.width:g}" for n, s in scatter.active().items()) or "none")
@@ -482,30 +488,37 @@ def _run(args, output, pattern, loops, scatter, sampling, factors, release, proc
     )
 
     # What every estimate of this run shares: the estimate itself, the other widths, the ascent.
-    common = dict(
-        n_samples=args.samples,
-        seed=args.seed,
-        design=design,
-        release_times=release,
-        process=process,
-        t_end=args.t_end,
-        rtol=args.rtol,
-        contact=args.contact,
-        contact_sampling=sampling,
-        angle_tolerance_deg=args.angle_tolerance,
-        seam_tolerance=args.seam_tolerance,
-        **({"bias": args.bias} if loops else {}),
-        confidence=args.confidence,
-        interval=args.interval,
+    # The solve's tolerances: --rtol with the defaults' ratio for the absolute one.
+    solve = FOLD_KERNEL_SOLVE.replace(t1=args.t_end)
+    if args.rtol is not None:
+        solve = solve.replace(rtol=float(args.rtol), atol=DEFAULT_ATOL / DEFAULT_RTOL * args.rtol)
+    run = RunOptions(
+        resume=args.resume,
         chunk_size=args.chunk_size,
         workers=args.workers,
         progress=not args.no_progress,
-        **({"step_budget": args.step_budget} if args.step_budget is not None else {}),
+        step_budget=args.step_budget,
+    )
+    common = dict(
+        design=design,
+        release_times=release,
+        process=process,
+        solve=solve,
+        tolerances=VerdictTolerances.from_degrees(args.angle_tolerance, args.seam_tolerance),
+        bias=args.bias,
     )
 
     def estimate_at(scatter, folder):
         with stored_sweep_errors(out):
-            return yield_estimate(args.net, scatter, out=folder, resume=args.resume, **common)
+            estimate = yield_estimate(
+                pattern,
+                scatter,
+                args.samples,
+                args.seed,
+                run=dataclasses.replace(run, out=folder),
+                **common,
+            )
+        return estimate.with_interval(args.confidence, args.interval)
 
     start = time.perf_counter()
     estimate = estimate_at(scatter, out)
@@ -519,19 +532,25 @@ def _run(args, output, pattern, loops, scatter, sampling, factors, release, proc
         at_width[factor] = estimate_at(scatter.scaled(factor), out / "widths" / f"x{factor:g}")
     ascent = None
     if improve:
-        from ..fab_yield import yield_ascent
+        from ..fab_yield import AscentSettings, yield_ascent
 
         print(f"[yield] improving {', '.join(improve)}: at most {args.improve} steps", flush=True)
         with stored_sweep_errors(out):
             ascent = yield_ascent(
-                args.net,
+                pattern,
                 improve,
                 scatter,
-                steps=args.improve,
-                step=args.improve_step,
-                confirm_samples=args.samples,
+                args.samples,
+                args.seed,
+                settings=AscentSettings(
+                    steps=args.improve,
+                    step=args.improve_step,
+                    confirm_samples=args.samples,
+                    confidence=args.confidence,
+                    interval=args.interval,
+                ),
                 first=estimate,  # iterate 0 is the estimate above
-                out=out / "improve",
+                run=dataclasses.replace(run, out=out / "improve"),
                 **common,
             )
     elapsed = time.perf_counter() - start

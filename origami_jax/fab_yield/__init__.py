@@ -8,8 +8,10 @@ this by Monte Carlo:
 
 ```python
 import origami_jax.fab_yield as ojy
+from origami_jax.loops import load_pattern
 
-estimate = ojy.yield_estimate("cube_net_01", ojy.Scatter(), n_samples=200, seed=0, out="yield_out")
+cube = load_pattern("cube_net_01")  # a pattern object: names become patterns once, here
+estimate = ojy.yield_estimate(cube, ojy.Scatter(), 200, seed=0, run=ojy.RunOptions(out="yield_out"))
 print(estimate.summary())   # yield 0.81 (95 % interval 0.75-0.86, wilson) over 200 samples: ...
 estimate.dataset            # xarray.Dataset: the drawn parameters and every sample's verdict
 ```
@@ -25,10 +27,12 @@ estimate.dataset            # xarray.Dataset: the drawn parameters and every sam
   bends more or less than nominal folds its crease past or short of the target (a contact can
   stop a crease that overfolds; one that underfolds leaves its seams open).
 - The samples run through the sweep engine (`origami_jax.sweep.sweep`): chunked, vmapped, sharded
-  over the devices, stored as they finish in `out`; `resume=True` continues an interrupted
-  estimate with the same samples.
+  over the devices, stored as they finish in `RunOptions.out`; `RunOptions(resume=True)`
+  continues an interrupted estimate with the same samples. The solve's settings are a
+  `origami_jax.simulation.SolveOptions`, the physics model the pattern's (`Net.with_model`).
 - The result, `YieldEstimate`: the yield, its confidence interval (`wilson_interval`, or
-  `clopper_pearson_interval`), the verdict counts and the samples as a dataset.
+  `clopper_pearson_interval` by `YieldEstimate.with_interval`), the verdict counts and the
+  samples as a dataset.
 
 - `yield_gradient`: the yield's gradient with respect to the nominal value of every scattered
   parameter (film stress, thicknesses, hinge widths; normal or lognormal spreads), by the score
@@ -41,7 +45,7 @@ estimate.dataset            # xarray.Dataset: the drawn parameters and every sam
   parameters (film stress, thicknesses, hinge widths, release times with a normal spread) by
   stochastic gradient ascent along `yield_gradient`: one estimate per iteration, steps measured in
   spread widths inside a trust region, common random numbers, the best iterate re-estimated on
-  fresh draws (`confirm_samples`). `ascend` is its loop with any estimator; `YieldAscent` the
+  fresh draws (`AscentSettings.confirm_samples`). `ascend` is its loop with any estimator; `YieldAscent` the
   iterations (`summary()`, `figure()`, `paired()`).
 - `soft_yield`: a differentiable surrogate of the yield over the same samples (logistic margins of
   each sample's final angles and seams), a traceable function of the drawn hinge angles, widths and
@@ -55,8 +59,8 @@ estimate.dataset            # xarray.Dataset: the drawn parameters and every sam
   (`front_candidates`: all at once, and straight etch fronts from several directions) on the same
   fabricated nets and names the best. `examples/flap_under_flap.fold` jams unless its long flap
   goes first.
-- The verdict's tolerances: `angle_tolerance_deg` and `seam_tolerance` (a fraction of the panel
-  size; `origami_jax.simulation.VerdictTolerances`).
+- The verdict's tolerances: `tolerances=`, a `origami_jax.simulation.VerdictTolerances` (the
+  angle, and the seam gap as a fraction of the panel size).
 
 `yield_estimate` also takes crease patterns with closed loops (pre-folded by `bias`; a sample on
 another branch is misfolded); the ascent, the order search and the surrogate take nets only.
@@ -66,10 +70,12 @@ closed-loop patterns.
 """
 
 from ._ascent import AscentIterate as AscentIterate
+from ._ascent import AscentSettings as AscentSettings
 from ._ascent import YieldAscent as YieldAscent
 from ._ascent import ascend as ascend
 from ._ascent import check_ascent as check_ascent
 from ._ascent import yield_ascent as yield_ascent
+from ._estimate import RunOptions as RunOptions
 from ._estimate import YieldEstimate as YieldEstimate
 from ._estimate import yield_estimate as yield_estimate
 from ._gradient import YieldGradient as YieldGradient

@@ -52,7 +52,7 @@ from typing import Any
 
 import numpy as np
 
-from ._estimate import _GLOBAL, YieldEstimate
+from ._estimate import _GLOBAL, RunOptions, YieldEstimate
 from ._gradient import YieldGradient, yield_gradient
 from ._scatter import PARAMETERS, Scatter, Spread
 
@@ -359,6 +359,37 @@ def _move(spread: Spread, name: str, x: np.ndarray, d: np.ndarray, bound) -> np.
     return np.clip(new, low, high)
 
 
+@dataclasses.dataclass(frozen=True)
+class AscentSettings:
+    """How a yield ascent steps and when it stops (`ascend`, `yield_ascent`; module docstring).
+
+    **Fields:**
+    - `steps`: the step budget (5); `step`: the trust region in spread widths (0.5);
+      `significance`: stop when no gradient component exceeds this many standard errors (2).
+    - `bounds`: `{name: (low, high)}` in the parameter's unit, for every crease (default
+      ``(0, ∞)``; release times ``[0, ∞)``).
+    - `fresh_draws`: a new seed every iteration (plain stochastic gradient ascent) instead of the
+      same draws (common random numbers; default).
+    - `confirm_samples`, `confirm_seed`: re-estimate the best iterate with this many samples on a
+      seed no iterate used (default the next one after them); 0 (default) skips it.
+    - `confidence`, `interval`: the level and method of the yield's interval in `yield_ascent`'s
+      estimates (`YieldEstimate.with_interval`; 0.95, `"wilson"`): the best iterate is the one
+      with the highest lower limit.
+
+    Checked by `ascend` before any estimate (`check_ascent`).
+    """
+
+    steps: int = 5
+    step: float = 0.5
+    significance: float = 2.0
+    bounds: Mapping[str, Any] | None = None
+    fresh_draws: bool = False
+    confirm_samples: int = 0
+    confirm_seed: int | None = None
+    confidence: float = 0.95
+    interval: str = "wilson"
+
+
 def ascend(
     estimate_at: Callable[[dict[str, np.ndarray], int, int, str], YieldEstimate],
     start: Mapping[str, Any],
@@ -367,13 +398,7 @@ def ascend(
     n_samples: int,
     seed: int = 0,
     *,
-    steps: int = 5,
-    step: float = 0.5,
-    significance: float = 2.0,
-    bounds: Mapping[str, Any] | None = None,
-    fresh_draws: bool = False,
-    confirm_samples: int = 0,
-    confirm_seed: int | None = None,
+    settings: AscentSettings | None = None,
 ) -> YieldAscent:
     """Stochastic gradient ascent of a Monte Carlo yield over nominal values, with any estimator:
     the loop of `yield_ascent` (module docstring), which builds `estimate_at` from
@@ -390,18 +415,20 @@ def ascend(
       several), each with a normal or lognormal spread.
     - `n_samples`, `seed`: per iteration; iteration ``k`` uses `seed` (or ``seed + k`` with
       `fresh_draws`).
-    - `steps`: the step budget; `step`: the trust region in spread widths (0.5); `significance`:
-      stop when no gradient component exceeds this many standard errors (2).
-    - `bounds`: `{name: (low, high)}` in the parameter's unit, for every crease (default
-      ``(0, ∞)``; release times ``[0, ∞)``).
-    - `confirm_samples`, `confirm_seed`: re-estimate the best iterate with this many samples on a
-      seed no iterate used (default the next one after them); 0 (default) skips it.
+    - `settings`: an `AscentSettings` (the step budget, trust region, significance, bounds,
+      fresh draws and the confirmation; default `AscentSettings()`).
 
     **Returns:** a `YieldAscent`.
 
     **Raises:** `ValueError` (before any estimate) as `check_ascent`, and for `n_samples` < 2 or a
     negative `confirm_samples`.
     """
+    settings = AscentSettings() if settings is None else settings
+    if not isinstance(settings, AscentSettings):
+        raise ValueError(f"settings must be an AscentSettings, got {type(settings).__name__}.")
+    steps, step, significance = settings.steps, settings.step, settings.significance
+    bounds, fresh_draws = settings.bounds, settings.fresh_draws
+    confirm_samples, confirm_seed = settings.confirm_samples, settings.confirm_seed
     if isinstance(n_samples, bool) or not isinstance(n_samples, int | np.integer) or n_samples < 2:
         raise ValueError(f"n_samples must be an integer >= 2 (for a gradient), got {n_samples!r}.")
     if (
@@ -506,24 +533,18 @@ def ascend(
 
 
 def yield_ascent(
-    net,
+    pattern,
     parameters: str | Sequence[str],
     scatter: Scatter | Mapping[str, Any] | None = None,
     n_samples: int = 64,
     seed: int = 0,
     *,
-    steps: int = 5,
-    step: float = 0.5,
-    significance: float = 2.0,
-    bounds: Mapping[str, Any] | None = None,
-    fresh_draws: bool = False,
-    confirm_samples: int = 0,
-    confirm_seed: int | None = None,
+    settings: AscentSettings | None = None,
     design=None,
     process: Mapping[str, Any] | None = None,
     release_times=None,
     first: YieldEstimate | None = None,
-    out=None,
+    run: RunOptions | None = None,
     **options: Any,
 ) -> YieldAscent:
     """Raise a net's Monte Carlo yield by moving the fabrication's nominal values of `parameters`
@@ -541,24 +562,25 @@ def yield_ascent(
     design = HingeDesign.literature(fluid=KOH_SOLUTION)
     film = ojy.Scatter.from_mapping({"defaults": False, "misfit_strain": {"width": 0.01}})
     ascent = ojy.yield_ascent(
-        "corner_cube", "misfit_strain", film, n_samples=32, steps=4, step=1.0, design=design,
+        "corner_cube", "misfit_strain", film, n_samples=32, design=design,
+        settings=ojy.AscentSettings(steps=4, step=1.0, confirm_samples=32),
         process={"misfit_strain": 0.97 * float(design.misfit_strain)},  # a film 3 % too relaxed
-        confirm_samples=32, seam_tolerance=0.05, t_end=600.0,
+        tolerances=VerdictTolerances(seam=0.05), solve=FOLD_KERNEL_SOLVE.replace(t1=600.0),
     )
     print(ascent.summary())
     ```
 
     **Arguments** (µm, µs: the MICRO units):
-    - `net`, `scatter`, `design`, `out` (one subfolder per iterate, `iterate-00`, ..., and
-      `confirmation`) and `options` (`t_end`, `chunk_size`, `progress`, the tolerances, ...): as
-      `yield_estimate`.
+    - `pattern` (a net: a tree of panels, or its name), `scatter`, `design` and `options`
+      (`targets`, `solve`, `tolerances`): as `yield_estimate`.
+    - `run`: as `yield_estimate`'s, its `out` holding one subfolder per iterate (`iterate-00`,
+      ..., and `confirmation`); an ascent cannot `resume`.
     - `parameters`: the name(s) to move (`PARAMETERS`), each scattered by a normal or lognormal
       spread of non-zero width in `scatter`. `release` moves the nominal release times (per crease;
       an absolute normal spread, in µs).
     - `process`, `release_times`: the start (default the design's values, release at 0); the
       parameters not moved keep them throughout.
-    - `n_samples`, `seed`, `steps`, `step`, `significance`, `bounds`, `fresh_draws`,
-      `confirm_samples`, `confirm_seed`: as `ascend`.
+    - `n_samples`, `seed`, `settings` (an `AscentSettings`): as `ascend`.
     - `first`: an estimate already made at the start (same scatter, seed, number of samples and
       nominal values, e.g. the one that showed the yield is low), used as iterate 0 instead of
       estimating it again.
@@ -569,11 +591,8 @@ def yield_ascent(
     zero-width spread, a non-positive `step`, bounds that do not contain the start, and what
     `yield_estimate` refuses.
     """
-    from ..fold import FoldFormatError
-    from ..net import load_net
-    from ..net._net import default_design
     from ..system import KOH_SOLUTION, HingeDesign
-    from ._estimate import _nominal, _process, yield_estimate
+    from ._estimate import _nominal, _process, as_pattern, yield_estimate
 
     if scatter is None:
         scatter = Scatter()
@@ -583,32 +602,40 @@ def yield_ascent(
         raise ValueError(f"scatter must be a Scatter or a mapping, got {type(scatter).__name__}.")
     if design is not None and not isinstance(design, HingeDesign):
         raise ValueError(f"design must be a HingeDesign, got {type(design).__name__}.")
-    for name in ("resume", "n_samples", "seed"):
+    for name in ("n_samples", "seed"):
         if name in options:
             raise ValueError(
                 f"yield_ascent has no {name} option (every iterate is a new estimate)."
             )
-    try:
-        the_net = load_net(net)
-    except FoldFormatError as error:
-        raise ValueError(f"{net}: yield_ascent takes a net (a tree of panels): {error}") from None
-    m = the_net.n_creases
+    run = RunOptions() if run is None else run
+    if run.resume:
+        raise ValueError("yield_ascent cannot resume (every iterate is a new estimate).")
+    pattern = as_pattern(pattern)
+    if pattern.n_loops:
+        raise ValueError(
+            f"{pattern.name}: yield_ascent takes a net (a tree of panels), not a crease pattern "
+            f"with {pattern.n_loops} closed loop(s)."
+        )
+    m = pattern.n_hinges
     if design is None:
-        design = default_design(the_net, KOH_SOLUTION)  # as `yield_estimate`'s
+        design = pattern.default_design(KOH_SOLUTION)  # as `yield_estimate`'s
     if release_times is not None:
         release_times = np.asarray(release_times, dtype=float)
         if release_times.shape != (m,) or not np.all(np.isfinite(release_times)):
             raise ValueError(f"release_times must be {m} finite times (µs, one per crease).")
     start = _nominal(design, release_times, m)
     start.update(_process(process, m))
+    settings = AscentSettings() if settings is None else settings
+    if not isinstance(settings, AscentSettings):
+        raise ValueError(f"settings must be an AscentSettings, got {type(settings).__name__}.")
     names, _ = check_ascent(
         scatter,
         parameters,
         start,
-        steps=steps,
-        step=step,
-        significance=significance,
-        bounds=bounds,
+        steps=settings.steps,
+        step=settings.step,
+        significance=settings.significance,
+        bounds=settings.bounds,
     )
     if first is not None:
         same = (
@@ -628,17 +655,18 @@ def yield_ascent(
             return first
         moved = {n: nominal[n] for n in names if n != "release"}
         moved = {n: float(v[0]) if n in _GLOBAL else v for n, v in moved.items()}
+        out = None if run.out is None else os.path.join(os.fspath(run.out), label)
         return yield_estimate(
-            net,
+            pattern,
             scatter,
             count,
             draw_seed,
             design=design,
             process={**(process or {}), **moved},
             release_times=nominal["release"] if "release" in names else release_times,
-            out=None if out is None else os.path.join(os.fspath(out), label),
+            run=dataclasses.replace(run, out=out),
             **options,
-        )
+        ).with_interval(settings.confidence, settings.interval)
 
     return ascend(
         estimate_at,
@@ -647,11 +675,5 @@ def yield_ascent(
         names,
         n_samples,
         seed,
-        steps=steps,
-        step=step,
-        significance=significance,
-        bounds=bounds,
-        fresh_draws=fresh_draws,
-        confirm_samples=confirm_samples,
-        confirm_seed=confirm_seed,
+        settings=settings,
     )

@@ -11,7 +11,6 @@ from typing import Any
 
 import numpy as np
 
-from .._limits import CONTACT_SAMPLING
 from ._scatter import PARAMETERS, Scatter, sample_values, standard_draws
 from ._stats import INTERVAL_METHODS, binomial_interval
 
@@ -74,6 +73,22 @@ class YieldEstimate:
         )
         return np.stack([self.dataset[c].values for _, c in columns], axis=1)
 
+    def with_interval(self, confidence: float = 0.95, method: str = "wilson") -> "YieldEstimate":
+        """This estimate with its interval at another `confidence` or by another `method`
+        (`"wilson"`, `"clopper-pearson"`; `binomial_interval`): statistics of the same counts,
+        nothing simulated again.
+
+        **Raises:** `ValueError` for a confidence outside ``(0, 1)`` or an unknown method."""
+        if method not in INTERVAL_METHODS:
+            raise ValueError(f"interval must be one of {INTERVAL_METHODS}, got {method!r}.")
+        if not (isinstance(confidence, int | float) and 0 < confidence < 1):
+            raise ValueError(f"confidence must lie strictly between 0 and 1, got {confidence!r}.")
+        folded = self.counts[str(_folded())]
+        interval = binomial_interval(folded, self.n_samples, float(confidence), method)
+        return dataclasses.replace(
+            self, interval=interval, confidence=float(confidence), method=method
+        )
+
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready summary (no samples)."""
         return {
@@ -97,6 +112,73 @@ class YieldEstimate:
             f"yield {self.fraction:.3f} ({100 * self.confidence:g} % interval {low:.3f}-{high:.3f},"
             f" {self.method}) over {self.n_samples} samples: {counts}"
         )
+
+
+def _folded():
+    from ..simulation import FoldVerdict
+
+    return FoldVerdict.FOLDED
+
+
+@dataclasses.dataclass(frozen=True)
+class RunOptions:
+    """How a yield estimate runs and where it keeps its samples: nothing here changes a sample's
+    result.
+
+    **Fields:**
+    - `out`: a folder to store the samples in as they finish (`origami_jax.sweep.sweep`'s), or
+      `None` (in memory).
+    - `resume`: continue the interrupted estimate stored in `out` (it must have the same pattern,
+      settings, scatter, seed and number of samples).
+    - `chunk_size`, `workers`, `progress`, `on_chunk`: as `origami_jax.sweep.sweep` (on a CPU the
+      default runs one sample per compiled call, as many at once as there are cores).
+    - `step_budget`: solver steps per sample in a first pass (default `None`: one pass of the
+      solve's `max_steps`). A vmapped chunk steps until its slowest member is done, and under
+      scatter a few samples take ten times the median's steps: with a budget, the samples that
+      reach it are run again, all together, in a second pass with `max_steps` (stored in
+      `out/stragglers`). The samples' results are the same either way; it pays where chunks are
+      wide (accelerators, or a `chunk_size` on a CPU) at the price of one more compilation. A
+      budget of a few times the median sample's steps (the dataset's `num_steps`) keeps the
+      second pass small.
+
+    Change one with `dataclasses.replace(run, out=...)`.
+    """
+
+    out: str | os.PathLike | None = None
+    resume: bool = False
+    chunk_size: int | None = None
+    workers: int | None = None
+    progress: bool = True
+    on_chunk: Callable[[int, int], None] | None = None
+    step_budget: int | None = None
+
+    def sweep_options(self) -> dict[str, Any]:
+        """The keyword arguments of `origami_jax.sweep.sweep` these options set."""
+        return {
+            "out": self.out,
+            "resume": self.resume,
+            "chunk_size": self.chunk_size,
+            "workers": self.workers,
+            "progress": self.progress,
+            "on_chunk": self.on_chunk,
+        }
+
+
+def as_pattern(pattern):
+    """A pattern object from `pattern`: itself, or the pattern a catalogue name or `.fold` path
+    names (`origami_jax.loops.load_pattern`; the one place a yield function reads a name).
+
+    **Raises:** `ValueError` for a file that is not a pattern."""
+    from ..fold import FoldFormatError
+    from ..loops import load_pattern
+    from ..system import AbstractPattern
+
+    if isinstance(pattern, AbstractPattern):
+        return pattern
+    try:
+        return load_pattern(pattern)
+    except FoldFormatError as error:
+        raise ValueError(f"{pattern}: {error}") from None
 
 
 def _nominal(design, release_times, m: int) -> dict[str, np.ndarray]:
@@ -168,16 +250,23 @@ _KERNELS: dict[str, Any] = {}
 _KERNELS_KEPT = 4
 
 
-def _kernel(**options):
-    """The net kernel for `options`, the same object for the same options (the sweep engine then
-    traces and compiles it once per process; see `origami_jax.sweep.sweep`)."""
-    from ..sweep._kernels import design_settings, net_fold
+def _kernel(pattern, **options):
+    """The fold kernel of `pattern` for `options` (`origami_jax.net.fold_kernel`), the same object
+    for the same pattern object and options (the sweep engine then traces and compiles it once
+    per process; see `origami_jax.sweep.sweep`)."""
+    from ..sweep._kernels import design_settings
 
-    key = json.dumps(
-        {**options, "design": design_settings(options["design"])}, sort_keys=True, default=str
-    )
+    solve, tolerances = options["solve"], options["tolerances"]
+    described = {
+        **options,
+        "design": design_settings(options["design"]),
+        "solve": [float(solve.t1), solve.saveat.n, float(solve.rtol), float(solve.atol)]
+        + [solve.max_steps],
+        "tolerances": tolerances.to_dict(),
+    }
+    key = (pattern, json.dumps(described, sort_keys=True, default=str))
     if key not in _KERNELS:
-        _KERNELS[key] = net_fold(**options)
+        _KERNELS[key] = pattern.kernel(**options)
         while len(_KERNELS) > _KERNELS_KEPT:
             _KERNELS.pop(next(iter(_KERNELS)))
     return _KERNELS[key]
@@ -221,7 +310,7 @@ def _stored_samples(out) -> int:
 
 
 def yield_estimate(
-    net: str | os.PathLike,
+    pattern,
     scatter: Scatter | Mapping[str, Any] | None = None,
     n_samples: int = 100,
     seed: int = 0,
@@ -230,43 +319,38 @@ def yield_estimate(
     targets=None,
     release_times=None,
     process: Mapping[str, Any] | None = None,
-    t_end: float = 1500.0,
-    n_save: int = 301,
-    max_steps: int = 200_000,
-    rtol: float | None = None,
-    contact: bool | str = True,
-    drag: str = "panel",
-    contact_sampling: tuple[int, int] = CONTACT_SAMPLING,
+    solve=None,
+    tolerances=None,
     bias: float = 0.0,
-    step_budget: int | None = None,
-    angle_tolerance_deg: float = 3.0,
-    seam_tolerance: float = 0.01,
-    confidence: float = 0.95,
-    interval: str = "wilson",
-    out: str | os.PathLike | None = None,
-    resume: bool = False,
-    chunk_size: int | None = None,
-    workers: int | None = None,
-    progress: bool = True,
-    on_chunk: Callable[[int, int], None] | None = None,
+    run: RunOptions | None = None,
 ) -> YieldEstimate:
     """The fraction of fabricated nets that fold into the intended shape, with its confidence
     interval (module docstring).
 
-    Every sample is the net with its hinges' films, widths and release times drawn from `scatter`
-    (`standard_draws` from `seed`), simulated with contact from flat for `t_end` and judged by
-    `origami_jax.simulation.fold_outcome` against the pattern's fold angles and seams. The hinge
-    lengths are the nominal design's (``l = ρ₀ |θ_target|``, drawn by lithography), so a sample whose
-    film bends more or less than nominal folds its crease past or short of the target
-    (`hinge_lengths="designed"` of the sweep's `"net-fold"` model). The samples run through
+    Every sample is the pattern with its hinges' films, widths and release times drawn from
+    `scatter` (`standard_draws` from `seed`), simulated from flat for the solve's `t1` and judged
+    by `origami_jax.simulation.fold_outcome` against the pattern's fold angles and seams. The
+    hinge lengths are the nominal design's (``l = ρ₀ |θ_target|``, drawn by lithography), so a
+    sample whose film bends more or less than nominal folds its crease past or short of the target
+    (`hinge_lengths="designed"` of `origami_jax.net.fold_kernel`). The samples run through
     `origami_jax.sweep.sweep`: in chunks, vmapped, sharded over `jax.local_devices()`, stored in
-    `out` as they finish.
+    `run.out` as they finish.
+
+    ```python
+    pattern = load_pattern("corner_cube").with_model(contact="plate")
+    estimate = yield_estimate(
+        pattern, Scatter(), 32, seed=1, solve=FOLD_KERNEL_SOLVE.replace(t1=600.0),
+        run=RunOptions(out="yield-out", chunk_size=4),
+    )
+    ```
 
     **Arguments** (lengths µm, times µs: the MICRO units):
-    - `net`: a catalogue name (`origami_jax.fold.catalogue_names()`, e.g. `"cube_net_01"`) or a
-      `.fold` path: a net (a tree of panels), or a crease pattern with closed loops (a waterbomb,
-      a Miura sheet), whose samples start flat or pre-folded by `bias` and are `misfolded` when
-      they take another branch.
+    - `pattern`: a `Net` (a tree of panels) or a `CreasePattern` (closed loops: a waterbomb, a
+      Miura sheet, whose samples start flat or pre-folded by `bias` and are `misfolded` when they
+      take another branch), with the physics model its samples fold with (`contact`, `drag`,
+      `contact_sampling`: `Net.with_model`). For convenience a catalogue name
+      (`origami_jax.fold.catalogue_names()`, e.g. `"cube_net_01"`) or a `.fold` path, read once
+      here (`load_pattern`, its default model).
     - `scatter`: a `Scatter` (default `Scatter()`, the documented defaults) or a mapping of one.
     - `n_samples`, `seed`: how many nets to draw, and from which seed.
     - `design`: the nominal `HingeDesign` (default `HingeDesign.literature(fluid=KOH_SOLUTION)`,
@@ -279,85 +363,73 @@ def yield_estimate(
       the hinges were drawn for: the scatter is drawn around these while the hinge lengths stay the
       design's. Keys: `misfit_strain`, `t_hinge`, `hinge_width` (a number or one per crease),
       `t_structural`, `drag_coefficient` (a number); default none (the process hits the design).
-    - `t_end`, `n_save`, `max_steps`: the simulated time, saved samples, solver step budget.
-    - `rtol`: the solver's relative tolerance (default `simulate`'s, 1e-7; the absolute one is
-      1e-2 `rtol`, the defaults' ratio). Looser is faster and moves contact events in time: on 16
-      scattered cube nets every verdict was the same from 1e-4 to 1e-10, with 40 % fewer steps at
-      1e-5 than at the default; check on a few samples of your own net before relying on it.
-    - `contact`, `drag`, `contact_sampling`: as `origami_jax.net.Net.system`.
+    - `solve`: a `SolveOptions`, each sample's simulated time `t1`, saved samples `saveat.n`,
+      step budget `max_steps` and tolerances `rtol`, `atol` (default
+      `origami_jax.net.FOLD_KERNEL_SOLVE`: 1500 µs, 301 samples, 200,000 steps, the simulation's
+      tolerances). Looser tolerances are faster and move contact events in time: on 16
+      scattered cube nets every verdict was the same from rtol 1e-4 to 1e-10 (atol 1e-2 rtol,
+      the defaults' ratio), with 40 % fewer steps at 1e-5 than at the default; check on a few
+      samples of your own net before relying on it.
+    - `tolerances`: the verdict's (`origami_jax.simulation.VerdictTolerances`; default 3° and a
+      seam fraction of 0.01 of the largest panel's size: 2 µm on 200 µm panels). The seam
+      tolerance is the stricter of the two by default (0.01 of the panel is about 0.6° of crease
+      error) and decides most verdicts.
     - `bias`: a closed-loop pattern's pre-fold (rad, `CreasePattern.start_state`): 0 (default)
       starts every sample flat, a bifurcation where the inputs pick the branch; a membrane is
       never quite flat, and a small bias along the pattern's own angles (0.05) is what most
       devices start from. Nets take 0.
-    - `step_budget`: solver steps per sample in a first pass (default `None`: one pass of
-      `max_steps`). A vmapped chunk steps until its slowest member is done, and under scatter a
-      few samples take ten times the median's steps: with a budget, the samples that reach it are
-      run again, all together, in a second pass with `max_steps` (stored in `out/stragglers`).
-      The samples' results are the same either way; it pays where chunks are wide (accelerators,
-      or a `chunk_size` on a CPU; the CPU default of one sample per call has no lockstep) at the
-      price of one more compilation. A budget of a few times the median sample's steps (the
-      dataset's `num_steps`) keeps the second pass small.
-    - `angle_tolerance_deg` (degrees) and `seam_tolerance` (a fraction of the largest panel's
-      size, 0.01: 2 µm on 200 µm panels): the verdict's tolerances
-      (`origami_jax.simulation.VerdictTolerances`). The seam tolerance is the stricter of the two
-      by default (0.01 of the panel is about 0.6° of crease error) and decides most verdicts.
-    - `confidence`, `interval`: the interval's level and method (`"wilson"`, `"clopper-pearson"`).
-    - `out`, `resume`, `chunk_size`, `workers`, `progress`, `on_chunk`: as
-      `origami_jax.sweep.sweep` (a folder to store the samples in; `resume=True` continues an
-      interrupted estimate, which must have the same net, settings, scatter, seed and number of
-      samples). On a CPU the default runs one sample per compiled call, as many at once as there
-      are cores.
+    - `run`: a `RunOptions`: where the samples are kept (`out`, `resume`), how they are computed
+      (`chunk_size`, `workers`, `step_budget`) and reported (`progress`, `on_chunk`).
+
+    The interval is the 95 % Wilson interval; `YieldEstimate.with_interval` gives another.
 
     **Returns:** a `YieldEstimate`.
 
     **Raises:** `ValueError` (before anything compiles) for a bad scatter, a pattern that cannot
     be read, bad counts or settings; the sweep's errors for a folder that holds another estimate.
     """
-    from ..fold import FoldFormatError
-    from ..loops import CreasePattern, load_pattern
-    from ..net._net import default_design
-    from ..simulation import DEFAULT_ATOL, DEFAULT_RTOL, FoldVerdict, VerdictTolerances
+    from ..net import FOLD_KERNEL_SOLVE
+    from ..simulation import FoldVerdict, SolveOptions, VerdictTolerances
     from ..sweep import Table, sweep
     from ..system import KOH_SOLUTION, HingeDesign
 
     if isinstance(n_samples, bool) or not isinstance(n_samples, int | np.integer):
         raise ValueError(f"n_samples must be an integer >= 1, got {n_samples!r}.")
-    tolerances = VerdictTolerances.from_degrees(angle_tolerance_deg, seam_tolerance)
+    tolerances = VerdictTolerances() if tolerances is None else tolerances
+    if not isinstance(tolerances, VerdictTolerances):
+        raise ValueError(f"tolerances must be a VerdictTolerances, got {tolerances!r}.")
     if n_samples < 1:
         raise ValueError(f"n_samples must be an integer >= 1, got {n_samples!r}.")
-    if rtol is not None and not (
-        isinstance(rtol, int | float) and not isinstance(rtol, bool) and 0 < rtol < 1
-    ):
+    solve = FOLD_KERNEL_SOLVE if solve is None else solve
+    if not isinstance(solve, SolveOptions):
+        raise ValueError(f"solve must be a SolveOptions, got {type(solve).__name__}.")
+    rtol = solve.rtol
+    if not (isinstance(rtol, int | float) and not isinstance(rtol, bool) and 0 < rtol < 1):
         raise ValueError(f"rtol must be a number strictly between 0 and 1, got {rtol!r}.")
+    run = RunOptions() if run is None else run
+    if not isinstance(run, RunOptions):
+        raise ValueError(f"run must be a RunOptions, got {type(run).__name__}.")
     if scatter is None:
         scatter = Scatter()
     elif isinstance(scatter, Mapping):
         scatter = Scatter.from_mapping(scatter)
     elif not isinstance(scatter, Scatter):
         raise ValueError(f"scatter must be a Scatter or a mapping, got {type(scatter).__name__}.")
-    if interval not in INTERVAL_METHODS:
-        raise ValueError(f"interval must be one of {INTERVAL_METHODS}, got {interval!r}.")
-    if not (isinstance(confidence, int | float) and 0 < confidence < 1):
-        raise ValueError(f"confidence must lie strictly between 0 and 1, got {confidence!r}.")
     if design is not None and not isinstance(design, HingeDesign):
         raise ValueError(f"design must be a HingeDesign, got {type(design).__name__}.")
-    if out is not None and not resume and (Path(out) / "sweep.json").exists():
+    out = run.out
+    if out is not None and not run.resume and (Path(out) / "sweep.json").exists():
         raise FileExistsError(
             f"{out} already holds a yield estimate. Pass resume=True (CLI: --resume) to continue "
             "it, or choose another output folder."
         )
-    try:
-        the_net = load_pattern(net)
-    except FoldFormatError as error:
-        raise ValueError(f"{net}: {error}") from None
-    loops = isinstance(the_net, CreasePattern)
+    pattern = as_pattern(pattern)
     if not (isinstance(bias, int | float) and not isinstance(bias, bool) and 0 <= bias < 1):
         raise ValueError(f"bias must be a pre-fold angle in [0, 1) rad, got {bias!r}.")
-    if bias and not loops:
-        raise ValueError(
-            f"{net} is a net (a tree of panels), which starts flat: bias pre-folds closed-loop "
-            "patterns only."
-        )
+    if bias:
+        pattern.start_state(bias=bias)  # a net refuses one: it starts flat
+    max_steps = solve.max_steps
+    step_budget = run.step_budget
     if step_budget is not None and not (
         isinstance(step_budget, int | np.integer)
         and not isinstance(step_budget, bool)
@@ -368,8 +440,9 @@ def yield_estimate(
             f"({max_steps - 1}), got {step_budget!r}."
         )
     if design is None:
-        design = default_design(the_net, KOH_SOLUTION)
-    m = the_net.n_creases
+        design = pattern.default_design(KOH_SOLUTION)
+    m = pattern.n_hinges
+    t_end = solve.t1 if solve.t1 is not None else FOLD_KERNEL_SOLVE.t1
     if release_times is not None:
         release_times = np.asarray(release_times, dtype=float)
         if release_times.shape != (m,):
@@ -407,53 +480,38 @@ def yield_estimate(
             "(not folded): narrow the spread or use a lognormal one.",
             stacklevel=2,
         )
-    aims = the_net.intended_angles if targets is None else np.asarray(targets, dtype=float)
+    aims = pattern.intended_angles if targets is None else np.asarray(targets, dtype=float)
     if aims.shape != (m,) or not np.all(np.isfinite(aims)):
         raise ValueError(f"targets must be {m} finite angles (rad, one per crease).")
     options = dict(
-        net=os.fspath(net),
         design=design,
         hinge_lengths="designed",
-        t_end=t_end,
-        n_save=n_save,
-        rtol=None if rtol is None else float(rtol),
-        atol=None if rtol is None else DEFAULT_ATOL / DEFAULT_RTOL * float(rtol),
-        contact=contact,
-        drag=drag,
-        contact_sampling=contact_sampling,
-        angle_tolerance_deg=angle_tolerance_deg,
-        seam_tolerance=seam_tolerance,
-        **({"bias": float(bias)} if loops else {}),
+        solve=solve.replace(t1=t_end),
+        tolerances=tolerances,
+        bias=float(bias),
     )
     first_pass = max_steps if step_budget is None else int(step_budget)
-    kernel = _kernel(**options, max_steps=first_pass)
+    kernel = _kernel(
+        pattern, **{**options, "solve": options["solve"].replace(max_steps=first_pass)}
+    )
     columns, units = _columns(values)
     # The hinges' drawn angles are data, not settings: nets aimed elsewhere share the compiled call.
     for j in range(m):
         columns[f"target[{j}]"] = np.full(int(n_samples), aims[j])
         units[f"target[{j}]"] = "rad"
-    stored = _stored_samples(out) if resume else 0
-    dataset = sweep(
-        kernel,
-        Table(columns, units=units),
-        chunk_size=chunk_size,
-        workers=workers,
-        out=out,
-        resume=resume,
-        progress=progress,
-        on_chunk=on_chunk,
-    )
+    stored = _stored_samples(out) if run.resume else 0
+    dataset = sweep(kernel, Table(columns, units=units), **run.sweep_options())
     if step_budget is not None:
         dataset = _stragglers_finished(
             dataset,
-            _kernel(**options, max_steps=max_steps),
+            _kernel(pattern, **options),
             columns,
             units,
             out=None if out is None else Path(out) / "stragglers",
-            resume=resume,
-            chunk_size=chunk_size,
-            workers=workers,
-            progress=progress,
+            resume=run.resume,
+            chunk_size=run.chunk_size,
+            workers=run.workers,
+            progress=run.progress,
         )
         # The first pass's kernel settings say max_steps = the budget; the second pass's did not.
         dataset.attrs.update({"step_budget": int(step_budget), "max_steps": int(max_steps)})
@@ -461,7 +519,7 @@ def yield_estimate(
     counts = {str(v): int(np.sum(codes == i)) for i, v in enumerate(FoldVerdict)}
     folded = counts[str(FoldVerdict.FOLDED)]
     n = int(n_samples)
-    low, high = binomial_interval(folded, n, float(confidence), interval)
+    low, high = binomial_interval(folded, n, 0.95, "wilson")
     dataset.attrs.update(
         {
             "scatter": json.dumps(scatter.to_dict(), sort_keys=True),
@@ -474,8 +532,8 @@ def yield_estimate(
     return YieldEstimate(
         fraction=folded / n,
         interval=(low, high),
-        confidence=float(confidence),
-        method=interval,
+        confidence=0.95,
+        method="wilson",
         counts=counts,
         n_samples=n,
         seed=int(seed),

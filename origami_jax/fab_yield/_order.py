@@ -18,7 +18,7 @@ from typing import Any
 import jax.numpy as jnp
 import numpy as np
 
-from ._estimate import YieldEstimate, yield_estimate
+from ._estimate import RunOptions, YieldEstimate, as_pattern, yield_estimate
 
 
 def front_release_times(net, angle, speed):
@@ -114,13 +114,13 @@ class OrderSearch:
 
 
 def order_search(
-    net: str | os.PathLike,
+    pattern,
     schedules: Mapping[str, Any],
     scatter=None,
     n_samples: int = 32,
     seed: int = 0,
     *,
-    out: str | os.PathLike | None = None,
+    run: RunOptions | None = None,
     **options: Any,
 ) -> OrderSearch:
     """The Monte Carlo yield of `net` under each release schedule of `schedules`, and the best.
@@ -131,23 +131,24 @@ def order_search(
     scatter added to each schedule's nominal times. The compiled kernel is shared: release times are
     data, so the search costs one compilation and ``len(schedules) · n_samples`` simulations.
 
-    **Arguments:** `schedules`: name → release times (µs, one per crease; e.g. `front_candidates`);
-    `scatter`, `n_samples`, `seed` and `options` (`t_end`, `chunk_size`, `progress`, the
-    tolerances, ...): as `yield_estimate`; `out`: a folder to store each schedule's samples in (one
-    subfolder per schedule, numbered), or `None`.
+    **Arguments:** `pattern` (a net, or its name), `scatter`, `n_samples`, `seed` and `options`
+    (`design`, `solve`, `tolerances`, ...): as `yield_estimate`; `schedules`: name → release
+    times (µs, one per crease; e.g. `front_candidates`); `run`: as `yield_estimate`'s, its `out`
+    a folder to store each schedule's samples in (one subfolder per schedule, numbered), or
+    `None`.
 
     **Returns:** an `OrderSearch`.
 
     **Raises:** `ValueError` (before anything compiles) for an empty `schedules`, a schedule of the
     wrong length, negative or non-finite times, and what `yield_estimate` refuses.
     """
-    from ..net import load_net
-
     if not isinstance(schedules, Mapping) or not schedules:
         raise ValueError("schedules must be a non-empty mapping name -> release times (µs).")
     if "release_times" in options:
         raise ValueError("give the release times as schedules, not release_times.")
-    m = load_net(net).n_creases
+    pattern = as_pattern(pattern)
+    run = RunOptions() if run is None else run
+    m = pattern.n_hinges
     checked = {}
     for name, times in schedules.items():
         times = np.asarray(times, dtype=float)
@@ -159,9 +160,15 @@ def order_search(
         checked[str(name)] = times
     estimates = {}
     for k, (name, times) in enumerate(checked.items()):
-        folder = None if out is None else os.path.join(os.fspath(out), f"schedule-{k:02d}")
+        folder = None if run.out is None else os.path.join(os.fspath(run.out), f"schedule-{k:02d}")
         estimates[name] = yield_estimate(
-            net, scatter, n_samples, seed, release_times=times, out=folder, **options
+            pattern,
+            scatter,
+            n_samples,
+            seed,
+            release_times=times,
+            run=dataclasses.replace(run, out=folder),
+            **options,
         )
     best = max(estimates, key=lambda n: estimates[n].fraction)
     return OrderSearch(schedules=checked, estimates=estimates, best=best)

@@ -69,7 +69,7 @@ class SoftYield:
 
 
 def soft_yield(
-    net,
+    pattern,
     scatter: Scatter | None = None,
     n_samples: int = 16,
     seed: int = 0,
@@ -77,37 +77,38 @@ def soft_yield(
     design=None,
     targets=None,
     release_times=None,
-    t_end: float = 1500.0,
-    n_save: int = 301,
-    max_steps: int = 200_000,
-    contact: bool = True,
-    angle_tolerance_deg: float = 3.0,
-    seam_tolerance: float = 0.01,
+    solve=None,
+    tolerances=None,
     temperature_deg: float = 0.5,
 ) -> SoftYield:
-    """The differentiable yield surrogate of `net` (see `SoftYield`), with the same samples as
-    `yield_estimate(net, scatter, n_samples, seed, ...)` (same arguments, same meaning).
+    """The differentiable yield surrogate of `pattern` (a net, or its name; see `SoftYield`), with
+    the same samples as `yield_estimate(pattern, scatter, n_samples, seed, ...)` (same arguments,
+    same meaning: the pattern's physics model, `solve` a `SolveOptions`, `tolerances` a
+    `VerdictTolerances`), smoothed at `temperature_deg` (degrees).
 
     **Raises:** `ValueError` before anything compiles, as `yield_estimate`, and for a temperature
     that is not positive.
     """
-    from ..net import load_net
-    from ..net._net import default_design
+    from ..net import FOLD_KERNEL_SOLVE
     from ..simulation import VerdictTolerances
     from ..system import KOH_SOLUTION
-    from ._estimate import _GLOBAL, _kernel, _nominal
+    from ._estimate import _GLOBAL, _kernel, _nominal, as_pattern
 
-    tolerances = VerdictTolerances.from_degrees(angle_tolerance_deg, seam_tolerance)
-
+    tolerances = VerdictTolerances() if tolerances is None else tolerances
+    if not isinstance(tolerances, VerdictTolerances):
+        raise ValueError(f"tolerances must be a VerdictTolerances, got {tolerances!r}.")
+    solve = FOLD_KERNEL_SOLVE if solve is None else solve
     if not (isinstance(temperature_deg, int | float) and temperature_deg > 0):
         raise ValueError(f"temperature_deg must be a positive number, got {temperature_deg!r}.")
     scatter = Scatter() if scatter is None else scatter
     if isinstance(n_samples, bool) or not isinstance(n_samples, int) or n_samples < 1:
         raise ValueError(f"n_samples must be an integer >= 1, got {n_samples!r}.")
-    the_net = load_net(net)
+    the_net = as_pattern(pattern)
+    if the_net.n_loops:
+        raise ValueError(f"{the_net.name}: the yield surrogate takes nets (trees of panels).")
     if design is None:
-        design = default_design(the_net, KOH_SOLUTION)  # as `yield_estimate`'s
-    m = the_net.n_creases
+        design = the_net.default_design(KOH_SOLUTION)  # as `yield_estimate`'s
+    m = the_net.n_hinges
     intended = np.asarray(the_net.intended_angles)
     aims = intended if targets is None else np.asarray(targets, dtype=float)
     if aims.shape != (m,):
@@ -115,16 +116,12 @@ def soft_yield(
     nominal = _nominal(design, None if release_times is None else np.asarray(release_times), m)
     draws = {k: jnp.asarray(v) for k, v in standard_draws(seed, n_samples, m).items()}
     kernel = _kernel(
-        net=str(net),
+        the_net,
         design=design,
         hinge_lengths="designed",
-        t_end=t_end,
-        n_save=n_save,
-        max_steps=max_steps,
-        contact=contact,
-        drag="panel",
-        angle_tolerance_deg=angle_tolerance_deg,
-        seam_tolerance=seam_tolerance,
+        solve=solve.replace(t1=FOLD_KERNEL_SOLVE.t1) if solve.t1 is None else solve,
+        tolerances=tolerances,
+        bias=0.0,
     )
     tol = tolerances.angle
     tau = float(np.radians(temperature_deg))

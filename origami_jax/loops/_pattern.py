@@ -20,6 +20,7 @@ loops around interior vertices comes back as a [`origami_jax.loops.CreasePattern
 
 import dataclasses
 import os
+from typing import final
 
 import equinox as eqx
 import jax
@@ -27,13 +28,14 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import ArrayLike, Float
 
-from .._limits import CONTACT_SAMPLING
+from .._limits import CONTACT_SAMPLING, FOLD_SEGMENT
 from .._validate import is_traced
 from ..fold import FoldFile, FoldFormatError
 from ..fold._catalogue import source_and_label
 from ..fold._loop_geometry import LoopGeometry, loop_geometry
 from ..fold._model import length_scale_from_unit
-from ..system import AbstractLayout, FoldingSystem, HingeDesign, Hinges
+from ..simulation._continue import fold_pattern
+from ..system import AbstractPattern, FoldingSystem, HingeDesign, Hinges
 from . import _kinematics
 from ._mechanism import LoopedPanels
 
@@ -53,9 +55,21 @@ class NotRigidlyFoldableError(ValueError):
         self.report = report
 
 
+# The physics options of a crease pattern (`CreasePattern.with_model`) and their defaults.
+PATTERN_MODEL = {
+    "contact": True,
+    "drag": "panel",
+    "hinges": "point",
+    "contact_sampling": CONTACT_SAMPLING,
+    "check_rigid": True,
+}
+
+
+@final
 @dataclasses.dataclass(frozen=True, eq=False)
-class CreasePattern:
-    """A flat crease pattern whose creases close loops (module docstring).
+class CreasePattern(AbstractPattern):
+    """A flat crease pattern whose creases close loops (module docstring); an
+    [`origami_jax.system.AbstractPattern`][].
 
     **Fields:** `geometry` (a `LoopGeometry`, lengths in the FOLD unit), `name`, `length_scale`
     (design length units per FOLD unit), `precision` (rad; default 0): how closely the pattern's
@@ -64,7 +78,10 @@ class CreasePattern:
     Miura-ori closes only to about it); the closure and rigid-foldability checks accept residuals
     up to it. Crease ``j`` of the systems it builds is the geometry's crease ``j`` (tree creases,
     then cut creases); body ``j`` is face ``geometry.tree.order[j + 1]``; the root face is the
-    fixed base.
+    fixed base. The physics model its systems take unless `system` is told otherwise
+    (`with_model`): `contact` (default `True`), `drag` (`"panel"`, the only one), `hinges`
+    (`"point"`, the only one), `contact_sampling` (`(4, 2)`) and `check_rigid` (`True`), as
+    `system` documents them.
     """
 
     geometry: LoopGeometry
@@ -72,12 +89,59 @@ class CreasePattern:
     length_scale: float
     precision: float = 0.0
     _cache: dict = dataclasses.field(default_factory=dict, repr=False)
+    contact: bool | str = True
+    drag: str = "panel"
+    hinges: str = "point"
+    contact_sampling: tuple[int, int] = CONTACT_SAMPLING
+    check_rigid: bool = True
 
     # ---- the pattern ----
 
     @property
     def n_creases(self) -> int:
         return self.geometry.n_creases
+
+    @property
+    def n_hinges(self) -> int:
+        """One hinge per crease (static)."""
+        return self.geometry.n_creases
+
+    @property
+    def continues_from_angles(self) -> bool:
+        return False  # its state holds the closure's coordinates, not only its hinge angles
+
+    def hinge_name(self, j: int) -> str:
+        return f"crease {j}"
+
+    def with_model(self, **options) -> "CreasePattern":
+        """This pattern with other physics options (`contact`, `drag`, `hinges`,
+        `contact_sampling`, `check_rigid`; class docstring): the same object for the same options,
+        sharing this pattern's host caches. **Raises:** `ValueError` for an unknown option."""
+        from ..net._net import _with_model
+
+        return _with_model(self, PATTERN_MODEL, self._cache, options)
+
+    def default_design(self, fluid=None) -> HingeDesign:
+        """The literature hinge in `fluid` (default air), each hinge no wider than its crease
+        (`origami_jax.net.default_design`)."""
+        from ..net._net import default_design
+
+        return default_design(self, fluid)
+
+    def kernel(self, **settings):
+        """The fold kernel of this pattern for `sweep` (`origami_jax.net.fold_kernel`, `settings`
+        its keyword arguments)."""
+        from ..net._kernel import fold_kernel
+
+        return fold_kernel(self, **settings)
+
+    def release_times_from_front(self, direction, speed: float) -> np.ndarray:
+        """Release times of an etch front (`origami_jax.loops.release_times_from_front`)."""
+        return release_times_from_front(self, direction, speed)
+
+    def resume_settings(self) -> dict:
+        """What a stored sweep of this pattern records: its name and its closed loops."""
+        return {"net": self.name, "closed_loops": self.n_loops}
 
     @property
     def n_loops(self) -> int:
@@ -263,12 +327,12 @@ class CreasePattern:
         *,
         targets: Float[ArrayLike, " m"] | None = None,
         release_times: Float[ArrayLike, " m"] | None = None,
-        contact: bool | str = True,
-        drag: str = "panel",
-        hinges: str = "point",
-        check_rigid: bool = True,
+        contact: bool | str | None = None,
+        drag: str | None = None,
+        hinges: str | None = None,
+        check_rigid: bool | None = None,
         rate_factor: float = RATE_FACTOR,
-        contact_sampling: tuple[int, int] = CONTACT_SAMPLING,
+        contact_sampling: tuple[int, int] | None = None,
     ) -> FoldingSystem:
         """The folding system of this pattern with the hinges, films and fluid of `design`.
 
@@ -294,9 +358,19 @@ class CreasePattern:
 
         **Raises:** `ValueError` for bad arguments, `FoldFormatError` for target angles that do not
         close or violate Kawasaki/Maekawa at a flat-folded vertex, `NotRigidlyFoldableError`.
+
+        The physics options (`contact`, `drag`, `hinges`, `check_rigid`, `contact_sampling`) left
+        `None` are the pattern's own (its fields; `with_model`).
         """
         from ..contact import PanelContact, PlateContact, check_sampling, contact_kind
         from ..fluid import PanelDrag
+
+        contact = self.contact if contact is None else contact
+        drag = self.drag if drag is None else drag
+        hinges = self.hinges if hinges is None else hinges
+        check_rigid = self.check_rigid if check_rigid is None else check_rigid
+        if contact_sampling is None:
+            contact_sampling = self.contact_sampling
 
         if hinges != "point":
             raise ValueError(
@@ -462,6 +536,35 @@ class CreasePattern:
         kwargs.setdefault("panel_size", self.panel_size(system))
         report = assess(system, trajectory, seam_gaps=self.seam_gap_function(system), **kwargs)
         return _with_branch(self, report, trajectory, bias)
+
+    def fold(
+        self,
+        system: FoldingSystem,
+        inputs=None,
+        options=None,
+        *,
+        t1: float | None = None,
+        bias: float = 0.0,
+        tolerances=None,
+        segment: float = FOLD_SEGMENT,
+        on_continue=None,
+    ):
+        """Fold this pattern with `system` (one it built) from its start state
+        (`start_state(system, bias=bias)`) and judge the run (`assess`, with the branch): one run
+        to `t1`, or of `segment` (default 1000 µs; a closed-loop pattern's run is not continued:
+        its state is more than its angles; `origami_jax.simulation.fold_pattern`).
+
+        **Arguments:** `inputs` (default a step release); `options` (an
+        `origami_jax.simulation.SolveOptions`: samples, `solver` — explicit Tsit5 suits closed
+        loops: the default's implicit half differentiates through the closure —, `max_steps`, ...;
+        default ``SolveOptions(throw=False)``); `tolerances` (a `VerdictTolerances`).
+
+        **Returns:** `(trajectory, report)`, the run and its `LoopFoldReport`.
+        """
+        return fold_pattern(
+            self, system, inputs, options, t1=t1, bias=bias, tolerances=tolerances,
+            segment=segment, on_continue=on_continue,
+        )  # fmt: skip
 
     # ---- output ----
 
@@ -640,19 +743,9 @@ def release_times_from_front(pattern: CreasePattern, direction, speed: float) ->
     return front_release(g.vertices_coords, mids, direction, pattern.length_scale, float(speed))
 
 
-class PatternLayout(AbstractLayout):
-    """The closed-loop pattern layout for `design` and `sweep`: ``PatternLayout(pattern)(design)`` is
-    ``pattern.system(design, contact=...)`` (static fields)."""
-
-    pattern: CreasePattern = eqx.field(static=True)
-    contact: bool = eqx.field(static=True, default=True)
-
-    @property
-    def n_hinges(self) -> int:
-        return self.pattern.n_creases
-
-    def hinge_name(self, j: int) -> str:
-        return f"crease {j}"
-
-    def __call__(self, design: HingeDesign) -> FoldingSystem:
-        return self.pattern.system(design, contact=self.contact)
+def PatternLayout(pattern: CreasePattern, **options) -> CreasePattern:  # noqa: N802 (the former class)
+    """`pattern` with the physics options of its systems (`CreasePattern.with_model`): the layout
+    that `design` and `sweep` rebuild, ``PatternLayout(pattern, contact=False)(design)`` is
+    ``pattern.system(design, contact=False)``. Kept for the former `PatternLayout` class: a
+    pattern is its own layout."""
+    return pattern.with_model(**options)

@@ -13,8 +13,11 @@ from ..simulation._verdict import SeamGaps as SeamGaps
 from ._joints import AbstractJoints as AbstractJoints
 from ._joints import ArcJoints as ArcJoints
 from ._joints import RevoluteJoints as RevoluteJoints
+from ._kernel import FOLD_KERNEL_SOLVE as FOLD_KERNEL_SOLVE
+from ._kernel import fold_kernel as fold_kernel
 from ._net import Net as Net
 from ._net import NetLayout as NetLayout
+from ._net import default_design as default_design
 from ._net import hinges_within_creases as hinges_within_creases
 from ._net import load_net as load_net
 from ._net import release_times_from_front as release_times_from_front

@@ -24,7 +24,7 @@ import dataclasses
 import math
 import os
 import warnings
-from typing import Any
+from typing import Any, final
 
 import equinox as eqx
 import jax.numpy as jnp
@@ -38,20 +38,36 @@ from ..fold import FoldFile, FoldFrame, net_geometry
 from ..fold._catalogue import source_and_label
 from ..fold._model import length_scale_from_unit
 from ..fold._net_geometry import NetGeometry
+from ..simulation._continue import fold_pattern
 from ..simulation._verdict import SeamGaps
-from ..system import AbstractLayout, FoldingSystem, HingeDesign, HingeDrag, Hinges
+from ..system import AbstractPattern, FoldingSystem, HingeDesign, HingeDrag, Hinges
 from ._strip import StripTree, strip_tree
 from ._tree import PanelTree, panel_tree
 
+# The physics options of a net (`Net.with_model`) and their defaults: `Net.system`'s.
+NET_MODEL = {
+    "contact": True,
+    "drag": "panel",
+    "hinges": "point",
+    "added_mass": False,
+    "viscous": False,
+    "contact_sampling": CONTACT_SAMPLING,
+}
 
+
+@final
 @dataclasses.dataclass(frozen=True, eq=False)
-class Net:
-    """A flat net of panels read from FOLD, ready to become folding systems (module docstring).
+class Net(AbstractPattern):
+    """A flat net of panels read from FOLD, ready to become folding systems (module docstring); an
+    [`origami_jax.system.AbstractPattern`][].
 
     **Fields:** `geometry` (the `NetGeometry`, lengths in the FOLD file's unit), `name`,
     `length_scale` (design length units per FOLD length unit), `key_frame` (the crease pattern as a
     FOLD frame) and `crease_edge_ids` (its edges on each crease). `seams`: those that close at the
-    pattern's fold angles.
+    pattern's fold angles. The physics model its systems take unless `system` is told otherwise
+    (`with_model`): `contact` (default `True`: the plate model), `drag` (`"panel"`), `hinges`
+    (`"point"`), `added_mass`, `viscous` (`False`) and `contact_sampling` (`(4, 2)`), as
+    `system` documents them.
 
     Hinge ``j`` of the systems it builds is the geometry's crease ``j``; body ``j`` is face
     ``geometry.order[j + 1]``; the root face is the fixed base.
@@ -63,10 +79,65 @@ class Net:
     key_frame: FoldFrame
     crease_edge_ids: tuple[tuple[int, ...], ...]
     _tables: dict = dataclasses.field(default_factory=dict, repr=False)
+    contact: bool | str = True
+    drag: str = "panel"
+    hinges: str = "point"
+    added_mass: bool = False
+    viscous: bool = False
+    contact_sampling: tuple[int, int] = CONTACT_SAMPLING
 
     @property
     def n_creases(self) -> int:
         return self.geometry.n_creases
+
+    @property
+    def n_hinges(self) -> int:
+        """One hinge per crease (static)."""
+        return self.geometry.n_creases
+
+    @property
+    def continues_from_angles(self) -> bool:
+        return True  # a panel tree's state is its hinge angles and rates
+
+    def hinge_name(self, j: int) -> str:
+        return f"crease {j}"
+
+    def with_model(self, **options) -> "Net":
+        """This net with other physics options (`contact`, `drag`, `hinges`, `added_mass`,
+        `viscous`, `contact_sampling`; module docstring): the same object for the same options,
+        sharing this net's host tables. **Raises:** `ValueError` for an unknown option."""
+        return _with_model(self, NET_MODEL, self._tables, options)
+
+    def default_design(self, fluid=None) -> HingeDesign:
+        """The literature hinge in `fluid` (default air), each hinge no wider than its crease
+        (`origami_jax.net.default_design`)."""
+        return default_design(self, fluid)
+
+    def start_state(self, system: FoldingSystem | None = None, *, bias: float = 0.0):
+        """Where a simulation starts: flat, at rest (`(θ0, θ̇0)`, zeros `(m,)`). A net folds from
+        flat: `bias` must be 0. **Raises:** `ValueError` for another `bias`."""
+        if bias:
+            raise ValueError(
+                f"{self.name} is a net (a tree of panels), which starts flat: bias pre-folds "
+                "closed-loop patterns only."
+            )
+        m = self.n_creases
+        return np.zeros(m), np.zeros(m)
+
+    def kernel(self, **settings):
+        """The fold kernel of this net for `sweep` (`origami_jax.net.fold_kernel`, `settings` its
+        keyword arguments)."""
+        from ._kernel import fold_kernel
+
+        return fold_kernel(self, **settings)
+
+    def release_times_from_front(self, direction, speed: float) -> np.ndarray:
+        """Release times of an etch front (`origami_jax.net.release_times_from_front`)."""
+        return release_times_from_front(self, direction, speed)
+
+    def resume_settings(self) -> dict:
+        """What a stored sweep of this net records: its name and its closed loops (none)."""
+        return {"net": self.name, "closed_loops": 0}
 
     @property
     def intended_angles(self) -> np.ndarray:
@@ -129,12 +200,12 @@ class Net:
         *,
         targets: Float[ArrayLike, " m"] | None = None,
         release_times: Float[ArrayLike, " m"] | None = None,
-        contact: bool | str = True,
-        drag: str = "panel",
-        hinges: str = "point",
-        added_mass: bool = False,
-        viscous: bool = False,
-        contact_sampling: tuple[int, int] = CONTACT_SAMPLING,
+        contact: bool | str | None = None,
+        drag: str | None = None,
+        hinges: str | None = None,
+        added_mass: bool | None = None,
+        viscous: bool | None = None,
+        contact_sampling: tuple[int, int] | None = None,
     ) -> FoldingSystem:
         """The folding system of this net with the hinges, films and fluid of `design`.
 
@@ -164,10 +235,20 @@ class Net:
           theory across each crease, Sader's hydrodynamic function at each hinge's frequency;
           `origami_jax.fluid.fluid_loads`, docs/physics.md "The fluid moves with the flap"); off by
           default.
+
+        The physics options (`contact` to `contact_sampling`) left `None` are the net's own
+        (its fields; `with_model`).
         """
         from ..contact import PanelContact, PlateContact, check_sampling, contact_kind
         from ..fluid import PanelDrag
 
+        contact = self.contact if contact is None else contact
+        drag = self.drag if drag is None else drag
+        hinges = self.hinges if hinges is None else hinges
+        added_mass = self.added_mass if added_mass is None else added_mass
+        viscous = self.viscous if viscous is None else viscous
+        if contact_sampling is None:
+            contact_sampling = self.contact_sampling
         lengths = self.crease_lengths
         if design is None:
             design = default_design(self)
@@ -309,11 +390,13 @@ class Net:
         (for the verdict's seams closed by contact)."""
         return seam_gap_function(self.geometry, self.seams, system.mechanism, self.length_scale)
 
-    def assess(self, system: FoldingSystem, trajectory, **kwargs):
+    def assess(self, system: FoldingSystem, trajectory, *, bias: float = 0.0, **kwargs):
         """The verdict on a folding of this net against the pattern's angles and seams
-        (`origami_jax.simulation.assess`; keyword arguments go there)."""
+        (`origami_jax.simulation.assess`; keyword arguments go there). `bias`: the start's
+        pre-fold, 0 for a net (`start_state`)."""
         from ..simulation import assess
 
+        self.start_state(bias=bias)  # a net starts flat: refuses another bias
         kwargs.setdefault("intended_angles", self.intended_angles)
         kwargs.setdefault("panel_size", self.panel_size(system))
         return assess(system, trajectory, seam_gaps=self.seam_gap_function(system), **kwargs)
@@ -322,48 +405,35 @@ class Net:
         self,
         system: FoldingSystem,
         inputs=None,
+        options=None,
         *,
         t1: float | None = None,
+        bias: float = 0.0,
+        tolerances=None,
         segment: float = FOLD_SEGMENT,
         max_segments: int = MAX_FOLD_SEGMENTS,
-        tolerances=None,
         on_continue=None,
-        **simulate_kwargs,
     ):
         """Fold this net with `system` (one it built) from rest and judge the run.
 
         With `t1` (time, the system's units: µs for the default units), one run to `t1`. Without
         it, runs of `segment` (default 1000 µs) continued from the last state while the verdict is
         `unfinished` because the panels still move, up to `max_segments` (default 8) in all
-        (`origami_jax.simulation.fold_until_settled`): a cube net in the etch bath closes in
+        (`origami_jax.simulation.fold_pattern`): a cube net in the etch bath closes in
         ~1.4 ms, one in air rings for much longer, and neither needs its end time guessed.
 
         **Arguments:** `inputs` (default a step release, `origami_jax.simulation.Step()`);
-        `tolerances` (a `VerdictTolerances`, for `assess`); `on_continue(end, next_end)`, called
-        before each continuation; other keyword arguments are the fields of
-        `origami_jax.simulation.SolveOptions` (`solver`, `rtol`, `max_steps`, ...; `throw` default
-        `False`), and `n_save`, the samples per segment (`SaveAt(n=...)`).
+        `options` (an `origami_jax.simulation.SolveOptions` for every segment: samples, solver,
+        tolerances, step budget, progress meter; default ``SolveOptions(throw=False)``); `bias`
+        (0: a net starts flat); `tolerances` (a `VerdictTolerances`, for `assess`);
+        `on_continue(end, next_end)`, called before each continuation.
 
         **Returns:** `(trajectory, report)`, the whole run and its `FoldReport`.
         """
-        from ..simulation import SaveAt, SolveOptions, Step, fold_until_settled
-
-        if t1 is not None:
-            segment, max_segments = float(t1), 1
-        # The loose `simulate` keywords of this method, as `SolveOptions` (`n_save` is `SaveAt(n=)`).
-        if "n_save" in simulate_kwargs:
-            simulate_kwargs["saveat"] = SaveAt(n=simulate_kwargs.pop("n_save"))
-        simulate_kwargs.setdefault("throw", False)
-        trajectory, report, _ = fold_until_settled(
-            system,
-            Step() if inputs is None else inputs,
-            lambda run: self.assess(system, run, tolerances=tolerances),
-            SolveOptions(**simulate_kwargs),
-            segment=segment,
-            max_segments=max_segments,
-            on_continue=on_continue,
-        )
-        return trajectory, report
+        return fold_pattern(
+            self, system, inputs, options, t1=t1, bias=bias, tolerances=tolerances,
+            segment=segment, max_segments=max_segments, on_continue=on_continue,
+        )  # fmt: skip
 
     def outcome(self, system: FoldingSystem, trajectory, **kwargs):
         """`assess`'s verdict as arrays, traceable (`origami_jax.simulation.fold_outcome`); called
@@ -646,34 +716,36 @@ def check_loader_arguments(root, length_scale) -> None:
             )
 
 
-class NetLayout(AbstractLayout):
-    """The net layout for `design` and `sweep`: ``NetLayout(net)(design)`` is ``net.system(design,
-    ...)`` with the layout's options (static fields: `net`, `contact`, `drag`, `hinges`,
-    `added_mass`, `viscous`)."""
+def NetLayout(net: Net, **options) -> Net:  # noqa: N802 (the former layout class)
+    """`net` with the physics options of its systems (`Net.with_model`): the layout that `design`
+    and `sweep` rebuild, ``NetLayout(net, contact=False)(design)`` is ``net.system(design,
+    contact=False)``. Kept for the former `NetLayout` class: a net is its own layout."""
+    return net.with_model(**options)
 
-    net: Net = eqx.field(static=True)
-    contact: bool = eqx.field(static=True, default=True)
-    drag: str = eqx.field(static=True, default="panel")
-    hinges: str = eqx.field(static=True, default="point")
-    added_mass: bool = eqx.field(static=True, default=False)
-    viscous: bool = eqx.field(static=True, default=False)
 
-    @property
-    def n_hinges(self) -> int:
-        return self.net.n_creases
-
-    def hinge_name(self, j: int) -> str:
-        return f"crease {j}"
-
-    def __call__(self, design: HingeDesign) -> FoldingSystem:
-        return self.net.system(
-            design,
-            contact=self.contact,
-            drag=self.drag,
-            hinges=self.hinges,
-            added_mass=self.added_mass,
-            viscous=self.viscous,
+def _with_model(pattern, model: dict, cache: dict, options: dict):
+    """`pattern` (a frozen dataclass) with the physics `options` (names of `model`, the pattern's
+    model fields) changed, kept in `cache` (the pattern's host cache, shared with the copy): the
+    same object for the same options, so a compiled fit or sweep of it is reused."""
+    unknown = sorted(set(options) - set(model))
+    if unknown:
+        raise ValueError(
+            f"{type(pattern).__name__}.with_model: unknown option(s) {unknown}; the model's are "
+            f"{sorted(model)}."
         )
+    if "contact_sampling" in options:
+        options = {
+            **options,
+            "contact_sampling": tuple(int(x) for x in options["contact_sampling"]),
+        }
+    values = {name: getattr(pattern, name) for name in model}
+    if all(values[name] == value for name, value in options.items()):
+        return pattern
+    values.update(options)
+    key = ("model", repr(sorted(values.items())))
+    if key not in cache:
+        cache[key] = dataclasses.replace(pattern, **values)
+    return cache[key]
 
 
 @eqx.filter_jit

@@ -4,6 +4,7 @@ Paper sections "Open Loop Control Law", "Step Input", "Ramp Input", Figs. 7–11
 "Results to reproduce", "Numerics".
 """
 
+from ._continue import fold_pattern as fold_pattern
 from ._continue import fold_until_settled as fold_until_settled
 from ._continue import join_trajectories as join_trajectories
 from ._implicit import ImplicitStep as ImplicitStep

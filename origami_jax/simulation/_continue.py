@@ -17,6 +17,7 @@ import jax
 import numpy as np
 
 from .._limits import FOLD_SEGMENT, MAX_FOLD_SEGMENTS
+from ._inputs import Step
 from ._options import SolveOptions
 from ._simulate import Trajectory, simulate
 from ._verdict import FoldReport
@@ -118,3 +119,55 @@ def fold_until_settled(
         report = judge(trajectory)
         segments += 1
     return trajectory, report, segments
+
+
+def fold_pattern(
+    pattern,
+    system,
+    inputs=None,
+    options: SolveOptions | None = None,
+    *,
+    t1: float | None = None,
+    segment: float = FOLD_SEGMENT,
+    max_segments: int = MAX_FOLD_SEGMENTS,
+    bias: float = 0.0,
+    tolerances=None,
+    on_continue: Callable[[float, float], None] | None = None,
+) -> tuple[Trajectory, FoldReport]:
+    """The fold of a pattern (`AbstractPattern.fold`): `system` (one `pattern` built) simulated
+    from `pattern.start_state(system, bias=bias)` and judged by `pattern.assess`.
+
+    With `t1` (time units of the system: µs by default), one run to `t1`. Without it, runs of
+    `segment` continued while the verdict is `unfinished` because the panels still move, up to
+    `max_segments` in all (`fold_until_settled`), where the pattern's state is its hinge angles
+    (`pattern.continues_from_angles`); otherwise one segment.
+
+    **Arguments:** `inputs` (default a step release, `Step()`); `tolerances` (a
+    `VerdictTolerances`, for `assess`); `on_continue(end, next_end)`, called before each
+    continuation; `options`, the [`origami_jax.simulation.SolveOptions`][] of every segment
+    (samples, solver, tolerances, step budget, progress meter; default
+    ``SolveOptions(throw=False)``; its `t1` is this function's: give `t1=`).
+
+    **Returns:** `(trajectory, report)`, the whole run and its `FoldReport`.
+    """
+    options = SolveOptions(throw=False) if options is None else options
+    if options.t1 is not None:
+        t1 = options.t1 if t1 is None else t1
+        options = options.replace(t1=None)
+    if t1 is not None:
+        segment, max_segments = float(t1), 1
+    elif not pattern.continues_from_angles:
+        max_segments = 1
+    theta0, theta_dot0 = pattern.start_state(system, bias=bias)
+    trajectory, report, _ = fold_until_settled(
+        system,
+        Step() if inputs is None else inputs,
+        lambda run: pattern.assess(system, run, bias=bias, tolerances=tolerances),
+        options,
+        segment=segment,
+        max_segments=max_segments,
+        theta0=theta0,
+        theta_dot0=theta_dot0,
+        on_continue=on_continue,
+    )
+    return trajectory, report

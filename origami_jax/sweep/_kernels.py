@@ -12,13 +12,16 @@ Each adapter imports its physics inside the builder, so that `import origami_jax
   the vertices are drawn on the host (`Kernel.prepare`), the descent is batched. It calls the vertex
   package's traceable per-vertex descent, `origami_jax.vertex.unfold_kernel` (`unfold_batch` is
   itself a batch driver with host-side escapes, so it cannot be vmapped again).
+- `"net-fold"`: fold verdicts of a net or closed-loop crease pattern; the kernel lives beside the
+  patterns (`origami_jax.net.fold_kernel`, built from a pattern object), the model names the
+  pattern (`net=`) as a sweep's config does.
 """
 
 import dataclasses
 from collections.abc import Callable, Mapping
 from typing import Any
 
-from .._limits import CONTACT_SAMPLING, MAX_CONTACT_SAMPLING, MAX_FLAPS, MAX_SAMPLES
+from .._limits import MAX_FLAPS, MAX_SAMPLES
 from ._kernel import Kernel
 
 # Result code for a design whose parameters are outside the model's domain (non-positive or
@@ -392,288 +395,15 @@ def vertex_unfold(
     )
 
 
-# Fields of `HingeDesign` a net sweep may vary for every crease at once (scalar parameter `name`) or
-# for one crease (`name[j]`); lengths in µm, the package's MICRO unit system.
-NET_PARAMETERS = {
-    "hinge_width": "um",
-    "t_hinge": "um",
-    "misfit_strain": "1",
-    "k_scale": "1",
-}
-NET_GLOBAL_PARAMETERS = {
-    "t_structural": "um",
-    "drag_coefficient": "1",
-    "b_scale": "1",
-}
+def net_fold(**settings: Any) -> Kernel:
+    """Sweep kernel `"net-fold"`: does a net, or a crease pattern with closed loops, fold? The fold
+    kernel that lives beside the patterns (`origami_jax.net.fold_kernel`, `Net.kernel`) of the
+    pattern the setting `net` names (a catalogue name or `.fold` path; default
+    `"cube_net_01"`), its other settings flat as a sweep's config gives them
+    (`origami_jax.net.net_fold_model` lists them)."""
+    from ..net._kernel import net_fold_model
 
-
-def net_fold(
-    *,
-    net: str = "cube_net_01",
-    fluid: str | None = None,
-    t_end: float = 1500.0,
-    n_save: int = 301,
-    rtol: float | None = None,
-    atol: float | None = None,
-    max_steps: int = 200_000,
-    contact: bool | str = True,
-    drag: str = "panel",
-    hinges: str = "point",
-    angle_tolerance_deg: float = 3.0,
-    seam_tolerance: float = 0.01,
-    bias: float = 0.0,
-    design: Any = None,
-    targets: Any = None,
-    hinge_lengths: str = "ideal",
-    contact_sampling: tuple[int, int] = CONTACT_SAMPLING,
-) -> Kernel:
-    """Sweep kernel: does a net of panels, or a crease pattern with closed loops, fold? Verdict and
-    numbers per design (explicit Tsit5 under the contact guard;
-    `origami_jax.loops.load_pattern(net).system(design, ...)` with the literature design for what is
-    not swept, in MICRO units, each hinge no wider than its crease). A closed-loop pattern starts
-    flat, or pre-folded by `bias` rad along its own angles (`CreasePattern.start_state`); its
-    verdict is `misfolded` on another branch.
-
-    **Parameters** (swept): `hinge_width`, `t_hinge`, `misfit_strain`, `k_scale` for every crease, or
-    per crease as `name[j]` (e.g. `misfit_strain[3]`: the film stress scatter of one hinge);
-    `t_structural`, `drag_coefficient`, `b_scale` for the whole net; `release[j]`: crease `j`'s release
-    time (µs, default 0); `target[j]`: the angle crease `j`'s hinge is drawn to fold to (rad; default
-    the `targets` setting, else the pattern's angle; give all of them or none).
-
-    On a CPU, `sweep` runs this kernel one design per compiled call, several at once
-    (`Kernel.cpu_chunk_size`), unless given a `chunk_size`.
-
-    **Outputs:** `verdict` (0 folded, 1 jammed, 2 misfolded, 3 unfinished, 4 invalid;
-    `origami_jax.simulation.VERDICT_CODES`), `folded`, `time_to_fold` (µs, NaN if never),
-    `final_angle` (rad, per crease), `max_seam_gap` (µm, every seam), `max_open_seam_gap` (µm, the
-    seams whose panels do not touch: the verdict holds a touching seam closed whatever its gap),
-    `seams_touching` (how many seams' panels touch at the end; −1 where the simulation failed),
-    `min_gap`, `penetration` (µm), `engaged`
-    (contact pairs engaged at the end; −1 where the simulation failed), `num_steps`, `result` (the
-    solver's code; −1 invalid input).
-
-    **Settings** beyond the solver's: `angle_tolerance_deg` (degrees) and `seam_tolerance` (a
-    fraction of the largest panel's size), the verdict's (`origami_jax.simulation.VerdictTolerances`);
-    `fluid` (`"air"` or `"koh"`, default `"koh"`) or `design`, a
-    whole `HingeDesign` (MICRO units) for what is not swept (its fluid included; not both);
-    `targets`: the angles the hinges aim at (rad, one per crease; default the pattern's); and
-    `hinge_lengths`:
-
-    - `"ideal"` (default): every design's hinge bends exactly to its target (hinge length
-      ``ρ |θ_target|`` with the design's own radius ``ρ``);
-    - `"designed"`: the hinge lengths are drawn for the *nominal* design (``l = ρ₀ |θ_target|``, what
-      lithography fixes) and a design whose films differ (swept `misfit_strain`, `t_hinge`,
-      `t_structural`) bends them to ``l / ρ = θ_target ρ₀ / ρ`` (paper Eq. 7 with ``l = ρ θ``): the
-      fold angle of a fabricated hinge whose film stress or thickness is off.
-
-    `contact` (`True`: the default model, `"plate"` or `"sampled"`, or `False`) and
-    `contact_sampling` (the sampled model's ``(points_per_edge, rim_points_per_edge)``), as
-    `Net.system`'s.
-    """
-    import diffrax
-    import jax.numpy as jnp
-    import numpy as np
-
-    from ..contact import check_sampling, contact_kind
-    from ..contact._tables import sampling_pair
-    from ..loops import CreasePattern, load_pattern
-    from ..net._net import default_design
-    from ..simulation import (
-        DEFAULT_ATOL,
-        DEFAULT_RTOL,
-        RESULTS,
-        SaveAt,
-        SolveOptions,
-        Step,
-        VerdictTolerances,
-        simulate,
-    )
-    from ..system import AIR, KOH_SOLUTION, HingeDesign
-
-    t_end = _setting(t_end, "t_end", low=0.0)
-    n_save = _setting(n_save, "n_save", low=2, integer=True, high=MAX_SAMPLES)
-    max_steps = _setting(max_steps, "max_steps", low=1, integer=True)
-    rtol = DEFAULT_RTOL if rtol is None else _setting(rtol, "rtol", low=0.0)
-    atol = DEFAULT_ATOL if atol is None else _setting(atol, "atol", low=0.0)
-    tolerances = VerdictTolerances.from_degrees(angle_tolerance_deg, seam_tolerance)
-    sampling = sampling_pair(contact_sampling)
-    if max(sampling) > MAX_CONTACT_SAMPLING:
-        raise ValueError(
-            f"contact_sampling takes at most {MAX_CONTACT_SAMPLING} points per edge on the ring and "
-            f"on the rim (the contact's work grows with their square), got {sampling}."
-        )
-    check_sampling(contact_kind(contact), sampling)
-    if design is not None and fluid is not None:
-        raise ValueError("give the fluid in the design (HingeDesign(fluid=...)), not both.")
-    if design is not None and not isinstance(design, HingeDesign):
-        raise ValueError(f"design must be a HingeDesign, got {type(design).__name__}.")
-    fluid = "koh" if fluid is None else fluid
-    if fluid not in FLUIDS:
-        raise ValueError(f"fluid must be one of {FLUIDS}, got {fluid!r}.")
-    if hinge_lengths not in ("ideal", "designed"):
-        raise ValueError(f"hinge_lengths must be 'ideal' or 'designed', got {hinge_lengths!r}.")
-    if hinge_lengths == "designed" and hinges != "point":
-        raise ValueError(
-            "hinge_lengths='designed' is implemented for point hinges (hinges='point')."
-        )
-    the_net = load_pattern(net)
-    loops = isinstance(the_net, CreasePattern)
-    theta0 = the_net.start_state(bias=bias)[0] if loops else None
-    m = the_net.n_creases
-    if design is None:
-        # As `system` without a design.
-        base = default_design(the_net, AIR if fluid == "air" else KOH_SOLUTION)
-    else:
-        base = design
-    aims = None
-    if targets is not None:
-        aims = np.asarray(targets, dtype=float)
-        if aims.shape != (m,) or not np.all(np.isfinite(aims)):
-            raise ValueError(
-                f"targets must be {m} finite fold angles (rad, one per crease), got {targets!r}."
-            )
-    parameters = {**NET_PARAMETERS, **NET_GLOBAL_PARAMETERS}
-    parameters.update(
-        {f"{name}[{j}]": unit for name, unit in NET_PARAMETERS.items() for j in range(m)}
-    )
-    parameters.update({f"release[{j}]": "us" for j in range(m)})
-    parameters.update({f"target[{j}]": "rad" for j in range(m)})
-    intended = jnp.asarray(the_net.intended_angles)
-
-    def design_of(params):
-        invalid = jnp.zeros((), dtype=bool)
-        values = {}
-        for name in (*NET_PARAMETERS, *NET_GLOBAL_PARAMETERS):
-            default = jnp.asarray(getattr(base, name), dtype=float)
-            value = jnp.asarray(params.get(name, default), dtype=float)
-            if name in NET_PARAMETERS:
-                entries = [params.get(f"{name}[{j}]") for j in range(m)]
-                if any(e is not None for e in entries):
-                    value = jnp.stack(
-                        [value if e is None else jnp.asarray(e, dtype=float) for e in entries]
-                    )
-            invalid = invalid | jnp.any(~(jnp.isfinite(value) & (value > 0)))
-            values[name] = jnp.where(invalid, default, value)
-        release = [params.get(f"release[{j}]") for j in range(m)]
-        times = None
-        if any(r is not None for r in release):
-            times = jnp.stack(
-                [jnp.zeros(()) if r is None else jnp.asarray(r, float) for r in release]
-            )
-            invalid = invalid | jnp.any(~(jnp.isfinite(times) & (times >= 0)))
-            times = jnp.where(invalid, 0.0, times)
-        design = eqx_tree_at_fields(base, values)
-        return design, times, invalid
-
-    def aims_of(params):
-        swept = [params.get(f"target[{j}]") for j in range(m)]
-        if all(a is None for a in swept):
-            return None if aims is None else jnp.asarray(aims)
-        if any(a is None for a in swept):
-            raise ValueError(f"sweep every target[j] of the {m} creases, or none.")
-        return jnp.stack([jnp.asarray(a, dtype=float) for a in swept])
-
-    def fn(params):
-        design, times, invalid = design_of(params)
-        aim = aims_of(params)
-        if hinge_lengths == "designed":
-            aim = intended if aim is None else aim
-            aim = aim * design.curvature() / base.curvature()
-        system = the_net.system(
-            design,
-            targets=aim,
-            release_times=times,
-            contact=contact,
-            drag=drag,
-            hinges=hinges,
-            contact_sampling=sampling,
-        )
-        trajectory = simulate(
-            system,
-            Step(),
-            SolveOptions(
-                saveat=SaveAt(n=n_save),
-                solver=diffrax.Tsit5(),
-                rtol=rtol,
-                atol=atol,
-                max_steps=max_steps,
-                throw=False,
-            ),
-            theta0=theta0,
-            t1=t_end,
-        )
-        outcome = the_net.outcome(
-            system, trajectory, intended_angles=intended, tolerances=tolerances
-        )
-        result = jnp.where(invalid, INVALID_INPUT, trajectory.result._value).astype(jnp.int32)
-        failed = result != 0
-
-        def masked(x):
-            return jnp.where(failed, jnp.nan, x)
-
-        return {
-            "verdict": jnp.where(invalid, 4, outcome.code).astype(jnp.int32),
-            "folded": (outcome.code == 0) & ~invalid,
-            "time_to_fold": masked(
-                jnp.where(jnp.isfinite(outcome.time_to_fold), outcome.time_to_fold, jnp.nan)
-            ),
-            "final_angle": masked(trajectory.theta[-1]),
-            "max_seam_gap": masked(outcome.max_seam_gap),
-            "max_open_seam_gap": masked(outcome.max_open_seam_gap),
-            "seams_touching": jnp.where(
-                failed, -1, jnp.sum(outcome.seams_touching.astype(jnp.int32))
-            ).astype(jnp.int32),
-            "min_gap": masked(outcome.min_gap),
-            "penetration": masked(outcome.penetration),
-            "engaged": jnp.where(failed, -1, outcome.engaged).astype(jnp.int32),
-            "num_steps": jnp.asarray(trajectory.stats["num_steps"], dtype=jnp.int32),
-            "result": result,
-        }
-
-    messages = {INVALID_INPUT: "invalid input"}
-    messages.update({int(item._value): name for name, item in RESULTS._name_to_item.items()})
-    return Kernel(
-        fn=fn,
-        never_raises=True,  # bad values come back as INVALID_INPUT
-        name="net-fold",
-        settings={
-            "net": the_net.name,
-            "fluid": fluid if design is None else base.fluid.name,
-            "t_end_us": t_end,
-            "n_save": n_save,
-            "rtol": rtol,
-            "atol": atol,
-            "max_steps": max_steps,
-            # The model by name ("plate", "sampled", or false): stores written with the sampled
-            # model recorded `true`, and are not resumed with another.
-            "contact": contact_kind(contact) or False,
-            "drag": drag,
-            "hinges": hinges,
-            "angle_tolerance_deg": angle_tolerance_deg,
-            # Named only when not the default (stores written before it existed stay resumable).
-            **({} if seam_tolerance == 0.01 else {"seam_tolerance": seam_tolerance}),
-            "closed_loops": the_net.n_loops if loops else 0,
-            "bias": bias,
-            **({} if design is None else {"design": design_settings(design)}),
-            **({} if aims is None else {"targets": aims.tolist()}),
-            **({} if hinge_lengths == "ideal" else {"hinge_lengths": hinge_lengths}),
-            **({} if sampling == CONTACT_SAMPLING else {"contact_sampling": list(sampling)}),
-        },
-        parameters=parameters,
-        output_units={
-            "time_to_fold": "us",
-            "final_angle": "rad",
-            "max_seam_gap": "um",
-            "max_open_seam_gap": "um",
-            "min_gap": "um",
-            "penetration": "um",
-        },
-        output_dims={"final_angle": ("crease",)},
-        result_messages=messages,
-        # Contact makes the step counts of scattered nets spread tenfold and unpredictably: on a
-        # CPU, chunks of one net side by side beat wide vmapped chunks (benchmarks/history.md).
-        cpu_chunk_size=1,
-    )
+    return net_fold_model(**settings)
 
 
 def design_settings(design) -> dict[str, Any]:

@@ -2,6 +2,8 @@
 
 - [`origami_jax.system.FoldingSystem`][]: mechanism + hinges + drag + contact, the one object that
   `simulate`, `design` and `sweep` take. Builders: [`origami_jax.chain.accordion_system`][].
+- [`origami_jax.system.AbstractPattern`][]: what is folded and what counts as folded (a net, a
+  crease pattern, the accordion): its systems, start state, fold, verdict and sweep kernel.
 - [`origami_jax.system.AbstractMechanism`][]: the contract a mechanism implements (state layout, mass
   matrix and forward dynamics, hinge angles, energy, geometry); the serial chain is the first.
 - [`origami_jax.system.Hinges`][], [`origami_jax.system.HingeDrag`][] and the abstract drag and
@@ -33,9 +35,12 @@ from ._measured_hinges import compare_measured_hinges as compare_measured_hinges
 from ._measured_hinges import measured_hinges_table as measured_hinges_table
 from ._mechanism import AbstractMechanism as AbstractMechanism
 from ._mechanism import HingeLayout as HingeLayout
+from ._pattern import AbstractPattern as AbstractPattern
 from ._system import AbstractContact as AbstractContact
-from ._system import AbstractLayout as AbstractLayout
 from ._system import FoldingSystem as FoldingSystem
 from ._units import MICRO as MICRO
 from ._units import SI as SI
 from ._units import UnitSystem as UnitSystem
+
+AbstractLayout = AbstractPattern
+"""The former name of [`origami_jax.system.AbstractPattern`][] (a layout is now its pattern)."""

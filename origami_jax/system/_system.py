@@ -122,29 +122,3 @@ class FoldingSystem(eqx.Module):
         if self.contact is not None:
             total = total + self.contact.potential(mechanism, q)
         return total
-
-
-class AbstractLayout(eqx.Module):
-    """What a device is made of, apart from its hinge parameters: a callable
-    ``layout(design) -> FoldingSystem`` (e.g. [`origami_jax.chain.Accordion`][]).
-
-    `design` and `sweep` vary a [`origami_jax.system.HingeDesign`][] and rebuild the system through
-    the layout for every candidate, so the command line, the paper job, the fit and the sweep share one
-    builder. A layout's fields are static (its equality decides when a compiled fit or sweep is
-    reused).
-    """
-
-    @property
-    @abc.abstractmethod
-    def n_hinges(self) -> int:
-        """Hinges of the systems this layout builds (static)."""
-
-    @abc.abstractmethod
-    def __call__(self, design) -> FoldingSystem:
-        """The folding system of `design` (a `HingeDesign`) in this layout."""
-
-    def hinge_name(self, j: int) -> str:
-        """What reports call hinge `j` (counted from 0): ``"joint 1"``, … as the paper numbers a
-        chain's joints (a net's or a crease pattern's layout: ``"crease 0"``, … as its arrays and
-        verdicts do)."""
-        return f"joint {j + 1}"

@@ -1,0 +1,355 @@
+"""`fold_kernel`: the sweep kernel of a net or a closed-loop crease pattern, built from the pattern
+object (`Net.kernel`, `CreasePattern.kernel`).
+
+One design per call: the pattern's system with the design's hinges (`pattern.system`, its own
+physics model), simulated from its start state (`pattern.start_state`) with explicit Tsit5 and
+judged by its traceable verdict (`pattern.outcome`). The sweep's `"net-fold"` model
+(`origami_jax.sweep.get_model`) is this kernel of the pattern a catalogue name or file names.
+"""
+
+from typing import Any
+
+import diffrax
+import jax.numpy as jnp
+import numpy as np
+
+from .._limits import CONTACT_SAMPLING, MAX_CONTACT_SAMPLING, MAX_SAMPLES
+from ..contact import check_sampling, contact_kind
+from ..contact._tables import sampling_pair
+from ..simulation import RESULTS, SaveAt, SolveOptions, Step, VerdictTolerances, simulate
+from ..sweep._kernel import Kernel
+from ..sweep._kernels import FLUIDS, INVALID_INPUT, _setting, design_settings, eqx_tree_at_fields
+from ..system import AIR, KOH_SOLUTION, HingeDesign
+
+# Fields of `HingeDesign` a net sweep may vary for every crease at once (scalar parameter `name`) or
+# for one crease (`name[j]`); lengths in µm, the package's MICRO unit system.
+NET_PARAMETERS = {
+    "hinge_width": "um",
+    "t_hinge": "um",
+    "misfit_strain": "1",
+    "k_scale": "1",
+}
+NET_GLOBAL_PARAMETERS = {
+    "t_structural": "um",
+    "drag_coefficient": "1",
+    "b_scale": "1",
+}
+
+FOLD_KERNEL_SOLVE = SolveOptions(t1=1500.0, saveat=SaveAt(n=301), max_steps=200_000, throw=False)
+"""The fold kernel's solve unless given one: 1500 µs, 301 samples, 200,000 steps, the simulation's
+tolerances (change one with `FOLD_KERNEL_SOLVE.replace(t1=600.0)`)."""
+
+
+def fold_kernel(
+    pattern,
+    *,
+    fluid: str | None = None,
+    design: HingeDesign | None = None,
+    solve: SolveOptions | None = None,
+    tolerances: VerdictTolerances | None = None,
+    bias: float = 0.0,
+    targets: Any = None,
+    hinge_lengths: str = "ideal",
+) -> Kernel:
+    """Sweep kernel: does a net of panels, or a crease pattern with closed loops, fold? Verdict and
+    numbers per design (explicit Tsit5 under the contact guard; `pattern.system(design, ...)`, its
+    own physics model (`Net.with_model`), with the literature design for what is not swept, in
+    MICRO units, each hinge no wider than its crease). A closed-loop pattern starts flat, or
+    pre-folded by `bias` rad along its own angles (`CreasePattern.start_state`); its verdict is
+    `misfolded` on another branch.
+
+    **Parameters** (swept): `hinge_width`, `t_hinge`, `misfit_strain`, `k_scale` for every crease, or
+    per crease as `name[j]` (e.g. `misfit_strain[3]`: the film stress scatter of one hinge);
+    `t_structural`, `drag_coefficient`, `b_scale` for the whole net; `release[j]`: crease `j`'s release
+    time (µs, default 0); `target[j]`: the angle crease `j`'s hinge is drawn to fold to (rad; default
+    the `targets` setting, else the pattern's angle; give all of them or none).
+
+    On a CPU, `sweep` runs this kernel one design per compiled call, several at once
+    (`Kernel.cpu_chunk_size`), unless given a `chunk_size`.
+
+    **Outputs:** `verdict` (0 folded, 1 jammed, 2 misfolded, 3 unfinished, 4 invalid;
+    `origami_jax.simulation.VERDICT_CODES`), `folded`, `time_to_fold` (µs, NaN if never),
+    `final_angle` (rad, per crease), `max_seam_gap` (µm, every seam), `max_open_seam_gap` (µm, the
+    seams whose panels do not touch: the verdict holds a touching seam closed whatever its gap),
+    `seams_touching` (how many seams' panels touch at the end; −1 where the simulation failed),
+    `min_gap`, `penetration` (µm), `engaged`
+    (contact pairs engaged at the end; −1 where the simulation failed), `num_steps`, `result` (the
+    solver's code; −1 invalid input).
+
+    **Arguments** (fixed for the whole sweep, recorded in its settings and checked on resume):
+    - `pattern`: a `Net` or a `CreasePattern` (an [`origami_jax.system.AbstractPattern`][] with
+      seams); its physics options (`contact`, `drag`, `hinges`, `contact_sampling`) are the
+      kernel's.
+    - `fluid` (`"air"` or `"koh"`, default `"koh"`) or `design`, a whole `HingeDesign` (MICRO
+      units) for what is not swept (its fluid included; not both).
+    - `solve`: a [`origami_jax.simulation.SolveOptions`][]: its `t1` (µs), `saveat.n`, `rtol`,
+      `atol` and `max_steps` (default `FOLD_KERNEL_SOLVE`: 1500 µs, 301 samples, 200,000 steps);
+      the solver is always explicit Tsit5 and never throws (a failed member's `result` says so).
+    - `tolerances`: the verdict's (`origami_jax.simulation.VerdictTolerances`; default 3°, 1 % of
+      the largest panel).
+    - `bias`: a closed-loop pattern's pre-fold (rad; nets take 0).
+    - `targets`: the angles the hinges aim at (rad, one per crease; default the pattern's).
+    - `hinge_lengths`: `"ideal"` (default): every design's hinge bends exactly to its target
+      (hinge length ``ρ |θ_target|`` with the design's own radius ``ρ``); `"designed"`: the hinge
+      lengths are drawn for the *nominal* design (``l = ρ₀ |θ_target|``, what lithography fixes)
+      and a design whose films differ (swept `misfit_strain`, `t_hinge`, `t_structural`) bends
+      them to ``l / ρ = θ_target ρ₀ / ρ`` (paper Eq. 7 with ``l = ρ θ``): the fold angle of a
+      fabricated hinge whose film stress or thickness is off.
+
+    **Raises:** `ValueError` before anything compiles for bad settings.
+    """
+    solve = FOLD_KERNEL_SOLVE if solve is None else solve
+    if not isinstance(solve, SolveOptions):
+        raise ValueError(f"solve must be a SolveOptions, got {type(solve).__name__}.")
+    if solve.t1 is None:
+        solve = solve.replace(t1=FOLD_KERNEL_SOLVE.t1)
+    if solve.saveat.ts is not None:
+        raise ValueError("the fold kernel saves evenly spaced samples: give SaveAt(n=...).")
+    t_end = _setting(_number(solve.t1), "t_end", low=0.0)
+    n_save = _setting(solve.saveat.n, "n_save", low=2, integer=True, high=MAX_SAMPLES)
+    max_steps = _setting(solve.max_steps, "max_steps", low=1, integer=True)
+    rtol = _setting(_number(solve.rtol), "rtol", low=0.0)
+    atol = _setting(_number(solve.atol), "atol", low=0.0)
+    tolerances = VerdictTolerances() if tolerances is None else tolerances
+    if not isinstance(tolerances, VerdictTolerances):
+        raise ValueError(
+            f"tolerances must be a VerdictTolerances, got {type(tolerances).__name__}."
+        )
+    contact = pattern.contact
+    sampling = check_kernel_sampling(contact, pattern.contact_sampling)
+    if design is not None and fluid is not None:
+        raise ValueError("give the fluid in the design (HingeDesign(fluid=...)), not both.")
+    if design is not None and not isinstance(design, HingeDesign):
+        raise ValueError(f"design must be a HingeDesign, got {type(design).__name__}.")
+    fluid = "koh" if fluid is None else fluid
+    if fluid not in FLUIDS:
+        raise ValueError(f"fluid must be one of {FLUIDS}, got {fluid!r}.")
+    if hinge_lengths not in ("ideal", "designed"):
+        raise ValueError(f"hinge_lengths must be 'ideal' or 'designed', got {hinge_lengths!r}.")
+    if hinge_lengths == "designed" and pattern.hinges != "point":
+        raise ValueError(
+            "hinge_lengths='designed' is implemented for point hinges (hinges='point')."
+        )
+    theta0 = pattern.start_state(bias=bias)[0]
+    m = pattern.n_hinges
+    # As `system` without a design.
+    base = (
+        pattern.default_design(AIR if fluid == "air" else KOH_SOLUTION)
+        if design is None
+        else design
+    )
+    aims = None
+    if targets is not None:
+        aims = np.asarray(targets, dtype=float)
+        if aims.shape != (m,) or not np.all(np.isfinite(aims)):
+            raise ValueError(
+                f"targets must be {m} finite fold angles (rad, one per crease), got {targets!r}."
+            )
+    parameters = {**NET_PARAMETERS, **NET_GLOBAL_PARAMETERS}
+    parameters.update(
+        {f"{name}[{j}]": unit for name, unit in NET_PARAMETERS.items() for j in range(m)}
+    )
+    parameters.update({f"release[{j}]": "us" for j in range(m)})
+    parameters.update({f"target[{j}]": "rad" for j in range(m)})
+    intended = jnp.asarray(pattern.intended_angles)
+
+    def design_of(params):
+        invalid = jnp.zeros((), dtype=bool)
+        values = {}
+        for name in (*NET_PARAMETERS, *NET_GLOBAL_PARAMETERS):
+            default = jnp.asarray(getattr(base, name), dtype=float)
+            value = jnp.asarray(params.get(name, default), dtype=float)
+            if name in NET_PARAMETERS:
+                entries = [params.get(f"{name}[{j}]") for j in range(m)]
+                if any(e is not None for e in entries):
+                    value = jnp.stack(
+                        [value if e is None else jnp.asarray(e, dtype=float) for e in entries]
+                    )
+            invalid = invalid | jnp.any(~(jnp.isfinite(value) & (value > 0)))
+            values[name] = jnp.where(invalid, default, value)
+        release = [params.get(f"release[{j}]") for j in range(m)]
+        times = None
+        if any(r is not None for r in release):
+            times = jnp.stack(
+                [jnp.zeros(()) if r is None else jnp.asarray(r, float) for r in release]
+            )
+            invalid = invalid | jnp.any(~(jnp.isfinite(times) & (times >= 0)))
+            times = jnp.where(invalid, 0.0, times)
+        design = eqx_tree_at_fields(base, values)
+        return design, times, invalid
+
+    def aims_of(params):
+        swept = [params.get(f"target[{j}]") for j in range(m)]
+        if all(a is None for a in swept):
+            return None if aims is None else jnp.asarray(aims)
+        if any(a is None for a in swept):
+            raise ValueError(f"sweep every target[j] of the {m} creases, or none.")
+        return jnp.stack([jnp.asarray(a, dtype=float) for a in swept])
+
+    def fn(params):
+        design, times, invalid = design_of(params)
+        aim = aims_of(params)
+        if hinge_lengths == "designed":
+            aim = intended if aim is None else aim
+            aim = aim * design.curvature() / base.curvature()
+        # The system of this member's design: its numbers are traced, so it is built in the trace.
+        system = pattern.system(design, targets=aim, release_times=times)
+        trajectory = simulate(
+            system,
+            Step(),
+            SolveOptions(
+                saveat=SaveAt(n=n_save),
+                solver=diffrax.Tsit5(),
+                rtol=rtol,
+                atol=atol,
+                max_steps=max_steps,
+                throw=False,
+            ),
+            theta0=theta0,
+            t1=t_end,
+        )
+        outcome = pattern.outcome(
+            system, trajectory, intended_angles=intended, tolerances=tolerances
+        )
+        result = jnp.where(invalid, INVALID_INPUT, trajectory.result._value).astype(jnp.int32)
+        failed = result != 0
+
+        def masked(x):
+            return jnp.where(failed, jnp.nan, x)
+
+        return {
+            "verdict": jnp.where(invalid, 4, outcome.code).astype(jnp.int32),
+            "folded": (outcome.code == 0) & ~invalid,
+            "time_to_fold": masked(
+                jnp.where(jnp.isfinite(outcome.time_to_fold), outcome.time_to_fold, jnp.nan)
+            ),
+            "final_angle": masked(trajectory.theta[-1]),
+            "max_seam_gap": masked(outcome.max_seam_gap),
+            "max_open_seam_gap": masked(outcome.max_open_seam_gap),
+            "seams_touching": jnp.where(
+                failed, -1, jnp.sum(outcome.seams_touching.astype(jnp.int32))
+            ).astype(jnp.int32),
+            "min_gap": masked(outcome.min_gap),
+            "penetration": masked(outcome.penetration),
+            "engaged": jnp.where(failed, -1, outcome.engaged).astype(jnp.int32),
+            "num_steps": jnp.asarray(trajectory.stats["num_steps"], dtype=jnp.int32),
+            "result": result,
+        }
+
+    messages = {INVALID_INPUT: "invalid input"}
+    messages.update({int(item._value): name for name, item in RESULTS._name_to_item.items()})
+    resume = pattern.resume_settings()
+    return Kernel(
+        fn=fn,
+        never_raises=True,  # bad values come back as INVALID_INPUT
+        name="net-fold",
+        # The keys and values stores have recorded since before patterns were objects (a store
+        # written then still resumes): the pattern by name, optional settings only when not
+        # their defaults.
+        settings={
+            "net": resume["net"],
+            "fluid": fluid if design is None else base.fluid.name,
+            "t_end_us": t_end,
+            "n_save": n_save,
+            "rtol": rtol,
+            "atol": atol,
+            "max_steps": max_steps,
+            # The model by name ("plate", "sampled", or false): stores written with the sampled
+            # model recorded `true`, and are not resumed with another.
+            "contact": contact_kind(contact) or False,
+            "drag": pattern.drag,
+            "hinges": pattern.hinges,
+            "angle_tolerance_deg": tolerances.angle_deg,
+            **({} if tolerances.seam == 0.01 else {"seam_tolerance": tolerances.seam}),
+            "closed_loops": resume["closed_loops"],
+            "bias": bias,
+            **({} if design is None else {"design": design_settings(design)}),
+            **({} if aims is None else {"targets": aims.tolist()}),
+            **({} if hinge_lengths == "ideal" else {"hinge_lengths": hinge_lengths}),
+            **({} if sampling == CONTACT_SAMPLING else {"contact_sampling": list(sampling)}),
+        },
+        parameters=parameters,
+        output_units={
+            "time_to_fold": "us",
+            "final_angle": "rad",
+            "max_seam_gap": "um",
+            "max_open_seam_gap": "um",
+            "min_gap": "um",
+            "penetration": "um",
+        },
+        output_dims={"final_angle": ("crease",)},
+        result_messages=messages,
+        # Contact makes the step counts of scattered nets spread tenfold and unpredictably: on a
+        # CPU, chunks of one net side by side beat wide vmapped chunks (benchmarks/history.md).
+        cpu_chunk_size=1,
+    )
+
+
+def check_kernel_sampling(contact, sampling) -> tuple[int, int]:
+    """The contact sampling of a fold kernel, checked before anything is built: a pair of at most
+    `MAX_CONTACT_SAMPLING` points per edge, for the sampled model only."""
+    sampling = sampling_pair(sampling)
+    if max(sampling) > MAX_CONTACT_SAMPLING:
+        raise ValueError(
+            f"contact_sampling takes at most {MAX_CONTACT_SAMPLING} points per edge on the ring and "
+            f"on the rim (the contact's work grows with their square), got {sampling}."
+        )
+    check_sampling(contact_kind(contact), sampling)
+    return sampling
+
+
+def _number(value):
+    """A solve setting as a Python number (`SolveOptions` takes floats or 0-d arrays)."""
+    if isinstance(value, bool | int | float | str) or value is None:
+        return value
+    return float(np.asarray(value))
+
+
+def net_fold_model(*, net: str = "cube_net_01", **settings: Any) -> Kernel:
+    """The sweep's `"net-fold"` model: `fold_kernel` of the pattern `net` names (a catalogue name or
+    a `.fold` path, `origami_jax.loops.load_pattern`), with flat settings as a sweep's config
+    gives them (every one checked before the pattern is read):
+
+    - the pattern's physics (`Net.with_model`): `contact` (default `True`), `drag` (`"panel"`),
+      `hinges` (`"point"`), `contact_sampling` (`(4, 2)`);
+    - the solve's: `t_end` (µs, default 1500), `n_save` (301), `rtol`, `atol` (`None`: the
+      simulation's), `max_steps` (200,000);
+    - the verdict's: `angle_tolerance_deg` (3) and `seam_tolerance` (0.01);
+    - `fold_kernel`'s others: `fluid`, `design`, `bias`, `targets`, `hinge_lengths`.
+
+    **Raises:** `TypeError` for an unknown setting (`get_model` says which), `ValueError` for a bad
+    one.
+    """
+    from ..loops import load_pattern
+    from ..simulation import DEFAULT_ATOL, DEFAULT_RTOL
+
+    model = {k: settings.pop(k) for k in ("contact", "drag", "hinges") if k in settings}
+    sampling = settings.pop("contact_sampling", CONTACT_SAMPLING)
+    solve = {
+        k: settings.pop(k)
+        for k in ("t_end", "n_save", "rtol", "atol", "max_steps")
+        if k in settings
+    }
+    angle = settings.pop("angle_tolerance_deg", 3.0)
+    seam = settings.pop("seam_tolerance", 0.01)
+    unknown = sorted(set(settings) - {"fluid", "design", "bias", "targets", "hinge_lengths"})
+    if unknown:
+        raise TypeError(f"net-fold has no setting(s) {unknown}")
+    t_end = _setting(solve.get("t_end", 1500.0), "t_end", low=0.0)
+    n_save = _setting(solve.get("n_save", 301), "n_save", low=2, integer=True, high=MAX_SAMPLES)
+    max_steps = _setting(solve.get("max_steps", 200_000), "max_steps", low=1, integer=True)
+    rtol = solve.get("rtol")
+    atol = solve.get("atol")
+    rtol = DEFAULT_RTOL if rtol is None else _setting(rtol, "rtol", low=0.0)
+    atol = DEFAULT_ATOL if atol is None else _setting(atol, "atol", low=0.0)
+    tolerances = VerdictTolerances.from_degrees(angle, seam)
+    sampling = check_kernel_sampling(model.get("contact", True), sampling)
+    pattern = load_pattern(net).with_model(**model, contact_sampling=sampling)
+    return fold_kernel(
+        pattern,
+        solve=FOLD_KERNEL_SOLVE.replace(
+            t1=t_end, saveat=SaveAt(n=n_save), rtol=rtol, atol=atol, max_steps=max_steps
+        ),
+        tolerances=tolerances,
+        **settings,
+    )
