@@ -404,7 +404,13 @@ def yield_estimate(
     if not isinstance(solve, SolveOptions):
         raise ValueError(f"solve must be a SolveOptions, got {type(solve).__name__}.")
     rtol = solve.rtol
-    if not (isinstance(rtol, int | float) and not isinstance(rtol, bool) and 0 < rtol < 1):
+    if (
+        np.ndim(rtol) == 0
+        and not isinstance(rtol, bool)
+        and np.issubdtype(np.asarray(rtol).dtype, np.number)
+    ):
+        rtol = float(rtol)
+    if not (isinstance(rtol, float) and 0 < rtol < 1):
         raise ValueError(f"rtol must be a number strictly between 0 and 1, got {rtol!r}.")
     run = RunOptions() if run is None else run
     if not isinstance(run, RunOptions):

@@ -213,6 +213,50 @@ def _samples(system: FoldingSystem, inputs: AbstractInput, times, q, v):
     return theta, theta_dot, jnp.where(ok, theta_ddot, jnp.inf), jnp.where(ok, tau, jnp.inf)
 
 
+def _diffusion(t, y, args):
+    """How a Brownian increment ``(dW_q, dW_v)`` moves the state: ``(0, M⁻¹ L dW_v)`` (`Agitation`;
+    ``dW_q`` has no components: the coordinates move only with the velocities)."""
+    system, _ = args
+    q, _ = y
+    mechanism = system.mechanism
+    diffusion = system.agitation.diffusion(mechanism, system.drag, system.units, q)
+    return jnp.zeros(q.shape + (0,), q.dtype), diffusion
+
+
+def _agitated(system: FoldingSystem, span, term: diffrax.ODETerm, y0) -> diffrax.AbstractTerm:
+    """`term` with the agitation's random force added (a `diffrax.VirtualBrownianTree` seeded by
+    `system.agitation.key`: the same path whatever steps the solver takes)."""
+    t0, t1 = span
+    q0, v0 = y0
+    agitation = system.agitation
+    brownian = diffrax.VirtualBrownianTree(
+        t0,
+        t1,
+        tol=agitation.resolution * (t1 - t0),
+        shape=(
+            jax.ShapeDtypeStruct((0,), q0.dtype),
+            jax.ShapeDtypeStruct(v0.shape, v0.dtype),
+        ),
+        key=agitation.key,
+    )
+    return diffrax.MultiTerm(term, diffrax.ControlTerm(_diffusion, brownian))
+
+
+def _agitated_solver(system: FoldingSystem, solver, q0):
+    """The solver of an agitated system (default `diffrax.Heun`: its noise depends on ``q`` only,
+    so Itô and Stratonovich calculus agree); refuses the solvers that cannot take a random force."""
+    if solver is None:
+        solver = diffrax.Heun()
+    if isinstance(solver, StiffnessSwitching | ImplicitStep):
+        raise ValueError(
+            f"an agitated system needs a solver for stochastic equations ({type(solver).__name__} "
+            f"is not one): leave solver unset (diffrax.Heun) or pass e.g. diffrax.Heun() or "
+            f"diffrax.SPaRK()."
+        )
+    system.agitation.check_drag(system.mechanism, system.drag, q0)
+    return solver
+
+
 def _controller_and_field(system: FoldingSystem, inputs: AbstractInput, ts, how: _Integration):
     """The step-size controller (with the contact guard and the input's corners) and vector field."""
     controller = how.controller
@@ -284,6 +328,8 @@ def _solve(system: FoldingSystem, inputs: AbstractInput, span, y0, ts, how: _Int
     t0, t1 = span
     solver = _solver(how)
     controller, term = _controller_and_field(system, inputs, ts, how)
+    if system.agitation is not None:
+        term = _agitated(system, span, term, y0)
     switching = isinstance(solver, StiffnessSwitching)
     solution = diffrax.diffeqsolve(
         term,
@@ -770,7 +816,9 @@ def simulate(
           Euler with Newton iterations capped by the contact's collision detection), robust through
           contact and with the same work for every member of a batch, but first-order accurate and
           dissipative; the tolerances, controller, `dt0`, `max_steps`, `adjoint` and dense output do
-          not apply to it, and its time span and sample times must be known values.
+          not apply to it, and its time span and sample times must be known values. A system
+          with `agitation` (random forcing, `origami_jax.system.Agitation`) is solved as a
+          stochastic equation, by default with `diffrax.Heun` (docs/physics.md, "Agitation").
         - `rtol`, `atol`: step-size controller tolerances (`DEFAULT_RTOL`, `DEFAULT_ATOL`). Metrics
           of the accordion step agree with rtol 1e-9 to about 1e-6 relative.
         - `stepsize_controller`: overrides [`origami_jax.simulation.default_controller`][] (an
@@ -846,6 +894,8 @@ def simulate(
         )
     q0 = check_finite(q0, "theta0")
     v0 = check_finite(v0, "theta_dot0")
+    if system.agitation is not None:
+        solver = _agitated_solver(system, solver, q0)
     if isinstance(solver, ImplicitStep):
         times = _host_times(*span_given, ts, n_save)
         return _simulate_implicit(system, inputs, solver, times, q0, v0, dense=dense, throw=throw)

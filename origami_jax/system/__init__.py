@@ -7,7 +7,7 @@
 - [`origami_jax.system.AbstractMechanism`][]: the contract a mechanism implements (state layout, mass
   matrix and forward dynamics, hinge angles, energy, geometry); the serial chain is the first.
 - [`origami_jax.system.Hinges`][], [`origami_jax.system.HingeDrag`][] and the abstract drag and
-  contact models.
+  contact models; [`origami_jax.system.Agitation`][], random forcing by the bath (Langevin).
 - Hinge physics shared by every mechanism: [`origami_jax.system.HingeDesign`][] (bilayer films,
   Timoshenko curvature, stiffness and drag, paper Eqs. 7 and 11), materials, fluids, unit systems.
 - Published measurements of stressed bilayers against that curvature:
@@ -15,6 +15,8 @@
   (docs/guides/hinge-measurements.md).
 """
 
+from ._agitation import BOLTZMANN as BOLTZMANN
+from ._agitation import Agitation as Agitation
 from ._drag import AbstractDrag as AbstractDrag
 from ._drag import HingeDrag as HingeDrag
 from ._hinge import AIR as AIR

@@ -19,6 +19,7 @@ import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
+from ._agitation import Agitation
 from ._drag import AbstractDrag
 from ._hinges import Hinges
 from ._mechanism import AbstractMechanism
@@ -52,6 +53,8 @@ class FoldingSystem(eqx.Module):
     - `drag`: an [`origami_jax.system.AbstractDrag`][] (the paper's `HingeDrag` for the accordion).
     - `contact`: an [`origami_jax.system.AbstractContact`][], or `None` (panels pass through each
       other: the paper's model).
+    - `agitation`: an [`origami_jax.system.Agitation`][] (random forcing by the bath at a
+      temperature, balanced by the drag's viscous part), or `None` (default: deterministic).
     - `units` (static): the unit system of every number in the system (default `MICRO`: µm, µs, ng).
 
     **Raises:** `ValueError` when the hinge count of `hinges` is not the mechanism's.
@@ -62,6 +65,7 @@ class FoldingSystem(eqx.Module):
     drag: AbstractDrag
     contact: AbstractContact | None = None
     units: UnitSystem = eqx.field(static=True, default=MICRO)
+    agitation: Agitation | None = None
 
     def __check_init__(self):
         if not isinstance(self.mechanism, AbstractMechanism):
@@ -72,6 +76,11 @@ class FoldingSystem(eqx.Module):
             raise ValueError(
                 f"the hinges describe {self.hinges.n_hinges} hinges but the mechanism has "
                 f"{self.mechanism.n_hinges}; give one stiffness, target and radius per hinge."
+            )
+        if self.agitation is not None and not isinstance(self.agitation, Agitation):
+            raise ValueError(
+                f"agitation must be an origami_jax.system.Agitation or None, got "
+                f"{type(self.agitation).__name__}."
             )
 
     @property

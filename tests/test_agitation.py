@@ -1,0 +1,134 @@
+"""Agitation (Langevin forcing): fluctuation–dissipation checked by equipartition, reproducible
+seeds, refusals.
+
+The check is independent of the implementation: a harmonic hinge ``k`` with inertia ``I`` in a bath
+at temperature ``T`` settles into the Boltzmann distribution, so ``⟨k θ²⟩ = ⟨I θ̇²⟩ = k_B T``
+(equipartition; both follow from the noise's covariance ``2 k_B T c`` only if it balances the
+damping ``c``, and they test the noise amplitude and the mass matrix's part separately).
+"""
+
+import dataclasses
+
+import diffrax
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from origami_jax.chain import accordion_system
+from origami_jax.fluid import ViscousDrag
+from origami_jax.simulation import SaveAt, SolveOptions, StiffnessSwitching, Step, simulate
+from origami_jax.system import BOLTZMANN, MICRO, Agitation, HingeDesign
+
+N_SEEDS = 32
+N_SAVE = 201
+BURN_IN = 20  # samples (20 natural periods / 2π): the start at θ = 0 is forgotten by then
+
+
+@pytest.fixture(scope="module")
+def hinge():
+    """One flap on a harmonic hinge with viscous damping at damping ratio 0.5, and the ``(k, I,
+    ω₀)`` of its closed form."""
+    system = accordion_system(HingeDesign.literature(), n_flaps=1)
+    k = float(system.hinges.stiffness[0])
+    q0, _ = system.mechanism.rest_state()
+    inertia = float(system.mechanism.mass_matrix(q0)[0, 0])
+    omega = np.sqrt(k / inertia)
+    damping = np.zeros((1, 6, 6))
+    damping[0, 3:, 3:] = 2 * 0.5 * np.sqrt(k * inertia) * np.eye(3)
+    return dataclasses.replace(system, drag=ViscousDrag(damping)), k, inertia, omega
+
+
+@pytest.fixture(scope="module")
+def thermal_runs(hinge):
+    """`N_SEEDS` realisations at an effective temperature with ``k_B T = 0.0025 k`` (θ_rms 0.05 rad),
+    each 200/ω₀ long, sampled every 1/ω₀; fixed steps of 0.05/ω₀ (Heun)."""
+    system, k, _, omega = hinge
+    kt = 0.0025 * k
+    temperature = kt / MICRO.from_si(BOLTZMANN, length=2, time=-2, mass=1)
+
+    def run(key):
+        agitated = dataclasses.replace(system, agitation=Agitation(temperature, key))
+        trajectory = simulate(
+            agitated,
+            Step(jnp.zeros(1)),
+            SolveOptions(
+                saveat=SaveAt(n=N_SAVE),
+                stepsize_controller=diffrax.ConstantStepSize(),
+                dt0=0.05 / omega,
+                max_steps=5000,
+                throw=False,
+            ),
+            t1=200 / omega,
+        )
+        return trajectory.theta[:, 0], trajectory.theta_dot[:, 0], trajectory.result._value
+
+    keys = jax.random.split(jax.random.PRNGKey(0), N_SEEDS)
+    theta, rate, result = jax.jit(jax.vmap(run))(keys)
+    return np.asarray(theta), np.asarray(rate), np.asarray(result), kt, keys, run
+
+
+def test_equipartition(hinge, thermal_runs):
+    """``⟨k θ²⟩`` and ``⟨I θ̇²⟩`` equal ``k_B T`` within four standard errors of the mean over the
+    realisations (each realisation's time average is one independent sample; 32 of them put the
+    standard error at ~3 %, and the fixed step's bias, O((ω₀ dt)²) = 0.25 %, is far below it)."""
+    _, k, inertia, _ = hinge
+    theta, rate, result, kt, _, _ = thermal_runs
+    assert np.all(result == 0)
+    for values, stiffness in ((theta, k), (rate, inertia)):
+        per_run = stiffness * np.mean(values[:, BURN_IN:] ** 2, axis=1) / kt
+        mean = per_run.mean()
+        error = per_run.std(ddof=1) / np.sqrt(len(per_run))
+        assert abs(mean - 1) < max(4 * error, 0.02), (mean, error)
+        assert error < 0.08
+
+
+def test_seeds_reproducible_and_independent(thermal_runs):
+    """The same seed gives the same path (run alone instead of in the batch); different seeds give
+    different paths, uncorrelated at the end."""
+    theta, _, _, _, keys, run = thermal_runs
+    alone, _, _ = jax.jit(run)(keys[3])
+    np.testing.assert_allclose(np.asarray(alone), theta[3], rtol=1e-9, atol=1e-12)
+    assert not np.allclose(theta[0], theta[1])
+    end = theta[:, -1]
+    assert abs(np.corrcoef(end[:-1], end[1:])[0, 1]) < 0.6
+
+
+def test_zero_temperature_is_deterministic(hinge):
+    """At 0 K the random force vanishes: the hinge held at θ = 0 stays there exactly."""
+    system, _, _, omega = hinge
+    cold = dataclasses.replace(system, agitation=Agitation(0.0, 5))
+    trajectory = simulate(
+        cold,
+        Step(jnp.zeros(1)),
+        SolveOptions(
+            saveat=SaveAt(n=3), stepsize_controller=diffrax.ConstantStepSize(), dt0=0.5 / omega
+        ),
+        t1=5 / omega,
+    )
+    assert np.all(np.asarray(trajectory.theta) == 0)
+
+
+def test_thermal_energy_closed_form():
+    """``k_B T`` at 300 K is 4.14 zJ = 4.14e-9 pJ (MICRO's energy unit, µN·µm)."""
+    value = float(Agitation(300.0).thermal_energy(MICRO))
+    assert value == pytest.approx(300 * 1.380649e-23 / 1e-12, rel=1e-12)
+
+
+def test_refusals(hinge):
+    """One-line errors before compiling: the paper's drag has no viscous part to balance noise; the
+    stiffness-switching solver takes no random force; bad temperatures and seeds."""
+    system, _, _, _ = hinge
+    paper = accordion_system(HingeDesign.literature(), n_flaps=1)
+    with pytest.raises(ValueError, match="linear \\(viscous\\) part"):
+        simulate(dataclasses.replace(paper, agitation=Agitation(300.0)), Step(), t1=1.0)
+    agitated = dataclasses.replace(system, agitation=Agitation(300.0))
+    with pytest.raises(ValueError, match="stochastic equations"):
+        simulate(agitated, Step(), SolveOptions(solver=StiffnessSwitching()), t1=1.0)
+    for bad in (-1.0, float("nan"), [1.0, 2.0]):
+        with pytest.raises(ValueError, match="temperature"):
+            Agitation(bad)
+    with pytest.raises(ValueError, match="seed"):
+        Agitation(300.0, seed=True)
+    with pytest.raises(ValueError, match="agitation must be"):
+        dataclasses.replace(system, agitation=300.0)
