@@ -12,9 +12,11 @@ every other body ``b`` adds
 with ``w`` the work of adhesion (energy per area), ``δ`` its range and ``φ(x) = 1 − S(x)`` (``S`` the C²
 smoothstep ``x³(10 − 15x + 6x²)``): ``φ = 1`` in contact, 0 from ``g = δ`` on, C². Each side's points
 over the overlap of two parallel plates sum to the overlap's area, so the two halves give
-``−w A_overlap φ(g/δ)``: exact for two equal plates stacked, and within the quadrature's resolution
-otherwise (the cells of the points cut by the other plate's outline: at most ``½ w`` × its
-perimeter × the cell size). The points sit at least a third of a cell inside the rim, so a plate
+``−w A_overlap φ(g/δ)``: exact for two equal plates stacked. A smaller plate over a larger one adds
+a halo: the larger plate's points beside the smaller's rim are within ``δ`` of it too, adding
+``½ w P ∫ φ`` over the lateral distance (``P`` the rim's length; about ``½ w P δ/2``, 5 % for a
+20 µm plate with ``δ`` = 0.8 µm), the reach of adhesion past a rounded rim. The quadrature
+converges to that within the cells the rim cuts (at most ``½ w P`` × a cell's side). The points sit at least a third of a cell inside the rim, so a plate
 standing on its edge on another's face (edge-on contact, a line of width ~ the film) gets no face
 adhesion: edges hold through line adhesion.
 
