@@ -22,7 +22,16 @@ from scipy.integrate import quad
 
 from origami_jax.contact import Adhesion, Friction, PlateContact
 from origami_jax.net import load_net
-from origami_jax.system import MICRO, AbstractMechanism, HingeLayout
+from origami_jax.simulation import ImplicitStep, UserTorque
+from origami_jax.simulation._implicit import integrate, steps_per_interval
+from origami_jax.system import (
+    MICRO,
+    AbstractMechanism,
+    FoldingSystem,
+    HingeDrag,
+    HingeLayout,
+    Hinges,
+)
 
 EXACT = 1e-10
 DYNAMIC = 1e-4
@@ -58,10 +67,14 @@ class Slider(AbstractMechanism):
     mass: jax.Array = eqx.field(converter=jnp.asarray, default=1.0)
     load: jax.Array = eqx.field(converter=jnp.asarray, default=(0.0, 0.0, 0.0))
     drag: jax.Array = eqx.field(converter=jnp.asarray, default=0.0)
+    hinged: bool = eqx.field(static=True, default=False)
+
+    # `hinged`: one idle hinge (no angle, no force, its crease far away), for what needs a
+    # `FoldingSystem` (its `Hinges` take at least one).
 
     @property
     def n_hinges(self):
-        return 0
+        return int(self.hinged)
 
     @property
     def n_bodies(self):
@@ -76,10 +89,10 @@ class Slider(AbstractMechanism):
         return 3
 
     def hinge_angles(self, q):
-        return jnp.zeros(0, q.dtype)
+        return jnp.zeros(self.n_hinges, q.dtype)
 
     def hinge_rates(self, q, v):
-        return jnp.zeros(0, q.dtype)
+        return jnp.zeros(self.n_hinges, q.dtype)
 
     def hinge_force(self, q, tau):
         return jnp.zeros(3, q.dtype)
@@ -101,8 +114,10 @@ class Slider(AbstractMechanism):
         return [square(self.side)]
 
     def hinge_layout(self):
+        h = self.n_hinges
+        far = np.array([[[1e4, 1e4, 0.0], [1e4 + 1, 1e4, 0.0]]])
         return HingeLayout(
-            np.zeros(0, int), np.zeros(0, int), np.zeros((0, 3)), np.zeros((0, 2, 3))
+            np.full(h, -1), np.zeros(h, int), np.tile([[1.0, 0.0, 0.0]], (h, 1)), far[:h]
         )
 
     def base_outline(self):
@@ -260,11 +275,11 @@ def test_adhesion_holds_below_its_pull_off_force_and_releases_above(fraction):
 # ---- friction ----
 
 
-def incline(angle, *, coefficient=0.3, slip=0.01, side=20.0, base=100.0):
+def incline(angle, *, coefficient=0.3, slip=0.01, side=20.0, base=100.0, hinged=False):
     """A plate resting on a base tilted by `angle` (gravity 1 µm/µs² turned by it), its contact
     with friction, and the state resting at the normal load's equilibrium gap."""
     load = np.array([np.sin(angle), 0.0, -np.cos(angle)])
-    mechanism = Slider(side=side, base=base, height=5.0, load=load)
+    mechanism = Slider(side=side, base=base, height=5.0, load=load, hinged=hinged)
     contact = plate_contact(
         mechanism,
         stiffness=0.02,
@@ -316,6 +331,46 @@ def test_a_plate_sticks_on_an_incline_below_the_friction_angle():
     assert states[-1, 3] == pytest.approx(creep, rel=DYNAMIC)
     assert np.all(np.abs(states[:, 3]) < slip) and abs(states[-1, 0]) < slip * t1
     energies = [energy(contact, mechanism, s) for s in states]
+    assert np.all(np.diff(energies) <= 1e-8 * abs(energies[0]))
+
+
+def _no_torque(t, theta, theta_dot):
+    return jnp.zeros(1)
+
+
+@eqx.filter_jit
+def _implicit(system, ts, q0, solver, steps):
+    inputs = UserTorque(fn=_no_torque)
+    q, v, _, _ = integrate(system, inputs, solver, jnp.zeros(()), ts, q0, jnp.zeros(3), steps)
+    return q, v, jax.vmap(system.energy)(q, v)
+
+
+@pytest.mark.parametrize("ratio", [0.5, 1.5])
+def test_the_implicit_step_takes_friction_in_its_residual(ratio):
+    # `ImplicitStep` puts the full generalized force, friction included, into its implicit-Euler
+    # residual at v = (q − q_n)/h. Steady motion is a fixed point of the scheme: the same closed
+    # forms as the explicit integration, a velocity growing by h a per step (sliding) and the
+    # creep speed (sticking); backward Euler only damps the transient.
+    mu, slip, dt = 0.3, 0.01, 0.05
+    angle = np.arctan(ratio * mu)
+    mechanism, contact = incline(angle, coefficient=mu, slip=slip, hinged=True)
+    system = FoldingSystem(
+        mechanism=mechanism,
+        hinges=Hinges(stiffness=[1.0], target=[0.0], radius=[1.0]),
+        drag=HingeDrag([0.0]),
+        contact=contact,
+    )
+    ts = jnp.linspace(0.25, 20.0, 80)
+    solver = ImplicitStep(dt=dt)
+    steps = steps_per_interval(solver, 0.0, np.asarray(ts))
+    q, v, energies = map(np.asarray, _implicit(system, ts, at_gap(mechanism, 0.07), solver, steps))
+    late = np.asarray(ts) >= 10
+    if ratio > 1:
+        slope = np.polyfit(np.asarray(ts)[late], v[late, 0], 1)[0]
+        assert slope == pytest.approx(np.sin(angle) - mu * np.cos(angle), rel=DYNAMIC)
+    else:
+        creep = slip * (1 - np.sqrt(1 - np.tan(angle) / mu))
+        assert v[-1, 0] == pytest.approx(creep, rel=DYNAMIC)
     assert np.all(np.diff(energies) <= 1e-8 * abs(energies[0]))
 
 
