@@ -206,6 +206,9 @@ def test_equal_stacked_plates_adhere_with_work_times_area(gap):
     got = adhesive_energy(contact, mechanism, at_gap(mechanism, gap))
     expected = -w * side**2 * phi(gap / delta)
     assert got == pytest.approx(expected, rel=EXACT, abs=EXACT * w * side**2)
+    if gap == 0.05:  # the report carries the adhesive energy
+        report = contact.report(mechanism, at_gap(mechanism, gap))
+        assert float(report["adhesion"]) == pytest.approx(got, rel=1e-12)
 
 
 def test_plate_on_a_larger_base_adheres_within_the_quadrature():
@@ -417,6 +420,17 @@ def _objective(contact, mechanism, q, v, parameters):
     return jnp.sum(c.force(mechanism, q, v) ** 2) + c.potential(mechanism, q)
 
 
+@eqx.filter_jit
+def _batched(contact, mechanism, qs, v, works):
+    """The force over a batch of states, and over a batch of works of adhesion."""
+    over_states = jax.vmap(lambda q: contact.force(mechanism, q, v))(qs)
+
+    def with_work(work):
+        return eqx.tree_at(lambda c: c.adhesion.work, contact, work).force(mechanism, qs[0], v)
+
+    return over_states, jax.vmap(with_work)(works)
+
+
 def _central(f, x, step):
     """Central differences of `f` at `x` `(n,)` along each axis, `(n, ...)`."""
     rows = []
@@ -456,6 +470,14 @@ def test_gradients_through_adhesion_and_friction_match_central_differences():
     central = _central(lambda p: _objective(contact, mechanism, q, v, p), parameters, 1e-6)
     assert np.all(np.isfinite(grads)) and np.all(np.abs(grads) > 0)
     np.testing.assert_allclose(grads, central, rtol=1e-6)
+    # Batches: vmap over states and over parameters gives each member's own force.
+    qs = jnp.stack([q, at_gap(mechanism, 0.15, x=-0.3), at_gap(mechanism, 0.5)])
+    works = jnp.array([w, 2 * w, 0.0])
+    over_states, over_works = _batched(contact, mechanism, qs, v, works)
+    for i in range(3):
+        single = eqx.tree_at(lambda c: c.adhesion.work, contact, works[i])
+        np.testing.assert_allclose(over_states[i], _force(contact, mechanism, qs[i], v), rtol=1e-12)
+        np.testing.assert_allclose(over_works[i], _force(single, mechanism, q, v), rtol=1e-12)
 
 
 def test_surface_physics_is_off_by_default_and_zero_parameters_change_nothing():
