@@ -255,6 +255,28 @@ def test_edge_on_face_has_no_face_adhesion():
         assert got == pytest.approx(expected, rel=EXACT, abs=EXACT * gamma * side)
 
 
+def test_the_seams_of_a_closed_cube_bond():
+    # A cube has 12 edges; its net of six 100 µm squares folds 5 of them as creases, so closing
+    # it brings 7 pairs of edges together along their length: line adhesion −7 γ L at closure
+    # (mid-surface edges coincide: φ = 1), 0 flat (nothing is stuck before it folds), and no
+    # face adhesion between perpendicular panels (their points are far from each other's faces).
+    gamma, side = 0.02, 100.0
+    net = load_net("cube_net_01", length_scale=0.5)
+    system = net.system()
+    mechanism = system.mechanism
+    contact = system.contact.with_surface(
+        mechanism, adhesion=Adhesion(work=0.05, range=0.4, line=gamma)
+    )
+    closed = jnp.asarray(net.intended_angles)
+    bare = system.contact
+    energies = [
+        float(_potential(contact, mechanism, q) - _potential(bare, mechanism, q))
+        for q in (0 * closed, 0.5 * closed, closed)
+    ]
+    assert energies[0] == 0.0 and energies[1] == 0.0
+    assert energies[2] == pytest.approx(-7 * gamma * side, rel=EXACT)
+
+
 @pytest.mark.parametrize("fraction", [0.9, 1.1])
 def test_adhesion_holds_below_its_pull_off_force_and_releases_above(fraction):
     # With δ/2 ≥ ĝ the largest force adhesion resists is where the barrier is off: the slope of
