@@ -4,6 +4,8 @@
   takes (`contact=`), for any mechanism (chains, panel trees) through its geometry
   (`body_poses`, `outlines`, `hinge_layout`); IPC's log barrier on plate-to-plate gaps with thickness.
 - [`origami_jax.contact.ContactTables`][]: its static geometry (rim points, faces, pairs).
+- [`origami_jax.contact.Adhesion`][], [`origami_jax.contact.Friction`][]: optional surface physics of
+  `PlateContact` (adhesion of touching faces and seams, smoothed Coulomb friction).
 - `barrier`, `smoothstep`: the scalar functions it is built from.
 - `contact_points`: where a system's panels touch along a trajectory (for views and exports).
 """
@@ -21,5 +23,9 @@ from ._plate_tables import build_plate_tables as build_plate_tables
 from ._plates import PlateContact as PlateContact
 from ._primitives import additive_ccd as additive_ccd
 from ._primitives import overlap_depth as overlap_depth
+from ._surface import Adhesion as Adhesion
+from ._surface import Friction as Friction
+from ._surface import SurfaceTables as SurfaceTables
+from ._surface import build_surface_tables as build_surface_tables
 from ._tables import ContactTables as ContactTables
 from ._tables import build_tables as build_tables

@@ -35,10 +35,18 @@ translation that separates them, `overlap_depth`): as prisms of their thicknesse
 in the flat state; on their mid-surfaces for panels that touch in the flat state (a shared crease,
 corner or cut edge), whose plates overlap along it by construction (a point hinge).
 
+**Adhesion and friction** (`Adhesion`, `Friction`, module `_surface`): optional, off by default.
+Adhesion adds a short-range attractive energy on quadrature points of the plates' faces and on
+pairs of nearly parallel edges (seams); friction a smoothed Coulomb force at every primitive pair,
+with the barrier's push as its normal force. Attach them with `from_mechanism(..., adhesion=,
+friction=)` or `with_surface`.
+
 Defaults (`PlateContact.for_system`) as `PanelContact`'s: ``ĝ`` = the larger of the panel thickness
 and 0.5 % of the largest panel, ``κ = Σ ½ k θ_target²`` (the energy the hinges can release), ``c`` from
 a damping ratio of the contact's stiffness at ``g = ĝ/2`` and the lightest panel's mass.
 """
+
+import dataclasses
 
 import equinox as eqx
 import jax
@@ -46,6 +54,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
+from .._math import normalise
 from .._validate import is_traced
 from ..system import AbstractContact, AbstractMechanism
 from ._model import (
@@ -65,6 +74,14 @@ from ._primitives import (
     point_polygon_sq,
     polygon_normal,
     segment_segment_sq,
+)
+from ._surface import (
+    Adhesion,
+    Friction,
+    SurfaceTables,
+    adhesion_energy,
+    build_surface_tables,
+    friction_wrenches,
 )
 
 # IPC's edge–edge mollifier switches on below this fraction of |e_a|²|e_b|² for |e_a × e_b|².
@@ -92,6 +109,10 @@ class PlateContact(AbstractContact):
     - `activation`: ``ĝ``, the gap at which contact switches on, length.
     - `damping`: ``c``, force·time/length, per primitive pair in contact.
     - `half_thickness`: half of each body's thickness, the base last, `(n,)`, length.
+    - `adhesion`: an [`origami_jax.contact.Adhesion`][] or `None` (default: none).
+    - `friction`: a [`origami_jax.contact.Friction`][] or `None` (default: frictionless).
+    - `surface` (static): adhesion's quadrature points and edge pairs
+      ([`origami_jax.contact.SurfaceTables`][]), present with `adhesion`.
 
     Build it with [`origami_jax.contact.PlateContact.for_system`][] (defaults from the hinges and
     panels) or `PlateContact.from_mechanism`.
@@ -102,6 +123,20 @@ class PlateContact(AbstractContact):
     activation: Float[Array, ""]
     damping: Float[Array, ""]
     half_thickness: Float[Array, " n"]
+    adhesion: Adhesion | None = None
+    friction: Friction | None = None
+    surface: SurfaceTables | None = eqx.field(static=True, default=None)
+
+    def __check_init__(self):
+        self._check_surface()
+
+    def _check_surface(self):
+        # Also checked where adhesion is used: `eqx.tree_at` builds a module without its checks.
+        if self.adhesion is not None and self.surface is None:
+            raise ValueError(
+                "PlateContact.adhesion needs its surface tables: attach it with "
+                "PlateContact.with_surface(mechanism, adhesion=...) or from_mechanism(adhesion=...)."
+            )
 
     @classmethod
     def from_mechanism(
@@ -115,6 +150,8 @@ class PlateContact(AbstractContact):
         base_outline: np.ndarray | None = None,
         base_thickness: Float[ArrayLike, ""] | None = None,
         tables: PlateTables | None = None,
+        adhesion: Adhesion | None = None,
+        friction: Friction | None = None,
     ) -> "PlateContact":
         """Contact of `mechanism`'s panels (their `outlines()`) with each other and with its base.
 
@@ -123,7 +160,8 @@ class PlateContact(AbstractContact):
         the largest panel), `base_outline` (world polygon; default the mechanism's
         `base_outline()`), `base_thickness` (default the largest panel thickness), `tables` (the
         geometry, from `tables_for`, when at hand: under `jit` the mechanism's own arrays are traced
-        and cannot give it). The numbers may be traced; the geometry may not.
+        and cannot give it), `adhesion` and `friction` (`with_surface`; default none). The numbers
+        may be traced; the geometry may not.
 
         **Raises:** `ValueError` for non-positive values (when known) or degenerate outlines.
         """
@@ -152,13 +190,49 @@ class PlateContact(AbstractContact):
                         f"{host}."
                     )
         n_all = tables.vertices.shape[0]
-        return cls(
+        contact = cls(
             tables=tables,
             stiffness=jnp.asarray(stiffness, dtype),
             activation=activation,
             damping=jnp.asarray(damping, dtype),
             half_thickness=half[:n_all],
         )
+        if adhesion is None and friction is None:
+            return contact
+        return contact.with_surface(mechanism, adhesion=adhesion, friction=friction)
+
+    def with_surface(
+        self,
+        mechanism: AbstractMechanism,
+        *,
+        adhesion: Adhesion | None = None,
+        friction: Friction | None = None,
+        clearance: float | None = None,
+    ) -> "PlateContact":
+        """This contact with `adhesion` and `friction` (each replaced, `None` removes it) for
+        `mechanism` (the one the tables were built for; its flat state places adhesion's
+        quadrature points, `build_surface_tables`, whose `clearance` this passes on). The
+        mechanism's geometry must be known (not traced), as for `tables_for`."""
+        surface = None
+        if adhesion is not None:
+            try:
+                rest = np.asarray(_rest_poses(mechanism))
+            except jax.errors.TracerArrayConversionError as error:
+                raise ValueError(
+                    "adhesion needs the panels' flat state before compilation: attach it to a "
+                    "contact built outside jit, vmap or grad."
+                ) from error
+            layout = mechanism.hinge_layout()
+            surface = build_surface_tables(
+                self.tables,
+                rest,
+                layout.parent,
+                layout.child,
+                layout.ends,
+                samples=adhesion.samples,
+                clearance=clearance,
+            )
+        return dataclasses.replace(self, adhesion=adhesion, friction=friction, surface=surface)
 
     @staticmethod
     def tables_for(
@@ -272,8 +346,29 @@ class PlateContact(AbstractContact):
 
     # ---- the contact force ----
 
+    def _adhesion(self, x):
+        """The adhesive energy at world vertices `x` (0 without adhesion)."""
+        if self.adhesion is None:
+            return jnp.zeros((), x.dtype)
+        self._check_surface()
+        return adhesion_energy(self.adhesion, self.surface, self.half_thickness, x)
+
     def potential(self, mechanism, q):
-        return self._energy(self.vertices(mechanism, q))
+        x = self.vertices(mechanism, q)
+        if self.adhesion is None:
+            return self._energy(x)
+        return self._energy(x) + self._adhesion(x)
+
+    def _contact_frames(self, x):
+        """Every primitive pair's contact point (the midpoint of its closest points) and unit
+        normal (from the second body's primitive towards the first's), `(k, 3)` each, world."""
+        point, polygon = self._vertex_face_points(x)
+        normal = polygon_normal(polygon)
+        # ∇_p |p − c|² = 2 (p − c), c the polygon's closest point.
+        towards = 0.5 * jax.grad(lambda p: jnp.sum(point_polygon_sq(p, polygon, normal)))(point)
+        on_p, on_q = closest_on_segments(*self._edge_edge_points(x))
+        where = jnp.concatenate([point - 0.5 * towards, 0.5 * (on_p + on_q)], axis=0)
+        return where, normalise(jnp.concatenate([towards, on_p - on_q], axis=0))
 
     def force(self, mechanism, q, v):
         poses, velocity, wrench_force = mechanism.body_motion(q, v)
@@ -295,7 +390,17 @@ class PlateContact(AbstractContact):
         )
         on_mollifier = self.stiffness * barrier(ratio[n_vf:])
         (gradient,) = jax.linear_transpose(tangent, x)((push, on_mollifier))
+        if self.adhesion is not None:
+            gradient = gradient + jax.grad(self._adhesion)(x)
         wrenches = self._wrenches(x, -gradient)
+        if self.friction is not None:
+            # The normal force of each pair: the barrier's push alone (not its damping).
+            normal_force = -self.stiffness * weight * _barrier_slope(ratio) / self.activation
+            point, normal = self._contact_frames(x)
+            a, b = self._pair_bodies()
+            wrenches = wrenches + friction_wrenches(
+                self.friction, normal_force, point, normal, a, b, velocity
+            )
         return wrench_force(wrenches[: self.tables.n_bodies])
 
     # ---- continuous collision detection (the step guard) ----
@@ -372,7 +477,8 @@ class PlateContact(AbstractContact):
         a, b = self._pair_bodies()
         touching = jnp.zeros((n, n), bool).at[a, b].max(near)
         touching = touching | touching.T
-        return {
+        extra = {} if self.adhesion is None else {"adhesion": self._adhesion(x)}
+        return extra | {
             "min_gap": jnp.min(gap, initial=jnp.inf),
             "engaged": jnp.sum(near),
             "penetration": jnp.max(
