@@ -99,10 +99,12 @@ class Trajectory(eqx.Module):
         return jnp.asarray(self.result._value == RESULTS.successful._value)
 
     def evaluate(self, t: Float[ArrayLike, ""]) -> tuple[Float[Array, " n"], Float[Array, " n"]]:
-        """Dense output: `(θ(t), θ̇(t))` anywhere in the solved interval (needs `SaveAt(dense=True)`)."""
+        """Dense output: `(θ(t), θ̇(t))` anywhere in the solved interval (needs
+        `SaveAt(dense=True)`)."""
         if self.solution is None:
             raise ValueError(
-                "This trajectory has no dense output: simulate with SolveOptions(saveat=SaveAt(dense=True))."
+                "This trajectory has no dense output: simulate with "
+                "SolveOptions(saveat=SaveAt(dense=True))."
             )
         return self.solution.evaluate(t)  # pyright: ignore[reportArgumentType] (a real scalar)
 
