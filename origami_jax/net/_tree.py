@@ -270,6 +270,10 @@ class PanelTree(AbstractMechanism):
         constrained solve needs; `mass_matrix` and `bias_force` separately compute them twice)."""
         return _mass_matrix_and_bias(self, jnp.asarray(q), jnp.asarray(v))
 
+    def with_added_inertias(self, added: Float[ArrayLike, "n 6 6"] | None) -> "PanelTree":
+        """The same tree with its panels' added inertias replaced (`None`: none)."""
+        return eqx.tree_at(lambda t: t.added_inertias, self, added, is_leaf=lambda x: x is None)
+
     def outlines(self) -> list[np.ndarray]:
         """Each panel's polygon in its body frame, `(k_i, 3)` host arrays; without stored outlines a
         rectangle in the body ``x–y`` plane about the CG whose sides give the panel's inertia
