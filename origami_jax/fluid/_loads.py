@@ -15,7 +15,6 @@ Everything is differentiable in the design.
 
 from typing import NamedTuple
 
-import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 

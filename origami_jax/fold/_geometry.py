@@ -21,6 +21,7 @@ from numpy.typing import ArrayLike
 
 from ._errors import FoldFormatError
 from ._model import FoldFile, FoldFrame
+from ._read import read_fold
 
 # Directions closer than this (radians) are "the same"; coordinates within this (relative to the
 # paper size) of a plane are "in it"; creases within this of parallel are "parallel".
@@ -96,7 +97,6 @@ class VertexGeometry:
 def _as_fold(fold: FoldFile | str | os.PathLike[str]) -> FoldFile:
     if isinstance(fold, FoldFile):
         return fold
-    from ._read import read_fold
 
     return read_fold(Path(fold))
 
