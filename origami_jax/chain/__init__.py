@@ -28,6 +28,7 @@ from ._dynamics import inverse_dynamics as inverse_dynamics
 from ._dynamics import kinetic_energy as kinetic_energy
 from ._dynamics import mass_matrix as mass_matrix
 from ._dynamics import potential_energy as potential_energy
+from ._extended import tip_contact_angle as tip_contact_angle
 from ._fold import accordion_dimensions as accordion_dimensions
 from ._fold import chain_from_geometry as chain_from_geometry
 from ._fold import load_chain as load_chain

@@ -12,8 +12,7 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from .._validate import as_float_array, check_finite, check_positive, check_shape, is_traced
-from ..system._mechanism import AbstractMechanism, HingeLayout
-from ..system._units import MICRO, UnitSystem
+from ..system import MICRO, AbstractMechanism, HingeLayout, UnitSystem
 from ._axes import PARALLEL_TOLERANCE, _sines_to_first_axis, axes_parallel_error
 from ._dynamics import (
     bias_torque,

@@ -18,8 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from ..chain import Accordion
-from ..chain._extended import tip_contact_angle
+from ..chain import Accordion, tip_contact_angle
 from ..system import HingeDesign
 from ._design import SimulationSettings, design
 from ._plausible import PLAUSIBLE_RANGES, plausible_bounds

@@ -29,8 +29,7 @@ from jaxtyping import Array, Float
 from ..fold import FoldFile, FoldFrame
 from ..simulation import AbstractInput, Step, simulate
 from ..system import KOH_SOLUTION, HingeDesign
-from ..vertex import certify_path, corner_cube, fold_angles, unfold
-from ..vertex._geometry import chain_from_fold_angles
+from ..vertex import certify_path, chain_from_fold_angles, corner_cube, fold_angles, unfold
 from ._pattern import load_pattern
 
 # The flaps of `vertex_pattern` reach this far from the vertex (µm).

@@ -4,7 +4,7 @@ import dataclasses
 
 import numpy as np
 
-from ..simulation._verdict import FoldReport, FoldVerdict
+from ..simulation import FoldReport, FoldVerdict
 
 # A crease counts as having chosen its side once it is this far from flat (rad).
 BRANCH_ANGLE = float(np.radians(2.0))

@@ -36,7 +36,7 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from .._validate import as_float_array, check_positive
-from ..system._mechanism import AbstractMechanism, HingeLayout
+from ..system import AbstractMechanism, HingeLayout
 from ._joints import ArcJoints
 from ._tree import PanelTree
 

@@ -34,7 +34,7 @@ from .._validate import (
     check_unit_vectors,
     is_traced,
 )
-from ..system._mechanism import AbstractMechanism, HingeLayout
+from ..system import AbstractMechanism, HingeLayout
 from . import _batching, _dynamics, _motion
 from ._joints import AbstractJoints, ArcJoints, RevoluteJoints
 from ._plate import polygon_plate

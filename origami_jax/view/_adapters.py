@@ -135,8 +135,7 @@ def _arc_contacts(path: np.ndarray, closed: bool) -> tuple[np.ndarray, np.ndarra
     import jax
     import jax.numpy as jnp
 
-    from ..vertex import arc_pair_clearances, topology
-    from ..vertex._geometry import point_arc_distance
+    from ..vertex import arc_pair_clearances, point_arc_distance, topology
 
     top = topology(path.shape[1], closed)
     pairs = np.asarray(top.arc_pairs)
