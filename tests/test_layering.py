@@ -252,3 +252,27 @@ def test_other_subpackages_are_imported_by_their_public_names():
             gone.append(name)
     assert not over, "imports of other subpackages' private modules:\n" + "\n".join(over)
     assert not gone, f"no private imports any more, take them off PRIVATE_IMPORTS: {gone}"
+
+
+# ---- abstract or final ----------------------------------------------------------------------------
+
+# Base classes of the package that are subclassed although not `Abstract*`: exceptions (a family of
+# errors) and result enumerations (diffrax's way of extending its RESULTS).
+SUBCLASSED_CONCRETE = {"FolderBusyError", "CLIError", "RESULTS"}
+
+
+def test_classes_are_abstract_or_final():
+    """A class of the package is either abstract (named `Abstract*`, never instantiated) or final
+    (never subclassed): what two classes share goes into an abstract base, not into one of them."""
+    defined, bases = set(), []
+    for name, source in _sources():
+        for node in ast.walk(ast.parse(source)):
+            if isinstance(node, ast.ClassDef):
+                defined.add(node.name)
+                bases += [(name, node.name, ast.unparse(b).split(".")[-1]) for b in node.bases]
+    concrete = [
+        f"{file}: {cls}({base})"
+        for file, cls, base in bases
+        if base in defined and not base.startswith("Abstract") and base not in SUBCLASSED_CONCRETE
+    ]
+    assert not concrete, f"concrete classes subclassed: {concrete}"

@@ -18,7 +18,7 @@ import numpy as np
 
 from .._limits import FOLD_SEGMENT, MAX_FOLD_SEGMENTS
 from ._simulate import Trajectory, simulate
-from ._verdict import FoldReport
+from ._verdict import AbstractFoldReport
 
 _STEP_COUNTS = ("num_steps", "num_accepted_steps", "num_rejected_steps")
 
@@ -58,7 +58,7 @@ def _joined(first, then):
 def fold_until_settled(
     system,
     inputs,
-    judge: Callable[[Trajectory], FoldReport],
+    judge: Callable[[Trajectory], AbstractFoldReport],
     *,
     segment: float = FOLD_SEGMENT,
     max_segments: int = MAX_FOLD_SEGMENTS,
@@ -67,7 +67,7 @@ def fold_until_settled(
     theta_dot0=None,
     on_continue: Callable[[float, float], None] | None = None,
     **simulate_kwargs,
-) -> tuple[Trajectory, FoldReport, int]:
+) -> tuple[Trajectory, AbstractFoldReport, int]:
     """Simulate `system` under `inputs` for `segment` (time units of the system; default 1000, µs in
     the default units), judge the run with `judge`, and while the verdict is `unfinished` with a
     successful solve continue from the last state for another `segment`, up to `max_segments`
