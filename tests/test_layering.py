@@ -5,6 +5,7 @@ circle, internal imports sit at the top of modules, and no block of lines is rep
 import ast
 import contextlib
 import io
+import re
 from pathlib import Path
 
 import grimp
@@ -276,3 +277,79 @@ def test_classes_are_abstract_or_final():
         if base in defined and not base.startswith("Abstract") and base not in SUBCLASSED_CONCRETE
     ]
     assert not concrete, f"concrete classes subclassed: {concrete}"
+
+
+# ---- repeated blocks ------------------------------------------------------------------------------
+
+BLOCK = 6  # lines
+_TRIVIAL = re.compile(r"^[\s()\[\]{},:;]*$|^(else|try|finally|pass|return|continue|break):?$")
+
+# Files (under origami_jax/) that share a repeated block → why it stays for now.
+ALLOWED_REPEATS: dict[frozenset[str], str] = {
+    frozenset({"fab_yield/_ascent.py", "fab_yield/_estimate.py"}): _BEING_REDUCED,
+    frozenset({"simulation/_simulate.py"}): _BEING_REDUCED,
+    frozenset({"vertex/_descent.py"}): (
+        "the descent's loop state declares the fields of the output it becomes (eqx.Module layouts)"
+    ),
+}
+
+
+def _code_lines(source: str) -> list[tuple[int, str]]:
+    """`(line number, text with white space folded)` of the lines that carry code: no blank lines,
+    comments, imports, docstrings (or other lone strings), a signature's parameter lines, or lines
+    of punctuation and bare keywords."""
+    skip: set[int] = set()
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, (ast.Import, ast.ImportFrom)):
+            skip.update(range(node.lineno, (node.end_lineno or node.lineno) + 1))
+        elif isinstance(node, ast.Expr) and isinstance(node.value, ast.Constant):
+            skip.update(range(node.lineno, (node.end_lineno or node.lineno) + 1))
+        elif isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+            skip.update(range(node.lineno + 1, node.body[0].lineno))
+    kept = []
+    for number, line in enumerate(source.split("\n"), 1):
+        text = " ".join(line.split())
+        if number in skip or not text or text.startswith("#") or _TRIVIAL.match(text):
+            continue
+        kept.append((number, text))
+    return kept
+
+
+def _repeats() -> dict[frozenset[str], list[tuple[str, int]]]:
+    """Files that share a block of `BLOCK` code lines (`_code_lines`, identical after folding white
+    space) → the places: (file, first line), two or more, not overlapping."""
+    places: dict[tuple[str, ...], list[tuple[str, int, int]]] = {}
+    for name, source in _sources():
+        kept = _code_lines(source)
+        for k in range(len(kept) - BLOCK + 1):
+            window = tuple(text for _, text in kept[k : k + BLOCK])
+            places.setdefault(window, []).append((name, kept[k][0], kept[k + BLOCK - 1][0]))
+    found: dict[frozenset[str], list[tuple[str, int]]] = {}
+    for where in places.values():
+        apart = []
+        for name, first, last in sorted(where):
+            if not (apart and apart[-1][0] == name and first <= apart[-1][2]):
+                apart.append((name, first, last))
+        if len(apart) > 1:
+            key = frozenset(name for name, _, _ in apart)
+            found.setdefault(key, []).extend((name, first) for name, first, _ in apart)
+    return found
+
+
+def test_no_block_of_lines_is_repeated():
+    found = _repeats()
+    new = {
+        tuple(sorted(k)): sorted(set(v))[:4] for k, v in found.items() if k not in ALLOWED_REPEATS
+    }
+    assert not new, f"blocks of {BLOCK}+ identical lines (fold them into one helper): {new}"
+    gone = [sorted(k) for k in set(ALLOWED_REPEATS) - set(found)]
+    assert not gone, f"no repeated block any more, take them off ALLOWED_REPEATS: {gone}"
+
+
+def test_the_repeat_finder_finds_repeats(tmp_path):
+    body = "\n".join(f"    x{i} = f(x{i - 1}, {i})" for i in range(1, 8))
+    source = f'def a(x0):\n    """Doc."""\n{body}\n    return x7\n\n\ndef b(x0):\n{body}\n'
+    lines = [text for _, text in _code_lines(source)]
+    assert lines[0] == "def a(x0):" and "Doc." not in " ".join(lines)
+    window = tuple(lines[1 : 1 + BLOCK])
+    assert [lines[k : k + BLOCK] for k in range(len(lines))].count(list(window)) == 2

@@ -21,10 +21,9 @@ import jax.numpy as jnp
 import numpy as np
 
 from .. import simulation as sim
-from ..fluid import fluid_loads, rectangle_added_inertia
 from ..net import strip_tree
 from ..system import AIR, KOH_SOLUTION, MICRO, HingeDesign
-from ._extended import _panels, eqx_replace, tip_contact_angle
+from ._extended import _panels, accordion_fluid_loads, eqx_replace, tip_contact_angle
 from ._system import Accordion, accordion_system, alternating_targets
 
 CASES = ("step_air", "step_koh", "ramp_koh")
@@ -333,17 +332,7 @@ def accordion_diagnostics(design: HingeDesign, n: int = 3) -> dict:
         thickness=design.t_structural + design.t_hinge,
     )
     stiffness = bilayer_design.stiffness(n)
-    unit = rectangle_added_inertia(design.flap_length, design.flap_width, 1.0)
-    loads = fluid_loads(
-        arc,
-        jnp.broadcast_to(unit, (n, 6, 6)),
-        jnp.broadcast_to(design.flap_length, (n,)),
-        stiffness,
-        target,
-        density=design.fluid.density,
-        viscosity=design.fluid.viscosity,
-        coefficient=design.added_mass_coefficient,
-    )
+    loads = accordion_fluid_loads(design, arc, stiffness, target)
     flap_mass = float(panels.masses[0])
     strip_mass = float(design.strip_areal_density() * jnp.mean(design.hinge_width)) * lengths[0]
 

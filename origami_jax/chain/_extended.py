@@ -25,6 +25,7 @@ import numpy as np
 from ..contact import PanelContact
 from ..fluid import (
     CombinedDrag,
+    FluidLoads,
     PanelDrag,
     PanelQuadrature,
     fluid_loads,
@@ -156,16 +157,11 @@ def extended_accordion(
             )
         )
     if "added_mass" in parts or "viscous" in parts:
-        unit = rectangle_added_inertia(design.flap_length, design.flap_width, 1.0)
-        loads = fluid_loads(
+        loads = accordion_fluid_loads(
+            design,
             mechanism,
-            jnp.broadcast_to(unit, (n, 6, 6)),
-            jnp.broadcast_to(design.flap_length, (n,)),
             stiffness,
             target,
-            density=design.fluid.density,
-            viscosity=design.fluid.viscosity,
-            coefficient=design.added_mass_coefficient,
             added_mass="added_mass" in parts,
             viscous="viscous" in parts,
         )
@@ -184,6 +180,27 @@ def extended_accordion(
             base_outline=_base(design),
         )
     return FoldingSystem(mechanism, hinges_, drag, contact=contact_model, units=design.units)
+
+
+def accordion_fluid_loads(
+    design: HingeDesign, mechanism, stiffness, target, *, added_mass=True, viscous=True
+) -> FluidLoads:
+    """`fluid_loads` on the accordion's `n` flaps (rectangles ``L × w``, chord ``L``) in the
+    design's fluid, with its added-mass coefficient."""
+    n = mechanism.n_hinges
+    unit = rectangle_added_inertia(design.flap_length, design.flap_width, 1.0)
+    return fluid_loads(
+        mechanism,
+        jnp.broadcast_to(unit, (n, 6, 6)),
+        jnp.broadcast_to(design.flap_length, (n,)),
+        stiffness,
+        target,
+        density=design.fluid.density,
+        viscosity=design.fluid.viscosity,
+        coefficient=design.added_mass_coefficient,
+        added_mass=added_mass,
+        viscous=viscous,
+    )
 
 
 def _base(design: HingeDesign) -> np.ndarray:

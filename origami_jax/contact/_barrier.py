@@ -56,6 +56,36 @@ def released_energy(hinge_stiffness, hinge_target) -> Array:
     return jnp.sum(0.5 * jnp.asarray(hinge_stiffness) * jnp.asarray(hinge_target) ** 2)
 
 
+def with_default_contact(
+    cls, mechanism, hinge_stiffness, hinge_target, damping_ratio: float, thickness, kwargs: dict
+):
+    """`cls.from_mechanism(mechanism, thickness=thickness, stiffness=κ, damping=c, **kwargs)` with
+    the defaults of a contact model's `for_system`: ``κ`` the energy the hinges can release
+    (`released_energy`), ``c`` from `damping_ratio` (`with_default_damping`)."""
+    energy = released_energy(hinge_stiffness, hinge_target)
+    probe = cls.from_mechanism(
+        mechanism, thickness=thickness, stiffness=energy, damping=0.0, **kwargs
+    )
+    return with_default_damping(probe, mechanism, damping_ratio)
+
+
+def with_base_pose(tables, poses: Array) -> Array:
+    """The moving bodies' world poses `(b, 4, 4)` with the fixed base's after them when the contact
+    `tables` have a base (`(b + 1, 4, 4)`), else as they are."""
+    if not tables.has_base:
+        return poses
+    return jnp.concatenate([poses, jnp.asarray(tables.base_pose, poses.dtype)[None]], axis=0)
+
+
+def half_thicknesses(mechanism, thickness, base_thickness) -> tuple[Array, Array]:
+    """Each panel's thickness `(b,)` (a scalar broadcast) and the half-thicknesses of the panels
+    and the base after them `(b + 1,)` (the base's default: the thickest panel's)."""
+    dtype = jnp.result_type(float)
+    thickness = jnp.broadcast_to(jnp.asarray(thickness, dtype), (mechanism.n_bodies,))
+    base = jnp.max(thickness) if base_thickness is None else base_thickness
+    return thickness, jnp.concatenate([thickness, jnp.asarray(base, dtype)[None]]) / 2
+
+
 def with_default_damping(contact, mechanism, damping_ratio: float):
     """`contact` (with `stiffness`, `activation`, `tables.scale`) with its default damping
     ``c = 2 ζ sqrt(k_c m)``: ``k_c = κ B''(½)/ĝ²`` the contact's stiffness half-way into the

@@ -77,9 +77,10 @@ from ._barrier import (
     _ramp_integral,
     _rest_poses,
     barrier,
-    released_energy,
+    half_thicknesses,
     smoothstep,
-    with_default_damping,
+    with_base_pose,
+    with_default_contact,
 )
 from ._plate_geometry import plate_overlaps, plate_tables_for, plate_vertices
 from ._plate_tables import PlateTables
@@ -144,12 +145,9 @@ class PanelContact(AbstractContact):
 
         **Raises:** `ValueError` for non-positive values (when known) or degenerate outlines.
         """
-        n = mechanism.n_bodies
         dtype = jnp.result_type(float)
-        thickness = jnp.broadcast_to(jnp.asarray(thickness, dtype), (n,))
-        base_thickness = jnp.max(thickness) if base_thickness is None else base_thickness
+        thickness, half = half_thicknesses(mechanism, thickness, base_thickness)
         base = mechanism.base_outline() if base_outline is None else base_outline
-        half = jnp.concatenate([thickness, jnp.asarray(base_thickness, dtype)[None]]) / 2
         size = max(float(np.max(np.ptp(o, axis=0))) for o in mechanism.outlines())
         if activation is None:
             activation = jnp.maximum(jnp.max(thickness), 0.005 * size)
@@ -248,11 +246,9 @@ class PanelContact(AbstractContact):
         `damping_ratio`. Other keyword arguments go to `from_mechanism`. Traceable in the hinges,
         the thickness and the mechanism's masses.
         """
-        energy = released_energy(hinge_stiffness, hinge_target)
-        probe = cls.from_mechanism(
-            mechanism, thickness=thickness, stiffness=energy, damping=0.0, **kwargs
+        return with_default_contact(
+            cls, mechanism, hinge_stiffness, hinge_target, damping_ratio, thickness, kwargs
         )
-        return with_default_damping(probe, mechanism, damping_ratio)
 
     # ---- kernels ----
     #
@@ -268,9 +264,7 @@ class PanelContact(AbstractContact):
     def _frames(self, poses):
         """World rotations `(n, 3, 3)` and origins `(n, 3)` of every body, the base last, from the
         moving bodies' poses `(b, 4, 4)`."""
-        if self.tables.has_base:
-            base = jnp.asarray(self.tables.base_pose, poses.dtype)[None]
-            poses = jnp.concatenate([poses, base], axis=0)
+        poses = with_base_pose(self.tables, poses)
         return poses[:, :3, :3], poses[:, :3, 3]
 
     def _local(self, mechanism, q, poses=None):
@@ -479,9 +473,7 @@ class PanelContact(AbstractContact):
         if self.plates is None:
             penetration = jnp.maximum(-smallest, 0.0)
         else:
-            if self.tables.has_base:
-                base = jnp.asarray(self.tables.base_pose, poses.dtype)[None]
-                poses = jnp.concatenate([poses, base], axis=0)
+            poses = with_base_pose(self.tables, poses)
             x = plate_vertices(self.plates, poses)
             depths = plate_overlaps(self.plates, self.half_thickness, x)
             penetration = jnp.max(depths, initial=0.0)

@@ -52,9 +52,10 @@ from ._barrier import (
     DEFAULT_DAMPING_RATIO,
     _barrier_slope,
     barrier,
-    released_energy,
+    half_thicknesses,
     smoothstep,
-    with_default_damping,
+    with_base_pose,
+    with_default_contact,
 )
 from ._plate_geometry import plate_overlaps, plate_tables_for, plate_vertices
 from ._plate_tables import PlateTables
@@ -127,11 +128,8 @@ class PlateContact(AbstractContact):
 
         **Raises:** `ValueError` for non-positive values (when known) or degenerate outlines.
         """
-        n = mechanism.n_bodies
         dtype = jnp.result_type(float)
-        thickness = jnp.broadcast_to(jnp.asarray(thickness, dtype), (n,))
-        base_thickness = jnp.max(thickness) if base_thickness is None else base_thickness
-        half = jnp.concatenate([thickness, jnp.asarray(base_thickness, dtype)[None]]) / 2
+        thickness, half = half_thicknesses(mechanism, thickness, base_thickness)
         if tables is None:
             tables = cls.tables_for(mechanism, base_outline=base_outline)
         if activation is None:
@@ -184,20 +182,15 @@ class PlateContact(AbstractContact):
         lightest panel's mass (the smallest diagonal entry of ``M(0)`` over its squared lever arm,
         the panel size), ``ζ`` = `damping_ratio`. Other keyword arguments go to `from_mechanism`.
         Traceable in the hinges, the thickness and the mechanism's masses."""
-        energy = released_energy(hinge_stiffness, hinge_target)
-        probe = cls.from_mechanism(
-            mechanism, thickness=thickness, stiffness=energy, damping=0.0, **kwargs
+        return with_default_contact(
+            cls, mechanism, hinge_stiffness, hinge_target, damping_ratio, thickness, kwargs
         )
-        return with_default_damping(probe, mechanism, damping_ratio)
 
     # ---- geometry ----
 
     def _frames(self, poses):
         """World poses `(n, 4, 4)` of every body, the base last, from the moving bodies' poses."""
-        if self.tables.has_base:
-            base = jnp.asarray(self.tables.base_pose, poses.dtype)[None]
-            poses = jnp.concatenate([poses, base], axis=0)
-        return poses
+        return with_base_pose(self.tables, poses)
 
     def vertices(self, mechanism: AbstractMechanism, q: Float[Array, " nq"]) -> Array:
         """World positions of every body's polygon vertices at ``q``, `(n, v, 3)` (the base last;

@@ -53,6 +53,18 @@ def _as_polygon_tuple(polygon, name: str) -> tuple[tuple[float, ...], ...]:
     return tuple(tuple(float(x) for x in row) for row in host)
 
 
+def forward_inputs(n: int, q, v, force) -> tuple[Array, Array, Array]:
+    """`q`, `v`, `force` of a tree's `forward_dynamics` as arrays, checked: each `(n,)`, or `(t, n)`
+    for `t` states."""
+    q, v, force = jnp.asarray(q), jnp.asarray(v), jnp.asarray(force)
+    if q.ndim not in (1, 2) or q.shape[-1] != n or v.shape != q.shape or force.shape != q.shape:
+        raise ValueError(
+            f"q, v and force must have shape ({n},) or (t, {n}) for this {n}-panel tree, got "
+            f"{q.shape}, {v.shape} and {force.shape}."
+        )
+    return q, v, force
+
+
 class PanelTree(AbstractMechanism):
     """Rigid panels hinged in a tree (module docstring: conventions), any consistent units.
 
@@ -225,13 +237,7 @@ class PanelTree(AbstractMechanism):
         `forward_mode_only` is accepted and ignored (one derivative rule, from the inverse
         dynamics, serves both modes; `_batching`)."""
         del forward_mode_only
-        q, v, force = jnp.asarray(q), jnp.asarray(v), jnp.asarray(force)
-        n = self.n_hinges
-        if q.ndim not in (1, 2) or q.shape[-1] != n or v.shape != q.shape or force.shape != q.shape:
-            raise ValueError(
-                f"q, v and force must have shape ({n},) or (t, {n}) for this {n}-panel tree, got "
-                f"{q.shape}, {v.shape} and {force.shape}."
-            )
+        q, v, force = forward_inputs(self.n_hinges, q, v, force)
         if q.ndim == 2:
             return _rows(self, q, v, force)
         return _single(self, q, v, force)
