@@ -2,6 +2,7 @@
 (`PanelContact`, `PlateContact`)."""
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
@@ -67,6 +68,20 @@ def with_default_contact(
         mechanism, thickness=thickness, stiffness=energy, damping=0.0, **kwargs
     )
     return with_default_damping(probe, mechanism, damping_ratio)
+
+
+def host_rest_poses(mechanism, tables: str, tables_for: str) -> np.ndarray:
+    """The bodies' rest poses on the host, for a contact model's geometry tables; `ValueError`
+    when the mechanism's arrays are traced (`tables`: the tables' class, `tables_for`: the method
+    that builds them outside)."""
+    try:
+        return np.asarray(_rest_poses(mechanism))
+    except jax.errors.TracerArrayConversionError as error:
+        raise ValueError(
+            "contact needs the panels' geometry before compilation, but this mechanism was built "
+            f"from traced values (under jit, vmap or grad): build its {tables} outside "
+            f"({tables_for}) and pass tables=, or vary hinge parameters only."
+        ) from error
 
 
 def with_base_pose(tables, poses: Array) -> Array:

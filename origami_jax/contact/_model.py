@@ -75,9 +75,9 @@ from ._barrier import (
     DEFAULT_DAMPING_RATIO,
     _barrier_slope,
     _ramp_integral,
-    _rest_poses,
     barrier,
     half_thicknesses,
+    host_rest_poses,
     smoothstep,
     with_base_pose,
     with_default_contact,
@@ -206,14 +206,7 @@ class PanelContact(AbstractContact):
         outlines = mechanism.outlines()
         size = max(float(np.max(np.ptp(o, axis=0))) for o in outlines)
         base = mechanism.base_outline() if base_outline is None else base_outline
-        try:
-            rest = np.asarray(_rest_poses(mechanism))
-        except jax.errors.TracerArrayConversionError as error:
-            raise ValueError(
-                "contact needs the panels' geometry before compilation, but this mechanism was built "
-                "from traced values (under jit, vmap or grad): build its ContactTables outside "
-                "(PanelContact.tables_for) and pass tables=, or vary hinge parameters only."
-            ) from error
+        rest = host_rest_poses(mechanism, "ContactTables", "PanelContact.tables_for")
         layout = mechanism.hinge_layout()
         return build_tables(
             outlines,

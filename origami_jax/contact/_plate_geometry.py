@@ -1,13 +1,12 @@
 """The plate model's geometry in JAX: a mechanism's plate tables, its plates' world vertices and their
 overlaps (used by `PlateContact` and by `PanelContact`'s report)."""
 
-import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
 from ..system import AbstractMechanism
-from ._barrier import _rest_poses
+from ._barrier import host_rest_poses
 from ._plate_tables import PlateTables, build_plate_tables
 from ._primitives import overlap_depth
 
@@ -18,14 +17,7 @@ def plate_tables_for(
     """The plate geometry of a mechanism whose arrays are known (host; `PlateTables`): its
     outlines, rest poses and hinge layout."""
     base = mechanism.base_outline() if base_outline is None else base_outline
-    try:
-        rest = np.asarray(_rest_poses(mechanism))
-    except jax.errors.TracerArrayConversionError as error:
-        raise ValueError(
-            "contact needs the panels' geometry before compilation, but this mechanism was built "
-            "from traced values (under jit, vmap or grad): build its PlateTables outside "
-            "(PlateContact.tables_for) and pass tables=, or vary hinge parameters only."
-        ) from error
+    rest = host_rest_poses(mechanism, "PlateTables", "PlateContact.tables_for")
     layout = mechanism.hinge_layout()
     return build_plate_tables(
         mechanism.outlines(), rest, base, layout.parent, layout.child, layout.ends
