@@ -23,3 +23,4 @@ from ._primitives import additive_ccd as additive_ccd
 from ._primitives import overlap_depth as overlap_depth
 from ._tables import ContactTables as ContactTables
 from ._tables import build_tables as build_tables
+from ._tables import sampling_pair as sampling_pair
