@@ -200,6 +200,7 @@ def single_vertex_fold(
             _folded_frame(
                 np.concatenate([np.zeros((1, 3)), radius * path[s]]),
                 deg,
+                edge_assignment(deg),
                 key_assignment,
                 frame_extra,
             )
