@@ -17,10 +17,9 @@ from typing import TYPE_CHECKING as _TYPE_CHECKING
 from ._cache import enable_compilation_cache as enable_compilation_cache
 from ._version import __version__ as __version__
 
-# Subpackages load on first use so that `origami-jax --help` and `import origami_jax` stay fast;
-# `origami_jax.chain`, `origami_jax.simulation`, ... behave as ordinary attributes.
-# Every folder of the package is listed (a test checks it).
-_SUBPACKAGES = (
+__all__ = [  # noqa: RUF022  (listed literally so type checkers can read it)
+    "__version__",
+    "enable_compilation_cache",
     "chain",
     "cli",
     "contact",
@@ -36,7 +35,13 @@ _SUBPACKAGES = (
     "system",
     "vertex",
     "view",
-)
+]
+
+# Subpackages load on first use so that `origami-jax --help` and `import origami_jax` stay fast;
+# `origami_jax.chain`, `origami_jax.simulation`, ... behave as ordinary attributes.
+# Every folder of the package is listed in `__all__` (a test checks it).
+_SUBPACKAGES = frozenset(__all__) - {"__version__", "enable_compilation_cache"}
+
 
 if _TYPE_CHECKING:
     from . import (  # noqa: F401
@@ -66,24 +71,3 @@ def __getattr__(name: str):
 
 def __dir__() -> list[str]:
     return sorted({*globals(), *_SUBPACKAGES})
-
-
-__all__ = [  # noqa: RUF022  (listed literally so type checkers can read it)
-    "__version__",
-    "enable_compilation_cache",
-    "chain",
-    "cli",
-    "contact",
-    "design",
-    "fab_yield",
-    "fluid",
-    "fold",
-    "loops",
-    "net",
-    "plotting",
-    "simulation",
-    "sweep",
-    "system",
-    "vertex",
-    "view",
-]

@@ -6,6 +6,8 @@ follow the "double where" pattern: the unsafe branch is fed a harmless value so 
 although discarded by ``jnp.where``, is never NaN.
 """
 
+import equinox.internal as eqxi
+import jax
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
@@ -109,3 +111,42 @@ def sin_cos_reduced(x: Float[ArrayLike, "..."]) -> tuple[Array, Array]:
     s = jnp.where(quadrant >= 2.0, -s, s)
     c = jnp.where((quadrant == 1.0) | (quadrant == 2.0), -c, c)
     return jnp.where(x == 0, x, s), c  # sin(±0) = ±0, which the reduction loses
+
+
+def sin_cos_once(theta: Array) -> tuple[Array, Array]:
+    """``(sin θ, cos θ)`` of the hinge angles; on the CPU evaluated once, by vectorised polynomials.
+
+    XLA:CPU has no multi-output fusion: every fused kernel re-evaluates the elementwise expressions it
+    reads, and the forward dynamics split into seven kernels (one per Cholesky pivot and the output),
+    each recomputing all the sines and cosines, which cost ~10 ns apiece in float64 (`jnp.sin`). On
+    the CPU they are therefore computed inside a conditional (a fusion boundary) by
+    `sin_cos_reduced` (fdlibm's polynomials, 2 ulp, ~1.7 ns). Vmapped over 128 accordion states the
+    right-hand side went from 47 to 20 µs per call. Other backends fuse differently, have fast
+    transcendentals, and pay a device-to-host copy for every conditional's branch index, so they get
+    plain `jnp.sin`/`jnp.cos` (`lax.platform_dependent` picks at lowering time).
+    """
+    return jax.lax.platform_dependent(
+        theta, cpu=_sin_cos_in_own_kernel, default=lambda x: (jnp.sin(x), jnp.cos(x))
+    )
+
+
+def _sin_cos_in_own_kernel(theta: Array) -> tuple[Array, Array]:
+    # Per element: the polynomials within their reduction range, `jnp.sin`/`jnp.cos` beyond it, NaN
+    # where the angle is not finite (what sin/cos give). `unvmap_any` keeps the branch index
+    # unbatched under `vmap`, so the switch stays a branch and does not become a select that
+    # evaluates both; every element gets the same value in either branch, so a batch member's
+    # result never depends on the other members (a blown-up trial state of one member would
+    # otherwise switch the whole batch to `jnp.sin`, 1 ulp apart, and chaotic contact dynamics
+    # amplify that into a different trajectory).
+    finite = jnp.isfinite(theta)
+    beyond = finite & (jnp.abs(theta) > SIN_COS_REDUCTION_LIMIT)
+
+    def reduced(x):
+        s, c = sin_cos_reduced(x)
+        return jnp.where(finite, s, jnp.nan), jnp.where(finite, c, jnp.nan)
+
+    def mixed(x):
+        s, c = reduced(x)
+        return jnp.where(beyond, jnp.sin(x), s), jnp.where(beyond, jnp.cos(x), c)
+
+    return jax.lax.cond(eqxi.unvmap_any(jnp.any(beyond)), mixed, reduced, theta)

@@ -17,7 +17,7 @@ import pytest
 
 from origami_jax.chain import accordion_system
 from origami_jax.fluid import ViscousDrag
-from origami_jax.simulation import SaveAt, SolveOptions, StiffnessSwitching, Step, simulate
+from origami_jax.simulation import SaveAt, SolveOptions, Step, StiffnessSwitching, simulate
 from origami_jax.system import BOLTZMANN, MICRO, Agitation, HingeDesign
 
 N_SEEDS = 32

@@ -84,7 +84,7 @@ def test_sin_cos_once_per_element_and_independent_of_the_batch():
     values must not depend on the other members: a blown-up trial state of one member (an angle
     beyond the range) used to switch the whole batch to `jnp.sin`, 1 ulp away, which contact
     dynamics amplified into different trajectories for the other members."""
-    from origami_jax.chain._scalar import sin_cos_once
+    from origami_jax._math import sin_cos_once
 
     rng = np.random.default_rng(8)
     calm = rng.uniform(-10.0, 10.0, 64)

@@ -16,6 +16,7 @@ from ._chain import accordion as accordion
 from ._chain import flap_chain as flap_chain
 from ._chain import plate_inertia as plate_inertia
 from ._compare import ModelComparison as ModelComparison
+from ._compare import accordion_diagnostics as accordion_diagnostics
 from ._compare import compare_models as compare_models
 from ._compare import model_designs as model_designs
 from ._compare import plot_comparison as plot_comparison
@@ -27,7 +28,7 @@ from ._dynamics import inverse_dynamics as inverse_dynamics
 from ._dynamics import kinetic_energy as kinetic_energy
 from ._dynamics import mass_matrix as mass_matrix
 from ._dynamics import potential_energy as potential_energy
-from ._extended import accordion_diagnostics as accordion_diagnostics
+from ._extended import tip_contact_angle as tip_contact_angle
 from ._fold import accordion_dimensions as accordion_dimensions
 from ._fold import chain_from_geometry as chain_from_geometry
 from ._fold import load_chain as load_chain

@@ -12,8 +12,17 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from .._validate import as_float_array, check_finite, check_positive, check_shape, is_traced
-from ..system._mechanism import AbstractMechanism, HingeLayout
-from ..system._units import MICRO, UnitSystem
+from ..system import MICRO, AbstractMechanism, HingeLayout, UnitSystem
+from ._axes import PARALLEL_TOLERANCE, _sines_to_first_axis, axes_parallel_error
+from ._dynamics import (
+    bias_torque,
+    forward_dynamics,
+    inverse_dynamics,
+    kinetic_energy,
+    mass_matrix,
+    potential_energy,
+)
+from ._kinematics import forward_kinematics, joint_frames
 
 # Relative tolerance on |ω| = 1 and on RᵀR = I. Inputs typed by hand or stored in float32 carry ~1e-7
 # relative error; anything beyond 1e-6 is a wrong input, not round-off.
@@ -106,8 +115,7 @@ class Chain(AbstractMechanism):
         return self.axes.shape[0]
 
     # ---- AbstractMechanism ----
-    # The kernels live in `_dynamics` and `_kinematics` (which import this module), hence the imports
-    # inside the methods.
+    # The kernels live in `_dynamics` and `_kinematics`.
 
     @property
     def n_hinges(self) -> int:
@@ -118,52 +126,34 @@ class Chain(AbstractMechanism):
         return self.axes.shape[0]
 
     def mass_matrix(self, q):
-        from ._dynamics import mass_matrix
-
         return mass_matrix(self, q)
 
     def bias_force(self, q, v):
-        from ._dynamics import bias_torque
-
         return bias_torque(self, q, v)
 
     def forward_dynamics(self, q, v, force, *, forward_mode_only: bool = False):
-        from ._dynamics import forward_dynamics
-
         return forward_dynamics(self, q, v, force, forward_mode_only=forward_mode_only)
 
     def inverse_dynamics(self, q, v, a):
-        from ._dynamics import inverse_dynamics
-
         return inverse_dynamics(self, q, v, a)
 
     def kinetic_energy(self, q, v):
-        from ._dynamics import kinetic_energy
-
         return kinetic_energy(self, q, v)
 
     def potential_energy(self, q):
-        from ._dynamics import potential_energy
-
         return potential_energy(self, q)
 
     def body_poses(self, q):
-        from ._kinematics import forward_kinematics
-
         return forward_kinematics(self, q)
 
     def spatial_velocities(self, q, v):
         """``V_i = Σ_{j ≤ i} S_j θ̇_j`` with ``S_j = (p_j × ω_j, ω_j)`` hinge ``j``'s world twist."""
-        from ._kinematics import joint_frames
-
         w, p, _, _ = joint_frames(self, q)
         twists = jnp.concatenate([jnp.cross(p, w), w], axis=-1) * v[:, None]
         return jnp.cumsum(twists, axis=0)
 
     def apply_wrenches(self, q, wrenches):
         """``f_j = S_j · Σ_{i ≥ j} W_i``: hinge ``j`` carries every flap from ``j`` on."""
-        from ._kinematics import joint_frames
-
         w, p, _, _ = joint_frames(self, q)
         carried = jnp.flip(jnp.cumsum(jnp.flip(wrenches, axis=0), axis=0), axis=0)
         return jnp.sum(jnp.cross(p, w) * carried[:, :3], axis=-1) + jnp.sum(
@@ -224,12 +214,6 @@ def _check_axes(axes: Array) -> Array:
     return axes
 
 
-PARALLEL_TOLERANCE = 1e-12
-"""A chain is planar when every ``|ω_i × ω_1| / |ω_1|`` is at most this (the sine of the angle between
-axes): the spatial and planar dynamics then differ by about this much relative, below what float64
-solves resolve. Axes typed as the same vector, or normalised from the same direction, pass."""
-
-
 def _check_planar(given_axes: ArrayLike, axes: Array, planar: bool | None) -> tuple[Array, bool]:
     """The chain's static `planar` flag: detected from `given_axes` when known, else as asserted."""
     if planar is not None and not isinstance(planar, bool):
@@ -250,39 +234,6 @@ def _check_planar(given_axes: ArrayLike, axes: Array, planar: bool | None) -> tu
             f"{sines[worst]:.3g}, tolerance {PARALLEL_TOLERANCE:g}); pass planar=None to detect it."
         )
     return axes, parallel
-
-
-def _sines_to_first_axis(axes: ArrayLike) -> np.ndarray:
-    """``|ω_i × ω_1| / |ω_1|`` per hinge (the sine of the angle to the first axis for unit axes), on
-    the host (known axes only)."""
-    host = np.asarray(axes, dtype=float)
-    return np.linalg.norm(np.cross(host, host[0]), axis=-1) / np.linalg.norm(host[0])
-
-
-def check_still_planar(chain: Chain) -> None:
-    """`ValueError` if `chain.planar` is set but its axes (when known) are no longer parallel: a chain
-    whose axes were replaced after it was built (`eqx.tree_at`). Traced axes are left to the guard in
-    the planar dynamics, which then returns NaN."""
-    if not getattr(chain, "planar", False) or is_traced(chain.axes):
-        return
-    if np.any(_sines_to_first_axis(chain.axes) > PARALLEL_TOLERANCE):
-        raise ValueError(
-            "This chain is marked planar but its hinge axes are not parallel (were they replaced "
-            "after it was built, e.g. with eqx.tree_at?). Build it again with Chain(...) or "
-            "flap_chain(...), which detect planarity."
-        )
-
-
-def axes_parallel_error(axes: Float[Array, "n 3"]) -> Float[Array, ""]:
-    """``max_i |ω_i × ω_1|² / |ω_1|²``, zero for a planar chain. Written on scalars so that, inside the
-    planar dynamics' guard, it fuses with them."""
-    x0, y0, z0 = axes[0, 0], axes[0, 1], axes[0, 2]
-    worst = jnp.zeros((), axes.dtype)
-    for i in range(1, axes.shape[0]):
-        x, y, z = axes[i, 0], axes[i, 1], axes[i, 2]
-        normal = (y * z0 - z * y0, z * x0 - x * z0, x * y0 - y * x0)
-        worst = jnp.maximum(worst, normal[0] ** 2 + normal[1] ** 2 + normal[2] ** 2)
-    return worst / (x0 * x0 + y0 * y0 + z0 * z0)
 
 
 def _pose_errors(poses, xp) -> tuple:

@@ -13,12 +13,18 @@ the KOH bath, all from the literature design (`HingeDesign.literature()`), nothi
 
 import dataclasses
 import math
-from typing import TYPE_CHECKING, Any
+import time
+from typing import Any
 
+import jax
+import jax.numpy as jnp
 import numpy as np
 
-if TYPE_CHECKING:  # the simulation sits above the chain: imported where it runs
-    from ..simulation import SolveOptions
+from .. import simulation as sim
+from ..net import strip_tree
+from ..system import AIR, KOH_SOLUTION, MICRO, HingeDesign
+from ._extended import _panels, accordion_fluid_loads, eqx_replace, tip_contact_angle
+from ._system import Accordion, accordion_system, alternating_targets
 
 CASES = ("step_air", "step_koh", "ramp_koh")
 """The runs `compare_models` makes: Fig. 7's step in air and in KOH, and the fast etch ramp in KOH."""
@@ -96,8 +102,6 @@ def model_designs(fluid):
     contact). `accordion_system(paper, 3)` builds the paper's model, `layout(extended)` the
     extended one.
     """
-    from ..system import HingeDesign
-    from ._system import Accordion
 
     paper = HingeDesign.literature(fluid=fluid)
     extended = HingeDesign.literature(fluid=fluid, stiffness_model="bilayer")
@@ -180,7 +184,7 @@ def _reasons(air: dict, koh: dict, lags: dict | None, peaks: dict) -> list[str]:
 
 def compare_models(
     cases=CASES,
-    options: "SolveOptions | None" = None,
+    options: "sim.SolveOptions | None" = None,
     *,
     run_lengths: dict[str, float] | None = None,
 ) -> ModelComparison:
@@ -199,16 +203,6 @@ def compare_models(
     Costs (two shared CPU cores): the extended model compiles in about a minute per input kind; the
     KOH ramp takes the longest to run.
     """
-    import time
-
-    import jax
-    import jax.numpy as jnp
-
-    import origami_jax.simulation as sim
-
-    from ..system import AIR, KOH_SOLUTION, MICRO
-    from ._extended import accordion_diagnostics
-    from ._system import accordion_system
 
     unknown = [c for c in cases if c not in CASES]
     if unknown or not cases:
@@ -304,3 +298,74 @@ def plot_comparison(comparison: ModelComparison, path=None):
     if path is not None:
         fig.savefig(path, dpi=110)
     return fig
+
+
+def accordion_diagnostics(design: HingeDesign, n: int = 3) -> dict:
+    """Where the extended accordion differs from the paper's, in numbers (the paper job and
+    `notebooks/paper_vs_extended.ipynb` print them). MICRO units (µm, µs, ng).
+
+    **Arguments:** `design`, a [`origami_jax.system.HingeDesign`][] (its fluid sets the fluid
+    terms; both stiffness formulas are evaluated whatever its `stiffness_model`); `n`, the number
+    of flaps.
+
+    **Returns:** a dict of host floats and lists of `n` floats (one per hinge):
+
+    - `fluid` (name) and `fluid_density` (ng/µm³); `stiffness_paper` and `stiffness_bilayer` (µN·µm/rad, hinge 1): the paper's
+      ``w(E₁'t₁³ + E₂'t₂³)/(3l)`` and the bonded bilayer's (docs/physics.md, "The hinge is a bending
+      arc");
+    - `radius_um` (ρ, µm), `strip_length_um` (``l = ρ |θ_target,1|``, µm), `strip_mass_ng` and
+      `flap_mass_ng` (ng, hinge and flap 1);
+    - `inertia_mid_fold_paper`, `inertia_mid_fold_arc`, `inertia_mid_fold_arc_fluid` (`n`,
+      ng·µm²): the mass matrix's diagonal half-way to the target for point hinges, arc hinges with
+      their strips, and arc hinges with the fluid's added inertia;
+    - `fluid_frequency_rad_per_us`, `reynolds`, `gamma_real`, `gamma_imag` (`n` each): the
+      frequency at which the fluid terms are evaluated, the Reynolds number and the real
+      (inertia) and imaginary (damping) parts of Sader's hydrodynamic function, per flap;
+    - `tip_contact_angle_over_pi`: the fold angle (over π) at which flap 1's far edge touches the
+      base (`tip_contact_angle`).
+
+    **Raises:** `ValueError` from the design's own checks (e.g. a non-positive thickness).
+    """
+    target = alternating_targets(n, design.theta_final)
+    middle = 0.5 * target
+    paper_design = eqx_replace(design, stiffness_model="paper")
+    bilayer_design = eqx_replace(design, stiffness_model="bilayer")
+    point = accordion_system(paper_design, n)
+    radius = float(design.radius())
+    lengths = radius * np.abs(np.asarray(target))
+    panels = _panels(design, n, jnp.asarray(lengths), None, True)
+    arc = strip_tree(
+        panels,
+        areal_density=design.strip_areal_density(),
+        width=design.hinge_width,
+        thickness=design.t_structural + design.t_hinge,
+    )
+    stiffness = bilayer_design.stiffness(n)
+    loads = accordion_fluid_loads(design, arc, stiffness, target)
+    flap_mass = float(panels.masses[0])
+    strip_mass = float(design.strip_areal_density() * jnp.mean(design.hinge_width)) * lengths[0]
+
+    def diagonal(mechanism):
+        return np.asarray(jnp.diagonal(mechanism.mass_matrix(middle))).tolist()
+
+    return {
+        "fluid": design.fluid.name,
+        "fluid_density": float(design.fluid.density),
+        "stiffness_paper": float(paper_design.stiffness(n)[0]),
+        "stiffness_bilayer": float(stiffness[0]),
+        "radius_um": radius,
+        "strip_length_um": float(lengths[0]),
+        "flap_mass_ng": flap_mass,
+        "strip_mass_ng": strip_mass,
+        "inertia_mid_fold_paper": diagonal(point.mechanism),
+        "inertia_mid_fold_arc": diagonal(arc),
+        "inertia_mid_fold_arc_fluid": diagonal(loads.mechanism),
+        "fluid_frequency_rad_per_us": np.asarray(loads.frequency).tolist(),
+        "reynolds": np.asarray(loads.reynolds).tolist(),
+        "gamma_real": np.asarray(loads.gamma[0]).tolist(),
+        "gamma_imag": np.asarray(loads.gamma[1]).tolist(),
+        "tip_contact_angle_over_pi": tip_contact_angle(
+            radius, float(lengths[0]), float(design.flap_length)
+        )
+        / np.pi,
+    }

@@ -35,13 +35,14 @@ world origin (Featherstone's spatial vectors), so the composite inertia of a sub
 """
 
 import functools
-from typing import Literal, cast
+from typing import TYPE_CHECKING, Literal, cast
 
 import jax
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
-from ._chain import PARALLEL_TOLERANCE, Chain, axes_parallel_error, check_still_planar
+from .._math import sin_cos_once
+from ._axes import PARALLEL_TOLERANCE, axes_parallel_error, check_still_planar
 from ._kinematics import body_jacobians, joint_frames, matmul3, matvec3
 from ._planar import PlanarBodies, planar_inverse_dynamics_lists, planar_mass_matrix_lists
 from ._scalar import (
@@ -51,8 +52,10 @@ from ._scalar import (
     cholesky_solve_factored,
     mass_matrix_lists,
     newton_euler_lists,
-    sin_cos_once,
 )
+
+if TYPE_CHECKING:
+    from ._chain import Chain
 
 # Chains of up to this many hinges take the scalar (or planar) path in `forward_dynamics` (module
 # docstring); longer ones the array path, whose graph grows linearly instead of with the unrolled loops.
@@ -95,7 +98,7 @@ def _reverse_cumsum(x: Array) -> Array:
 class _Bodies:
     """Per-flap rigid-body data at ``θ``, in the inertial frame about its origin."""
 
-    def __init__(self, chain: Chain, theta: Array):
+    def __init__(self, chain: "Chain", theta: Array):
         w, p, rotations, cg = joint_frames(chain, theta)
         self.w = w  # hinge axes, (n, 3)
         self.v = _cross(p, w)  # linear part of the hinge twists at the origin, −w × p
@@ -160,7 +163,7 @@ def _newton_euler(bodies: _Bodies, gravity: Array, theta_dot: Array, theta_ddot:
 
 
 def mass_matrix(
-    chain: Chain,
+    chain: "Chain",
     theta: Float[ArrayLike, " n"],
     *,
     method: Literal["recursive", "jacobian"] = "recursive",
@@ -187,7 +190,7 @@ def mass_matrix(
 
 
 def inverse_dynamics(
-    chain: Chain,
+    chain: "Chain",
     theta: Float[ArrayLike, " n"],
     theta_dot: Float[ArrayLike, " n"],
     theta_ddot: Float[ArrayLike, " n"],
@@ -206,7 +209,7 @@ def inverse_dynamics(
 
 
 def bias_torque(
-    chain: Chain, theta: Float[ArrayLike, " n"], theta_dot: Float[ArrayLike, " n"]
+    chain: "Chain", theta: Float[ArrayLike, " n"], theta_dot: Float[ArrayLike, " n"]
 ) -> Float[Array, " n"]:
     """``C(θ, θ̇) θ̇`` (plus the gravity torque if `chain.gravity` is set), recursive Newton–Euler, O(n).
 
@@ -219,7 +222,7 @@ def bias_torque(
 
 
 def coriolis_matrix(
-    chain: Chain, theta: Float[ArrayLike, " n"], theta_dot: Float[ArrayLike, " n"]
+    chain: "Chain", theta: Float[ArrayLike, " n"], theta_dot: Float[ArrayLike, " n"]
 ) -> Float[Array, "n n"]:
     """Coriolis matrix from the Christoffel symbols of ``M`` by autodiff (the paper's formulation).
 
@@ -239,14 +242,14 @@ def coriolis_matrix(
     )
 
 
-def potential_energy(chain: Chain, theta: Float[ArrayLike, " n"]) -> Float[Array, ""]:
+def potential_energy(chain: "Chain", theta: Float[ArrayLike, " n"]) -> Float[Array, ""]:
     """Gravitational potential energy ``−Σ m_i g · c_i(θ)`` (mass·length²/time²); zero without gravity."""
     _, _, _, cg = joint_frames(chain, theta)
     return -jnp.sum(chain.masses * _dot(cg, chain.gravity))
 
 
 def kinetic_energy(
-    chain: Chain, theta: Float[ArrayLike, " n"], theta_dot: Float[ArrayLike, " n"]
+    chain: "Chain", theta: Float[ArrayLike, " n"], theta_dot: Float[ArrayLike, " n"]
 ) -> Float[Array, ""]:
     """Kinetic energy ``½ θ̇ᵀ M(θ) θ̇`` (mass·length²/time²)."""
     theta_dot = jnp.asarray(theta_dot)
@@ -284,7 +287,7 @@ def _solve_spd(matrix: Array, rhs: Array) -> Array:
 
 
 def forward_dynamics(
-    chain: Chain,
+    chain: "Chain",
     theta: Float[ArrayLike, "*t n"],
     theta_dot: Float[ArrayLike, "*t n"],
     force: Float[ArrayLike, "*t n"],
@@ -352,12 +355,12 @@ def forward_dynamics(
 # vmapped over the rows, at the samples (half of the samples' tracing, ~0.08 s of a first call).
 @jax.jit
 def _forward_dynamics_scalar_value(
-    chain: Chain, theta: Array, theta_dot: Array, applied: Array
+    chain: "Chain", theta: Array, theta_dot: Array, applied: Array
 ) -> Array:
     return _forward_dynamics_scalar_and_tangent(chain, theta, theta_dot, applied, None)[0]
 
 
-def _planar_solve(chain: Chain, sin_cos, theta_dot, applied) -> tuple[list[Array], CholeskyLists]:
+def _planar_solve(chain: "Chain", sin_cos, theta_dot, applied) -> tuple[list[Array], CholeskyLists]:
     """``θ̈`` of a planar chain (`_planar`) as n scalars, and the Cholesky factor of ``M``."""
     n = chain.n_joints
     bodies = PlanarBodies(chain, sin_cos)  # shared by M and the bias
@@ -457,7 +460,7 @@ def _forward_dynamics_scalar_jvp(primals, tangents):
 _forward_dynamics_scalar.defjvp(_forward_dynamics_scalar_jvp, symbolic_zeros=True)
 
 
-def _scalar_rows(chain: Chain, theta: Array, theta_dot: Array, applied: Array) -> Array:
+def _scalar_rows(chain: "Chain", theta: Array, theta_dot: Array, applied: Array) -> Array:
     # Many states of one chain (leading axis), the custom JVP outside the vmap: `vmap` of
     # `_forward_dynamics_scalar` differentiated by `jax.jacfwd` through a forward-mode diffrax solve
     # returned tangents with the sample and joint axes swapped (jax 0.10.2; "select cases must have
@@ -570,7 +573,9 @@ _forward_dynamics_scalar_forward = jax.custom_jvp(_forward_dynamics_scalar_value
 _forward_dynamics_scalar_forward.defjvp(_forward_dynamics_scalar_forward_jvp, symbolic_zeros=True)
 
 
-def _forward_dynamics_arrays(chain: Chain, theta: Array, theta_dot: Array, applied: Array) -> Array:
+def _forward_dynamics_arrays(
+    chain: "Chain", theta: Array, theta_dot: Array, applied: Array
+) -> Array:
     # The same algorithm on (n, 3) arrays, for long chains; `applied` is τ − N.
     bodies = _Bodies(chain, theta)  # shared by M and the bias, so kinematics run once
     bias = _newton_euler(bodies, chain.gravity, theta_dot, jnp.zeros_like(theta_dot))

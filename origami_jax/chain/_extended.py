@@ -17,10 +17,24 @@ model, point hinges and hinge drag, stays on the serial-chain engine). The flaps
   (`fluid_loads`); `"extended"` is ``("panel", "added_mass", "viscous")``.
 """
 
+import dataclasses
+
 import jax.numpy as jnp
 import numpy as np
 
+from ..contact import PanelContact
+from ..fluid import (
+    CombinedDrag,
+    FluidLoads,
+    PanelDrag,
+    PanelQuadrature,
+    fluid_loads,
+    polygon_quadrature,
+    rectangle_added_inertia,
+)
+from ..net import PanelTree, strip_tree
 from ..system import FoldingSystem, HingeDesign, HingeDrag, Hinges
+from ._chain import plate_inertia
 
 FLUID_PARTS = ("hinge", "panel", "added_mass", "viscous")
 """The fluid effects `accordion_system(fluid=...)` combines (module docstring)."""
@@ -54,8 +68,6 @@ def fluid_parts(fluid) -> tuple[str, ...]:
 
 
 def _panels(design: HingeDesign, n: int, lengths, gravity, arc: bool):
-    from ..net import PanelTree
-    from ._chain import plate_inertia
 
     length, width = design.flap_length, design.flap_width
     dtype = jnp.result_type(float)
@@ -83,7 +95,6 @@ def _panels(design: HingeDesign, n: int, lengths, gravity, arc: bool):
 def _quadrature(design: HingeDesign, n: int):
     """`PanelDrag`'s quadrature of `n` rectangular flaps, from a unit square scaled by the (possibly
     traced) flap size: body frames at the flaps' centres, ``x`` across, ``y`` along."""
-    from ..fluid import PanelQuadrature, polygon_quadrature
 
     square = np.array([[-0.5, -0.5], [0.5, -0.5], [0.5, 0.5], [-0.5, 0.5]])
     unit_points, unit_weights = polygon_quadrature(square, 2)
@@ -113,8 +124,6 @@ def extended_accordion(
 ) -> FoldingSystem:
     """The accordion with arc or point hinges on a panel tree and any fluid parts (module docstring).
     Arguments as `accordion_system`'s."""
-    from ..fluid import CombinedDrag, PanelDrag, fluid_loads, rectangle_added_inertia
-    from ..net import strip_tree
 
     parts = fluid_parts(fluid)
     if hinges not in ("point", "arc"):
@@ -148,16 +157,11 @@ def extended_accordion(
             )
         )
     if "added_mass" in parts or "viscous" in parts:
-        unit = rectangle_added_inertia(design.flap_length, design.flap_width, 1.0)
-        loads = fluid_loads(
+        loads = accordion_fluid_loads(
+            design,
             mechanism,
-            jnp.broadcast_to(unit, (n, 6, 6)),
-            jnp.broadcast_to(design.flap_length, (n,)),
             stiffness,
             target,
-            density=design.fluid.density,
-            viscosity=design.fluid.viscosity,
-            coefficient=design.added_mass_coefficient,
             added_mass="added_mass" in parts,
             viscous="viscous" in parts,
         )
@@ -168,8 +172,6 @@ def extended_accordion(
     hinges_ = Hinges(stiffness, target, radius, release_times)
     contact_model = None
     if contact:
-        from ..contact import PanelContact
-
         contact_model = PanelContact.for_system(
             mechanism,
             np.asarray(stiffness),
@@ -178,6 +180,27 @@ def extended_accordion(
             base_outline=_base(design),
         )
     return FoldingSystem(mechanism, hinges_, drag, contact=contact_model, units=design.units)
+
+
+def accordion_fluid_loads(
+    design: HingeDesign, mechanism, stiffness, target, *, added_mass=True, viscous=True
+) -> FluidLoads:
+    """`fluid_loads` on the accordion's `n` flaps (rectangles ``L × w``, chord ``L``) in the
+    design's fluid, with its added-mass coefficient."""
+    n = mechanism.n_hinges
+    unit = rectangle_added_inertia(design.flap_length, design.flap_width, 1.0)
+    return fluid_loads(
+        mechanism,
+        jnp.broadcast_to(unit, (n, 6, 6)),
+        jnp.broadcast_to(design.flap_length, (n,)),
+        stiffness,
+        target,
+        density=design.fluid.density,
+        viscosity=design.fluid.viscosity,
+        coefficient=design.added_mass_coefficient,
+        added_mass=added_mass,
+        viscous=viscous,
+    )
 
 
 def _base(design: HingeDesign) -> np.ndarray:
@@ -213,93 +236,6 @@ def tip_contact_angle(radius: float, strip_length: float, flap_length: float) ->
     return 0.5 * (lo + hi)
 
 
-def accordion_diagnostics(design: HingeDesign, n: int = 3) -> dict:
-    """Where the extended accordion differs from the paper's, in numbers (the paper job and
-    `notebooks/paper_vs_extended.ipynb` print them). MICRO units (µm, µs, ng).
-
-    **Arguments:** `design`, a [`origami_jax.system.HingeDesign`][] (its fluid sets the fluid
-    terms; both stiffness formulas are evaluated whatever its `stiffness_model`); `n`, the number
-    of flaps.
-
-    **Returns:** a dict of host floats and lists of `n` floats (one per hinge):
-
-    - `fluid` (name) and `fluid_density` (ng/µm³); `stiffness_paper` and `stiffness_bilayer` (µN·µm/rad, hinge 1): the paper's
-      ``w(E₁'t₁³ + E₂'t₂³)/(3l)`` and the bonded bilayer's (docs/physics.md, "The hinge is a bending
-      arc");
-    - `radius_um` (ρ, µm), `strip_length_um` (``l = ρ |θ_target,1|``, µm), `strip_mass_ng` and
-      `flap_mass_ng` (ng, hinge and flap 1);
-    - `inertia_mid_fold_paper`, `inertia_mid_fold_arc`, `inertia_mid_fold_arc_fluid` (`n`,
-      ng·µm²): the mass matrix's diagonal half-way to the target for point hinges, arc hinges with
-      their strips, and arc hinges with the fluid's added inertia;
-    - `fluid_frequency_rad_per_us`, `reynolds`, `gamma_real`, `gamma_imag` (`n` each): the
-      frequency at which the fluid terms are evaluated, the Reynolds number and the real
-      (inertia) and imaginary (damping) parts of Sader's hydrodynamic function, per flap;
-    - `tip_contact_angle_over_pi`: the fold angle (over π) at which flap 1's far edge touches the
-      base (`tip_contact_angle`).
-
-    **Raises:** `ValueError` from the design's own checks (e.g. a non-positive thickness).
-    """
-    from ..fluid import fluid_loads, rectangle_added_inertia
-    from ..net import strip_tree
-    from ._system import accordion_system, alternating_targets
-
-    target = alternating_targets(n, design.theta_final)
-    middle = 0.5 * target
-    paper_design = eqx_replace(design, stiffness_model="paper")
-    bilayer_design = eqx_replace(design, stiffness_model="bilayer")
-    point = accordion_system(paper_design, n)
-    radius = float(design.radius())
-    lengths = radius * np.abs(np.asarray(target))
-    panels = _panels(design, n, jnp.asarray(lengths), None, True)
-    arc = strip_tree(
-        panels,
-        areal_density=design.strip_areal_density(),
-        width=design.hinge_width,
-        thickness=design.t_structural + design.t_hinge,
-    )
-    stiffness = bilayer_design.stiffness(n)
-    unit = rectangle_added_inertia(design.flap_length, design.flap_width, 1.0)
-    loads = fluid_loads(
-        arc,
-        jnp.broadcast_to(unit, (n, 6, 6)),
-        jnp.broadcast_to(design.flap_length, (n,)),
-        stiffness,
-        target,
-        density=design.fluid.density,
-        viscosity=design.fluid.viscosity,
-        coefficient=design.added_mass_coefficient,
-    )
-    flap_mass = float(panels.masses[0])
-    strip_mass = float(design.strip_areal_density() * jnp.mean(design.hinge_width)) * lengths[0]
-
-    def diagonal(mechanism):
-        return np.asarray(jnp.diagonal(mechanism.mass_matrix(middle))).tolist()
-
-    return {
-        "fluid": design.fluid.name,
-        "fluid_density": float(design.fluid.density),
-        "stiffness_paper": float(paper_design.stiffness(n)[0]),
-        "stiffness_bilayer": float(stiffness[0]),
-        "radius_um": radius,
-        "strip_length_um": float(lengths[0]),
-        "flap_mass_ng": flap_mass,
-        "strip_mass_ng": strip_mass,
-        "inertia_mid_fold_paper": diagonal(point.mechanism),
-        "inertia_mid_fold_arc": diagonal(arc),
-        "inertia_mid_fold_arc_fluid": diagonal(loads.mechanism),
-        "fluid_frequency_rad_per_us": np.asarray(loads.frequency).tolist(),
-        "reynolds": np.asarray(loads.reynolds).tolist(),
-        "gamma_real": np.asarray(loads.gamma[0]).tolist(),
-        "gamma_imag": np.asarray(loads.gamma[1]).tolist(),
-        "tip_contact_angle_over_pi": tip_contact_angle(
-            radius, float(lengths[0]), float(design.flap_length)
-        )
-        / np.pi,
-    }
-
-
 def eqx_replace(design: HingeDesign, **static) -> HingeDesign:
     """`design` with static fields (`stiffness_model`, `drag_model`) replaced."""
-    import dataclasses
-
     return dataclasses.replace(design, **static)

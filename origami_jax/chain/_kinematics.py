@@ -6,13 +6,15 @@ tiny `dot`s slowly). `body_jacobians` follows the ``Ad⁻¹`` formula of the pap
 the paper's formulation and the reference the recursive dynamics are tested against.
 """
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
-from ._chain import Chain
 from ._se3 import exp_twist, make_transform, revolute_twist
+
+if TYPE_CHECKING:
+    from ._chain import Chain
 
 
 def matmul3(
@@ -47,7 +49,7 @@ def _hinge_rotations(axes: Array, theta: Array) -> Array:
 
 
 def joint_frames(
-    chain: Chain, theta: Float[ArrayLike, " n"]
+    chain: "Chain", theta: Float[ArrayLike, " n"]
 ) -> tuple[Float[Array, "n 3"], Float[Array, "n 3"], Float[Array, "n 3 3"], Float[Array, "n 3"]]:
     """World-frame hinge axes and points, and flap CG rotations and positions, at ``θ``.
 
@@ -79,7 +81,7 @@ def joint_frames(
     return w, p, flap_rotations, cg
 
 
-def forward_kinematics(chain: Chain, theta: Float[ArrayLike, " n"]) -> Float[Array, "n 4 4"]:
+def forward_kinematics(chain: "Chain", theta: Float[ArrayLike, " n"]) -> Float[Array, "n 4 4"]:
     """CG pose of every flap, ``g_{sl_i}(θ) = e^{ξ̂_1 θ_1} ⋯ e^{ξ̂_i θ_i} g_{sl_i}(0)`` (paper Eq. 8).
 
     **Arguments:** `chain`; `theta`, hinge angles (rad), shape `(n,)`.
@@ -90,7 +92,7 @@ def forward_kinematics(chain: Chain, theta: Float[ArrayLike, " n"]) -> Float[Arr
     return make_transform(rotations, cg)
 
 
-def spatial_jacobians(chain: Chain, theta: Float[ArrayLike, " n"]) -> Float[Array, "n 6 n"]:
+def spatial_jacobians(chain: "Chain", theta: Float[ArrayLike, " n"]) -> Float[Array, "n 6 n"]:
     """Spatial Jacobian of every flap: column ``j ≤ i`` is ``ξ'_j = Ad_{e^{ξ̂_1θ_1}⋯e^{ξ̂_{j−1}θ_{j−1}}} ξ_j``.
 
     Twists are ``(v, ω)``; the spatial velocity of flap ``i`` is ``J^s_i θ̇``.
@@ -104,7 +106,7 @@ def spatial_jacobians(chain: Chain, theta: Float[ArrayLike, " n"]) -> Float[Arra
     return jnp.where(mask[:, None, :], columns[None], 0.0)
 
 
-def body_jacobians(chain: Chain, theta: Float[ArrayLike, " n"]) -> Float[Array, "n 6 n"]:
+def body_jacobians(chain: "Chain", theta: Float[ArrayLike, " n"]) -> Float[Array, "n 6 n"]:
     """Body Jacobian of every flap by the appendix's formula (the paper's printed ``J_3`` is wrong: its second column is shifted down a row).
 
     Column ``j ≤ i`` of flap ``i`` is ``ξ_j^† = Ad⁻¹_{(e^{ξ̂_j θ_j} ⋯ e^{ξ̂_i θ_i} g_{sl_i}(0))} ξ_j``; columns

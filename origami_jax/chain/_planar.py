@@ -17,11 +17,16 @@ a rotation by ``φ`` about ``e`` maps ``(x, y) ↦ (x cos φ − y sin φ, x sin
 is a tuple of two arrays (as in `_scalar`, one fused elementwise pass under `vmap`).
 """
 
+from typing import TYPE_CHECKING
+
 import jax.numpy as jnp
 from jaxtyping import Array
 
-from ._chain import Chain
-from ._scalar import Vec, _cross, _dot, _mat, _matvec, _transpose, _vec
+from .. import _vec3 as vec3
+from .._vec3 import Vec
+
+if TYPE_CHECKING:
+    from ._chain import Chain
 
 Vec2 = tuple[Array, Array]
 
@@ -70,31 +75,31 @@ def _plane_basis(e: Vec) -> tuple[Vec, Vec]:
         jnp.where(pick_y, 1.0, 0.0),
         jnp.where(pick_z, 1.0, 0.0),
     )
-    along = _dot(helper, e)
+    along = vec3.dot(helper, e)
     u: Vec = (helper[0] - along * e[0], helper[1] - along * e[1], helper[2] - along * e[2])
-    inverse_norm = 1 / jnp.sqrt(_dot(u, u))
+    inverse_norm = 1 / jnp.sqrt(vec3.dot(u, u))
     u = (u[0] * inverse_norm, u[1] * inverse_norm, u[2] * inverse_norm)
-    return u, _cross(e, u)
+    return u, vec3.cross(e, u)
 
 
 class PlanarBodies:
     """Per flap at ``θ``, in plane coordinates: the hinge point ``P_i`` (on the axis of hinge ``i``), the
     CG ``C_i``, the mass, ``J_i``, the sign ``s_i`` of the hinge axis along ``e``, and gravity.
 
-    `sin_cos`: ``(sin θ, cos θ)`` of the hinge angles (`_scalar.sin_cos_once`; the complex step
+    `sin_cos`: ``(sin θ, cos θ)`` of the hinge angles (`origami_jax._math.sin_cos_once`; the complex step
     passes first-order complex ones).
     """
 
-    def __init__(self, chain: Chain, sin_cos: tuple[Array, Array]):
+    def __init__(self, chain: "Chain", sin_cos: tuple[Array, Array]):
         n = chain.n_joints
         self.n = n
-        first = _vec(chain.axes[0])
-        inverse_norm = 1 / jnp.sqrt(_dot(first, first))
+        first = vec3.vec(chain.axes[0])
+        inverse_norm = 1 / jnp.sqrt(vec3.dot(first, first))
         e = (first[0] * inverse_norm, first[1] * inverse_norm, first[2] * inverse_norm)
         u, v = _plane_basis(e)
 
         def in_plane(x: Vec) -> Vec2:
-            return (_dot(x, u), _dot(x, v))
+            return (vec3.dot(x, u), vec3.dot(x, v))
 
         sines, cosines = sin_cos
         self.sign: list[Array] = []
@@ -105,8 +110,8 @@ class PlanarBodies:
         # Flap i's motion is x ↦ R(φ_i) x + t_i; hinge i's point moves with flap i − 1.
         cos_phi = sin_phi = shift = None
         for i in range(n):
-            sign = _dot(_vec(chain.axes[i]), e)
-            point = in_plane(_vec(chain.points[i]))
+            sign = vec3.dot(vec3.vec(chain.axes[i]), e)
+            point = in_plane(vec3.vec(chain.points[i]))
             sine, cosine = sign * sines[..., i], cosines[..., i]  # sin(s θ), cos(s θ) for s = ±1
             if cos_phi is None:
                 hinge = point
@@ -119,15 +124,19 @@ class PlanarBodies:
                     sin_phi * cosine + cos_phi * sine,
                 )
             shift = _sub(hinge, _rotate(cos_phi, sin_phi, point))
-            cg = _add(_rotate(cos_phi, sin_phi, in_plane(_vec(chain.cg_poses[i, :3, 3]))), shift)
-            rotation = _mat(chain.cg_poses[i, :3, :3])
-            e_in_flap = _matvec(_transpose(rotation), e)
+            cg = _add(
+                _rotate(cos_phi, sin_phi, in_plane(vec3.vec(chain.cg_poses[i, :3, 3]))), shift
+            )
+            rotation = vec3.mat(chain.cg_poses[i, :3, :3])
+            e_in_flap = vec3.matvec(vec3.transpose(rotation), e)
             self.sign.append(sign)
             self.hinge.append(hinge)
             self.cg.append(cg)
             self.mass.append(chain.masses[i])
-            self.inertia.append(_dot(e_in_flap, _matvec(_mat(chain.inertias[i]), e_in_flap)))
-        self.gravity = in_plane(_vec(chain.gravity))
+            self.inertia.append(
+                vec3.dot(e_in_flap, vec3.matvec(vec3.mat(chain.inertias[i]), e_in_flap))
+            )
+        self.gravity = in_plane(vec3.vec(chain.gravity))
 
 
 def planar_mass_matrix_lists(bodies: PlanarBodies) -> list[list[Array]]:

@@ -10,59 +10,17 @@ The algorithm is the one of `_dynamics` (composite rigid bodies for ``M``, Newto
 the inertial frame about its origin, with spatial vectors ordered ``(linear, angular)``.
 """
 
-from typing import NamedTuple, cast
+from typing import TYPE_CHECKING, NamedTuple, cast
 
-import equinox.internal as eqxi
-import jax
 import jax.numpy as jnp
 from jaxtyping import Array
 
-from .._math import SIN_COS_REDUCTION_LIMIT, sin_cos_reduced
-from ._chain import Chain
+from .. import _vec3 as vec3
+from .._math import sin_cos_once
+from .._vec3 import Mat, Vec
 
-Vec = tuple[Array, Array, Array]
-Mat = tuple[Vec, Vec, Vec]
-
-
-def _add(a: Vec, b: Vec) -> Vec:
-    return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
-
-
-def _sub(a: Vec, b: Vec) -> Vec:
-    return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
-
-
-def _scale(s, a: Vec) -> Vec:
-    return (s * a[0], s * a[1], s * a[2])
-
-
-def _dot(a: Vec, b: Vec):
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-
-
-def _cross(a: Vec, b: Vec) -> Vec:
-    return (
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    )
-
-
-def _matvec(m: Mat, x: Vec) -> Vec:
-    return (_dot(m[0], x), _dot(m[1], x), _dot(m[2], x))
-
-
-def _matmul(a: Mat, b: Mat) -> Mat:
-    columns = tuple((b[0][k], b[1][k], b[2][k]) for k in range(3))
-    return tuple(tuple(_dot(a[r], columns[k]) for k in range(3)) for r in range(3))  # type: ignore[return-value]
-
-
-def _vec(array) -> Vec:
-    return (array[..., 0], array[..., 1], array[..., 2])
-
-
-def _mat(array) -> Mat:
-    return (_vec(array[..., 0, :]), _vec(array[..., 1, :]), _vec(array[..., 2, :]))
+if TYPE_CHECKING:
+    from ._chain import Chain
 
 
 class ScalarBodies:
@@ -72,7 +30,7 @@ class ScalarBodies:
     first-order complex ones); by default computed here.
     """
 
-    def __init__(self, chain: Chain, theta: Array, sin_cos: tuple[Array, Array] | None = None):
+    def __init__(self, chain: "Chain", theta: Array, sin_cos: tuple[Array, Array] | None = None):
         n = chain.n_joints
         self.n = n
         self.v: list[Vec] = []  # linear part of hinge twists at the origin, p × w
@@ -84,7 +42,7 @@ class ScalarBodies:
         translation_before: Vec | None = None
         sines, cosines = sin_cos_once(theta) if sin_cos is None else sin_cos
         for i in range(n):
-            axis, point = _vec(chain.axes[i]), _vec(chain.points[i])
+            axis, point = vec3.vec(chain.axes[i]), vec3.vec(chain.points[i])
             s, c = sines[..., i], cosines[..., i]
             one_minus_c = 1 - c
             # Rodrigues for a unit axis: R = c I + s ω̂ + (1 − c) ω ωᵀ.
@@ -94,24 +52,31 @@ class ScalarBodies:
                 (one_minus_c * y * x + s * z, c + one_minus_c * y * y, one_minus_c * y * z - s * x),
                 (one_minus_c * z * x - s * y, one_minus_c * z * y + s * x, c + one_minus_c * z * z),
             )
-            translation = _sub(point, _matvec(rotation, point))  # rotation about the axis through q
+            translation = vec3.sub(
+                point, vec3.matvec(rotation, point)
+            )  # rotation about the axis through q
             if rotation_before is None:
                 w, p = axis, point
                 rotation_after, translation_after = rotation, translation
             else:
                 assert translation_before is not None  # set together with rotation_before
-                w = _matvec(rotation_before, axis)
-                p = _add(_matvec(rotation_before, point), translation_before)
-                rotation_after = _matmul(rotation_before, rotation)
-                translation_after = _add(_matvec(rotation_before, translation), translation_before)
-            flap_rotation = _matmul(rotation_after, _mat(chain.cg_poses[i, :3, :3]))
-            cg = _add(_matvec(rotation_after, _vec(chain.cg_poses[i, :3, 3])), translation_after)
+                w = vec3.matvec(rotation_before, axis)
+                p = vec3.add(vec3.matvec(rotation_before, point), translation_before)
+                rotation_after = vec3.matmul(rotation_before, rotation)
+                translation_after = vec3.add(
+                    vec3.matvec(rotation_before, translation), translation_before
+                )
+            flap_rotation = vec3.matmul(rotation_after, vec3.mat(chain.cg_poses[i, :3, :3]))
+            cg = vec3.add(
+                vec3.matvec(rotation_after, vec3.vec(chain.cg_poses[i, :3, 3])), translation_after
+            )
             mass = chain.masses[i]
             # Rotate the CG inertia into the world (R I Rᵀ) and move it to the origin (parallel axes).
-            rotated = _matmul(
-                _matmul(flap_rotation, _mat(chain.inertias[i])), _transpose(flap_rotation)
+            rotated = vec3.matmul(
+                vec3.matmul(flap_rotation, vec3.mat(chain.inertias[i])),
+                vec3.transpose(flap_rotation),
             )
-            c2 = _dot(cg, cg)
+            c2 = vec3.dot(cg, cg)
             inertia = tuple(
                 tuple(
                     rotated[a][b] + mass * ((c2 if a == b else 0.0) - cg[a] * cg[b])
@@ -120,60 +85,17 @@ class ScalarBodies:
                 for a in range(3)
             )
             self.w.append(w)
-            self.v.append(_cross(p, w))
+            self.v.append(vec3.cross(p, w))
             self.mass.append(mass)
-            self.moment.append(_scale(mass, cg))
+            self.moment.append(vec3.scale(mass, cg))
             self.inertia.append(inertia)  # type: ignore[arg-type]
             rotation_before, translation_before = rotation_after, translation_after
 
 
-def sin_cos_once(theta: Array) -> tuple[Array, Array]:
-    """``(sin θ, cos θ)`` of the hinge angles; on the CPU evaluated once, by vectorised polynomials.
-
-    XLA:CPU has no multi-output fusion: every fused kernel re-evaluates the elementwise expressions it
-    reads, and the forward dynamics split into seven kernels (one per Cholesky pivot and the output),
-    each recomputing all the sines and cosines, which cost ~10 ns apiece in float64 (`jnp.sin`). On
-    the CPU they are therefore computed inside a conditional (a fusion boundary) by
-    `sin_cos_reduced` (fdlibm's polynomials, 2 ulp, ~1.7 ns). Vmapped over 128 accordion states the
-    right-hand side went from 47 to 20 µs per call. Other backends fuse differently, have fast
-    transcendentals, and pay a device-to-host copy for every conditional's branch index, so they get
-    plain `jnp.sin`/`jnp.cos` (`lax.platform_dependent` picks at lowering time).
-    """
-    return jax.lax.platform_dependent(
-        theta, cpu=_sin_cos_in_own_kernel, default=lambda x: (jnp.sin(x), jnp.cos(x))
-    )
-
-
-def _sin_cos_in_own_kernel(theta: Array) -> tuple[Array, Array]:
-    # Per element: the polynomials within their reduction range, `jnp.sin`/`jnp.cos` beyond it, NaN
-    # where the angle is not finite (what sin/cos give). `unvmap_any` keeps the branch index
-    # unbatched under `vmap`, so the switch stays a branch and does not become a select that
-    # evaluates both; every element gets the same value in either branch, so a batch member's
-    # result never depends on the other members (a blown-up trial state of one member would
-    # otherwise switch the whole batch to `jnp.sin`, 1 ulp apart, and chaotic contact dynamics
-    # amplify that into a different trajectory).
-    finite = jnp.isfinite(theta)
-    beyond = finite & (jnp.abs(theta) > SIN_COS_REDUCTION_LIMIT)
-
-    def reduced(x):
-        s, c = sin_cos_reduced(x)
-        return jnp.where(finite, s, jnp.nan), jnp.where(finite, c, jnp.nan)
-
-    def mixed(x):
-        s, c = reduced(x)
-        return jnp.where(beyond, jnp.sin(x), s), jnp.where(beyond, jnp.cos(x), c)
-
-    return jax.lax.cond(eqxi.unvmap_any(jnp.any(beyond)), mixed, reduced, theta)
-
-
-def _transpose(m: Mat) -> Mat:
-    return tuple(tuple(m[r][k] for r in range(3)) for k in range(3))  # type: ignore[return-value]
-
-
 def _apply_inertia(mass, moment: Vec, inertia: Mat, lin: Vec, ang: Vec) -> tuple[Vec, Vec]:
     # Spatial inertia about the origin times a motion vector: (m a − h × α, h × a + I_o α).
-    return _sub(_scale(mass, lin), _cross(moment, ang)), _add(
-        _cross(moment, lin), _matvec(inertia, ang)
+    return vec3.sub(vec3.scale(mass, lin), vec3.cross(moment, ang)), vec3.add(
+        vec3.cross(moment, lin), vec3.matvec(inertia, ang)
     )
 
 
@@ -190,11 +112,11 @@ def mass_matrix_lists(bodies: ScalarBodies) -> list[list[Array]]:
         else:
             assert moment is not None and inertia is not None  # set together with mass
             mass = mass + bodies.mass[k]
-            moment = _add(moment, bodies.moment[k])
-            inertia = cast(Mat, tuple(_add(inertia[r], bodies.inertia[k][r]) for r in range(3)))
+            moment = vec3.add(moment, bodies.moment[k])
+            inertia = cast(Mat, tuple(vec3.add(inertia[r], bodies.inertia[k][r]) for r in range(3)))
         force, torque = _apply_inertia(mass, moment, inertia, bodies.v[k], bodies.w[k])
         for j in range(k + 1):
-            entry = _dot(bodies.v[j], force) + _dot(bodies.w[j], torque)
+            entry = vec3.dot(bodies.v[j], force) + vec3.dot(bodies.w[j], torque)
             out[j][k] = entry
             out[k][j] = entry
     return out
@@ -206,33 +128,35 @@ def newton_euler_lists(bodies: ScalarBodies, gravity: Array, theta_dot, theta_dd
     zero = 0.0 * theta_dot[0]
     vel_lin: Vec = (zero, zero, zero)
     vel_ang: Vec = (zero, zero, zero)
-    acc_lin: Vec = _scale(-1.0, _vec(gravity))  # gravity as a base acceleration −g
+    acc_lin: Vec = vec3.scale(-1.0, vec3.vec(gravity))  # gravity as a base acceleration −g
     acc_ang: Vec = (zero, zero, zero)
     forces, torques = [], []
     for i in range(n):
         rate = theta_dot[i]
         s_lin, s_ang = bodies.v[i], bodies.w[i]
-        vel_lin = _add(vel_lin, _scale(rate, s_lin))
-        vel_ang = _add(vel_ang, _scale(rate, s_ang))
+        vel_lin = vec3.add(vel_lin, vec3.scale(rate, s_lin))
+        vel_ang = vec3.add(vel_ang, vec3.scale(rate, s_ang))
         # d/dt S_i = V_{i−1} × S_i = V_i × S_i (S_i × S_i = 0).
-        cross_lin = _add(_cross(vel_ang, s_lin), _cross(vel_lin, s_ang))
-        cross_ang = _cross(vel_ang, s_ang)
-        acc_lin = _add(acc_lin, _scale(rate, cross_lin))
-        acc_ang = _add(acc_ang, _scale(rate, cross_ang))
+        cross_lin = vec3.add(vec3.cross(vel_ang, s_lin), vec3.cross(vel_lin, s_ang))
+        cross_ang = vec3.cross(vel_ang, s_ang)
+        acc_lin = vec3.add(acc_lin, vec3.scale(rate, cross_lin))
+        acc_ang = vec3.add(acc_ang, vec3.scale(rate, cross_ang))
         if theta_ddot is not None:
-            acc_lin = _add(acc_lin, _scale(theta_ddot[i], s_lin))
-            acc_ang = _add(acc_ang, _scale(theta_ddot[i], s_ang))
+            acc_lin = vec3.add(acc_lin, vec3.scale(theta_ddot[i], s_lin))
+            acc_ang = vec3.add(acc_ang, vec3.scale(theta_ddot[i], s_ang))
         args = (bodies.mass[i], bodies.moment[i], bodies.inertia[i])
         f_acc, n_acc = _apply_inertia(*args, acc_lin, acc_ang)
         f_mom, n_mom = _apply_inertia(*args, vel_lin, vel_ang)
-        forces.append(_add(f_acc, _cross(vel_ang, f_mom)))
-        torques.append(_add(n_acc, _add(_cross(vel_lin, f_mom), _cross(vel_ang, n_mom))))
+        forces.append(vec3.add(f_acc, vec3.cross(vel_ang, f_mom)))
+        torques.append(
+            vec3.add(n_acc, vec3.add(vec3.cross(vel_lin, f_mom), vec3.cross(vel_ang, n_mom)))
+        )
     out: list = [None] * n
     force_sum = torque_sum = None
     for i in reversed(range(n)):
-        force_sum = forces[i] if force_sum is None else _add(force_sum, forces[i])
-        torque_sum = torques[i] if torque_sum is None else _add(torque_sum, torques[i])
-        out[i] = _dot(bodies.v[i], force_sum) + _dot(bodies.w[i], torque_sum)
+        force_sum = forces[i] if force_sum is None else vec3.add(force_sum, forces[i])
+        torque_sum = torques[i] if torque_sum is None else vec3.add(torque_sum, torques[i])
+        out[i] = vec3.dot(bodies.v[i], force_sum) + vec3.dot(bodies.w[i], torque_sum)
     return out
 
 

@@ -29,6 +29,8 @@ from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any, NoReturn
 
+from .._cache import enable_compilation_cache
+from .._exported import enable_exported_programs
 from .._folder_lock import FolderBusyError, FolderLock, lock_folder
 from .._limits import CONTACT_SAMPLING, MAX_CONTACT_SAMPLING
 
@@ -535,9 +537,6 @@ def setup_runtime(command: str | None = None) -> None:
     if command in NAN_ON_ERROR_COMMANDS and "equinox" not in sys.modules:
         os.environ.setdefault("EQX_ON_ERROR", "nan")
     import jax
-
-    from .._cache import enable_compilation_cache
-    from .._exported import enable_exported_programs
 
     jax.config.update("jax_enable_x64", True)
     # A cache entry that cannot be read or written (a full disk, another process writing it) only

@@ -8,6 +8,7 @@ import argparse
 import time
 from pathlib import Path
 
+from . import _paper_calibration, _paper_dynamics, _paper_extended, _paper_unfolding
 from ._common import EXIT_OK, OutputFolder, add_out_argument, write_atomic
 
 HELP = (
@@ -25,7 +26,6 @@ EXTENDED_HELP = (
 
 def _parts(extended: bool = False):
     # Imported lazily so that `origami-jax --help` stays fast.
-    from . import _paper_calibration, _paper_dynamics, _paper_extended, _paper_unfolding
 
     parts = (
         ("single-vertex unfolding", _paper_unfolding.run),

@@ -9,6 +9,7 @@ times 37 / 101 / 38 µs) are quoted for comparison only; matching them is a cali
 from pathlib import Path
 
 from ._common import dumps_json, write_atomic
+from ._simulate import write_figures, write_trajectory
 
 PAPER_RISE_US = (37.0, 101.0, 38.0)
 PAPER_OVERSHOOT_JOINT1 = 39.0
@@ -24,8 +25,6 @@ def run(out: Path) -> list[str]:
     import origami_jax.simulation as sim
     from origami_jax.chain import accordion_system
     from origami_jax.system import AIR, KOH_SOLUTION, MICRO, HingeDesign
-
-    from ._simulate import write_figures, write_trajectory
 
     out = Path(out)
     lines = [

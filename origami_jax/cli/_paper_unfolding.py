@@ -2,13 +2,14 @@
 
 from pathlib import Path
 
+from ._unfold import write_path
+
 
 def run(out: Path) -> list[str]:
     """Unfold Fig. 3's corner cube (3a) and waterbomb base (3b) with both energies; write the paths
     and pictures into `out/unfolding/`; return summary lines."""
     from .. import vertex
     from ..plotting.vertex import save_unfolding_pictures
-    from ._unfold import write_path
 
     folder = Path(out) / "unfolding"
     folder.mkdir(parents=True, exist_ok=True)

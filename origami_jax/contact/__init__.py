@@ -10,14 +10,14 @@
 - `contact_points`: where a system's panels touch along a trajectory (for views and exports).
 """
 
+from ._barrier import barrier as barrier
+from ._barrier import smoothstep as smoothstep
 from ._kind import CONTACT_MODELS as CONTACT_MODELS
 from ._kind import DEFAULT_CONTACT as DEFAULT_CONTACT
 from ._kind import check_sampling as check_sampling
 from ._kind import contact_kind as contact_kind
 from ._model import PanelContact as PanelContact
-from ._model import barrier as barrier
 from ._model import contact_points as contact_points
-from ._model import smoothstep as smoothstep
 from ._plate_tables import PlateTables as PlateTables
 from ._plate_tables import build_plate_tables as build_plate_tables
 from ._plates import PlateContact as PlateContact
@@ -29,3 +29,4 @@ from ._surface import SurfaceTables as SurfaceTables
 from ._surface import build_surface_tables as build_surface_tables
 from ._tables import ContactTables as ContactTables
 from ._tables import build_tables as build_tables
+from ._tables import sampling_pair as sampling_pair

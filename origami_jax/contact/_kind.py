@@ -1,5 +1,8 @@
 """Which contact model a pattern's `system(contact=...)` builds."""
 
+from .._limits import CONTACT_SAMPLING
+from ._tables import sampling_pair
+
 # The contact models by name: "plate", exact plate geometry with continuous collision detection
 # (`PlateContact`); "sampled", points sampled on every panel's rings and rim against the others'
 # faces (`PanelContact`, the model before exact plates: kept for comparison and its speed).
@@ -26,9 +29,6 @@ def contact_kind(contact: bool | str) -> str | None:
 def check_sampling(kind: str | None, sampling) -> None:
     """Refuse, in one line, a `contact_sampling` other than the default for a model that takes
     none (only `"sampled"` has sample points; the plate model is exact)."""
-    from .._limits import CONTACT_SAMPLING
-    from ._tables import sampling_pair
-
     if kind == "sampled":
         sampling_pair(sampling)
     elif not _is_default(sampling, CONTACT_SAMPLING):

@@ -71,52 +71,20 @@ from jaxtyping import Array, ArrayLike, Float
 
 from .._validate import is_traced
 from ..system import AbstractContact, AbstractMechanism
+from ._barrier import (
+    DEFAULT_DAMPING_RATIO,
+    _barrier_slope,
+    _ramp_integral,
+    barrier,
+    half_thicknesses,
+    host_rest_poses,
+    smoothstep,
+    with_base_pose,
+    with_default_contact,
+)
+from ._plate_geometry import plate_overlaps, plate_tables_for, plate_vertices
 from ._plate_tables import PlateTables
 from ._tables import RIM_POINTS_PER_EDGE, RING_POINTS_PER_EDGE, ContactTables, build_tables
-
-# The contact's damping ratio at half its activation gap (`with_default_damping`): enough to take a
-# landing's energy out over a few rebounds without holding panels apart.
-DEFAULT_DAMPING_RATIO = 0.5
-_X_MIN = 0.1  # below this fraction of the activation gap the barrier continues as a quadratic
-_LOG_X_MIN = float(np.log(_X_MIN))
-_B_MIN = -((_X_MIN - 1) ** 2) * _LOG_X_MIN
-_DB_MIN = -2 * (_X_MIN - 1) * _LOG_X_MIN - (_X_MIN - 1) ** 2 / _X_MIN
-_D2B_MIN = -2 * _LOG_X_MIN - 4 * (_X_MIN - 1) / _X_MIN + (_X_MIN - 1) ** 2 / _X_MIN**2
-# B''(½), the contact's curvature half-way into the activation gap (default damping).
-_D2B_HALF = -2 * float(np.log(0.5)) - 4 * (0.5 - 1) / 0.5 + (0.5 - 1) ** 2 / 0.5**2
-
-
-def barrier(x: Float[ArrayLike, "..."]) -> Float[Array, "..."]:
-    """IPC barrier ``B(x) = −(x − 1)² ln x`` for ``x_min ≤ x < 1``, 0 for ``x ≥ 1``, its second-order
-    Taylor polynomial below ``x_min = 0.1`` (finite for any ``x``, C² everywhere)."""
-    x = jnp.asarray(x)
-    inside = (x > _X_MIN) & (x < 1)
-    safe = jnp.where(inside, x, 0.5)
-    log_barrier = -((safe - 1) ** 2) * jnp.log(safe)
-    dx = x - _X_MIN
-    taylor = _B_MIN + _DB_MIN * dx + 0.5 * _D2B_MIN * dx**2
-    return jnp.where(x >= 1, 0.0, jnp.where(inside, log_barrier, taylor))
-
-
-def smoothstep(x: Float[ArrayLike, "..."]) -> Float[Array, "..."]:
-    """C² step from 0 (``x ≤ 0``) to 1 (``x ≥ 1``): ``x³(10 − 15x + 6x²)``."""
-    x = jnp.clip(x, 0.0, 1.0)
-    return x**3 * (10 - 15 * x + 6 * x**2)
-
-
-def _barrier_slope(x):
-    """``B'(x)`` of `barrier` (its derivative, piece by piece)."""
-    inside = (x > _X_MIN) & (x < 1)
-    safe = jnp.where(inside, x, 0.5)
-    log_slope = -2 * (safe - 1) * jnp.log(safe) - (safe - 1) ** 2 / safe
-    taylor = _DB_MIN + _D2B_MIN * (x - _X_MIN)
-    return jnp.where(x >= 1, 0.0, jnp.where(inside, log_slope, taylor))
-
-
-def _ramp_integral(x):
-    """``∫₀ˣ smoothstep``: 0 for ``x ≤ 0``, ``x⁴(5/2 − 3x + x²)`` on ``[0, 1]``, ``x − ½`` beyond (C³)."""
-    inside = jnp.clip(x, 0.0, 1.0)
-    return inside**4 * (2.5 - 3 * inside + inside**2) + jnp.maximum(x - 1, 0.0)
 
 
 class PanelContact(AbstractContact):
@@ -177,12 +145,9 @@ class PanelContact(AbstractContact):
 
         **Raises:** `ValueError` for non-positive values (when known) or degenerate outlines.
         """
-        n = mechanism.n_bodies
         dtype = jnp.result_type(float)
-        thickness = jnp.broadcast_to(jnp.asarray(thickness, dtype), (n,))
-        base_thickness = jnp.max(thickness) if base_thickness is None else base_thickness
+        thickness, half = half_thicknesses(mechanism, thickness, base_thickness)
         base = mechanism.base_outline() if base_outline is None else base_outline
-        half = jnp.concatenate([thickness, jnp.asarray(base_thickness, dtype)[None]]) / 2
         size = max(float(np.max(np.ptp(o, axis=0))) for o in mechanism.outlines())
         if activation is None:
             activation = jnp.maximum(jnp.max(thickness), 0.005 * size)
@@ -214,9 +179,7 @@ class PanelContact(AbstractContact):
                 rim_points_per_edge=rim_points_per_edge,
             )
             if plates is None:
-                from ._plates import PlateContact
-
-                plates = PlateContact.tables_for(mechanism, base_outline=base)
+                plates = plate_tables_for(mechanism, base_outline=base)
         return cls(
             tables=tables,
             stiffness=jnp.asarray(stiffness, dtype),
@@ -243,14 +206,7 @@ class PanelContact(AbstractContact):
         outlines = mechanism.outlines()
         size = max(float(np.max(np.ptp(o, axis=0))) for o in outlines)
         base = mechanism.base_outline() if base_outline is None else base_outline
-        try:
-            rest = np.asarray(_rest_poses(mechanism))
-        except jax.errors.TracerArrayConversionError as error:
-            raise ValueError(
-                "contact needs the panels' geometry before compilation, but this mechanism was built "
-                "from traced values (under jit, vmap or grad): build its ContactTables outside "
-                "(PanelContact.tables_for) and pass tables=, or vary hinge parameters only."
-            ) from error
+        rest = host_rest_poses(mechanism, "ContactTables", "PanelContact.tables_for")
         layout = mechanism.hinge_layout()
         return build_tables(
             outlines,
@@ -283,11 +239,9 @@ class PanelContact(AbstractContact):
         `damping_ratio`. Other keyword arguments go to `from_mechanism`. Traceable in the hinges,
         the thickness and the mechanism's masses.
         """
-        energy = released_energy(hinge_stiffness, hinge_target)
-        probe = cls.from_mechanism(
-            mechanism, thickness=thickness, stiffness=energy, damping=0.0, **kwargs
+        return with_default_contact(
+            cls, mechanism, hinge_stiffness, hinge_target, damping_ratio, thickness, kwargs
         )
-        return with_default_damping(probe, mechanism, damping_ratio)
 
     # ---- kernels ----
     #
@@ -303,9 +257,7 @@ class PanelContact(AbstractContact):
     def _frames(self, poses):
         """World rotations `(n, 3, 3)` and origins `(n, 3)` of every body, the base last, from the
         moving bodies' poses `(b, 4, 4)`."""
-        if self.tables.has_base:
-            base = jnp.asarray(self.tables.base_pose, poses.dtype)[None]
-            poses = jnp.concatenate([poses, base], axis=0)
+        poses = with_base_pose(self.tables, poses)
         return poses[:, :3, :3], poses[:, :3, 3]
 
     def _local(self, mechanism, q, poses=None):
@@ -514,11 +466,7 @@ class PanelContact(AbstractContact):
         if self.plates is None:
             penetration = jnp.maximum(-smallest, 0.0)
         else:
-            from ._plates import plate_overlaps, plate_vertices
-
-            if self.tables.has_base:
-                base = jnp.asarray(self.tables.base_pose, poses.dtype)[None]
-                poses = jnp.concatenate([poses, base], axis=0)
+            poses = with_base_pose(self.tables, poses)
             x = plate_vertices(self.plates, poses)
             depths = plate_overlaps(self.plates, self.half_thickness, x)
             penetration = jnp.max(depths, initial=0.0)
@@ -528,22 +476,6 @@ class PanelContact(AbstractContact):
             "penetration": penetration,
             "touching": jnp.any(near, axis=-1),
         }
-
-
-def released_energy(hinge_stiffness, hinge_target) -> Array:
-    """``Σ ½ k θ_target²``: the energy the hinges can release, the contact's default stiffness."""
-    return jnp.sum(0.5 * jnp.asarray(hinge_stiffness) * jnp.asarray(hinge_target) ** 2)
-
-
-def with_default_damping(contact, mechanism, damping_ratio: float):
-    """`contact` (with `stiffness`, `activation`, `tables.scale`) with its default damping
-    ``c = 2 ζ sqrt(k_c m)``: ``k_c = κ B''(½)/ĝ²`` the contact's stiffness half-way into the
-    activation gap, ``m`` the lightest panel's mass (the smallest diagonal entry of ``M(0)`` over
-    its squared lever arm, the largest panel's size), ``ζ`` = `damping_ratio`. Traceable."""
-    contact_stiffness = contact.stiffness * _D2B_HALF / contact.activation**2
-    mass = jnp.min(_rest_inertia(mechanism)) / contact.tables.scale**2
-    damping = 2 * damping_ratio * jnp.sqrt(contact_stiffness * mass)
-    return eqx.tree_at(lambda c: c.damping, contact, damping.astype(contact.damping.dtype))
 
 
 def _carried(relative, shift, points, shape):
@@ -574,19 +506,6 @@ def _edge_distances(x, y, edges):
     """The inward distance ``a x + b y + c`` of face-frame positions from each edge in `edges` (rows
     ``(a, b, c)`` broadcasting against `x`), with the edge's inward normal ``(a, b)``."""
     return [(a * x + b * y + c, (a, b)) for a, b, c in edges]
-
-
-# One compiled program each (op by op, every new shape would compile its own): the rest poses for
-# the host geometry, and the mass matrix's diagonal for the default damping. Under an outer trace
-# they are traced inline.
-@eqx.filter_jit
-def _rest_poses(mechanism):
-    return mechanism.body_poses(mechanism.rest_state()[0])
-
-
-@eqx.filter_jit
-def _rest_inertia(mechanism):
-    return jnp.diag(mechanism.mass_matrix(mechanism.rest_state()[0]))
 
 
 def contact_points(

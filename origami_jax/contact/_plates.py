@@ -57,16 +57,18 @@ from jaxtyping import Array, ArrayLike, Float
 from .._math import normalise
 from .._validate import is_traced
 from ..system import AbstractContact, AbstractMechanism
-from ._model import (
+from ._barrier import (
     DEFAULT_DAMPING_RATIO,
     _barrier_slope,
     _rest_poses,
     barrier,
-    released_energy,
+    half_thicknesses,
     smoothstep,
-    with_default_damping,
+    with_base_pose,
+    with_default_contact,
 )
-from ._plate_tables import PlateTables, build_plate_tables
+from ._plate_geometry import plate_overlaps, plate_tables_for, plate_vertices
+from ._plate_tables import PlateTables
 from ._primitives import (
     additive_ccd,
     closest_on_segments,
@@ -165,11 +167,8 @@ class PlateContact(AbstractContact):
 
         **Raises:** `ValueError` for non-positive values (when known) or degenerate outlines.
         """
-        n = mechanism.n_bodies
         dtype = jnp.result_type(float)
-        thickness = jnp.broadcast_to(jnp.asarray(thickness, dtype), (n,))
-        base_thickness = jnp.max(thickness) if base_thickness is None else base_thickness
-        half = jnp.concatenate([thickness, jnp.asarray(base_thickness, dtype)[None]]) / 2
+        thickness, half = half_thicknesses(mechanism, thickness, base_thickness)
         if tables is None:
             tables = cls.tables_for(mechanism, base_outline=base_outline)
         if activation is None:
@@ -240,19 +239,7 @@ class PlateContact(AbstractContact):
     ) -> PlateTables:
         """The plate geometry of a mechanism whose arrays are known (host; `PlateTables`): its
         outlines, rest poses and hinge layout."""
-        base = mechanism.base_outline() if base_outline is None else base_outline
-        try:
-            rest = np.asarray(_rest_poses(mechanism))
-        except jax.errors.TracerArrayConversionError as error:
-            raise ValueError(
-                "contact needs the panels' geometry before compilation, but this mechanism was built "
-                "from traced values (under jit, vmap or grad): build its PlateTables outside "
-                "(PlateContact.tables_for) and pass tables=, or vary hinge parameters only."
-            ) from error
-        layout = mechanism.hinge_layout()
-        return build_plate_tables(
-            mechanism.outlines(), rest, base, layout.parent, layout.child, layout.ends
-        )
+        return plate_tables_for(mechanism, base_outline=base_outline)
 
     @classmethod
     def for_system(
@@ -270,20 +257,15 @@ class PlateContact(AbstractContact):
         lightest panel's mass (the smallest diagonal entry of ``M(0)`` over its squared lever arm,
         the panel size), ``ζ`` = `damping_ratio`. Other keyword arguments go to `from_mechanism`.
         Traceable in the hinges, the thickness and the mechanism's masses."""
-        energy = released_energy(hinge_stiffness, hinge_target)
-        probe = cls.from_mechanism(
-            mechanism, thickness=thickness, stiffness=energy, damping=0.0, **kwargs
+        return with_default_contact(
+            cls, mechanism, hinge_stiffness, hinge_target, damping_ratio, thickness, kwargs
         )
-        return with_default_damping(probe, mechanism, damping_ratio)
 
     # ---- geometry ----
 
     def _frames(self, poses):
         """World poses `(n, 4, 4)` of every body, the base last, from the moving bodies' poses."""
-        if self.tables.has_base:
-            base = jnp.asarray(self.tables.base_pose, poses.dtype)[None]
-            poses = jnp.concatenate([poses, base], axis=0)
-        return poses
+        return with_base_pose(self.tables, poses)
 
     def vertices(self, mechanism: AbstractMechanism, q: Float[Array, " nq"]) -> Array:
         """World positions of every body's polygon vertices at ``q``, `(n, v, 3)` (the base last;
@@ -511,28 +493,3 @@ def _pick(rows: np.ndarray, size: int, flat: Array) -> Array:
     """``flat[rows]`` as the product of a constant one-hot matrix `(len(rows), size)` (host) with
     `flat` `(size, 3)`."""
     return jnp.asarray(np.eye(size)[rows], flat.dtype) @ flat
-
-
-def plate_vertices(tables: PlateTables, poses: Float[Array, "n 4 4"]) -> Float[Array, "n v 3"]:
-    """World positions of every body's polygon vertices (`tables.vertices`, padded) with world
-    poses `poses` (the base last), length units."""
-    local = jnp.asarray(tables.vertices, poses.dtype)
-    return jnp.einsum("nij,nvj->nvi", poses[:, :3, :3], local) + poses[:, None, :3, 3]
-
-
-def plate_overlaps(
-    tables: PlateTables, half_thickness: Float[Array, " n"], x: Float[Array, "n v 3"]
-) -> Float[Array, " p"]:
-    """The exact overlap of every pair of bodies (`(p,)` over `tables.body_pairs`, length) with
-    world vertices `x` (`plate_vertices`) and half-thicknesses `half_thickness` `(n,)`: the depth
-    of the prisms of their thicknesses for bodies apart in the flat state, of their mid-surfaces
-    for bodies that touch there (a shared crease, corner or cut edge: their plates overlap along
-    it by construction); `overlap_depth`. Depths within rounding of zero (``1e-9`` × the largest
-    panel) are 0."""
-    a, b = tables.body_pairs.T
-    joined = tables.joined[a, b]
-    thickness = 2 * half_thickness.astype(x.dtype)
-    depth = overlap_depth(
-        x[a], x[b], jnp.where(joined, 0.0, thickness[a]), jnp.where(joined, 0.0, thickness[b])
-    )
-    return jnp.where(depth > 1e-9 * tables.scale, depth, 0.0)

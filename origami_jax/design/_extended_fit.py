@@ -18,8 +18,11 @@ from typing import Any
 
 import numpy as np
 
+from ..chain import Accordion, tip_contact_angle
 from ..system import HingeDesign
+from ._design import SimulationSettings, design
 from ._plausible import PLAUSIBLE_RANGES, plausible_bounds
+from ._targets import Targets, time_horizon
 
 FIG7_RISE_TIMES = (37.0, 101.0, 38.0)
 """Paper Fig. 7: 10–90 % rise times of joints 1–3, µs."""
@@ -114,8 +117,6 @@ _TARGET_LABELS = (
 
 def fig7_targets():
     """The four numbers of the paper's Fig. 7 as `Targets` (rise times in µs, overshoot a fraction)."""
-    from ._targets import Targets
-
     return Targets(rise_time=list(FIG7_RISE_TIMES), overshoot=[FIG7_OVERSHOOT, math.nan, math.nan])
 
 
@@ -268,8 +269,6 @@ class ExtendedCalibration:
 
 
 def _variant_fit(variant: ModelVariant, result, tolerance: float) -> VariantFit:
-    from ..chain._extended import tip_contact_angle
-
     labels = list(result.metric_labels)
     rows = [labels.index(label) for label in _TARGET_LABELS]
     by_label = {row.label: row for row in result.targets}
@@ -358,9 +357,6 @@ def calibrate_extended(
     Each variant compiles its own fit (tens of seconds to minutes on a CPU) and runs `n_starts`
     simulations with ``p + 1`` forward-mode lanes per step.
     """
-    from ..chain import Accordion
-    from ._design import SimulationSettings, design
-    from ._targets import time_horizon
 
     names = tuple(VARIANTS) if variants is None else tuple(variants)
     unknown = [n for n in names if n not in VARIANTS]

@@ -2,6 +2,7 @@
 
 import numpy as np
 
+from ._design import evaluate
 from ._report import DesignResult
 
 
@@ -19,8 +20,6 @@ def plot_response(
     **Returns:** the matplotlib `Figure`.
     """
     import matplotlib.pyplot as plt
-
-    from ._design import evaluate
 
     before, _ = evaluate(result, "before")
     after, _ = evaluate(result, "after")

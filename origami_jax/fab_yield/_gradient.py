@@ -27,6 +27,7 @@ import dataclasses
 
 import numpy as np
 
+from ..simulation import VERDICT_CODES, FoldVerdict
 from ._scatter import PARAMETERS, Spread, standard_draws
 
 
@@ -114,8 +115,6 @@ def yield_gradient(estimate, parameters=None) -> dict[str, YieldGradient]:
     **Raises:** `ValueError` for a parameter that is unknown, not scattered or uniformly scattered,
     or an estimate without its nominal values (built by hand).
     """
-    from ..simulation import VERDICT_CODES, FoldVerdict
-
     nominal = getattr(estimate, "nominal", None)
     if nominal is None:
         raise ValueError("the estimate has no nominal values; use one from yield_estimate.")

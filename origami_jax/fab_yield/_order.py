@@ -18,6 +18,8 @@ from typing import Any
 import jax.numpy as jnp
 import numpy as np
 
+from ..net import load_net
+from ..net._net import front_release
 from ._estimate import RunOptions, YieldEstimate, as_pattern, yield_estimate
 
 
@@ -36,8 +38,6 @@ def front_release_times(net, angle, speed):
 
     **Raises:** `ValueError` for a speed that is a number and not positive and finite.
     """
-    from ..net import load_net
-    from ..net._net import front_release
 
     if not hasattr(net, "geometry"):
         net = load_net(net)
@@ -63,7 +63,6 @@ def front_candidates(net, speed: float, n_directions: int = 8) -> dict[str, np.n
     """
     if isinstance(n_directions, bool) or not isinstance(n_directions, int) or n_directions < 1:
         raise ValueError(f"n_directions must be an integer >= 1, got {n_directions!r}.")
-    from ..net import load_net
 
     if not hasattr(net, "geometry"):
         net = load_net(net)

@@ -15,7 +15,6 @@ Everything is differentiable in the design.
 
 from typing import NamedTuple
 
-import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
@@ -45,21 +44,9 @@ class FluidLoads(NamedTuple):
 
 
 def with_added_inertias(mechanism: AbstractMechanism, added) -> AbstractMechanism:
-    """`mechanism` with its panels' added inertias replaced: a `PanelTree` or a `StripTree`."""
-    from ..net import PanelTree
-    from ..net._strip import StripTree
-
-    if isinstance(mechanism, StripTree):
-        return mechanism.with_added_inertias(added)
-    if isinstance(mechanism, PanelTree):
-        return eqx.tree_at(
-            lambda t: t.added_inertias, mechanism, added, is_leaf=lambda x: x is None
-        )
-    raise ValueError(
-        f"added fluid inertia needs a panel tree (PanelTree or StripTree), got "
-        f"{type(mechanism).__name__}; build the accordion with hinges='arc' or a fluid other than "
-        "'paper'."
-    )
+    """`mechanism` with its panels' added inertias replaced (`AbstractMechanism.with_added_inertias`:
+    a `PanelTree` or a `StripTree`; `ValueError` for other mechanisms)."""
+    return mechanism.with_added_inertias(added)
 
 
 def fluid_loads(

@@ -21,8 +21,8 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
+from .. import _vec3 as vec3
 from .._validate import as_float_array, check_finite, check_positive
-from ..net import _soa as soa
 from ..system import AbstractDrag, AbstractMechanism
 from ._quadrature import polygon_quadrature
 
@@ -113,11 +113,11 @@ class PanelDrag(AbstractDrag):
         rotation, origin = poses[:, :3, :3], poses[:, :3, 3]
         linear, angular = twists[:, :3], twists[:, 3:]
         # Body-frame twist about the body origin: u = Rᵀ(v_O + ω × o), w = Rᵀ ω; `(n, 1)` components.
-        u = soa.vec(jnp.einsum("bji,bj->bi", rotation, linear + jnp.cross(angular, origin)), 1)
-        w = soa.vec(jnp.einsum("bji,bj->bi", rotation, angular), 1)
+        u = vec3.vec(jnp.einsum("bji,bj->bi", rotation, linear + jnp.cross(angular, origin)), 1)
+        w = vec3.vec(jnp.einsum("bji,bj->bi", rotation, angular), 1)
         points, normals, weights = _by_body(self.quadrature, mechanism.n_bodies)
-        lever = soa.cross(points, normals)  # p × n, body frame
-        normal_speed = soa.dot(normals, u) + soa.dot(lever, w)
+        lever = vec3.cross(points, normals)  # p × n, body frame
+        normal_speed = vec3.dot(normals, u) + vec3.dot(lever, w)
         coefficient = jnp.broadcast_to(self.coefficient, (mechanism.n_bodies,))[:, None]
         pressure = (
             -0.5 * self.scale * coefficient * self.density * normal_speed * jnp.abs(normal_speed)
@@ -144,4 +144,4 @@ def _by_body(quadrature: PanelQuadrature, n_bodies: int):
     points = quadrature.points[index]  # (n, k, 3)
     normals = quadrature.normals[index]
     weights = jnp.where(valid, quadrature.weights[index], 0.0)
-    return soa.vec(points), soa.vec(normals), weights
+    return vec3.vec(points), vec3.vec(normals), weights

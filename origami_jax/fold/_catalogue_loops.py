@@ -25,13 +25,18 @@ Every pattern is a flat sheet in µm (`frame_unit` "um", faces counter-clockwise
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 
 import numpy as np
 
+from ._loop_geometry import loop_geometry
 from ._model import FoldFile
+from ._net_geometry import _rotations
 from ._pattern_file import crease_pattern_file, edges_of
+from ._read import loads_fold
+from ._write import planar_faces
 
 OS_CREATOR = "Origami Simulator: http://git.amandaghassaei.com/OrigamiSimulator/"
 MIURA_ALPHA_DEG = 60.0
@@ -78,8 +83,6 @@ def _clean(x: float) -> float:
 def _closure_vectors(geometry, angles: np.ndarray) -> np.ndarray:
     """``P − I`` around every vertex, flattened (zero only at closure; ``vee(P − Pᵀ)`` also vanishes
     at half-turns)."""
-    from ._net_geometry import _rotations
-
     out = []
     for creases, directions in zip(geometry.loop_creases, geometry.loop_directions, strict=True):
         rotations = _rotations(directions, angles[list(creases)])
@@ -93,8 +96,6 @@ def _closure_vectors(geometry, angles: np.ndarray) -> np.ndarray:
 def _solve_closure(fold: FoldFile, guess: np.ndarray, free: np.ndarray) -> np.ndarray:
     """Fold angles near `guess` (rad, per crease of `loop_geometry(fold)`) that close every loop,
     moving only the `free` creases (minimum-norm Gauss–Newton, finite-difference Jacobian)."""
-    from ._loop_geometry import loop_geometry
-
     geometry = loop_geometry(fold, require_targets=False)
     theta = np.asarray(guess, dtype=float).copy()
     columns = np.flatnonzero(free)
@@ -117,9 +118,6 @@ def _solve_closure(fold: FoldFile, guess: np.ndarray, free: np.ndarray) -> np.nd
 
 def _with_angles(fold: FoldFile, per_crease: np.ndarray) -> FoldFile:
     """`fold` with `edges_foldAngle` from per-crease angles (rad, `loop_geometry` order)."""
-    import dataclasses
-
-    from ._loop_geometry import loop_geometry
 
     geometry = loop_geometry(fold, require_targets=False)
     key = fold.frames[0]
@@ -192,8 +190,6 @@ def _fan(
 
 def _fan_angles(fold: FoldFile, rays_deg: list[float], by_ray: list[float]) -> np.ndarray:
     """Per-crease angles (rad) from per-ray ones."""
-    from ._loop_geometry import loop_geometry
-
     geometry = loop_geometry(fold, require_targets=False)
     key = fold.frames[0]
     xy = np.asarray(key.vertices_coords)[:, :2]
@@ -410,7 +406,6 @@ def _waterbomb_tessellation(units: int = 2) -> FoldFile:
         angles=angles,
         faces=faces,
     )
-    from ._loop_geometry import loop_geometry
 
     geometry = loop_geometry(fold)
     horizontal = np.array([a_ == "M" for a_ in geometry.assignments])
@@ -421,8 +416,6 @@ def _waterbomb_tessellation(units: int = 2) -> FoldFile:
 
 def _square_twist() -> FoldFile:
     """A central 200 µm square twisted by 30°, pleats to the sheet's edge, folded flat."""
-    from ._write import planar_faces
-
     s, beta, half = 100.0, math.radians(30.0), 300.0
     corners = [(-s, -s), (s, -s), (s, s), (-s, s)]
     coords: list[tuple[float, float]] = list(corners)
@@ -533,8 +526,6 @@ def _is_diagonal(faces, u: int, v: int) -> bool:
 def loop_patterns() -> dict[str, FoldFile]:
     """The closed-loop patterns of the catalogue by name (as generated), the Origami Simulator export
     as parsed."""
-    from ._read import loads_fold
-
     return {
         "vertex_degree4": _degree4(),
         "vertex_degree6": _degree6(),

@@ -12,7 +12,7 @@ import os
 import numpy as np
 
 from ._errors import FoldFormatError
-from ._geometry import PARALLEL_TOL, _as_fold, _assignment, paper_plane
+from ._geometry import PARALLEL_TOL, _as_fold, flat_frame
 from ._model import FoldFile
 
 
@@ -69,15 +69,9 @@ def chain_geometry(fold: FoldFile | str | os.PathLike[str], *, frame: int = 0) -
     parallel straight lines, or a crease line carries different fold angles along its length.
     """
     fold = _as_fold(fold)
-    resolved = fold.frame(frame)
-    where = "key frame" if frame == 0 else f"frame {frame}"
-    assignment = _assignment(resolved, where)
-    coords = resolved.coords3
-    plane = paper_plane(coords, resolved.faces_vertices)
-    if plane is None:
-        raise FoldFormatError(
-            f"{where}: a chain is read from a flat crease pattern, and this frame is folded in 3D"
-        )
+    resolved, where, assignment, coords, plane = flat_frame(
+        fold, frame, "a chain is read from a flat crease pattern, and this frame is folded in 3D"
+    )
     edges = resolved.edges_vertices.tolist()  # type: ignore[union-attr]
     cuts = [e for e, a in enumerate(assignment) if a == "C"]
     if cuts:

@@ -15,12 +15,14 @@ from __future__ import annotations
 import dataclasses
 import os
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from ._errors import FoldFormatError
 from ._model import FoldFile, FoldFrame
+from ._read import read_fold
 
 # Directions closer than this (radians) are "the same"; coordinates within this (relative to the
 # paper size) of a plane are "in it"; creases within this of parallel are "parallel".
@@ -96,7 +98,6 @@ class VertexGeometry:
 def _as_fold(fold: FoldFile | str | os.PathLike[str]) -> FoldFile:
     if isinstance(fold, FoldFile):
         return fold
-    from ._read import read_fold
 
     return read_fold(Path(fold))
 
@@ -108,6 +109,29 @@ def _assignment(frame: FoldFrame, where: str) -> tuple[str, ...]:
             "from the paper's boundary (B)"
         )
     return frame.edges_assignment
+
+
+class FlatFrame(NamedTuple):
+    """A frame a pattern is read from, checked flat (`flat_frame`)."""
+
+    frame: FoldFrame
+    where: str  # "key frame" or "frame k", for messages
+    assignment: tuple[str, ...]
+    coords: np.ndarray  # (v, 3)
+    plane: np.ndarray  # (2, 3), an orthonormal basis of the paper's plane
+
+
+def flat_frame(fold: FoldFile, frame: int, folded: str) -> FlatFrame:
+    """Frame `frame` of `fold` with its assignment and plane; `FoldFormatError` "`where`: `folded`"
+    when its vertices do not lie in one plane."""
+    resolved = fold.frame(frame)
+    where = "key frame" if frame == 0 else f"frame {frame}"
+    assignment = _assignment(resolved, where)
+    coords = resolved.coords3
+    plane = paper_plane(coords, resolved.faces_vertices)
+    if plane is None:
+        raise FoldFormatError(f"{where}: {folded}")
+    return FlatFrame(resolved, where, assignment, coords, plane)
 
 
 def paper_plane(

@@ -200,13 +200,7 @@ def loop_geometry(
         angles_deg = angles_deg[keep]
 
     # Faces on either side of every edge; crease pairs; the spanning tree (breadth first, as nets).
-    edge_of = {frozenset(e): i for i, e in enumerate(edges)}
-    sides: dict[int, list[int]] = {}
-    for f, face in enumerate(faces):
-        for k, u in enumerate(face):
-            e = edge_of.get(frozenset((u, face[(k + 1) % len(face)])))
-            if e is not None:
-                sides.setdefault(e, []).append(f)
+    sides = _edge_sides(edges, faces)
     pairs: dict[tuple[int, int], list[int]] = {}
     for e, a in enumerate(assignment):
         on = sides.get(e, [])
@@ -405,13 +399,7 @@ def _merge_facets(edges, assignment, faces, where: str):
             x = parent[x]
         return x
 
-    edge_of = {frozenset(e): i for i, e in enumerate(edges)}
-    sides: dict[int, list[int]] = {}
-    for f, face in enumerate(faces):
-        for k, u in enumerate(face):
-            e = edge_of.get(frozenset((u, face[(k + 1) % len(face)])))
-            if e is not None:
-                sides.setdefault(e, []).append(f)
+    sides = _edge_sides(edges, faces)
     internal = set()
     for e, a in enumerate(assignment):
         if a == "F" and len(sides.get(e, [])) == 2:
@@ -465,3 +453,15 @@ def _select_seams(tree: NetGeometry, keep: list[int]) -> Seams:
     s = tree.target_seams
     index = np.asarray(keep)
     return Seams(s.faces[index], s.edges[index], s.vertices[index], s.corners[index])
+
+
+def _edge_sides(edges, faces) -> dict[int, list[int]]:
+    """The faces on either side of every edge (by edge index; an edge on no face is absent)."""
+    edge_of = {frozenset(e): i for i, e in enumerate(edges)}
+    sides: dict[int, list[int]] = {}
+    for f, face in enumerate(faces):
+        for k, u in enumerate(face):
+            e = edge_of.get(frozenset((u, face[(k + 1) % len(face)])))
+            if e is not None:
+                sides.setdefault(e, []).append(f)
+    return sides

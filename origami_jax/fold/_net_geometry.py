@@ -25,7 +25,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ._errors import FoldFormatError
-from ._geometry import PARALLEL_TOL, _as_fold, _assignment, paper_plane
+from ._geometry import PARALLEL_TOL, _as_fold, flat_frame
 from ._model import FoldFile
 from ._net_build import build_net
 from ._polygons import overlapping_pairs
@@ -384,16 +384,12 @@ def net_geometry(
     creases that are not on one line, or a crease has no target.
     """
     fold = _as_fold(fold_or_path)
-    resolved = fold.frame(frame)
-    where = "key frame" if frame == 0 else f"frame {frame}"
-    assignment = _assignment(resolved, where)
-    coords = resolved.coords3
-    plane = paper_plane(coords, resolved.faces_vertices)
-    if plane is None:
-        raise FoldFormatError(
-            f"{where}: the vertices do not lie in one plane; a net is read from its flat crease "
-            "pattern (the membrane before folding): pass the flat frame"
-        )
+    resolved, where, assignment, coords, plane = flat_frame(
+        fold,
+        frame,
+        "the vertices do not lie in one plane; a net is read from its flat crease pattern (the "
+        "membrane before folding): pass the flat frame",
+    )
     net = build_net(
         coords=coords,
         plane=plane,

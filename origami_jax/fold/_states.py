@@ -188,35 +188,21 @@ def single_vertex_fold(
         key_extra["frame_title"] = title
     if extra:
         key_extra.update(extra)
-    key = FoldFrame(
-        vertices_coords=cp,
-        edges_vertices=np.array(edges),
-        edges_assignment=tuple(key_assignment),
-        edges_fold_angle_deg=key_angles,
-        faces_vertices=tuple(faces),
-        frame_unit=unit,
-        frame_classes=("creasePattern",),
-        frame_attributes=("2D", "manifold", "orientable", "convexFaces"),
-        extra=key_extra,
-    )
+    key = _crease_pattern_frame(cp, edges, key_assignment, key_angles, faces, unit, key_extra)
     frames = [key]
     for s in range(k):
         deg = edge_angles(angles[s])
-        assignment = edge_assignment(deg)
         frame_extra: dict = {"origami_jax:state": s}
         if times is not None:
             frame_extra["origami_jax:time"] = float(times[s])
         frame_extra.update(_frame_values(frame_data, s, k))
         frames.append(
-            FoldFrame(
-                vertices_coords=np.concatenate([np.zeros((1, 3)), radius * path[s]]),
-                edges_fold_angle_deg=deg,
-                edges_assignment=None if assignment == key_assignment else tuple(assignment),
-                frame_classes=("foldedForm",),
-                frame_attributes=("3D",),
-                frame_parent=0,
-                frame_inherit=True,
-                extra=frame_extra,
+            _folded_frame(
+                np.concatenate([np.zeros((1, 3)), radius * path[s]]),
+                deg,
+                edge_assignment(deg),
+                key_assignment,
+                frame_extra,
             )
         )
     metadata = {
@@ -322,22 +308,9 @@ def chain_fold(
         key_extra["frame_title"] = title
     if extra:
         key_extra.update(extra)
-    frames = [
-        FoldFrame(
-            vertices_coords=cp,
-            edges_vertices=np.array(edges),
-            edges_assignment=tuple(key_assignment),
-            edges_fold_angle_deg=key_angles,
-            faces_vertices=tuple(faces),
-            frame_unit=unit,
-            frame_classes=("creasePattern",),
-            frame_attributes=("2D", "manifold", "orientable", "convexFaces"),
-            extra=key_extra,
-        )
-    ]
+    frames = [_crease_pattern_frame(cp, edges, key_assignment, key_angles, faces, unit, key_extra)]
     for s in range(k):
         deg = edge_angles(wrapped[s])
-        assignment = edge_assignment(deg)
         frame_extra: dict = {
             "origami_jax:state": s,
             "origami_jax:hinge_angles": [float(x) for x in theta[s]],
@@ -346,19 +319,39 @@ def chain_fold(
             frame_extra["origami_jax:time"] = float(times[s])
         frame_extra.update(_frame_values(frame_data, s, k))
         frames.append(
-            FoldFrame(
-                vertices_coords=coords3(theta[s]),
-                edges_fold_angle_deg=deg,
-                edges_assignment=None if assignment == key_assignment else tuple(assignment),
-                frame_classes=("foldedForm",),
-                frame_attributes=("3D",),
-                frame_parent=0,
-                frame_inherit=True,
-                extra=frame_extra,
-            )
+            _folded_frame(coords3(theta[s]), deg, edge_assignment(deg), key_assignment, frame_extra)
         )
     metadata = {
         "file_creator": CREATOR,
         "file_classes": ["singleModel", "animation"] if k > 1 else ["singleModel"],
     }
     return FoldFile(frames=tuple(frames), file_spec=WRITTEN_SPEC, file_metadata=metadata)
+
+
+def _crease_pattern_frame(cp, edges, assignment, angles_deg, faces, unit, extra) -> FoldFrame:
+    """The key frame of a written state file: the flat crease pattern."""
+    return FoldFrame(
+        vertices_coords=cp,
+        edges_vertices=np.array(edges),
+        edges_assignment=tuple(assignment),
+        edges_fold_angle_deg=angles_deg,
+        faces_vertices=tuple(faces),
+        frame_unit=unit,
+        frame_classes=("creasePattern",),
+        frame_attributes=("2D", "manifold", "orientable", "convexFaces"),
+        extra=extra,
+    )
+
+
+def _folded_frame(coords, deg, assignment, key_assignment, extra) -> FoldFrame:
+    """A folded state inheriting from the key frame (its assignment written only where it differs)."""
+    return FoldFrame(
+        vertices_coords=coords,
+        edges_fold_angle_deg=deg,
+        edges_assignment=None if assignment == key_assignment else tuple(assignment),
+        frame_classes=("foldedForm",),
+        frame_attributes=("3D",),
+        frame_parent=0,
+        frame_inherit=True,
+        extra=extra,
+    )

@@ -20,6 +20,7 @@ import numpy as np
 from ._checks import check_fold
 from ._errors import FoldFormatError
 from ._model import WRITTEN_SPEC, FoldFile, FoldFrame
+from ._read import _without_parsed_arrays
 from ._schema import validate_schema
 
 REQUIRED_KEYS = ("vertices_coords", "edges_vertices", "edges_assignment", "faces_vertices")
@@ -64,7 +65,6 @@ def dumps_fold(fold: FoldFile) -> str:
     # The mesh arrays came from a checked `FoldFile` (and `check_fold` above): the schema checks
     # the rest. Validating whole arrays against it took minutes on a file of many vertices (each
     # frame of an animation repeats them), where reading it takes a second.
-    from ._read import _without_parsed_arrays
 
     validate_schema(_without_parsed_arrays(data))
     return _format(data, 0) + "\n"

@@ -27,8 +27,10 @@ import numpy as np
 from jaxtyping import Array, Float
 
 from ..fold import FoldFile, FoldFrame
-from ..simulation import FIT_ATOL, FIT_RTOL, AbstractInput, SaveAt, SolveOptions
-from ..system import HingeDesign
+from ..simulation import FIT_ATOL, FIT_RTOL, AbstractInput, SaveAt, SolveOptions, Step, simulate
+from ..system import KOH_SOLUTION, HingeDesign
+from ..vertex import certify_path, chain_from_fold_angles, corner_cube, fold_angles, unfold
+from ._pattern import load_pattern
 
 # The flaps of `vertex_pattern` reach this far from the vertex (µm).
 FLAP_RADIUS_UM = 200.0
@@ -57,8 +59,6 @@ def vertex_pattern(vertex, *, radius: float = FLAP_RADIUS_UM) -> FoldFile:
     """A flat crease pattern of one interior vertex with the sectors of `vertex` (a closed
     `SingleVertex`): crease ``i`` along the ray at ``Σ_{k<i} α_k``, each sector a triangular panel out
     to `radius` µm, targets the vertex's fold angles (valley +)."""
-    from ..vertex import fold_angles
-
     if not vertex.closed:
         raise ValueError("compare_unfolding takes an interior (closed) vertex; this one is open.")
     sectors = np.asarray(vertex.sector_angles, dtype=float)
@@ -195,11 +195,6 @@ def compare_unfolding(
 
     **Returns:** a `PathComparison`.
     """
-    from ..simulation import simulate
-    from ..system import KOH_SOLUTION
-    from ..vertex import certify_path, corner_cube, fold_angles, unfold
-    from ..vertex._geometry import chain_from_fold_angles
-    from ._pattern import load_pattern
 
     vertex = corner_cube() if vertex is None else vertex
     design = HingeDesign.literature(fluid=KOH_SOLUTION) if design is None else design
@@ -256,8 +251,6 @@ def compare_unfolding(
     driven = run(path_input)
     step = None
     if released:
-        from ..simulation import Step
-
         step = run(Step())
     takeable = driven.verdict == "folded" and not driven.certificate.crossing_states
     return PathComparison(

@@ -41,7 +41,7 @@ import numpy as np
 from jaxtyping import Array, Float
 
 from ..net import PanelTree
-from ..system._mechanism import AbstractMechanism, HingeLayout
+from ..system import AbstractMechanism, HingeLayout
 from . import _closure
 
 # Regularising inertia on the cut creases, relative to the mean diagonal of M_T: keeps M + ρJᵀJ

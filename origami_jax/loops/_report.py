@@ -4,15 +4,16 @@ import dataclasses
 
 import numpy as np
 
-from ..simulation._verdict import FoldReport, FoldVerdict
+from ..simulation import AbstractFoldReport, FoldReport, FoldVerdict
 
 # A crease counts as having chosen its side once it is this far from flat (rad).
 BRANCH_ANGLE = float(np.radians(2.0))
 
 
 @dataclasses.dataclass(frozen=True)
-class LoopFoldReport(FoldReport):
-    """A `FoldReport` plus, for a pattern with closed loops:
+class LoopFoldReport(AbstractFoldReport):
+    """A fold report (the fields of `origami_jax.simulation.AbstractFoldReport`) plus, for a pattern
+    with closed loops:
 
     - `branch`: which way each crease went (+1 valley, −1 mountain, 0 flat), taken when it first got
       `BRANCH_ANGLE` from flat (the choice made leaving the flat state), `(m,)`;
@@ -51,7 +52,7 @@ class LoopFoldReport(FoldReport):
             if branch[j] != intended_branch[j]
         )
         drift = pattern.closure_residual(theta)
-        fields = {f.name: getattr(report, f.name) for f in dataclasses.fields(FoldReport)}
+        fields = {f.name: getattr(report, f.name) for f in dataclasses.fields(AbstractFoldReport)}
         if report.verdict == FoldVerdict.MISFOLDED and wrong:
             creases = ", ".join(str(j) for j in wrong[:8]) + (" ..." if len(wrong) > 8 else "")
             fields["reason"] = (

@@ -9,7 +9,7 @@ or bending arcs ([`origami_jax.net.ArcJoints`][]); [`origami_jax.net.StripTree`]
 strips their own mass and inertia ([`origami_jax.net.strip_tree`][]). Fold angles are valley positive.
 """
 
-from ..simulation._verdict import SeamGaps as SeamGaps
+from ..simulation import SeamGaps as SeamGaps
 from ._joints import AbstractJoints as AbstractJoints
 from ._joints import ArcJoints as ArcJoints
 from ._joints import RevoluteJoints as RevoluteJoints

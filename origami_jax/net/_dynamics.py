@@ -28,7 +28,7 @@ of body ``i`` or ``i`` itself (`_topology.Topology.ancestors`):
 
 **Layout.** Bodies are processed in the tree's topological order (`Topology.order`, parents first),
 so that ``λ(i) < i`` as in Featherstone; inputs are permuted into it and results back. Every 3-vector
-is stored by component (`_soa`), one array per component with the bodies along the first axis and
+is stored by component (`origami_jax._vec3`), one array per component with the bodies along the first axis and
 any states along the trailing ones, `(n, *batch)`: the algorithms are elementwise arithmetic plus
 products with constant matrices (``A``, parent selections), and vectorise over the states, which are
 contiguous. Many states of one tree (`forward_dynamics_rows`, and `jax.vmap` of the single-state
@@ -47,9 +47,9 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
-from . import _soa as soa
+from .. import _vec3 as vec3
+from .._vec3 import Mat, Vec
 from ._joints import AbstractJoints
-from ._soa import Mat, Vec
 from ._topology import Topology, topology
 
 # The unrolled sparse factorization costs Σ_i depth_i² scalar operations in the graph (a 20-panel
@@ -96,7 +96,7 @@ def _ordered(tree, extra: int = 0) -> _Ordered:
         jnp.asarray(a, tree.masses.dtype),
         tree.joints if identity else tree.joints.take(order),
         take(tree.frames),
-        soa.expand(take(tree.masses), extra),
+        vec3.expand(take(tree.masses), extra),
         take(tree.cgs),
         take(tree.inertias),
         None if tree.added_inertias is None else take(tree.added_inertias),
@@ -175,14 +175,14 @@ def _selection(topo: Topology, d: int, dtype) -> Array:
 
 def _adjoint(rotation: Mat, translation: Vec, lin: Vec, ang: Vec) -> tuple[Vec, Vec]:
     # Ad_G (v, ω) = (R v + t × R ω, R ω)
-    rotated = soa.matvec(rotation, ang)
-    return soa.add(soa.matvec(rotation, lin), soa.cross(translation, rotated)), rotated
+    rotated = vec3.matvec(rotation, ang)
+    return vec3.add(vec3.matvec(rotation, lin), vec3.cross(translation, rotated)), rotated
 
 
 def _compose(first: tuple[Mat, Vec], second: tuple[Mat, Vec]) -> tuple[Mat, Vec]:
     """The displacement ``first ∘ second``: ``(R₁ R₂, R₁ t₂ + t₁)``."""
     (r1, t1), (r2, t2) = first, second
-    return soa.matmul(r1, r2), soa.add(soa.matvec(r1, t2), t1)
+    return vec3.matmul(r1, r2), vec3.add(vec3.matvec(r1, t2), t1)
 
 
 def _gathered(rotation: Mat, translation: Vec, up: np.ndarray) -> tuple[Mat, Vec]:
@@ -198,7 +198,7 @@ def _gathered(rotation: Mat, translation: Vec, up: np.ndarray) -> tuple[Mat, Vec
     select[np.flatnonzero(has), up[has]] = 1.0
     parts = [x for row in rotation for x in row] + list(translation)
     picked = jnp.tensordot(jnp.asarray(select, parts[0].dtype), jnp.stack(parts, axis=1), axes=1)
-    identity = soa.expand(jnp.asarray(~has, parts[0].dtype), parts[0].ndim - 1)
+    identity = vec3.expand(jnp.asarray(~has, parts[0].dtype), parts[0].ndim - 1)
     r = tuple(
         tuple(picked[:, 3 * a + b] + (identity if a == b else 0.0) for b in range(3))
         for a in range(3)
@@ -215,8 +215,8 @@ def _frames_by_doubling(
     replace one composition per level, and the compiled program grows with the logarithm of the
     depth instead of the depth (a 10×10 Miura-ori sheet's spanning tree: 18 levels, 5 rounds).
     Returns ``G`` and the parents' ``G_λ(i)`` (the identity for roots), components `shape`."""
-    rotation = soa.map_mat(lambda x: jnp.broadcast_to(x, shape), joint[0])
-    displacement = (rotation, soa.map_vec(lambda x: jnp.broadcast_to(x, shape), joint[1]))
+    rotation = vec3.map_mat(lambda x: jnp.broadcast_to(x, shape), joint[0])
+    displacement = (rotation, vec3.map_vec(lambda x: jnp.broadcast_to(x, shape), joint[1]))
     parents = np.asarray(_ordered_parents(data.topo), dtype=np.int64)
     up = parents.copy()
     while np.any(up >= 0):
@@ -244,7 +244,7 @@ def frames(data: _Ordered, q: Float[Array, " n *batch"]) -> Frames:
 
         def moved(lin: Vec, ang: Vec) -> tuple[Vec, Vec]:
             lin, ang = _adjoint(r_p, t_p, lin, ang)
-            return soa.map_vec(full, lin), soa.map_vec(full, ang)
+            return vec3.map_vec(full, lin), vec3.map_vec(full, ang)
 
         s_lin, s_ang = moved(sl, sa)
         ds_lin, ds_ang = moved(dsl, dsa) if moving else (None, None)
@@ -271,8 +271,8 @@ def frames(data: _Ordered, q: Float[Array, " n *batch"]) -> Frames:
         r_p, t_p = jax.tree_util.tree_map(
             lambda x, s=select: jnp.tensordot(s, x, axes=1), pieces[-1][:2]
         )
-        rotation = soa.matmul(r_p, r_j)
-        translation = soa.add(soa.matvec(r_p, t_j), t_p)
+        rotation = vec3.matmul(r_p, r_j)
+        translation = vec3.add(vec3.matvec(r_p, t_j), t_p)
         s_w = _adjoint(r_p, t_p, *s_j)
         ds_w = None if ds_j is None else _adjoint(r_p, t_p, *ds_j)
         pieces.append((rotation, translation, s_w, ds_w))
@@ -286,10 +286,10 @@ def frames(data: _Ordered, q: Float[Array, " n *batch"]) -> Frames:
 
 
 def _body_frames(data: _Ordered, kin: Frames) -> tuple[Mat, Vec]:
-    rest_rotation = soa.mat(data.frames[:, :3, :3], data.extra)
-    rest_position = soa.vec(data.frames[:, :3, 3], data.extra)
-    rotation = soa.matmul(kin.rotation, rest_rotation)
-    position = soa.add(soa.matvec(kin.rotation, rest_position), kin.translation)
+    rest_rotation = vec3.mat(data.frames[:, :3, :3], data.extra)
+    rest_position = vec3.vec(data.frames[:, :3, 3], data.extra)
+    rotation = vec3.matmul(kin.rotation, rest_rotation)
+    position = vec3.add(vec3.matvec(kin.rotation, rest_position), kin.translation)
     return rotation, position
 
 
@@ -299,7 +299,7 @@ def body_poses(tree, q: Float[Array, " n"]) -> Float[Array, "n 4 4"]:
     rotation, position = _body_frames(data, frames(data, q))
     rotation = jax.tree_util.tree_map(lambda x: _from_order(data, x), rotation)
     position = jax.tree_util.tree_map(lambda x: _from_order(data, x), position)
-    top = jnp.concatenate([soa.stack_mat(rotation), soa.stack_vec(position)[..., None]], axis=-1)
+    top = jnp.concatenate([vec3.stack_mat(rotation), vec3.stack_vec(position)[..., None]], axis=-1)
     bottom = jnp.broadcast_to(jnp.array([0.0, 0.0, 0.0, 1.0], top.dtype), top.shape[:-2] + (1, 4))
     return jnp.concatenate([top, bottom], axis=-2)
 
@@ -319,21 +319,21 @@ class Inertias(NamedTuple):
 
     def apply(self, lin: Vec, ang: Vec) -> tuple[Vec, Vec]:
         """``𝕀 (lin, ang)``: rigid ``(m a − h × α, h × a + I_o α)`` plus the general part."""
-        force = soa.sub(soa.scale(self.mass, lin), soa.cross(self.moment, ang))
-        torque = soa.add(soa.cross(self.moment, lin), soa.matvec(self.inertia, ang))
+        force = vec3.sub(vec3.scale(self.mass, lin), vec3.cross(self.moment, ang))
+        torque = vec3.add(vec3.cross(self.moment, lin), vec3.matvec(self.inertia, ang))
         if self.added is not None:
             motion = jnp.stack([*lin, *ang], axis=1)  # (n, 6, *batch)
             extra = jnp.sum(self.added * motion[:, None], axis=2)
-            force = soa.add(force, (extra[:, 0], extra[:, 1], extra[:, 2]))
-            torque = soa.add(torque, (extra[:, 3], extra[:, 4], extra[:, 5]))
+            force = vec3.add(force, (extra[:, 0], extra[:, 1], extra[:, 2]))
+            torque = vec3.add(torque, (extra[:, 3], extra[:, 4], extra[:, 5]))
         return force, torque
 
     def map(self, f) -> "Inertias":
         """`f` applied to every component array (and to the general part as one array)."""
         return Inertias(
             f(self.mass),
-            soa.map_vec(f, self.moment),
-            soa.map_mat(f, self.inertia),
+            vec3.map_vec(f, self.moment),
+            vec3.map_mat(f, self.inertia),
             None if self.added is None else f(self.added),
         )
 
@@ -353,26 +353,26 @@ def _spatial_to_world(added: Array, rotation: Mat, position: Vec, extra: int) ->
     ``X* = [[R, 0], [p̂ R, R]]`` on ``(force, torque)``; `(n, 6, 6, *batch)`. Stacked arrays rather
     than components: 36 entries by component would be ~700 operations to compile."""
     shape = jnp.broadcast_shapes(*(x.shape for row in rotation for x in row), position[0].shape)
-    rotation = soa.map_mat(lambda x: jnp.broadcast_to(x, shape), rotation)
+    rotation = vec3.map_mat(lambda x: jnp.broadcast_to(x, shape), rotation)
     r = _stack_mat(rotation)
-    p_r = _stack_mat(soa.matmul(soa.hat(position), rotation))
+    p_r = _stack_mat(vec3.matmul(vec3.hat(position), rotation))
     x_star = jnp.concatenate(
         [jnp.concatenate([r, jnp.zeros_like(r)], axis=2), jnp.concatenate([p_r, r], axis=2)],
         axis=1,
     )
-    body = soa.expand(added, extra)
+    body = vec3.expand(added, extra)
     return _matmul_stacked(_matmul_stacked(x_star, body), jnp.swapaxes(x_star, 1, 2))
 
 
 def inertias(data: _Ordered, kin: Frames) -> tuple[Inertias, Vec]:
     """World spatial inertia of every body about the origin, and the world CG of each."""
     rotation, position = _body_frames(data, kin)
-    cg = soa.add(position, soa.matvec(rotation, soa.vec(data.cgs, data.extra)))
+    cg = vec3.add(position, vec3.matvec(rotation, vec3.vec(data.cgs, data.extra)))
     mass = data.masses
-    rest_inertia = soa.mat(data.inertias, data.extra)
-    rotated = soa.matmul(soa.matmul(rotation, rest_inertia), soa.transpose(rotation))
+    rest_inertia = vec3.mat(data.inertias, data.extra)
+    rotated = vec3.matmul(vec3.matmul(rotation, rest_inertia), vec3.transpose(rotation))
     # Parallel axes to the origin: I_o = I_c + m (|c|² I − c cᵀ).
-    c2 = soa.dot(cg, cg)
+    c2 = vec3.dot(cg, cg)
     inertia = tuple(
         tuple(rotated[a][b] + mass * ((c2 if a == b else 0.0) - cg[a] * cg[b]) for b in range(3))
         for a in range(3)
@@ -382,12 +382,12 @@ def inertias(data: _Ordered, kin: Frames) -> tuple[Inertias, Vec]:
         if data.added is None
         else _spatial_to_world(data.added, rotation, position, data.extra)
     )
-    return Inertias(mass, soa.scale(mass, cg), inertia, added), cg  # type: ignore[arg-type]
+    return Inertias(mass, vec3.scale(mass, cg), inertia, added), cg  # type: ignore[arg-type]
 
 
 def _motion_cross(v_lin: Vec, v_ang: Vec, x_lin: Vec, x_ang: Vec) -> tuple[Vec, Vec]:
     # V ×m X = (ω × x_l + v × x_a, ω × x_a)
-    return soa.add(soa.cross(v_ang, x_lin), soa.cross(v_lin, x_ang)), soa.cross(v_ang, x_ang)
+    return vec3.add(vec3.cross(v_ang, x_lin), vec3.cross(v_lin, x_ang)), vec3.cross(v_ang, x_ang)
 
 
 def _composite_forces(data: _Ordered, kin: Frames, body: Inertias) -> tuple[Vec, Vec]:
@@ -436,32 +436,32 @@ def _outer_sum(s: tuple, f: tuple) -> Array:
 def _newton_euler(tree, data: _Ordered, kin: Frames, body: Inertias, v, a) -> Array:
     """``M a + C v + G`` by the world-frame RNEA (module docstring), topological order; `v`, `a`
     in topological order, `a` may be `None` (zero)."""
-    s_lin_v, s_ang_v = soa.scale(v, kin.s_lin), soa.scale(v, kin.s_ang)
-    vel_lin = soa.map_vec(lambda x: _path_sum(data, x), s_lin_v)
-    vel_ang = soa.map_vec(lambda x: _path_sum(data, x), s_ang_v)
+    s_lin_v, s_ang_v = vec3.scale(v, kin.s_lin), vec3.scale(v, kin.s_ang)
+    vel_lin = vec3.map_vec(lambda x: _path_sum(data, x), s_lin_v)
+    vel_ang = vec3.map_vec(lambda x: _path_sum(data, x), s_ang_v)
     # Ṡ_i q̇_i = V_i × S_i q̇_i (+ Ad (dS_J/dq) q̇_i² for joints that bend).
     acc_lin, acc_ang = _motion_cross(vel_lin, vel_ang, s_lin_v, s_ang_v)
     if kin.ds_lin is not None and kin.ds_ang is not None:
         v2 = v * v
-        acc_lin = soa.add(acc_lin, soa.scale(v2, kin.ds_lin))
-        acc_ang = soa.add(acc_ang, soa.scale(v2, kin.ds_ang))
+        acc_lin = vec3.add(acc_lin, vec3.scale(v2, kin.ds_lin))
+        acc_ang = vec3.add(acc_ang, vec3.scale(v2, kin.ds_ang))
     if a is not None:
-        acc_lin = soa.add(acc_lin, soa.scale(a, kin.s_lin))
-        acc_ang = soa.add(acc_ang, soa.scale(a, kin.s_ang))
-    acc_lin = soa.map_vec(lambda x: _path_sum(data, x), acc_lin)
-    acc_ang = soa.map_vec(lambda x: _path_sum(data, x), acc_ang)
+        acc_lin = vec3.add(acc_lin, vec3.scale(a, kin.s_lin))
+        acc_ang = vec3.add(acc_ang, vec3.scale(a, kin.s_ang))
+    acc_lin = vec3.map_vec(lambda x: _path_sum(data, x), acc_lin)
+    acc_ang = vec3.map_vec(lambda x: _path_sum(data, x), acc_ang)
     f_acc, n_acc = body.apply(acc_lin, acc_ang)
     f_mom, n_mom = body.apply(vel_lin, vel_ang)
     # V ×* F = (ω × f, ω × n + v × f); gravity's force (m g, h × g) on the rigid mass.
-    g = soa.vec(tree.gravity)
-    force = soa.sub(soa.add(f_acc, soa.cross(vel_ang, f_mom)), soa.scale(body.mass, g))
-    torque = soa.sub(
-        soa.add(n_acc, soa.add(soa.cross(vel_ang, n_mom), soa.cross(vel_lin, f_mom))),
-        soa.cross(body.moment, g),
+    g = vec3.vec(tree.gravity)
+    force = vec3.sub(vec3.add(f_acc, vec3.cross(vel_ang, f_mom)), vec3.scale(body.mass, g))
+    torque = vec3.sub(
+        vec3.add(n_acc, vec3.add(vec3.cross(vel_ang, n_mom), vec3.cross(vel_lin, f_mom))),
+        vec3.cross(body.moment, g),
     )
-    force = soa.map_vec(lambda x: _subtree_sum(data, x), force)
-    torque = soa.map_vec(lambda x: _subtree_sum(data, x), torque)
-    return soa.dot(kin.s_lin, force) + soa.dot(kin.s_ang, torque)
+    force = vec3.map_vec(lambda x: _subtree_sum(data, x), force)
+    torque = vec3.map_vec(lambda x: _subtree_sum(data, x), torque)
+    return vec3.dot(kin.s_lin, force) + vec3.dot(kin.s_ang, torque)
 
 
 def inverse_dynamics(tree, q, v, a) -> Float[Array, " n"]:
@@ -482,7 +482,7 @@ def potential_energy(tree, q) -> Float[Array, ""]:
     """Gravitational potential ``−Σ m_i g · c_i(q)`` (energy units; zero without gravity)."""
     data = _ordered(tree)
     _, cg = inertias(data, frames(data, q))
-    return -jnp.sum(data.masses * soa.dot(cg, soa.vec(tree.gravity)))
+    return -jnp.sum(data.masses * vec3.dot(cg, vec3.vec(tree.gravity)))
 
 
 def _ordered_parents(topo: Topology) -> tuple[int, ...]:

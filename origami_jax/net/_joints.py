@@ -13,7 +13,7 @@ fabricated pattern). A joint model gives, for every hinge at once,
 
 The tree (`origami_jax.net._dynamics`) composes the displacements along the tree and moves every
 ``S`` into the world with its parent's displacement, so a new hinge model is one more subclass.
-Vectors and matrices are returned by component (`_soa`: a 3-vector is a tuple of three arrays
+Vectors and matrices are returned by component (`origami_jax._vec3`: a 3-vector is a tuple of three arrays
 shaped like ``q``, `(n, *batch)`, a matrix a tuple of three rows), the layout the tree algorithms
 compute in.
 
@@ -46,14 +46,14 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
-from ..chain._scalar import sin_cos_once
-from . import _soa as soa
-from ._soa import Mat, Vec
+from .. import _vec3 as vec3
+from .._math import sin_cos_once
+from .._vec3 import Mat, Vec
 
 
 @jax.custom_jvp
 def sin_cos(q: Array) -> tuple[Array, Array]:
-    """``(sin q, cos q)`` by `origami_jax.chain._scalar.sin_cos_once` (on the CPU computed once, by
+    """``(sin q, cos q)`` by `origami_jax._math.sin_cos_once` (on the CPU computed once, by
     vectorised polynomials), with the exact derivatives ``(cos q dq, −sin q dq)`` rather than the
     polynomials' own (less accurate than their values)."""
     return sin_cos_once(q)
@@ -123,15 +123,15 @@ class RevoluteJoints(AbstractJoints):
 
     def transform(self, q):
         extra = q.ndim - 1
-        rotation = axis_rotations(soa.vec(self.axes, extra), q)
-        point = soa.vec(self.points, extra)
+        rotation = axis_rotations(vec3.vec(self.axes, extra), q)
+        point = vec3.vec(self.points, extra)
         # A rotation about the axis through p maps x to R(x − p) + p.
-        return rotation, soa.sub(point, soa.matvec(rotation, point))
+        return rotation, vec3.sub(point, vec3.matvec(rotation, point))
 
     def motion(self, q):
         extra = q.ndim - 1
-        axis = soa.vec(self.axes, extra)
-        return soa.cross(soa.vec(self.points, extra), axis), axis
+        axis = vec3.vec(self.axes, extra)
+        return vec3.cross(vec3.vec(self.points, extra), axis), axis
 
 
 # Taylor coefficients in q² (index k: the q^{2k} coefficient), through q¹⁶: for |q| < 1 the next term
@@ -181,27 +181,27 @@ class ArcJoints(AbstractJoints):
 
     def transform(self, q):
         extra = q.ndim - 1
-        axis, point = soa.vec(self.axes, extra), soa.vec(self.points, extra)
-        direction, length = soa.vec(self.directions, extra), soa.expand(self.lengths, extra)
+        axis, point = vec3.vec(self.axes, extra), vec3.vec(self.points, extra)
+        direction, length = vec3.vec(self.directions, extra), vec3.expand(self.lengths, extra)
         rotation = axis_rotations(axis, q)
         sinc, _, f2 = arc_functions(q)
-        normal = soa.cross(axis, direction)
+        normal = vec3.cross(axis, direction)
         along = length * (sinc - jnp.cos(q))
         up = length * (q * f2 - jnp.sin(q))
-        translation = soa.add(
-            soa.sub(point, soa.matvec(rotation, point)),
-            soa.add(soa.scale(along, direction), soa.scale(up, normal)),
+        translation = vec3.add(
+            vec3.sub(point, vec3.matvec(rotation, point)),
+            vec3.add(vec3.scale(along, direction), vec3.scale(up, normal)),
         )
         return rotation, translation
 
     def motion(self, q):
         extra = q.ndim - 1
-        axis, point = soa.vec(self.axes, extra), soa.vec(self.points, extra)
-        direction, length = soa.vec(self.directions, extra), soa.expand(self.lengths, extra)
+        axis, point = vec3.vec(self.axes, extra), vec3.vec(self.points, extra)
+        direction, length = vec3.vec(self.directions, extra), vec3.expand(self.lengths, extra)
         _, f1, f2 = arc_functions(q)
-        normal = soa.cross(axis, direction)
-        lin = soa.add(
-            soa.cross(point, axis),
-            soa.sub(soa.scale(length * f1, direction), soa.scale(length * f2, normal)),
+        normal = vec3.cross(axis, direction)
+        lin = vec3.add(
+            vec3.cross(point, axis),
+            vec3.sub(vec3.scale(length * f1, direction), vec3.scale(length * f2, normal)),
         )
         return lin, axis

@@ -36,9 +36,9 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from .._validate import as_float_array, check_positive
-from ..system._mechanism import AbstractMechanism, HingeLayout
+from ..system import AbstractMechanism, HingeLayout
 from ._joints import ArcJoints
-from ._tree import PanelTree
+from ._tree import PanelTree, forward_inputs
 
 DEFAULT_NODES = 6
 """Gauss–Legendre nodes along each strip (module docstring: accuracy)."""
@@ -131,13 +131,7 @@ class StripTree(AbstractMechanism):
         """``q̈ = M(q)⁻¹ (force − C q̇ − G)`` with the reduced ``M`` and bias (module docstring),
         solved by Cholesky. `q`, `v`, `force`: `(n,)`, or `(t, n)` for `t` states."""
         del forward_mode_only
-        q, v, force = jnp.asarray(q), jnp.asarray(v), jnp.asarray(force)
-        n = self.n_hinges
-        if q.ndim not in (1, 2) or q.shape[-1] != n or v.shape != q.shape or force.shape != q.shape:
-            raise ValueError(
-                f"q, v and force must have shape ({n},) or (t, {n}) for this {n}-panel tree, got "
-                f"{q.shape}, {v.shape} and {force.shape}."
-            )
+        q, v, force = forward_inputs(self.n_hinges, q, v, force)
         if q.ndim == 2:
             return jax.vmap(self._accelerations)(q, v, force)
         return self._accelerations(q, v, force)

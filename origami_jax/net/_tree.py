@@ -34,7 +34,7 @@ from .._validate import (
     check_unit_vectors,
     is_traced,
 )
-from ..system._mechanism import AbstractMechanism, HingeLayout
+from ..system import AbstractMechanism, HingeLayout
 from . import _batching, _dynamics, _motion
 from ._joints import AbstractJoints, ArcJoints, RevoluteJoints
 from ._plate import polygon_plate
@@ -51,6 +51,18 @@ def _as_polygon_tuple(polygon, name: str) -> tuple[tuple[float, ...], ...]:
     if not np.all(np.isfinite(host)):
         raise ValueError(f"{name} contains NaN or inf.")
     return tuple(tuple(float(x) for x in row) for row in host)
+
+
+def forward_inputs(n: int, q, v, force) -> tuple[Array, Array, Array]:
+    """`q`, `v`, `force` of a tree's `forward_dynamics` as arrays, checked: each `(n,)`, or `(t, n)`
+    for `t` states."""
+    q, v, force = jnp.asarray(q), jnp.asarray(v), jnp.asarray(force)
+    if q.ndim not in (1, 2) or q.shape[-1] != n or v.shape != q.shape or force.shape != q.shape:
+        raise ValueError(
+            f"q, v and force must have shape ({n},) or (t, {n}) for this {n}-panel tree, got "
+            f"{q.shape}, {v.shape} and {force.shape}."
+        )
+    return q, v, force
 
 
 class PanelTree(AbstractMechanism):
@@ -225,13 +237,7 @@ class PanelTree(AbstractMechanism):
         `forward_mode_only` is accepted and ignored (one derivative rule, from the inverse
         dynamics, serves both modes; `_batching`)."""
         del forward_mode_only
-        q, v, force = jnp.asarray(q), jnp.asarray(v), jnp.asarray(force)
-        n = self.n_hinges
-        if q.ndim not in (1, 2) or q.shape[-1] != n or v.shape != q.shape or force.shape != q.shape:
-            raise ValueError(
-                f"q, v and force must have shape ({n},) or (t, {n}) for this {n}-panel tree, got "
-                f"{q.shape}, {v.shape} and {force.shape}."
-            )
+        q, v, force = forward_inputs(self.n_hinges, q, v, force)
         if q.ndim == 2:
             return _rows(self, q, v, force)
         return _single(self, q, v, force)
@@ -269,6 +275,10 @@ class PanelTree(AbstractMechanism):
         """``(M(q), C(q, v) v + G(q))`` from one evaluation of the kinematics and inertias (what a
         constrained solve needs; `mass_matrix` and `bias_force` separately compute them twice)."""
         return _mass_matrix_and_bias(self, jnp.asarray(q), jnp.asarray(v))
+
+    def with_added_inertias(self, added: Float[ArrayLike, "n 6 6"] | None) -> "PanelTree":
+        """The same tree with its panels' added inertias replaced (`None`: none)."""
+        return eqx.tree_at(lambda t: t.added_inertias, self, added, is_leaf=lambda x: x is None)
 
     def outlines(self) -> list[np.ndarray]:
         """Each panel's polygon in its body frame, `(k_i, 3)` host arrays; without stored outlines a

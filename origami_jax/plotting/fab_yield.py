@@ -9,6 +9,8 @@ from collections.abc import Mapping
 from typing import Any
 
 import matplotlib.pyplot as plt
+import numpy as np
+from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
 VERDICT_COLOURS = {
     "folded": "tab:green",
@@ -61,8 +63,6 @@ def width_figure(factors, results, *, title: str | None = None):
     **Arguments:** `factors`: the scale factors `(k,)`; `results`: the `YieldEstimate`s (or their
     `to_dict()`s) at those factors; `title`: figure title. **Returns:** the matplotlib `Figure`.
     """
-    import numpy as np
-
     summaries = [r if isinstance(r, Mapping) else r.to_dict() for r in results]
     if len(summaries) != len(factors):
         raise ValueError("give one estimate per factor.")
@@ -95,8 +95,6 @@ def representative_samples(estimate) -> dict[str, int]:
 
     **Returns:** verdict name → sample index (in the estimate's dataset order).
     """
-    import numpy as np
-
     from ..simulation import FoldVerdict
 
     ds = estimate.dataset
@@ -124,9 +122,6 @@ def misfold_figure(net, estimate, *, title: str | None = None):
     name or `.fold` path; a pattern is folded along its spanning tree); `estimate`: its
     `YieldEstimate`. **Returns:** the matplotlib `Figure`.
     """
-    import numpy as np
-    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
-
     from ..loops import load_pattern
 
     if not hasattr(net, "geometry"):
@@ -178,8 +173,6 @@ def ascent_figure(result: Any, *, title: str | None = None):
     **Arguments:** `result`: a `YieldAscent`; `title`: figure title. **Returns:** the matplotlib
     `Figure`.
     """
-    import numpy as np
-
     from ..fab_yield import PARAMETERS
 
     k = np.arange(len(result.iterates))

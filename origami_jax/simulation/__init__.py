@@ -41,6 +41,7 @@ from ._switching import StiffnessSwitching as StiffnessSwitching
 from ._switching import implicit_solver as implicit_solver
 from ._verdict import DEFAULT_TOLERANCES as DEFAULT_TOLERANCES
 from ._verdict import VERDICT_CODES as VERDICT_CODES
+from ._verdict import AbstractFoldReport as AbstractFoldReport
 from ._verdict import FoldOutcome as FoldOutcome
 from ._verdict import FoldReport as FoldReport
 from ._verdict import FoldVerdict as FoldVerdict

@@ -20,7 +20,7 @@ from .._limits import FOLD_SEGMENT, MAX_FOLD_SEGMENTS
 from ._inputs import Step
 from ._options import SolveOptions
 from ._simulate import Trajectory, simulate
-from ._verdict import FoldReport
+from ._verdict import AbstractFoldReport
 
 _STEP_COUNTS = ("num_steps", "num_accepted_steps", "num_rejected_steps")
 
@@ -60,7 +60,7 @@ def _joined(first, then):
 def fold_until_settled(
     system,
     inputs,
-    judge: Callable[[Trajectory], FoldReport],
+    judge: Callable[[Trajectory], AbstractFoldReport],
     options: SolveOptions | None = None,
     *,
     segment: float = FOLD_SEGMENT,
@@ -69,7 +69,7 @@ def fold_until_settled(
     theta0=None,
     theta_dot0=None,
     on_continue: Callable[[float, float], None] | None = None,
-) -> tuple[Trajectory, FoldReport, int]:
+) -> tuple[Trajectory, AbstractFoldReport, int]:
     """Simulate `system` under `inputs` for `segment` (time units of the system; default 1000, µs in
     the default units), judge the run with `judge`, and while the verdict is `unfinished` with a
     successful solve continue from the last state for another `segment`, up to `max_segments`
@@ -133,7 +133,7 @@ def fold_pattern(
     bias: float = 0.0,
     tolerances=None,
     on_continue: Callable[[float, float], None] | None = None,
-) -> tuple[Trajectory, FoldReport]:
+) -> tuple[Trajectory, AbstractFoldReport]:
     """The fold of a pattern (`AbstractPattern.fold`): `system` (one `pattern` built) simulated
     from `pattern.start_state(system, bias=bias)` and judged by `pattern.assess`.
 

@@ -14,9 +14,10 @@ import jax.numpy as jnp
 from diffrax import AbstractAdaptiveStepSizeController
 
 
-class WrappedController(AbstractAdaptiveStepSizeController):
+class AbstractWrappedController(AbstractAdaptiveStepSizeController):
     """An adaptive controller that wraps another and takes its tolerances, norm and direction from
-    it; subclasses change what happens at a step (`adapt_step_size`) or what the state holds."""
+    it; its final subclasses say what happens at a step (`init`, `adapt_step_size`: abstract in
+    diffrax's base) and what the state holds."""
 
     controller: AbstractAdaptiveStepSizeController
 
@@ -36,7 +37,7 @@ class WrappedController(AbstractAdaptiveStepSizeController):
         return eqx.tree_at(lambda c: c.controller, self, self.controller.wrap(direction))
 
 
-class ContactGuard(WrappedController):
+class ContactGuard(AbstractWrappedController):
     """Wraps an adaptive controller; rejects steps across which a panel crosses another (module
     docstring). `simulate` adds it when the system has a contact model.
 

@@ -20,7 +20,7 @@ from .._exported import exported_call
 from .._runtime_errors import checks_as_nan
 from .._validate import check_finite, is_traced
 from ..system import FoldingSystem, HingeDrag
-from ._guard import ContactGuard, WrappedController
+from ._guard import AbstractWrappedController, ContactGuard
 from ._implicit import ImplicitStep, integrate, steps_per_interval
 from ._inputs import AbstractInput
 from ._options import DEFAULT_ATOL, DEFAULT_RTOL, SolveOptions
@@ -360,7 +360,7 @@ def _solve(system: FoldingSystem, inputs: AbstractInput, span, y0, ts, how: _Int
     return _trajectory(system, inputs, times, q, v, stats, result, solution if how.dense else None)
 
 
-class _RecordNext(WrappedController):
+class _RecordNext(AbstractWrappedController):
     """Wraps a controller and keeps the end of the next step it proposes in its state, so that a
     solve stopped after a step can be continued with exactly that next step."""
 

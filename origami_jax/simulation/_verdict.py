@@ -28,6 +28,7 @@ take, not against its hinges). `fold_outcome` is the traceable core (batches, sw
 estimates run it under `vmap`); `assess` wraps it with the reasons and numbers for people.
 """
 
+import abc
 import dataclasses
 import enum
 from collections.abc import Callable
@@ -158,9 +159,10 @@ def _tolerances(system, tolerances, angle_tolerance, seam_tolerance, panel_size)
 
 
 @dataclasses.dataclass(frozen=True)
-class FoldReport:
-    """The verdict and the numbers behind it (host values; angles rad, lengths and times in the
-    system's units).
+class AbstractFoldReport(abc.ABC):
+    """What every fold report holds: the verdict and the numbers behind it (host values; angles rad,
+    lengths and times in the system's units). `FoldReport` is the plain one; a kind of pattern
+    whose folding says more adds its own (`origami_jax.loops.LoopFoldReport`).
 
     **Fields:**
     - `verdict`: a `FoldVerdict`; `reason`: one line why.
@@ -263,6 +265,12 @@ class FoldReport:
                 f"({100 * self.penetration_fraction:.3g} % of the thickness)"
             )
         return "\n".join(lines)
+
+
+@dataclasses.dataclass(frozen=True)
+class FoldReport(AbstractFoldReport):
+    """The verdict on a folding run and the numbers behind it (`fold_outcome`; the fields of
+    `AbstractFoldReport`)."""
 
 
 class FoldOutcome(eqx.Module):

@@ -40,7 +40,7 @@ import numpy as np
 
 from ._kernel import Kernel
 from ._kernels import MODELS, get_model
-from ._space import DesignSpace, Grid, Product, Range, Samples, Table
+from ._space import AbstractDesignSpace, Grid, Product, Range, Samples, Table
 
 KINDS = ("grid", "lhs", "uniform", "table")
 
@@ -50,7 +50,7 @@ class SweepConfig:
     """A parsed configuration: the kernel, the design space, and the run options."""
 
     kernel: Kernel
-    space: DesignSpace
+    space: AbstractDesignSpace
     chunk_size: int | None = None
     plot_metrics: list[str] | None = None
     raw: dict[str, Any] = field(default_factory=dict)
@@ -142,7 +142,7 @@ def load_config(path: str | Path) -> SweepConfig:
         raise ValueError(f"[sweep] n must be at most {MAX_DESIGNS}, got {n}.")
 
     parameters = dict(raw.get("parameters", {}))
-    space: DesignSpace
+    space: AbstractDesignSpace
     if kind == "table":
         designs = raw.get("designs")
         if not designs or parameters:

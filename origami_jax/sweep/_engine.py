@@ -63,7 +63,7 @@ from jax.sharding import PartitionSpec as P
 
 from .._runtime_errors import checks_as_nan
 from ._kernel import Kernel, as_kernel
-from ._space import DesignSpace
+from ._space import AbstractDesignSpace
 from ._store import RESULT, Store, SweepBusyError, gather, logger
 
 AXIS = "design"
@@ -152,16 +152,28 @@ def _compiled_bytes(compiled: Any) -> int | None:
         return None
 
 
-class _TraceCache:
+class TraceCache:
     """Output shapes and compiled calls of the most recent kernels, so that sweeps of the *same*
     `Kernel` object (e.g. yield estimates of one net at several scatter widths) trace and compile it
-    once per process: tracing a contact simulation costs tens of seconds. Keyed by the kernel's
-    identity (it is held here, so its id cannot be reused) and the group's static values, input
-    shapes and sharding; the least recently used kernels are dropped beyond `size`."""
+    once: tracing a contact simulation costs tens of seconds. Keyed by the kernel's identity (it is
+    held here, so its id cannot be reused) and the group's static values, input shapes and
+    sharding; the least recently used kernels are dropped beyond `size`.
+
+    `sweep` keeps them in `TRACES`, the process's one cache, unless given another (`traces=`, e.g.
+    a fresh `TraceCache()` that goes with the sweep); `TRACES.clear()` lets the kept programs go.
+    """
 
     def __init__(self, size: int = 4):
         self.size = size
         self.entries: dict[int, tuple[Kernel, dict]] = {}
+
+    def __len__(self) -> int:
+        """The number of kernels kept."""
+        return len(self.entries)
+
+    def clear(self) -> None:
+        """Drop every kept kernel with its traces and compiled calls."""
+        self.entries.clear()
 
     def get(self, kernel: Kernel, key: tuple) -> Any:
         entry = self.entries.get(id(kernel))
@@ -180,7 +192,8 @@ class _TraceCache:
         entry[1][key] = value
 
 
-_TRACES = _TraceCache()
+TRACES = TraceCache()
+"""The traces and compiled calls `sweep` keeps between calls in this process (a `TraceCache`)."""
 
 
 def _statics_key(static_values: Mapping[str, Any]) -> tuple:
@@ -212,7 +225,8 @@ class _Plan:
     output layout and the store's manifest."""
 
     kernel: Kernel
-    space: DesignSpace
+    space: AbstractDesignSpace
+    traces: TraceCache
     columns: dict[str, np.ndarray]
     static_names: list[str]
     dynamic_names: list[str]
@@ -227,14 +241,14 @@ class _Plan:
 
     def member_fn(self, static_values: dict[str, Any]) -> Callable:
         """The jitted kernel of one design of the group with `static_values`, outputs checked: one
-        function object per kernel and static values (kept in `_TRACES`), so that JAX traces it
+        function object per kernel and static values (kept in the plan's `traces`), so that JAX traces it
         once for the shape probe and every chunk size reuses that trace."""
         kernel = self.kernel
         key = ("member", _statics_key(static_values))
-        jitted = _TRACES.get(kernel, key)
+        jitted = self.traces.get(kernel, key)
         if jitted is None:
             jitted = jax.jit(self._checked_member(static_values))
-            _TRACES.put(kernel, key, jitted)
+            self.traces.put(kernel, key, jitted)
         return jitted
 
     def _checked_member(self, static_values: dict[str, Any]) -> Callable:
@@ -272,7 +286,7 @@ class _Plan:
 
 def sweep(
     fn: Callable[..., Any] | Kernel,
-    space: DesignSpace,
+    space: AbstractDesignSpace,
     *,
     chunk_size: int | None = None,
     out: str | os.PathLike | None = None,
@@ -282,6 +296,7 @@ def sweep(
     store_every: int | None = None,
     progress: bool = True,
     on_chunk: Callable[[int, int], None] | None = None,
+    traces: TraceCache | None = None,
 ) -> xr.Dataset:
     """Evaluate `fn` on every design of `space`, in chunks, sharded over devices; return a dataset.
 
@@ -309,6 +324,8 @@ def sweep(
     - `progress`: show a tqdm progress bar (designs and designs/s) on stderr.
     - `on_chunk`: called as `on_chunk(done, total)` after each chunk is computed (and stored,
       unless held for a larger file).
+    - `traces`: where the kernel's traces and compiled calls are kept for later sweeps of the same
+      `Kernel` object (a `TraceCache`); `None`: `TRACES`, the process's.
 
     **Returns:** an `xarray.Dataset` with dimension `design` (index coordinate `design`, the design's
     row in `space.columns()`), every parameter as a coordinate along `design` (attribute `units`),
@@ -328,7 +345,7 @@ def sweep(
         raise ValueError(f"chunk_size must be >= 1, got {chunk_size}.")
     _check_count(workers, "workers", "chunks at once")
     _check_count(store_every, "store_every", "designs per file")
-    plan = _plan(kernel, space)
+    plan = _plan(kernel, space, TRACES if traces is None else traces)
     devices = list(devices) if devices is not None else jax.local_devices()
     if not devices:
         raise ValueError("no devices to run on.")
@@ -393,14 +410,14 @@ def _warn_other_chunk_sizes(stored: set[int], size: int) -> None:
         )
 
 
-def _plan(kernel: Kernel, space: DesignSpace) -> _Plan:
+def _plan(kernel: Kernel, space: AbstractDesignSpace, traces: TraceCache) -> _Plan:
     """Stage 1: check the space against the kernel, expand it into columns, encode categories,
     group the designs by static values and trace each group once for its output shapes.
 
     **Raises:** `ValueError` for unknown parameters, unknown category labels, or kernel outputs
     that are not a flat dict of arrays with consistent names and ranks.
     """
-    if not isinstance(space, DesignSpace):
+    if not isinstance(space, AbstractDesignSpace):
         raise ValueError(f"space must be a Grid, Samples, Table or Product, got {type(space)}.")
     if kernel.parameters is not None:
         unknown = [n for n in space.names if n not in kernel.parameters]
@@ -427,6 +444,7 @@ def _plan(kernel: Kernel, space: DesignSpace) -> _Plan:
     plan = _Plan(
         kernel=kernel,
         space=space,
+        traces=traces,
         columns=columns,
         static_names=static_names,
         dynamic_names=dynamic_names,
@@ -442,12 +460,12 @@ def _plan(kernel: Kernel, space: DesignSpace) -> _Plan:
             for k, v in plan.prepared(group, group.indices[:1]).items()
         }
         inputs = {**example, **group.extra}
-        shapes = _TRACES.get(kernel, ("shapes", _signature(group, inputs)))
+        shapes = traces.get(kernel, ("shapes", _signature(group, inputs)))
         if shapes is None:
             # Traced as the compiled kernel will be (checks included): its chunks reuse this trace.
             with checks_as_nan(kernel.never_raises):
                 shapes = jax.eval_shape(plan.member_fn(group.static_values), inputs)
-            _TRACES.put(kernel, ("shapes", _signature(group, inputs)), shapes)
+            traces.put(kernel, ("shapes", _signature(group, inputs)), shapes)
         for name, shape in shapes.items():
             if not isinstance(shape, jax.ShapeDtypeStruct):
                 raise ValueError(f"output {name!r} of {kernel.name!r} is not an array.")
@@ -466,7 +484,7 @@ def _plan(kernel: Kernel, space: DesignSpace) -> _Plan:
 
 def _encode(
     kernel: Kernel,
-    space: DesignSpace,
+    space: AbstractDesignSpace,
     columns: Mapping[str, np.ndarray],
     dynamic_names: Sequence[str],
 ) -> dict[str, np.ndarray]:
@@ -546,7 +564,7 @@ class _Compiler:
         self.seconds: list[float] = []
 
     def group(self, group: _Group, size: int) -> Callable:
-        """The compiled `(size,)`-batch kernel of `group` (kept per kernel object in `_TRACES`)."""
+        """The compiled `(size,)`-batch kernel of `group` (kept per kernel object in the plan's `traces`)."""
         plan, sharding = self.plan, self.sharding
         # The sharding is the jitted call's alone: on the arguments it would reach the member's
         # inputs under `vmap` too, and JAX would trace the member again instead of reusing the
@@ -555,7 +573,7 @@ class _Compiler:
         for name, shape in group.extra.items():
             args[name] = jax.ShapeDtypeStruct((size, *shape.shape), shape.dtype)
         key = ("compiled", _signature(group, args), sharding)
-        compiled = _TRACES.get(plan.kernel, key)
+        compiled = plan.traces.get(plan.kernel, key)
         if compiled is not None:
             return compiled
         member = plan.member_fn(group.static_values)
@@ -572,7 +590,7 @@ class _Compiler:
             lowered = jitted.lower(args)
         compiled = lowered.compile()
         self.seconds.append(time.perf_counter() - start)
-        _TRACES.put(plan.kernel, key, compiled)
+        plan.traces.put(plan.kernel, key, compiled)
         return compiled
 
     def costs(self, group: _Group, todo: np.ndarray) -> np.ndarray:
@@ -904,7 +922,7 @@ def _pad(values: np.ndarray, shape: tuple[int, ...], dtype: str) -> np.ndarray:
 
 
 def _label_chunk(
-    space: DesignSpace,
+    space: AbstractDesignSpace,
     columns: Mapping[str, np.ndarray],
     indices: np.ndarray,
     outputs: Mapping[str, np.ndarray],

@@ -18,6 +18,7 @@ Categorical parameters (e.g. `fluid = ["air", "koh"]`) are columns of strings. U
 reach the kernel as an `int32` index into `categories(name)`; the dataset keeps the labels.
 """
 
+import abc
 import dataclasses
 import hashlib
 import json
@@ -89,22 +90,26 @@ def _jsonable(values: np.ndarray) -> list:
     return values.tolist()
 
 
-class DesignSpace:
-    """Base of `Grid`, `Samples`, `Table` and `Product` (see the module docstring)."""
+class AbstractDesignSpace(abc.ABC):
+    """What `Grid`, `Samples`, `Table` and `Product` share (see the module docstring): a space is
+    its `size`, its `columns` and its description (`to_config`)."""
 
     names: tuple[str, ...]
     units: Mapping[str, str]
     static: tuple[str, ...]
 
     @property
+    @abc.abstractmethod
     def size(self) -> int:
-        raise NotImplementedError
+        """The number of designs."""
 
+    @abc.abstractmethod
     def columns(self) -> dict[str, np.ndarray]:
-        raise NotImplementedError
+        """Every parameter's value per design, `(size,)` each."""
 
+    @abc.abstractmethod
     def _describe(self) -> dict[str, Any]:
-        raise NotImplementedError
+        """The JSON-able description of the space (`to_config` adds its size and digest)."""
 
     def to_config(self) -> dict[str, Any]:
         """JSON-able description plus a SHA-256 of every generated value (so a change of NumPy's
@@ -124,12 +129,12 @@ class DesignSpace:
     def __len__(self) -> int:
         return self.size
 
-    def __mul__(self, other: "DesignSpace") -> "Product":
+    def __mul__(self, other: "AbstractDesignSpace") -> "Product":
         return Product((self, other))
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
-class Grid(DesignSpace):
+class Grid(AbstractDesignSpace):
     """Full-factorial grid: every combination of the given values.
 
     Design order is C order (the last parameter varies fastest), so a grid over
@@ -206,7 +211,7 @@ class Range:
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
-class Samples(DesignSpace):
+class Samples(AbstractDesignSpace):
     """Seeded random designs: Latin hypercube (`method="lhs"`, default) or independent uniform.
 
     Latin hypercube: for each parameter the unit interval is cut into `n` equal strata and every
@@ -280,7 +285,7 @@ class Samples(DesignSpace):
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
-class Table(DesignSpace):
+class Table(AbstractDesignSpace):
     """An explicit list of designs: parameter name → one value per design (all the same length)."""
 
     designs: Mapping[str, Any]
@@ -340,15 +345,15 @@ class Table(DesignSpace):
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
-class Product(DesignSpace):
+class Product(AbstractDesignSpace):
     """Outer product of design spaces (`a * b`): every design of `a` with every design of `b`,
     the last space varying fastest. E.g. `Grid({"n_flaps": [2, 3]}, static=("n_flaps",)) *
     Samples(...)`."""
 
-    spaces: tuple[DesignSpace, ...]
+    spaces: tuple[AbstractDesignSpace, ...]
 
     def __post_init__(self):
-        flat: list[DesignSpace] = []
+        flat: list[AbstractDesignSpace] = []
         for space in self.spaces:
             flat.extend(space.spaces if isinstance(space, Product) else [space])
         object.__setattr__(self, "spaces", tuple(flat))

@@ -235,6 +235,16 @@ class AbstractMechanism(eqx.Module):
         """The fixed base (substrate panel) as a world-frame polygon `(k, 3)`, or `None`."""
         return None
 
+    def with_added_inertias(self, added: Float[ArrayLike, "b 6 6"] | None) -> "AbstractMechanism":
+        """The same mechanism with its panels' added (fluid) inertias replaced, body frames `(b, 6, 6)`
+        (`None`: none), for `origami_jax.fluid.fluid_loads`. Panel trees implement it; other
+        mechanisms raise `ValueError`."""
+        raise ValueError(
+            f"added fluid inertia needs a panel tree (PanelTree or StripTree), got "
+            f"{type(self).__name__}; build the accordion with hinges='arc' or a fluid other than "
+            "'paper'."
+        )
+
     def panel_polygons(self, q: Float[ArrayLike, " nq"]) -> list[np.ndarray]:
         """World-frame outline of every moving body at ``q`` (host arrays), for plotting and export."""
         poses = np.asarray(self.body_poses(jnp.asarray(q)))

@@ -34,8 +34,10 @@ from ._fold import vertex_from_geometry as vertex_from_geometry
 from ._geometry import Topology as Topology
 from ._geometry import arc_pair_clearances as arc_pair_clearances
 from ._geometry import arcs_cross as arcs_cross
+from ._geometry import chain_from_fold_angles as chain_from_fold_angles
 from ._geometry import constraints as constraints
 from ._geometry import planarity as planarity
+from ._geometry import point_arc_distance as point_arc_distance
 from ._geometry import topology as topology
 from ._model import FLAT_FOLD_TOL as FLAT_FOLD_TOL
 from ._model import PLANAR_TOL as PLANAR_TOL

@@ -14,7 +14,8 @@ from typing import Any
 
 import numpy as np
 
-from ._fold_scene import FILE_VERDICT_LEVELS
+from ..fold import vertex_fold_angles
+from ._fold_scene import FILE_VERDICT_LEVELS, _rotation
 from ._scene import Scene
 
 # Sector arcs of a single vertex are drawn with one corner per this angle (rad) at least.
@@ -63,8 +64,6 @@ def scene_from_vertex_path(
     included) rather than the shorter arc. Contacts: touching or crossing arcs (`arc_pair_clearances`)
     marked where they meet, their sectors highlighted.
     """
-    from ..fold import vertex_fold_angles
-
     path = np.asarray(path, dtype=float)
     if path.ndim == 2:
         path = path[None]
@@ -136,8 +135,7 @@ def _arc_contacts(path: np.ndarray, closed: bool) -> tuple[np.ndarray, np.ndarra
     import jax
     import jax.numpy as jnp
 
-    from ..vertex import arc_pair_clearances, topology
-    from ..vertex._geometry import point_arc_distance
+    from ..vertex import arc_pair_clearances, point_arc_distance, topology
 
     top = topology(path.shape[1], closed)
     pairs = np.asarray(top.arc_pairs)
@@ -384,8 +382,6 @@ def _batched_kinematics():
 
 def _chain_base(chain, outline: np.ndarray, pose: np.ndarray) -> np.ndarray:
     """Flap 1 at rest turned by π about hinge 1: the fixed base a chain's first hinge sits on."""
-    from ._fold_scene import _rotation
-
     axis = np.asarray(chain.axes[0], dtype=float)
     point = np.asarray(chain.points[0], dtype=float)
     rest = outline @ pose[:3, :3].T + pose[:3, 3]

@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..fold import FoldFile, fold_angles_from_coords, normalise_fold, read_fold
 from ._scene import Scene
 
 # A frame is a flat crease pattern when its z extent is below this fraction of its size.
@@ -119,8 +120,6 @@ def scene_from_fold(source, *, title: str | None = None) -> Scene:
     - Contacts: `origami_jax:contact_points` of each frame drawn (`(k, 3)`, the frame's unit), as
       `origami-jax fold` writes them.
     """
-    from ..fold import FoldFile, fold_angles_from_coords, normalise_fold, read_fold
-
     if isinstance(source, str | os.PathLike):
         path = Path(source)
         fold = read_fold(path)

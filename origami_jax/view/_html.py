@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from ._scene import DEFAULT_MAX_FRAMES, Scene, triangulate
+from ._sources import scene_from
 
 THREE_VERSION = "0.185.0"
 # Drawn thickness at least this fraction of the model's size (diagonal of its bounding box over all
@@ -185,8 +186,6 @@ def to_html(scene: Scene) -> str:
 
 
 def _as_scene(obj: Any, **kwargs: Any) -> Scene:
-    from ._sources import scene_from
-
     return scene_from(obj, **kwargs)
 
 

@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from ..fold import FoldFormatError
 from ._adapters import (
     scene_from_mechanism,
     scene_from_trajectory,
@@ -164,8 +165,6 @@ def _load_scene(path: Path, *, member: int | None = None, title: str | None = No
     suffix = path.suffix.lower()
     kwargs = {} if title is None else {"title": title}
     if suffix == ".fold":
-        from ..fold import FoldFormatError
-
         try:
             return scene_from_fold(path, **kwargs)
         except FoldFormatError as error:
