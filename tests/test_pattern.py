@@ -78,7 +78,7 @@ def test_the_physics_model_travels_with_the_pattern():
     assert dry is net.with_model(contact=False)  # one object: a compiled sweep is reused
     assert net.with_model() is net and net.contact is True
     assert dry.system(KOH).contact is None and net.system(KOH).contact is not None
-    assert dry._tables is net._tables  # host geometry shared
+    assert dry.host_cache is net.host_cache  # host geometry shared
     assert NetLayout(net, contact=False) is dry  # the former layout classes
     pattern = load_pattern("vertex_degree4")
     assert PatternLayout(pattern, contact=False).system(KOH).contact is None

@@ -281,11 +281,13 @@ def test_ascent_figure():
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
+    from origami_jax.plotting.fab_yield import ascent_figure
+
     result = _ascend(
         _synthetic(SCATTER, WINDOWS), START, SCATTER, ["misfit_strain", "hinge_width"], 100, 0,
         steps=3,
     )  # fmt: skip
-    fig = result.figure(title="synthetic")
+    fig = ascent_figure(result, title="synthetic")
     axes = fig.get_axes()
     assert len(axes) == 3  # the yield, then one panel per parameter
     x, y = axes[0].get_lines()[0].get_data()

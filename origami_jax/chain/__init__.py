@@ -33,9 +33,12 @@ from ._fold import accordion_dimensions as accordion_dimensions
 from ._fold import chain_from_geometry as chain_from_geometry
 from ._fold import load_chain as load_chain
 from ._fold import trajectory_to_fold as trajectory_to_fold
+from ._kernel import ACCORDION_PARAMETERS as ACCORDION_PARAMETERS
+from ._kernel import accordion_step as accordion_step
 from ._kinematics import body_jacobians as body_jacobians
 from ._kinematics import forward_kinematics as forward_kinematics
 from ._kinematics import spatial_jacobians as spatial_jacobians
+from ._pattern import Accordion as Accordion
 from ._se3 import adjoint as adjoint
 from ._se3 import exp_so3 as exp_so3
 from ._se3 import exp_twist as exp_twist
@@ -47,6 +50,5 @@ from ._se3 import revolute_twist as revolute_twist
 from ._se3 import twist_hat as twist_hat
 from ._se3 import twist_vee as twist_vee
 from ._se3 import vee as vee
-from ._system import Accordion as Accordion
 from ._system import accordion_system as accordion_system
 from ._system import alternating_targets as alternating_targets

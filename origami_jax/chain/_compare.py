@@ -24,7 +24,8 @@ from .. import simulation as sim
 from ..net import strip_tree
 from ..system import AIR, KOH_SOLUTION, MICRO, HingeDesign
 from ._extended import _panels, accordion_fluid_loads, eqx_replace, tip_contact_angle
-from ._system import Accordion, accordion_system, alternating_targets
+from ._pattern import Accordion
+from ._system import accordion_system, alternating_targets
 
 CASES = ("step_air", "step_koh", "ramp_koh")
 """The runs `compare_models` makes: Fig. 7's step in air and in KOH, and the fast etch ramp in KOH."""

@@ -295,9 +295,7 @@ def run(args: argparse.Namespace) -> int:
 
     import numpy as np
 
-    from origami_jax.fold import is_folded_form, read_fold
-    from origami_jax.fold._catalogue import source_and_label
-    from origami_jax.fold._model import FRAME_UNITS_M
+    from origami_jax.fold import FRAME_UNITS_M, is_folded_form, read_fold, source_and_label
     from origami_jax.loops import NotRigidlyFoldableError, load_pattern
 
     try:
@@ -530,7 +528,7 @@ def _view_annotations(net, system, trajectory, report, every: int) -> tuple[list
     import numpy as np
 
     from origami_jax.contact import contact_points
-    from origami_jax.net._net import kept_samples
+    from origami_jax.net import kept_samples
 
     key_extra = {
         "origami_jax:verdict": str(report.verdict),

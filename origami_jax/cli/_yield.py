@@ -587,7 +587,7 @@ def _run(args, output, pattern, loops, scatter, sampling, factors, release, proc
     if not args.no_figures:
         import matplotlib.pyplot as plt
 
-        from ..plotting.fab_yield import misfold_figure, width_figure, yield_figure
+        from ..plotting.fab_yield import ascent_figure, misfold_figure, width_figure, yield_figure
 
         fig = yield_figure(estimate, title=f"{args.net}: yield under fabrication scatter")
         fig.savefig(output.dir / "yield.png", dpi=120)
@@ -602,7 +602,7 @@ def _run(args, output, pattern, loops, scatter, sampling, factors, release, proc
             fig.savefig(output.dir / "yield_widths.png", dpi=120)
             plt.close(fig)
         if ascent is not None:
-            fig = ascent.figure(title=f"{args.net}: yield ascent")
+            fig = ascent_figure(ascent, title=f"{args.net}: yield ascent")
             fig.savefig(output.dir / "improve.png", dpi=120)
             plt.close(fig)
     print(estimate.summary())

@@ -32,7 +32,7 @@ from ..simulation import (
 )
 from ..system import AbstractLayout, HingeDesign
 from ._identify import identifiability
-from ._lstsq import fit_batch
+from ._lstsq import evaluate_with_jacobian, fit_batch
 from ._report import DesignResult, build_report
 from ._space import ParameterSpace, parameter_space
 from ._targets import (
@@ -356,8 +356,6 @@ def evaluate(result: DesignResult, which="after"):
 def residual_and_jacobian(result: DesignResult, x: Float[Array, " p"] | None = None):
     """Residual rows and ``∂r/∂z`` at parameters `x` (default the solution), computed exactly as the
     optimiser computes them; for checks against finite differences. Returns `(r, J, z)`."""
-    from ._lstsq import evaluate_with_jacobian
-
     problem = result._problem
     x = result.values if x is None else x  # pyright: ignore[reportAssignmentType] (host array)
     z = problem.space.to_unconstrained(jnp.asarray(np.asarray(x)))

@@ -46,7 +46,7 @@ estimate.dataset            # xarray.Dataset: the drawn parameters and every sam
   stochastic gradient ascent along `yield_gradient`: one estimate per iteration, steps measured in
   spread widths inside a trust region, common random numbers, the best iterate re-estimated on
   fresh draws (`AscentSettings.confirm_samples`). `ascend` is its loop with any estimator; `YieldAscent` the
-  iterations (`summary()`, `figure()`, `paired()`).
+  iterations (`summary()`, `paired()`; `origami_jax.plotting.fab_yield.ascent_figure` draws them).
 - `soft_yield`: a differentiable surrogate of the yield over the same samples (logistic margins of
   each sample's final angles and seams), a traceable function of the drawn hinge angles, widths and
   release times, for `jax.grad`. Checked against finite differences without contact; with contact

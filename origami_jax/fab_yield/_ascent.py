@@ -52,7 +52,17 @@ from typing import Any
 
 import numpy as np
 
-from ._estimate import _GLOBAL, RunOptions, YieldEstimate
+from ..simulation import VERDICT_CODES, FoldVerdict
+from ..system import KOH_SOLUTION, HingeDesign
+from ._estimate import (
+    _GLOBAL,
+    RunOptions,
+    YieldEstimate,
+    _nominal,
+    _process,
+    as_pattern,
+    yield_estimate,
+)
 from ._gradient import YieldGradient, yield_gradient
 from ._scatter import PARAMETERS, Scatter, Spread
 
@@ -124,8 +134,6 @@ class YieldAscent:
         **Raises:** `ValueError` when the two iterates were not estimated on the same draws.
         """
         from scipy.stats import binomtest
-
-        from ..simulation import VERDICT_CODES, FoldVerdict
 
         b = self.best if b is None else b
         first, second = self.iterates[a].estimate, self.iterates[b].estimate
@@ -215,12 +223,6 @@ class YieldAscent:
                 f"[{c.interval[0]:.3f}, {c.interval[1]:.3f}] over {c.n_samples} samples"
             )
         return "\n".join(lines)
-
-    def figure(self, *, title: str | None = None):
-        """`origami_jax.plotting.fab_yield.ascent_figure` of this ascent (imports matplotlib)."""
-        from ..plotting.fab_yield import ascent_figure
-
-        return ascent_figure(self, title=title)
 
 
 def _distinct(values: np.ndarray) -> np.ndarray:
@@ -591,9 +593,6 @@ def yield_ascent(
     zero-width spread, a non-positive `step`, bounds that do not contain the start, and what
     `yield_estimate` refuses.
     """
-    from ..system import KOH_SOLUTION, HingeDesign
-    from ._estimate import _nominal, _process, as_pattern, yield_estimate
-
     if scatter is None:
         scatter = Scatter()
     elif isinstance(scatter, Mapping):

@@ -11,6 +11,13 @@ from typing import Any
 
 import numpy as np
 
+from .._kernel import design_settings
+from ..fold import FoldFormatError
+from ..loops import load_pattern
+from ..net import FOLD_KERNEL_SOLVE
+from ..simulation import RESULTS, FoldVerdict, SolveOptions, VerdictTolerances
+from ..sweep import Table, sweep
+from ..system import KOH_SOLUTION, AbstractPattern, HingeDesign
 from ._scatter import PARAMETERS, Scatter, sample_values, standard_draws
 from ._stats import INTERVAL_METHODS, binomial_interval
 
@@ -83,7 +90,7 @@ class YieldEstimate:
             raise ValueError(f"interval must be one of {INTERVAL_METHODS}, got {method!r}.")
         if not (isinstance(confidence, int | float) and 0 < confidence < 1):
             raise ValueError(f"confidence must lie strictly between 0 and 1, got {confidence!r}.")
-        folded = self.counts[str(_folded())]
+        folded = self.counts[str(FoldVerdict.FOLDED)]
         interval = binomial_interval(folded, self.n_samples, float(confidence), method)
         return dataclasses.replace(
             self, interval=interval, confidence=float(confidence), method=method
@@ -112,12 +119,6 @@ class YieldEstimate:
             f"yield {self.fraction:.3f} ({100 * self.confidence:g} % interval {low:.3f}-{high:.3f},"
             f" {self.method}) over {self.n_samples} samples: {counts}"
         )
-
-
-def _folded():
-    from ..simulation import FoldVerdict
-
-    return FoldVerdict.FOLDED
 
 
 @dataclasses.dataclass(frozen=True)
@@ -169,10 +170,6 @@ def as_pattern(pattern):
     names (`origami_jax.loops.load_pattern`; the one place a yield function reads a name).
 
     **Raises:** `ValueError` for a file that is not a pattern."""
-    from ..fold import FoldFormatError
-    from ..loops import load_pattern
-    from ..system import AbstractPattern
-
     if isinstance(pattern, AbstractPattern):
         return pattern
     try:
@@ -254,8 +251,6 @@ def _kernel(pattern, **options):
     """The fold kernel of `pattern` for `options` (`origami_jax.net.fold_kernel`), the same object
     for the same pattern object and options (the sweep engine then traces and compiles it once
     per process; see `origami_jax.sweep.sweep`)."""
-    from ..sweep._kernels import design_settings
-
     solve, tolerances = options["solve"], options["tolerances"]
     described = {
         **options,
@@ -276,9 +271,6 @@ def _stragglers_finished(dataset, kernel, columns, units, **sweep_options):
     """`dataset` (a first pass under a step budget) with its samples that reached the budget run
     again by `kernel` (the full `max_steps`), all in one sweep; its `run_s` and `compile_s` then
     include that pass, and its attributes say how many there were (`stragglers`)."""
-    from ..simulation import RESULTS
-    from ..sweep import Table, sweep
-
     over = np.flatnonzero(
         np.asarray(dataset["result"].values) == int(RESULTS.max_steps_reached._value)
     )
@@ -388,11 +380,6 @@ def yield_estimate(
     **Raises:** `ValueError` (before anything compiles) for a bad scatter, a pattern that cannot
     be read, bad counts or settings; the sweep's errors for a folder that holds another estimate.
     """
-    from ..net import FOLD_KERNEL_SOLVE
-    from ..simulation import FoldVerdict, SolveOptions, VerdictTolerances
-    from ..sweep import Table, sweep
-    from ..system import KOH_SOLUTION, HingeDesign
-
     if isinstance(n_samples, bool) or not isinstance(n_samples, int | np.integer):
         raise ValueError(f"n_samples must be an integer >= 1, got {n_samples!r}.")
     tolerances = VerdictTolerances() if tolerances is None else tolerances

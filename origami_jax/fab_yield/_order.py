@@ -18,8 +18,7 @@ from typing import Any
 import jax.numpy as jnp
 import numpy as np
 
-from ..net import load_net
-from ..net._net import front_release
+from ..net import front_release, load_net
 from ._estimate import RunOptions, YieldEstimate, as_pattern, yield_estimate
 
 

@@ -8,6 +8,10 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ..net import FOLD_KERNEL_SOLVE
+from ..simulation import VerdictTolerances
+from ..system import KOH_SOLUTION
+from ._estimate import _GLOBAL, _kernel, _nominal, as_pattern
 from ._order import front_release_times
 from ._scatter import Scatter, standard_draws
 
@@ -89,11 +93,6 @@ def soft_yield(
     **Raises:** `ValueError` before anything compiles, as `yield_estimate`, and for a temperature
     that is not positive.
     """
-    from ..net import FOLD_KERNEL_SOLVE
-    from ..simulation import VerdictTolerances
-    from ..system import KOH_SOLUTION
-    from ._estimate import _GLOBAL, _kernel, _nominal, as_pattern
-
     tolerances = VerdictTolerances() if tolerances is None else tolerances
     if not isinstance(tolerances, VerdictTolerances):
         raise ValueError(f"tolerances must be a VerdictTolerances, got {tolerances!r}.")

@@ -22,6 +22,7 @@ Conventions: FOLD stores fold angles in degrees (valley +, mountain −); the mo
 
 from ._catalogue import catalogue_names as catalogue_names
 from ._catalogue import catalogue_path as catalogue_path
+from ._catalogue import source_and_label as source_and_label
 from ._chain_geometry import ChainGeometry as ChainGeometry
 from ._chain_geometry import chain_geometry as chain_geometry
 from ._checks import check_fold as check_fold
@@ -36,9 +37,12 @@ from ._geometry import paper_plane as paper_plane
 from ._geometry import pick_vertex as pick_vertex
 from ._geometry import single_vertex_geometry as single_vertex_geometry
 from ._geometry import vertex_fold_angles as vertex_fold_angles
+from ._loop_geometry import LoopGeometry as LoopGeometry
+from ._loop_geometry import loop_geometry as loop_geometry
 from ._model import FRAME_UNITS_M as FRAME_UNITS_M
 from ._model import FoldFile as FoldFile
 from ._model import FoldFrame as FoldFrame
+from ._model import length_scale_from_unit as length_scale_from_unit
 from ._net_geometry import NetGeometry as NetGeometry
 from ._net_geometry import Seams as Seams
 from ._net_geometry import net_geometry as net_geometry

@@ -20,7 +20,7 @@ loops around interior vertices comes back as a [`origami_jax.loops.CreasePattern
 
 import dataclasses
 import os
-from typing import final
+from typing import Any, ClassVar, final
 
 import equinox as eqx
 import jax
@@ -30,14 +30,46 @@ from jaxtyping import ArrayLike, Float
 
 from .._limits import CONTACT_SAMPLING, FOLD_SEGMENT
 from .._validate import is_traced
-from ..fold import FoldFile, FoldFormatError
-from ..fold._catalogue import source_and_label
-from ..fold._loop_geometry import LoopGeometry, loop_geometry
-from ..fold._model import length_scale_from_unit
-from ..simulation._continue import fold_pattern
-from ..system import AbstractPattern, FoldingSystem, HingeDesign, Hinges
+from ..contact import (
+    PanelContact,
+    PlateContact,
+    build_plate_tables,
+    build_tables,
+    check_sampling,
+    contact_kind,
+    sampling_pair,
+)
+from ..fluid import PanelDrag
+from ..fold import (
+    FoldFile,
+    FoldFormatError,
+    LoopGeometry,
+    flat_fold,
+    length_scale_from_unit,
+    loop_geometry,
+    read_fold,
+    source_and_label,
+)
+from ..net import (
+    AbstractPanelPattern,
+    HostCache,
+    Net,
+    check_loader_arguments,
+    check_per_crease,
+    default_design,
+    folding_animation,
+    front_release,
+    load_net,
+    seam_gap_function,
+    unit_front_direction,
+    vertex_corners,
+    warn_if_hinges_wider_than_creases,
+)
+from ..simulation import assess, fold_outcome, fold_pattern
+from ..system import MICRO, FoldingSystem, HingeDesign, Hinges
 from . import _kinematics
 from ._mechanism import LoopedPanels
+from ._report import LoopFoldReport
 
 # Baumgarte rate of the closure, as a multiple of the fastest hinge's natural frequency sqrt(k/I).
 RATE_FACTOR = 1.0
@@ -67,7 +99,7 @@ PATTERN_MODEL = {
 
 @final
 @dataclasses.dataclass(frozen=True, eq=False)
-class CreasePattern(AbstractPattern):
+class CreasePattern(AbstractPanelPattern):
     """A flat crease pattern whose creases close loops (module docstring); an
     [`origami_jax.system.AbstractPattern`][].
 
@@ -88,7 +120,7 @@ class CreasePattern(AbstractPattern):
     name: str
     length_scale: float
     precision: float = 0.0
-    _cache: dict = dataclasses.field(default_factory=dict, repr=False)
+    host_cache: HostCache = dataclasses.field(default_factory=HostCache, repr=False)
     contact: bool | str = True
     drag: str = "panel"
     hinges: str = "point"
@@ -97,43 +129,11 @@ class CreasePattern(AbstractPattern):
 
     # ---- the pattern ----
 
-    @property
-    def n_creases(self) -> int:
-        return self.geometry.n_creases
-
-    @property
-    def n_hinges(self) -> int:
-        """One hinge per crease (static)."""
-        return self.geometry.n_creases
+    MODEL: ClassVar[dict[str, Any]] = PATTERN_MODEL
 
     @property
     def continues_from_angles(self) -> bool:
         return False  # its state holds the closure's coordinates, not only its hinge angles
-
-    def hinge_name(self, j: int) -> str:
-        return f"crease {j}"
-
-    def with_model(self, **options) -> "CreasePattern":
-        """This pattern with other physics options (`contact`, `drag`, `hinges`,
-        `contact_sampling`, `check_rigid`; class docstring): the same object for the same options,
-        sharing this pattern's host caches. **Raises:** `ValueError` for an unknown option."""
-        from ..net._net import _with_model
-
-        return _with_model(self, PATTERN_MODEL, self._cache, options)
-
-    def default_design(self, fluid=None) -> HingeDesign:
-        """The literature hinge in `fluid` (default air), each hinge no wider than its crease
-        (`origami_jax.net.default_design`)."""
-        from ..net._net import default_design
-
-        return default_design(self, fluid)
-
-    def kernel(self, **settings):
-        """The fold kernel of this pattern for `sweep` (`origami_jax.net.fold_kernel`, `settings`
-        its keyword arguments)."""
-        from ..net._kernel import fold_kernel
-
-        return fold_kernel(self, **settings)
 
     def release_times_from_front(self, direction, speed: float) -> np.ndarray:
         """Release times of an etch front (`origami_jax.loops.release_times_from_front`)."""
@@ -167,11 +167,12 @@ class CreasePattern(AbstractPattern):
         return self.geometry.crease_edges
 
     def _padded(self):
-        if "padded" not in self._cache:
+        def padded():
             g = self.geometry
             directions, index = _kinematics._padded(g.loop_directions, g.loop_creases)
-            self._cache["padded"] = (directions, _kinematics._with_count(index, g.n_creases))
-        return self._cache["padded"]
+            return directions, _kinematics._with_count(index, g.n_creases)
+
+        return self.host_cache.get("padded", padded)
 
     def closure_residual(self, angles: Float[ArrayLike, "*batch m"]) -> np.ndarray:
         """Each loop's closure residual at `angles` (the rotation angle, rad, `(*batch, n_v)`)."""
@@ -262,12 +263,10 @@ class CreasePattern(AbstractPattern):
         `RigidFoldability` (continuation along the targets' direction; see `_kinematics.rigid_path`)."""
         targets = self.intended_angles if targets is None else np.asarray(targets, float)
         key = ("rigid", targets.tobytes(), steps)
-        if key not in self._cache:
-            directions, index = self._padded()
-            self._cache[key] = _kinematics.rigid_path(
-                directions, index, targets, self.n_creases, steps
-            )
-        return self._cache[key]
+        directions, index = self._padded()
+        return self.host_cache.get(
+            key, lambda: _kinematics.rigid_path(directions, index, targets, self.n_creases, steps)
+        )
 
     def branch(self, angles: Float[ArrayLike, " m"], *, tolerance: float = np.radians(0.5)):
         """Which way each crease folds at `angles` (rad): +1 valley, −1 mountain, 0 within
@@ -279,12 +278,9 @@ class CreasePattern(AbstractPattern):
 
     def net(self):
         """The spanning tree of panels as a [`origami_jax.net.Net`][] (cut creases open)."""
-        from ..net._net import Net, _key_frame
-
-        if "net" not in self._cache:
-            key, edges = _key_frame(self.geometry.tree, self.name)
-            self._cache["net"] = Net(self.geometry.tree, self.name, self.length_scale, key, edges)
-        return self._cache["net"]
+        return self.host_cache.get(
+            "net", lambda: Net.from_geometry(self.geometry.tree, self.name, self.length_scale)
+        )
 
     def mechanism(self, design: HingeDesign | None = None, *, rate: float = 0.0) -> LoopedPanels:
         """The panels (plates of the design's structural film) as a `LoopedPanels` in the design's
@@ -362,9 +358,6 @@ class CreasePattern(AbstractPattern):
         The physics options (`contact`, `drag`, `hinges`, `check_rigid`, `contact_sampling`) left
         `None` are the pattern's own (its fields; `with_model`).
         """
-        from ..contact import PanelContact, PlateContact, check_sampling, contact_kind
-        from ..fluid import PanelDrag
-
         contact = self.contact if contact is None else contact
         drag = self.drag if drag is None else drag
         hinges = self.hinges if hinges is None else hinges
@@ -383,8 +376,6 @@ class CreasePattern(AbstractPattern):
                 f"drag={drag!r}: the paper's per-hinge drag is defined for panel trees; closed-loop "
                 "patterns take drag='panel' (each panel's own motion)."
             )
-        from ..net._net import check_per_crease, default_design, warn_if_hinges_wider_than_creases
-
         lengths = self.crease_lengths
         if design is None:
             design = default_design(self)
@@ -400,10 +391,13 @@ class CreasePattern(AbstractPattern):
         # The pattern's own checks, on its own (concrete) angles: evaluated now even when this
         # system is built inside a trace (a sweep kernel's), where JAX would otherwise stage them.
         with jax.ensure_compile_time_eval():
-            if not self._cache.get(("checked", intended.tobytes())):
+
+            def check():
                 if np.all(np.isfinite(intended)):
                     self.check_angles(intended, "the pattern's fold angles")
-                self._cache[("checked", intended.tobytes())] = True
+                return True  # kept: checked once per pattern and angles
+
+            self.host_cache.get(("checked", intended.tobytes()), check)
             if check_rigid and np.all(np.isfinite(intended)):
                 report = self.rigid_foldability()
                 if not (report.rigid or report.residual <= self.precision):
@@ -513,16 +507,12 @@ class CreasePattern(AbstractPattern):
         """A traceable ``q ↦`` gap of each seam (design length units, `(s,)`), as for nets (the cut
         creases are not seams: the closure holds them together): a `SeamGaps`, which also names
         the two bodies each seam joins (for the verdict's seams closed by contact)."""
-        from ..net._net import seam_gap_function
-
         return seam_gap_function(
             self.geometry.tree, self.seams, system.mechanism, self.length_scale
         )
 
     def outcome(self, system: FoldingSystem, trajectory, **kwargs):
         """`assess`'s verdict as arrays, traceable (`origami_jax.simulation.fold_outcome`)."""
-        from ..simulation import fold_outcome
-
         kwargs.setdefault("intended_angles", jnp.asarray(self.intended_angles))
         kwargs.setdefault("panel_size", self.panel_size(system))
         return fold_outcome(system, trajectory, seam_gaps=self.seam_gap_function(system), **kwargs)
@@ -530,8 +520,6 @@ class CreasePattern(AbstractPattern):
     def assess(self, system: FoldingSystem, trajectory, *, bias: float = 0.0, **kwargs):
         """The verdict on a folding of this pattern (`origami_jax.simulation.assess`, keyword arguments
         go there), with the branch it took: a `LoopFoldReport`."""
-        from ..simulation import assess
-
         kwargs.setdefault("intended_angles", self.intended_angles)
         kwargs.setdefault("panel_size", self.panel_size(system))
         report = assess(system, trajectory, seam_gaps=self.seam_gap_function(system), **kwargs)
@@ -575,19 +563,15 @@ class CreasePattern(AbstractPattern):
         """The folding as a FOLD animation: the crease pattern (facets merged), then one frame per kept
         sample with every vertex where the folded panels put it and every crease's fold angle
         (`extras`, `key_extra`: see `Net.to_fold`)."""
-        from ..net._net import _vertex_corners, folding_animation
-
         g = self.geometry
         return folding_animation(
-            g.frame, g.fold, self.crease_edge_ids, _vertex_corners(g.tree), self.name,
+            g.frame, g.fold, self.crease_edge_ids, vertex_corners(g.tree), self.name,
             trajectory=trajectory, angles=angles, times=times, every=every, extras=extras,
             key_extra=key_extra,
         )  # fmt: skip
 
 
 def _with_branch(pattern: CreasePattern, report, trajectory, bias: float):
-    from ._report import LoopFoldReport
-
     return LoopFoldReport.from_report(pattern, report, trajectory, bias)
 
 
@@ -600,10 +584,6 @@ def _contact_tables(
     crease (tree or cut) or only a vertex do not meet near what they share; the sampled model's
     rims are inset by twice its edge width at the film `thickness`, `sampling` its
     ``(points_per_edge, rim_points_per_edge)`` (`build_tables`)."""
-    from ..contact import PanelContact
-    from ..contact._plate_tables import build_plate_tables
-    from ..contact._tables import build_tables, sampling_pair
-
     n = mechanism.n_bodies
     layout = mechanism.hinge_layout()
     parents, children, ends = [layout.parent], [layout.child], [layout.ends]
@@ -672,11 +652,6 @@ def load_pattern(
     **Raises:** `FoldFormatError` for a file that is neither (loops round holes, non-manifold
     edges, ...); `ValueError` for a unitless file without `length_scale`.
     """
-    from ..fold import flat_fold, read_fold
-    from ..net import load_net
-    from ..net._net import check_loader_arguments
-    from ..system import MICRO
-
     check_loader_arguments(root, length_scale)
     units = MICRO if units is None else units
     label = name
@@ -735,8 +710,6 @@ def release_times_from_front(pattern: CreasePattern, direction, speed: float) ->
     units per time unit) along `direction` (2 components in the pattern's plane basis, or 3): it starts
     at the pattern's first point along that direction at ``t = 0`` and releases each crease when it
     reaches the crease's midpoint (as `origami_jax.net.release_times_from_front`)."""
-    from ..net._net import front_release, unit_front_direction
-
     g = pattern.geometry
     direction = unit_front_direction(direction, g.plane, speed)
     mids = g.points + 0.5 * g.lengths[:, None] * g.axes

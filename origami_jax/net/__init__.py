@@ -7,6 +7,12 @@ tree with Featherstone's algorithms in the world frame (CRBA, RNEA, the tree-spa
 ([`origami_jax.net.polygon_plate`][]). Hinges are point creases ([`origami_jax.net.RevoluteJoints`][])
 or bending arcs ([`origami_jax.net.ArcJoints`][]); [`origami_jax.net.StripTree`][] gives the arcs'
 strips their own mass and inertia ([`origami_jax.net.strip_tree`][]). Fold angles are valley positive.
+
+[`origami_jax.net.Net`][] is a pattern ([`origami_jax.system.AbstractPattern`][]) read from FOLD; it
+and the closed-loop crease patterns built on it ([`origami_jax.loops.CreasePattern`][]) share
+[`origami_jax.net.AbstractPanelPattern`][], their default design, hinge checks, seam gaps, FOLD
+animation and etch fronts (exported here for the loops package) and their sweep kernel,
+[`origami_jax.net.fold_kernel`][].
 """
 
 from ..simulation import SeamGaps as SeamGaps
@@ -14,13 +20,25 @@ from ._joints import AbstractJoints as AbstractJoints
 from ._joints import ArcJoints as ArcJoints
 from ._joints import RevoluteJoints as RevoluteJoints
 from ._kernel import FOLD_KERNEL_SOLVE as FOLD_KERNEL_SOLVE
+from ._kernel import check_kernel_sampling as check_kernel_sampling
 from ._kernel import fold_kernel as fold_kernel
 from ._net import Net as Net
 from ._net import NetLayout as NetLayout
-from ._net import default_design as default_design
-from ._net import hinges_within_creases as hinges_within_creases
+from ._net import check_loader_arguments as check_loader_arguments
+from ._net import check_per_crease as check_per_crease
+from ._net import folding_animation as folding_animation
+from ._net import front_release as front_release
+from ._net import kept_samples as kept_samples
 from ._net import load_net as load_net
 from ._net import release_times_from_front as release_times_from_front
+from ._net import seam_gap_function as seam_gap_function
+from ._net import unit_front_direction as unit_front_direction
+from ._net import vertex_corners as vertex_corners
+from ._net import warn_if_hinges_wider_than_creases as warn_if_hinges_wider_than_creases
+from ._pattern import AbstractPanelPattern as AbstractPanelPattern
+from ._pattern import HostCache as HostCache
+from ._pattern import default_design as default_design
+from ._pattern import hinges_within_creases as hinges_within_creases
 from ._plate import Plate as Plate
 from ._plate import polygon_plate as polygon_plate
 from ._strip import StripTree as StripTree

@@ -4,7 +4,8 @@ object (`Net.kernel`, `CreasePattern.kernel`).
 One design per call: the pattern's system with the design's hinges (`pattern.system`, its own
 physics model), simulated from its start state (`pattern.start_state`) with explicit Tsit5 and
 judged by its traceable verdict (`pattern.outcome`). The sweep's `"net-fold"` model
-(`origami_jax.sweep.get_model`) is this kernel of the pattern a catalogue name or file names.
+(`origami_jax.sweep.get_model`) is this kernel of the pattern a catalogue name or file names
+(the name becomes a pattern there, in the sweep's model registry).
 """
 
 from typing import Any
@@ -13,12 +14,17 @@ import diffrax
 import jax.numpy as jnp
 import numpy as np
 
+from .._kernel import (
+    FLUIDS,
+    INVALID_INPUT,
+    Kernel,
+    check_setting,
+    design_settings,
+    replace_fields,
+)
 from .._limits import CONTACT_SAMPLING, MAX_CONTACT_SAMPLING, MAX_SAMPLES
-from ..contact import check_sampling, contact_kind
-from ..contact._tables import sampling_pair
+from ..contact import check_sampling, contact_kind, sampling_pair
 from ..simulation import RESULTS, SaveAt, SolveOptions, Step, VerdictTolerances, simulate
-from ..sweep._kernel import Kernel
-from ..sweep._kernels import FLUIDS, INVALID_INPUT, _setting, design_settings, eqx_tree_at_fields
 from ..system import AIR, KOH_SOLUTION, HingeDesign
 
 # Fields of `HingeDesign` a net sweep may vary for every crease at once (scalar parameter `name`) or
@@ -105,11 +111,11 @@ def fold_kernel(
         solve = solve.replace(t1=FOLD_KERNEL_SOLVE.t1)
     if solve.saveat.ts is not None:
         raise ValueError("the fold kernel saves evenly spaced samples: give SaveAt(n=...).")
-    t_end = _setting(_number(solve.t1), "t_end", low=0.0)
-    n_save = _setting(solve.saveat.n, "n_save", low=2, integer=True, high=MAX_SAMPLES)
-    max_steps = _setting(solve.max_steps, "max_steps", low=1, integer=True)
-    rtol = _setting(_number(solve.rtol), "rtol", low=0.0)
-    atol = _setting(_number(solve.atol), "atol", low=0.0)
+    t_end = check_setting(_number(solve.t1), "t_end", low=0.0)
+    n_save = check_setting(solve.saveat.n, "n_save", low=2, integer=True, high=MAX_SAMPLES)
+    max_steps = check_setting(solve.max_steps, "max_steps", low=1, integer=True)
+    rtol = check_setting(_number(solve.rtol), "rtol", low=0.0)
+    atol = check_setting(_number(solve.atol), "atol", low=0.0)
     tolerances = VerdictTolerances() if tolerances is None else tolerances
     if not isinstance(tolerances, VerdictTolerances):
         raise ValueError(
@@ -175,7 +181,7 @@ def fold_kernel(
             )
             invalid = invalid | jnp.any(~(jnp.isfinite(times) & (times >= 0)))
             times = jnp.where(invalid, 0.0, times)
-        design = eqx_tree_at_fields(base, values)
+        design = replace_fields(base, values)
         return design, times, invalid
 
     def aims_of(params):
@@ -303,53 +309,3 @@ def _number(value):
     if isinstance(value, bool | int | float | str) or value is None:
         return value
     return float(np.asarray(value))
-
-
-def net_fold_model(*, net: str = "cube_net_01", **settings: Any) -> Kernel:
-    """The sweep's `"net-fold"` model: `fold_kernel` of the pattern `net` names (a catalogue name or
-    a `.fold` path, `origami_jax.loops.load_pattern`), with flat settings as a sweep's config
-    gives them (every one checked before the pattern is read):
-
-    - the pattern's physics (`Net.with_model`): `contact` (default `True`), `drag` (`"panel"`),
-      `hinges` (`"point"`), `contact_sampling` (`(4, 2)`);
-    - the solve's: `t_end` (µs, default 1500), `n_save` (301), `rtol`, `atol` (`None`: the
-      simulation's), `max_steps` (200,000);
-    - the verdict's: `angle_tolerance_deg` (3) and `seam_tolerance` (0.01);
-    - `fold_kernel`'s others: `fluid`, `design`, `bias`, `targets`, `hinge_lengths`.
-
-    **Raises:** `TypeError` for an unknown setting (`get_model` says which), `ValueError` for a bad
-    one.
-    """
-    from ..loops import load_pattern
-    from ..simulation import DEFAULT_ATOL, DEFAULT_RTOL
-
-    model = {k: settings.pop(k) for k in ("contact", "drag", "hinges") if k in settings}
-    sampling = settings.pop("contact_sampling", CONTACT_SAMPLING)
-    solve = {
-        k: settings.pop(k)
-        for k in ("t_end", "n_save", "rtol", "atol", "max_steps")
-        if k in settings
-    }
-    angle = settings.pop("angle_tolerance_deg", 3.0)
-    seam = settings.pop("seam_tolerance", 0.01)
-    unknown = sorted(set(settings) - {"fluid", "design", "bias", "targets", "hinge_lengths"})
-    if unknown:
-        raise TypeError(f"net-fold has no setting(s) {unknown}")
-    t_end = _setting(solve.get("t_end", 1500.0), "t_end", low=0.0)
-    n_save = _setting(solve.get("n_save", 301), "n_save", low=2, integer=True, high=MAX_SAMPLES)
-    max_steps = _setting(solve.get("max_steps", 200_000), "max_steps", low=1, integer=True)
-    rtol = solve.get("rtol")
-    atol = solve.get("atol")
-    rtol = DEFAULT_RTOL if rtol is None else _setting(rtol, "rtol", low=0.0)
-    atol = DEFAULT_ATOL if atol is None else _setting(atol, "atol", low=0.0)
-    tolerances = VerdictTolerances.from_degrees(angle, seam)
-    sampling = check_kernel_sampling(model.get("contact", True), sampling)
-    pattern = load_pattern(net).with_model(**model, contact_sampling=sampling)
-    return fold_kernel(
-        pattern,
-        solve=FOLD_KERNEL_SOLVE.replace(
-            t1=t_end, saveat=SaveAt(n=n_save), rtol=rtol, atol=atol, max_steps=max_steps
-        ),
-        tolerances=tolerances,
-        **settings,
-    )

@@ -24,9 +24,10 @@ import dataclasses
 import math
 import os
 import warnings
-from typing import Any, final
+from typing import Any, ClassVar, final
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
@@ -34,13 +35,27 @@ from jaxtyping import Array, ArrayLike, Float
 from .._limits import CONTACT_SAMPLING, FOLD_SEGMENT, MAX_FOLD_SEGMENTS
 from .._math import safe_norm
 from .._validate import is_traced
-from ..fold import FoldFile, FoldFrame, net_geometry
-from ..fold._catalogue import source_and_label
-from ..fold._model import length_scale_from_unit
-from ..fold._net_geometry import NetGeometry
-from ..simulation._continue import fold_pattern
-from ..simulation._verdict import SeamGaps
-from ..system import AbstractPattern, FoldingSystem, HingeDesign, HingeDrag, Hinges
+from ..contact import (
+    PanelContact,
+    PlateContact,
+    check_sampling,
+    contact_kind,
+    sampling_pair,
+)
+from ..fluid import CombinedDrag, PanelDrag, fluid_loads, polygon_added_inertia
+from ..fold import (
+    FoldFile,
+    FoldFrame,
+    NetGeometry,
+    flat_fold,
+    length_scale_from_unit,
+    net_geometry,
+    read_fold,
+    source_and_label,
+)
+from ..simulation import SeamGaps, assess, fold_outcome, fold_pattern
+from ..system import MICRO, FoldingSystem, HingeDesign, HingeDrag, Hinges
+from ._pattern import AbstractPanelPattern, HostCache, default_design
 from ._strip import StripTree, strip_tree
 from ._tree import PanelTree, panel_tree
 
@@ -57,7 +72,7 @@ NET_MODEL = {
 
 @final
 @dataclasses.dataclass(frozen=True, eq=False)
-class Net(AbstractPattern):
+class Net(AbstractPanelPattern):
     """A flat net of panels read from FOLD, ready to become folding systems (module docstring); an
     [`origami_jax.system.AbstractPattern`][].
 
@@ -78,7 +93,7 @@ class Net(AbstractPattern):
     length_scale: float
     key_frame: FoldFrame
     crease_edge_ids: tuple[tuple[int, ...], ...]
-    _tables: dict = dataclasses.field(default_factory=dict, repr=False)
+    host_cache: HostCache = dataclasses.field(default_factory=HostCache, repr=False)
     contact: bool | str = True
     drag: str = "panel"
     hinges: str = "point"
@@ -86,32 +101,19 @@ class Net(AbstractPattern):
     viscous: bool = False
     contact_sampling: tuple[int, int] = CONTACT_SAMPLING
 
-    @property
-    def n_creases(self) -> int:
-        return self.geometry.n_creases
-
-    @property
-    def n_hinges(self) -> int:
-        """One hinge per crease (static)."""
-        return self.geometry.n_creases
+    MODEL: ClassVar[dict[str, Any]] = NET_MODEL
 
     @property
     def continues_from_angles(self) -> bool:
         return True  # a panel tree's state is its hinge angles and rates
 
-    def hinge_name(self, j: int) -> str:
-        return f"crease {j}"
-
-    def with_model(self, **options) -> "Net":
-        """This net with other physics options (`contact`, `drag`, `hinges`, `added_mass`,
-        `viscous`, `contact_sampling`; module docstring): the same object for the same options,
-        sharing this net's host tables. **Raises:** `ValueError` for an unknown option."""
-        return _with_model(self, NET_MODEL, self._tables, options)
-
-    def default_design(self, fluid=None) -> HingeDesign:
-        """The literature hinge in `fluid` (default air), each hinge no wider than its crease
-        (`origami_jax.net.default_design`)."""
-        return default_design(self, fluid)
+    @classmethod
+    def from_geometry(cls, geometry: NetGeometry, name: str, length_scale: float) -> "Net":
+        """The net of a tree of faces (`origami_jax.fold.NetGeometry`, lengths in its FOLD unit,
+        `length_scale` design length units per FOLD unit), its crease pattern frame drawn from the
+        geometry: a closed-loop pattern's spanning tree (`CreasePattern.net`)."""
+        key, edges = key_frame(geometry, name)
+        return cls(geometry, name, length_scale, key, edges)
 
     def start_state(self, system: FoldingSystem | None = None, *, bias: float = 0.0):
         """Where a simulation starts: flat, at rest (`(θ0, θ̇0)`, zeros `(m,)`). A net folds from
@@ -123,13 +125,6 @@ class Net(AbstractPattern):
             )
         m = self.n_creases
         return np.zeros(m), np.zeros(m)
-
-    def kernel(self, **settings):
-        """The fold kernel of this net for `sweep` (`origami_jax.net.fold_kernel`, `settings` its
-        keyword arguments)."""
-        from ._kernel import fold_kernel
-
-        return fold_kernel(self, **settings)
 
     def release_times_from_front(self, direction, speed: float) -> np.ndarray:
         """Release times of an etch front (`origami_jax.net.release_times_from_front`)."""
@@ -239,9 +234,6 @@ class Net(AbstractPattern):
         The physics options (`contact` to `contact_sampling`) left `None` are the net's own
         (its fields; `with_model`).
         """
-        from ..contact import PanelContact, PlateContact, check_sampling, contact_kind
-        from ..fluid import PanelDrag
-
         contact = self.contact if contact is None else contact
         drag = self.drag if drag is None else drag
         hinges = self.hinges if hinges is None else hinges
@@ -283,8 +275,6 @@ class Net(AbstractPattern):
         else:
             raise ValueError(f"drag must be 'panel' or 'hinge', got {drag!r}.")
         if added_mass or viscous:
-            from ..fluid import CombinedDrag, fluid_loads, polygon_added_inertia
-
             outlines = tree.outlines()
             loads = fluid_loads(
                 tree,
@@ -330,9 +320,6 @@ class Net(AbstractPattern):
         """The panels' contact geometry (`origami_jax.contact.ContactTables`), computed once on the
         host from the pattern (it depends on the geometry only, not on the design's numbers).
         `sampling`: ``(points_per_edge, rim_points_per_edge)``, as `system`'s `contact_sampling`."""
-        from ..contact import PanelContact
-        from ..contact._tables import sampling_pair
-
         points_per_edge, rim_points_per_edge = sampling_pair(sampling)
         return self._host_tables(
             (hinges, points_per_edge, rim_points_per_edge),
@@ -344,20 +331,17 @@ class Net(AbstractPattern):
     def plate_tables(self, hinges: str = "point"):
         """The panels' exact plate geometry (`origami_jax.contact.PlateTables`), computed once on
         the host from the pattern (geometry only, not the design's numbers)."""
-        from ..contact import PlateContact
-
         return self._host_tables((hinges, "plate"), PlateContact.tables_for)
 
     def _host_tables(self, key: tuple, build):
         """`build(tree)` of the literature design's tree with `key[0]`'s hinges, computed once per
-        `key` and kept (host geometry, whatever the design's numbers)."""
-        import jax
+        `key` and kept in the `host_cache` (host geometry, whatever the design's numbers)."""
 
-        if key not in self._tables:
+        def tables():
             with jax.ensure_compile_time_eval():
-                tree = self.tree(HingeDesign.literature(), hinges=key[0])
-                self._tables[key] = build(tree)
-        return self._tables[key]
+                return build(self.tree(HingeDesign.literature(), hinges=key[0]))
+
+        return self.host_cache.get(("tables", *key), tables)
 
     def seam_gaps(self, angles: ArrayLike) -> np.ndarray:
         """Largest end-to-end gap of each seam with the creases at `angles` (rad), in design length
@@ -394,8 +378,6 @@ class Net(AbstractPattern):
         """The verdict on a folding of this net against the pattern's angles and seams
         (`origami_jax.simulation.assess`; keyword arguments go there). `bias`: the start's
         pre-fold, 0 for a net (`start_state`)."""
-        from ..simulation import assess
-
         self.start_state(bias=bias)  # a net starts flat: refuses another bias
         kwargs.setdefault("intended_angles", self.intended_angles)
         kwargs.setdefault("panel_size", self.panel_size(system))
@@ -453,7 +435,7 @@ class Net(AbstractPattern):
         `extras` (one dict per sample) and `key_extra` add `origami_jax:` properties to the frames
         and to the crease pattern (`folding_animation`).
         """
-        corners = _vertex_corners(self.geometry)
+        corners = vertex_corners(self.geometry)
         return folding_animation(
             self.key_frame, self.geometry.fold, self.crease_edge_ids, corners, self.name,
             trajectory=trajectory, angles=angles, times=times, every=every, extras=extras,
@@ -474,27 +456,6 @@ def frame_assignment(key_assignment, degrees: np.ndarray, crease_edges) -> tuple
             elif degrees[e] < 0:
                 out[e] = "M"
     return tuple(out)
-
-
-def hinges_within_creases(design: HingeDesign, lengths) -> HingeDesign:
-    """`design` with each hinge no wider than its crease (`lengths`, `(m,)`, the design's length
-    units): ``hinge_width = min(design's width, crease length)``, one per crease where some crease
-    is shorter, else `design` itself. The default for a net or pattern folded without a design of
-    its own: the literature hinge is 200 µm wide, the edge of the catalogue's square panels, and
-    no device has a hinge longer than its crease (the waterbombs' 100 and 141 µm creases)."""
-    lengths = np.asarray(lengths, dtype=float)
-    width = np.asarray(design.hinge_width, dtype=float)
-    if not np.any(width > lengths):
-        return design
-    return eqx.tree_at(lambda d: d.hinge_width, design, jnp.asarray(np.minimum(width, lengths)))
-
-
-def default_design(pattern, fluid=None) -> HingeDesign:
-    """The design a net or pattern is folded with when none is given: the literature hinge
-    (`HingeDesign.literature`, in `fluid`, default air), each hinge no wider than its crease of
-    `pattern` (a `Net` or `CreasePattern`; `hinges_within_creases`)."""
-    overrides = {} if fluid is None else {"fluid": fluid}
-    return hinges_within_creases(HingeDesign.literature(**overrides), pattern.crease_lengths)
 
 
 def check_per_crease(design: HingeDesign, m: int) -> None:
@@ -538,7 +499,7 @@ def warn_if_hinges_wider_than_creases(name: str, design: HingeDesign, lengths) -
     )
 
 
-def _vertex_corners(g: NetGeometry) -> tuple[np.ndarray, np.ndarray]:
+def vertex_corners(g: NetGeometry) -> tuple[np.ndarray, np.ndarray]:
     """For every FOLD vertex, a (face, corner) that holds it (folded positions agree across a
     crease, and a vertex on a seam only belongs to one face's side of it)."""
     n = len(g.vertices_coords)
@@ -551,7 +512,7 @@ def _vertex_corners(g: NetGeometry) -> tuple[np.ndarray, np.ndarray]:
     return np.maximum(face_of, 0), np.maximum(corner_of, 0)
 
 
-def _key_frame(g: NetGeometry, name: str) -> tuple[FoldFrame, tuple[tuple[int, ...], ...]]:
+def key_frame(g: NetGeometry, name: str) -> tuple[FoldFrame, tuple[tuple[int, ...], ...]]:
     """A crease-pattern frame built from the faces (when no FOLD file is at hand), and the edges on
     each crease: a side shared by a crease's two faces."""
     sides: dict[tuple[int, int], set[int]] = {}
@@ -667,9 +628,6 @@ def load_net(
     overlapping faces, a crease without a target); `ValueError` for a unitless file without
     `length_scale`.
     """
-    from ..fold import flat_fold, read_fold
-    from ..system import MICRO
-
     check_loader_arguments(root, length_scale)
     units = MICRO if units is None else units
     label = name
@@ -693,7 +651,7 @@ def load_net(
         length_scale = length_scale_from_unit(geometry.unit, units.metre_per_length)
     label = label or "net"
     if key is None or key.edges_vertices is None:
-        key, crease_edges = _key_frame(geometry, label)
+        key, crease_edges = key_frame(geometry, label)
     else:
         crease_edges = tuple(tuple(int(e) for e in edges) for edges in geometry.crease_edges)
     return Net(geometry, label, float(length_scale), key, crease_edges)
@@ -723,37 +681,10 @@ def NetLayout(net: Net, **options) -> Net:  # noqa: N802 (the former layout clas
     return net.with_model(**options)
 
 
-def _with_model(pattern, model: dict, cache: dict, options: dict):
-    """`pattern` (a frozen dataclass) with the physics `options` (names of `model`, the pattern's
-    model fields) changed, kept in `cache` (the pattern's host cache, shared with the copy): the
-    same object for the same options, so a compiled fit or sweep of it is reused."""
-    unknown = sorted(set(options) - set(model))
-    if unknown:
-        raise ValueError(
-            f"{type(pattern).__name__}.with_model: unknown option(s) {unknown}; the model's are "
-            f"{sorted(model)}."
-        )
-    if "contact_sampling" in options:
-        options = {
-            **options,
-            "contact_sampling": tuple(int(x) for x in options["contact_sampling"]),
-        }
-    values = {name: getattr(pattern, name) for name in model}
-    if all(values[name] == value for name, value in options.items()):
-        return pattern
-    values.update(options)
-    key = ("model", repr(sorted(values.items())))
-    if key not in cache:
-        cache[key] = dataclasses.replace(pattern, **values)
-    return cache[key]
-
-
 @eqx.filter_jit
 def _outcome(system, trajectory, seam_gaps, kwargs):
     """`Net.outcome` in one program (op by op, a first verdict compiled ~230 operations: ~9 s);
     under an outer trace it is traced inline."""
-    from ..simulation import fold_outcome
-
     return fold_outcome(system, trajectory, seam_gaps=seam_gaps, **kwargs)
 
 

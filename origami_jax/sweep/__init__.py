@@ -24,12 +24,12 @@ the same program everywhere; each process computes every `jax.process_count()`-t
 devices and process 0 gathers the dataset (see `sweep`'s module for details).
 """
 
+from .._kernel import Kernel as Kernel
 from ._config import SweepConfig as SweepConfig
 from ._config import load_config as load_config
 from ._engine import TRACES as TRACES
 from ._engine import TraceCache as TraceCache
 from ._engine import sweep as sweep
-from ._kernel import Kernel as Kernel
 from ._kernels import available_models as available_models
 from ._kernels import get_model as get_model
 from ._space import AbstractDesignSpace as AbstractDesignSpace

@@ -38,7 +38,7 @@ from typing import Any
 
 import numpy as np
 
-from ._kernel import Kernel
+from .._kernel import Kernel
 from ._kernels import MODELS, get_model
 from ._space import AbstractDesignSpace, Grid, Product, Range, Samples, Table
 

@@ -61,8 +61,8 @@ import xarray as xr
 from jax.sharding import Mesh, NamedSharding
 from jax.sharding import PartitionSpec as P
 
+from .._kernel import Kernel, as_kernel
 from .._runtime_errors import checks_as_nan
-from ._kernel import Kernel, as_kernel
 from ._space import AbstractDesignSpace
 from ._store import RESULT, Store, SweepBusyError, gather, logger
 

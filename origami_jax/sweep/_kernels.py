@@ -1,13 +1,11 @@
-"""Model adapters: the physics of the other sub-packages as sweep `Kernel`s.
+"""Model adapters: the sweep's registry of named models, each the `Kernel` of a physics package.
 
-Each adapter imports its physics inside the builder, so that `import origami_jax.sweep` and
-`origami-jax sweep --help` stay fast. `available_models()` lists them with a description.
+`available_models()` lists them with a description; `get_model(name, **settings)` builds one, and
+a name becomes an object here (a pattern's catalogue name or file, `"net-fold"`'s `net=`), once.
 
-- `"accordion-step"`: step response of the `n`-flap accordion (`origami_jax.chain` +
-  `origami_jax.simulation`): per-joint rise time, overshoot, peak and settling time, with the
-  simulation's result code. The flap count fixes array shapes, so it is a *static* parameter: the
-  engine runs one compiled call per flap count (an outer loop over separately compiled groups),
-  every other parameter is batched.
+- `"accordion-step"`: step response of the `n`-flap accordion, the accordion's own kernel
+  (`origami_jax.chain.accordion_step`, `Accordion.kernel`): per-joint rise time, overshoot, peak
+  and settling time, with the simulation's result code; the flap count is a *static* parameter.
 - `"vertex-unfold"`: random single vertices unfolded by charge-energy descent (`origami_jax.vertex`);
   the vertices are drawn on the host (`Kernel.prepare`), the descent is batched. It calls the vertex
   package's traceable per-vertex descent, `origami_jax.vertex.unfold_kernel` (`unfold_batch` is
@@ -21,265 +19,24 @@ import dataclasses
 from collections.abc import Callable, Mapping
 from typing import Any
 
-from .._limits import MAX_FLAPS, MAX_SAMPLES
-from ._kernel import Kernel
+import jax
+import jax.numpy as jnp
+import numpy as np
 
-# Result code for a design whose parameters are outside the model's domain (non-positive or
-# non-finite lengths, strains...). The kernel then computes a harmless stand-in design and marks it.
-INVALID_INPUT = -1
-
-# Parameters of "accordion-step" and their units: lengths in µm, the package's MICRO unit system.
-ACCORDION_PARAMETERS = {
-    "n_flaps": "",
-    "hinge_width": "um",
-    "flap_length": "um",
-    "flap_width": "um",
-    "t_structural": "um",
-    "t_hinge": "um",
-    "misfit_strain": "1",
-    "theta_final": "rad",
-    "drag_coefficient": "1",
-    "k_scale": "1",
-    "b_scale": "1",
-    "fluid": "",
-}
-FLUIDS = ("air", "koh")
-
-
-def _setting(
-    value: Any,
-    name: str,
-    *,
-    low: float | int,
-    integer: bool = False,
-    high: float | int | None = None,
-) -> Any:
-    """A numeric model setting, checked before anything compiles: a number (not a string or a
-    boolean), finite, `> low` (or `>= low` for integers) and at most `high`."""
-    import math
-
-    kind = "an integer" if integer else "a number"
-    if isinstance(value, bool) or not isinstance(value, int | float):
-        raise ValueError(f"setting {name} must be {kind}, got {value!r}.")
-    if integer and not float(value).is_integer():
-        raise ValueError(f"setting {name} must be an integer, got {value!r}.")
-    ok = math.isfinite(value) and (value >= low if integer else value > low)
-    if high is not None:
-        ok = ok and value <= high
-    if not ok:
-        span = f">= {low}" if integer else f"> {low:g}"
-        span += "" if high is None else f" and <= {high}"
-        raise ValueError(f"setting {name} must be finite and {span}, got {value!r}.")
-    return int(value) if integer else float(value)
+from .._kernel import INVALID_INPUT, Kernel, check_setting
+from .._limits import CONTACT_SAMPLING, MAX_SAMPLES
+from ..chain import accordion_step
+from ..loops import load_pattern
+from ..net import FOLD_KERNEL_SOLVE, check_kernel_sampling, fold_kernel
+from ..simulation import DEFAULT_ATOL, DEFAULT_RTOL, SaveAt, VerdictTolerances
+from ..vertex import DEFAULT_P, RESULTS, DescentSettings, random_vertex
+from ..vertex import unfold_kernel as descend
 
 
 @dataclasses.dataclass(frozen=True)
 class _Model:
     description: str
     build: Callable[..., Kernel]
-
-
-def accordion_step(
-    *,
-    n_flaps: int = 3,
-    fluid: str = "air",
-    t_end: float = 2000.0,
-    n_save: int = 2001,
-    rtol: float | None = None,
-    atol: float | None = None,
-    max_steps: int = 16_384,
-    stiffness_model: str = "paper",
-    drag_model: str = "paper",
-    solver: str = "kvaerno5",
-) -> Kernel:
-    """Sweep kernel: step response metrics of the accordion (paper Fig. 7).
-
-    Parameters not swept take `HingeDesign.literature()` values (200 nm SiNx, 100 nm Cr at 1 GPa,
-    200 µm square flaps, hinge as wide as the flap, `C_D = 1.17`, `θ_final = π`); lengths are in µm.
-    The system is `origami_jax.chain.accordion_system(design, n_flaps)`, stepped to its hinge targets
-    `(θ_final, −θ_final, θ_final, ...)`. Swept parameters: see
-    `ACCORDION_PARAMETERS`; `fluid` is `"air"` or `"koh"` (30 wt% KOH solution); `n_flaps` is static.
-
-    **Arguments (settings, fixed for the whole sweep and checked on resume):** constants of the
-    compiled sweep (folded in by XLA), so a new value, `n_save` included, compiles a new sweep: once
-    per sweep, not per design (the sample count is not padded as in a top-level `simulate`).
-    - `n_flaps`, `fluid`: values used when they are not swept.
-    - `t_end`: simulated time, µs; `n_save`: samples over `[0, t_end]` the metrics are measured on.
-    - `rtol`, `atol`, `max_steps`, `stiffness_model`, `drag_model`: passed to `simulate` /
-      `HingeDesign` (`None` tolerances: the simulation's defaults).
-    - `solver`: `"kvaerno5"` (implicit, safe for stiff hinges: `simulation.implicit_solver()`) or
-      `"tsit5"` (explicit; much cheaper per step on non-stiff designs, e.g. in air, but see docs/physics.md,
-      "Numerics", on gradients at loose tolerances).
-
-    **Outputs** per design: per joint (dim `joint`) `rise_time`, `t10`, `t90`, `overshoot` (%),
-    `peak_time`, `settling_time` (µs), `final_error` (rad), flags `rise_ill_conditioned`,
-    `settling_ill_posed`; per design `stiffness`, `drag`, `hinge_length`, `num_steps`, and `result`
-    (`origami_jax.simulation.RESULTS` codes; −1 = invalid input). Floats are NaN where `result != 0`.
-    """
-    import diffrax
-    import jax.numpy as jnp
-
-    from ..chain import accordion_system
-    from ..simulation import (
-        DEFAULT_ATOL,
-        DEFAULT_RTOL,
-        RESULTS,
-        SaveAt,
-        SolveOptions,
-        Step,
-        implicit_solver,
-        response_metrics,
-        simulate,
-    )
-    from ..system import AIR, KOH_SOLUTION, MICRO, Fluid, HingeDesign
-
-    # Not the simulation's default (`StiffnessSwitching`): under `vmap` its switch would run both the
-    # explicit and the implicit step for every member; a sweep picks one.
-    solvers = {"kvaerno5": implicit_solver(), "tsit5": diffrax.Tsit5()}
-    if solver not in solvers:
-        raise ValueError(f"solver must be one of {sorted(solvers)}, got {solver!r}.")
-    if fluid not in FLUIDS:
-        raise ValueError(f"fluid must be one of {FLUIDS}, got {fluid!r}.")
-    n_flaps = _setting(n_flaps, "n_flaps", low=1, integer=True, high=MAX_FLAPS)
-    t_end = _setting(t_end, "t_end", low=0.0)
-    n_save = _setting(n_save, "n_save", low=2, integer=True, high=MAX_SAMPLES)
-    max_steps = _setting(max_steps, "max_steps", low=1, integer=True)
-    rtol = DEFAULT_RTOL if rtol is None else _setting(rtol, "rtol", low=0.0)
-    atol = DEFAULT_ATOL if atol is None else _setting(atol, "atol", low=0.0)
-    literature = HingeDesign.literature(MICRO)
-    floats = [n for n, u in ACCORDION_PARAMETERS.items() if n not in ("n_flaps", "fluid")]
-    defaults = {n: float(getattr(literature, n)) for n in floats if n not in ("k_scale", "b_scale")}
-    defaults.update(k_scale=1.0, b_scale=1.0)
-    densities = [float(f.to(MICRO).density) for f in (AIR, KOH_SOLUTION)]
-
-    def design_of(params: Mapping[str, Any]):
-        n = params.get("n_flaps", n_flaps)
-        if not isinstance(n, int) or not 1 <= n <= MAX_FLAPS:
-            raise ValueError(f"n_flaps must be an integer from 1 to {MAX_FLAPS}, got {n!r}.")
-        swept = {k: jnp.asarray(params[k], dtype=float) for k in defaults if k in params}
-        invalid = jnp.zeros((), dtype=bool)
-        for value in swept.values():
-            invalid = invalid | ~(jnp.isfinite(value) & (value > 0))
-        if "theta_final" in swept:  # a fold angle: at most π (see HingeDesign)
-            invalid = invalid | (swept["theta_final"] > jnp.pi)
-        # Parameters not swept stay Python constants: XLA folds them into the compiled kernel (a
-        # chain whose geometry is not swept has constant masses and inertias, which made the
-        # width x strain benchmark sweep 2.2x faster than with every default traced per design).
-        safe: dict[str, Any] = dict(defaults)
-        safe.update({k: jnp.where(invalid, defaults[k], v) for k, v in swept.items()})
-        density = jnp.asarray(densities)[params.get("fluid", FLUIDS.index(fluid))]
-        design = HingeDesign(
-            **safe,
-            fluid=Fluid(density, MICRO, "swept"),
-            stiffness_model=stiffness_model,
-            drag_model=drag_model,
-            units=MICRO,
-        )
-        return design, n, invalid, safe
-
-    def cost(params: Mapping[str, Any]):
-        # Steps of an adaptive solve scale with the fastest natural frequency times the run length:
-        # ω_max² = λ_max(M(0)⁻¹ K), from the symmetric K^½ M⁻¹ K^½ (eigvalsh runs on every backend).
-        design, n, invalid, _ = design_of(params)
-        system = accordion_system(design, n)
-        root_k = jnp.sqrt(system.hinges.stiffness)
-        m_inverse = jnp.linalg.inv(system.mechanism.mass_matrix(jnp.zeros(n)))
-        omega_max = jnp.sqrt(jnp.max(jnp.linalg.eigvalsh(root_k[:, None] * m_inverse * root_k)))
-        return jnp.where(invalid, jnp.inf, omega_max * t_end)
-
-    def fn(params: Mapping[str, Any]) -> dict[str, Any]:
-        design, n, invalid, _ = design_of(params)
-        system = accordion_system(design, n)
-        stiffness, drag = system.hinges.stiffness, system.drag.coefficient
-        trajectory = simulate(
-            system,
-            Step(),
-            SolveOptions(
-                saveat=SaveAt(n=n_save),
-                solver=solvers[solver],
-                rtol=rtol,
-                atol=atol,
-                max_steps=max_steps,
-                throw=False,
-            ),
-            t1=t_end,
-        )
-        metrics = response_metrics(trajectory)
-        result = jnp.where(invalid, INVALID_INPUT, trajectory.result._value).astype(jnp.int32)
-        failed = result != 0
-
-        def masked(x):
-            return jnp.where(failed, jnp.nan, x)
-
-        return {
-            "rise_time": masked(metrics.rise_time),
-            "t10": masked(metrics.t10),
-            "t90": masked(metrics.t90),
-            "overshoot": masked(metrics.overshoot),
-            "peak_time": masked(metrics.peak_time),
-            "settling_time": masked(metrics.settling_time),
-            "final_error": masked(metrics.final_error),
-            "rise_ill_conditioned": metrics.rise_ill_conditioned,
-            "settling_ill_posed": metrics.settling_ill_posed,
-            "stiffness": masked(stiffness[0]),
-            "drag": masked(drag[0]),
-            "hinge_length": masked(design.hinge_length()),
-            "num_steps": jnp.asarray(trajectory.stats["num_steps"], dtype=jnp.int32),
-            "result": result,
-        }
-
-    joint = ("joint",)
-    messages = {INVALID_INPUT: "invalid input"}
-    messages.update({int(item._value): name for name, item in RESULTS._name_to_item.items()})
-    return Kernel(
-        fn=fn,
-        never_raises=True,  # bad values come back as INVALID_INPUT
-        name="accordion-step",
-        settings={
-            "n_flaps": n_flaps,
-            "fluid": fluid,
-            "t_end_us": t_end,
-            "n_save": n_save,
-            "rtol": rtol,
-            "atol": atol,
-            "max_steps": max_steps,
-            "stiffness_model": stiffness_model,
-            "drag_model": drag_model,
-            "solver": solver,
-            "defaults": defaults,
-        },
-        parameters=ACCORDION_PARAMETERS,
-        static=("n_flaps",),
-        output_units={
-            "rise_time": "us",
-            "t10": "us",
-            "t90": "us",
-            "overshoot": "%",
-            "peak_time": "us",
-            "settling_time": "us",
-            "final_error": "rad",
-            "stiffness": "pN m/rad",
-            "drag": "pN m us2/rad2",
-            "hinge_length": "um",
-        },
-        output_dims={
-            n: joint
-            for n in (
-                "rise_time",
-                "t10",
-                "t90",
-                "overshoot",
-                "peak_time",
-                "settling_time",
-                "final_error",
-                "rise_ill_conditioned",
-                "settling_ill_posed",
-            )
-        },
-        result_messages=messages,
-        cost=cost,
-        categories={"fluid": FLUIDS},
-    )
 
 
 VERTEX_PARAMETERS = {"n_creases": "", "closed": "", "seed": "", "p": ""}
@@ -311,19 +68,12 @@ def vertex_unfold(
     `certified`, `accepted_steps`, `energy`, `min_clearance` (rad), `max_abs_fold` (rad), `max_residual`, per crease (dim `crease`) `sign_changes`, and `result`
     (0 = a verdict was reached, 1 = step budget exhausted, −1 = invalid input).
     """
-    import jax
-    import jax.numpy as jnp
-    import numpy as np
-
-    from ..vertex import DEFAULT_P, RESULTS, DescentSettings, random_vertex
-    from ..vertex import unfold_kernel as descend
-
     if energy not in DEFAULT_P:
         raise ValueError(f"energy must be one of {sorted(DEFAULT_P)}, got {energy!r}.")
-    p_default = float(DEFAULT_P[energy] if p is None else _setting(p, "p", low=0.0))
-    n_creases = _setting(n_creases, "n_creases", low=3, integer=True)
-    max_steps = _setting(max_steps, "max_steps", low=1, integer=True)
-    max_fold_deg = _setting(max_fold_deg, "max_fold_deg", low=0.0, high=180.0)
+    p_default = float(DEFAULT_P[energy] if p is None else check_setting(p, "p", low=0.0))
+    n_creases = check_setting(n_creases, "n_creases", low=3, integer=True)
+    max_steps = check_setting(max_steps, "max_steps", low=1, integer=True)
+    max_fold_deg = check_setting(max_fold_deg, "max_fold_deg", low=0.0, high=180.0)
     if not isinstance(closed, bool):
         raise ValueError(f"setting closed must be true or false, got {closed!r}.")
     settings = jax.tree.map(lambda v: float(v), DescentSettings())
@@ -395,43 +145,54 @@ def vertex_unfold(
     )
 
 
-def net_fold(**settings: Any) -> Kernel:
+def net_fold(*, net: str = "cube_net_01", **settings: Any) -> Kernel:
     """Sweep kernel `"net-fold"`: does a net, or a crease pattern with closed loops, fold? The fold
     kernel that lives beside the patterns (`origami_jax.net.fold_kernel`, `Net.kernel`) of the
-    pattern the setting `net` names (a catalogue name or `.fold` path; default
-    `"cube_net_01"`), its other settings flat as a sweep's config gives them
-    (`origami_jax.net.net_fold_model` lists them)."""
-    from ..net._kernel import net_fold_model
+    pattern `net` names (a catalogue name or a `.fold` path, `origami_jax.loops.load_pattern`;
+    default `"cube_net_01"`), with flat settings as a sweep's config gives them (every one checked
+    before the pattern is read):
 
-    return net_fold_model(**settings)
+    - the pattern's physics (`Net.with_model`): `contact` (default `True`), `drag` (`"panel"`),
+      `hinges` (`"point"`), `contact_sampling` (`(4, 2)`);
+    - the solve's: `t_end` (µs, default 1500), `n_save` (301), `rtol`, `atol` (`None`: the
+      simulation's), `max_steps` (200,000);
+    - the verdict's: `angle_tolerance_deg` (3) and `seam_tolerance` (0.01);
+    - `fold_kernel`'s others: `fluid`, `design`, `bias`, `targets`, `hinge_lengths`.
 
-
-def design_settings(design) -> dict[str, Any]:
-    """A `HingeDesign` (or any equinox module) as JSON-able settings: every field by name, arrays
-    as numbers or lists, nested modules as dictionaries, static values as text."""
-    import numpy as np
-
-    out: dict[str, Any] = {}
-    for field in dataclasses.fields(design):
-        value = getattr(design, field.name)
-        if dataclasses.is_dataclass(value) and not isinstance(value, type):
-            out[field.name] = design_settings(value)
-        elif value is None or isinstance(value, bool | int | float | str):
-            out[field.name] = value
-        elif hasattr(value, "shape"):
-            out[field.name] = np.asarray(value, dtype=float).tolist()
-        else:
-            out[field.name] = str(value)
-    return out
-
-
-def eqx_tree_at_fields(design, values: Mapping[str, Any]):
-    """`design` with the named top-level fields replaced (traced values welcome)."""
-    import equinox as eqx
-
-    names = list(values)
-    return eqx.tree_at(
-        lambda d: tuple(getattr(d, n) for n in names), design, tuple(values[n] for n in names)
+    **Raises:** `TypeError` for an unknown setting (`get_model` says which), `ValueError` for a bad
+    one.
+    """
+    model = {k: settings.pop(k) for k in ("contact", "drag", "hinges") if k in settings}
+    sampling = settings.pop("contact_sampling", CONTACT_SAMPLING)
+    solve = {
+        k: settings.pop(k)
+        for k in ("t_end", "n_save", "rtol", "atol", "max_steps")
+        if k in settings
+    }
+    angle = settings.pop("angle_tolerance_deg", 3.0)
+    seam = settings.pop("seam_tolerance", 0.01)
+    unknown = sorted(set(settings) - {"fluid", "design", "bias", "targets", "hinge_lengths"})
+    if unknown:
+        raise TypeError(f"net-fold has no setting(s) {unknown}")
+    t_end = check_setting(solve.get("t_end", 1500.0), "t_end", low=0.0)
+    n_save = check_setting(
+        solve.get("n_save", 301), "n_save", low=2, integer=True, high=MAX_SAMPLES
+    )
+    max_steps = check_setting(solve.get("max_steps", 200_000), "max_steps", low=1, integer=True)
+    rtol = solve.get("rtol")
+    atol = solve.get("atol")
+    rtol = DEFAULT_RTOL if rtol is None else check_setting(rtol, "rtol", low=0.0)
+    atol = DEFAULT_ATOL if atol is None else check_setting(atol, "atol", low=0.0)
+    tolerances = VerdictTolerances.from_degrees(angle, seam)
+    sampling = check_kernel_sampling(model.get("contact", True), sampling)
+    pattern = load_pattern(net).with_model(**model, contact_sampling=sampling)
+    return fold_kernel(
+        pattern,
+        solve=FOLD_KERNEL_SOLVE.replace(
+            t1=t_end, saveat=SaveAt(n=n_save), rtol=rtol, atol=atol, max_steps=max_steps
+        ),
+        tolerances=tolerances,
+        **settings,
     )
 
 

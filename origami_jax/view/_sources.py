@@ -278,8 +278,8 @@ def sweep_member_system(dataset: Any, member: int | None) -> tuple[Any, Any, dic
     **Returns:** `(system, design, settings, description)`. **Raises:** `ValueError` for another
     model, a missing or out-of-range member.
     """
-    from ..chain import accordion_system
-    from ..sweep._kernels import ACCORDION_PARAMETERS, FLUIDS
+    from .._kernel import FLUIDS
+    from ..chain import ACCORDION_PARAMETERS, accordion_system
     from ..system import AIR, KOH_SOLUTION, MICRO, Fluid, HingeDesign
 
     model = dataset.attrs.get("model")

@@ -1,8 +1,27 @@
-"""`Kernel`: a per-design function plus what a sweep needs to label and check its results."""
+"""`Kernel`: a per-design function plus what a sweep needs to label and check its results, and the
+small helpers every kernel builder shares (settings checked before anything compiles, a design's
+fields as settings and replaced by swept values, the result code of an invalid design).
+
+It sits at the bottom of the package (docs/development.md, "Layers"): a pattern's sweep kernel is
+part of the pattern contract (`origami_jax.system.AbstractPattern.kernel`), so the packages that
+implement patterns (`chain`, `net`, `loops`) build their kernels beside them, and the sweep engine
+above runs them. Its public face is `origami_jax.sweep` (`Kernel`).
+"""
 
 import dataclasses
+import math
 from collections.abc import Callable, Mapping
 from typing import Any
+
+import equinox as eqx
+import numpy as np
+
+# Result code for a design whose parameters are outside the model's domain (non-positive or
+# non-finite lengths, strains...). The kernel then computes a harmless stand-in design and marks it.
+INVALID_INPUT = -1
+
+# The fluids a kernel's `fluid` setting or parameter names, in the order of its category index.
+FLUIDS = ("air", "koh")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -85,3 +104,54 @@ def as_kernel(fn: Callable[..., Any] | Kernel) -> Kernel:
     module = getattr(fn, "__module__", None) or ""
     qualname = getattr(fn, "__qualname__", None) or type(fn).__name__
     return Kernel(fn=fn, name=f"{module}.{qualname}".lstrip("."))
+
+
+def check_setting(
+    value: Any,
+    name: str,
+    *,
+    low: float | int,
+    integer: bool = False,
+    high: float | int | None = None,
+) -> Any:
+    """A numeric model setting, checked before anything compiles: a number (not a string or a
+    boolean), finite, `> low` (or `>= low` for integers) and at most `high`."""
+    kind = "an integer" if integer else "a number"
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise ValueError(f"setting {name} must be {kind}, got {value!r}.")
+    if integer and not float(value).is_integer():
+        raise ValueError(f"setting {name} must be an integer, got {value!r}.")
+    ok = math.isfinite(value) and (value >= low if integer else value > low)
+    if high is not None:
+        ok = ok and value <= high
+    if not ok:
+        span = f">= {low}" if integer else f"> {low:g}"
+        span += "" if high is None else f" and <= {high}"
+        raise ValueError(f"setting {name} must be finite and {span}, got {value!r}.")
+    return int(value) if integer else float(value)
+
+
+def design_settings(design) -> dict[str, Any]:
+    """A `HingeDesign` (or any equinox module) as JSON-able settings: every field by name, arrays
+    as numbers or lists, nested modules as dictionaries, static values as text."""
+    out: dict[str, Any] = {}
+    for field in dataclasses.fields(design):
+        value = getattr(design, field.name)
+        if dataclasses.is_dataclass(value) and not isinstance(value, type):
+            out[field.name] = design_settings(value)
+        elif value is None or isinstance(value, bool | int | float | str):
+            out[field.name] = value
+        elif hasattr(value, "shape"):
+            out[field.name] = np.asarray(value, dtype=float).tolist()
+        else:
+            out[field.name] = str(value)
+    return out
+
+
+def replace_fields(design, values: Mapping[str, Any]):
+    """`design` (an equinox module) with the named top-level fields replaced (traced values
+    welcome)."""
+    names = list(values)
+    return eqx.tree_at(
+        lambda d: tuple(getattr(d, n) for n in names), design, tuple(values[n] for n in names)
+    )
