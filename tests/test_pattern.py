@@ -178,8 +178,8 @@ class _Stop(Exception):
 
 
 def _counting_loader(monkeypatch):
+    import origami_jax.fab_yield._estimate as estimate
     import origami_jax.loops as loops
-    import origami_jax.sweep as sweep_package
 
     calls = []
     original = loops.load_pattern
@@ -191,8 +191,10 @@ def _counting_loader(monkeypatch):
     def stop(*args, **kwargs):
         raise _Stop  # before anything compiles: the kernel is built, the pattern read
 
+    # Where the names are read: the command's (loaded when it runs) and the estimate's (at its top).
     monkeypatch.setattr(loops, "load_pattern", counted)
-    monkeypatch.setattr(sweep_package, "sweep", stop)
+    monkeypatch.setattr(estimate, "load_pattern", counted)
+    monkeypatch.setattr(estimate, "sweep", stop)
     return calls
 
 
