@@ -214,7 +214,7 @@ def test_bad_estimates_are_refused_before_compiling(tmp_path):
 def test_rtol_reaches_the_solver(monkeypatch):
     # The plumbing only (the sweep is replaced): the tolerance is the kernel's, so a resumed
     # estimate checks it too; atol keeps the defaults' ratio to it.
-    import origami_jax.sweep as sweep_module
+    import origami_jax.fab_yield._estimate as estimate
 
     kernels = []
 
@@ -222,7 +222,7 @@ def test_rtol_reaches_the_solver(monkeypatch):
         kernels.append(kernel)
         raise RuntimeError("stop here")
 
-    monkeypatch.setattr(sweep_module, "sweep", fake_sweep)
+    monkeypatch.setattr(estimate, "sweep", fake_sweep)  # where the estimate reads it
     for rtol, expected in ((1e-5, (1e-5, 1e-7)), (None, (1e-7, 1e-9))):
         solve = SOLVE if rtol is None else SOLVE.replace(rtol=rtol, atol=1e-2 * rtol)
         with pytest.raises(RuntimeError, match="stop here"):

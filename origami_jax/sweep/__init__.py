@@ -12,9 +12,10 @@ ds = ojs.sweep(kernel, space, out="sweep_out", resume=True)   # xarray.Dataset
   log `Range`s), `Table` (explicit designs), `Product` (`a * b`).
 - `sweep(fn, space, ...)`: `fn` is a `Kernel` or a plain function of one design's parameters.
 - Models the command line knows (`origami-jax sweep CONFIG.toml`): `available_models()`,
-  `get_model(name, **options)`: `"accordion-step"` (step-response metrics of the n-flap accordion)
-  and `"vertex-unfold"` (unfolding verdicts of random single vertices); kernels import the physics
-  when built. `load_config(path)` reads a sweep TOML file.
+  `get_model(name, **options)`: `"accordion-step"` (step-response metrics of the n-flap accordion,
+  the accordion's own kernel `origami_jax.chain.accordion_step`), `"vertex-unfold"` (unfolding
+  verdicts of random single vertices) and `"net-fold"` (a net's or loop pattern's fold kernel,
+  `origami_jax.net.fold_kernel`). `load_config(path)` reads a sweep TOML file.
 
 **Several devices, several hosts.** On one host the batch axis is sharded over
 `jax.local_devices()` (on CPU, `XLA_FLAGS=--xla_force_host_platform_device_count=N` set before
