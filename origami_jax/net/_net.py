@@ -21,9 +21,7 @@ Lengths: the FOLD file's `frame_unit` is converted into the design's unit system
 """
 
 import dataclasses
-import math
 import os
-import warnings
 from typing import Any, ClassVar, final
 
 import equinox as eqx
@@ -55,7 +53,16 @@ from ..fold import (
 )
 from ..simulation import SeamGaps, assess, fold_outcome, fold_pattern
 from ..system import MICRO, FoldingSystem, HingeDesign, HingeDrag, Hinges
-from ._pattern import AbstractPanelPattern, HostCache, default_design
+from ._pattern import (
+    AbstractPanelPattern,
+    HostCache,
+    check_loader_arguments,
+    check_per_crease,
+    default_design,
+    front_release,
+    unit_front_direction,
+    warn_if_hinges_wider_than_creases,
+)
 from ._strip import StripTree, strip_tree
 from ._tree import PanelTree, panel_tree
 
@@ -458,47 +465,6 @@ def frame_assignment(key_assignment, degrees: np.ndarray, crease_edges) -> tuple
     return tuple(out)
 
 
-def check_per_crease(design: HingeDesign, m: int) -> None:
-    """Every number of `design` one value, or one per crease (`m`): a one-line `ValueError`
-    naming the field otherwise (a list of another length broadcast deep inside JAX)."""
-    for field in dataclasses.fields(design):
-        value = getattr(design, field.name)
-        if isinstance(value, str) or value is None or is_traced(value):
-            continue
-        shape = np.shape(value) if isinstance(value, int | float | np.ndarray | jnp.ndarray) else ()
-        if shape not in ((), (1,), (m,)):
-            raise ValueError(
-                f"design.{field.name} has shape {shape} for {m} creases: give one value, or one per "
-                "crease."
-            )
-
-
-def warn_if_hinges_wider_than_creases(name: str, design: HingeDesign, lengths) -> None:
-    """A `UserWarning` when a hinge of `design` (its `hinge_width`, scalar or one per crease, when
-    not traced) is wider than its crease (`lengths`, `(m,)`, the design's length units). The
-    system still models it that wide (its stiffness, and as an arc its strip's mass, grow with the
-    width), which no device can be: the literature hinge is 200 µm wide, the edge of the
-    catalogue's square panels, and longer than the short creases of some patterns."""
-    width = design.hinge_width
-    if is_traced(width):
-        return
-    lengths = np.asarray(lengths, dtype=float)
-    width = np.broadcast_to(np.asarray(width, dtype=float), lengths.shape)
-    over = np.flatnonzero(width > lengths * (1 + 1e-9))
-    if not over.size:
-        return
-    unit = design.units.length_symbol
-    shown = ", ".join(f"{j} ({width[j]:g} on {lengths[j]:.4g} {unit})" for j in over[:6])
-    more = f" and {over.size - 6} more" if over.size > 6 else ""
-    warnings.warn(
-        f"{name}: hinges wider than their creases, modelled that wide all the same: crease "
-        f"{shown}{more}. Give hinge_width one value per crease, at most its length "
-        "(HingeDesign(..., hinge_width=[...]); origami-jax fold --param hinge_width=W0,W1,...).",
-        UserWarning,
-        stacklevel=3,
-    )
-
-
 def vertex_corners(g: NetGeometry) -> tuple[np.ndarray, np.ndarray]:
     """For every FOLD vertex, a (face, corner) that holds it (folded positions agree across a
     crease, and a vertex on a seam only belongs to one face's side of it)."""
@@ -584,30 +550,6 @@ def release_times_from_front(net: Net, direction, speed: float) -> np.ndarray:
     )
 
 
-def unit_front_direction(direction, plane: np.ndarray, speed) -> np.ndarray:
-    """An etch front's `direction` (2 components in the `plane` basis `(2, 3)`, or 3) as a unit
-    world 3-vector, its `speed` checked. **Raises:** `ValueError` for a zero or misshapen direction
-    or a speed that is not positive and finite."""
-    direction = np.asarray(direction, dtype=float)
-    if direction.shape == (2,):
-        direction = direction @ plane
-    if direction.shape != (3,) or not np.linalg.norm(direction) > 0:
-        raise ValueError("the etch front's direction must be a non-zero 2- or 3-vector.")
-    if not (np.isfinite(speed) and speed > 0):
-        raise ValueError(f"the etch front's speed must be positive, got {speed}.")
-    return direction / np.linalg.norm(direction)
-
-
-def front_release(vertices, midpoints, direction, length_scale: float, speed):
-    """Release times of a straight etch front moving along the unit world `direction` at `speed`
-    (design length units per time unit), from the pattern's first point along it at ``t = 0`` to
-    each crease's midpoint: ``(m · d − min_v v · d) · length_scale / speed``. `vertices` `(n, 3)` and
-    `midpoints` `(m, 3)` in the FOLD unit. Host arrays in, host arrays out; traceable in `direction`
-    and `speed` (the yield surrogate differentiates it)."""
-    start = (vertices @ direction).min()
-    return (midpoints @ direction - start) * length_scale / speed
-
-
 def load_net(
     net: str | os.PathLike | FoldFile | NetGeometry,
     *,
@@ -655,23 +597,6 @@ def load_net(
     else:
         crease_edges = tuple(tuple(int(e) for e in edges) for edges in geometry.crease_edges)
     return Net(geometry, label, float(length_scale), key, crease_edges)
-
-
-def check_loader_arguments(root, length_scale) -> None:
-    """`root` a face index (a whole number) or `None`, `length_scale` a positive finite number or
-    `None` (`load_net`, `load_pattern`): one-line `ValueError`s naming the argument."""
-    if root is not None and (isinstance(root, bool) or not isinstance(root, int | np.integer)):
-        raise ValueError(f"root must be a face index (a whole number), got {root!r}.")
-    if root is not None and root < 0:
-        raise ValueError(f"root must be a face index >= 0, got {root}.")
-    if length_scale is not None:
-        if isinstance(length_scale, bool) or not isinstance(length_scale, int | float | np.number):
-            raise ValueError(f"length_scale must be a number, got {length_scale!r}.")
-        if not (math.isfinite(length_scale) and length_scale > 0):
-            raise ValueError(
-                "length_scale must be a positive finite number (design length units per FOLD "
-                f"length unit), got {length_scale}."
-            )
 
 
 def NetLayout(net: Net, **options) -> Net:  # noqa: N802 (the former layout class)
