@@ -32,6 +32,11 @@ def _as_value(x):
     static: each new value a new compilation); arrays and tracers are kept as they are."""
     if x is None or isinstance(x, jax.Array | np.ndarray):
         return x
+    if isinstance(x, bool | str | bytes):
+        # `np.asarray("1e-5", float)` and `True` would pass as numbers: refuse what is not one.
+        raise ValueError(
+            f"SolveOptions and SaveAt take numbers (or arrays) for times and tolerances, got {x!r}."
+        )
     return np.asarray(x, dtype=float)
 
 
