@@ -137,6 +137,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument(
         "--hinges", choices=("point", "arc"), default="point", help="point creases or bending arcs"
     )
+    parser.add_argument(
+        "--arc-layout",
+        choices=("fillet", "drawn"),
+        default="fillet",
+        help="with --hinges arc (nets): panels trimmed for their strips so seams close "
+        "(default), or strips at the drawn creases",
+    )
     parser.add_argument("--root", type=int, default=None, help="the fixed face (default: largest)")
     parser.add_argument(
         "--length-scale",
@@ -348,6 +355,8 @@ def run(args: argparse.Namespace) -> int:
         )
         if loops:
             options["check_rigid"] = not args.no_rigid_check
+        elif args.hinges == "arc":
+            options["arc_layout"] = args.arc_layout
         system = net.system(design, **options)
         theta0, theta_dot0 = net.start_state(system, bias=args.bias) if loops else (None, None)
     except FileNotFoundError as error:
@@ -449,6 +458,7 @@ def _run(
         contact_sampling=list(sampling),
         drag=args.drag,
         hinges=args.hinges,
+        **({"arc_layout": args.arc_layout} if args.hinges == "arc" and not loops else {}),
         closed_loops=net.n_loops if loops else 0,
         unfolded_from_folded_form=unfolded,
         bias=args.bias,

@@ -119,7 +119,9 @@ class Net:
             elif arc_layout == "drawn":
                 hinge_lengths = design.radius() * jnp.abs(jnp.asarray(angles))
             else:
-                raise ValueError(f"arc_layout must be 'fillet' or 'drawn', got {arc_layout!r}.")
+                raise ValueError(
+                    f"arc_layout must be 'fillet', 'drawn' or an ArcLayout, got {arc_layout!r}."
+                )
         elif hinges != "point":
             raise ValueError(f"hinges must be 'point' or 'arc', got {hinges!r}.")
         tree = panel_tree(
@@ -239,6 +241,10 @@ class Net:
             )
         check_per_crease(design, m)
         warn_if_hinges_wider_than_creases(self.name, design, lengths)
+        if not isinstance(arc_layout, ArcLayout) and arc_layout not in ("fillet", "drawn"):
+            raise ValueError(
+                f"arc_layout must be 'fillet', 'drawn' or an ArcLayout, got {arc_layout!r}."
+            )
         layout = "drawn"
         if hinges == "arc" and arc_layout != "drawn":
             layout = (

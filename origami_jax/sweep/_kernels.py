@@ -573,6 +573,8 @@ def net_fold(
             contact=contact,
             drag=drag,
             hinges=hinges,
+            # Arc hinges: the net is laid out (lithography) for the nominal design, not each sample.
+            **({"layout_design": base} if hinges == "arc" else {}),
             contact_sampling=sampling,
         )
         trajectory = simulate(
