@@ -186,3 +186,61 @@ def _seam_points(drawn, trimmed, shifts, seams, width: int) -> np.ndarray:
             for side in range(2):
                 out[s, e, side] = starts[side] + common * along[side]
     return out
+
+
+def seam_contact_exclusions(tables, layout: ArcLayout, seams, bodies, rest_poses):
+    """`tables` (`PlateTables` of the fillet layout's panels) with the seams' shared corners
+    treated as the point-crease net's: where a seam's two sides meet at one vertex of the drawn
+    net, the primitive pairs of that corner (its vertex against the other side's polygon, the
+    edges at it against the other side's edges at it) are left out and the two bodies are joined,
+    as `build_plate_tables` does for the corner the two panels share in the drawn flat net. The
+    trimmed panels no longer touch there in the flat net; folded to the targets their corners
+    meet again, by construction, as the shared vertex does with point creases.
+
+    `bodies` `(F,)`: each face's body (the base ``tables.n_bodies``); `rest_poses` `(n, 4, 4)`: the
+    bodies' rest poses (the base's is `tables.base_pose`)."""
+    n = tables.n_bodies
+    poses = np.concatenate([np.asarray(rest_poses, dtype=float), tables.base_pose[None]])
+    width = layout.face_coords.shape[1]
+    corners = np.asarray(seams.corners)
+    vertices = np.asarray(seams.vertices)
+    tolerance = 1e-9 * tables.scale
+    drop_vertex, drop_edge = set(), set()
+    joined = tables.joined.copy()
+    for s in range(corners.shape[0]):
+        for e in range(2):
+            if vertices[s, e, 0] != vertices[s, e, 1]:
+                continue  # the two sides meet at no vertex of the drawn net
+            found = []
+            for side in range(2):
+                f, k = divmod(int(corners[s, e, side]), width)
+                body = int(bodies[f])
+                pose = poses[body if body < n else n]
+                local = (layout.face_coords[f, k] - pose[:3, 3]) @ pose[:3, :3]
+                hull = tables.vertices[body]
+                index = np.flatnonzero(np.linalg.norm(hull - local, axis=-1) < tolerance)
+                found.append((body, set(index.tolist())))
+            (a, ia), (b, ib) = found
+            if not ia or not ib:
+                continue
+            drop_vertex |= {(a, i, b) for i in ia} | {(b, i, a) for i in ib}
+            drop_edge |= {(a, i, b, j) for i in ia for j in ib} | {
+                (b, j, a, i) for i in ia for j in ib
+            }
+            joined[a, b] = joined[b, a] = True
+    vertex_face = np.asarray(tables.vertex_face)
+    keep = np.array([tuple(map(int, row)) not in drop_vertex for row in vertex_face], dtype=bool)
+    edge_edge = np.asarray(tables.edge_edge)
+    keep_edge = np.array(
+        [
+            not any((int(r[0]), i, int(r[3]), j) in drop_edge for i in r[1:3] for j in r[4:6])
+            for r in edge_edge
+        ],
+        dtype=bool,
+    )
+    return dataclasses.replace(
+        tables,
+        vertex_face=vertex_face[keep].reshape(-1, 3),
+        edge_edge=edge_edge[keep_edge].reshape(-1, 6),
+        joined=joined,
+    )

@@ -40,7 +40,7 @@ from ..fold._model import length_scale_from_unit
 from ..fold._net_geometry import NetGeometry
 from ..simulation._verdict import SeamGaps
 from ..system import AbstractLayout, FoldingSystem, HingeDesign, HingeDrag, Hinges
-from ._fillet import ArcLayout, fillet_layout
+from ._fillet import ArcLayout, fillet_layout, seam_contact_exclusions
 from ._strip import StripTree, strip_tree
 from ._tree import PanelTree, panel_tree
 
@@ -343,7 +343,20 @@ class Net:
         panels of an `ArcLayout` (`arc_layout`) or as drawn."""
         from ..contact import PlateContact
 
-        return self._host_tables((hinges, "plate"), PlateContact.tables_for, arc_layout)
+        build = PlateContact.tables_for
+        if hinges == "arc" and isinstance(arc_layout, ArcLayout):
+            order = np.asarray(self.geometry.order)
+            bodies = np.empty(len(order), dtype=np.int64)
+            bodies[order] = np.arange(len(order)) - 1
+            bodies[order[0]] = self.n_creases  # the base
+
+            def build(tree):
+                # The seams' corners shared in the drawn net, as with point creases (_fillet).
+                frames = np.asarray(getattr(tree, "panels", tree).frames)
+                tables = PlateContact.tables_for(tree)
+                return seam_contact_exclusions(tables, arc_layout, self.seams, bodies, frames)
+
+        return self._host_tables((hinges, "plate"), build, arc_layout)
 
     def _host_tables(self, key: tuple, build, arc_layout: "str | ArcLayout" = "drawn"):
         """`build(tree)` of the literature design's tree with `key[0]`'s hinges (an arc tree's
