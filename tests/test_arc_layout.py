@@ -8,6 +8,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+from origami_jax.contact import PlateContact
 from origami_jax.net import arc_length, fillet_layout, fillet_trim, load_net
 from origami_jax.net._net import default_design
 from origami_jax.system import KOH_SOLUTION
@@ -122,6 +123,18 @@ def test_folded_fillet_cube_does_not_penetrate(cube):
             assert penetration > 10.0
         else:
             assert penetration < bound
+
+
+def test_fillet_contact_joins_the_seams_corners_as_point_creases_do(cube):
+    """The plate contact of the fillet layout joins the same bodies as the point-crease net's (the
+    seams' corners shared in the drawn net, and the creases), and leaves their corners' pairs out."""
+    net, design = cube
+    arc = net.system(design, hinges="arc").contact.tables
+    point = net.system(design).contact.tables
+    np.testing.assert_array_equal(arc.joined, point.joined)
+    raw = PlateContact.tables_for(net.tree(design, hinges="arc"))
+    assert arc.n_primitives < raw.n_primitives
+    assert not np.array_equal(raw.joined, point.joined)
 
 
 def test_layout_is_drawn_for_the_nominal_design(cube):
