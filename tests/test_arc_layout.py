@@ -186,16 +186,20 @@ def test_traced_design_needs_a_nominal_layout(cube):
     np.testing.assert_allclose(out, net.arc_layout(design).lengths)
 
 
-@pytest.mark.slow  # one simulated folding of the arc-hinged cube
+@pytest.mark.slow  # one simulated folding of the arc-hinged cube (~2 min on 2 busy cores)
 def test_arc_hinged_cube_folds_closed_in_koh():
-    """The cube net on bending strips, laid out as fillets, in the etch bath (nominal design):
-    folded, seams below the verdict's tolerance, no penetration."""
+    """The cube net on bending strips, laid out as fillets, in the etch bath (nominal design),
+    contact's activation gap at 0.4 µm: `folded`, seams below the verdict's tolerance, no
+    penetration. (At the default gap, 1 µm, the contact holds the walls' far corners that far
+    apart and the arcs' deeper chain turns it into seams of 1.7–2.9 µm against the tolerance's
+    2 µm: `misfolded`, every crease within 0.8° of its target.)"""
     net = load_net("cube_net_01")
     design = default_design(net, KOH_SOLUTION)
     system = net.system(design, hinges="arc")
+    system = eqx.tree_at(lambda s: s.contact.activation, system, jnp.asarray(0.4))
     trajectory, report = net.fold(system)
     assert report.verdict == "folded", report
     final = jnp.asarray(trajectory.theta[-1])
-    assert np.max(np.asarray(net.seam_gap_function(system)(final))) < 0.05 * net.panel_size()
+    assert np.max(np.asarray(net.seam_gap_function(system)(final))) < 0.01 * net.panel_size()
     contact = system.contact.report(system.mechanism, final)
     assert float(contact["penetration"]) < float(design.t_structural)
