@@ -27,6 +27,7 @@ import warnings
 from typing import Any
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
@@ -153,7 +154,8 @@ class Net:
         layout once: give the nominal design as `layout_design` to `system`), and as
         `fillet_layout`."""
         angles = self.intended_angles if angles is None else angles
-        radius = design.radius()
+        with jax.ensure_compile_time_eval():  # a concrete design's radius, even under `jit`
+            radius = design.radius()
         if is_traced(radius) or is_traced(angles):
             raise ValueError(
                 "the fillet layout is drawn once, on the host, for one radius and one set of "
@@ -366,8 +368,6 @@ class Net:
         """`build(tree)` of the literature design's tree with `key[0]`'s hinges (an arc tree's
         panels where `arc_layout` puts them), computed once per `key` and layout and kept (host
         geometry, whatever the design's numbers)."""
-        import jax
-
         fillet = key[0] == "arc" and isinstance(arc_layout, ArcLayout)
         if fillet:  # keyed by identity, and kept alive with its tables
             self._tables.setdefault(("kept", id(arc_layout)), arc_layout)
