@@ -260,6 +260,8 @@ class Net:
                     layout_design or design, None if is_traced(targets) else targets
                 )
             )
+        if isinstance(layout, ArcLayout):  # kept: the seam gaps find it (`_layout_of`)
+            self._tables.setdefault(("kept", id(layout)), layout)
         tree = self.tree(design, hinges=hinges, targets=targets, arc_layout=layout)
         # Each crease's bilayer folds to its own target: hinge length ρ |θ_target|.
         per_crease = eqx.tree_at(lambda d: d.theta_final, design, jnp.abs(targets) + 0.0)
@@ -419,15 +421,22 @@ class Net:
         )
 
     def _layout_of(self, mechanism) -> ArcLayout | None:
-        """The kept `ArcLayout` whose panels `mechanism` has (its base polygon and outlines in
-        the flat net), or `None` (the drawn panels)."""
+        """The kept `ArcLayout` whose panels `mechanism` has (its base polygon and its strips'
+        starts in the flat net), or `None` (the drawn panels)."""
         base = mechanism.base_outline()
-        if base is None:
+        joints = getattr(getattr(mechanism, "panels", mechanism), "joints", None)
+        if base is None or joints is None or is_traced(joints.points):
             return None
+        points = np.asarray(joints.points)
+        tolerance = 1e-9 * float(np.max(np.ptp(base, axis=0)))
         for layout in self._tables.values():
             if isinstance(layout, ArcLayout):
                 root, _ = layout.outlines(self.geometry)
-                if root.shape == base.shape and np.allclose(root, base, rtol=0, atol=1e-9):
+                if (
+                    root.shape == base.shape
+                    and np.allclose(root, base, rtol=0, atol=tolerance)
+                    and np.allclose(layout.hinge_points, points, rtol=0, atol=tolerance)
+                ):
                     return layout
         return None
 
