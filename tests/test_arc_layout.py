@@ -150,6 +150,17 @@ def test_layout_is_drawn_for_the_nominal_design(cube):
     assert np.max(_gaps(net, system)) < GEOMETRY_RTOL * net.panel_size()
 
 
+def test_a_layout_drawn_before_is_used(cube):
+    """An `ArcLayout` passed to `system` lays out the panels and measures the seams."""
+    net, design = cube
+    layout = fillet_layout(
+        net.geometry, net.length_scale, 1.1 * float(design.radius()), net.intended_angles
+    )
+    system = net.system(design, hinges="arc", arc_layout=layout, contact=False)
+    np.testing.assert_allclose(system.mechanism.panels.joints.lengths, layout.lengths)
+    assert np.max(_gaps(net, system)) < GEOMETRY_RTOL * net.panel_size()
+
+
 def test_fillet_layout_refuses_what_no_fillet_can_be():
     """A crease folded flat (the accordion's 180°: a semicircle leaves its panels 2ρ apart) and a
     trim through a panel's side (the tetrahedron's 109.5° creases on 200 µm triangles) are refused,
