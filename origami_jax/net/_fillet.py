@@ -24,6 +24,8 @@ import dataclasses
 
 import numpy as np
 
+from .._validate import is_traced
+from ..contact import PlateContact
 from ..fold._net_geometry import NetGeometry
 
 # A vertex is on a crease's line within this fraction of the net's size.
@@ -244,3 +246,36 @@ def seam_contact_exclusions(tables, layout: ArcLayout, seams, bodies, rest_poses
         edge_edge=edge_edge[keep_edge].reshape(-1, 6),
         joined=joined,
     )
+
+
+def fillet_plate_tables(tree, layout: ArcLayout, geometry: NetGeometry, seams):
+    """The plate contact geometry (`PlateTables`) of `tree`, a panel tree on `layout`'s panels,
+    with the seams' corners shared in the drawn net treated as with point creases
+    (`seam_contact_exclusions`)."""
+    order = np.asarray(geometry.order)
+    bodies = np.empty(len(order), dtype=np.int64)
+    bodies[order] = np.arange(len(order)) - 1
+    bodies[order[0]] = len(order) - 1  # the base: body n
+    frames = np.asarray(getattr(tree, "panels", tree).frames)
+    tables = PlateContact.tables_for(tree)
+    return seam_contact_exclusions(tables, layout, seams, bodies, frames)
+
+
+def layout_of(layouts, geometry: NetGeometry, mechanism) -> ArcLayout | None:
+    """The one of `layouts` whose panels `mechanism` has (its base polygon and its strips' starts
+    where the layout puts them in the flat net), or `None` (the drawn panels, or traced ones)."""
+    base = mechanism.base_outline()
+    joints = getattr(getattr(mechanism, "panels", mechanism), "joints", None)
+    if base is None or joints is None or is_traced(joints.points):
+        return None
+    points = np.asarray(joints.points)
+    tolerance = 1e-9 * float(np.max(np.ptp(base, axis=0)))
+    for layout in layouts:
+        root, _ = layout.outlines(geometry)
+        if (
+            root.shape == base.shape
+            and np.allclose(root, base, rtol=0, atol=tolerance)
+            and np.allclose(layout.hinge_points, points, rtol=0, atol=tolerance)
+        ):
+            return layout
+    return None

@@ -41,7 +41,7 @@ from ..fold._model import length_scale_from_unit
 from ..fold._net_geometry import NetGeometry
 from ..simulation._verdict import SeamGaps
 from ..system import AbstractLayout, FoldingSystem, HingeDesign, HingeDrag, Hinges
-from ._fillet import ArcLayout, fillet_layout, seam_contact_exclusions
+from ._fillet import ArcLayout, fillet_layout, fillet_plate_tables, layout_of
 from ._strip import StripTree, strip_tree
 from ._tree import PanelTree, panel_tree
 
@@ -353,16 +353,9 @@ class Net:
 
         build = PlateContact.tables_for
         if hinges == "arc" and isinstance(arc_layout, ArcLayout):
-            order = np.asarray(self.geometry.order)
-            bodies = np.empty(len(order), dtype=np.int64)
-            bodies[order] = np.arange(len(order)) - 1
-            bodies[order[0]] = self.n_creases  # the base
 
             def build(tree):
-                # The seams' corners shared in the drawn net, as with point creases (_fillet).
-                frames = np.asarray(getattr(tree, "panels", tree).frames)
-                tables = PlateContact.tables_for(tree)
-                return seam_contact_exclusions(tables, arc_layout, self.seams, bodies, frames)
+                return fillet_plate_tables(tree, arc_layout, self.geometry, self.seams)
 
         return self._host_tables((hinges, "plate"), build, arc_layout)
 
@@ -421,24 +414,9 @@ class Net:
         )
 
     def _layout_of(self, mechanism) -> ArcLayout | None:
-        """The kept `ArcLayout` whose panels `mechanism` has (its base polygon and its strips'
-        starts in the flat net), or `None` (the drawn panels)."""
-        base = mechanism.base_outline()
-        joints = getattr(getattr(mechanism, "panels", mechanism), "joints", None)
-        if base is None or joints is None or is_traced(joints.points):
-            return None
-        points = np.asarray(joints.points)
-        tolerance = 1e-9 * float(np.max(np.ptp(base, axis=0)))
-        for layout in self._tables.values():
-            if isinstance(layout, ArcLayout):
-                root, _ = layout.outlines(self.geometry)
-                if (
-                    root.shape == base.shape
-                    and np.allclose(root, base, rtol=0, atol=tolerance)
-                    and np.allclose(layout.hinge_points, points, rtol=0, atol=tolerance)
-                ):
-                    return layout
-        return None
+        """The kept `ArcLayout` whose panels `mechanism` has, or `None` (`layout_of`)."""
+        kept = [x for x in self._tables.values() if isinstance(x, ArcLayout)]
+        return layout_of(kept, self.geometry, mechanism)
 
     def assess(self, system: FoldingSystem, trajectory, **kwargs):
         """The verdict on a folding of this net against the pattern's angles and seams
