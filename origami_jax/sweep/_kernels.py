@@ -574,7 +574,7 @@ def net_fold(
             drag=drag,
             hinges=hinges,
             # Arc hinges: the net is laid out (lithography) for the nominal design, not each sample.
-            **({"layout_design": base} if hinges == "arc" else {}),
+            **({"layout_design": base} if hinges == "arc" and not loops else {}),
             contact_sampling=sampling,
         )
         trajectory = simulate(
@@ -636,6 +636,8 @@ def net_fold(
             "contact": contact_kind(contact) or False,
             "drag": drag,
             "hinges": hinges,
+            # Arc hinges on nets are laid out as fillets (stores of the drawn layout differ).
+            **({"arc_layout": "fillet"} if hinges == "arc" and not loops else {}),
             "angle_tolerance_deg": angle_tolerance_deg,
             # Named only when not the default (stores written before it existed stay resumable).
             **({} if seam_tolerance == 0.01 else {"seam_tolerance": seam_tolerance}),
