@@ -80,8 +80,8 @@ def fillet_layout(
     geometry: NetGeometry, length_scale: float, radius, angles, seams=None
 ) -> ArcLayout:
     """The fillet layout of `geometry` (module docstring) for strips of radius `radius` (design
-    length units, one or one per crease) folding to `angles` (rad, `(m,)`); `seams` (`NetGeometry.target_seams` by
-    default) for `ArcLayout.seam_points`.
+    length units, one or one per crease) folding to `angles` (rad, `(m,)`); `seams`
+    (`NetGeometry.target_seams` by default) for `ArcLayout.seam_points`.
 
     **Raises:** `ValueError` for a non-positive radius, an angle of ``|θ| ≥ π`` (the strip is then a
     semicircle or more: no trim puts the panels in the planes of a sharp crease; use the `"drawn"`
