@@ -137,6 +137,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument(
         "--hinges", choices=("point", "arc"), default="point", help="point creases or bending arcs"
     )
+    parser.add_argument(
+        "--arc-layout",
+        choices=("fillet", "drawn"),
+        default="fillet",
+        help="with --hinges arc (nets): panels trimmed for their strips so seams close "
+        "(default), or strips at the drawn creases",
+    )
     parser.add_argument("--root", type=int, default=None, help="the fixed face (default: largest)")
     parser.add_argument(
         "--length-scale",
@@ -341,8 +348,9 @@ def run(args: argparse.Namespace) -> int:
         )
         if loops:
             model["check_rigid"] = not args.no_rigid_check
+        layout = {"arc_layout": args.arc_layout} if args.hinges == "arc" and not loops else {}
         net = net.with_model(**model)
-        system = net.system(design, targets=targets, release_times=release)
+        system = net.system(design, targets=targets, release_times=release, **layout)
         if args.bias:
             net.start_state(system, bias=args.bias)  # refused here, before the output folder
     except FileNotFoundError as error:
@@ -431,6 +439,7 @@ def _run(args, net, system, params, release, sampling, output, unfolded) -> int:
         contact_sampling=list(sampling),
         drag=args.drag,
         hinges=args.hinges,
+        **({"arc_layout": args.arc_layout} if args.hinges == "arc" and not loops else {}),
         closed_loops=net.n_loops if loops else 0,
         unfolded_from_folded_form=unfolded,
         bias=args.bias,

@@ -6,7 +6,8 @@ tree with Featherstone's algorithms in the world frame (CRBA, RNEA, the tree-spa
 [`origami_jax.net.panel_tree`][] builds one from a flat pattern of polygonal plates
 ([`origami_jax.net.polygon_plate`][]). Hinges are point creases ([`origami_jax.net.RevoluteJoints`][])
 or bending arcs ([`origami_jax.net.ArcJoints`][]); [`origami_jax.net.StripTree`][] gives the arcs'
-strips their own mass and inertia ([`origami_jax.net.strip_tree`][]). Fold angles are valley positive.
+strips their own mass and inertia ([`origami_jax.net.strip_tree`][]); a net laid out for them
+([`origami_jax.net.fillet_layout`][]) trims its panels so that its seams close. Fold angles are valley positive.
 
 [`origami_jax.net.Net`][] is a pattern ([`origami_jax.system.AbstractPattern`][]) read from FOLD; it
 and the closed-loop crease patterns built on it ([`origami_jax.loops.CreasePattern`][]) share
@@ -16,6 +17,10 @@ animation and etch fronts (exported here for the loops package) and their sweep 
 """
 
 from ..simulation import SeamGaps as SeamGaps
+from ._fillet import ArcLayout as ArcLayout
+from ._fillet import arc_length as arc_length
+from ._fillet import fillet_layout as fillet_layout
+from ._fillet import fillet_trim as fillet_trim
 from ._joints import AbstractJoints as AbstractJoints
 from ._joints import ArcJoints as ArcJoints
 from ._joints import RevoluteJoints as RevoluteJoints

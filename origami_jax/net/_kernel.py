@@ -192,6 +192,9 @@ def fold_kernel(
             raise ValueError(f"sweep every target[j] of the {m} creases, or none.")
         return jnp.stack([jnp.asarray(a, dtype=float) for a in swept])
 
+    arcs_on_net = pattern.hinges == "arc" and not pattern.n_loops
+    layout = {"layout_design": base} if arcs_on_net else {}
+
     def fn(params):
         design, times, invalid = design_of(params)
         aim = aims_of(params)
@@ -199,7 +202,8 @@ def fold_kernel(
             aim = intended if aim is None else aim
             aim = aim * design.curvature() / base.curvature()
         # The system of this member's design: its numbers are traced, so it is built in the trace.
-        system = pattern.system(design, targets=aim, release_times=times)
+        # Arc hinges on a net: laid out (lithography) for the nominal design, not each sample's.
+        system = pattern.system(design, targets=aim, release_times=times, **layout)
         trajectory = simulate(
             system,
             Step(),
@@ -265,6 +269,8 @@ def fold_kernel(
             "contact": contact_kind(contact) or False,
             "drag": pattern.drag,
             "hinges": pattern.hinges,
+            # Arc hinges on nets are laid out as fillets (stores of the drawn layout differ).
+            **({"arc_layout": "fillet"} if layout else {}),
             "angle_tolerance_deg": tolerances.angle_deg,
             **({} if tolerances.seam == 0.01 else {"seam_tolerance": tolerances.seam}),
             "closed_loops": resume["closed_loops"],

@@ -53,6 +53,7 @@ from ..fold import (
 )
 from ..simulation import SeamGaps, assess, fold_outcome, fold_pattern
 from ..system import MICRO, FoldingSystem, HingeDesign, HingeDrag, Hinges
+from ._fillet import ArcLayout, fillet_layout, fillet_plate_tables, layout_of
 from ._pattern import (
     AbstractPanelPattern,
     HostCache,
@@ -161,26 +162,45 @@ class Net(AbstractPanelPattern):
         *,
         hinges: str = "point",
         targets: Float[ArrayLike, " m"] | None = None,
+        arc_layout: "str | ArcLayout" = "fillet",
+        layout_design: HingeDesign | None = None,
     ) -> PanelTree | StripTree:
         """The panels as a `PanelTree` in the design's units (plates of thickness ``t₁``); with
-        `hinges="arc"` a `StripTree`: bending strips of length ``ρ |θ_target|`` carrying their own
-        mass (areal density ``ρ₁t₁ + ρ₂t₂``, width the design's `hinge_width`)."""
+        `hinges="arc"` a `StripTree`: bending strips carrying their own mass (areal density
+        ``ρ₁t₁ + ρ₂t₂``, width the design's `hinge_width`), laid out by `arc_layout`
+        (`system`: `"fillet"`, the panels trimmed and moved for their strips, lengths
+        ``ρ|θ|`` of `layout_design`'s ``ρ``; an `ArcLayout` drawn before; or `"drawn"`, strips of
+        length ``ρ |θ_target|`` at the drawn creases)."""
         g = self.geometry
         scale = self.length_scale
         order = np.asarray(g.order)
         body_parents = np.asarray(g.body_parents)[1:] - 1  # the root is the fixed base
         outlines = [g.face_coords[f][g.corner_mask[f]] * scale for f in order[1:]]
         base = g.face_coords[order[0]][g.corner_mask[order[0]]] * scale
+        points = g.hinge_points * scale
         hinge_lengths = None
         if hinges == "arc":
-            angles = self.intended_angles if targets is None else np.asarray(targets, float)
-            hinge_lengths = np.asarray(design.radius()) * np.abs(angles)
+            angles = self.intended_angles if targets is None else targets
+            if isinstance(arc_layout, ArcLayout) or arc_layout == "fillet":
+                layout = (
+                    arc_layout
+                    if isinstance(arc_layout, ArcLayout)
+                    else self.arc_layout(layout_design or design, angles)
+                )
+                base, outlines = layout.outlines(g)
+                points, hinge_lengths = layout.hinge_points, layout.lengths
+            elif arc_layout == "drawn":
+                hinge_lengths = design.radius() * jnp.abs(jnp.asarray(angles))
+            else:
+                raise ValueError(
+                    f"arc_layout must be 'fillet', 'drawn' or an ArcLayout, got {arc_layout!r}."
+                )
         elif hinges != "point":
             raise ValueError(f"hinges must be 'point' or 'arc', got {hinges!r}.")
         tree = panel_tree(
             tuple(int(p) for p in body_parents),
             g.hinge_axes,
-            g.hinge_points * scale,
+            points,
             outlines,
             thickness=design.t_structural,
             density=design.structural.density,
@@ -196,6 +216,31 @@ class Net(AbstractPanelPattern):
             thickness=design.t_structural + design.t_hinge,
         )
 
+    def arc_layout(self, design: HingeDesign, angles: ArrayLike | None = None) -> ArcLayout:
+        """The net laid out for bending strips of `design`'s radius ``ρ`` folding to `angles`
+        (rad, default the pattern's): panels trimmed by ``ρ tan(|θ|/2)`` at each crease and
+        moved apart by their strips (`origami_jax.net.fillet_layout`); host geometry, computed
+        once per radius and angles and kept.
+
+        **Raises:** `ValueError` when the radius or the angles are traced (lithography draws the
+        layout once: give the nominal design as `layout_design` to `system`), and as
+        `fillet_layout`."""
+        angles = self.intended_angles if angles is None else angles
+        with jax.ensure_compile_time_eval():  # a concrete design's radius, even under `jit`
+            radius = design.radius()
+        if is_traced(radius) or is_traced(angles):
+            raise ValueError(
+                "the fillet layout is drawn once, on the host, for one radius and one set of "
+                "angles: give a concrete nominal design as layout_design= (and concrete targets), "
+                "or arc_layout='drawn'."
+            )
+        radius = np.broadcast_to(np.asarray(radius, dtype=float), (self.n_creases,))
+        angles = np.asarray(angles, dtype=float)
+        key = ("fillet", tuple(radius.tolist()), tuple(angles.tolist()))
+        return self.host_cache.get(
+            key, lambda: fillet_layout(self.geometry, self.length_scale, radius, angles)
+        )
+
     def system(
         self,
         design: HingeDesign | None = None,
@@ -205,6 +250,8 @@ class Net(AbstractPanelPattern):
         contact: bool | str | None = None,
         drag: str | None = None,
         hinges: str | None = None,
+        arc_layout: "str | ArcLayout | None" = None,
+        layout_design: HingeDesign | None = None,
         added_mass: bool | None = None,
         viscous: bool | None = None,
         contact_sampling: tuple[int, int] | None = None,
@@ -233,15 +280,30 @@ class Net(AbstractPanelPattern):
           ``−b θ̇|θ̇|`` per hinge with ``b`` from the child panel's area and its reach from the crease).
         - `hinges`: `"point"` creases (the paper's model) or bending `"arc"`s of length ``ρ|θ_target|``
           with their strips' own mass (`StripTree`).
+        - `arc_layout` (arc hinges only): where the strips go in the flat net. `"fillet"` (default):
+          each panel trimmed by ``ρ tan(|θ|/2)`` at each crease and the strips, ``ρ|θ|`` long,
+          between the trimmed edges, so that folded to its targets every panel lies where the point
+          creases put it and the seams close (`Net.arc_layout`, docs/physics.md "The hinge is a
+          bending arc"); `"drawn"`: the strips start at the drawn creases and each child hangs
+          at its strip's end, displaced from the point-crease shape (a cube's seams stay open by
+          ~ρ√2); or an `ArcLayout`.
+        - `layout_design`: the design whose radius ``ρ`` draws the fillet layout (lithography: the
+          nominal one), with `targets` (the pattern's angles when `targets` is traced); default
+          `design`. A sample whose films bend more or less then folds off the layout's shape.
         - `added_mass`, `viscous`: the fluid's inertia on every panel and its viscous drag (strip
           theory across each crease, Sader's hydrodynamic function at each hinge's frequency;
           `origami_jax.fluid.fluid_loads`, docs/physics.md "The fluid moves with the flap"); off by
-          default.
+          default, in the etch bath too: there the fluid's inertia is hundreds of times the
+          panels', and on `cube_net_01` in KOH (literature design) it made a fold 3.1x slower with
+          point creases (77 s against 25 s of wall time, compiled, 2 CPU cores) and 2.5x with arcs,
+          and left the cube still moving after 8 ms (`unfinished`) where without it the cube is
+          `folded` by 1.9 ms.
 
         The physics options (`contact` to `contact_sampling`) left `None` are the net's own
         (its fields; `with_model`).
         """
         contact = self.contact if contact is None else contact
+        arc_layout = "fillet" if arc_layout is None else arc_layout
         drag = self.drag if drag is None else drag
         hinges = self.hinges if hinges is None else hinges
         added_mass = self.added_mass if added_mass is None else added_mass
@@ -265,7 +327,22 @@ class Net(AbstractPanelPattern):
             )
         check_per_crease(design, m)
         warn_if_hinges_wider_than_creases(self.name, design, lengths)
-        tree = self.tree(design, hinges=hinges, targets=targets)
+        if not isinstance(arc_layout, ArcLayout) and arc_layout not in ("fillet", "drawn"):
+            raise ValueError(
+                f"arc_layout must be 'fillet', 'drawn' or an ArcLayout, got {arc_layout!r}."
+            )
+        layout = "drawn"
+        if hinges == "arc" and arc_layout != "drawn":
+            layout = (
+                arc_layout
+                if isinstance(arc_layout, ArcLayout)
+                else self.arc_layout(
+                    layout_design or design, None if is_traced(targets) else targets
+                )
+            )
+        if isinstance(layout, ArcLayout):  # kept: the seam gaps find it (`_layout_of`)
+            self.host_cache.get(("kept", id(layout)), lambda: layout)
+        tree = self.tree(design, hinges=hinges, targets=targets, arc_layout=layout)
         # Each crease's bilayer folds to its own target: hinge length ρ |θ_target|.
         per_crease = eqx.tree_at(lambda d: d.theta_final, design, jnp.abs(targets) + 0.0)
         stiffness = per_crease.stiffness(m)
@@ -303,11 +380,13 @@ class Net(AbstractPanelPattern):
         check_sampling(kind, contact_sampling)
         if kind is not None:
             geometry = (
-                {"tables": self.plate_tables(hinges)}
+                {"tables": self.plate_tables(hinges, arc_layout=layout)}
                 if kind == "plate"
                 else {
-                    "tables": self.contact_tables(hinges, sampling=contact_sampling),
-                    "plates": self.plate_tables(hinges),
+                    "tables": self.contact_tables(
+                        hinges, sampling=contact_sampling, arc_layout=layout
+                    ),
+                    "plates": self.plate_tables(hinges, arc_layout=layout),
                 }
             )
             model = PlateContact if kind == "plate" else PanelContact
@@ -322,31 +401,54 @@ class Net(AbstractPanelPattern):
         return FoldingSystem(tree, hinges_, drag_model, contact=contact_model, units=design.units)
 
     def contact_tables(
-        self, hinges: str = "point", *, sampling: tuple[int, int] = CONTACT_SAMPLING
+        self,
+        hinges: str = "point",
+        *,
+        sampling: tuple[int, int] = CONTACT_SAMPLING,
+        arc_layout: "str | ArcLayout" = "drawn",
     ):
         """The panels' contact geometry (`origami_jax.contact.ContactTables`), computed once on the
         host from the pattern (it depends on the geometry only, not on the design's numbers).
-        `sampling`: ``(points_per_edge, rim_points_per_edge)``, as `system`'s `contact_sampling`."""
+        `sampling`: ``(points_per_edge, rim_points_per_edge)``, as `system`'s `contact_sampling`;
+        `arc_layout`: the panels of an `ArcLayout` (`arc_layout`) or as drawn."""
         points_per_edge, rim_points_per_edge = sampling_pair(sampling)
         return self._host_tables(
             (hinges, points_per_edge, rim_points_per_edge),
             lambda tree: PanelContact.tables_for(
                 tree, points_per_edge=points_per_edge, rim_points_per_edge=rim_points_per_edge
             ),
+            arc_layout,
         )
 
-    def plate_tables(self, hinges: str = "point"):
+    def plate_tables(self, hinges: str = "point", *, arc_layout: "str | ArcLayout" = "drawn"):
         """The panels' exact plate geometry (`origami_jax.contact.PlateTables`), computed once on
-        the host from the pattern (geometry only, not the design's numbers)."""
-        return self._host_tables((hinges, "plate"), PlateContact.tables_for)
+        the host from the pattern (geometry only, not the design's numbers); `arc_layout`: the
+        panels of an `ArcLayout` (`arc_layout`) or as drawn."""
+        build = PlateContact.tables_for
+        if hinges == "arc" and isinstance(arc_layout, ArcLayout):
 
-    def _host_tables(self, key: tuple, build):
-        """`build(tree)` of the literature design's tree with `key[0]`'s hinges, computed once per
-        `key` and kept in the `host_cache` (host geometry, whatever the design's numbers)."""
+            def build(tree):
+                return fillet_plate_tables(tree, arc_layout, self.geometry, self.seams)
+
+        return self._host_tables((hinges, "plate"), build, arc_layout)
+
+    def _host_tables(self, key: tuple, build, arc_layout: "str | ArcLayout" = "drawn"):
+        """`build(tree)` of the literature design's tree with `key[0]`'s hinges (an arc tree's
+        panels where `arc_layout` puts them), computed once per `key` and layout and kept in the
+        `host_cache` (host geometry, whatever the design's numbers)."""
+        fillet = key[0] == "arc" and isinstance(arc_layout, ArcLayout)
+        if fillet:  # keyed by identity, and kept alive with its tables
+            self.host_cache.get(("kept", id(arc_layout)), lambda: arc_layout)
+            key = (*key, id(arc_layout))
 
         def tables():
             with jax.ensure_compile_time_eval():
-                return build(self.tree(HingeDesign.literature(), hinges=key[0]))
+                tree = self.tree(
+                    HingeDesign.literature(),
+                    hinges=key[0],
+                    arc_layout=arc_layout if fillet else "drawn",
+                )
+                return build(tree)
 
         return self.host_cache.get(("tables", *key), tables)
 
@@ -379,7 +481,17 @@ class Net(AbstractPanelPattern):
         built: the larger distance between the two sides' corners at either end of the seam, from
         the mechanism's body poses; a `SeamGaps`, which also names the two bodies each seam joins
         (for the verdict's seams closed by contact)."""
-        return seam_gap_function(self.geometry, self.seams, system.mechanism, self.length_scale)
+        mechanism = system.mechanism
+        layout = self._layout_of(mechanism)
+        points = None if layout is None else layout.seam_points
+        return seam_gap_function(
+            self.geometry, self.seams, mechanism, self.length_scale, points=points
+        )
+
+    def _layout_of(self, mechanism) -> ArcLayout | None:
+        """The kept `ArcLayout` whose panels `mechanism` has, or `None` (`layout_of`)."""
+        kept = [x for x in self.host_cache.values() if isinstance(x, ArcLayout)]
+        return layout_of(kept, self.geometry, mechanism)
 
     def assess(self, system: FoldingSystem, trajectory, *, bias: float = 0.0, **kwargs):
         """The verdict on a folding of this net against the pattern's angles and seams
@@ -718,24 +830,38 @@ class _CornerGaps(eqx.Module):
         return jnp.max(distance, axis=-1)
 
 
-def seam_gap_function(tree_geometry, seams, mechanism, length_scale: float) -> SeamGaps:
+def seam_gap_function(
+    tree_geometry, seams, mechanism, length_scale: float, *, points=None
+) -> SeamGaps:
     """A traceable ``q ↦`` gap of each seam (design length units, `(s,)`): the larger distance
     between the two sides' corners at either end of the seam, from `mechanism`'s body poses, as a
     `SeamGaps` (also the two bodies each seam joins, the base as ``mechanism.n_bodies``).
-    `tree_geometry` is the panel tree's `NetGeometry` (faces in body order), `seams` its seams."""
+    `tree_geometry` is the panel tree's `NetGeometry` (faces in body order), `seams` its seams;
+    `points` `(s, 2, 2, 3)`: the seams' ends on each side in the flat net (an `ArcLayout`'s
+    `seam_points`: where both sides have material) instead of the outlines' corners."""
     g = tree_geometry
     width = g.face_coords.shape[1]
     position = {int(f): i - 1 for i, f in enumerate(np.asarray(g.order))}
     body = np.zeros((len(seams), 2, 2), dtype=np.int64)
     local = np.zeros((len(seams), 2, 2, 3))
     outlines = mechanism.outlines()
+    if points is not None:
+        # The bodies' rest poses (at q = 0, the body frames), host geometry.
+        rest = np.asarray(getattr(mechanism, "panels", mechanism).frames)
     for s_ in range(len(seams)):
         for e in range(2):
             for side in range(2):
                 f, k = divmod(int(seams.corners[s_, e, side]), width)
                 b = position[f]
                 body[s_, e, side] = b
-                local[s_, e, side] = g.face_coords[f, k] * length_scale if b < 0 else outlines[b][k]
+                if points is not None:
+                    # The flat net's point in body b's frame (the base's is the world).
+                    x = np.asarray(points[s_, e, side], dtype=float)
+                    local[s_, e, side] = x if b < 0 else (x - rest[b, :3, 3]) @ rest[b, :3, :3]
+                else:
+                    local[s_, e, side] = (
+                        g.face_coords[f, k] * length_scale if b < 0 else outlines[b][k]
+                    )
     # A seam joins one side of one face to one side of another: both ends name the same two faces.
     assert np.array_equal(body[:, 0], body[:, 1]), "a seam's ends on different faces"
     # Body −1 (the root face, posed by the world frame below) is the contact tables' base, n_bodies.

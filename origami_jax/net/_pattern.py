@@ -48,6 +48,10 @@ class HostCache:
             self._values[key] = build()
         return self._values[key]
 
+    def values(self) -> list:
+        """Every value kept (a list: the cache may grow while it is read)."""
+        return list(self._values.values())
+
     def __contains__(self, key: Hashable) -> bool:
         return key in self._values
 
