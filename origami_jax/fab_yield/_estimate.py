@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 
 from .._kernel import design_settings
+from .._validate import is_traced
 from ..fold import FoldFormatError
 from ..loops import load_pattern
 from ..net import FOLD_KERNEL_SOLVE
@@ -436,6 +437,8 @@ def yield_estimate(
         design = pattern.default_design(KOH_SOLUTION)
     m = pattern.n_hinges
     t_end = solve.t1 if solve.t1 is not None else FOLD_KERNEL_SOLVE.t1
+    if np.ndim(t_end) == 0 and not is_traced(t_end):
+        t_end = float(t_end)  # SolveOptions keeps its times as arrays
     if release_times is not None:
         release_times = np.asarray(release_times, dtype=float)
         if release_times.shape != (m,):
