@@ -138,3 +138,62 @@ def test_cli_tolerance_flags_are_checked_before_compiling(tmp_path, capsys):
         argv = [command, NET, flag, value, "--out", str(tmp_path / command)]
         assert main(argv) == 2, argv
         assert message in capsys.readouterr().err
+
+
+def test_derived_seam_tolerances_match_the_host_geometry(corner_cube):
+    """`derived_seam_tolerances` (traced seam gaps, `seam=None`) against the same formula evaluated
+    with the host's rigid folding of the flat pattern (`Net.seam_gaps`, an independent computation
+    from the FOLD geometry): each seam's gap at the intended angles plus the root-sum-square over
+    creases of the larger gap change when that crease alone is off by the angle tolerance."""
+    net, system = corner_cube
+    alpha = sim.VerdictTolerances().angle
+    intended = net.intended_angles
+    base = net.seam_gaps(intended)
+    spread = []
+    for j in range(net.n_creases):
+        step = np.zeros(net.n_creases)
+        step[j] = alpha
+        spread.append(
+            np.maximum(
+                np.abs(net.seam_gaps(intended + step) - base),
+                np.abs(net.seam_gaps(intended - step) - base),
+            )
+        )
+    expected = base + np.sqrt(np.sum(np.square(spread), axis=0))
+    derived = np.asarray(
+        sim.derived_seam_tolerances(net.seam_gap_function(system), intended, alpha)
+    )
+    np.testing.assert_allclose(derived, expected, rtol=1e-9)
+    # A crease off by α opens a seam along a 200 µm panel by about 200 α (10.5 µm): the derived
+    # tolerance is of that order, five times the default fraction's 2 µm.
+    assert np.all(derived > 200.0 * alpha) and np.all(derived < 2 * 200.0 * alpha * np.sqrt(2))
+
+
+def test_a_derived_seam_tolerance_judges_as_the_creases_do(corner_cube):
+    """With `seam=None` the corner cube held with a crease 1° short (its seam 3.5 µm open) is
+    folded where the default fraction (2 µm) calls it misfolded; 3.5° short it fails the angle
+    tolerance either way. The traced verdict agrees, the report prints the per-seam tolerance, and
+    the settings name it."""
+    net, system = corner_cube
+    derived = sim.VerdictTolerances(seam=None)
+    assert derived.to_dict()["seam_fraction"] == "derived"
+    assert derived.seam_equivalent_angle == derived.angle
+    with pytest.raises(ValueError, match="derived per seam"):
+        derived.seam_length(200.0)
+    one = _held(system, net.intended_angles - np.radians([0.0, 1.0]))
+    assert net.assess(system, one).verdict == "misfolded"
+    report = net.assess(system, one, tolerances=derived)
+    assert report.verdict == "folded", report.summary()
+    assert np.all(np.asarray(report.seam_tolerance) > report.seam_gaps)
+    codes = sim.VERDICT_CODES
+    assert int(net.outcome(system, one, tolerances=derived).code) == codes[sim.FoldVerdict.FOLDED]
+    far = _held(system, net.intended_angles - np.radians([0.0, 3.5]))
+    assert net.assess(system, far, tolerances=derived).verdict == "misfolded"
+
+
+def test_the_cli_takes_a_derived_seam_tolerance():
+    from origami_jax.cli._common import seam_tolerance_value
+
+    assert seam_tolerance_value("derived") is None and seam_tolerance_value("0.02") == 0.02
+    with pytest.raises(Exception, match="'derived'"):
+        seam_tolerance_value("two percent")

@@ -187,6 +187,19 @@ def positive(value: float, flag: str, unit: str = "") -> float:
     return value
 
 
+def seam_tolerance_value(text: str) -> float | None:
+    """`--seam-tolerance`'s value: a fraction of the panel size, or `derived` (`None`: each seam's
+    tolerance from the angle tolerance and the geometry)."""
+    if text.strip().lower() == "derived":
+        return None
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected a fraction of the panel size or 'derived', got {text!r}"
+        ) from None
+
+
 def in_range(value: float, flag: str, low: float, high: float, *, what: str = "") -> float:
     """`low < value < high` (open interval)."""
     if not (math.isfinite(value) and low < value < high):

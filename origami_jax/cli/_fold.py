@@ -26,6 +26,7 @@ from ._common import (
     in_range,
     int_range,
     positive,
+    seam_tolerance_value,
 )
 from ._panels import check_has_creases, check_panels_thicker_than_film, check_targets
 
@@ -175,9 +176,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     parser.add_argument(
         "--seam-tolerance",
-        type=float,
+        type=seam_tolerance_value,
         default=0.01,
-        help="seam gap tolerance, a fraction of the largest panel's size (default 0.01)",
+        help="seam gap tolerance, a fraction of the largest panel's size (default 0.01), or "
+        "'derived': each seam's from the angle tolerance and the geometry",
     )
     parser.add_argument(
         "--progress",
@@ -291,7 +293,10 @@ def run(args: argparse.Namespace) -> int:
     if args.length_scale is not None:
         positive(args.length_scale, "--length-scale", "µm per FOLD length unit")
     in_range(args.tolerance, "--tolerance", 0.0, 180.0, what=" degrees")
-    in_range(args.seam_tolerance, "--seam-tolerance", 0.0, 1.0, what=" (a fraction of the panel)")
+    if args.seam_tolerance is not None:
+        in_range(
+            args.seam_tolerance, "--seam-tolerance", 0.0, 1.0, what=" (a fraction of the panel)"
+        )
     for flag, values in (
         ("--targets", targets_deg),
         ("--release", release),

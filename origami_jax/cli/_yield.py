@@ -16,6 +16,7 @@ from ._common import (
     int_range,
     out_path,
     positive,
+    seam_tolerance_value,
     write_atomic,
 )
 from ._panels import check_has_creases, check_panels_thicker_than_film, check_targets
@@ -156,9 +157,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     parser.add_argument(
         "--seam-tolerance",
-        type=float,
+        type=seam_tolerance_value,
         default=0.01,
-        help="verdict: seam gap tolerance, a fraction of the largest panel's size (default 0.01)",
+        help="verdict: seam gap tolerance, a fraction of the largest panel's size (default 0.01), or "
+        "'derived': each seam's from the angle tolerance and the geometry",
     )
     parser.add_argument("--chunk-size", type=int, default=None, help="samples per compiled call")
     parser.add_argument(
@@ -386,7 +388,10 @@ def run(args: argparse.Namespace) -> int:
     if args.workers is not None:
         int_range(args.workers, "--workers", 1, 4096)
     in_range(args.angle_tolerance, "--angle-tolerance", 0.0, 180.0, what=" degrees")
-    in_range(args.seam_tolerance, "--seam-tolerance", 0.0, 1.0, what=" (a fraction of the panel)")
+    if args.seam_tolerance is not None:
+        in_range(
+            args.seam_tolerance, "--seam-tolerance", 0.0, 1.0, what=" (a fraction of the panel)"
+        )
     if not 0 < args.confidence < 1:
         fail(f"--confidence must lie strictly between 0 and 1, got {args.confidence}.")
     sampling = contact_sampling(args.contact_sampling, args.contact)

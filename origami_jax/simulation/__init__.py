@@ -48,4 +48,5 @@ from ._verdict import FoldVerdict as FoldVerdict
 from ._verdict import SeamGaps as SeamGaps
 from ._verdict import VerdictTolerances as VerdictTolerances
 from ._verdict import assess as assess
+from ._verdict import derived_seam_tolerances as derived_seam_tolerances
 from ._verdict import fold_outcome as fold_outcome

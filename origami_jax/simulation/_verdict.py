@@ -72,6 +72,14 @@ class VerdictTolerances:
       extent of any panel's outline along the axes; 200 µm for the catalogue's nets of 200 µm
       squares, so the default is 2 µm).
 
+    - `seam=None`: each seam's tolerance *derived* from the angle tolerance and the geometry
+      (`derived_seam_tolerances`): the gap the seam has at the intended angles plus the
+      root-sum-square of the gaps that each crease alone, off by the angle tolerance either way,
+      opens. The two tolerances then say the same thing: a folding whose creases err by the angle
+      tolerance, independently, is within the seam tolerance on average, and no seam is judged
+      stricter than the creases that place it (for a cube of 200 µm panels at 3°: 10–20 µm
+      against the fraction's 2 µm). Needs a device whose coordinates are its hinge angles (nets).
+
     A seam whose two panels touch (a sample point of one within 1.1 ``ĝ``, the contact's activation
     gap, of the other's face or rim) counts as closed whatever its gap (module
     docstring); `seam` judges the seams whose panels do not touch.
@@ -87,11 +95,13 @@ class VerdictTolerances:
     """
 
     angle: float = float(np.radians(3.0))
-    seam: float = 0.01
+    seam: float | None = 0.01
 
     def __post_init__(self):
         for name, limit, unit in (("angle", np.pi, "rad"), ("seam", 1.0, "of the panel size")):
             value = getattr(self, name)
+            if name == "seam" and value is None:
+                continue  # derived from the angle tolerance and the geometry
             if isinstance(value, bool) or not isinstance(value, int | float | np.floating):
                 raise ValueError(f"the {name} tolerance must be a number ({unit}), got {value!r}.")
             if not (np.isfinite(value) and 0 < value < limit):
@@ -101,7 +111,7 @@ class VerdictTolerances:
             object.__setattr__(self, name, float(value))
 
     @classmethod
-    def from_degrees(cls, angle_deg: float = 3.0, seam: float = 0.01) -> "VerdictTolerances":
+    def from_degrees(cls, angle_deg: float = 3.0, seam: float | None = 0.01) -> "VerdictTolerances":
         """The tolerances with the angle in degrees (what the CLI takes)."""
         if isinstance(angle_deg, bool) or not isinstance(angle_deg, int | float | np.floating):
             raise ValueError(f"the angle tolerance must be a number (degrees), got {angle_deg!r}.")
@@ -117,23 +127,59 @@ class VerdictTolerances:
 
     @property
     def seam_equivalent_angle(self) -> float:
-        """The crease error (rad) that opens a seam by the seam tolerance, ``seam`` (small angles)."""
-        return self.seam
+        """The crease error (rad) that opens a seam by the seam tolerance, ``seam`` (small angles;
+        the angle tolerance itself when the seam tolerance is derived from it)."""
+        return self.angle if self.seam is None else self.seam
 
     def seam_length(self, panel_size: float) -> float:
-        """The seam tolerance in length units for panels of size `panel_size`."""
+        """The seam tolerance in length units for panels of size `panel_size`.
+
+        **Raises:** `ValueError` for a derived seam tolerance (it is one length per seam, from the
+        geometry: `derived_seam_tolerances`)."""
+        if self.seam is None:
+            raise ValueError(
+                "the seam tolerance is derived per seam from the geometry (seam=None), not a "
+                "fraction of the panel size: give a fraction (e.g. seam=0.01) here."
+            )
         return self.seam * float(panel_size)
 
-    def to_dict(self) -> dict[str, float]:
-        return {"angle_deg": self.angle_deg, "seam_fraction": self.seam}
+    def to_dict(self) -> dict[str, float | str]:
+        return {
+            "angle_deg": self.angle_deg,
+            "seam_fraction": "derived" if self.seam is None else self.seam,
+        }
 
 
 DEFAULT_TOLERANCES = VerdictTolerances()
 """The verdict's default tolerances: 3° per crease, seams within 1 % of the panel size."""
 
 
-def _tolerances(system, tolerances, angle_tolerance, seam_tolerance, panel_size):
-    """The angle (rad) and seam (length) tolerances of a verdict from its arguments."""
+def derived_seam_tolerances(
+    seam_gaps: Callable, intended_angles: Float[ArrayLike, " h"], angle: Float[ArrayLike, ""]
+) -> Float[Array, " s"]:
+    """Each seam's tolerance derived from the angle tolerance and the geometry (length, `(s,)`):
+
+        tol_s = g_s(θ*) + sqrt(Σ_j max(|g_s(θ* + α e_j) − g_s(θ*)|, |g_s(θ* − α e_j) − g_s(θ*)|)²),
+
+    with ``θ*`` the intended angles, ``α`` the angle tolerance (rad) and ``g`` the seam gaps as a
+    function of the hinge angles (`seam_gaps`, e.g. `Net.seam_gap_function`; the mechanism's
+    coordinates must be its hinge angles): the seam's own gap in the intended shape plus the
+    root-sum-square of what each crease alone, off by the tolerance, opens (independent crease
+    errors). ``2h + 1`` evaluations of the gaps; traceable."""
+    intended = jnp.asarray(intended_angles, dtype=jnp.result_type(float))
+    steps = jnp.asarray(angle, intended.dtype) * jnp.eye(intended.shape[0], dtype=intended.dtype)
+    base = seam_gaps(intended)
+    up = jax.vmap(seam_gaps)(intended + steps)
+    down = jax.vmap(seam_gaps)(intended - steps)
+    spread = jnp.maximum(jnp.abs(up - base), jnp.abs(down - base))
+    return base + jnp.sqrt(jnp.sum(spread**2, axis=0))
+
+
+def _tolerances(
+    system, tolerances, angle_tolerance, seam_tolerance, panel_size, seam_gaps=None, intended=None
+):
+    """The angle (rad) and seam (length; one per seam when derived) tolerances of a verdict from
+    its arguments."""
     if tolerances is None:
         tolerances = DEFAULT_TOLERANCES
     elif not isinstance(tolerances, VerdictTolerances):
@@ -148,6 +194,17 @@ def _tolerances(system, tolerances, angle_tolerance, seam_tolerance, panel_size)
         np.isfinite(angle_tolerance) and 0 < angle_tolerance < np.pi
     ):
         raise ValueError(f"angle_tolerance must lie in (0, π) rad, got {angle_tolerance!r}.")
+    if seam_tolerance is None and tolerances.seam is None:
+        if seam_gaps is None:
+            seam_tolerance = 1.0  # no seams: nothing to judge
+        elif not system.mechanism.coordinates_are_hinge_angles:
+            raise ValueError(
+                "a derived seam tolerance (seam=None) needs a device whose coordinates are its "
+                "hinge angles (a net); give this one a fraction of the panel size (seam=0.01)."
+            )
+        else:
+            target = system.hinges.target if intended is None else intended
+            seam_tolerance = derived_seam_tolerances(seam_gaps, target, angle_tolerance)
     if seam_tolerance is None:
         if panel_size is None and system.contact is not None:
             panel_size = system.contact.tables.scale
@@ -193,7 +250,7 @@ class AbstractFoldReport(abc.ABC):
     angle_errors: np.ndarray
     seam_gaps: np.ndarray
     angle_tolerance: float
-    seam_tolerance: float
+    seam_tolerance: float | np.ndarray
     time_to_fold: float | None
     settled: bool
     contacts: int
@@ -254,7 +311,7 @@ class AbstractFoldReport(abc.ABC):
             )
             lines.append(
                 f"seams: {len(self.seam_gaps)}, largest gap {np.max(self.seam_gaps):.3g} {length} "
-                f"(tolerance {self.seam_tolerance:.3g} {length}){touch}"
+                f"(tolerance {_length_text(self.seam_tolerance)} {length}){touch}"
             )
         if self.time_to_fold is not None:
             lines.append(f"time to fold: {self.time_to_fold:.4g} {time}")
@@ -322,7 +379,7 @@ def fold_outcome(
     round), from the one contact evaluation per state that also gives `min_gap`, `engaged` and
     `penetration`."""
     angle_tolerance, seam_tolerance = _tolerances(
-        system, tolerances, angle_tolerance, seam_tolerance, panel_size
+        system, tolerances, angle_tolerance, seam_tolerance, panel_size, seam_gaps, intended_angles
     )
     times, theta = trajectory.times, trajectory.theta
     q = theta if trajectory.state is None else trajectory.state[0]
@@ -522,6 +579,14 @@ class SeamGaps:
         return f"SeamGaps({len(self.bodies)} seams, bodies={self.bodies.tolist()})"
 
 
+def _length_text(tolerance) -> str:
+    """A seam tolerance for people: one length, or the range of the per-seam (derived) ones."""
+    values = np.atleast_1d(np.asarray(tolerance, dtype=float))
+    if values.size == 1 or np.ptp(values) == 0:
+        return f"{values[0]:.3g}"
+    return f"{values.min():.3g}–{values.max():.3g} per seam"
+
+
 def _checked_bodies(bodies, n_seams: int) -> np.ndarray:
     """`seam_gaps.bodies` as a host `(n_seams, 2)` int array, or `ValueError`."""
     bodies = np.asarray(bodies)
@@ -622,8 +687,11 @@ def assess(
     another run of the same model compiles nothing.
     """
     angle_tolerance, seam_tolerance = _tolerances(
-        system, tolerances, angle_tolerance, seam_tolerance, panel_size
+        system, tolerances, angle_tolerance, seam_tolerance, panel_size, seam_gaps, intended_angles
     )
+    seam_tolerance = np.asarray(seam_tolerance, dtype=float)
+    if seam_tolerance.ndim == 0:
+        seam_tolerance = float(seam_tolerance)
     if trajectory.theta.ndim != 2:
         raise ValueError(
             "assess takes one trajectory; for a batch, use fold_outcome under jax.vmap (or the "
@@ -678,7 +746,8 @@ def assess(
         if len(by_contact):
             reason += (
                 f" (seam {', '.join(map(str, by_contact))} by contact: its panels touch, gap "
-                f"{np.max(gaps_final[by_contact]):.3g} above the tolerance {seam_tolerance:.3g})"
+                f"{np.max(gaps_final[by_contact]):.3g} above the tolerance "
+                f"{_length_text(seam_tolerance)})"
             )
     elif verdict == FoldVerdict.UNFINISHED:
         late = np.flatnonzero(_released_late(system, np.asarray(trajectory.times)))
@@ -711,7 +780,7 @@ def assess(
         angle_errors=errors,
         seam_gaps=gaps_final,
         angle_tolerance=float(angle_tolerance),
-        seam_tolerance=float(seam_tolerance),
+        seam_tolerance=seam_tolerance,
         time_to_fold=time_to_fold if np.isfinite(time_to_fold) else None,
         settled=bool(outcome.settled),
         contacts=int(outcome.engaged),
