@@ -28,7 +28,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import ArrayLike, Float
 
-from .._limits import CONTACT_SAMPLING, FOLD_SEGMENT
+from .._limits import CONTACT_SAMPLING
 from .._validate import is_traced
 from ..contact import (
     PanelContact,
@@ -65,7 +65,7 @@ from ..net import (
     vertex_corners,
     warn_if_hinges_wider_than_creases,
 )
-from ..simulation import assess, fold_outcome, fold_pattern
+from ..simulation import assess, fold_outcome
 from ..system import MICRO, FoldingSystem, HingeDesign, Hinges
 from . import _kinematics
 from ._mechanism import LoopedPanels
@@ -524,35 +524,6 @@ class CreasePattern(AbstractPanelPattern):
         kwargs.setdefault("panel_size", self.panel_size(system))
         report = assess(system, trajectory, seam_gaps=self.seam_gap_function(system), **kwargs)
         return _with_branch(self, report, trajectory, bias)
-
-    def fold(
-        self,
-        system: FoldingSystem,
-        inputs=None,
-        options=None,
-        *,
-        t1: float | None = None,
-        bias: float = 0.0,
-        tolerances=None,
-        segment: float = FOLD_SEGMENT,
-        on_continue=None,
-    ):
-        """Fold this pattern with `system` (one it built) from its start state
-        (`start_state(system, bias=bias)`) and judge the run (`assess`, with the branch): one run
-        to `t1`, or of `segment` (default 1000 µs; a closed-loop pattern's run is not continued:
-        its state is more than its angles; `origami_jax.simulation.fold_pattern`).
-
-        **Arguments:** `inputs` (default a step release); `options` (an
-        `origami_jax.simulation.SolveOptions`: samples, `solver` — explicit Tsit5 suits closed
-        loops: the default's implicit half differentiates through the closure —, `max_steps`, ...;
-        default ``SolveOptions(throw=False)``); `tolerances` (a `VerdictTolerances`).
-
-        **Returns:** `(trajectory, report)`, the run and its `LoopFoldReport`.
-        """
-        return fold_pattern(
-            self, system, inputs, options, t1=t1, bias=bias, tolerances=tolerances,
-            segment=segment, on_continue=on_continue,
-        )  # fmt: skip
 
     # ---- output ----
 

@@ -30,7 +30,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
-from .._limits import CONTACT_SAMPLING, FOLD_SEGMENT, MAX_FOLD_SEGMENTS
+from .._limits import CONTACT_SAMPLING
 from .._math import safe_norm
 from .._validate import is_traced
 from ..contact import (
@@ -51,7 +51,7 @@ from ..fold import (
     read_fold,
     source_and_label,
 )
-from ..simulation import SeamGaps, assess, fold_outcome, fold_pattern
+from ..simulation import SeamGaps, assess, fold_outcome
 from ..system import MICRO, FoldingSystem, HingeDesign, HingeDrag, Hinges
 from ._fillet import ArcLayout, fillet_layout, fillet_plate_tables, layout_of
 from ._pattern import (
@@ -501,40 +501,6 @@ class Net(AbstractPanelPattern):
         kwargs.setdefault("intended_angles", self.intended_angles)
         kwargs.setdefault("panel_size", self.panel_size(system))
         return assess(system, trajectory, seam_gaps=self.seam_gap_function(system), **kwargs)
-
-    def fold(
-        self,
-        system: FoldingSystem,
-        inputs=None,
-        options=None,
-        *,
-        t1: float | None = None,
-        bias: float = 0.0,
-        tolerances=None,
-        segment: float = FOLD_SEGMENT,
-        max_segments: int = MAX_FOLD_SEGMENTS,
-        on_continue=None,
-    ):
-        """Fold this net with `system` (one it built) from rest and judge the run.
-
-        With `t1` (time, the system's units: µs for the default units), one run to `t1`. Without
-        it, runs of `segment` (default 1000 µs) continued from the last state while the verdict is
-        `unfinished` because the panels still move, up to `max_segments` (default 8) in all
-        (`origami_jax.simulation.fold_pattern`): a cube net in the etch bath closes in
-        ~1.4 ms, one in air rings for much longer, and neither needs its end time guessed.
-
-        **Arguments:** `inputs` (default a step release, `origami_jax.simulation.Step()`);
-        `options` (an `origami_jax.simulation.SolveOptions` for every segment: samples, solver,
-        tolerances, step budget, progress meter; default ``SolveOptions(throw=False)``); `bias`
-        (0: a net starts flat); `tolerances` (a `VerdictTolerances`, for `assess`);
-        `on_continue(end, next_end)`, called before each continuation.
-
-        **Returns:** `(trajectory, report)`, the whole run and its `FoldReport`.
-        """
-        return fold_pattern(
-            self, system, inputs, options, t1=t1, bias=bias, tolerances=tolerances,
-            segment=segment, max_segments=max_segments, on_continue=on_continue,
-        )  # fmt: skip
 
     def outcome(self, system: FoldingSystem, trajectory, **kwargs):
         """`assess`'s verdict as arrays, traceable (`origami_jax.simulation.fold_outcome`); called

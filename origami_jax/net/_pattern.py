@@ -21,7 +21,9 @@ import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
+from .._limits import FOLD_SEGMENT, MAX_FOLD_SEGMENTS
 from .._validate import is_traced
+from ..simulation import fold_pattern
 from ..system import AbstractPattern, HingeDesign
 from ._kernel import fold_kernel
 
@@ -70,6 +72,44 @@ class AbstractPanelPattern(AbstractPattern):
     `host_cache` (a `HostCache`, a dataclass field shared with its `with_model` variants), and the
     class's physics options `MODEL` (name → default).
     """
+
+    def fold(
+        self,
+        system,
+        inputs=None,
+        options=None,
+        *,
+        t1: float | None = None,
+        bias: float = 0.0,
+        tolerances=None,
+        segment: float = FOLD_SEGMENT,
+        max_segments: int = MAX_FOLD_SEGMENTS,
+        on_continue=None,
+    ):
+        """Fold this pattern with `system` (one it built) from its start state
+        (`start_state(system, bias=bias)`: a net starts flat) and judge the run (`assess`).
+
+        With `t1` (time, the system's units: µs for the default units), one run to `t1`. Without
+        it, runs of `segment` (default 1000 µs) continued from the last state while the verdict is
+        `unfinished` because the panels still move, up to `max_segments` (default 8) in all (a
+        cube net in the etch bath closes in ~1.4 ms, one in air rings for much longer, and neither
+        needs its end time guessed); a closed-loop pattern's run is one segment (its state is more
+        than its angles; `continues_from_angles`, `origami_jax.simulation.fold_pattern`).
+
+        **Arguments:** `inputs` (default a step release, `origami_jax.simulation.Step()`);
+        `options` (an `origami_jax.simulation.SolveOptions` for every segment: samples, solver —
+        explicit Tsit5 suits closed loops: the default's implicit half differentiates through the
+        closure —, tolerances, step budget, progress meter; default ``SolveOptions(throw=False)``);
+        `bias` (a closed-loop pattern's pre-fold; 0 for a net); `tolerances` (a
+        `VerdictTolerances`, for `assess`); `on_continue(end, next_end)`, called before each
+        continuation.
+
+        **Returns:** `(trajectory, report)`, the whole run and its fold report.
+        """
+        return fold_pattern(
+            self, system, inputs, options, t1=t1, bias=bias, tolerances=tolerances,
+            segment=segment, max_segments=max_segments, on_continue=on_continue,
+        )  # fmt: skip
 
     MODEL: ClassVar[Mapping[str, Any]]
     geometry: Any
