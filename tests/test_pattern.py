@@ -6,6 +6,7 @@ import json
 import re
 from pathlib import Path
 
+import jax
 import numpy as np
 import pytest
 
@@ -13,7 +14,7 @@ import origami_jax.fab_yield as ojy
 from origami_jax.chain import Accordion
 from origami_jax.loops import CreasePattern, PatternLayout, load_pattern
 from origami_jax.net import FOLD_KERNEL_SOLVE, Net, NetLayout, load_net
-from origami_jax.simulation import SaveAt
+from origami_jax.simulation import ImplicitStep, SaveAt
 from origami_jax.sweep import Table, get_model, sweep
 from origami_jax.system import (
     KOH_SOLUTION,
@@ -248,3 +249,29 @@ def test_no_public_function_of_the_pattern_layer_takes_over_12_parameters():
     for function in functions:
         count = len(inspect.signature(function).parameters)
         assert count <= 12, (function.__name__, count)
+
+
+def test_the_fold_kernel_takes_the_solver_of_its_options():
+    """`solve.solver` reaches the kernel's simulation (default Tsit5, not recorded, so stores
+    written before resume); another solver is recorded by name with its fixed settings; anything
+    else is refused before compiling."""
+    pattern = load_pattern("corner_cube")
+    assert "solver" not in pattern.kernel(solve=FOLD_KERNEL_SOLVE).settings
+    engine = pattern.kernel(solve=FOLD_KERNEL_SOLVE.replace(solver=ImplicitStep(dt=2.0)))
+    assert engine.settings["solver"].startswith("ImplicitStep(dt=2.0, newton_iterations=6")
+    with pytest.raises(ValueError, match="diffrax solver or an ImplicitStep"):
+        pattern.kernel(solve=FOLD_KERNEL_SOLVE.replace(solver="tsit5"))
+
+
+@pytest.mark.slow  # two compiled folds of the corner cube (~40 s)
+def test_the_fold_kernel_with_the_fixed_step_engine_agrees_with_tsit5():
+    """The corner cube's nominal fold through the kernel with `ImplicitStep(dt=2)` (750 steps of
+    2 µs, first order) against the adaptive Tsit5: both folded, the final angles within 1e-3 rad
+    (measured 1.6e-4) and the seam gap within 0.1 µm (measured 3e-5 µm)."""
+    pattern = load_pattern("corner_cube")
+    adaptive = jax.jit(pattern.kernel(solve=FOLD_KERNEL_SOLVE).fn)({})
+    engine = pattern.kernel(solve=FOLD_KERNEL_SOLVE.replace(solver=ImplicitStep(dt=2.0)))
+    fixed = jax.jit(engine.fn)({})
+    assert int(adaptive["verdict"]) == int(fixed["verdict"]) == 0
+    np.testing.assert_allclose(fixed["final_angle"], adaptive["final_angle"], atol=1e-3)
+    assert abs(float(fixed["max_seam_gap"]) - float(adaptive["max_seam_gap"])) < 0.1

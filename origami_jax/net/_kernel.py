@@ -8,6 +8,7 @@ judged by its traceable verdict (`pattern.outcome`). The sweep's `"net-fold"` mo
 (the name becomes a pattern there, in the sweep's model registry).
 """
 
+import dataclasses
 from typing import Any
 
 import diffrax
@@ -24,7 +25,15 @@ from .._kernel import (
 )
 from .._limits import CONTACT_SAMPLING, MAX_CONTACT_SAMPLING, MAX_SAMPLES
 from ..contact import check_sampling, contact_kind, sampling_pair
-from ..simulation import RESULTS, SaveAt, SolveOptions, Step, VerdictTolerances, simulate
+from ..simulation import (
+    RESULTS,
+    ImplicitStep,
+    SaveAt,
+    SolveOptions,
+    Step,
+    VerdictTolerances,
+    simulate,
+)
 from ..system import AIR, KOH_SOLUTION, HingeDesign
 
 # Fields of `HingeDesign` a net sweep may vary for every crease at once (scalar parameter `name`) or
@@ -58,7 +67,7 @@ def fold_kernel(
     hinge_lengths: str = "ideal",
 ) -> Kernel:
     """Sweep kernel: does a net of panels, or a crease pattern with closed loops, fold? Verdict and
-    numbers per design (explicit Tsit5 under the contact guard; `pattern.system(design, ...)`, its
+    numbers per design (explicit Tsit5 under the contact guard unless `solve` names a solver; `pattern.system(design, ...)`, its
     own physics model (`Net.with_model`), with the literature design for what is not swept, in
     MICRO units, each hinge no wider than its crease). A closed-loop pattern starts flat, or
     pre-folded by `bias` rad along its own angles (`CreasePattern.start_state`); its verdict is
@@ -90,7 +99,9 @@ def fold_kernel(
       units) for what is not swept (its fluid included; not both).
     - `solve`: a [`origami_jax.simulation.SolveOptions`][]: its `t1` (µs), `saveat.n`, `rtol`,
       `atol` and `max_steps` (default `FOLD_KERNEL_SOLVE`: 1500 µs, 301 samples, 200,000 steps);
-      the solver is always explicit Tsit5 and never throws (a failed member's `result` says so).
+      its `solver`: explicit Tsit5 unless given (any diffrax solver, or the fixed-step engine
+      `ImplicitStep(dt=...)`: every member of a vmapped batch does the same work; recorded in the
+      settings); it never throws (a failed member's `result` says so).
     - `tolerances`: the verdict's (`origami_jax.simulation.VerdictTolerances`; default 3°, 1 % of
       the largest panel).
     - `bias`: a closed-loop pattern's pre-fold (rad; nets take 0).
@@ -116,6 +127,13 @@ def fold_kernel(
     max_steps = check_setting(solve.max_steps, "max_steps", low=1, integer=True)
     rtol = check_setting(_number(solve.rtol), "rtol", low=0.0)
     atol = check_setting(_number(solve.atol), "atol", low=0.0)
+    # Explicit Tsit5 under the contact guard unless the options name another solver: any diffrax
+    # solver, or the fixed-step engine (`ImplicitStep`, the same work for every member of a batch).
+    solver = diffrax.Tsit5() if solve.solver is None else solve.solver
+    if not isinstance(solver, diffrax.AbstractSolver | ImplicitStep):
+        raise ValueError(
+            f"solve.solver must be a diffrax solver or an ImplicitStep, got {type(solver).__name__}."
+        )
     tolerances = VerdictTolerances() if tolerances is None else tolerances
     if not isinstance(tolerances, VerdictTolerances):
         raise ValueError(
@@ -209,7 +227,7 @@ def fold_kernel(
             Step(),
             SolveOptions(
                 saveat=SaveAt(n=n_save),
-                solver=diffrax.Tsit5(),
+                solver=solver,
                 rtol=rtol,
                 atol=atol,
                 max_steps=max_steps,
@@ -264,6 +282,8 @@ def fold_kernel(
             "rtol": rtol,
             "atol": atol,
             "max_steps": max_steps,
+            # Named only when not the default (Tsit5): stores written before it existed resume.
+            **({} if solve.solver is None else {"solver": _solver_name(solver)}),
             # The model by name ("plate", "sampled", or false): stores written with the sampled
             # model recorded `true`, and are not resumed with another.
             "contact": contact_kind(contact) or False,
@@ -315,3 +335,14 @@ def _number(value):
     if isinstance(value, bool | int | float | str) or value is None:
         return value
     return float(np.asarray(value))
+
+
+def _solver_name(solver) -> str:
+    """A solver as a store records it: the engine with its fixed settings, or a diffrax solver's
+    class name."""
+    if isinstance(solver, ImplicitStep):
+        fields = ", ".join(
+            f"{f.name}={getattr(solver, f.name)!r}" for f in dataclasses.fields(solver)
+        )
+        return f"ImplicitStep({fields})"
+    return type(solver).__name__
