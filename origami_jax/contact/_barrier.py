@@ -7,6 +7,8 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
+from .._validate import is_traced
+
 # The contact's damping ratio at half its activation gap (`with_default_damping`): enough to take a
 # landing's energy out over a few rebounds without holding panels apart.
 DEFAULT_DAMPING_RATIO = 0.5
@@ -123,3 +125,33 @@ def _rest_poses(mechanism):
 @eqx.filter_jit
 def _rest_inertia(mechanism):
     return jnp.diag(mechanism.mass_matrix(mechanism.rest_state()[0]))
+
+
+def check_known_values(label: str, values) -> None:
+    """Refuse (one line, before anything compiles) a known contact parameter that is not finite or
+    not positive: `values` are ``(name, value, strict)``, ``strict`` for ``> 0`` (else ``>= 0``);
+    traced values are left to the model. `label` prefixes the name in the message (``"contact "``,
+    ``"Adhesion."``)."""
+    for name, value, strict in values:
+        if is_traced(value):
+            continue
+        host = np.asarray(value)
+        if not (np.all(np.isfinite(host)) and np.all(host > 0 if strict else host >= 0)):
+            raise ValueError(
+                f"{label}{name} must be finite and {'> 0' if strict else '>= 0'}, got {host}."
+            )
+
+
+def check_contact_numbers(thickness, stiffness, damping, activation, *more) -> None:
+    """`check_known_values` of a contact model's shared numbers (thickness and activation gap
+    ``> 0``, stiffness and damping ``>= 0``) and `more` ``(name, value, strict)``."""
+    check_known_values(
+        "contact ",
+        (
+            ("thickness", thickness, True),
+            ("stiffness", stiffness, False),
+            ("damping", damping, False),
+            ("activation", activation, True),
+            *more,
+        ),
+    )

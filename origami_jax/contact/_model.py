@@ -76,6 +76,7 @@ from ._barrier import (
     _barrier_slope,
     _ramp_integral,
     barrier,
+    check_contact_numbers,
     half_thicknesses,
     host_rest_poses,
     smoothstep,
@@ -153,20 +154,10 @@ class PanelContact(AbstractContact):
             activation = jnp.maximum(jnp.max(thickness), 0.005 * size)
         activation = jnp.asarray(activation, dtype)
         edge_width = activation if edge_width is None else jnp.asarray(edge_width, dtype)
-        for name, value, low in (
-            ("thickness", thickness, 0.0),
-            ("stiffness", stiffness, -1.0),
-            ("damping", damping, -1.0),
-            ("activation", activation, 0.0),
-            ("edge_width", edge_width, 0.0),
-        ):
-            if not is_traced(value):
-                host = np.asarray(value)
-                if not (np.all(np.isfinite(host)) and np.all(host > low) and np.all(host >= 0)):
-                    raise ValueError(
-                        f"contact {name} must be finite and {'> 0' if low == 0 else '>= 0'}, got "
-                        f"{host}."
-                    )
+        check_contact_numbers(
+            thickness, stiffness, damping, activation,
+            ("edge_width", edge_width, True),
+        )  # fmt: skip
         if tables is None:
             # Faces (and the inner ring of points) inset by twice the rounding width (host
             # geometry: the nominal width when the thickness is traced).

@@ -55,13 +55,13 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from .._math import normalise
-from .._validate import is_traced
 from ..system import AbstractContact, AbstractMechanism
 from ._barrier import (
     DEFAULT_DAMPING_RATIO,
     _barrier_slope,
     _rest_poses,
     barrier,
+    check_contact_numbers,
     half_thicknesses,
     smoothstep,
     with_base_pose,
@@ -174,20 +174,7 @@ class PlateContact(AbstractContact):
         if activation is None:
             activation = jnp.maximum(jnp.max(thickness), 0.005 * tables.scale)
         activation = jnp.asarray(activation, dtype)
-        for name, value, strict in (
-            ("thickness", thickness, True),
-            ("stiffness", stiffness, False),
-            ("damping", damping, False),
-            ("activation", activation, True),
-        ):
-            if not is_traced(value):
-                host = np.asarray(value)
-                ok = np.all(np.isfinite(host)) & np.all(host > 0 if strict else host >= 0)
-                if not ok:
-                    raise ValueError(
-                        f"contact {name} must be finite and {'> 0' if strict else '>= 0'}, got "
-                        f"{host}."
-                    )
+        check_contact_numbers(thickness, stiffness, damping, activation)
         n_all = tables.vertices.shape[0]
         contact = cls(
             tables=tables,

@@ -72,12 +72,15 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from .._math import safe_norm
-from .._validate import is_traced
 from ..system import UnitSystem
-from ._model import smoothstep
+from ._barrier import check_known_values, smoothstep
 from ._plate_tables import PlateTables
 from ._primitives import point_polygon_sq, polygon_normal, segment_segment_sq
 from ._tables import _distance_to_segment, content_digest
+
+# Each parameter and whether it must be > 0 (else >= 0).
+_ADHESION_SIGNS = (("work", False), ("range", True), ("line", False))
+_FRICTION_SIGNS = (("coefficient", False), ("slip", True))
 
 # Points of a panel within this fraction of the smaller panel's size of a shared crease are not
 # paired with the other panel (as `build_plate_tables`).
@@ -147,15 +150,10 @@ class Adhesion(eqx.Module):
     def __check_init__(self):
         if isinstance(self.samples, bool) or not isinstance(self.samples, int) or self.samples < 1:
             raise ValueError(f"Adhesion.samples must be a positive integer, got {self.samples!r}.")
-        for name, strict in (("work", False), ("range", True), ("line", False)):
-            value = getattr(self, name)
-            if not is_traced(value):
-                host = np.asarray(value)
-                if not (np.all(np.isfinite(host)) and np.all(host > 0 if strict else host >= 0)):
-                    raise ValueError(
-                        f"Adhesion.{name} must be finite and {'> 0' if strict else '>= 0'}, got "
-                        f"{host}."
-                    )
+        check_known_values(
+            "Adhesion.",
+            ((name, getattr(self, name), strict) for name, strict in _ADHESION_SIGNS),
+        )
 
     @classmethod
     def from_si(
@@ -198,15 +196,10 @@ class Friction(eqx.Module):
     slip: Float[Array, ""] = eqx.field(converter=_as_float)
 
     def __check_init__(self):
-        for name, strict in (("coefficient", False), ("slip", True)):
-            value = getattr(self, name)
-            if not is_traced(value):
-                host = np.asarray(value)
-                if not (np.all(np.isfinite(host)) and np.all(host > 0 if strict else host >= 0)):
-                    raise ValueError(
-                        f"Friction.{name} must be finite and {'> 0' if strict else '>= 0'}, got "
-                        f"{host}."
-                    )
+        check_known_values(
+            "Friction.",
+            ((name, getattr(self, name), strict) for name, strict in _FRICTION_SIGNS),
+        )
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
