@@ -12,7 +12,6 @@ from typing import Any
 import numpy as np
 
 from .._kernel import design_settings
-from .._validate import is_traced
 from ..fold import FoldFormatError
 from ..loops import load_pattern
 from ..net import FOLD_KERNEL_SOLVE
@@ -391,13 +390,7 @@ def yield_estimate(
     solve = FOLD_KERNEL_SOLVE if solve is None else solve
     if not isinstance(solve, SolveOptions):
         raise ValueError(f"solve must be a SolveOptions, got {type(solve).__name__}.")
-    rtol = solve.rtol
-    if (
-        np.ndim(rtol) == 0
-        and not isinstance(rtol, bool)
-        and np.issubdtype(np.asarray(rtol).dtype, np.number)
-    ):
-        rtol = float(rtol)
+    rtol = solve.number("rtol")
     if not (isinstance(rtol, float) and 0 < rtol < 1):
         raise ValueError(f"rtol must be a number strictly between 0 and 1, got {rtol!r}.")
     run = RunOptions() if run is None else run
@@ -436,9 +429,7 @@ def yield_estimate(
     if design is None:
         design = pattern.default_design(KOH_SOLUTION)
     m = pattern.n_hinges
-    t_end = solve.t1 if solve.t1 is not None else FOLD_KERNEL_SOLVE.t1
-    if np.ndim(t_end) == 0 and not is_traced(t_end):
-        t_end = float(t_end)  # SolveOptions keeps its times as arrays
+    t_end = (solve if solve.t1 is not None else FOLD_KERNEL_SOLVE).number("t1")
     if release_times is not None:
         release_times = np.asarray(release_times, dtype=float)
         if release_times.shape != (m,):

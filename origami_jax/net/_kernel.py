@@ -122,11 +122,11 @@ def fold_kernel(
         solve = solve.replace(t1=FOLD_KERNEL_SOLVE.t1)
     if solve.saveat.ts is not None:
         raise ValueError("the fold kernel saves evenly spaced samples: give SaveAt(n=...).")
-    t_end = check_setting(_number(solve.t1), "t_end", low=0.0)
+    t_end = check_setting(solve.number("t1"), "t_end", low=0.0)
     n_save = check_setting(solve.saveat.n, "n_save", low=2, integer=True, high=MAX_SAMPLES)
     max_steps = check_setting(solve.max_steps, "max_steps", low=1, integer=True)
-    rtol = check_setting(_number(solve.rtol), "rtol", low=0.0)
-    atol = check_setting(_number(solve.atol), "atol", low=0.0)
+    rtol = check_setting(solve.number("rtol"), "rtol", low=0.0)
+    atol = check_setting(solve.number("atol"), "atol", low=0.0)
     # Explicit Tsit5 under the contact guard unless the options name another solver: any diffrax
     # solver, or the fixed-step engine (`ImplicitStep`, the same work for every member of a batch).
     solver = diffrax.Tsit5() if solve.solver is None else solve.solver
@@ -328,13 +328,6 @@ def check_kernel_sampling(contact, sampling) -> tuple[int, int]:
         )
     check_sampling(contact_kind(contact), sampling)
     return sampling
-
-
-def _number(value):
-    """A solve setting as a Python number (`SolveOptions` takes floats or 0-d arrays)."""
-    if isinstance(value, bool | int | float | str) or value is None:
-        return value
-    return float(np.asarray(value))
 
 
 def _solver_name(solver) -> str:

@@ -14,6 +14,7 @@ import jax
 import numpy as np
 from jaxtyping import ArrayLike, Float
 
+from .._validate import is_traced
 from ._switching import implicit_solver
 
 DEFAULT_RTOL = 1e-7
@@ -126,6 +127,15 @@ class SolveOptions(eqx.Module):
     def replace(self, **changes: Any) -> "SolveOptions":
         """A copy with the given fields changed (`dataclasses.replace`)."""
         return dataclasses.replace(self, **changes)
+
+    def number(self, name: str) -> Any:
+        """The field `name` (`t1`, `rtol`, `atol`, `dt0`) as a Python float when it is a known
+        scalar (the options keep numbers as arrays, so that a new value traces, not compiles);
+        `None`, a traced value or an array of several as it is."""
+        value = getattr(self, name)
+        if value is None or is_traced(value) or np.ndim(value) != 0:
+            return value
+        return float(np.asarray(value))
 
 
 FIT_RTOL = 1e-8
