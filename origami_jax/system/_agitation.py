@@ -99,9 +99,7 @@ class Agitation(eqx.Module):
     ) -> Float[Array, "nv nv"]:
         """``L(q)`` with ``L Lᵀ = 2 k_B T D(q)``, ``D = −∂f_drag/∂v`` at ``v = 0`` symmetrised and
         its negative eigenvalues (round-off) clipped; force units per √time."""
-        nv = mechanism.n_velocities
-        zero = jnp.zeros(nv, dtype=q.dtype)
-        damping = -jax.jacfwd(lambda v: drag.force(mechanism, q, v))(zero)
+        damping = viscous_damping(mechanism, drag, q)
         damping = 0.5 * (damping + damping.T)
         values, vectors = jnp.linalg.eigh(damping)
         scale = jnp.sqrt(2 * self.thermal_energy(units) * jnp.clip(values, 0.0))
@@ -112,8 +110,7 @@ class Agitation(eqx.Module):
         balance the noise."""
         if is_traced(q, drag):
             return
-        zero = jnp.zeros(mechanism.n_velocities, dtype=q.dtype)
-        damping = -jax.jacfwd(lambda v: drag.force(mechanism, q, v))(zero)
+        damping = viscous_damping(mechanism, drag, q)
         if not np.any(np.abs(np.asarray(damping)) > 0):
             raise ValueError(
                 "agitation needs a drag with a linear (viscous) part to balance the noise, but "
@@ -132,3 +129,12 @@ class Agitation(eqx.Module):
         return jnp.linalg.solve(
             mechanism.mass_matrix(q), self.noise_matrix(mechanism, drag, units, q)
         )
+
+
+def viscous_damping(
+    mechanism: AbstractMechanism, drag: AbstractDrag, q: Float[Array, " nq"]
+) -> Float[Array, "nv nv"]:
+    """The drag's linear (viscous) part at ``q``: ``D = −∂f_drag/∂v`` at ``v = 0`` (force·time per
+    velocity unit, `(nv, nv)`)."""
+    zero = jnp.zeros(mechanism.n_velocities, dtype=q.dtype)
+    return -jax.jacfwd(lambda v: drag.force(mechanism, q, v))(zero)
