@@ -257,24 +257,39 @@ def _scatter(args: argparse.Namespace):
 
 
 def _solve(args: argparse.Namespace):
-    """Each sample's solve: --t-end, and --rtol with the defaults' ratio for the absolute one."""
+    """Each sample's solve (--t-end, and --rtol with the defaults' ratio for the absolute
+    tolerance) and the verdict's tolerances (--angle-tolerance, --seam-tolerance)."""
     from ..net import FOLD_KERNEL_SOLVE
-    from ..simulation import DEFAULT_ATOL, DEFAULT_RTOL
+    from ..simulation import DEFAULT_ATOL, DEFAULT_RTOL, VerdictTolerances
 
     solve = FOLD_KERNEL_SOLVE.replace(t1=args.t_end)
     if args.rtol is not None:
         solve = solve.replace(rtol=float(args.rtol), atol=DEFAULT_ATOL / DEFAULT_RTOL * args.rtol)
-    return solve
+    return solve, VerdictTolerances.from_degrees(args.angle_tolerance, args.seam_tolerance)
+
+
+def _fluid(args: argparse.Namespace):
+    """The --fluid the nets fold in."""
+    from ..system import AIR, KOH_SOLUTION
+
+    return KOH_SOLUTION if args.fluid == "koh" else AIR
+
+
+def _load(name: str):
+    """The pattern `name` names (a FOLD file or a catalogue name), or a one-line failure."""
+    from ..fold import FoldFormatError
+    from ..loops import load_pattern
+
+    try:
+        return load_pattern(name)
+    except (FoldFormatError, ValueError, OSError) as error:
+        fail(f"cannot load {name}: {error}")
 
 
 def _run_family(args: argparse.Namespace, members: list[str], sampling) -> int:
     """A family of nets: each net's estimate into OUT/NET/, then the table, the rank
     correlations with compactness and the figure (`origami_jax.fab_yield.family_yield`)."""
     from ..fab_yield import RunOptions, family_yield
-    from ..fold import FoldFormatError
-    from ..loops import load_pattern
-    from ..simulation import VerdictTolerances
-    from ..system import AIR, KOH_SOLUTION
 
     for name in _SINGLE_NET_ONLY:
         if getattr(args, name) is not None:
@@ -282,17 +297,20 @@ def _run_family(args: argparse.Namespace, members: list[str], sampling) -> int:
             fail(f"{flag} takes one net, not a family ({args.net}): run it on one net.")
     if args.bias:
         fail(f"--bias pre-folds one closed-loop pattern, not a family ({args.net}).")
+    for entry in args.process:
+        if "," in entry.partition("=")[2]:
+            fail(
+                f"--process {entry}: a family takes one value per parameter (its nets' creases "
+                "differ), not one per crease."
+            )
     if len(members) < 2 or len(set(members)) != len(members):
         fail(f"a family needs at least two different nets, got {args.net!r}.")
     scatter = _scatter(args)
-    fluid = KOH_SOLUTION if args.fluid == "koh" else AIR
+    fluid = _fluid(args)
     patterns = []
     process = None
     for name in members:
-        try:
-            pattern = load_pattern(name)
-        except (FoldFormatError, ValueError, OSError) as error:
-            fail(f"cannot load {name}: {error}")
+        pattern = _load(name)
         if pattern.n_loops > 0:
             fail(f"{name} is a crease pattern with closed loops: a family takes nets (trees).")
         check_has_creases(pattern, name)
@@ -325,6 +343,7 @@ def _run_family(args: argparse.Namespace, members: list[str], sampling) -> int:
     def on_net(name: str, index: int, total: int) -> None:
         print(f"[yield] net {index + 1}/{total}: {name}", flush=True)
 
+    solve, tolerances = _solve(args)
     start = time.perf_counter()
     with output:
         try:
@@ -336,10 +355,8 @@ def _run_family(args: argparse.Namespace, members: list[str], sampling) -> int:
                     args.seed,
                     fluid=fluid,
                     process=process,
-                    solve=_solve(args),
-                    tolerances=VerdictTolerances.from_degrees(
-                        args.angle_tolerance, args.seam_tolerance
-                    ),
+                    solve=solve,
+                    tolerances=tolerances,
                     confidence=args.confidence,
                     interval=args.interval,
                     run=RunOptions(
@@ -566,15 +583,9 @@ def run(args: argparse.Namespace) -> int:
     if front is not None and len(front) != 3:
         fail("--etch-front expects DX,DY,SPEED (a direction in the plane and a speed in µm/µs).")
     scatter = _scatter(args)
-    from ..fold import FoldFormatError
-    from ..loops import load_pattern
-
-    try:
-        # The one place the yield command reads the pattern: the estimates, the kernel and the
-        # figures take this object.
-        pattern = load_pattern(args.net)
-    except (FoldFormatError, ValueError, OSError) as error:
-        fail(f"cannot load {args.net}: {error}")
+    # The one place the yield command reads the pattern: the estimates, the kernel and the
+    # figures take this object.
+    pattern = _load(args.net)
     loops = pattern.n_loops > 0
     check_has_creases(pattern, args.net)
     check_panels_thicker_than_film(pattern, pattern.default_design(), args.net)
@@ -635,13 +646,11 @@ def _run(args, output, pattern, loops, scatter, sampling, factors, release, proc
     import dataclasses
 
     from ..fab_yield import RunOptions, yield_estimate
-    from ..simulation import VerdictTolerances
-    from ..system import AIR, KOH_SOLUTION
 
     out = output.out
     if args.resume:
         _check_resumable(out, factors)
-    design = pattern.default_design(KOH_SOLUTION if args.fluid == "koh" else AIR)
+    design = pattern.default_design(_fluid(args))
     print(
         f"[yield] {args.net}: {args.samples} samples, seed {args.seed}, scatter "
         + (", ".join(f"{n} {s.width:g}" for n, s in scatter.active().items()) or "none")
@@ -651,7 +660,7 @@ def _run(args, output, pattern, loops, scatter, sampling, factors, release, proc
 
     # What every estimate of this run shares: the estimate itself, the other widths, the ascent.
     # The solve's tolerances: --rtol with the defaults' ratio for the absolute one.
-    solve = _solve(args)
+    solve, tolerances = _solve(args)
     run = RunOptions(
         resume=args.resume,
         chunk_size=args.chunk_size,
@@ -664,7 +673,7 @@ def _run(args, output, pattern, loops, scatter, sampling, factors, release, proc
         release_times=release,
         process=process,
         solve=solve,
-        tolerances=VerdictTolerances.from_degrees(args.angle_tolerance, args.seam_tolerance),
+        tolerances=tolerances,
         bias=args.bias,
     )
 

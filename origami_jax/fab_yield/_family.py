@@ -51,6 +51,7 @@ class RankCorrelation:
     n: int
 
     def to_dict(self) -> dict[str, Any]:
+        """JSON-ready fields (NaN stays NaN: the CLI writes it as `null`)."""
         return {"measure": self.measure, "rho": self.rho, "p_value": self.p_value, "n": self.n}
 
 
@@ -72,6 +73,7 @@ class NetYield:
     seconds_per_sample: float
 
     def to_dict(self) -> dict[str, Any]:
+        """JSON-ready fields (the radius of gyration as `radius_of_gyration_um`)."""
         return {
             "name": self.name,
             "yield": self.fraction,
@@ -103,6 +105,7 @@ class FamilyYield:
 
     @property
     def names(self) -> tuple[str, ...]:
+        """The nets' names, in the order of `rows`."""
         return tuple(r.name for r in self.rows)
 
     def table(self) -> list[dict[str, Any]]:
