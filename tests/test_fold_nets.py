@@ -9,6 +9,9 @@ References, all independent of `NetGeometry.fold`:
   vertex connections);
 - the eleven cube nets: a die rolled over the hexomino (the generator) against rigid folding of
   all 35 hexominoes (here), and their symmetry classes computed here with integer matrices;
+- the eleven octahedron nets: spanning trees of the face graph unfolded (the generator) against
+  rigid folding of all 66 octiamonds (here), and their congruence classes from the sorted
+  distances between face centres (here);
 - `chain_geometry` for the accordion's hinge axes and offsets.
 
 Tolerances: positions come out of a few 3×3 rotations composed in float64, so closure and rigidity
@@ -35,7 +38,14 @@ from origami_jax.fold import (
     net_geometry,
     read_fold,
 )
-from origami_jax.fold._catalogue import _cube_net, build_catalogue, free_polyominoes
+from origami_jax.fold._catalogue import (
+    _cube_net,
+    _octahedron_net,
+    build_catalogue,
+    free_polyominoes,
+    octahedron_spanning_trees,
+    unfold_octahedron,
+)
 from origami_jax.fold._catalogue_loops import VERBATIM, loop_patterns
 
 DATA = Path(__file__).parent / "data" / "fold"
@@ -48,10 +58,12 @@ LOOP_NAMES = tuple(
 )  # crease patterns with closed loops: tests/test_loops.py
 NAMES = tuple(n for n in catalogue_names() if n not in LOOP_NAMES)  # the nets
 CUBE_NETS = [n for n in NAMES if n.startswith("cube_net_")]
+OCTAHEDRON_NETS = [n for n in NAMES if n.startswith("octahedron")]  # the eleven and `octahedron`
 CLOSED = [n for n in NAMES if n != "accordion"]  # nets whose seams close into a polyhedron corner
 # Seams of a closed polyhedron net: the polyhedron's edges that are not creases.
 SEAMS = {"accordion": 0, "corner_cube": 1, "tetrahedron": 6 - 3, "octahedron": 12 - 7}
 SEAMS.update({n: 12 - 5 for n in CUBE_NETS})
+SEAMS.update({n: 12 - 7 for n in OCTAHEDRON_NETS})
 
 
 @pytest.fixture(scope="module")
@@ -82,6 +94,7 @@ def edges_of(name):
 def test_catalogue_names_and_paths():
     expected = {"accordion", "corner_cube", "tetrahedron", "octahedron"}
     expected |= {f"cube_net_{i:02d}" for i in range(1, 12)}
+    expected |= {f"octahedron_net_{i:02d}" for i in range(1, 12)}
     assert set(NAMES) == expected and list(NAMES) == sorted(NAMES)
     assert set(catalogue_names()) == expected | set(LOOP_NAMES)
     assert list(catalogue_names()) == sorted(catalogue_names())
@@ -148,7 +161,8 @@ def test_catalogue_targets_in_degrees():
         assert crease_angles(name) == [90] * 5
     # 180° minus the dihedral angles arccos(1/3) (tetrahedron) and arccos(-1/3) (octahedron).
     np.testing.assert_allclose(crease_angles("tetrahedron"), [109.47122063449069] * 3, rtol=1e-15)
-    np.testing.assert_allclose(crease_angles("octahedron"), [70.52877936550931] * 7, rtol=1e-15)
+    for name in OCTAHEDRON_NETS:
+        np.testing.assert_allclose(crease_angles(name), [70.52877936550931] * 7, rtol=1e-15)
 
 
 # --- trees and rigid folding -----------------------------------------------------------------
@@ -261,7 +275,8 @@ def test_cube_nets_fold_to_a_cube(nets, name):
 
 
 @pytest.mark.parametrize(
-    ("name", "values"), [("tetrahedron", (-1 / 3,)), ("octahedron", (-1, -1 / 3, 1 / 3))]
+    ("name", "values"),
+    [("tetrahedron", (-1 / 3,))] + [(n, (-1, -1 / 3, 1 / 3)) for n in OCTAHEDRON_NETS],
 )
 def test_triangle_nets_fold_to_their_polyhedron(nets, name, values):
     net = nets[name]
@@ -270,8 +285,17 @@ def test_triangle_nets_fold_to_their_polyhedron(nets, name, values):
     off = gram[~np.eye(len(gram), dtype=bool)]
     assert np.all(np.min(np.abs(off[:, None] - np.array(values)), axis=1) < 1e-12)
     assert np.allclose(np.diag(gram), 1)
-    if name == "octahedron":  # every face has exactly one antipodal face
+    if name.startswith("octahedron"):  # every face has exactly one antipodal face
         assert np.all(np.sum(np.isclose(gram, -1), axis=1) == 1)
+        # The regular octahedron: its 6 corners at ±(edge/√2) along three perpendicular axes
+        # about the centre, every corner of the folded net on one of them.
+        # (Corners rounded to 1e-6 µm to merge the faces' copies: 1e-7 relative tolerances.)
+        corners = np.unique(np.round(net.fold(net.targets).reshape(-1, 3), 6), axis=0)
+        assert len(corners) == 6
+        centred = corners - corners.mean(axis=0)
+        np.testing.assert_allclose(np.linalg.norm(centred, axis=1), EDGE / np.sqrt(2), rtol=1e-7)
+        gram = centred @ centred.T / (EDGE**2 / 2)
+        assert np.all(np.min(np.abs(gram[..., None] - np.array([-1, 0, 1])), axis=-1) < 1e-7)
 
 
 def test_the_eleven_cube_nets_are_distinct_hexominoes(nets):
@@ -318,6 +342,156 @@ def test_exactly_eleven_hexominoes_fold_into_a_cube(nets):
         for n in CUBE_NETS
     }
     assert len(folding) == 11 and folding == shipped
+
+
+# The triangular lattice's 12 symmetries on lattice coordinates (p, q) ↦ p·a + q·b, a = (1, 0),
+# b = (1/2, √3/2): 60° turns (a → b, b → b − a) and the mirror about the x axis (b → a − b).
+TURN = np.array([[0, -1], [1, 1]])
+MIRROR = np.array([[1, 1], [0, -1]])
+LATTICE_SYMMETRIES = [
+    np.linalg.matrix_power(TURN, k) @ m for k in range(6) for m in (np.eye(2, dtype=int), MIRROR)
+]
+
+
+def lattice_form(triangles):
+    """The smallest image of triangles (each a (3, 2) int array of lattice corners) under the
+    lattice's symmetries, translated to p, q >= 0: equal for congruent polyiamonds."""
+    corners = np.asarray(triangles)  # (n, 3, 2)
+    forms = []
+    for g in LATTICE_SYMMETRIES:
+        image = corners @ g.T
+        image = image - image.reshape(-1, 2).min(axis=0)
+        forms.append(tuple(sorted(tuple(sorted(map(tuple, t.tolist()))) for t in image)))
+    return min(forms)
+
+
+def lattice_triangles(net):
+    """A flat triangle net's faces as lattice corners (`EDGE` edges): q = y / (EDGE √3/2),
+    p = x / EDGE − q / 2, checked to be whole numbers."""
+    xy = net.face_coords[:, :3, :2]
+    q = xy[..., 1] / (EDGE * np.sqrt(3) / 2)
+    p = xy[..., 0] / EDGE - q / 2
+    lattice = np.rint(np.stack([p, q], axis=-1)).astype(int)
+    np.testing.assert_allclose(np.stack([p, q], axis=-1), lattice, atol=1e-9)
+    return lattice
+
+
+def free_octiamonds():
+    """Polyiamonds of 8 triangles up to congruence, as corner arrays, grown a triangle at a
+    time; a triangle is `(i, j, up)`: up (i, j), (i+1, j), (i, j+1); down (i+1, j), (i+1, j+1),
+    (i, j+1)."""
+
+    def corners(i, j, up):
+        return [(i, j), (i + 1, j), (i, j + 1)] if up else [(i + 1, j), (i + 1, j + 1), (i, j + 1)]
+
+    def neighbours(i, j, up):
+        if up:
+            return [(i, j, False), (i, j - 1, False), (i - 1, j, False)]
+        return [(i, j, True), (i + 1, j, True), (i, j + 1, True)]
+
+    def cells_of(form):  # back from corners to cells (i = min p, j = min q)
+        out = []
+        for t in form:
+            i, j = min(p for p, _ in t), min(q for _, q in t)
+            out.append((i, j, sum(p + q for p, q in t) == 3 * (i + j) + 2))
+        return out
+
+    shapes = {lattice_form([corners(0, 0, True)])}
+    counts = [1]
+    for _ in range(7):
+        grown = set()
+        for form in shapes:
+            cells = cells_of(form)
+            for cell in cells:
+                for other in neighbours(*cell):
+                    if other not in cells:
+                        grown.add(lattice_form([corners(*c) for c in [*cells, other]]))
+        shapes = grown
+        counts.append(len(shapes))
+    return counts, [cells_of(form) for form in sorted(shapes)]
+
+
+def test_exactly_eleven_octiamonds_fold_into_an_octahedron(nets):
+    counts, octiamonds = free_octiamonds()
+    assert counts == [1, 1, 1, 3, 4, 12, 24, 66]  # polyiamond counts (OEIS A000577)
+    folding = set()
+    for cells in octiamonds:
+        try:
+            net = net_geometry(_octahedron_net(0, cells))
+        except FoldFormatError as error:
+            assert "closed-loop engine" in str(error)  # six triangles round a lattice point
+            continue
+        normals = net.normals(net.targets)
+        distinct = len(np.unique(np.round(normals, 9), axis=0))
+        if distinct == 8 and not net.face_overlaps(net.fold(net.targets)):
+            folding.add(lattice_form(lattice_triangles(net)))
+    shipped = {lattice_form(lattice_triangles(nets[n])) for n in OCTAHEDRON_NETS}
+    assert len(folding) == 11 and folding == shipped
+    for name in OCTAHEDRON_NETS:
+        assert nets[name].n_faces == 8 and nets[name].n_creases == 7
+
+
+def test_the_eleven_octahedron_nets_are_distinct(nets):
+    # Congruent nets have the same sorted distances between their face centres: 11 different
+    # lists are 11 different nets, whatever the lattice bookkeeping above says.
+    numbered = [n for n in OCTAHEDRON_NETS if n != "octahedron"]
+    assert numbered == [f"octahedron_net_{i:02d}" for i in range(1, 12)]
+
+    def distances(name):
+        c = nets[name].face_centroids
+        d = np.linalg.norm(c[:, None] - c[None], axis=-1)[np.triu_indices(len(c), 1)]
+        return tuple(np.round(np.sort(d) / EDGE, 6))
+
+    assert len({distances(n) for n in numbered}) == 11
+    # The first-drawn `octahedron` is octahedron_net_06, moved and with its faces renumbered.
+    assert [distances(n) == distances("octahedron") for n in numbered].index(True) == 5
+    assert lattice_form(lattice_triangles(nets["octahedron"])) == lattice_form(
+        lattice_triangles(nets["octahedron_net_06"])
+    )
+
+
+def test_the_generator_unfolds_every_spanning_tree():
+    # Kirchhoff: the cube graph (the octahedron's faces, adjacent when they share an edge) has
+    # det(reduced Laplacian) = 384 spanning trees.
+    signs = np.array(list(itertools.product((1, -1), repeat=3)))
+    adjacency = (np.abs(signs[:, None] - signs[None]).sum(axis=-1) == 2).astype(float)
+    laplacian = np.diag(adjacency.sum(axis=1)) - adjacency
+    assert round(np.linalg.det(laplacian[1:, 1:])) == 384
+    trees = octahedron_spanning_trees()
+    assert len(trees) == 384 == len({frozenset(t) for t in trees})
+    forms = set()
+    for tree in trees:
+        triangles = unfold_octahedron(tree)
+        assert len(set(triangles)) == 8  # every unfolding of the octahedron lies flat
+        forms.add(lattice_form(triangles))
+    assert len(forms) == 11
+
+
+def test_families_of_nets():
+    from origami_jax.fold import catalogue_families, catalogue_family
+
+    assert catalogue_families() == ("cube_nets", "octahedron_nets")
+    assert catalogue_family("cube_nets") == tuple(CUBE_NETS)
+    assert catalogue_family("octahedron_nets") == tuple(
+        f"octahedron_net_{i:02d}" for i in range(1, 12)
+    )
+    assert set(catalogue_family("octahedron_nets")) <= set(catalogue_names())
+    with pytest.raises(ValueError, match="no family of catalogue nets named 'cubes'.*cube_nets"):
+        catalogue_family("cubes")
+
+
+@pytest.mark.parametrize("name", CUBE_NETS + OCTAHEDRON_NETS)
+def test_compactness_of_the_polyhedron_nets(nets, name):
+    # The radius of gyration from the FOLD file's corners (each face's centre the mean of its
+    # corners: squares and equilateral triangles), independent of the net's area centroids.
+    key = read_fold(catalogue_path(name)).key_frame
+    centres = np.array([key.vertices_coords[list(f)].mean(axis=0) for f in key.faces_vertices])
+    rg = np.sqrt(np.mean(np.sum((centres - centres.mean(axis=0)) ** 2, axis=1)))
+    assert nets[name].radius_of_gyration() == pytest.approx(rg, rel=1e-12)
+    # At least one corner where only two faces are cut apart (a cut tree has >= 2 leaves), at
+    # most all but one of the polyhedron's corners (the cut tree is then a star).
+    n = len(nets[name].vertex_connections())
+    assert 2 <= n <= (7 if name in CUBE_NETS else 5)
 
 
 # --- conventions and closed forms ------------------------------------------------------------
@@ -420,29 +594,31 @@ def test_vertex_connections_of_the_corner_cube(nets):
     np.testing.assert_array_equal(net.vertices_coords[v], [0, 0, 0])  # the shared corner
 
 
-@pytest.mark.parametrize("name", CUBE_NETS)
+@pytest.mark.parametrize("name", CUBE_NETS + OCTAHEDRON_NETS)
 def test_vertex_connections_are_the_cut_trees_leaves(nets, name):
     # Folded, the cube's 12 edges are the 5 creases and 7 cuts; the cuts form a spanning tree of
     # the 8 corners, and a corner with one cut (a leaf) is where only two faces are cut apart.
+    # The octahedron alike: 12 edges, 7 creases, 5 cuts spanning its 6 corners.
     net = nets[name]
+    n_corners = 8 if name in CUBE_NETS else 6
     positions = np.round(net.fold(net.targets) / EDGE, 9)
     corner_ids = {}
     folded_vertex = {}
     for f, face in enumerate(net.faces):
         for k, v in enumerate(face):
             folded_vertex[v] = corner_ids.setdefault(tuple(positions[f, k]), len(corner_ids))
-    assert len(corner_ids) == 8
+    assert len(corner_ids) == n_corners
     corners = np.array(list(corner_ids))
     cube_edges = {
         frozenset((i, j))
-        for i, j in itertools.combinations(range(8), 2)
+        for i, j in itertools.combinations(range(n_corners), 2)
         if np.isclose(np.linalg.norm(corners[i] - corners[j]), 1.0)
     }
     edges = edges_of(name)
     creases = {frozenset(folded_vertex[int(w)] for w in edges[e]) for (e,) in net.crease_edges}
     cuts = cube_edges - creases
-    assert len(cube_edges) == 12 and len(cuts) == 7
-    leaves = [c for c in range(8) if sum(c in cut for cut in cuts) == 1]
+    assert len(cube_edges) == 12 and len(cuts) == n_corners - 1
+    leaves = [c for c in range(n_corners) if sum(c in cut for cut in cuts) == 1]
     connections = net.vertex_connections()
     assert sorted(folded_vertex[int(v)] for v in connections) == sorted(leaves)
 

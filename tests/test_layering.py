@@ -132,7 +132,7 @@ FUNCTION_IMPORTS: dict[str, tuple[int, str]] = {
     "cli/_sweep.py": (5, _CLI),
     "cli/_unfold.py": (4, _CLI),
     "cli/_view.py": (1, _CLI),
-    "cli/_yield.py": (13, _CLI),
+    "cli/_yield.py": (16, _CLI),
     "view/_adapters.py": (3, _VIEW),
     "view/_sources.py": (6, _VIEW),
     "plotting/fab_yield.py": (3, _PLOTTING),

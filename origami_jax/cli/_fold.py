@@ -94,7 +94,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("net", nargs="?", help="FOLD file or catalogue name")
-    parser.add_argument("--list", action="store_true", help="list the shipped nets and exit")
+    parser.add_argument(
+        "--list", action="store_true", help="list the shipped nets and their families, and exit"
+    )
     parser.add_argument(
         "--fluid",
         choices=("air", "koh"),
@@ -259,11 +261,19 @@ def _design(net, fluid: str, params: dict):
 
 
 def run(args: argparse.Namespace) -> int:
-    from origami_jax.fold import FoldFormatError, catalogue_names
+    from origami_jax.fold import (
+        FoldFormatError,
+        catalogue_families,
+        catalogue_family,
+        catalogue_names,
+    )
 
     if args.list:
         for name in catalogue_names():
             print(name)
+        print("# families (origami-jax yield FAMILY estimates each member's yield):")
+        for family in catalogue_families():
+            print(f"{family}: {','.join(catalogue_family(family))}")
         return EXIT_OK
     if args.net is None:
         fail("give a NET: a FOLD file or a catalogue name (origami-jax fold --list names them).")

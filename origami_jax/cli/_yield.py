@@ -7,6 +7,7 @@ from pathlib import Path
 
 from ._common import (
     EXIT_OK,
+    Interrupted,
     OutputFolder,
     add_contact_sampling_argument,
     contact_sampling,
@@ -27,7 +28,8 @@ DESCRIPTION = (
     HELP
     + """
 
-NET is a FOLD file or the name of a shipped net or crease pattern (origami-jax fold --list). Every
+NET is a FOLD file or the name of a shipped net or crease pattern (origami-jax fold --list), or a
+family of nets: cube_nets, octahedron_nets, or a comma-separated list of nets (see the end). Every
 sample is the net with its hinges' film stress (misfit strain), film thicknesses, hinge widths, drag coefficient and
 release times drawn from the scatter, folded with contact in the KOH bath (--fluid air: in air) and
 judged folded, jammed, misfolded, unfinished or invalid: folded when every crease is within
@@ -87,6 +89,14 @@ than folded, in 3D, next to the intended shape), and the samples as a sweep stor
 without a --widths factor it was run with); a folder holding an estimate is never overwritten, and
 one holding another command's results is refused. A nominal release at or after --t-end is refused
 (no sample could fold).
+
+A family (NET cube_nets, octahedron_nets or NET1,NET2,...) estimates each net's yield into
+OUT/NET/ (its samples, and its summary OUT/NET/estimate.json once finished), every net from the
+same --seed (common random numbers), then writes OUT/family.json and OUT/family.csv (per net: the
+yield, its interval, the verdict counts, the flat net's radius of gyration and vertex
+connections; Spearman's rank correlation of the yields with each measure and its p-value) and
+OUT/family.png (yield against each measure). --resume skips the finished nets and continues an
+interrupted one. --improve, --widths, --release, --etch-front and --bias take one net.
 Exit codes: 0 done, 1 the run stopped (disk full), 2 bad input or a folder in use, 130 interrupted.
 """
 )
@@ -226,6 +236,168 @@ OWNS = (
     "yield_widths.png",
     "improve.png",
 )
+
+
+# What a family run writes at the top of --out (each net's store and summary in OUT/NET/).
+FAMILY_OWNS = ("family.json", "family.csv", "family.png")
+# Options of one net's estimate that a family does not take.
+_SINGLE_NET_ONLY = ("improve", "improve_parameters", "widths", "release", "etch_front")
+
+
+def _scatter(args: argparse.Namespace):
+    """The --scatter config (default the documented scatter), checked."""
+    from ..fab_yield import Scatter, load_scatter
+
+    if args.scatter is None:
+        return Scatter()
+    try:
+        return load_scatter(args.scatter)
+    except (ValueError, OSError) as error:
+        fail(f"bad scatter config {args.scatter}: {error}")
+
+
+def _solve(args: argparse.Namespace):
+    """Each sample's solve (--t-end, and --rtol with the defaults' ratio for the absolute
+    tolerance) and the verdict's tolerances (--angle-tolerance, --seam-tolerance)."""
+    from ..net import FOLD_KERNEL_SOLVE
+    from ..simulation import DEFAULT_ATOL, DEFAULT_RTOL, VerdictTolerances
+
+    solve = FOLD_KERNEL_SOLVE.replace(t1=args.t_end)
+    if args.rtol is not None:
+        solve = solve.replace(rtol=float(args.rtol), atol=DEFAULT_ATOL / DEFAULT_RTOL * args.rtol)
+    return solve, VerdictTolerances.from_degrees(args.angle_tolerance, args.seam_tolerance)
+
+
+def _fluid(args: argparse.Namespace):
+    """The --fluid the nets fold in."""
+    from ..system import AIR, KOH_SOLUTION
+
+    return KOH_SOLUTION if args.fluid == "koh" else AIR
+
+
+def _load(name: str):
+    """The pattern `name` names (a FOLD file or a catalogue name), or a one-line failure."""
+    from ..fold import FoldFormatError
+    from ..loops import load_pattern
+
+    try:
+        return load_pattern(name)
+    except (FoldFormatError, ValueError, OSError) as error:
+        fail(f"cannot load {name}: {error}")
+
+
+def _run_family(args: argparse.Namespace, members: list[str], sampling) -> int:
+    """A family of nets: each net's estimate into OUT/NET/, then the table, the rank
+    correlations with compactness and the figure (`origami_jax.fab_yield.family_yield`)."""
+    from ..fab_yield import RunOptions, family_yield
+
+    for name in _SINGLE_NET_ONLY:
+        if getattr(args, name) is not None:
+            flag = "--" + name.replace("_", "-")
+            fail(f"{flag} takes one net, not a family ({args.net}): run it on one net.")
+    if args.bias:
+        fail(f"--bias pre-folds one closed-loop pattern, not a family ({args.net}).")
+    for entry in args.process:
+        if "," in entry.partition("=")[2]:
+            fail(
+                f"--process {entry}: a family takes one value per parameter (its nets' creases "
+                "differ), not one per crease."
+            )
+    if len(members) < 2 or len(set(members)) != len(members):
+        fail(f"a family needs at least two different nets, got {args.net!r}.")
+    scatter = _scatter(args)
+    fluid = _fluid(args)
+    patterns = []
+    process = None
+    for name in members:
+        pattern = _load(name)
+        if pattern.n_loops > 0:
+            fail(f"{name} is a crease pattern with closed loops: a family takes nets (trees).")
+        check_has_creases(pattern, name)
+        check_panels_thicker_than_film(pattern, pattern.default_design(fluid), name)
+        check_targets(pattern, None, name)
+        process = _process(args.process, pattern.n_creases)
+        try:
+            patterns.append(pattern.with_model(contact=args.contact, contact_sampling=sampling))
+        except ValueError as error:
+            fail(f"{name}: {error}")
+    out = Path(args.out)
+    if (out / "result.json").is_file():
+        fail(f"{out} holds one net's yield estimate (result.json): choose another --out.")
+    output = OutputFolder(
+        out,
+        command="yield",
+        owns=FAMILY_OWNS,
+        overwrite=args.resume,
+        lend=True,
+        exclusive=True,
+        refuse_hint="a yield never replaces results: choose another --out (--resume continues the "
+        "family stored there)",
+    )
+    print(
+        f"[yield] family {args.net}: {len(patterns)} nets x {args.samples} samples, seed "
+        f"{args.seed} -> {output.out}",
+        flush=True,
+    )
+
+    def on_net(name: str, index: int, total: int) -> None:
+        print(f"[yield] net {index + 1}/{total}: {name}", flush=True)
+
+    solve, tolerances = _solve(args)
+    start = time.perf_counter()
+    with output:
+        try:
+            with stored_sweep_errors(output.out):
+                family = family_yield(
+                    patterns,
+                    scatter,
+                    args.samples,
+                    args.seed,
+                    fluid=fluid,
+                    process=process,
+                    solve=solve,
+                    tolerances=tolerances,
+                    confidence=args.confidence,
+                    interval=args.interval,
+                    run=RunOptions(
+                        out=output.out,
+                        resume=args.resume,
+                        chunk_size=args.chunk_size,
+                        workers=args.workers,
+                        progress=not args.no_progress,
+                        step_budget=args.step_budget,
+                    ),
+                    on_net=on_net,
+                )
+        except Interrupted:
+            raise Interrupted(
+                f"interrupted; the finished nets and samples are kept in {output.out}: continue "
+                "with --resume."
+            ) from None
+        elapsed = time.perf_counter() - start
+        result = {
+            "family": args.net,
+            "fluid": args.fluid,
+            "t_end_us": args.t_end,
+            "rtol": args.rtol,
+            "contact": args.contact,
+            "contact_sampling": list(sampling),
+            **family.to_dict(),
+            "wall_s": elapsed,
+        }
+        write_atomic(output.dir / "family.json", dumps_json(result))
+        write_atomic(output.dir / "family.csv", family.to_csv())
+        if not args.no_figures:
+            import matplotlib.pyplot as plt
+
+            from ..plotting.fab_yield import family_figure
+
+            fig = family_figure(family, title=f"{args.net}: yield against compactness")
+            fig.savefig(output.dir / "family.png", dpi=120)
+            plt.close(fig)
+    print(family.summary())
+    print(f"wall time {elapsed:.1f} s; results in {output.out}")
+    return EXIT_OK
 
 
 def _check_resumable(out: Path, factors: list[float]) -> None:
@@ -371,8 +543,6 @@ def _improve_parameters(args: argparse.Namespace, scatter) -> tuple[str, ...]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..fab_yield import Scatter, load_scatter
-
     int_range(args.samples, "--samples", 1, 10_000_000)
     if args.seed < 0:
         fail(f"--seed must be >= 0, got {args.seed}.")
@@ -395,6 +565,16 @@ def run(args: argparse.Namespace) -> int:
     if not 0 < args.confidence < 1:
         fail(f"--confidence must lie strictly between 0 and 1, got {args.confidence}.")
     sampling = contact_sampling(args.contact_sampling, args.contact)
+    from ..fab_yield import family_names
+
+    members = family_names(args.net)
+    if members is not None:
+        return _run_family(args, members, sampling)
+    if (Path(args.out) / FAMILY_OWNS[0]).is_file():
+        fail(
+            f"{args.out} holds a family of yield estimates ({FAMILY_OWNS[0]}): one net's estimate "
+            "goes into a folder of its own; choose another --out."
+        )
     factors = _factors(args.widths)
     release = _numbers(args.release, "--release")
     front = _numbers(args.etch_front, "--etch-front")
@@ -402,21 +582,10 @@ def run(args: argparse.Namespace) -> int:
         fail("give --release or --etch-front, not both.")
     if front is not None and len(front) != 3:
         fail("--etch-front expects DX,DY,SPEED (a direction in the plane and a speed in µm/µs).")
-    scatter = Scatter()
-    if args.scatter is not None:
-        try:
-            scatter = load_scatter(args.scatter)
-        except (ValueError, OSError) as error:
-            fail(f"bad scatter config {args.scatter}: {error}")
-    from ..fold import FoldFormatError
-    from ..loops import load_pattern
-
-    try:
-        # The one place the yield command reads the pattern: the estimates, the kernel and the
-        # figures take this object.
-        pattern = load_pattern(args.net)
-    except (FoldFormatError, ValueError, OSError) as error:
-        fail(f"cannot load {args.net}: {error}")
+    scatter = _scatter(args)
+    # The one place the yield command reads the pattern: the estimates, the kernel and the
+    # figures take this object.
+    pattern = _load(args.net)
     loops = pattern.n_loops > 0
     check_has_creases(pattern, args.net)
     check_panels_thicker_than_film(pattern, pattern.default_design(), args.net)
@@ -477,14 +646,11 @@ def _run(args, output, pattern, loops, scatter, sampling, factors, release, proc
     import dataclasses
 
     from ..fab_yield import RunOptions, yield_estimate
-    from ..net import FOLD_KERNEL_SOLVE
-    from ..simulation import DEFAULT_ATOL, DEFAULT_RTOL, VerdictTolerances
-    from ..system import AIR, KOH_SOLUTION
 
     out = output.out
     if args.resume:
         _check_resumable(out, factors)
-    design = pattern.default_design(KOH_SOLUTION if args.fluid == "koh" else AIR)
+    design = pattern.default_design(_fluid(args))
     print(
         f"[yield] {args.net}: {args.samples} samples, seed {args.seed}, scatter "
         + (", ".join(f"{n} {s.width:g}" for n, s in scatter.active().items()) or "none")
@@ -494,9 +660,7 @@ def _run(args, output, pattern, loops, scatter, sampling, factors, release, proc
 
     # What every estimate of this run shares: the estimate itself, the other widths, the ascent.
     # The solve's tolerances: --rtol with the defaults' ratio for the absolute one.
-    solve = FOLD_KERNEL_SOLVE.replace(t1=args.t_end)
-    if args.rtol is not None:
-        solve = solve.replace(rtol=float(args.rtol), atol=DEFAULT_ATOL / DEFAULT_RTOL * args.rtol)
+    solve, tolerances = _solve(args)
     run = RunOptions(
         resume=args.resume,
         chunk_size=args.chunk_size,
@@ -509,7 +673,7 @@ def _run(args, output, pattern, loops, scatter, sampling, factors, release, proc
         release_times=release,
         process=process,
         solve=solve,
-        tolerances=VerdictTolerances.from_degrees(args.angle_tolerance, args.seam_tolerance),
+        tolerances=tolerances,
         bias=args.bias,
     )
 

@@ -62,6 +62,12 @@ estimate.dataset            # xarray.Dataset: the drawn parameters and every sam
 - The verdict's tolerances: `tolerances=`, a `origami_jax.simulation.VerdictTolerances` (the
   angle, and the seam gap as a fraction of the panel size).
 
+- A family of nets: `family_yield` estimates the yield of every net of a family (`"cube_nets"`,
+  `"octahedron_nets"`, or a list) from the same seed, each in its own folder (a resumed family
+  skips finished nets), and ranks the yields against the nets' compactness (radius of gyration,
+  vertex connections: `spearman`), as Azam et al. (PLoS ONE 4, e4451, 2009) did with experiments;
+  `FamilyYield` holds the table (`to_csv`) and the correlations.
+
 `yield_estimate` also takes crease patterns with closed loops (pre-folded by `bias`; a sample on
 another branch is misfolded); the ascent, the order search and the surrogate take nets only.
 
@@ -78,6 +84,12 @@ from ._ascent import yield_ascent as yield_ascent
 from ._estimate import RunOptions as RunOptions
 from ._estimate import YieldEstimate as YieldEstimate
 from ._estimate import yield_estimate as yield_estimate
+from ._family import MEASURES as MEASURES
+from ._family import FamilyYield as FamilyYield
+from ._family import NetYield as NetYield
+from ._family import RankCorrelation as RankCorrelation
+from ._family import family_names as family_names
+from ._family import family_yield as family_yield
 from ._gradient import YieldGradient as YieldGradient
 from ._gradient import score as score
 from ._gradient import score_gradient as score_gradient
@@ -94,8 +106,10 @@ from ._scatter import load_scatter as load_scatter
 from ._scatter import sample_values as sample_values
 from ._scatter import standard_draws as standard_draws
 from ._stats import INTERVAL_METHODS as INTERVAL_METHODS
+from ._stats import average_ranks as average_ranks
 from ._stats import binomial_interval as binomial_interval
 from ._stats import clopper_pearson_interval as clopper_pearson_interval
+from ._stats import spearman as spearman
 from ._stats import wilson_interval as wilson_interval
 from ._surrogate import DESIGN_VARIABLES as DESIGN_VARIABLES
 from ._surrogate import SoftYield as SoftYield

@@ -69,3 +69,59 @@ def binomial_interval(
     if method == "clopper-pearson":
         return clopper_pearson_interval(k, n, confidence)
     raise ValueError(f"method must be one of {INTERVAL_METHODS}, got {method!r}.")
+
+
+def average_ranks(values) -> list[float]:
+    """Ranks 1 … n of `values`, ties given the mean of the ranks they span (``[10, 20, 20, 30]``
+    → ``[1, 2.5, 2.5, 4]``)."""
+    values = [float(v) for v in values]
+    order = sorted(range(len(values)), key=values.__getitem__)
+    ranks = [0.0] * len(values)
+    start = 0
+    while start < len(order):
+        end = start
+        while end + 1 < len(order) and values[order[end + 1]] == values[order[start]]:
+            end += 1
+        for i in order[start : end + 1]:
+            ranks[i] = (start + end) / 2 + 1
+        start = end + 1
+    return ranks
+
+
+def spearman(x, y) -> tuple[float, float]:
+    """Spearman's rank correlation of `x` and `y` (equal lengths) and its two-sided p-value.
+
+    ρ is Pearson's correlation of the average ranks (`average_ranks`: ties share their mean
+    rank). The p-value of no correlation uses ``t = ρ √((n − 2)/(1 − ρ²))`` with Student's t of
+    ``n − 2`` degrees of freedom (as `scipy.stats.spearmanr`; an approximation, fair from about
+    ten points).
+
+    **Returns:** `(rho, p)`; `rho` NaN when either sequence is constant (no ranking), `p` NaN then
+    or below 3 points. **Raises:** `ValueError` for lengths that differ, fewer than 2 points or
+    values that are not finite.
+    """
+    from scipy.special import stdtr
+
+    x = [float(v) for v in x]
+    y = [float(v) for v in y]
+    if len(x) != len(y) or len(x) < 2:
+        raise ValueError(
+            f"spearman needs two sequences of equal length >= 2, got {len(x)} and {len(y)}."
+        )
+    if not all(math.isfinite(v) for v in x + y):
+        raise ValueError("spearman needs finite values.")
+    rx, ry = average_ranks(x), average_ranks(y)
+    n = len(x)
+    mx, my = sum(rx) / n, sum(ry) / n
+    sxy = sum((a - mx) * (b - my) for a, b in zip(rx, ry, strict=True))
+    sxx = sum((a - mx) ** 2 for a in rx)
+    syy = sum((b - my) ** 2 for b in ry)
+    if sxx == 0 or syy == 0:
+        return math.nan, math.nan
+    rho = max(-1.0, min(1.0, sxy / math.sqrt(sxx * syy)))
+    if n < 3:
+        return rho, math.nan
+    if abs(rho) == 1.0:
+        return rho, 0.0
+    t = rho * math.sqrt((n - 2) / (1 - rho * rho))
+    return rho, float(2 * stdtr(n - 2, -abs(t)))

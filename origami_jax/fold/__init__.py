@@ -13,13 +13,17 @@ the physics packages build their objects from it (`origami_jax.vertex.load_singl
   `net_geometry` (a net of rigid panels joined by creases into a tree: polyhedra, corner cubes);
   `unfold_folded_form` (a folded form's flat crease pattern, fold angles from its dihedral angles).
 - Catalogue of shipped nets: `catalogue_names`, `catalogue_path` (accordion, corner cube, the eleven
-  cube nets, tetrahedron, octahedron).
+  cube nets, tetrahedron, the eleven octahedron nets and the first-drawn `octahedron`);
+  `catalogue_family` names a family's members (`cube_nets`, `octahedron_nets`:
+  `catalogue_families`).
 - Writing: `write_fold`, `normalise_fold`; `single_vertex_fold` / `chain_fold` from plain arrays.
 
 Conventions: FOLD stores fold angles in degrees (valley +, mountain −); the model keeps them so
 (`FoldFrame.edges_fold_angle_deg`), geometry and physics use radians.
 """
 
+from ._catalogue import catalogue_families as catalogue_families
+from ._catalogue import catalogue_family as catalogue_family
 from ._catalogue import catalogue_names as catalogue_names
 from ._catalogue import catalogue_path as catalogue_path
 from ._catalogue import source_and_label as source_and_label

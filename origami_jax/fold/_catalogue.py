@@ -12,8 +12,15 @@ from +z, a `file_title` and a `frame_title`:
 - `cube_net_01` … `cube_net_11`: the eleven nets of a cube (hexominoes), every crease 90° valley;
 - `tetrahedron`: four equilateral triangles, creases 180° − 70.53° = 109.47° (the tetrahedron's
   dihedral angle is arccos(1/3) = 70.53°);
-- `octahedron`: one of the octahedron's eleven nets, eight triangles, creases 180° − 109.47° =
-  70.53° (its dihedral angle is arccos(−1/3) = 109.47°);
+- `octahedron_net_01` … `octahedron_net_11`: the eleven nets of a regular octahedron, eight
+  200 µm equilateral triangles each, every crease 180° − 109.47° = 70.53° valley (the octahedron's
+  dihedral angle is arccos(−1/3) = 109.47°). Generated, not drawn: the spanning trees of the
+  octahedron's face-adjacency graph (a cube graph: 384 trees) unfolded onto the triangular
+  lattice, all of which lie flat without overlap, taken up to rotation and reflection (11 remain),
+  in the order of their canonical forms (`octahedron_net_cells`), as the cube nets are;
+- `octahedron`: the catalogue's first octahedron net, drawn by hand before the family was
+  generated and kept under its name (congruent to `octahedron_net_06`: a strip of six triangles
+  with one more below its left end and one above its right end);
 - crease patterns with closed loops (`origami_jax.fold._catalogue_loops`): `vertex_degree4`,
   `vertex_degree6`, `waterbomb_base`, `miura_3x3`, `waterbomb_2x2`, `square_twist` (flat-foldable,
   not rigidly foldable) and `origami_simulator_miura` (a file in Origami Simulator's export format,
@@ -25,6 +32,7 @@ them); a test checks that the shipped files are what it generates.
 
 from __future__ import annotations
 
+import itertools
 import math
 import os
 from collections import deque
@@ -45,6 +53,35 @@ TETRAHEDRON_FOLD_DEG = 180.0 - math.degrees(math.acos(1.0 / 3.0))  # 109.47°
 OCTAHEDRON_FOLD_DEG = 180.0 - math.degrees(math.acos(-1.0 / 3.0))  # 70.53°
 
 Cell = tuple[int, int]
+# A triangle of the triangular lattice as its three corners (p, q): the point p·a + q·b, with
+# a = (1, 0), b = (1/2, √3/2) edges (see `_lattice_triangle`).
+LatticeTriangle = tuple[tuple[int, int], ...]
+
+# Families of catalogue nets, by name: a family's members in their catalogue order.
+FAMILIES = {
+    "cube_nets": tuple(f"cube_net_{i:02d}" for i in range(1, 12)),
+    "octahedron_nets": tuple(f"octahedron_net_{i:02d}" for i in range(1, 12)),
+}
+
+
+def catalogue_families() -> tuple[str, ...]:
+    """Names of the catalogue's families of nets (`catalogue_family`), sorted."""
+    return tuple(sorted(FAMILIES))
+
+
+def catalogue_family(name: str) -> tuple[str, ...]:
+    """The catalogue names of family `name`: `"cube_nets"` (`cube_net_01` … `cube_net_11`, the
+    eleven nets of a cube) or `"octahedron_nets"` (`octahedron_net_01` … `octahedron_net_11`),
+    the nets of a self-folding yield study (Azam et al., PLoS ONE 4, e4451, 2009).
+
+    **Raises:** `ValueError` naming the families for an unknown one.
+    """
+    if name not in FAMILIES:
+        raise ValueError(
+            f"no family of catalogue nets named {name!r}; the families are: "
+            f"{', '.join(catalogue_families())}"
+        )
+    return FAMILIES[name]
 
 
 def catalogue_names() -> tuple[str, ...]:
@@ -158,6 +195,127 @@ def _rolls_onto_a_cube(cells: tuple[Cell, ...]) -> bool:
 def cube_net_cells() -> list[tuple[Cell, ...]]:
     """The eleven nets of a cube as hexominoes (cells `(column, row)`), canonical forms, sorted."""
     return [shape for shape in free_polyominoes(6) if _rolls_onto_a_cube(shape)]
+
+
+# --- the eleven octahedron nets ---------------------------------------------------------------
+
+# The octahedron's faces are the sign vectors s ∈ {±1}³ (face s has corners s_x·x̂, s_y·ŷ, s_z·ẑ);
+# faces differing in one sign share an edge (the face-adjacency graph is a cube's graph).
+_OCTAHEDRON_FACES = tuple(itertools.product((1, -1), repeat=3))
+
+
+def octahedron_spanning_trees() -> list[tuple[tuple[int, int], ...]]:
+    """Every spanning tree of the octahedron's face-adjacency graph (faces numbered as
+    `itertools.product((1, -1), repeat=3)`), as its 7 face pairs: 384 (Kirchhoff's count for
+    the cube graph)."""
+    faces = _OCTAHEDRON_FACES
+    pairs = [
+        (a, b)
+        for a, b in itertools.combinations(range(len(faces)), 2)
+        if sum(x != y for x, y in zip(faces[a], faces[b], strict=True)) == 1
+    ]
+    trees = []
+    for subset in itertools.combinations(pairs, len(faces) - 1):
+        group = list(range(len(faces)))  # union–find: 7 pairs without a cycle span the 8 faces
+        for a, b in subset:
+            ra, rb = _root(group, a), _root(group, b)
+            if ra == rb:
+                break
+            group[ra] = rb
+        else:
+            trees.append(subset)
+    return trees
+
+
+def _root(group: list[int], x: int) -> int:
+    """The representative of `x`'s set in a union–find forest (`group[x]` is `x`'s parent)."""
+    while group[x] != x:
+        x = group[x]
+    return x
+
+
+def unfold_octahedron(tree: Iterable[tuple[int, int]]) -> list[LatticeTriangle]:
+    """The octahedron cut open along the edges that are not in `tree` and laid on the
+    triangular lattice: face 0 on the triangle (0, 0), (1, 0), (0, 1), every other face across
+    the side it shares with its parent in the tree. Returns each face's triangle (its corners
+    sorted); two faces on the same triangle overlap (lattice triangles either coincide or
+    share at most a side)."""
+    faces = _OCTAHEDRON_FACES
+    neighbours: dict[int, list[int]] = {f: [] for f in range(len(faces))}
+    for a, b in tree:
+        neighbours[a].append(b)
+        neighbours[b].append(a)
+    # Each placed face: lattice corner → the octahedron vertex on it, (axis, sign).
+    s0 = faces[0]
+    placed = {0: {(0, 0): (0, s0[0]), (1, 0): (1, s0[1]), (0, 1): (2, s0[2])}}
+    queue = deque([0])
+    while queue:
+        f = queue.popleft()
+        for g in neighbours[f]:
+            if g in placed:
+                continue
+            axis = next(i for i in range(3) if faces[f][i] != faces[g][i])
+            corners = placed[f]
+            (p, q), (r, s) = (c for c, v in corners.items() if v[0] != axis)  # the shared side
+            (apex,) = (c for c, v in corners.items() if v[0] == axis)
+            across = (p + r - apex[0], q + s - apex[1])  # the apex reflected through the side
+            placed[g] = {(p, q): corners[(p, q)], (r, s): corners[(r, s)]}
+            placed[g][across] = (axis, faces[g][axis])
+            queue.append(g)
+    if len(placed) != len(faces):
+        raise ValueError(f"{list(tree)} does not span the octahedron's {len(faces)} faces")
+    return [tuple(sorted(placed[f])) for f in range(len(faces))]
+
+
+def _canonical_triangles(triangles: Iterable[LatticeTriangle]) -> tuple[LatticeTriangle, ...]:
+    """The smallest of a set of lattice triangles' 12 images under the triangular lattice's
+    rotations (60° steps) and reflections, translated to p, q ≥ 0 touching both axes: equal for
+    polyiamonds that are congruent."""
+    triangles = [list(t) for t in triangles]
+    forms = []
+    for flip in (False, True):
+        for turn in range(6):
+            image = []
+            for corners in triangles:
+                moved = []
+                for p, q in corners:
+                    if flip:  # reflection about the x axis: a → a, b → a − b
+                        p, q = p + q, -q
+                    for _ in range(turn):  # 60°: a → b, b → b − a
+                        p, q = -q, p + q
+                    moved.append((p, q))
+                image.append(moved)
+            p0 = min(p for t in image for p, _ in t)
+            q0 = min(q for t in image for _, q in t)
+            forms.append(
+                tuple(sorted(tuple(sorted((p - p0, q - q0) for p, q in t)) for t in image))
+            )
+    return min(forms)
+
+
+def octahedron_net_cells() -> list[tuple[tuple[int, int, bool], ...]]:
+    """The eleven nets of a regular octahedron as lattice cells `(i, j, up)` (`_lattice_triangle`),
+    canonical forms, sorted: the unfoldings of every spanning tree of the face-adjacency graph
+    that lie flat without overlap (all 384 do), up to rotation and reflection.
+
+    **Raises:** `AssertionError` unless exactly eleven remain.
+    """
+    forms = set()
+    for tree in octahedron_spanning_trees():
+        triangles = unfold_octahedron(tree)
+        if len(set(triangles)) == len(triangles):  # no two faces on one triangle
+            forms.add(_canonical_triangles(triangles))
+    assert len(forms) == 11, f"{len(forms)} octahedron nets, not 11"
+    return [tuple(_cell(t) for t in form) for form in sorted(forms)]
+
+
+def _cell(corners: LatticeTriangle) -> tuple[int, int, bool]:
+    """A lattice triangle's cell `(i, j, up)`: up (i, j), (i+1, j), (i, j+1); down (i+1, j),
+    (i+1, j+1), (i, j+1). Both have i = min p and j = min q; an up triangle's corners sum to
+    3(i + j) + 2, a down one's to 3(i + j) + 4."""
+    i = min(p for p, _ in corners)
+    j = min(q for _, q in corners)
+    return (i, j, sum(p + q for p, q in corners) == 3 * (i + j) + 2)
 
 
 # --- FOLD files -----------------------------------------------------------------------------
@@ -330,6 +488,24 @@ def _octahedron() -> FoldFile:
     )
 
 
+def _octahedron_net(number: int, cells: tuple[tuple[int, int, bool], ...]) -> FoldFile:
+    return _net_fold(
+        title=f"Octahedron net {number:02d} of 11",
+        frame_title="crease pattern: eight equilateral triangles",
+        description=(
+            "One of the eleven nets of a regular octahedron: eight 200 um equilateral triangles at "
+            "cells (i, j, up) of the triangular lattice with edges a = (200, 0) um and "
+            f"b = (100, 173.2) um {[[i, j, int(up)] for i, j, up in cells]} (up: corners i a + "
+            "j b, (i+1) a + j b, i a + (j+1) b; down: the triangle above that up one's right "
+            "side). Every crease folds 180 - 109.47 = 70.53 degrees (valley; 109.47 degrees = "
+            "arccos(-1/3) is the octahedron's dihedral angle), closing the octahedron above the "
+            "pattern's plane."
+        ),
+        polygons=[_lattice_triangle(i, j, up) for i, j, up in cells],
+        crease_deg=lambda p, q: OCTAHEDRON_FOLD_DEG,
+    )
+
+
 def build_catalogue() -> dict[str, FoldFile]:
     """Every catalogue net by name, as generated (the shipped files are these, written)."""
     nets = {
@@ -340,6 +516,12 @@ def build_catalogue() -> dict[str, FoldFile]:
     }
     for number, cells in enumerate(cube_net_cells(), start=1):
         nets[f"cube_net_{number:02d}"] = _cube_net(number, cells)
+    for number, cells in enumerate(octahedron_net_cells(), start=1):
+        fold = nets[f"octahedron_net_{number:02d}"] = _octahedron_net(number, cells)
+        # Faces side by side in the plane are joined there by a crease: a side shared by two
+        # faces that the tree does not join would close a loop of creases (not an unfolding).
+        creases = sum(a != "B" for a in fold.key_frame.edges_assignment)
+        assert creases == len(cells) - 1, f"octahedron net {number}: {creases} creases"
     nets.update(loop_patterns())
     return nets
 

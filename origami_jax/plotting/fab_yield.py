@@ -1,6 +1,7 @@
 """Figures of yield estimates (`origami_jax.fab_yield.yield_estimate`): the verdict counts and the
 yield with its confidence interval (`yield_figure`), the yield against the scatter's width
-(`width_figure`), and the misfold modes as 3D snapshots (`misfold_figure`).
+(`width_figure`), the misfold modes as 3D snapshots (`misfold_figure`), and a family's yields
+against the nets' compactness (`family_figure`).
 
 Matplotlib only; imported explicitly (`from origami_jax.plotting import fab_yield`).
 """
@@ -10,6 +11,7 @@ from typing import Any
 
 import matplotlib.pyplot as plt
 import numpy as np
+from matplotlib.ticker import MaxNLocator
 from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
 VERDICT_COLOURS = {
@@ -83,6 +85,54 @@ def width_figure(factors, results, *, title: str | None = None):
         ax.set_xticks(x, [f"{v:g}" for v in x])
     confidence = 100 * summaries[0].get("confidence", 0.95)
     ax.set_title(f"yield with its {confidence:g} % interval", fontsize=10)
+    if title:
+        fig.suptitle(title)
+    return fig
+
+
+def family_figure(result: Any, *, title: str | None = None):
+    """A family's yields against its nets' compactness (`origami_jax.fab_yield.family_yield`): two
+    panels, yield with its interval against the flat net's radius of gyration (µm) and against
+    its number of vertex connections, each net's name beside its point and Spearman's ρ (with
+    its p-value) in the panel's title.
+
+    **Arguments:** `result`: a `FamilyYield` or its `to_dict()` (a CLI `family.json`); `title`.
+    **Returns:** the matplotlib `Figure`.
+    """
+    summary: Mapping[str, Any] = result if isinstance(result, Mapping) else result.to_dict()
+    nets = summary["nets"]
+    fraction = np.array([n["yield"] for n in nets])
+    low = np.array([n["interval"][0] for n in nets])
+    high = np.array([n["interval"][1] for n in nets])
+    fig, axes = plt.subplots(1, 2, figsize=(10.0, 4.2), sharey=True, layout="constrained")
+    panels = (
+        ("radius_of_gyration", "radius_of_gyration_um", "radius of gyration of the flat net (µm)"),
+        ("vertex_connections", "vertex_connections", "vertex connections"),
+    )
+    for ax, (measure, key, label) in zip(axes, panels, strict=True):
+        x = np.array([n[key] for n in nets], dtype=float)
+        ax.errorbar(
+            x, fraction, yerr=[fraction - low, high - fraction], fmt="o", capsize=4, color="k"
+        )
+        placed: dict[tuple[float, float], int] = {}  # nets on one point: labels stacked
+        for xi, yi, net in zip(x, fraction, nets, strict=True):
+            k = placed[(xi, yi)] = placed.get((xi, yi), -1) + 1
+            ax.annotate(
+                net["name"], (xi, yi), xytext=(4, 3 + 9 * k), textcoords="offset points", fontsize=7
+            )
+        if measure == "vertex_connections":
+            ax.xaxis.set_major_locator(MaxNLocator(integer=True))
+        rank = summary["spearman"][measure]
+        rho, p = rank["rho"], rank["p_value"]
+        if rho is None or not np.isfinite(rho):  # every yield (or measure) equal: no ranking
+            ax.set_title("Spearman ρ undefined (all equal)")
+        elif p is None or not np.isfinite(p):
+            ax.set_title(f"Spearman ρ = {rho:.2f}")
+        else:
+            ax.set_title(f"Spearman ρ = {rho:.2f} (p = {p:.2g})")
+        ax.set_xlabel(label)
+        ax.set_ylim(-0.02, 1.05)
+    axes[0].set_ylabel(f"yield ({100 * summary.get('confidence', 0.95):g} % interval)")
     if title:
         fig.suptitle(title)
     return fig
