@@ -37,7 +37,7 @@ def test_builder_targets_follow_theta_final():
     design, system, _ = _reference()
     np.testing.assert_allclose(system.hinges.target, [THETA_FINAL, -THETA_FINAL, THETA_FINAL])
     np.testing.assert_allclose(system.hinges.stiffness, design.stiffness(3))
-    np.testing.assert_allclose(system.drag.coefficient, design.drag(3))
+    np.testing.assert_allclose(system.drag.coefficient, design.drag(3, 200.0, 200.0))
     np.testing.assert_allclose(system.hinges.radius, design.radius())
     assert Accordion(3)(design).hinges.target.shape == (3,)
 
