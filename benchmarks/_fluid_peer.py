@@ -77,11 +77,20 @@ def shift_to_joint(damping: np.ndarray, r) -> np.ndarray:
     return x.T @ damping @ x
 
 
+def flap_size(design) -> tuple[float, float]:
+    """The accordion's flap length and width in the design's units: the pattern's default, the
+    paper's 200 µm squares (`origami_jax.chain.flap_size`)."""
+    from origami_jax.chain import flap_size as size
+
+    length, width = size(design.units)
+    return float(length), float(width)
+
+
 def accordion_model(design, n: int):
     """Pinocchio model of the accordion of `n` flaps from the design's numbers (module docstring)."""
     import pinocchio as pin
 
-    length, width = float(design.flap_length), float(design.flap_width)
+    length, width = flap_size(design)
     thickness, density = float(design.t_structural), float(design.structural.density)
     mass = density * length * width * thickness
     inertia = (
@@ -142,7 +151,7 @@ def fluid_terms(design, model, stiffness, targets, *, added_mass: bool, passes: 
     data = model.createData()
     middle = 0.5 * np.asarray(targets, dtype=float)
     own = np.diag(pin.crba(model, data, middle)).copy()
-    length, width = float(design.flap_length), float(design.flap_width)
+    length, width = flap_size(design)
     rho_f, mu = float(design.fluid.density), float(design.fluid.viscosity)
     r = np.array([0.0, length / 2, 0.0])
     unit = shift_to_joint(rectangle_added_inertia(length, width), r)
@@ -229,7 +238,7 @@ def lsoda_fluid_peer(design, n: int, ts: np.ndarray, repeats: int, *, added_mass
 
     theta = float(design.theta_final)
     targets = np.array([theta if i % 2 == 0 else -theta for i in range(n)])
-    k, b = np.asarray(design.stiffness(n)), np.asarray(design.drag(n))
+    k, b = np.asarray(design.stiffness(n)), np.asarray(design.drag(n, *flap_size(design)))
     build = added_mass_rhs if added_mass else viscous_rhs
 
     def peer():

@@ -81,7 +81,7 @@ def run(quick: bool) -> list[Result]:
     n = chain.n_joints
     k = np.asarray(design.stiffness(n))
     # A linear damping coefficient with the quadratic drag's magnitude at 1 rad/µs (torque·time/rad).
-    c = np.asarray(design.drag(n))
+    c = np.asarray(design.drag(n, *oc.flap_size(design.units)))
     rng = np.random.default_rng(1)
     theta = rng.uniform(-np.pi, np.pi, n)
     theta_dot = rng.normal(scale=0.05, size=n)

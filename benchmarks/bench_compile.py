@@ -110,12 +110,13 @@ FuncAnimation(fig, update, frames=len(frames)).save(out + "/animation.gif",
 def _peer_script() -> str:
     import numpy as np
 
-    from origami_jax.chain import accordion_system
+    from origami_jax.chain import accordion_system, flap_size
     from origami_jax.system import HingeDesign
 
     design = HingeDesign.literature()
     system = accordion_system(design, 3)
     chain = system.mechanism
+    length, width = flap_size(design.units)  # the accordion's default flaps, as the system's
     if not np.allclose(np.asarray(chain.axes), [1.0, 0.0, 0.0]):
         raise ValueError("the peer script is written for hinges along x (the accordion)")
     # Inertia about each flap's centre, in the world frame of the flat state (as bench_simulate).
@@ -130,8 +131,8 @@ def _peer_script() -> str:
     return PEER_SCRIPT.format(
         points=np.asarray(chain.points).tolist(),
         cgs=np.asarray(chain.cg_poses[:, :3, 3]).tolist(),
-        length=float(design.flap_length),
-        width=float(design.flap_width),
+        length=float(length),
+        width=float(width),
         mass=np.asarray(chain.masses).tolist(),
         inertia=inertias,
         k=np.asarray(system.hinges.stiffness).tolist(),

@@ -73,9 +73,11 @@ def _peer_step_response(chain, k, b, ts, targets_theta):
 
 
 def _peer_metrics(chain, design, k_scale, b_scale, ts, targets_theta):
+    from origami_jax.chain import flap_size
+
     n = chain.n_joints
     k = np.asarray(design.stiffness(n)) * k_scale / float(design.k_scale)
-    b = np.asarray(design.drag(n)) * b_scale / float(design.b_scale)
+    b = np.asarray(design.drag(n, *flap_size(design.units))) * b_scale / float(design.b_scale)
     sol = _peer_step_response(chain, k, b, ts, targets_theta)
     return peer_metrics_of(sol, ts, targets_theta), sol.nfev
 

@@ -53,7 +53,7 @@ def run(quick: bool) -> list[Result]:
 
     import origami_jax.design as ojd
     import origami_jax.simulation as sim
-    from origami_jax.chain import Accordion, accordion_system, alternating_targets
+    from origami_jax.chain import Accordion, accordion_system, alternating_targets, flap_size
     from origami_jax.system import HingeDesign
 
     literature = HingeDesign.literature()
@@ -62,7 +62,8 @@ def run(quick: bool) -> list[Result]:
     bounds = {"k_scale": (0.1, 100.0), "b_scale": (0.1, 1000.0)}
     ts = np.linspace(0.0, t1, n_save)
     thetas = np.asarray(alternating_targets(n))
-    k0, b0 = np.asarray(literature.stiffness(n)), np.asarray(literature.drag(n))
+    k0 = np.asarray(literature.stiffness(n))
+    b0 = np.asarray(literature.drag(n, *flap_size(literature.units)))
     chain = accordion_system(literature, n).mechanism
     truth_design = HingeDesign.literature(k_scale=TRUTH[0], b_scale=TRUTH[1])
     start = HingeDesign.literature(k_scale=START[0], b_scale=START[1])

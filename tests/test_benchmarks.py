@@ -134,7 +134,7 @@ def test_fluid_peer_single_flap_closed_form():
     at the hinge frequency ``√(k / I_hinge)`` of a plate about its edge (1e-12)."""
     import numpy as np
     import pinocchio as pin
-    from benchmarks._fluid_peer import accordion_model, viscous_rhs
+    from benchmarks._fluid_peer import accordion_model, flap_size, viscous_rhs
 
     from origami_jax.system import HingeDesign
 
@@ -146,7 +146,7 @@ def test_fluid_peer_single_flap_closed_form():
     model = accordion_model(design, 1)
     mass = pin.crba(model, model.createData(), q)[0, 0]
     torque = -mass * (rhs(0.0, np.r_[q, 1.0])[1] - rhs(0.0, np.r_[q, -1.0])[1]) / 2
-    length, width = float(design.flap_length), float(design.flap_width)
+    length, width = flap_size(design)
     a = 0.5 * length
     closed = (
         float(design.added_mass_coefficient)
@@ -176,7 +176,7 @@ def test_fluid_peer_against_ours():
     against our trapezoid rule, 1e-13, and the frequency fixed point iterated to round-off;
     measured 6e-16 with viscous drag and 4e-14 with added inertia)."""
     import numpy as np
-    from benchmarks._fluid_peer import added_mass_rhs, viscous_rhs
+    from benchmarks._fluid_peer import added_mass_rhs, flap_size, viscous_rhs
 
     from origami_jax.chain import accordion_system
     from origami_jax.system import HingeDesign
@@ -185,7 +185,7 @@ def test_fluid_peer_against_ours():
     theta = float(design.theta_final)
     n = 3
     targets = np.array([theta, -theta, theta])
-    k, b = np.asarray(design.stiffness(n)), np.asarray(design.drag(n))
+    k, b = np.asarray(design.stiffness(n)), np.asarray(design.drag(n, *flap_size(design)))
     state = np.array([0.9, -1.7, 2.4, 0.03, -0.05, 0.08])  # rad, rad/µs
     for fluid, peer in (("viscous", viscous_rhs), ("added_mass", added_mass_rhs)):
         system = accordion_system(design, n, fluid=("hinge", fluid))

@@ -200,8 +200,6 @@ def _accordion_acceleration(scales, theta, theta_dot, tau):
     base = osys.HingeDesign.literature(fluid=osys.KOH_SOLUTION)
     design = osys.HingeDesign.literature(
         fluid=osys.KOH_SOLUTION,
-        flap_length=base.flap_length * scales[0],
-        flap_width=base.flap_width * scales[1],
         hinge_width=base.hinge_width * scales[2],
         t_structural=base.t_structural * scales[3],
         t_hinge=base.t_hinge * scales[4],
@@ -209,9 +207,17 @@ def _accordion_acceleration(scales, theta, theta_dot, tau):
         drag_coefficient=base.drag_coefficient * scales[6],
         theta_final=base.theta_final * scales[7],
     )
-    chain = oc.accordion_system(design, 3).mechanism
+    # The flaps are the pattern's: the paper's 200 µm squares, scaled.
+    length, width = oc.flap_size(design.units)
+    length, width = length * scales[0], width * scales[1]
+    chain = oc.accordion_system(design, 3, flap_length=length, flap_width=width).mechanism
     return forward_dynamics(
-        chain, theta, theta_dot, tau, stiffness=design.stiffness(3), drag=design.drag(3)
+        chain,
+        theta,
+        theta_dot,
+        tau,
+        stiffness=design.stiffness(3),
+        drag=design.drag(3, length, width),
     )
 
 
@@ -285,10 +291,15 @@ def test_units_do_not_change_the_answer():
     results = {}
     for units in (osys.SI, osys.MICRO):
         design = osys.HingeDesign.literature(units=units)
-        chain = oc.accordion_system(design, 3).mechanism
+        system = oc.accordion_system(design, 3)
         rate = rate_si * units.second_per_time
         accel = forward_dynamics(
-            chain, theta, rate, jnp.zeros(3), stiffness=design.stiffness(3), drag=design.drag(3)
+            system.mechanism,
+            theta,
+            rate,
+            jnp.zeros(3),
+            stiffness=design.stiffness(3),
+            drag=system.drag.coefficient,
         )
         results[units.name] = accel / units.second_per_time**2  # rad/s²
     assert max_relative_error(results["micro"], results["SI"]) < PATH_RTOL

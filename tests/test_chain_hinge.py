@@ -50,7 +50,7 @@ def test_literature_radius_and_stiffness():
     np.testing.assert_allclose(design.stiffness(3), np.full(3, k), rtol=FORMULA_RTOL)
     # Drag in air: C_D ν A L³ / 16 with ν = 1.204 kg/m³ = 1.204e-6 ng/µm³.
     b = 1.17 * 1.204e-6 * 200.0 * 200.0 * 200.0**3 / 16
-    np.testing.assert_allclose(design.drag(3), np.full(3, b), rtol=FORMULA_RTOL)
+    np.testing.assert_allclose(design.drag(3, 200.0, 200.0), np.full(3, b), rtol=FORMULA_RTOL)
 
 
 def test_documented_alternatives():
@@ -58,11 +58,12 @@ def test_documented_alternatives():
     plate = osys.HingeDesign.literature(stiffness_model="plate")
     strip = osys.HingeDesign.literature(drag_model="strip")
     np.testing.assert_allclose(paper.stiffness(2) / plate.stiffness(2), 4.0, rtol=FORMULA_RTOL)
-    np.testing.assert_allclose(strip.drag(2) / paper.drag(2), 2.0, rtol=FORMULA_RTOL)
+    flap = (200.0, 150.0)  # µm, length and width
+    np.testing.assert_allclose(strip.drag(2, *flap) / paper.drag(2, *flap), 2.0, rtol=FORMULA_RTOL)
     scaled = osys.HingeDesign.literature(k_scale=3.07, b_scale=18.6, fluid=osys.KOH_SOLUTION)
     np.testing.assert_allclose(scaled.stiffness(1), 3.07 * paper.stiffness(1), rtol=FORMULA_RTOL)
     np.testing.assert_allclose(
-        scaled.drag(1), 18.6 * paper.drag(1) * 1290.0 / 1.204, rtol=FORMULA_RTOL
+        scaled.drag(1, *flap), 18.6 * paper.drag(1, *flap) * 1290.0 / 1.204, rtol=FORMULA_RTOL
     )
 
 
@@ -105,7 +106,9 @@ def test_units_convert_consistently():
     micro = osys.HingeDesign.literature()
     si = osys.HingeDesign.literature(units=osys.SI)
     np.testing.assert_allclose(si.stiffness(1), micro.stiffness(1) * 1e-12, rtol=FORMULA_RTOL)
-    np.testing.assert_allclose(si.drag(1), micro.drag(1) * 1e-12 * 1e-12, rtol=FORMULA_RTOL)
+    np.testing.assert_allclose(
+        si.drag(1, 200e-6, 150e-6), micro.drag(1, 200.0, 150.0) * 1e-12 * 1e-12, rtol=FORMULA_RTOL
+    )
     np.testing.assert_allclose(si.radius(), micro.radius() * 1e-6, rtol=FORMULA_RTOL)
     assert osys.MICRO.stress(1e6) == pytest.approx(1.0)
     assert osys.MICRO.density(1e6) == pytest.approx(1.0)
@@ -157,4 +160,12 @@ def test_hinge_errors():
     with pytest.raises(ValueError, match="density must be positive"):
         osys.Fluid(-1.0)
     with pytest.raises(ValueError, match="NaN"):
-        osys.HingeDesign.literature(flap_length=float("nan"))
+        osys.HingeDesign.literature(t_hinge=float("nan"))
+    # The flap geometry moved to the accordion pattern: a one-line pointer there.
+    moved = "HingeDesign has no flap_length: the flap geometry belongs to the accordion pattern"
+    with pytest.raises(ValueError, match=moved):
+        osys.HingeDesign.literature(flap_length=150.0)
+    with pytest.raises(AttributeError, match=moved):
+        osys.HingeDesign.literature().flap_length  # noqa: B018
+    with pytest.raises(TypeError, match="unexpected keyword"):
+        osys.HingeDesign.literature(flap_lenght=150.0)

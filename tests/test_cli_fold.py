@@ -243,6 +243,7 @@ def test_t1_is_optional_and_checked_when_given(capsys):
         ("hinge_width=1e,2", "one number per hinge"),
         ("hinge_width=nan", "finite"),
         ("hinge_width", "NAME=VALUE"),
+        ("flap_length=150", "the flap size belongs to the accordion"),
     ],
 )
 def test_bad_hinge_parameters_are_refused_in_one_line(param, message, capsys):

@@ -186,6 +186,8 @@ def test_out_that_is_a_file_or_cannot_be_created_is_one_line(command, tmp_path, 
         (["--param", "k_scale=1,2"], "give one value (every hinge of the chain takes it)"),
         (["--param", "k_scale=-1"], "k_scale must be positive"),
         (["--param", "theta_final=100"], "at most π"),
+        (["--param", "flap_length=-1"], "flap_length must be finite and positive"),
+        (["--param", "flap_width=1,2"], "give one value (every hinge of the chain takes it)"),
     ],
 )
 def test_simulate_refuses_bad_numbers_in_one_line(flags, message, tmp_path, capsys):
@@ -271,9 +273,14 @@ def test_simulate_writes_strict_json_and_refuses_a_rerun(capsys):
     assert report["metrics"]["rise_time"] == [None] and report["metrics"]["t90"] == [None]
     assert main(["simulate", *CHEAP, "--t1", "5", "--out", str(out)]) == 2
     assert "--overwrite" in _one_line(capsys.readouterr().err)
-    assert main(["simulate", *CHEAP, "--t1", "6", "--out", str(out), "--overwrite"]) == 0
+    # The flap size is the accordion pattern's, set by --param as before: the paper's drag
+    # C_D ν (L w) L³ / 16 of a 100 × 50 µm flap in air (1e-6: the float32 of the run's arrays).
+    flaps = ["--param", "flap_length=100", "--param", "flap_width=50"]
+    assert main(["simulate", *CHEAP, *flaps, "--t1", "6", "--out", str(out), "--overwrite"]) == 0
     capsys.readouterr()
-    assert _strict((out / "metrics.json").read_text())["stats"]["num_steps"] > 0
+    report = _strict((out / "metrics.json").read_text())
+    assert report["stats"]["num_steps"] > 0
+    assert report["drag"][0] == pytest.approx(1.17 * 1.204e-6 * 100 * 50 * 100**3 / 16, rel=1e-6)
 
 
 _GOOD = {

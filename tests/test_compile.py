@@ -305,10 +305,14 @@ def _push(gain, start):
 
 def test_values_do_not_recompile(compilations):
     # One small system (2 flaps, Tsit5, 101 samples): every case below shares its compiled solve.
-    def system(release=(0.0, 5.0), targets=(2.5, -2.5), **params):
+    def system(release=(0.0, 5.0), targets=(2.5, -2.5), flap_length=None, **params):
         design = HingeDesign.literature(**params)
         return accordion_system(
-            design, 2, release_times=jnp.asarray(release), targets=jnp.asarray(targets)
+            design,
+            2,
+            flap_length=flap_length,
+            release_times=jnp.asarray(release),
+            targets=jnp.asarray(targets),
         )
 
     def run(sys_=None, inputs=None, n_save=101, **changes):

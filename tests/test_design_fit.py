@@ -164,3 +164,31 @@ def test_evaluate_and_figure(round_trip, tmp_path):
     fig = ojd.plot_response(round_trip, path=tmp_path / "design.png")
     assert (tmp_path / "design.png").stat().st_size > 1000
     matplotlib.pyplot.close(fig)
+
+
+@pytest.mark.slow  # a fit of its own (one parameter, 61 samples: ~45 s on two cores)
+def test_fit_recovers_the_patterns_flap_length():
+    """The flap size is the accordion pattern's: freed, the fit sets it in the pattern and recovers
+    the 170 µm flaps whose rise times it is given, from the paper's 200 µm (to 1e-3 relative: the
+    fit stops once the targets are met within its tolerance)."""
+    from origami_jax.chain import Accordion
+
+    hinge = HingeDesign.literature()
+    settings = ojd.SimulationSettings(
+        300.0, layout=Accordion(3), options=sim.FIT_OPTIONS.replace(saveat=sim.SaveAt(n=61))
+    )
+    _, metrics = ojd.response(hinge, settings, Accordion(3, flap_length=170.0))
+    targets = ojd.Targets(rise_time=np.asarray(metrics.rise_time))
+    result = ojd.design(
+        hinge,
+        targets,
+        ["flap_length"],
+        settings=settings,
+        n_starts=1,
+        max_steps=20,
+        bounds={"flap_length": (100.0, 300.0)},
+    )
+    assert result.reached
+    assert result.parameters["flap_length"] == pytest.approx(170.0, rel=1e-3)
+    assert result.pattern.flap_length == pytest.approx(170.0, rel=1e-3)
+    assert float(result.hinge.k_scale) == 1.0  # the design itself is not what moved

@@ -10,6 +10,7 @@ import optimistix as optx
 import pytest
 
 import origami_jax.design as ojd
+from origami_jax.chain import Accordion
 from origami_jax.system import HingeDesign
 
 NAN = math.nan
@@ -45,6 +46,30 @@ def test_space_round_trip_and_bounds(hinge):
     applied = space.apply(hinge, jnp.array([2.0, 150.0, 0.3]))
     assert float(applied.k_scale) == 2.0 and float(applied.hinge.poisson_ratio) == 0.3
     assert float(applied.b_scale) == float(hinge.b_scale)
+
+
+def test_pattern_geometry_is_a_free_parameter(hinge):
+    """The accordion's flap size is the pattern's, not the design's: the space reads its start from
+    the pattern, `apply` leaves the design alone and `apply_pattern` sets it in the pattern,
+    differentiably: the paper's drag b = C_D ν (L w) L³ / 16 grows as L⁴, so d log b / d log L = 4
+    (1e-12: one product's rounding)."""
+    pattern = Accordion(3, flap_length=150.0)
+    space = ojd.parameter_space(hinge, ["k_scale", "flap_length"], pattern=pattern)
+    assert ojd.parameter_unit("flap_length") == "length"
+    np.testing.assert_allclose(space.read(hinge, pattern), [1.0, 150.0])
+    np.testing.assert_allclose([space.lower[1], space.upper[1]], [1.5, 15000.0])
+    assert float(space.apply(hinge, jnp.array([2.0, 120.0])).k_scale) == 2.0
+    assert space.apply_pattern(pattern, [2.0, 120.0]) == Accordion(3, flap_length=120.0)
+
+    def log_drag(length):
+        fitted = space.apply_pattern(pattern, jnp.stack([jnp.asarray(1.0), length]))
+        return jnp.log(fitted(hinge).drag.coefficient[0])
+
+    assert float(jax.grad(log_drag)(jnp.asarray(150.0))) * 150.0 == pytest.approx(4.0, rel=1e-12)
+    with pytest.raises(ValueError, match="flap_length is the accordion's flap geometry"):
+        ojd.parameter_space(hinge, ["flap_length"])  # no pattern to read it from
+    with pytest.raises(ValueError, match="one value for the whole pattern"):
+        ojd.parameter_space(hinge, ["flap_length[0]"], pattern=pattern)
 
 
 def test_space_rejects_bad_input(hinge):

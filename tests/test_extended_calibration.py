@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 import origami_jax.design as ojd
+from origami_jax.chain import Accordion
 from origami_jax.design._extended_fit import _TARGET_LABELS, _finding, _variant_fit
 from origami_jax.system import HingeDesign
 
@@ -66,6 +67,7 @@ def _stand_in_result(achieved, at_bound):
         upper=np.array([4.25e-3, 200.0]),
         at_bound=at_bound,
         hinge=HingeDesign.literature(stiffness_model="bilayer"),
+        pattern=Accordion(3, hinges="arc", fluid="extended"),  # the flaps' size is the pattern's
         cost=0.5,
         result_message="",
         iterations=7,

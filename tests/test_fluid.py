@@ -38,7 +38,7 @@ def test_single_flap_about_its_hinge_is_the_strip_formula():
         np.testing.assert_allclose(torque, [expected], rtol=1e-6)
     # scale=0.5 is the paper's /16.
     paper = PanelDrag.for_mechanism(chain, coefficient=c_d, density=density, scale=0.5)
-    b = float(HingeDesign.literature(flap_width=150.0).drag(1)[0])
+    b = float(HingeDesign.literature().drag(1, 200.0, 150.0)[0])
     np.testing.assert_allclose(
         paper.force(chain, jnp.array([0.3]), jnp.array([0.1])), [-b * 0.01], rtol=1e-5
     )

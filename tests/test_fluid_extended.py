@@ -112,8 +112,8 @@ def test_added_inertia_of_a_triangle_by_sections():
 
 
 def _single_flap(fluid: Fluid, parts, **overrides):
-    design = HingeDesign.literature(flap_width=SPAN, flap_length=CHORD, fluid=fluid, **overrides)
-    return design, accordion_system(design, 1, fluid=parts)
+    design = HingeDesign.literature(fluid=fluid, **overrides)
+    return design, accordion_system(design, 1, flap_length=CHORD, flap_width=SPAN, fluid=parts)
 
 
 def test_single_flap_added_inertia_and_viscous_drag_are_the_closed_forms():

@@ -65,8 +65,6 @@ def test_prediction_is_what_hinge_design_computes():
 
     design = HingeDesign(
         hinge_width=1e-6,
-        flap_length=1e-6,
-        flap_width=1e-6,
         t_structural=hinge.structural.thickness,
         t_hinge=hinge.stressed.thickness,
         misfit_strain=hinge.misfit_strain,

@@ -224,7 +224,7 @@ def test_folded_arc_accordion_stacks_at_twice_the_radius():
     np.testing.assert_allclose(poses[:, 2, 3], 2 * radius * np.arange(1, 4), rtol=1e-12)
     normals = poses[:, :3, 2]
     np.testing.assert_allclose(normals, [[0, 0, -1], [0, 0, 1], [0, 0, -1]], atol=1e-12)
-    np.testing.assert_allclose(poses[:, 1, 3], -0.5 * float(design.flap_length), rtol=1e-12)
+    np.testing.assert_allclose(poses[:, 1, 3], -0.5 * 200.0, rtol=1e-12)  # the 200 µm flaps
     gap, coverage = system.contact.gaps(system.mechanism, q)
     thickness = float(design.t_structural)
     flap1_on_base = np.asarray(gap[0, 3])[np.asarray(coverage[0, 3]) > 0.5]

@@ -37,9 +37,29 @@ def test_builder_targets_follow_theta_final():
     design, system, _ = _reference()
     np.testing.assert_allclose(system.hinges.target, [THETA_FINAL, -THETA_FINAL, THETA_FINAL])
     np.testing.assert_allclose(system.hinges.stiffness, design.stiffness(3))
-    np.testing.assert_allclose(system.drag.coefficient, design.drag(3))
+    np.testing.assert_allclose(system.drag.coefficient, design.drag(3, 200.0, 200.0))
     np.testing.assert_allclose(system.hinges.radius, design.radius())
     assert Accordion(3)(design).hinges.target.shape == (3,)
+
+
+def test_the_flaps_are_the_patterns():
+    """The flap size is the accordion pattern's: it reaches the chain's masses (ρ L w t, SiNx
+    3100 kg/m³ = 3.1e-3 ng/µm³, 200 nm), the paper's drag C_D ν (L w) L³ / 16 (air, 1.204e-6
+    ng/µm³) and the sweep kernel's defaults; a bad size is refused in one line (1e-12: rounding)."""
+    design = HingeDesign.literature()
+    wide = Accordion(2, flap_length=150.0, flap_width=90.0)
+    system = wide(design)
+    np.testing.assert_allclose(system.mechanism.masses, 3.1e-3 * 150 * 90 * 0.2, rtol=1e-12)
+    b = 1.17 * 1.204e-6 * 150 * 90 * 150**3 / 16
+    np.testing.assert_allclose(system.drag.coefficient, [b, b], rtol=1e-12)
+    assert wide.geometry(design.units) == {"flap_length": 150.0, "flap_width": 90.0}
+    defaults = wide.kernel(t_end=10.0, n_save=3).settings["defaults"]
+    assert (defaults["flap_length"], defaults["flap_width"]) == (150.0, 90.0)
+    assert hash(wide) == hash(Accordion(2, flap_length=150, flap_width=90.0))  # compared by value
+    with pytest.raises(ValueError, match="flap_length must be finite and positive"):
+        Accordion(2, flap_length=-1.0)
+    with pytest.raises(ValueError, match="unknown field"):
+        wide.with_geometry(hinge_width=3.0)
 
 
 def test_same_design_through_every_entry_point(tmp_path):

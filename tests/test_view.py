@@ -265,6 +265,26 @@ def test_trajectory_needs_its_system(accordion):
         scene_from(trajectory)
 
 
+def test_trajectory_with_its_pattern(accordion):
+    """`pattern=` (and `design=`) stand for the system: the pattern builds it, the design gives the
+    panels' thickness; the flap size is the pattern's (100 µm flaps end at y = 100, 200, 300)."""
+    from origami_jax.chain import Accordion
+
+    theta = np.linspace(0, 1, 5)[:, None] * np.array([1.0, -1.0, 1.0])
+    trajectory = synthetic_trajectory(accordion, theta)
+    direct = scene_from(trajectory, system=accordion, thickness=0.2)
+    through = scene_from(trajectory, pattern=Accordion(3))
+    np.testing.assert_array_equal(through.vertices, direct.vertices)
+    assert through.thickness == pytest.approx(0.2)  # the literature design's 200 nm, in µm
+    short = scene_from(trajectory, pattern=Accordion(3, flap_length=100.0))
+    far = [float(np.max(short.panel(b, 0)[:, 1])) for b in (1, 2, 3)]
+    np.testing.assert_allclose(far, [100.0, 200.0, 300.0], atol=2e-4)  # t²/2L: see above
+    with pytest.raises(ValueError, match="not both"):
+        scene_from(trajectory, system=accordion, pattern=Accordion(3))
+    with pytest.raises(ValueError, match="pattern= takes a Net, CreasePattern or Accordion"):
+        scene_from(trajectory, pattern=accordion)
+
+
 def test_folding_system_at_rest_is_flat(accordion):
     scene = scene_from(accordion)
     assert scene.n_frames == 1 and scene.n_panels == 4
@@ -292,7 +312,7 @@ def fake_sweep(tmp_path, **coords):
 
 
 def test_sweep_member_rebuilds_that_design(tmp_path):
-    from origami_jax.chain import accordion_system
+    from origami_jax.chain import Accordion, accordion_system
     from origami_jax.system import KOH_SOLUTION, HingeDesign
 
     dataset, _ = fake_sweep(
@@ -300,10 +320,17 @@ def test_sweep_member_rebuilds_that_design(tmp_path):
         hinge_width=np.array([50.0, 120.0]),
         n_flaps=np.array([2, 4]),
         fluid=np.array(["air", "koh"]),
+        flap_length=np.array([200.0, 150.0]),
     )
     system, design, _, description = view.sweep_member_system(dataset, 1)
     assert system.mechanism.n_hinges == 4 and "hinge_width=120" in description
-    reference = accordion_system(HingeDesign.literature(hinge_width=120.0, fluid=KOH_SOLUTION), 4)
+    # The stored model and settings become the pattern once: the member's flaps are its.
+    pattern, *_ = view.sweep_member_pattern(dataset, 1)
+    assert isinstance(pattern, Accordion) and (pattern.n_flaps, pattern.flap_length) == (4, 150.0)
+    assert pattern.flap_width == pytest.approx(200.0)  # the kernel's recorded default
+    reference = accordion_system(
+        HingeDesign.literature(hinge_width=120.0, fluid=KOH_SOLUTION), 4, flap_length=150.0
+    )
     np.testing.assert_allclose(system.hinges.stiffness, reference.hinges.stiffness, rtol=1e-12)
     np.testing.assert_allclose(system.drag.coefficient, reference.drag.coefficient, rtol=1e-12)
     with pytest.raises(ValueError, match="numbered 0 to 1"):
@@ -486,6 +513,38 @@ def corner_cube():
 
     net = load_net("corner_cube")
     return net, net.system()
+
+
+def test_a_pattern_is_shown_flat_then_folded_as_intended(corner_cube):
+    """`scene_from(pattern)`: the flat net, then every hinge turned linearly to its intended
+    angle; the last frame is the intended shape (the mechanism's own polygons there), hinges
+    named as the pattern names them, panels as thick as the design's film (200 nm)."""
+    net, system = corner_cube
+    scene = scene_from(net)
+    folded = np.asarray(net.intended_angles, dtype=float)
+    assert scene.n_frames == view.PATTERN_FRAMES
+    np.testing.assert_allclose(scene.fold_angles[0], 0.0, atol=1e-12)
+    np.testing.assert_allclose(scene.fold_angles[-1], folded, atol=1e-9)
+    np.testing.assert_allclose(scene.vertices[0, :, 2], 0.0, atol=GEOMETRY_TOL)
+    for b, polygon in enumerate(system.mechanism.panel_polygons(folded)):
+        np.testing.assert_allclose(scene.panel(b + 1, -1), polygon, atol=GEOMETRY_TOL)
+    assert scene.hinge_names == tuple(net.hinge_name(j) for j in range(2))
+    assert scene.thickness == pytest.approx(0.2) and scene.time_label == "fold fraction"
+    flat = view.scene_from_pattern(net, frames=1)
+    assert flat.n_frames == 1 and flat.verdict == "flat pattern"
+    with pytest.raises(ValueError, match="frames must be an integer >= 1"):
+        view.scene_from_pattern(net, frames=0)
+
+
+def test_simulate_results_name_their_pattern():
+    """A simulate run's stored names (metrics.json) become the accordion and its design once: the
+    flap size goes to the pattern, the rest to the design."""
+    from origami_jax.chain import Accordion
+
+    report = {"fluid": "30 wt% KOH solution", "params": {"flap_length": 120.0, "k_scale": 2.0}}
+    pattern, design = view.simulated_pattern(report, 2)
+    assert pattern == Accordion(2, flap_length=120.0)
+    assert float(design.k_scale) == 2.0 and "KOH" in design.fluid.name
 
 
 def test_net_hinges_ride_their_creases_and_contacts_are_marked(corner_cube):

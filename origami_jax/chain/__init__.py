@@ -11,9 +11,11 @@ etch ramp, with the physical reason for each difference; `model_designs` (the li
 under both models) and `accordion_diagnostics` (where they differ, in numbers) are its pieces.
 """
 
+from ._chain import FLAP_SIZE_SI as FLAP_SIZE_SI
 from ._chain import Chain as Chain
 from ._chain import accordion as accordion
 from ._chain import flap_chain as flap_chain
+from ._chain import flap_size as flap_size
 from ._chain import plate_inertia as plate_inertia
 from ._compare import ModelComparison as ModelComparison
 from ._compare import accordion_diagnostics as accordion_diagnostics
@@ -38,6 +40,7 @@ from ._kernel import accordion_step as accordion_step
 from ._kinematics import body_jacobians as body_jacobians
 from ._kinematics import forward_kinematics as forward_kinematics
 from ._kinematics import spatial_jacobians as spatial_jacobians
+from ._pattern import ACCORDION_GEOMETRY as ACCORDION_GEOMETRY
 from ._pattern import Accordion as Accordion
 from ._se3 import adjoint as adjoint
 from ._se3 import exp_so3 as exp_so3

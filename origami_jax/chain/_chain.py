@@ -31,6 +31,23 @@ _UNIT_TOLERANCE = 1e-6
 # SiNx density, kg/m³: 3100 (LPCVD low-stress silicon nitride; e.g. Petersen, "Silicon as a mechanical
 # material", Proc. IEEE 70 (1982)). Used as the accordion's default flap density.
 _SINX_DENSITY_SI = 3100.0
+FLAP_SIZE_SI = 200e-6
+"""The accordion's default flap length and width, m: the paper's 200 µm flaps (Fig. 4; the width is
+not given there, so the flaps are square)."""
+
+
+def flap_size(
+    units: UnitSystem, flap_length: ArrayLike | None = None, flap_width: ArrayLike | None = None
+) -> tuple[Array, Array]:
+    """`(flap_length, flap_width)` of the accordion's flaps in `units`, as float arrays checked
+    positive (inside `jit` too): a `None` is the paper's 200 µm (`FLAP_SIZE_SI`) converted into
+    `units`; given values (possibly traced) pass through."""
+    length = units.length(FLAP_SIZE_SI) if flap_length is None else flap_length
+    width = units.length(FLAP_SIZE_SI) if flap_width is None else flap_width
+    return (
+        check_positive(as_float_array(length, "flap_length"), "flap_length"),
+        check_positive(as_float_array(width, "flap_width"), "flap_width"),
+    )
 
 
 class Chain(AbstractMechanism):
@@ -410,8 +427,8 @@ def accordion(
     if not isinstance(n_flaps, int | np.integer) or isinstance(n_flaps, bool) or n_flaps < 1:
         raise ValueError(f"n_flaps must be an integer >= 1, got {n_flaps!r}.")
     n_flaps = int(n_flaps)
-    length = units.length(200e-6) if flap_length is None else flap_length
-    width = units.length(200e-6) if flap_width is None else flap_width
+    length = units.length(FLAP_SIZE_SI) if flap_length is None else flap_length
+    width = units.length(FLAP_SIZE_SI) if flap_width is None else flap_width
     thickness = units.length(200e-9) if thickness is None else thickness
     density = units.density(_SINX_DENSITY_SI) if density is None else density
     length_array = check_positive(as_float_array(length, "flap_length"), "flap_length")

@@ -23,6 +23,7 @@ import numpy as np
 from .. import simulation as sim
 from ..net import strip_tree
 from ..system import AIR, KOH_SOLUTION, MICRO, HingeDesign
+from ._chain import flap_size
 from ._extended import _panels, accordion_fluid_loads, eqx_replace, tip_contact_angle
 from ._pattern import Accordion
 from ._system import accordion_system, alternating_targets
@@ -301,13 +302,20 @@ def plot_comparison(comparison: ModelComparison, path=None):
     return fig
 
 
-def accordion_diagnostics(design: HingeDesign, n: int = 3) -> dict:
+def accordion_diagnostics(
+    design: HingeDesign,
+    n: int = 3,
+    *,
+    flap_length: float | None = None,
+    flap_width: float | None = None,
+) -> dict:
     """Where the extended accordion differs from the paper's, in numbers (the paper job and
     `notebooks/paper_vs_extended.ipynb` print them). MICRO units (µm, µs, ng).
 
     **Arguments:** `design`, a [`origami_jax.system.HingeDesign`][] (its fluid sets the fluid
     terms; both stiffness formulas are evaluated whatever its `stiffness_model`); `n`, the number
-    of flaps.
+    of flaps; `flap_length`, `flap_width`, their size (µm; default the paper's 200 µm, as
+    `accordion_system`).
 
     **Returns:** a dict of host floats and lists of `n` floats (one per hinge):
 
@@ -331,10 +339,11 @@ def accordion_diagnostics(design: HingeDesign, n: int = 3) -> dict:
     middle = 0.5 * target
     paper_design = eqx_replace(design, stiffness_model="paper")
     bilayer_design = eqx_replace(design, stiffness_model="bilayer")
-    point = accordion_system(paper_design, n)
+    size = flap_size(design.units, flap_length, flap_width)
+    point = accordion_system(paper_design, n, flap_length=size[0], flap_width=size[1])
     radius = float(design.radius())
     lengths = radius * np.abs(np.asarray(target))
-    panels = _panels(design, n, jnp.asarray(lengths), None, True)
+    panels = _panels(design, size, n, jnp.asarray(lengths), None, True)
     arc = strip_tree(
         panels,
         areal_density=design.strip_areal_density(),
@@ -342,7 +351,7 @@ def accordion_diagnostics(design: HingeDesign, n: int = 3) -> dict:
         thickness=design.t_structural + design.t_hinge,
     )
     stiffness = bilayer_design.stiffness(n)
-    loads = accordion_fluid_loads(design, arc, stiffness, target)
+    loads = accordion_fluid_loads(design, size, arc, stiffness, target)
     flap_mass = float(panels.masses[0])
     strip_mass = float(design.strip_areal_density() * jnp.mean(design.hinge_width)) * lengths[0]
 
@@ -365,8 +374,6 @@ def accordion_diagnostics(design: HingeDesign, n: int = 3) -> dict:
         "reynolds": np.asarray(loads.reynolds).tolist(),
         "gamma_real": np.asarray(loads.gamma[0]).tolist(),
         "gamma_imag": np.asarray(loads.gamma[1]).tolist(),
-        "tip_contact_angle_over_pi": tip_contact_angle(
-            radius, float(lengths[0]), float(design.flap_length)
-        )
+        "tip_contact_angle_over_pi": tip_contact_angle(radius, float(lengths[0]), float(size[0]))
         / np.pi,
     }

@@ -67,9 +67,10 @@ def fluid_parts(fluid) -> tuple[str, ...]:
     return tuple(p for p in FLUID_PARTS if p in parts)
 
 
-def _panels(design: HingeDesign, n: int, lengths, gravity, arc: bool):
-
-    length, width = design.flap_length, design.flap_width
+def _panels(design: HingeDesign, size, n: int, lengths, gravity, arc: bool):
+    """The `n` flaps of `size` (`(flap_length, flap_width)`, may be traced) on a panel tree,
+    hinge `i` `lengths[i]` after flap `i − 1` (arc hinges' strips)."""
+    length, width = size
     dtype = jnp.result_type(float)
     starts = jnp.concatenate(
         [jnp.zeros(1, dtype), jnp.cumsum(lengths + length)[:-1]]
@@ -92,19 +93,21 @@ def _panels(design: HingeDesign, n: int, lengths, gravity, arc: bool):
     )
 
 
-def _quadrature(design: HingeDesign, n: int):
+def _quadrature(size, n: int):
     """`PanelDrag`'s quadrature of `n` rectangular flaps, from a unit square scaled by the (possibly
-    traced) flap size: body frames at the flaps' centres, ``x`` across, ``y`` along."""
+    traced) flap size `(flap_length, flap_width)`: body frames at the flaps' centres, ``x`` across,
+    ``y`` along."""
+    length, width = size
 
     square = np.array([[-0.5, -0.5], [0.5, -0.5], [0.5, 0.5], [-0.5, 0.5]])
     unit_points, unit_weights = polygon_quadrature(square, 2)
     count = len(unit_weights)
-    size = jnp.stack([design.flap_width, design.flap_length])
-    points = jnp.concatenate([unit_points * size, jnp.zeros((count, 1))], axis=-1)
+    scale = jnp.stack([jnp.asarray(width), jnp.asarray(length)])
+    points = jnp.concatenate([unit_points * scale, jnp.zeros((count, 1))], axis=-1)
     normals = jnp.zeros((count * n, 3)).at[:, 2].set(1.0)
     return PanelQuadrature(
         jnp.tile(points, (n, 1)),
-        jnp.tile(unit_weights * design.flap_width * design.flap_length, n),
+        jnp.tile(unit_weights * width * length, n),
         normals,
         tuple(int(b) for b in np.repeat(np.arange(n), count)),
     )
@@ -112,6 +115,7 @@ def _quadrature(design: HingeDesign, n: int):
 
 def extended_accordion(
     design: HingeDesign,
+    size,
     n: int,
     targets,
     release_times,
@@ -123,7 +127,7 @@ def extended_accordion(
     strip_nodes: int,
 ) -> FoldingSystem:
     """The accordion with arc or point hinges on a panel tree and any fluid parts (module docstring).
-    Arguments as `accordion_system`'s."""
+    Arguments as `accordion_system`'s; `size` its `(flap_length, flap_width)`."""
 
     parts = fluid_parts(fluid)
     if hinges not in ("point", "arc"):
@@ -132,7 +136,7 @@ def extended_accordion(
     radius = design.radius()
     dtype = target.dtype
     lengths = radius * jnp.abs(target) if hinges == "arc" else jnp.zeros(n, dtype)
-    panels = _panels(design, n, lengths, gravity, hinges == "arc")
+    panels = _panels(design, size, n, lengths, gravity, hinges == "arc")
     if hinges == "arc":
         mechanism = strip_tree(
             panels,
@@ -146,11 +150,11 @@ def extended_accordion(
     stiffness = design.stiffness(n)
     drags = []
     if "hinge" in parts:
-        drags.append(HingeDrag(design.drag(n)))
+        drags.append(HingeDrag(design.drag(n, *size)))
     if "panel" in parts:
         drags.append(
             PanelDrag(
-                _quadrature(design, n),
+                _quadrature(size, n),
                 design.drag_coefficient * design.b_scale,
                 design.fluid.density,
                 0.5 if design.drag_model == "paper" else 1.0,
@@ -159,6 +163,7 @@ def extended_accordion(
     if "added_mass" in parts or "viscous" in parts:
         loads = accordion_fluid_loads(
             design,
+            size,
             mechanism,
             stiffness,
             target,
@@ -177,22 +182,23 @@ def extended_accordion(
             np.asarray(stiffness),
             np.asarray(target),
             thickness=np.asarray(design.t_structural),
-            base_outline=_base(design),
+            base_outline=_base(size),
         )
     return FoldingSystem(mechanism, hinges_, drag, contact=contact_model, units=design.units)
 
 
 def accordion_fluid_loads(
-    design: HingeDesign, mechanism, stiffness, target, *, added_mass=True, viscous=True
+    design: HingeDesign, size, mechanism, stiffness, target, *, added_mass=True, viscous=True
 ) -> FluidLoads:
-    """`fluid_loads` on the accordion's `n` flaps (rectangles ``L × w``, chord ``L``) in the
-    design's fluid, with its added-mass coefficient."""
+    """`fluid_loads` on the accordion's `n` flaps (rectangles ``L × w`` of `size`, `(L, w)`, chord
+    ``L``) in the design's fluid, with its added-mass coefficient."""
     n = mechanism.n_hinges
-    unit = rectangle_added_inertia(design.flap_length, design.flap_width, 1.0)
+    length, width = size
+    unit = rectangle_added_inertia(length, width, 1.0)
     return fluid_loads(
         mechanism,
         jnp.broadcast_to(unit, (n, 6, 6)),
-        jnp.broadcast_to(design.flap_length, (n,)),
+        jnp.broadcast_to(length, (n,)),
         stiffness,
         target,
         density=design.fluid.density,
@@ -203,9 +209,10 @@ def accordion_fluid_loads(
     )
 
 
-def _base(design: HingeDesign) -> np.ndarray:
-    """The membrane before the first crease, a flap-sized rectangle ``y ∈ [−L, 0]`` (world)."""
-    length, width = float(design.flap_length), float(design.flap_width)
+def _base(size) -> np.ndarray:
+    """The membrane before the first crease, a flap-sized rectangle ``y ∈ [−L, 0]`` (world), for
+    flaps of `size` `(L, w)`."""
+    length, width = float(size[0]), float(size[1])
     return np.array(
         [
             [-width / 2, -length, 0.0],

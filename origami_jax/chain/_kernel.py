@@ -26,9 +26,12 @@ from ..simulation import (
     simulate,
 )
 from ..system import AIR, KOH_SOLUTION, MICRO, Fluid, HingeDesign
+from ._chain import flap_size
 from ._system import accordion_system
 
-# Parameters of "accordion-step" and their units: lengths in µm, the package's MICRO unit system.
+# Parameters of "accordion-step" and their units: lengths in µm, the package's MICRO unit system. The
+# flap geometry is the pattern's (`Accordion`), the rest the hinge design's (`HingeDesign`).
+_GEOMETRY = ("flap_length", "flap_width")
 ACCORDION_PARAMETERS = {
     "n_flaps": "",
     "hinge_width": "um",
@@ -57,12 +60,16 @@ def accordion_step(
     stiffness_model: str = "paper",
     drag_model: str = "paper",
     solver: str = "kvaerno5",
+    flap_length: float | None = None,
+    flap_width: float | None = None,
 ) -> Kernel:
     """Sweep kernel: step response metrics of the accordion (paper Fig. 7).
 
     Parameters not swept take `HingeDesign.literature()` values (200 nm SiNx, 100 nm Cr at 1 GPa,
-    200 µm square flaps, hinge as wide as the flap, `C_D = 1.17`, `θ_final = π`); lengths are in µm.
-    The system is `origami_jax.chain.accordion_system(design, n_flaps)`, stepped to its hinge targets
+    hinge as wide as the flap, `C_D = 1.17`, `θ_final = π`) and the accordion's flaps (`flap_length`,
+    `flap_width`, default the paper's 200 µm squares); lengths are in µm. The system is
+    `origami_jax.chain.accordion_system(design, n_flaps, flap_length=..., flap_width=...)`, stepped
+    to its hinge targets
     `(θ_final, −θ_final, θ_final, ...)`. Swept parameters: see
     `ACCORDION_PARAMETERS`; `fluid` is `"air"` or `"koh"` (30 wt% KOH solution); `n_flaps` is static.
 
@@ -76,6 +83,8 @@ def accordion_step(
     - `solver`: `"kvaerno5"` (implicit, safe for stiff hinges: `simulation.implicit_solver()`) or
       `"tsit5"` (explicit; much cheaper per step on non-stiff designs, e.g. in air, but see docs/physics.md,
       "Numerics", on gradients at loose tolerances).
+    - `flap_length`, `flap_width`: the flaps' size when not swept, µm (`Accordion.kernel` passes
+      its own; recorded among the settings' `defaults`).
 
     **Outputs** per design: per joint (dim `joint`) `rise_time`, `t10`, `t90`, `overshoot` (%),
     `peak_time`, `settling_time` (µs), `final_error` (rad), flags `rise_ill_conditioned`,
@@ -97,7 +106,18 @@ def accordion_step(
     atol = DEFAULT_ATOL if atol is None else check_setting(atol, "atol", low=0.0)
     literature = HingeDesign.literature(MICRO)
     floats = [n for n, u in ACCORDION_PARAMETERS.items() if n not in ("n_flaps", "fluid")]
-    defaults = {n: float(getattr(literature, n)) for n in floats if n not in ("k_scale", "b_scale")}
+    size = flap_size(
+        MICRO,
+        *(
+            None if v is None else check_setting(v, n, low=0.0)
+            for n, v in zip(_GEOMETRY, (flap_length, flap_width), strict=True)
+        ),
+    )
+    defaults = {
+        n: float(size[_GEOMETRY.index(n)] if n in _GEOMETRY else getattr(literature, n))
+        for n in floats
+        if n not in ("k_scale", "b_scale")
+    }
     defaults.update(k_scale=1.0, b_scale=1.0)
     densities = [float(f.to(MICRO).density) for f in (AIR, KOH_SOLUTION)]
 
@@ -117,6 +137,7 @@ def accordion_step(
         safe: dict[str, Any] = dict(defaults)
         safe.update({k: jnp.where(invalid, defaults[k], v) for k, v in swept.items()})
         density = jnp.asarray(densities)[params.get("fluid", FLUIDS.index(fluid))]
+        geometry = {k: safe.pop(k) for k in _GEOMETRY}
         design = HingeDesign(
             **safe,
             fluid=Fluid(density, MICRO, "swept"),
@@ -124,21 +145,21 @@ def accordion_step(
             drag_model=drag_model,
             units=MICRO,
         )
-        return design, n, invalid, safe
+        return design, n, invalid, geometry
 
     def cost(params: Mapping[str, Any]):
         # Steps of an adaptive solve scale with the fastest natural frequency times the run length:
         # ω_max² = λ_max(M(0)⁻¹ K), from the symmetric K^½ M⁻¹ K^½ (eigvalsh runs on every backend).
-        design, n, invalid, _ = design_of(params)
-        system = accordion_system(design, n)
+        design, n, invalid, geometry = design_of(params)
+        system = accordion_system(design, n, **geometry)
         root_k = jnp.sqrt(system.hinges.stiffness)
         m_inverse = jnp.linalg.inv(system.mechanism.mass_matrix(jnp.zeros(n)))
         omega_max = jnp.sqrt(jnp.max(jnp.linalg.eigvalsh(root_k[:, None] * m_inverse * root_k)))
         return jnp.where(invalid, jnp.inf, omega_max * t_end)
 
     def fn(params: Mapping[str, Any]) -> dict[str, Any]:
-        design, n, invalid, _ = design_of(params)
-        system = accordion_system(design, n)
+        design, n, invalid, geometry = design_of(params)
+        system = accordion_system(design, n, **geometry)
         stiffness, drag = system.hinges.stiffness, system.drag.coefficient
         trajectory = simulate(
             system,

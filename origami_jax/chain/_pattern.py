@@ -2,31 +2,38 @@
 its systems (`accordion_system`), verdict, fold and sweep kernel (`accordion_step`)."""
 
 import dataclasses
+import math
 from typing import final
 
 import numpy as np
 from jaxtyping import ArrayLike, Float
 
+from .._validate import is_traced
 from ..simulation import assess, fold_outcome, fold_pattern
-from ..system import AbstractPattern, FoldingSystem, HingeDesign
+from ..system import AbstractPattern, FoldingSystem, HingeDesign, UnitSystem
+from ._chain import flap_size
 from ._extended import fluid_parts
 from ._kernel import accordion_step
 from ._system import accordion_system
 
 ACCORDION_MODEL = {"hinges": "point", "fluid": "paper", "contact": False}
+ACCORDION_GEOMETRY = {"flap_length": "length", "flap_width": "length"}
+"""The accordion's geometry fields (`Accordion.with_geometry`) and their kind of unit."""
 
 
 @final
 @dataclasses.dataclass(frozen=True)
 class Accordion(AbstractPattern):
     """The paper's accordion as a pattern ([`origami_jax.system.AbstractPattern`][]):
-    ``Accordion(n_flaps, ...)(design)`` is ``accordion_system(design, n_flaps, hinges=...,
-    fluid=..., contact=...)``.
+    ``Accordion(n_flaps, ...)(design)`` is ``accordion_system(design, n_flaps, flap_length=...,
+    flap_width=..., hinges=..., fluid=..., contact=...)``.
 
     **Fields** (compared by value: equal accordions share a compiled fit): `n_flaps`, the number of
     flaps (= hinges); `hinges` (`"point"`, the paper's, or `"arc"`), `fluid` (`"paper"`,
     `"extended"` or a tuple of parts), `contact` (default `False`), as `accordion_system` takes
-    them.
+    them; `flap_length` ``L`` (away from the hinge) and `flap_width` (along it), the flaps' size in
+    the length units of the design it is folded with (µm for the default `MICRO`); `None` (default):
+    the paper's 200 µm square flaps. The flap geometry is the pattern's, not the hinge design's.
 
     What counts as folded: every hinge at its target, ``(θ_final, −θ_final, …)`` of the design
     (`intended_angles`: the literature design's ``θ_final = π``); an accordion has no seams.
@@ -36,6 +43,8 @@ class Accordion(AbstractPattern):
     hinges: str = "point"
     fluid: str | tuple[str, ...] = "paper"
     contact: bool = False
+    flap_length: float | None = None
+    flap_width: float | None = None
 
     def __post_init__(self):
         if not isinstance(self.n_flaps, int) or isinstance(self.n_flaps, bool) or self.n_flaps < 1:
@@ -45,6 +54,18 @@ class Accordion(AbstractPattern):
         if not isinstance(self.fluid, str):
             object.__setattr__(self, "fluid", tuple(self.fluid))
         fluid_parts(self.fluid)  # raises for a bad value
+        for name in ("flap_length", "flap_width"):
+            value = getattr(self, name)
+            if value is None or is_traced(value):  # traced: a fit of the flap size (design)
+                continue
+            if isinstance(value, bool) or not isinstance(value, int | float):
+                try:
+                    value = float(value)  # a NumPy or JAX scalar: kept as a float, hashable
+                except (TypeError, ValueError):
+                    raise ValueError(f"{name} must be a number (length), got {value!r}.") from None
+            if not (math.isfinite(value) and value > 0):
+                raise ValueError(f"{name} must be finite and positive (length), got {value!r}.")
+            object.__setattr__(self, name, float(value))
 
     @property
     def name(self) -> str:
@@ -69,6 +90,23 @@ class Accordion(AbstractPattern):
     @property
     def continues_from_angles(self) -> bool:
         return True  # a chain's (and a flap tree's) state is its hinge angles and rates
+
+    def geometry(self, units: UnitSystem) -> dict:
+        """``{"flap_length": L, "flap_width": w}`` in `units` (a design's): the fields, or the
+        paper's 200 µm where they are `None`."""
+        size = flap_size(units, self.flap_length, self.flap_width)
+        return dict(zip(ACCORDION_GEOMETRY, size, strict=True))
+
+    def with_geometry(self, **geometry) -> "Accordion":
+        """This accordion with other flap geometry (`flap_length`, `flap_width`; values may be
+        traced, as in a fit of the flap size). **Raises:** `ValueError` for another name."""
+        unknown = sorted(set(geometry) - set(ACCORDION_GEOMETRY))
+        if unknown:
+            raise ValueError(
+                f"Accordion.with_geometry: unknown field(s) {unknown}; the geometry's are "
+                f"{list(ACCORDION_GEOMETRY)}."
+            )
+        return dataclasses.replace(self, **geometry)
 
     def with_model(self, **options) -> "Accordion":
         """This accordion with other physics options (`hinges`, `fluid`, `contact`).
@@ -98,6 +136,8 @@ class Accordion(AbstractPattern):
         return accordion_system(
             design,
             self.n_flaps,
+            flap_length=self.flap_length,
+            flap_width=self.flap_width,
             targets=targets,
             release_times=release_times,
             hinges=self.hinges,
@@ -151,7 +191,12 @@ class Accordion(AbstractPattern):
                 "the accordion's sweep kernel simulates the paper's model (point hinges, the "
                 f"paper's fluid, no contact), not {self!r}."
             )
-        return accordion_step(n_flaps=self.n_flaps, **settings)
+        return accordion_step(
+            n_flaps=self.n_flaps,
+            flap_length=self.flap_length,
+            flap_width=self.flap_width,
+            **settings,
+        )
 
     def resume_settings(self) -> dict:
         """What a stored sweep of this accordion records: its flap count."""

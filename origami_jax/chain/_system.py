@@ -1,8 +1,8 @@
 """`accordion_system`: the one builder of the accordion's folding system from a `HingeDesign`.
 
-The command line, the paper job, `design` and the sweep kernels all build their accordion here, so they
-simulate the same model: the flaps of the design's geometry, the design's stiffness and drag on every
-hinge, and fold targets ``(θ_final, −θ_final, θ_final, …)`` (paper Eq. 12 with ``θ_final = π``).
+The command line, the paper job, `design` and the sweep kernels all build their accordion here (through
+`Accordion`, the pattern, which holds the flap geometry), so they simulate the same model: flaps of the
+given size (the paper's 200 µm squares by default), the design's stiffness and drag on every hinge, and fold targets ``(θ_final, −θ_final, θ_final, …)`` (paper Eq. 12 with ``θ_final = π``).
 """
 
 from collections.abc import Sequence
@@ -13,7 +13,7 @@ from jaxtyping import Array, ArrayLike, Float
 
 from ..contact import PanelContact
 from ..system import FoldingSystem, HingeDesign, HingeDrag, Hinges
-from ._chain import accordion
+from ._chain import accordion, flap_size
 from ._extended import extended_accordion
 
 
@@ -33,6 +33,8 @@ def accordion_system(
     design: HingeDesign,
     n_flaps: int = 3,
     *,
+    flap_length: Float[ArrayLike, ""] | None = None,
+    flap_width: Float[ArrayLike, ""] | None = None,
     targets: Float[ArrayLike, " n"] | None = None,
     release_times: Float[ArrayLike, " n"] | None = None,
     gravity: Float[ArrayLike, "3"] | None = None,
@@ -44,8 +46,11 @@ def accordion_system(
     """The paper's accordion as a [`origami_jax.system.FoldingSystem`][], from a hinge design.
 
     **Arguments** (in the design's units, `MICRO` by default: µm, µs, ng):
-    - `design`: a [`origami_jax.system.HingeDesign`][]: flap geometry and density, hinge films, fluid.
+    - `design`: a [`origami_jax.system.HingeDesign`][]: membrane, hinge films, fluid.
     - `n_flaps`: number of flaps (= hinges), static.
+    - `flap_length` ``L`` (away from the hinge), `flap_width` (along it): the flaps' size (length
+      units of the design, scalars, may be traced); `None`: the paper's 200 µm (`FLAP_SIZE_SI`).
+      The pattern, [`origami_jax.chain.Accordion`][], holds them and passes them here.
     - `targets`: signed fold target per hinge (rad); default ``(θ_final, −θ_final, …)`` from the
       design (`alternating_targets`).
     - `release_times`: per-hinge release time (time units); default every hinge at ``t = 0``.
@@ -71,6 +76,7 @@ def accordion_system(
     """
     if not isinstance(design, HingeDesign):
         raise ValueError(f"design must be a HingeDesign, got {type(design).__name__}.")
+    size = flap_size(design.units, flap_length, flap_width)
     if hinges != "point" or fluid != "paper":
         if not isinstance(n_flaps, int | np.integer) or isinstance(n_flaps, bool) or n_flaps < 1:
             raise ValueError(f"n_flaps must be an integer >= 1, got {n_flaps!r}.")
@@ -79,6 +85,7 @@ def accordion_system(
             targets = alternating_targets(n, design.theta_final)
         return extended_accordion(
             design,
+            size,
             n,
             targets,
             release_times,
@@ -90,8 +97,8 @@ def accordion_system(
         )
     chain = accordion(
         n_flaps,
-        flap_length=design.flap_length,
-        flap_width=design.flap_width,
+        flap_length=size[0],
+        flap_width=size[1],
         thickness=design.t_structural,
         density=design.structural.density,
         gravity=gravity,
@@ -116,7 +123,7 @@ def accordion_system(
             base_outline=_base_rectangle(chain),
         )
     return FoldingSystem(
-        chain, hinges, HingeDrag(design.drag(n)), contact=contact_model, units=design.units
+        chain, hinges, HingeDrag(design.drag(n, *size)), contact=contact_model, units=design.units
     )
 
 

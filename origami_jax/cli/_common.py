@@ -89,6 +89,8 @@ def capped(items: Sequence[Any], limit: int = MESSAGE_LIST_LIMIT) -> str:
 
 # HingeDesign arguments that are not numbers (so not --param).
 _NOT_PARAMS = frozenset({"structural", "hinge", "fluid", "stiffness_model", "drag_model", "units"})
+FLAP_PARAMS = ("flap_length", "flap_width")
+"""`--param` names of the accordion's flap size (`origami_jax.chain.Accordion`), not the hinge's."""
 
 
 def param_names() -> tuple[str, ...]:
@@ -98,20 +100,30 @@ def param_names() -> tuple[str, ...]:
     from origami_jax.system import HingeDesign
 
     signature = inspect.signature(HingeDesign.__init__)
-    return tuple(n for n in signature.parameters if n != "self" and n not in _NOT_PARAMS)
+    return tuple(
+        n
+        for n, p in signature.parameters.items()
+        if n != "self" and n not in _NOT_PARAMS and p.kind is not p.VAR_KEYWORD
+    )
 
 
-def hinge_params(items: Sequence[str]) -> dict[str, list[float]]:
+def hinge_params(items: Sequence[str], *, flaps: bool = False) -> dict[str, list[float]]:
     """`--param` items, ``NAME=VALUE`` or ``NAME=V0,V1,...`` (one value per hinge), checked: a
-    known numeric HingeDesign field, finite numbers (MICRO units). `ValueError` (one line) for a
-    bad item; the caller checks how many values each name may have."""
-    names = param_names()
+    known numeric HingeDesign field, or with `flaps` the accordion's flap size (`FLAP_PARAMS`),
+    finite numbers (MICRO units). `ValueError` (one line) for a bad item; the caller checks how
+    many values each name may have."""
+    names = param_names() + (FLAP_PARAMS if flaps else ())
     out = {}
     for item in items:
         name, sep, value = item.partition("=")
         name = name.strip()
         if not sep:
             raise ValueError(f"--param expects NAME=VALUE, got {item!r}.")
+        if name in FLAP_PARAMS and not flaps:
+            raise ValueError(
+                f"--param {name}: the flap size belongs to the accordion (origami-jax simulate "
+                f"--param {name}=...); this command's panels are its pattern's own."
+            )
         if name not in names:
             raise ValueError(
                 f"--param {name!r} is not a hinge parameter; give one of {capped(names, 20)}."

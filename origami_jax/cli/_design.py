@@ -57,7 +57,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument(
         "--free",
         default="k_scale,b_scale",
-        help="free HingeDesign parameters (default k_scale,b_scale)",
+        help="free HingeDesign parameters, or the flap size (flap_length, flap_width; default "
+        "k_scale,b_scale)",
     )
     parser.add_argument(
         "--bounds",

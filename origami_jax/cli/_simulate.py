@@ -9,6 +9,7 @@ from .._limits import MAX_FLAPS, MAX_SAMPLES
 from ._common import (
     EXIT_FAILED,
     EXIT_OK,
+    FLAP_PARAMS,
     OutputFolder,
     add_figures_argument,
     add_out_argument,
@@ -27,7 +28,8 @@ HELP = (
 )
 DESCRIPTION = HELP + (
     " Hinges use the literature defaults (200 nm SiNx, 100 nm Cr at 1 GPa, 200 µm square flaps, C_D 1.17);"
-    " override any HingeDesign field with --param NAME=VALUE in MICRO units (µm, µs, ng, MPa), e.g."
+    " override any HingeDesign field, or the flaps' size (flap_length, flap_width), with"
+    " --param NAME=VALUE in MICRO units (µm, µs, ng, MPa), e.g."
     " --param k_scale=3.07 --param hinge_width=100. Inputs: 'step' (paper Fig. 7), 'fast-ramp' (the"
     " paper's 0.1 s ramp, Fig. 10), 'ramp' (the real etch ramp, β = 1.5 µm/min, ≈ 2.7 h; large implicit"
     " steps validated against a resolved window)."
@@ -46,7 +48,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         action="append",
         default=[],
         metavar="NAME=VALUE",
-        help="override a HingeDesign field (MICRO units), repeatable",
+        help="override a HingeDesign field or the flap size (flap_length, flap_width; MICRO "
+        "units), repeatable",
     )
     parser.add_argument(
         "--t1", type=float, default=None, help="end time, µs (default: 2000 step, 1.2 T ramps)"
@@ -73,7 +76,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def _parse_params(items: list[str]) -> dict[str, float]:
     try:
-        params = hinge_params(items)
+        params = hinge_params(items, flaps=True)
     except ValueError as error:
         fail(str(error))
     for name, values in params.items():
@@ -137,7 +140,8 @@ FIGURE_PATTERNS = ("*_angles.png", "*_frames.png", "*_animation.gif")
 
 def run(args: argparse.Namespace) -> int:
     params = check_arguments(args)
-    design = _design(args, params)  # a bad --param is refused before the folder is taken
+    # A bad --param is refused before the folder is taken.
+    design, pattern = _design(args, params)
     output = OutputFolder(
         Path(args.out),
         command="simulate",
@@ -145,7 +149,7 @@ def run(args: argparse.Namespace) -> int:
         overwrite=args.overwrite,
     )
     with output:
-        code, lines, problem = _run(args, params, design, output.dir)
+        code, lines, problem = _run(args, params, design, pattern, output.dir)
     for line in lines:
         print(line.replace(str(output.dir), str(output.out)))
     if problem:
@@ -154,22 +158,27 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _design(args: argparse.Namespace, params: dict[str, float]):
-    """The literature `HingeDesign` in the chosen fluid with the `--param` values; a one-line
-    exit for a bad one."""
+    """The literature `HingeDesign` in the chosen fluid with the `--param` values, and the
+    accordion of `--flaps` flaps with the flap size among them (`FLAP_PARAMS`); a one-line exit
+    for a bad one."""
+    from origami_jax.chain import Accordion
     from origami_jax.system import AIR, KOH_SOLUTION, HingeDesign
 
     fluid = {"air": AIR, "koh": KOH_SOLUTION}[args.fluid]
+    hinge = {k: v for k, v in params.items() if k not in FLAP_PARAMS}
+    flaps = {k: v for k, v in params.items() if k in FLAP_PARAMS}
     try:
         # A misplaced name such as units= is a runtime TypeError, reported below.
-        return HingeDesign.literature(
+        design = HingeDesign.literature(
             fluid=fluid,
-            **params,  # pyright: ignore[reportArgumentType]
+            **hinge,  # pyright: ignore[reportArgumentType]
         )
+        return design, Accordion(args.flaps, **flaps)  # pyright: ignore[reportArgumentType]
     except (TypeError, ValueError) as error:
         fail(f"bad --param: {error}")
 
 
-def _run(args: argparse.Namespace, params: dict[str, float], design, out: Path):
+def _run(args: argparse.Namespace, params: dict[str, float], design, pattern, out: Path):
     """The run itself, writing into `out` (the staging folder). Returns the exit code, the lines
     to print and a one-line problem to report (or `None`)."""
     import diffrax
@@ -177,11 +186,10 @@ def _run(args: argparse.Namespace, params: dict[str, float], design, out: Path):
 
     import origami_jax.simulation as sim
     from origami_jax._result_codes import message
-    from origami_jax.chain import accordion_system
     from origami_jax.system import MICRO
 
     n = args.flaps
-    system = accordion_system(design, n)
+    system = pattern(design)
     k, b = system.hinges.stiffness, system.drag.coefficient
     solver = {
         "auto": sim.default_solver,

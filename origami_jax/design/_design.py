@@ -114,9 +114,12 @@ class SimulationSettings(eqx.Module):
         return jnp.asarray(self.options.t1)
 
 
-def response(hinge: HingeDesign, settings: SimulationSettings):
-    """Simulate `hinge` as `settings` say: `(Trajectory, ResponseMetrics)` (not jitted; composes)."""
-    system = settings.layout(hinge)
+def response(
+    hinge: HingeDesign, settings: SimulationSettings, layout: AbstractLayout | None = None
+):
+    """Simulate `hinge` as `settings` say: `(Trajectory, ResponseMetrics)` (not jitted; composes).
+    `layout`: the pattern built instead of `settings.layout` (the same one with fitted geometry)."""
+    system = (settings.layout if layout is None else layout)(hinge)
     if settings.inputs is None:
         inputs = Step()
     elif isinstance(settings.inputs, AbstractInput):
@@ -145,7 +148,8 @@ def _all_metrics(metrics) -> Array:
 def _residual_fn(z, problem: _Problem):
     x = problem.space.to_physical(z)
     hinge = problem.space.apply(problem.hinge, x)
-    trajectory, metrics = response(hinge, problem.settings)
+    layout = problem.space.apply_pattern(problem.settings.layout, x)
+    trajectory, metrics = response(hinge, problem.settings, layout)
     r = residual(problem.targets, metrics, trajectory)
     aux = dict(
         x=x,
@@ -160,7 +164,8 @@ def _residual_fn(z, problem: _Problem):
 def _evaluate(problem: _Problem, z) -> dict[str, Any]:
     x = problem.space.to_physical(z)
     hinge = problem.space.apply(problem.hinge, x)
-    trajectory, metrics = response(hinge, problem.settings)
+    layout = problem.space.apply_pattern(problem.settings.layout, x)
+    trajectory, metrics = response(hinge, problem.settings, layout)
     r = residual(problem.targets, metrics, trajectory)
     return dict(
         residual=r,
@@ -238,7 +243,8 @@ def design(
     - `targets`: [`origami_jax.design.Targets`][] (per-joint metrics and/or a measured curve), in the
       design's units (MICRO: µs).
     - `free`: names of the free parameters, e.g. ``["k_scale", "b_scale"]`` or
-      ``["hinge_width", "t_hinge"]`` (see [`origami_jax.design.parameter_space`][]).
+      ``["hinge_width", "t_hinge"]`` (see [`origami_jax.design.parameter_space`][]); the
+      accordion's ``"flap_length"`` and ``"flap_width"`` are its pattern's (`settings.layout`).
     - `bounds`: ``{name: (lower, upper)}`` in the design's units; default a factor 100 around the start.
       Enforced by a sigmoid reparametrisation (log-scaled for positive bounds), never by clipping.
     - `options`: how each candidate is simulated, a [`origami_jax.simulation.SolveOptions`][]
@@ -264,7 +270,6 @@ def design(
     **Raises:** `ValueError` for unknown parameters, bad bounds, targets for another number of joints,
     no run length, or options given both here and in `settings`.
     """
-    space = parameter_space(hinge, free, bounds)
     if settings is None:
         options = FIT_OPTIONS if options is None else options
         horizon = time_horizon(targets) if options.t1 is None else options.t1
@@ -287,7 +292,8 @@ def design(
         )
     if n_starts < 1:
         raise ValueError(f"n_starts must be at least 1, got {n_starts}.")
-    start = space.read(hinge)
+    space = parameter_space(hinge, free, bounds, pattern=settings.layout)
+    start = space.read(hinge, settings.layout)
     problem = _Problem(hinge, space, targets, settings)
     z0s = _starts(space, start, n_starts, key)
     with checks_as_nan(_library_only(settings)):

@@ -279,7 +279,8 @@ def _variant_fit(variant: ModelVariant, result, tolerance: float) -> VariantFit:
     if variant.hinges == "arc":
         hinge = result.hinge
         length = float(hinge.radius()) * float(hinge.theta_final)
-        tip = tip_contact_angle(float(hinge.radius()), length, float(hinge.flap_length)) / math.pi
+        flap = float(result.pattern.geometry(hinge.units)["flap_length"])
+        tip = tip_contact_angle(float(hinge.radius()), length, flap) / math.pi
     return VariantFit(
         variant=variant,
         result=result,

@@ -57,7 +57,8 @@ class DesignResult:
     **Fields** (units: the design's, `units`; MICRO = µm, µs, ng, MPa):
     - `names`, `values` (the solution), `start`, `lower`, `upper`; `parameters` as ``{name: value}``.
     - `at_bound`: ``{name: "lower" | "upper"}`` for parameters pinned at a bound.
-    - `hinge`: the `HingeDesign` at the solution.
+    - `hinge`: the `HingeDesign` at the solution; `pattern`: the pattern simulated (an
+      `origami_jax.chain.Accordion` by default), its geometry at the solution when it was free.
     - `targets`: [`origami_jax.design.TargetRow`][]s, every target next to its achieved value.
     - `residual`: residual rows at the solution; `cost` ``½‖r‖²``; `residual_jacobian` ``∂r/∂z``, the
       Jacobian the optimiser used, with respect to the unconstrained variables `z` of the solution.
@@ -101,6 +102,7 @@ class DesignResult:
     reached: bool
     verdict: str
     warnings: list[str]
+    pattern: Any = None
     _problem: Any = dataclasses.field(repr=False, compare=False, default=None)
 
     @property
@@ -382,6 +384,7 @@ def build_report(*, problem, batch, best, start, before, tolerance, identify, me
             }
         )
     hinge = space.apply(problem.hinge, jnp.asarray(x))
+    pattern = space.apply_pattern(problem.settings.layout, [float(v) for v in x])
     return DesignResult(
         names=tuple(names),
         values=x,
@@ -410,5 +413,6 @@ def build_report(*, problem, batch, best, start, before, tolerance, identify, me
         reached=reached,
         verdict=verdict,
         warnings=warnings,
+        pattern=pattern,
         _problem=problem,
     )

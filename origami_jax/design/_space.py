@@ -7,7 +7,9 @@ its ``z`` between its bounds — in log space for positive quantities (``x = exp
 parameter pushed to a bound shows up as ``σ(z)`` close to 0 or 1 (see `ParameterSpace.at_bound`).
 
 Parameters are named by their field in `origami_jax.system.HingeDesign`, with a dot for the fields of its
-materials and fluid (``"fluid.density"``, ``"hinge.youngs_modulus"``).
+materials and fluid (``"fluid.density"``, ``"hinge.youngs_modulus"``), or by a field of the pattern's
+geometry (``"flap_length"``, ``"flap_width"``: the accordion's flaps, `origami_jax.chain.Accordion`), which
+the fit replaces in the pattern (`ParameterSpace.apply_pattern`) rather than in the design.
 """
 
 import re
@@ -19,13 +21,15 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
+from ..chain import ACCORDION_GEOMETRY
 from ..system import HingeDesign
 
+# Scalar fields of the pattern's geometry that may be freed (a pattern with them has `geometry(units)`
+# and `with_geometry(**values)`, as `Accordion` does), with their physical unit (the design's units).
+_PATTERN = dict(ACCORDION_GEOMETRY)
 # Scalar fields of `HingeDesign` that may be freed, with their physical unit (in the design's `units`).
 _TOP_LEVEL = {
     "hinge_width": "length",
-    "flap_length": "length",
-    "flap_width": "length",
     "t_structural": "length",
     "t_hinge": "length",
     "misfit_strain": "",
@@ -50,7 +54,7 @@ _ALIASES = {"fluid_density": "fluid.density", "fluid_viscosity": "fluid.viscosit
 # in (-1, 0.5). Bounds must lie within (the reparametrisation never reaches them), so that no value
 # the optimiser can try is refused at run time.
 _DOMAIN = {"structural.poisson_ratio": (-1.0, 0.5), "hinge.poisson_ratio": (-1.0, 0.5)}
-PARAMETER_NAMES = tuple(_TOP_LEVEL) + tuple(_NESTED)
+PARAMETER_NAMES = tuple(_TOP_LEVEL) + tuple(_PATTERN) + tuple(_NESTED)
 """Every name `ParameterSpace` accepts (plus the aliases ``fluid_density`` and ``fluid_viscosity``)."""
 
 # Default bounds: a factor of 100 either side of the start (log-scaled parameters).
@@ -74,9 +78,12 @@ def _split(name: str) -> tuple[str, int | None]:
 def _canonical(name: str) -> str:
     field, index = _split(name)
     field = _ALIASES.get(field, field)
-    if field not in _TOP_LEVEL and field not in _NESTED:
+    if field in _PATTERN and index is not None:
+        raise ValueError(f"{name!r}: {field} is one value for the whole pattern; free {field}.")
+    if field not in _TOP_LEVEL and field not in _NESTED and field not in _PATTERN:
         raise ValueError(
-            f"{name!r} is not a free parameter of HingeDesign. Choose among: "
+            f"{name!r} is not a free parameter of HingeDesign or of the pattern's geometry. Choose "
+            "among: "
             f"{', '.join(PARAMETER_NAMES)} (aliases: fluid_density, fluid_viscosity), or one hinge's entry of a "
             "per-hinge field as NAME[i] (e.g. hinge_width[2])."
         )
@@ -106,7 +113,20 @@ def _getter(name: str):
 def parameter_unit(name: str) -> str:
     """The kind of unit of a parameter (``"length"``, ``"stress"``, ``""`` for dimensionless, …)."""
     field, _ = _split(_canonical(name))
-    return _TOP_LEVEL.get(field, _NESTED.get(field, ""))
+    return _TOP_LEVEL.get(field, _PATTERN.get(field, _NESTED.get(field, "")))
+
+
+def _pattern_geometry(pattern, units, name: str):
+    """The value of the pattern's geometry field `name` in `units` (`pattern.geometry(units)`).
+    **Raises:** `ValueError` when the pattern has no such geometry (a net: its panels are fixed)."""
+    geometry = getattr(pattern, "geometry", None)
+    values = {} if geometry is None else geometry(units)
+    if name not in values:
+        raise ValueError(
+            f"{name} is the accordion's flap geometry (origami_jax.chain.Accordion); "
+            f"{type(pattern).__name__} has none to free."
+        )
+    return values[name]
 
 
 class ParameterSpace(eqx.Module):
@@ -190,21 +210,43 @@ class ParameterSpace(eqx.Module):
             upper |= (s > 1 - _NEAR_BOUND) & (g < 0)
         return np.where(lower, -1, np.where(upper, 1, 0))
 
-    def read(self, hinge: HingeDesign) -> Float[Array, " p"]:
-        """The current values of the free parameters in `hinge`, shape `(p,)`."""
-        return jnp.stack([jnp.asarray(_getter(n)(hinge), dtype=float) for n in self.names])
+    def read(self, hinge: HingeDesign, pattern=None) -> Float[Array, " p"]:
+        """The current values of the free parameters in `hinge` (and, for the pattern's geometry,
+        in `pattern`), shape `(p,)`."""
+        return jnp.stack(
+            [
+                jnp.asarray(
+                    _pattern_geometry(pattern, hinge.units, n)
+                    if n in _PATTERN
+                    else _getter(n)(hinge),
+                    dtype=float,
+                )
+                for n in self.names
+            ]
+        )
+
+    def apply_pattern(self, pattern, x: Float[Array, " p"]):
+        """`pattern` with its free geometry (``"flap_length"``, …) replaced by `x` (shape `(p,)`;
+        the values may be traced); `pattern` itself when no geometry is free."""
+        geometry = {n: x[i] for i, n in enumerate(self.names) if n in _PATTERN}
+        return pattern.with_geometry(**geometry) if geometry else pattern
 
     def apply(self, hinge: HingeDesign, x: Float[Array, " p"]) -> HingeDesign:
         """`hinge` with its free parameters replaced by `x` (shape `(p,)`); differentiable in `x`.
-        Entries of a per-hinge field (``"hinge_width[2]"``) replace that hinge's value only."""
+        Entries of a per-hinge field (``"hinge_width[2]"``) replace that hinge's value only; the
+        pattern's geometry is left to `apply_pattern`."""
         fields: dict[str, object] = {}
         for i, name in enumerate(self.names):
+            if name in _PATTERN:
+                continue
             field, index = _split(name)
             if index is None:
                 fields[field] = x[i]
             else:
                 current = fields.get(field, _field_getter(field)(hinge))
                 fields[field] = jnp.asarray(current).at[index].set(x[i])
+        if not fields:
+            return hinge
         getters = [_field_getter(f) for f in fields]
         return eqx.tree_at(lambda h: tuple(g(h) for g in getters), hinge, tuple(fields.values()))
 
@@ -215,11 +257,14 @@ def parameter_space(
     bounds: Mapping[str, tuple[float, float]] | None = None,
     *,
     scale: Mapping[str, str] | None = None,
+    pattern=None,
 ) -> ParameterSpace:
-    """Free parameters of `hinge` and their bounds.
+    """Free parameters of `hinge` (and of `pattern`'s geometry) and their bounds.
 
     **Arguments:**
     - `hinge`: the design that supplies every fixed value and the start of the free ones.
+    - `pattern`: the pattern whose geometry (``"flap_length"``, ``"flap_width"`` of an
+      `origami_jax.chain.Accordion`) starts the free geometry, if any is free.
     - `free`: names of the free parameters (see `PARAMETER_NAMES`), e.g. ``["k_scale", "b_scale"]``,
       or single hinges' entries of a per-hinge field, ``"hinge_width[0]"`` … (the field must then hold
       one value per hinge).
@@ -248,7 +293,10 @@ def parameter_space(
     lower, upper, log = [], [], []
     for name in names:
         field, index = _split(name)
-        whole = np.asarray(_field_getter(field)(hinge), dtype=float)
+        if field in _PATTERN:
+            whole = np.asarray(_pattern_geometry(pattern, hinge.units, field), dtype=float)
+        else:
+            whole = np.asarray(_field_getter(field)(hinge), dtype=float)
         if index is not None and (whole.ndim != 1 or index >= whole.shape[0]):
             raise ValueError(
                 f"{name}: {field} has shape {whole.shape} in this HingeDesign; give it one value "
@@ -260,8 +308,7 @@ def parameter_space(
                 f"{name} has shape {whole.shape} in this HingeDesign; free single hinges' entries "
                 f"as {name}[i], or give it one scalar value."
             )
-        value = np.asarray(_getter(name)(hinge), dtype=float)
-        start = float(value)
+        start = float(whole if index is None else whole[index])
         default_hi = start * _DEFAULT_FACTOR
         if name == "theta_final":  # a fold angle: at most π (see HingeDesign)
             default_hi = min(default_hi, max(float(np.pi), start))  # float32 π is above π

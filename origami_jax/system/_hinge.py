@@ -153,19 +153,27 @@ KOH_SOLUTION = Fluid(1290.0, SI, "30 wt% KOH solution", viscosity=2.2e-3)
 """30 wt% aqueous KOH at 20 °C (SI)."""
 
 # Literature defaults (paper Fig. 4): 200 nm SiNx, 100 nm Cr, ~1 GPa tensile residual stress in the
-# evaporated Cr. The paper gives neither the flap/hinge width nor C_D: square 200 µm flaps with the hinge
-# spanning the width, and C_D = 1.17 for a flat plate broadside to the flow (Hoerner, Fluid-Dynamic Drag,
-# 1965, ch. 3), are our choices, not the paper's.
+# evaporated Cr. The paper gives neither the hinge width nor C_D: a hinge spanning the 200 µm width of
+# the paper's square flaps (the flaps themselves are the accordion pattern's,
+# `origami_jax.chain.Accordion`), and C_D = 1.17 for a flat plate broadside to the flow (Hoerner,
+# Fluid-Dynamic Drag, 1965, ch. 3), are our choices, not the paper's.
 _LITERATURE_SI = dict(
     hinge_width=200e-6,
-    flap_length=200e-6,
-    flap_width=200e-6,
     t_structural=200e-9,
     t_hinge=100e-9,
     residual_stress=1e9,
 )
 _LITERATURE_THETA_FINAL = jnp.pi
 _LITERATURE_DRAG_COEFFICIENT = 1.17
+# Fields a HingeDesign once carried and no longer does: the accordion's flap geometry.
+_MOVED_TO_PATTERN = ("flap_length", "flap_width")
+
+
+def _moved(name: str) -> str:
+    return (
+        f"HingeDesign has no {name}: the flap geometry belongs to the accordion pattern, use "
+        f"Accordion({name}=...) (origami_jax.chain; accordion_system takes it too)."
+    )
 
 
 def biaxial_modulus(youngs_modulus: ArrayLike, poisson_ratio: ArrayLike) -> Array:
@@ -220,14 +228,16 @@ def _check_fold_angle(theta_final: Array) -> None:
 
 
 class HingeDesign(eqx.Module):
-    """Physical parameters of a bilayer-hinged flap chain, from which ``k`` and ``b`` per hinge follow.
+    """Physical parameters of bilayer hinges, from which ``k`` and ``b`` per hinge follow.
 
     Every numeric field is a pytree leaf (scalar, or shape `(n,)` for per-hinge values) in the units of
     `units` (default `MICRO`: lengths µm, stresses MPa, densities ng/µm³), so `jax.grad` reaches any of them.
-    Build the Fig. 4 defaults with `HingeDesign.literature()`.
+    Build the Fig. 4 defaults with `HingeDesign.literature()`. The panels the hinges fold are the
+    pattern's (a net's panels, the accordion's flaps: `origami_jax.chain.Accordion(flap_length=...,
+    flap_width=...)`), not the design's.
 
     **Fields:**
-    - `hinge_width` ``w``, `flap_length` ``L``, `flap_width` (length).
+    - `hinge_width` ``w`` (length).
     - `t_structural` ``t₁`` (SiNx membrane and flap), `t_hinge` ``t₂`` (Cr film) (length).
     - `misfit_strain` ``ε`` (dimensionless; pass `residual_stress` to the constructor instead to get
       ``ε = σ / E₂'``).
@@ -246,13 +256,11 @@ class HingeDesign(eqx.Module):
       ``½ w l D (κ − κ₀)²`` of a strip of length ``l`` held at curvature ``κ = θ / l`` away from its
       Timoshenko curvature ``κ₀ = θ_final / l``.
     - `drag_model` (static): `"paper"` ``b = C_D ν A L³ / 16`` (default) or `"strip"`, quadratic drag
-      integrated along the plate, ``/8``.
+      integrated along the plate, ``/8`` (``A`` and ``L`` the folded panel's, see `drag`).
     - `units` (static).
     """
 
     hinge_width: Float[Array, "..."]
-    flap_length: Float[Array, "..."]
-    flap_width: Float[Array, "..."]
     t_structural: Float[Array, "..."]
     t_hinge: Float[Array, "..."]
     misfit_strain: Float[Array, "..."]
@@ -272,8 +280,6 @@ class HingeDesign(eqx.Module):
         self,
         *,
         hinge_width: ArrayLike,
-        flap_length: ArrayLike,
-        flap_width: ArrayLike,
         t_structural: ArrayLike,
         t_hinge: ArrayLike,
         misfit_strain: ArrayLike | None = None,
@@ -289,7 +295,13 @@ class HingeDesign(eqx.Module):
         stiffness_model: str = "paper",  # str, not Literal: a wrong value gets the ValueError below
         drag_model: str = "paper",
         units: UnitSystem = MICRO,
+        **moved,
     ):
+        for name in _MOVED_TO_PATTERN:
+            if name in moved:
+                raise ValueError(_moved(name))
+        if moved:
+            raise TypeError(f"HingeDesign got unexpected keyword argument(s) {sorted(moved)}.")
         if stiffness_model not in ("paper", "plate", "bilayer"):
             raise ValueError(
                 f"stiffness_model must be 'paper', 'plate' or 'bilayer', got {stiffness_model!r}."
@@ -309,8 +321,6 @@ class HingeDesign(eqx.Module):
         self.fluid = fluid.to(units)
         for name, value in (
             ("hinge_width", hinge_width),
-            ("flap_length", flap_length),
-            ("flap_width", flap_width),
             ("t_structural", t_structural),
             ("t_hinge", t_hinge),
             ("theta_final", theta_final),
@@ -338,16 +348,14 @@ class HingeDesign(eqx.Module):
 
     @classmethod
     def literature(cls, units: UnitSystem = MICRO, **overrides) -> "HingeDesign":
-        """Fig. 4 defaults in `units`: 200 nm SiNx, 100 nm Cr at 1 GPa residual stress, 200 µm square
-        flaps with hinges as wide as the flaps, ``θ_final = π``, ``C_D = 1.17``, air.
+        """Fig. 4 defaults in `units`: 200 nm SiNx, 100 nm Cr at 1 GPa residual stress, 200 µm wide
+        hinges (as wide as the paper's square flaps), ``θ_final = π``, ``C_D = 1.17``, air.
 
         `overrides` replace any constructor argument, in `units` (e.g. ``fluid=KOH_SOLUTION``,
         ``k_scale=3.07``, ``misfit_strain=2e-3``).
         """
         kwargs = {
             "hinge_width": units.length(_LITERATURE_SI["hinge_width"]),
-            "flap_length": units.length(_LITERATURE_SI["flap_length"]),
-            "flap_width": units.length(_LITERATURE_SI["flap_width"]),
             "t_structural": units.length(_LITERATURE_SI["t_structural"]),
             "t_hinge": units.length(_LITERATURE_SI["t_hinge"]),
         }
@@ -355,6 +363,13 @@ class HingeDesign(eqx.Module):
             kwargs["residual_stress"] = units.stress(_LITERATURE_SI["residual_stress"])
         kwargs.update(overrides)
         return cls(units=units, **kwargs)
+
+    def __getattr__(self, name: str):
+        # Only reached for attributes the design does not have: the flap geometry gets a pointer to
+        # where it moved.
+        if name in _MOVED_TO_PATTERN:
+            raise AttributeError(_moved(name))
+        raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
 
     def curvature(self) -> Array:
         """Timoshenko curvature ``κ = 1/ρ`` of the hinge (1/length)."""
@@ -415,20 +430,26 @@ class HingeDesign(eqx.Module):
         k = self.k_scale * self.hinge_width * rigidity / self.hinge_length()
         return jnp.broadcast_to(k, (n_joints,))
 
-    def drag(self, n_joints: int) -> Float[Array, " n"]:
-        """Quadratic drag coefficient ``b`` of each hinge, shape `(n_joints,)`, torque·time²/rad².
+    def drag(
+        self, n_joints: int, flap_length: ArrayLike, flap_width: ArrayLike
+    ) -> Float[Array, " n"]:
+        """Quadratic drag coefficient ``b`` of each hinge folding a rectangular flap of length
+        ``L`` = `flap_length` (away from the hinge) and width `flap_width` (along it), both in
+        length units of the design (the accordion pattern's, `origami_jax.chain.Accordion`);
+        shape `(n_joints,)`, torque·time²/rad².
 
         ``b = b_scale · C_D ν A L³ / c`` with ``A = L × flap_width``, ``ν`` the fluid density and ``c = 16``
         (`"paper"`) or 8 (`"strip"`).
         """
-        area = self.flap_length * self.flap_width
+        flap_length = jnp.asarray(flap_length)
+        area = flap_length * flap_width
         denominator = 16.0 if self.drag_model == "paper" else 8.0
         b = (
             self.b_scale
             * self.drag_coefficient
             * self.fluid.density
             * area
-            * self.flap_length**3
+            * flap_length**3
             / denominator
         )
         return jnp.broadcast_to(b, (n_joints,))

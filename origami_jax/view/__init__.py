@@ -10,7 +10,8 @@ view.write_html(trajectory, "fold.html", system=system)   # one self-contained p
 A **scene** (`Scene`) is the plain data a view draws: frames of rigid panels (world-frame polygons),
 hinge segments with a fold angle per frame, panel thickness, contacts and a verdict. `scene_from`
 builds one from a FOLD file with frames, an unfolding result, a simulated trajectory (with its
-system), a folding system or mechanism, a sweep member, or the result files of the command line
+system, or its pattern), a pattern (`Net`, `CreasePattern`, `Accordion`: flat and folded as
+intended), a folding system or mechanism, a sweep member, or the result files of the command line
 (`origami-jax view RESULT` writes the page). Results with many samples are shown as at most
 `DEFAULT_MAX_FRAMES` frames evenly spaced in time (`resample`).
 
@@ -18,7 +19,9 @@ The page inlines three.js (r185, from its npm release, MIT licence; `static/`): 
 and no install. This sub-package imports no JAX until an adapter needs the physics.
 """
 
+from ._adapters import PATTERN_FRAMES as PATTERN_FRAMES
 from ._adapters import scene_from_mechanism as scene_from_mechanism
+from ._adapters import scene_from_pattern as scene_from_pattern
 from ._adapters import scene_from_trajectory as scene_from_trajectory
 from ._adapters import scene_from_unfolding as scene_from_unfolding
 from ._adapters import scene_from_vertex_path as scene_from_vertex_path
@@ -40,4 +43,6 @@ from ._scene import triangulate as triangulate
 from ._sources import load_scene as load_scene
 from ._sources import scene_from as scene_from
 from ._sources import scene_from_sweep_member as scene_from_sweep_member
+from ._sources import simulated_pattern as simulated_pattern
+from ._sources import sweep_member_pattern as sweep_member_pattern
 from ._sources import sweep_member_system as sweep_member_system

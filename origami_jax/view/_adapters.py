@@ -271,6 +271,64 @@ def scene_from_trajectory(
     )
 
 
+# Frames of a pattern's preview (`scene_from_pattern`): flat to folded in this many steps.
+PATTERN_FRAMES = 25
+
+
+def pattern_panel_thickness(design: Any) -> float:
+    """The panels' thickness of a design (its structural film, `t_structural`; the thickest where
+    it is given per crease), its length unit."""
+    return float(np.max(np.asarray(design.t_structural, dtype=float)))
+
+
+def scene_from_pattern(
+    pattern: Any,
+    design: Any = None,
+    *,
+    frames: int = PATTERN_FRAMES,
+    thickness: float | None = None,
+    title: str | None = None,
+) -> Scene:
+    """A pattern (an `origami_jax.system.AbstractPattern`: `Net`, `CreasePattern`, `Accordion`)
+    flat and folded as intended: `frames` states turning every hinge linearly from the pattern's
+    start state (flat) to its intended angles, the last frame its intended folded shape. A
+    kinematic preview, not a simulation (fold it with `pattern.fold` and view the trajectory):
+    in a closed-loop pattern the panels may part on the way, and meet again at the end.
+
+    **Arguments:** `design`, the `HingeDesign` the system is built with (default the pattern's,
+    `pattern.default_design()`; arc hinges take their strips' length from it); `frames` (>= 1;
+    1 shows the flat pattern only); `thickness`, the panels' (default the design's
+    `t_structural`); `title` (default the pattern's name).
+    """
+    if not isinstance(frames, int) or isinstance(frames, bool) or frames < 1:
+        raise ValueError(f"frames must be an integer >= 1, got {frames!r}")
+    design = pattern.default_design() if design is None else design
+    system = pattern.system(design)
+    start = np.asarray(pattern.start_state(system)[0], dtype=float)
+    intended = np.asarray(pattern.intended_angles, dtype=float)
+    fraction = np.linspace(0.0, 1.0, frames) if frames > 1 else np.zeros(1)
+    q = start + fraction[:, None] * (intended - start)
+    scene = scene_from_mechanism(
+        system,
+        q,
+        times=fraction,
+        thickness=pattern_panel_thickness(design) if thickness is None else thickness,
+        title=title or f"{pattern.name}: flat and folded as intended",
+    )
+    names = tuple(pattern.hinge_name(j) for j in range(scene.n_hinges))
+    text = "intended fold: every hinge turned linearly from flat to its intended angle (a preview)"
+    return scene.replace(
+        hinge_names=names if len(names) == pattern.n_hinges else scene.hinge_names,
+        verdict=text if frames > 1 else "flat pattern",
+        verdict_level="ok",
+        time_label="fold fraction",
+        notes=(
+            *scene.notes,
+            "a kinematic preview, not a simulation: fold the pattern and view the trajectory",
+        ),
+    )
+
+
 def _report_banner(report: Any, n_hinges: int) -> tuple[str, str, np.ndarray | None]:
     """Banner text, level and the hinges to highlight (outside the angle tolerance) of a
     `FoldReport`."""

@@ -1,10 +1,14 @@
 """`scene_from`: one entry point from any object or result file of the package to a `Scene`.
 
-Objects: `Scene`, `FoldFile`, `UnfoldResult`, `SingleVertex`, `Trajectory` (with its system),
-`SlowRampResult`, `FoldingSystem` or a mechanism (with states), a sweep dataset (with a member).
+Objects: `Scene`, `FoldFile`, `UnfoldResult`, `SingleVertex`, `Trajectory` (with its system, or its
+pattern and design), `SlowRampResult`, a pattern (`origami_jax.system.AbstractPattern`: `Net`,
+`CreasePattern`, `Accordion`; flat and folded as intended), `FoldingSystem` or a mechanism (with
+states), a sweep dataset (with a member).
 Files: `.fold` (any FOLD file with frames), the `path.npz` of `origami-jax unfold`, the
 `trajectory.csv`/`.npz` of `origami-jax simulate` (its `metrics.json` beside it gives the design),
-the `sweep.nc` of an "accordion-step" `origami-jax sweep` (a member is rebuilt and simulated).
+the `sweep.nc` of an "accordion-step" `origami-jax sweep` (a member is rebuilt and simulated). A
+file's stored names (the simulate command's `--param`s, a sweep's model and settings) become a pattern
+once, here (`simulated_pattern`, `sweep_member_pattern`); the system is built through it.
 """
 
 from __future__ import annotations
@@ -22,7 +26,9 @@ import numpy as np
 
 from ..fold import FoldFormatError
 from ._adapters import (
+    pattern_panel_thickness,
     scene_from_mechanism,
+    scene_from_pattern,
     scene_from_trajectory,
     scene_from_unfold_npz,
     scene_from_unfolding,
@@ -43,6 +49,8 @@ def scene_from(
     obj: Any,
     *,
     system: Any = None,
+    pattern: Any = None,
+    design: Any = None,
     states: Any = None,
     member: int | None = None,
     thickness: float | None = None,
@@ -54,8 +62,13 @@ def scene_from(
 
     **Arguments:**
     - `obj`: a `Scene`, `FoldFile`, `UnfoldResult`, `SingleVertex`, `Trajectory`, `SlowRampResult`,
-      `FoldingSystem`/mechanism, sweep `xarray.Dataset`, or a path to a result file (module doc).
-    - `system`: the `FoldingSystem` (or mechanism) a `Trajectory` was simulated with.
+      a pattern (`Net`, `CreasePattern`, `Accordion`: flat, then folded to its intended angles,
+      `scene_from_pattern`), `FoldingSystem`/mechanism, sweep `xarray.Dataset`, or a path to a
+      result file (module doc).
+    - `system`: the `FoldingSystem` (or mechanism) a `Trajectory` was simulated with; or instead
+      `pattern` (an `origami_jax.system.AbstractPattern`) and `design` (its `HingeDesign`,
+      default the pattern's): the system is `pattern.system(design)`. `design` also builds a
+      pattern given as `obj`.
     - `states`: `(T, n_coordinates)` states of a `FoldingSystem`/mechanism (default its rest state).
     - `member`: the design index of a sweep dataset or `sweep.nc`.
     - `thickness`: panel thickness of a mechanism, its length unit (files give their own).
@@ -67,6 +80,19 @@ def scene_from(
     a member, an unknown file type).
     """
     kwargs: dict[str, Any] = {} if title is None else {"title": title}
+    if pattern is not None:
+        if system is not None:
+            raise ValueError(
+                "give system= or pattern= (its system is pattern.system(design)), not both"
+            )
+        if not _is(pattern, "origami_jax.system._pattern", "AbstractPattern"):
+            raise ValueError(
+                f"pattern= takes a Net, CreasePattern or Accordion, got {type(pattern).__name__}"
+            )
+        design = pattern.default_design() if design is None else design
+        system = pattern.system(design)
+        if thickness is None:
+            thickness = pattern_panel_thickness(design)
     if isinstance(obj, Scene):
         scene = obj if title is None else obj.replace(title=title)
     elif isinstance(obj, str | os.PathLike):
@@ -103,6 +129,8 @@ def scene_from(
                 "simulated with"
             )
         scene = scene_from_trajectory(obj, system, thickness=thickness, report=report, **kwargs)
+    elif _is(obj, "origami_jax.system._pattern", "AbstractPattern"):
+        scene = scene_from_pattern(obj, design, thickness=thickness, **kwargs)
     elif _is(obj, "origami_jax.system._system", "FoldingSystem") or _is(
         obj, "origami_jax.system._mechanism", "AbstractMechanism"
     ):
@@ -112,7 +140,8 @@ def scene_from(
     else:
         raise ValueError(
             f"cannot view a {type(obj).__name__}: give a FOLD file or FoldFile, an UnfoldResult, "
-            "a Trajectory with system=, a FoldingSystem, a sweep dataset with member=, or a Scene"
+            "a Trajectory with system= (or pattern=), a pattern (Net, CreasePattern, Accordion), "
+            "a FoldingSystem, a sweep dataset with member=, or a Scene"
         )
     return resample(scene, max_frames)
 
@@ -218,11 +247,26 @@ def _refuse_other_commands(path: Path) -> None:
         )
 
 
-def _simulated_file(path: Path, times, theta, *, title: str | None = None) -> Scene:
-    """A trajectory file of `origami-jax simulate`: the accordion rebuilt from `metrics.json`."""
-    from ..chain import accordion_system
+def simulated_pattern(report: dict, flaps: int) -> tuple[Any, Any]:
+    """The accordion and the design of an `origami-jax simulate` run, from its `metrics.json`
+    (`report`: `fluid` and the `--param` values, flap size among them; `{}` gives the
+    literature design): `(Accordion, HingeDesign)`. **Raises:** `ValueError` for values the
+    design or the pattern refuses."""
+    from ..chain import ACCORDION_GEOMETRY, Accordion
     from ..system import AIR, KOH_SOLUTION, HingeDesign
 
+    params = dict(report.get("params", {}))
+    geometry = {k: params.pop(k) for k in ACCORDION_GEOMETRY if k in params}
+    fluid = KOH_SOLUTION if "KOH" in str(report.get("fluid", "")) else AIR
+    try:
+        design = HingeDesign.literature(fluid=fluid, **params)
+    except TypeError as error:  # a name the design does not take
+        raise ValueError(f"metrics.json params: {error}") from None
+    return Accordion(flaps, **geometry), design
+
+
+def _simulated_file(path: Path, times, theta, *, title: str | None = None) -> Scene:
+    """A trajectory file of `origami-jax simulate`: the accordion rebuilt from `metrics.json`."""
     theta = np.asarray(theta, dtype=float)
     metrics_path = path.with_name("metrics.json")
     notes = []
@@ -251,9 +295,8 @@ def _simulated_file(path: Path, times, theta, *, title: str | None = None) -> Sc
     flaps = int(report.get("flaps", theta.shape[1]))
     if flaps != theta.shape[1]:
         raise ValueError(f"{metrics_path} says {flaps} flaps but {path.name} has {theta.shape[1]}")
-    fluid = KOH_SOLUTION if "KOH" in str(report.get("fluid", "")) else AIR
-    design = HingeDesign.literature(fluid=fluid, **report.get("params", {}))
-    system = accordion_system(design, flaps)
+    pattern, design = simulated_pattern(report, flaps)
+    system = pattern(design)
     scene = scene_from_mechanism(
         system,
         theta,
@@ -273,13 +316,26 @@ def _simulated_file(path: Path, times, theta, *, title: str | None = None) -> Sc
 
 
 def sweep_member_system(dataset: Any, member: int | None) -> tuple[Any, Any, dict, str]:
-    """Rebuild design `member` of an "accordion-step" sweep dataset as the sweep kernel did.
+    """Rebuild design `member` of an "accordion-step" sweep dataset as the sweep kernel did:
+    `sweep_member_pattern`'s pattern built with its design.
 
     **Returns:** `(system, design, settings, description)`. **Raises:** `ValueError` for another
     model, a missing or out-of-range member.
     """
+    pattern, design, settings, description = sweep_member_pattern(dataset, member)
+    return pattern(design), design, settings, description
+
+
+def sweep_member_pattern(dataset: Any, member: int | None) -> tuple[Any, Any, dict, str]:
+    """Design `member` of an "accordion-step" sweep dataset as the sweep kernel had it: the stored
+    model name and settings turned into the pattern (an `origami_jax.chain.Accordion` with the
+    member's flap count and flap size) and its `HingeDesign`.
+
+    **Returns:** `(pattern, design, settings, description)`. **Raises:** `ValueError` for another
+    model, a missing or out-of-range member.
+    """
     from .._kernel import FLUIDS
-    from ..chain import ACCORDION_PARAMETERS, accordion_system
+    from ..chain import ACCORDION_GEOMETRY, ACCORDION_PARAMETERS, Accordion
     from ..system import AIR, KOH_SOLUTION, MICRO, Fluid, HingeDesign
 
     model = dataset.attrs.get("model")
@@ -318,6 +374,7 @@ def sweep_member_system(dataset: Any, member: int | None) -> tuple[Any, Any, dic
     for name, value in values.items():
         if not (math.isfinite(value) and value > 0):
             raise ValueError(f"member {member} has {name} = {value}: outside the model's domain")
+    pattern = Accordion(n_flaps, **{k: values.pop(k) for k in ACCORDION_GEOMETRY if k in values})
     design = HingeDesign(
         **values,
         fluid=Fluid(base_fluid.to(MICRO).density, MICRO, fluid_name),
@@ -325,11 +382,10 @@ def sweep_member_system(dataset: Any, member: int | None) -> tuple[Any, Any, dic
         drag_model=settings["drag_model"],
         units=MICRO,
     )
-    system = accordion_system(design, n_flaps)
     description = ", ".join(
         f"{k}={v:.4g}" if isinstance(v, float) else f"{k}={v}" for k, v in swept.items()
     )
-    return system, design, settings, f"sweep member {member}: {n_flaps} flaps, {description}"
+    return pattern, design, settings, f"sweep member {member}: {n_flaps} flaps, {description}"
 
 
 def scene_from_sweep_member(dataset: Any, member: int | None, *, title: str | None = None) -> Scene:
@@ -339,7 +395,8 @@ def scene_from_sweep_member(dataset: Any, member: int | None, *, title: str | No
 
     from ..simulation import SaveAt, SolveOptions, Step, implicit_solver, simulate
 
-    system, design, settings, description = sweep_member_system(dataset, member)
+    pattern, design, settings, description = sweep_member_pattern(dataset, member)
+    system = pattern(design)
     solver = {"kvaerno5": implicit_solver, "tsit5": diffrax.Tsit5}[settings["solver"]]()
     options = SolveOptions(
         t1=settings["t_end_us"],
