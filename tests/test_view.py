@@ -396,6 +396,20 @@ def test_cli_view_fold_file(tmp_path, capsys):
     assert "4 panels, 4 hinges, 2 frames" in out
 
 
+def test_cli_view_previews_a_shipped_pattern(tmp_path, capsys, monkeypatch):
+    # A catalogue name is not a file: the page goes to the working folder, named after it; the
+    # last frame is the cube net folded to its intended 90° creases.
+    monkeypatch.chdir(tmp_path)
+    assert run_cli("view", "cube_net_01") == 0
+    out = capsys.readouterr().out
+    assert (tmp_path / "cube_net_01.html").is_file()
+    assert "6 panels, 5 hinges, 25 frames" in out
+    assert run_cli("view", "cube_net_01") == 2  # the page exists: refused without --overwrite
+    assert "--overwrite" in capsys.readouterr().err
+    page = (tmp_path / "cube_net_01.html").read_text()
+    assert "kinematic preview" in page and "cube_net_01" in page
+
+
 def test_cli_view_open_hands_the_page_to_the_web_browser(tmp_path, capsys, monkeypatch):
     import webbrowser
 

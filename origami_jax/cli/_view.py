@@ -23,6 +23,9 @@ RESULT is one of:
   OUT/trajectory.csv|.npz       the trajectory written by `origami-jax simulate` (its metrics.json
                                 beside it gives the design)
   OUT/sweep.nc --member K       design K of an accordion `origami-jax sweep`, simulated again
+  NAME                          a shipped pattern (origami-jax fold --list) previewed: flat, then every
+                                crease turned linearly to its intended angle (kinematics, not a
+                                simulation: fold it with `origami-jax fold` and view the trajectory)
 """
 
 
@@ -33,7 +36,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         description=DESCRIPTION,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    parser.add_argument("result", type=Path, metavar="RESULT", help="the result to view (above)")
+    parser.add_argument(
+        "result", type=Path, metavar="RESULT", help="the result or shipped pattern to view (above)"
+    )
     parser.add_argument(
         "--out",
         type=out_path,
@@ -59,6 +64,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def _target(args: argparse.Namespace) -> Path:
     result: Path = args.result
     name = f"{result.stem}.html"
+    if _shipped_pattern(args):
+        # A name, not a file: the page goes to the working folder (or --out), never beside it.
+        result = Path(name)
     if result.suffix.lower() == ".nc" and args.member is not None:
         name = f"{result.stem}_member_{args.member}.html"
     if args.out is None:
@@ -66,6 +74,22 @@ def _target(args: argparse.Namespace) -> Path:
     if args.out.suffix.lower() in (".html", ".htm"):
         return args.out
     return args.out / name
+
+
+def _shipped_pattern(args: argparse.Namespace) -> bool:
+    """Whether RESULT names a shipped pattern (and no file of that name exists)."""
+    from ..fold import catalogue_names
+
+    name = str(args.result)
+    return not args.result.exists() and name.removesuffix(".fold") in catalogue_names()
+
+
+def _pattern_scene(name: str, title: str | None):
+    """The preview of shipped pattern `name`: flat, then folded to its intended angles."""
+    from ..loops import load_pattern
+    from ..view import scene_from_pattern
+
+    return scene_from_pattern(load_pattern(name.removesuffix(".fold")), title=title)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -81,8 +105,9 @@ def run(args: argparse.Namespace) -> int:
         fail(f"--member must be a design index >= 0, got {args.member}")
     if args.result.is_symlink() and not args.result.exists():
         fail(f"{args.result} is a link to {os.readlink(args.result)}, which does not exist")
-    if not args.result.exists():
-        fail(f"no such file: {args.result}")
+    shipped = _shipped_pattern(args)
+    if not shipped and not args.result.exists():
+        fail(f"no such file or shipped pattern: {args.result} (origami-jax fold --list names them)")
     target = _target(args)
     if target.is_dir():
         fail(f"{target} is a folder: give --out FILE.html or a folder to put the page in")
@@ -90,7 +115,10 @@ def run(args: argparse.Namespace) -> int:
         fail(f"{target} exists; pass --overwrite to replace it, or choose another --out")
     check_out_folder(target.parent, "the folder of the page")
     try:
-        scene = load_scene(args.result, member=args.member, title=args.title)
+        if shipped:
+            scene = _pattern_scene(str(args.result), args.title)
+        else:
+            scene = load_scene(args.result, member=args.member, title=args.title)
         samples = scene.n_frames
         scene = resample(scene, max_frames)
         target = write_html(scene, target)
