@@ -31,9 +31,13 @@ NET is a FOLD file or the name of a shipped net or crease pattern (origami-jax f
 sample is the net with its hinges' film stress (misfit strain), film thicknesses, hinge widths, drag coefficient and
 release times drawn from the scatter, folded with contact in the KOH bath (--fluid air: in air) and
 judged folded, jammed, misfolded, unfinished or invalid: folded when every crease is within
---angle-tolerance of the pattern's angle (3 degrees) and every seam's gap below --seam-tolerance
-times the largest panel's size (0.01: 2 µm on 200 µm panels, about 0.6 degrees of crease error, so
-the seams decide most verdicts; 0.05 makes the two equally strict). The hinges are fabricated: their lengths
+--angle-tolerance of the pattern's angle (3 degrees) and every seam closed. By default each seam's
+tolerance is derived from the angle tolerance and the geometry: the gap the seam has in the
+intended shape plus what creases each off by the angle tolerance open (root-sum-square), so a seam
+is never judged stricter than the creases that place it (10-20 µm on a cube of 200 µm panels at 3
+degrees). --seam-tolerance 0.01 judges every seam against a fixed fraction of the largest panel's
+size instead (the default before: 2 µm on 200 µm panels, about 0.6 degrees of crease error, so the
+seams decided most verdicts); --resume keeps the tolerance the run was stored with. The hinges are fabricated: their lengths
 are the nominal design's, so a film that bends more or less than nominal folds its crease past or
 short of the pattern's angle. Each hinge is the literature's, at most as wide as its crease.
 
@@ -76,8 +80,15 @@ is re-estimated on --samples fresh draws (see origami_jax.fab_yield.yield_ascent
 estimate itself; the others are stored in OUT/improve/; result.json's "improve" holds every iterate's nominal values, yield,
 interval and gradient, and OUT/improve.png plots them (not with --resume).
 
+Every estimate also reports how its yield depends on the tolerances, without simulating again:
+each sample stores its margins (its largest crease error over the angle tolerance, its largest
+open seam gap over that seam's tolerance), so the yield with the angle tolerance, the seam
+tolerances or both multiplied by 0.5, 1 and 2 is a count (result.json's tolerance_sensitivity,
+one line of the summary, OUT/yield_tolerances.png). Only folded against not folded moves with the
+tolerances; a sample whose simulation failed folds at none.
+
 Writes OUT/result.json (yield, its confidence interval, verdict counts, the scatter, the
-tolerances, the yield per --widths factor, and the yield's gradient with respect to each scattered
+tolerances and the yield at their multiples, the yield per --widths factor, and the yield's gradient with respect to each scattered
 parameter's nominal value with its standard error: the score-function estimate from the same
 samples, see origami_jax.fab_yield.yield_gradient), the figures unless --no-figures (OUT/yield.png: verdict
 counts and the yield; OUT/misfolds.png: the final state of one typical sample of each verdict other
@@ -90,6 +101,16 @@ one holding another command's results is refused. A nominal release at or after 
 Exit codes: 0 done, 1 the run stopped (disk full), 2 bad input or a folder in use, 130 interrupted.
 """
 )
+
+
+class _SeamNotGiven:
+    """--seam-tolerance not given: derived for a new run, the stored run's with --resume."""
+
+    def __repr__(self) -> str:
+        return "derived"
+
+
+_SEAM_NOT_GIVEN = _SeamNotGiven()
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -158,9 +179,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument(
         "--seam-tolerance",
         type=seam_tolerance_value,
-        default=0.01,
-        help="verdict: seam gap tolerance, a fraction of the largest panel's size (default 0.01), or "
-        "'derived': each seam's from the angle tolerance and the geometry",
+        default=_SEAM_NOT_GIVEN,
+        help="verdict: seam gap tolerance, 'derived' (default: each seam's is the gap it would "
+        "have with every crease just within the angle tolerance), or a fixed fraction of the "
+        "largest panel's size (0.01, the default before); --resume keeps the stored run's",
     )
     parser.add_argument("--chunk-size", type=int, default=None, help="samples per compiled call")
     parser.add_argument(
@@ -224,6 +246,7 @@ OWNS = (
     "yield.png",
     "misfolds.png",
     "yield_widths.png",
+    "yield_tolerances.png",
     "improve.png",
 )
 
@@ -258,6 +281,21 @@ def _check_resumable(out: Path, factors: list[float]) -> None:
             "result.json holds the yield at those widths, which this run would drop; give them "
             "in --widths."
         )
+
+
+def _seam_tolerance(args: argparse.Namespace) -> float | None:
+    """The seam tolerance of this run: --seam-tolerance (a fraction, or None: derived); not given,
+    derived, or with --resume the stored run's (a run stored when the fixed 0.01 was the default
+    records none: 0.01), so that its verdicts stay the same."""
+    if args.seam_tolerance is not _SEAM_NOT_GIVEN:
+        return args.seam_tolerance
+    if args.resume:
+        from ..fab_yield._estimate import RunOptions, _resumed_tolerances
+
+        stored = _resumed_tolerances(RunOptions(out=Path(args.out), resume=True))
+        if stored is not None:
+            return stored.seam
+    return None
 
 
 def _numbers(text: str | None, flag: str) -> list[float] | None:
@@ -388,7 +426,7 @@ def run(args: argparse.Namespace) -> int:
     if args.workers is not None:
         int_range(args.workers, "--workers", 1, 4096)
     in_range(args.angle_tolerance, "--angle-tolerance", 0.0, 180.0, what=" degrees")
-    if args.seam_tolerance is not None:
+    if args.seam_tolerance is not None and args.seam_tolerance is not _SEAM_NOT_GIVEN:
         in_range(
             args.seam_tolerance, "--seam-tolerance", 0.0, 1.0, what=" (a fraction of the panel)"
         )
@@ -509,7 +547,7 @@ def _run(args, output, pattern, loops, scatter, sampling, factors, release, proc
         release_times=release,
         process=process,
         solve=solve,
-        tolerances=VerdictTolerances.from_degrees(args.angle_tolerance, args.seam_tolerance),
+        tolerances=VerdictTolerances.from_degrees(args.angle_tolerance, _seam_tolerance(args)),
         bias=args.bias,
     )
 
@@ -592,7 +630,13 @@ def _run(args, output, pattern, loops, scatter, sampling, factors, release, proc
     if not args.no_figures:
         import matplotlib.pyplot as plt
 
-        from ..plotting.fab_yield import ascent_figure, misfold_figure, width_figure, yield_figure
+        from ..plotting.fab_yield import (
+            ascent_figure,
+            misfold_figure,
+            tolerance_figure,
+            width_figure,
+            yield_figure,
+        )
 
         fig = yield_figure(estimate, title=f"{args.net}: yield under fabrication scatter")
         fig.savefig(output.dir / "yield.png", dpi=120)
@@ -600,6 +644,10 @@ def _run(args, output, pattern, loops, scatter, sampling, factors, release, proc
         fig = misfold_figure(pattern, estimate, title=f"{args.net}: misfold modes")
         fig.savefig(output.dir / "misfolds.png", dpi=120)
         plt.close(fig)
+        if estimate.tolerance_sensitivity is not None:
+            fig = tolerance_figure(estimate.tolerance_sensitivity, title=args.net)
+            fig.savefig(output.dir / "yield_tolerances.png", dpi=120)
+            plt.close(fig)
         if factors:
             fig = width_figure(
                 sorted(at_width), [at_width[f] for f in sorted(at_width)], title=args.net
@@ -611,6 +659,8 @@ def _run(args, output, pattern, loops, scatter, sampling, factors, release, proc
             fig.savefig(output.dir / "improve.png", dpi=120)
             plt.close(fig)
     print(estimate.summary())
+    if estimate.tolerance_sensitivity is not None:
+        print(f"  {estimate.tolerance_sensitivity.summary()}")
     if ascent is not None:
         print(ascent.summary())
     for line in result["gradient"].values():

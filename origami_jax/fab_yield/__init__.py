@@ -60,7 +60,9 @@ estimate.dataset            # xarray.Dataset: the drawn parameters and every sam
   fabricated nets and names the best. `examples/flap_under_flap.fold` jams unless its long flap
   goes first.
 - The verdict's tolerances: `tolerances=`, a `origami_jax.simulation.VerdictTolerances` (the
-  angle, and the seam gap as a fraction of the panel size).
+  angle, and each seam's tolerance derived from it and the geometry by default, or a fixed
+  fraction of the panel size). `tolerance_sensitivity`: the yield at multiples of both, from the
+  margins every sample stores (`YieldEstimate.tolerance_sensitivity`; nothing simulated again).
 
 `yield_estimate` also takes crease patterns with closed loops (pre-folded by `bias`; a sample on
 another branch is misfolded); the ascent, the order search and the surrogate take nets only.
@@ -100,3 +102,6 @@ from ._stats import wilson_interval as wilson_interval
 from ._surrogate import DESIGN_VARIABLES as DESIGN_VARIABLES
 from ._surrogate import SoftYield as SoftYield
 from ._surrogate import soft_yield as soft_yield
+from ._tolerance import TOLERANCE_FACTORS as TOLERANCE_FACTORS
+from ._tolerance import ToleranceSensitivity as ToleranceSensitivity
+from ._tolerance import tolerance_sensitivity as tolerance_sensitivity
