@@ -149,13 +149,13 @@ def test_the_net_kernel_records_its_seam_tolerance_as_stores_did():
 
 
 def test_a_sweep_resumed_from_a_store_of_the_old_default_keeps_its_seam_tolerance(tmp_path):
-    """`origami-jax sweep --resume` of a net-fold store whose settings name no seam tolerance (the
-    fixed 0.01, the default when it was written), from a config that names none: the kernel keeps
-    0.01, so the settings match and the verdicts are judged as before; a store of the derived one,
-    or a config that names a tolerance, is taken as it is."""
+    """`origami-jax sweep --resume` (`load_config(..., resume_from=)`) of a net-fold store whose
+    settings name no seam tolerance (the fixed 0.01, the default when it was written), from a
+    config that names none: the kernel keeps 0.01, so the settings match and the verdicts are
+    judged as before; a store of the derived one, or a config that names a tolerance, is taken as
+    it is."""
     import json
 
-    from origami_jax.cli._sweep import _stored_seam_tolerance
     from origami_jax.sweep import load_config
 
     path = tmp_path / "sweep.toml"
@@ -163,22 +163,19 @@ def test_a_sweep_resumed_from_a_store_of_the_old_default_keeps_its_seam_toleranc
         f'[model]\nname = "net-fold"\nnet = "{NET}"\n'
         "[sweep]\nkind = 'grid'\n[parameters]\nmisfit_strain = { values = [0.0028, 0.0029] }\n"
     )
-    config = load_config(path)
-    assert config.kernel.settings["seam_tolerance"] is None  # a new sweep: derived
     out = tmp_path / "store"
     out.mkdir()
-    legacy = {k: v for k, v in config.kernel.settings.items() if k != "seam_tolerance"}
+    fresh = load_config(path, resume_from=out).kernel.settings  # nothing stored: derived
+    assert fresh["seam_tolerance"] is None
+    legacy = {k: v for k, v in fresh.items() if k != "seam_tolerance"}
     (out / "sweep.json").write_text(json.dumps({"model": "net-fold", "settings": legacy}))
-    kept = _stored_seam_tolerance(config, out)
-    assert kept.kernel.settings == legacy
-    (out / "sweep.json").write_text(
-        json.dumps({"model": "net-fold", "settings": config.kernel.settings})
-    )
-    assert _stored_seam_tolerance(config, out) is config
+    assert load_config(path, resume_from=out).kernel.settings == legacy
+    assert load_config(path).kernel.settings == fresh  # a new sweep: derived
+    (out / "sweep.json").write_text(json.dumps({"model": "net-fold", "settings": fresh}))
+    assert load_config(path, resume_from=out).kernel.settings == fresh
     path.write_text(path.read_text().replace("[sweep]", "seam_tolerance = 0.05\n[sweep]"))
-    named = load_config(path)
     (out / "sweep.json").write_text(json.dumps({"model": "net-fold", "settings": legacy}))
-    assert _stored_seam_tolerance(named, out) is named
+    assert load_config(path, resume_from=out).kernel.settings["seam_tolerance"] == 0.05
 
 
 def test_cli_tolerance_flags_are_checked_before_compiling(tmp_path, capsys):

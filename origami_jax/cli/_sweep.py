@@ -100,7 +100,8 @@ def run(args: argparse.Namespace) -> int:
     from ..sweep import load_config
 
     try:
-        config = load_config(args.config)
+        # Resuming: a net-fold store of the old default seam tolerance keeps it.
+        config = load_config(args.config, resume_from=Path(args.out) if args.resume else None)
     except (ValueError, OSError) as error:
         fail(f"bad config {args.config}: {error}")
     # The summary and plots describe the dataset: replaced together (the sweep itself decides,
@@ -114,40 +115,10 @@ def run(args: argparse.Namespace) -> int:
         return _run(args, config, output)
 
 
-def _stored_seam_tolerance(config, out: Path):
-    """`config` to resume the sweep in `out`: a net-fold sweep stored when the seam tolerance's
-    default was the fixed 0.01 of the panel (its settings name no `seam_tolerance`), resumed from a
-    config that names none, keeps that 0.01 (the default is derived now); any other config as
-    given."""
-    import dataclasses
-    import json
-
-    from ..simulation import LEGACY_SEAM_FRACTION
-    from ..sweep import get_model
-
-    model = dict(config.raw.get("model", {}))
-    if config.kernel.name != "net-fold" or "seam_tolerance" in model:
-        return config
-    try:
-        stored = json.loads((out / "sweep.json").read_text())
-    except (OSError, ValueError):
-        return config  # nothing stored (or not a sweep's): the sweep itself says so
-    settings = stored.get("settings") if isinstance(stored, dict) else None
-    if stored.get("model") != "net-fold" or not isinstance(settings, dict):
-        return config
-    if "seam_tolerance" in settings:
-        return config
-    options = {k: v for k, v in model.items() if k not in ("name", "input")}
-    kernel = get_model("net-fold", **options, seam_tolerance=LEGACY_SEAM_FRACTION)
-    return dataclasses.replace(config, kernel=kernel)
-
-
 def _run(args: argparse.Namespace, config, output: OutputFolder) -> int:
     from ..sweep import sweep
 
     out = output.out
-    if args.resume:
-        config = _stored_seam_tolerance(config, out)
     print(
         f"[sweep] model {config.kernel.name}: {config.space.size} designs over "
         f"{', '.join(config.space.names)} -> {out}",

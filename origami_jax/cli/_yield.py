@@ -283,18 +283,15 @@ def _check_resumable(out: Path, factors: list[float]) -> None:
         )
 
 
-def _seam_tolerance(args: argparse.Namespace) -> float | None:
+def _seam_tolerance(args: argparse.Namespace, stored) -> float | None:
     """The seam tolerance of this run: --seam-tolerance (a fraction, or None: derived); not given,
-    derived, or with --resume the stored run's (a run stored when the fixed 0.01 was the default
-    records none: 0.01), so that its verdicts stay the same."""
+    derived, or with --resume the stored run's (`stored`, its `VerdictTolerances` or None; a run
+    stored when the fixed 0.01 was the default records none: 0.01), so that its verdicts stay
+    the same."""
     if args.seam_tolerance is not _SEAM_NOT_GIVEN:
         return args.seam_tolerance
-    if args.resume:
-        from ..fab_yield._estimate import RunOptions, _resumed_tolerances
-
-        stored = _resumed_tolerances(RunOptions(out=Path(args.out), resume=True))
-        if stored is not None:
-            return stored.seam
+    if args.resume and stored is not None:
+        return stored.seam
     return None
 
 
@@ -514,7 +511,7 @@ def _run(args, output, pattern, loops, scatter, sampling, factors, release, proc
     """The estimates (and the ascent) into `output.out`, the results staged in `output.dir`."""
     import dataclasses
 
-    from ..fab_yield import RunOptions, yield_estimate
+    from ..fab_yield import RunOptions, stored_run_tolerances, yield_estimate
     from ..net import FOLD_KERNEL_SOLVE
     from ..simulation import DEFAULT_ATOL, DEFAULT_RTOL, VerdictTolerances
     from ..system import AIR, KOH_SOLUTION
@@ -547,7 +544,9 @@ def _run(args, output, pattern, loops, scatter, sampling, factors, release, proc
         release_times=release,
         process=process,
         solve=solve,
-        tolerances=VerdictTolerances.from_degrees(args.angle_tolerance, _seam_tolerance(args)),
+        tolerances=VerdictTolerances.from_degrees(
+            args.angle_tolerance, _seam_tolerance(args, stored_run_tolerances(out))
+        ),
         bias=args.bias,
     )
 

@@ -79,6 +79,7 @@ from ._ascent import check_ascent as check_ascent
 from ._ascent import yield_ascent as yield_ascent
 from ._estimate import RunOptions as RunOptions
 from ._estimate import YieldEstimate as YieldEstimate
+from ._estimate import stored_run_tolerances as stored_run_tolerances
 from ._estimate import yield_estimate as yield_estimate
 from ._gradient import YieldGradient as YieldGradient
 from ._gradient import score as score

@@ -305,14 +305,13 @@ def _stragglers_finished(dataset, kernel, columns, units, **sweep_options):
     return dataset
 
 
-def _resumed_tolerances(run) -> VerdictTolerances | None:
-    """The verdict's tolerances of the estimate `run` resumes (its store's settings,
-    `stored_tolerances`), or `None` (not resuming, nothing stored, or not readable: the sweep then
-    says what is wrong)."""
-    if not isinstance(run, RunOptions) or not run.resume or run.out is None:
-        return None
+def stored_run_tolerances(out) -> VerdictTolerances | None:
+    """The verdict's tolerances of the yield estimate stored in the folder `out` (its sweep's
+    settings, `origami_jax.net.stored_tolerances`: a run stored when the fixed 0.01 was the
+    default names none and gets 0.01), or `None` where nothing readable is stored (the sweep then
+    says what is wrong). What `yield_estimate` resumes with when given no `tolerances`."""
     try:
-        manifest = json.loads((Path(run.out) / "sweep.json").read_text())
+        manifest = json.loads((Path(out) / "sweep.json").read_text())
         return stored_tolerances(manifest["settings"])
     except (OSError, ValueError, KeyError, TypeError):
         return None
@@ -417,7 +416,8 @@ def yield_estimate(
     if isinstance(n_samples, bool) or not isinstance(n_samples, int | np.integer):
         raise ValueError(f"n_samples must be an integer >= 1, got {n_samples!r}.")
     if tolerances is None:
-        tolerances = _resumed_tolerances(run) or VerdictTolerances()
+        resumed = isinstance(run, RunOptions) and run.resume and run.out is not None
+        tolerances = (resumed and stored_run_tolerances(run.out)) or VerdictTolerances()
     if not isinstance(tolerances, VerdictTolerances):
         raise ValueError(f"tolerances must be a VerdictTolerances, got {tolerances!r}.")
     if n_samples < 1:

@@ -732,6 +732,13 @@ def assess(
             f"intended_angles must have shape {trajectory.theta.shape[-1:]}, got {intended.shape}."
         )
     bodies = getattr(seam_gaps, "bodies", None)
+    if seam_gaps is not None:
+        # One tolerance per seam whether derived or fixed: one compiled verdict serves both.
+        q0 = trajectory.theta[0] if trajectory.state is None else trajectory.state[0][0]
+        n_seams = jax.eval_shape(seam_gaps, q0).shape[-1]
+        judged_tolerance = np.broadcast_to(seam_tolerance, (n_seams,))
+    else:
+        judged_tolerance = seam_tolerance
     # On one device: a run's arrays are committed to a device or not depending on how they were
     # computed (the command line's exported solve returns committed ones), and each pattern of
     # committed arguments would compile the verdict again.
@@ -743,7 +750,7 @@ def assess(
             getattr(seam_gaps, "function", seam_gaps),
             None if bodies is None else tuple(map(tuple, np.asarray(bodies).tolist())),
             jnp.asarray(angle_tolerance),
-            jnp.asarray(seam_tolerance),
+            jnp.asarray(judged_tolerance),
         )
     )
     outcome = jax.device_get(_outcome_compiled(*arguments))
