@@ -530,6 +530,9 @@ def test_verdicts():
     failed = _held(system, jnp.zeros(3), result=sim.RESULTS.nonfinite_state)
     assert sim.assess(system, failed).verdict == "invalid"
     # Seams: angles right but a seam open is not folded.
-    closed = sim.assess(system, koh, seam_gaps=lambda q: jnp.zeros(1))
-    opened = sim.assess(system, koh, seam_gaps=lambda q: jnp.full(1, 50.0))
+    # Constant gaps: no geometry to derive a seam tolerance from (the default; it would be the
+    # gap itself), so a fixed one (1 % of the contact model's panel size).
+    fixed = sim.VerdictTolerances(seam=0.01)
+    closed = sim.assess(system, koh, seam_gaps=lambda q: jnp.zeros(1), tolerances=fixed)
+    opened = sim.assess(system, koh, seam_gaps=lambda q: jnp.full(1, 50.0), tolerances=fixed)
     assert closed.verdict == "folded" and opened.verdict == "misfolded"

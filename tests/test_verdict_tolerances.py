@@ -27,11 +27,16 @@ def test_defaults_and_units():
     tolerances = sim.VerdictTolerances()
     assert tolerances == sim.DEFAULT_TOLERANCES
     assert tolerances.angle == pytest.approx(np.pi / 60)  # 3°
-    assert tolerances.seam == 0.01 and tolerances.seam_length(200.0) == pytest.approx(2.0)
+    # The default seam tolerance is derived from the angle tolerance and the geometry (it was the
+    # fixed 0.01 of the panel size, still selectable and what stores without the setting mean).
+    assert tolerances.seam is None and tolerances.to_dict()["seam_fraction"] == "derived"
+    assert sim.VerdictTolerances.from_degrees() == tolerances
+    fixed = sim.VerdictTolerances(seam=sim.LEGACY_SEAM_FRACTION)
+    assert fixed.seam == 0.01 and fixed.seam_length(200.0) == pytest.approx(2.0)
     assert sim.VerdictTolerances.from_degrees(5.0, 0.05) == sim.VerdictTolerances(
         np.radians(5.0), 0.05
     )
-    assert tolerances.to_dict() == {"angle_deg": pytest.approx(3.0), "seam_fraction": 0.01}
+    assert fixed.to_dict() == {"angle_deg": pytest.approx(3.0), "seam_fraction": 0.01}
 
 
 @pytest.mark.parametrize(
@@ -97,7 +102,9 @@ def test_the_seam_tolerance_is_a_fraction_of_the_panel_size(contact, corner_cube
     assert gap == pytest.approx(200.0 * np.radians(1.0), rel=0.01), gap
     assert net.panel_size(system) == pytest.approx(200.0)
     trajectory = _held(system, angles)
-    strict = net.assess(system, trajectory)
+    # The fixed fraction given: the default is derived now (`test_a_derived_seam_tolerance_...`).
+    fixed = sim.VerdictTolerances(seam=0.01)
+    strict = net.assess(system, trajectory, tolerances=fixed)
     assert (
         strict.verdict == "misfolded" and strict.reason == "creases at their angles but seams open"
     )
@@ -111,7 +118,10 @@ def test_the_seam_tolerance_is_a_fraction_of_the_panel_size(contact, corner_cube
     assert loose.angle_tolerance == pytest.approx(np.radians(3.0))
     # The traced verdict agrees.
     codes = sim.VERDICT_CODES
-    assert int(net.outcome(system, trajectory).code) == codes[sim.FoldVerdict.MISFOLDED]
+    assert (
+        int(net.outcome(system, trajectory, tolerances=fixed).code)
+        == codes[sim.FoldVerdict.MISFOLDED]
+    )
     outcome = net.outcome(system, trajectory, tolerances=sim.VerdictTolerances(seam=0.02))
     assert int(outcome.code) == codes[sim.FoldVerdict.FOLDED]
     # A tighter angle tolerance (0.5°) fails the 1° crease whatever the seam tolerance.
@@ -119,11 +129,53 @@ def test_the_seam_tolerance_is_a_fraction_of_the_panel_size(contact, corner_cube
     assert net.assess(system, trajectory, tolerances=tight).verdict == "misfolded"
 
 
-def test_the_net_kernel_names_a_seam_tolerance_only_when_it_is_not_the_default():
-    """Stores written before the setting existed stay resumable: the default is not in the
-    kernel's settings."""
-    assert "seam_tolerance" not in get_model("net-fold", net=NET).settings
+def test_the_net_kernel_records_its_seam_tolerance_as_stores_did():
+    """Stores written before the setting existed (the fixed 0.01, then the default) stay
+    resumable: 0.01 is not in the kernel's settings, the derived default is (null), and
+    `stored_tolerances` reads each back."""
+    from origami_jax.net import stored_tolerances
+
+    derived = get_model("net-fold", net=NET).settings
+    assert derived["seam_tolerance"] is None
+    assert get_model("net-fold", net=NET, seam_tolerance="derived").settings == derived
+    legacy = get_model("net-fold", net=NET, seam_tolerance=0.01).settings
+    assert "seam_tolerance" not in legacy
     assert get_model("net-fold", net=NET, seam_tolerance=0.05).settings["seam_tolerance"] == 0.05
+    assert stored_tolerances(derived) == sim.VerdictTolerances()
+    assert stored_tolerances(legacy) == sim.VerdictTolerances(seam=0.01)
+    assert stored_tolerances({"angle_tolerance_deg": 5.0, "seam_tolerance": 0.05}) == (
+        sim.VerdictTolerances.from_degrees(5.0, 0.05)
+    )
+
+
+def test_a_sweep_resumed_from_a_store_of_the_old_default_keeps_its_seam_tolerance(tmp_path):
+    """`origami-jax sweep --resume` (`load_config(..., resume_from=)`) of a net-fold store whose
+    settings name no seam tolerance (the fixed 0.01, the default when it was written), from a
+    config that names none: the kernel keeps 0.01, so the settings match and the verdicts are
+    judged as before; a store of the derived one, or a config that names a tolerance, is taken as
+    it is."""
+    import json
+
+    from origami_jax.sweep import load_config
+
+    path = tmp_path / "sweep.toml"
+    path.write_text(
+        f'[model]\nname = "net-fold"\nnet = "{NET}"\n'
+        "[sweep]\nkind = 'grid'\n[parameters]\nmisfit_strain = { values = [0.0028, 0.0029] }\n"
+    )
+    out = tmp_path / "store"
+    out.mkdir()
+    fresh = load_config(path, resume_from=out).kernel.settings  # nothing stored: derived
+    assert fresh["seam_tolerance"] is None
+    legacy = {k: v for k, v in fresh.items() if k != "seam_tolerance"}
+    (out / "sweep.json").write_text(json.dumps({"model": "net-fold", "settings": legacy}))
+    assert load_config(path, resume_from=out).kernel.settings == legacy
+    assert load_config(path).kernel.settings == fresh  # a new sweep: derived
+    (out / "sweep.json").write_text(json.dumps({"model": "net-fold", "settings": fresh}))
+    assert load_config(path, resume_from=out).kernel.settings == fresh
+    path.write_text(path.read_text().replace("[sweep]", "seam_tolerance = 0.05\n[sweep]"))
+    (out / "sweep.json").write_text(json.dumps({"model": "net-fold", "settings": legacy}))
+    assert load_config(path, resume_from=out).kernel.settings["seam_tolerance"] == 0.05
 
 
 def test_cli_tolerance_flags_are_checked_before_compiling(tmp_path, capsys):
@@ -181,7 +233,10 @@ def test_a_derived_seam_tolerance_judges_as_the_creases_do(corner_cube):
     with pytest.raises(ValueError, match="derived per seam"):
         derived.seam_length(200.0)
     one = _held(system, net.intended_angles - np.radians([0.0, 1.0]))
-    assert net.assess(system, one).verdict == "misfolded"
+    assert net.assess(system, one, tolerances=sim.VerdictTolerances(seam=0.01)).verdict == (
+        "misfolded"
+    )
+    assert net.assess(system, one).verdict == "folded"  # derived: the default
     report = net.assess(system, one, tolerances=derived)
     assert report.verdict == "folded", report.summary()
     assert np.all(np.asarray(report.seam_tolerance) > report.seam_gaps)
@@ -197,3 +252,46 @@ def test_the_cli_takes_a_derived_seam_tolerance():
     assert seam_tolerance_value("derived") is None and seam_tolerance_value("0.02") == 0.02
     with pytest.raises(Exception, match="'derived'"):
         seam_tolerance_value("two percent")
+
+
+def test_the_derived_seam_tolerance_of_a_corner_in_closed_form(corner_cube):
+    """The corner cube's one seam joins two square flaps of side L = 200 µm folded up by 90° about
+    two edges of the base that meet at a corner. At the intended angles the seam is closed (gap 0);
+    a flap off by δ moves its far seam corner (at L from its crease) on a circle: a chord of
+    2 L sin(δ/2), the seam's gap, and the near corner lies on both creases and does not move. Each
+    crease alone, either way, gives that chord, so the derived tolerance is
+    sqrt(2) · 2 L sin(α/2) (14.81 µm at 3°); to rounding (exact geometry, rtol 1e-9)."""
+    net, system = corner_cube
+    size = 200.0
+    assert net.panel_size(system) == pytest.approx(size)
+    for alpha in np.radians([1.0, 3.0, 6.0]):
+        derived = np.asarray(
+            sim.derived_seam_tolerances(net.seam_gap_function(system), net.intended_angles, alpha)
+        )
+        expected = np.sqrt(2.0) * 2 * size * np.sin(alpha / 2)
+        np.testing.assert_allclose(derived, [expected], rtol=1e-9)
+
+
+def test_the_margins_say_at_which_tolerances_a_state_folds(corner_cube):
+    """The traced verdict's margins on the corner cube held with one crease 1° short: the angle
+    margin is 1°/3° (the crease error over the angle tolerance), the seam margin the seam's gap
+    over its tolerance: the chord 2 L sin(1°/2) = 3.49 µm over the derived 14.81 µm, or over the
+    fixed 2 µm (1.745: folded only with the seam tolerance doubled). The verdict is folded exactly
+    when both margins are below 1."""
+    net, system = corner_cube
+    size = 200.0
+    held = _held(system, net.intended_angles - np.radians([0.0, 1.0]))
+    chord = 2 * size * np.sin(np.radians(1.0) / 2)
+    alpha = np.radians(3.0)
+    derived_tolerance = np.sqrt(2.0) * 2 * size * np.sin(alpha / 2)
+    folded = sim.VERDICT_CODES[sim.FoldVerdict.FOLDED]
+    for tolerances, seam_tolerance in (
+        (sim.VerdictTolerances(), derived_tolerance),
+        (sim.VerdictTolerances(seam=0.01), 0.01 * size),
+    ):
+        outcome = net.outcome(system, held, tolerances=tolerances)
+        assert float(outcome.angle_margin) == pytest.approx(1.0 / 3.0, rel=1e-9)
+        assert float(outcome.seam_margin) == pytest.approx(chord / seam_tolerance, rel=1e-6)
+        passes = float(outcome.angle_margin) < 1 and float(outcome.seam_margin) < 1
+        assert (int(outcome.code) == folded) == passes
+    assert float(outcome.seam_margin) == pytest.approx(1.745, abs=1e-3)

@@ -17,7 +17,8 @@ from scipy import stats
 
 import origami_jax.fab_yield as ojy
 from origami_jax.fab_yield._scatter import _resolved
-from origami_jax.net import FOLD_KERNEL_SOLVE
+from origami_jax.net import FOLD_KERNEL_SOLVE, load_net
+from origami_jax.simulation import VerdictTolerances
 from origami_jax.system import KOH_SOLUTION, HingeDesign
 
 NET = "corner_cube"
@@ -377,6 +378,75 @@ def test_resume_after_an_interruption_gives_the_same_samples(tmp_path):
     assert resumed.counts == _estimate("default", 8).counts
 
 
+def test_the_yield_at_other_tolerances_is_a_count_of_the_stored_margins():
+    """Every sample's verdict recomputed from its margins at factor 1 is its stored verdict
+    (folded or not); the margins are the host's numbers (the final angles' largest error over the
+    3°, rtol 1e-12); the yield grows with either tolerance (a curve over factors 0.25–4 is
+    non-decreasing along each axis and the diagonal); and the grid's counts are those of the
+    margins at the grid's factors."""
+    estimate = _estimate("default", 8)
+    ds = estimate.dataset
+    sensitivity = estimate.tolerance_sensitivity
+    assert sensitivity is not None and sensitivity.factors == ojy.TOLERANCE_FACTORS
+    folded = np.asarray(ds["folded"].values, dtype=bool)
+    np.testing.assert_array_equal(sensitivity.folded_at(1.0, 1.0), folded)
+    assert sensitivity.folded[1, 1] == estimate.counts["folded"]
+    ok = np.asarray(ds["result"].values) == 0
+    errors = np.abs(np.asarray(ds["final_angle"].values) - load_net(NET).intended_angles)
+    np.testing.assert_allclose(
+        np.asarray(ds["angle_margin"].values)[ok],
+        np.max(errors, axis=1)[ok] / np.radians(3.0),
+        rtol=1e-12,
+    )
+    dense = np.geomspace(0.25, 4.0, 41)
+    for a, s in ((dense, dense), (dense, 1.0), (1.0, dense)):
+        curve = sensitivity.yield_at(a, s)
+        assert np.all(np.diff(curve) >= 0), curve
+    f = np.asarray(sensitivity.factors)
+    expected = [[np.sum(sensitivity.folded_at(a, s)) for s in f] for a in f]
+    np.testing.assert_array_equal(sensitivity.folded, expected)
+    # Another interval: the sensitivity's follows.
+    wider = estimate.with_interval(0.99, "clopper-pearson")
+    assert wider.tolerance_sensitivity.method == "clopper-pearson"
+    assert wider.to_dict()["tolerance_sensitivity"]["rows"][4]["interval"] == list(wider.interval)
+
+
+@pytest.mark.slow
+def test_resuming_a_run_stored_with_the_old_fixed_seam_tolerance_keeps_it(tmp_path):
+    """A run stored when the seam tolerance's default was the fixed 0.01 of the panel (its settings
+    name none; its chunks hold no margins), resumed without tolerances: it keeps 0.01, its stored
+    verdicts stay, the new samples are judged against 2 µm (the margins say so), and the
+    sensitivity is not reported (the old samples have no margins). (~1 min: a kernel of its own.)"""
+    import xarray as xr
+
+    out = tmp_path / "old"
+    fixed = VerdictTolerances(seam=0.01)
+
+    def stop(done, total):
+        raise _Stop
+
+    with pytest.raises(_Stop):
+        ojy.yield_estimate(
+            NET, ojy.Scatter(), 8, 1, tolerances=fixed, **_run(out=out, on_chunk=stop)
+        )
+    assert "seam_tolerance" not in json.loads((out / "sweep.json").read_text())["settings"]
+    [chunk] = list((out / "chunks").glob("part-*.nc"))
+    old = xr.load_dataset(chunk).drop_vars(["angle_margin", "seam_margin"])
+    old.to_netcdf(chunk)  # as a store written before the margins existed
+    stored_verdicts = np.asarray(old["verdict"].values)
+    resumed = ojy.yield_estimate(NET, ojy.Scatter(), 8, 1, **_run(out=out, resume=True))
+    assert resumed.tolerances == {"angle_deg": 3.0, "seam_fraction": 0.01}
+    assert resumed.tolerance_sensitivity is None
+    ds = resumed.dataset
+    np.testing.assert_array_equal(
+        ds["verdict"].sel(design=old["design"].values).values, stored_verdicts
+    )
+    new = np.isfinite(ds["seam_margin"].values)
+    assert new.sum() == 8 - len(stored_verdicts)
+    open_gap = ds["max_open_seam_gap"].values[new]
+    np.testing.assert_allclose(ds["seam_margin"].values[new], open_gap / 2.0, rtol=1e-12)
+
+
 def test_a_step_budget_runs_the_stragglers_again_and_gives_the_same_samples(tmp_path):
     # With a budget of the median sample's steps about half the samples reach it in the first
     # pass; run again together with the full max_steps they give exactly what one pass gives (a
@@ -420,12 +490,20 @@ def test_cli_writes_result_and_figure(tmp_path, capsys):
     assert result["n_samples"] == 4 and sum(result["counts"].values()) == 4
     low, high = result["interval"]
     assert low <= result["yield"] <= high
-    assert result["tolerances"] == {"angle_deg": 3.0, "seam_fraction": 0.01}
+    # The default seam tolerance is derived from the angle tolerance (it was the fixed 0.01).
+    assert result["tolerances"] == {"angle_deg": 3.0, "seam_fraction": "derived"}
+    # The yield at the tolerances × 0.5, 1, 2 (a 3 × 3 grid), from the stored margins; at 1 × 1
+    # the estimate's own.
+    rows = result["tolerance_sensitivity"]["rows"]
+    assert len(rows) == 9 and result["tolerance_sensitivity"]["factors"] == [0.5, 1.0, 2.0]
+    [one] = [r for r in rows if r["angle_factor"] == r["seam_factor"] == 1.0]
+    assert one["folded"] == result["counts"]["folded"] and one["interval"] == result["interval"]
+    assert "yield at the tolerances x0.5" in captured.out
     # The score-function gradient of every normally scattered parameter (release is not scattered).
     assert set(result["gradient"]) == {"misfit_strain", "t_hinge", "hinge_width", "t_structural"}
     assert len(result["gradient"]["hinge_width"]["gradient"]) == 2
     assert result["gradient"]["t_hinge"]["per"] == "net"
-    for name in ("yield.png", "misfolds.png", "yield_widths.png"):
+    for name in ("yield.png", "misfolds.png", "yield_widths.png", "yield_tolerances.png"):
         assert (out / name).stat().st_size > 1000, name
     assert (out / "sweep.nc").is_file() and (out / "widths" / "x0.1" / "sweep.nc").is_file()
     assert [w["factor"] for w in result["widths"]] == [0.1, 1.0]

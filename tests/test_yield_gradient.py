@@ -183,6 +183,7 @@ def test_yield_gradient_matches_finite_differences_of_the_monte_carlo_yield_with
     import jax
 
     from origami_jax.net import FOLD_KERNEL_SOLVE
+    from origami_jax.simulation import VerdictTolerances
     from origami_jax.system import KOH_SOLUTION, HingeDesign
 
     jax.config.update("jax_enable_x64", True)
@@ -197,9 +198,12 @@ def test_yield_gradient_matches_finite_differences_of_the_monte_carlo_yield_with
 
     def estimate(scale):
         process = {"misfit_strain": scale * eps0}
+        # The tolerance this test was calibrated with (the fixed 0.01 of the panel, the default
+        # before the derived one): "a crease 0.6° past its seam misfolds".
         return ojy.yield_estimate(
-            "corner_cube", scatter, n, seed, design=design, process=process, **run
-        )
+            "corner_cube", scatter, n, seed, design=design, process=process,
+            tolerances=VerdictTolerances(seam=0.01), **run,
+        )  # fmt: skip
 
     centre, up, down = estimate(1.0), estimate(1 + h), estimate(1 - h)
     folded = {

@@ -100,7 +100,8 @@ def run(args: argparse.Namespace) -> int:
     from ..sweep import load_config
 
     try:
-        config = load_config(args.config)
+        # Resuming: a net-fold store of the old default seam tolerance keeps it.
+        config = load_config(args.config, resume_from=Path(args.out) if args.resume else None)
     except (ValueError, OSError) as error:
         fail(f"bad config {args.config}: {error}")
     # The summary and plots describe the dataset: replaced together (the sweep itself decides,

@@ -33,9 +33,13 @@ family of nets: cube_nets, octahedron_nets, or a comma-separated list of nets (s
 sample is the net with its hinges' film stress (misfit strain), film thicknesses, hinge widths, drag coefficient and
 release times drawn from the scatter, folded with contact in the KOH bath (--fluid air: in air) and
 judged folded, jammed, misfolded, unfinished or invalid: folded when every crease is within
---angle-tolerance of the pattern's angle (3 degrees) and every seam's gap below --seam-tolerance
-times the largest panel's size (0.01: 2 µm on 200 µm panels, about 0.6 degrees of crease error, so
-the seams decide most verdicts; 0.05 makes the two equally strict). The hinges are fabricated: their lengths
+--angle-tolerance of the pattern's angle (3 degrees) and every seam closed. By default each seam's
+tolerance is derived from the angle tolerance and the geometry: the gap the seam has in the
+intended shape plus what creases each off by the angle tolerance open (root-sum-square), so a seam
+is never judged stricter than the creases that place it (10-20 µm on a cube of 200 µm panels at 3
+degrees). --seam-tolerance 0.01 judges every seam against a fixed fraction of the largest panel's
+size instead (the default before: 2 µm on 200 µm panels, about 0.6 degrees of crease error, so the
+seams decided most verdicts); --resume keeps the tolerance the run was stored with. The hinges are fabricated: their lengths
 are the nominal design's, so a film that bends more or less than nominal folds its crease past or
 short of the pattern's angle. Each hinge is the literature's, at most as wide as its crease.
 
@@ -78,8 +82,15 @@ is re-estimated on --samples fresh draws (see origami_jax.fab_yield.yield_ascent
 estimate itself; the others are stored in OUT/improve/; result.json's "improve" holds every iterate's nominal values, yield,
 interval and gradient, and OUT/improve.png plots them (not with --resume).
 
+Every estimate also reports how its yield depends on the tolerances, without simulating again:
+each sample stores its margins (its largest crease error over the angle tolerance, its largest
+open seam gap over that seam's tolerance), so the yield with the angle tolerance, the seam
+tolerances or both multiplied by 0.5, 1 and 2 is a count (result.json's tolerance_sensitivity,
+one line of the summary, OUT/yield_tolerances.png). Only folded against not folded moves with the
+tolerances; a sample whose simulation failed folds at none.
+
 Writes OUT/result.json (yield, its confidence interval, verdict counts, the scatter, the
-tolerances, the yield per --widths factor, and the yield's gradient with respect to each scattered
+tolerances and the yield at their multiples, the yield per --widths factor, and the yield's gradient with respect to each scattered
 parameter's nominal value with its standard error: the score-function estimate from the same
 samples, see origami_jax.fab_yield.yield_gradient), the figures unless --no-figures (OUT/yield.png: verdict
 counts and the yield; OUT/misfolds.png: the final state of one typical sample of each verdict other
@@ -100,6 +111,16 @@ interrupted one. --improve, --widths, --release, --etch-front and --bias take on
 Exit codes: 0 done, 1 the run stopped (disk full), 2 bad input or a folder in use, 130 interrupted.
 """
 )
+
+
+class _SeamNotGiven:
+    """--seam-tolerance not given: derived for a new run, the stored run's with --resume."""
+
+    def __repr__(self) -> str:
+        return "derived"
+
+
+_SEAM_NOT_GIVEN = _SeamNotGiven()
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -168,9 +189,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument(
         "--seam-tolerance",
         type=seam_tolerance_value,
-        default=0.01,
-        help="verdict: seam gap tolerance, a fraction of the largest panel's size (default 0.01), or "
-        "'derived': each seam's from the angle tolerance and the geometry",
+        default=_SEAM_NOT_GIVEN,
+        help="verdict: seam gap tolerance, 'derived' (default: each seam's is the gap it would "
+        "have with every crease just within the angle tolerance), or a fixed fraction of the "
+        "largest panel's size (0.01, the default before); --resume keeps the stored run's",
     )
     parser.add_argument("--chunk-size", type=int, default=None, help="samples per compiled call")
     parser.add_argument(
@@ -234,6 +256,7 @@ OWNS = (
     "yield.png",
     "misfolds.png",
     "yield_widths.png",
+    "yield_tolerances.png",
     "improve.png",
 )
 
@@ -256,16 +279,19 @@ def _scatter(args: argparse.Namespace):
         fail(f"bad scatter config {args.scatter}: {error}")
 
 
-def _solve(args: argparse.Namespace):
+def _solve(args: argparse.Namespace, stored=None):
     """Each sample's solve (--t-end, and --rtol with the defaults' ratio for the absolute
-    tolerance) and the verdict's tolerances (--angle-tolerance, --seam-tolerance)."""
+    tolerance) and the verdict's tolerances (--angle-tolerance, --seam-tolerance; with --resume
+    and no --seam-tolerance the stored run's, `stored`: `_seam_tolerance`)."""
     from ..net import FOLD_KERNEL_SOLVE
     from ..simulation import DEFAULT_ATOL, DEFAULT_RTOL, VerdictTolerances
 
     solve = FOLD_KERNEL_SOLVE.replace(t1=args.t_end)
     if args.rtol is not None:
         solve = solve.replace(rtol=float(args.rtol), atol=DEFAULT_ATOL / DEFAULT_RTOL * args.rtol)
-    return solve, VerdictTolerances.from_degrees(args.angle_tolerance, args.seam_tolerance)
+    return solve, VerdictTolerances.from_degrees(
+        args.angle_tolerance, _seam_tolerance(args, stored)
+    )
 
 
 def _fluid(args: argparse.Namespace):
@@ -432,6 +458,18 @@ def _check_resumable(out: Path, factors: list[float]) -> None:
         )
 
 
+def _seam_tolerance(args: argparse.Namespace, stored) -> float | None:
+    """The seam tolerance of this run: --seam-tolerance (a fraction, or None: derived); not given,
+    derived, or with --resume the stored run's (`stored`, its `VerdictTolerances` or None; a run
+    stored when the fixed 0.01 was the default records none: 0.01), so that its verdicts stay
+    the same."""
+    if args.seam_tolerance is not _SEAM_NOT_GIVEN:
+        return args.seam_tolerance
+    if args.resume and stored is not None:
+        return stored.seam
+    return None
+
+
 def _numbers(text: str | None, flag: str) -> list[float] | None:
     """Comma-separated finite numbers, or None."""
     if text is None:
@@ -558,7 +596,7 @@ def run(args: argparse.Namespace) -> int:
     if args.workers is not None:
         int_range(args.workers, "--workers", 1, 4096)
     in_range(args.angle_tolerance, "--angle-tolerance", 0.0, 180.0, what=" degrees")
-    if args.seam_tolerance is not None:
+    if args.seam_tolerance is not None and args.seam_tolerance is not _SEAM_NOT_GIVEN:
         in_range(
             args.seam_tolerance, "--seam-tolerance", 0.0, 1.0, what=" (a fraction of the panel)"
         )
@@ -645,7 +683,7 @@ def _run(args, output, pattern, loops, scatter, sampling, factors, release, proc
     """The estimates (and the ascent) into `output.out`, the results staged in `output.dir`."""
     import dataclasses
 
-    from ..fab_yield import RunOptions, yield_estimate
+    from ..fab_yield import RunOptions, stored_run_tolerances, yield_estimate
 
     out = output.out
     if args.resume:
@@ -660,7 +698,7 @@ def _run(args, output, pattern, loops, scatter, sampling, factors, release, proc
 
     # What every estimate of this run shares: the estimate itself, the other widths, the ascent.
     # The solve's tolerances: --rtol with the defaults' ratio for the absolute one.
-    solve, tolerances = _solve(args)
+    solve, tolerances = _solve(args, stored_run_tolerances(out))
     run = RunOptions(
         resume=args.resume,
         chunk_size=args.chunk_size,
@@ -756,7 +794,13 @@ def _run(args, output, pattern, loops, scatter, sampling, factors, release, proc
     if not args.no_figures:
         import matplotlib.pyplot as plt
 
-        from ..plotting.fab_yield import ascent_figure, misfold_figure, width_figure, yield_figure
+        from ..plotting.fab_yield import (
+            ascent_figure,
+            misfold_figure,
+            tolerance_figure,
+            width_figure,
+            yield_figure,
+        )
 
         fig = yield_figure(estimate, title=f"{args.net}: yield under fabrication scatter")
         fig.savefig(output.dir / "yield.png", dpi=120)
@@ -764,6 +808,10 @@ def _run(args, output, pattern, loops, scatter, sampling, factors, release, proc
         fig = misfold_figure(pattern, estimate, title=f"{args.net}: misfold modes")
         fig.savefig(output.dir / "misfolds.png", dpi=120)
         plt.close(fig)
+        if estimate.tolerance_sensitivity is not None:
+            fig = tolerance_figure(estimate.tolerance_sensitivity, title=args.net)
+            fig.savefig(output.dir / "yield_tolerances.png", dpi=120)
+            plt.close(fig)
         if factors:
             fig = width_figure(
                 sorted(at_width), [at_width[f] for f in sorted(at_width)], title=args.net
@@ -775,6 +823,8 @@ def _run(args, output, pattern, loops, scatter, sampling, factors, release, proc
             fig.savefig(output.dir / "improve.png", dpi=120)
             plt.close(fig)
     print(estimate.summary())
+    if estimate.tolerance_sensitivity is not None:
+        print(f"  {estimate.tolerance_sensitivity.summary()}")
     if ascent is not None:
         print(ascent.summary())
     for line in result["gradient"].values():

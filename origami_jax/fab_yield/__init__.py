@@ -60,7 +60,9 @@ estimate.dataset            # xarray.Dataset: the drawn parameters and every sam
   fabricated nets and names the best. `examples/flap_under_flap.fold` jams unless its long flap
   goes first.
 - The verdict's tolerances: `tolerances=`, a `origami_jax.simulation.VerdictTolerances` (the
-  angle, and the seam gap as a fraction of the panel size).
+  angle, and each seam's tolerance derived from it and the geometry by default, or a fixed
+  fraction of the panel size). `tolerance_sensitivity`: the yield at multiples of both, from the
+  margins every sample stores (`YieldEstimate.tolerance_sensitivity`; nothing simulated again).
 
 - A family of nets: `family_yield` estimates the yield of every net of a family (`"cube_nets"`,
   `"octahedron_nets"`, or a list) from the same seed, each in its own folder (a resumed family
@@ -83,6 +85,7 @@ from ._ascent import check_ascent as check_ascent
 from ._ascent import yield_ascent as yield_ascent
 from ._estimate import RunOptions as RunOptions
 from ._estimate import YieldEstimate as YieldEstimate
+from ._estimate import stored_run_tolerances as stored_run_tolerances
 from ._estimate import yield_estimate as yield_estimate
 from ._family import MEASURES as MEASURES
 from ._family import FamilyYield as FamilyYield
@@ -114,3 +117,6 @@ from ._stats import wilson_interval as wilson_interval
 from ._surrogate import DESIGN_VARIABLES as DESIGN_VARIABLES
 from ._surrogate import SoftYield as SoftYield
 from ._surrogate import soft_yield as soft_yield
+from ._tolerance import TOLERANCE_FACTORS as TOLERANCE_FACTORS
+from ._tolerance import ToleranceSensitivity as ToleranceSensitivity
+from ._tolerance import tolerance_sensitivity as tolerance_sensitivity

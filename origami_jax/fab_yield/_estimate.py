@@ -14,12 +14,13 @@ import numpy as np
 from .._kernel import design_settings
 from ..fold import FoldFormatError
 from ..loops import load_pattern
-from ..net import FOLD_KERNEL_SOLVE
+from ..net import FOLD_KERNEL_SOLVE, stored_tolerances
 from ..simulation import RESULTS, FoldVerdict, SolveOptions, VerdictTolerances
 from ..sweep import Table, sweep
 from ..system import KOH_SOLUTION, AbstractPattern, HingeDesign
 from ._scatter import PARAMETERS, Scatter, sample_values, standard_draws
 from ._stats import INTERVAL_METHODS, binomial_interval
+from ._tolerance import ToleranceSensitivity, tolerance_sensitivity
 
 _GLOBAL = ("t_structural", "drag_coefficient")
 
@@ -46,9 +47,14 @@ class YieldEstimate:
     - `seconds_per_sample`: this call's computing time per sample it computed, compilation
       excluded (0 when every sample was already stored).
     - `tolerances`: the verdict's, `{"angle_deg", "seam_fraction"}`
-      (`origami_jax.simulation.VerdictTolerances.to_dict`).
+      (`origami_jax.simulation.VerdictTolerances.to_dict`; `"derived"` for the default seam
+      tolerance).
     - `nominal`: each parameter's nominal value per crease, `{name: (m,)}` (µm, µs), the values the
       scatter is drawn around (`yield_gradient` differentiates the yield with respect to them).
+    - `tolerance_sensitivity`: the yield at the tolerances × 0.5, 1 and 2 (angle and seams, each
+      and together) from the samples' stored margins, nothing simulated again
+      (`ToleranceSensitivity`; only folded against not folded moves); `None` for a resumed run
+      whose older samples were stored without margins.
     """
 
     fraction: float
@@ -61,10 +67,11 @@ class YieldEstimate:
     scatter: Scatter
     dataset: Any
     seconds_per_sample: float
-    tolerances: dict[str, float] = dataclasses.field(
-        default_factory=lambda: {"angle_deg": 3.0, "seam_fraction": 0.01}
+    tolerances: dict[str, float | str] = dataclasses.field(
+        default_factory=lambda: {"angle_deg": 3.0, "seam_fraction": "derived"}
     )
     nominal: dict[str, np.ndarray] | None = None
+    tolerance_sensitivity: ToleranceSensitivity | None = None
 
     def samples(self, name: str) -> np.ndarray:
         """The drawn values of a parameter of `PARAMETERS`: `(n_samples, n_creases)` for a per-crease
@@ -92,8 +99,15 @@ class YieldEstimate:
             raise ValueError(f"confidence must lie strictly between 0 and 1, got {confidence!r}.")
         folded = self.counts[str(FoldVerdict.FOLDED)]
         interval = binomial_interval(folded, self.n_samples, float(confidence), method)
+        sensitivity = self.tolerance_sensitivity
+        if sensitivity is not None:
+            sensitivity = sensitivity.with_interval(float(confidence), method)
         return dataclasses.replace(
-            self, interval=interval, confidence=float(confidence), method=method
+            self,
+            interval=interval,
+            confidence=float(confidence),
+            method=method,
+            tolerance_sensitivity=sensitivity,
         )
 
     def to_dict(self) -> dict[str, Any]:
@@ -109,6 +123,9 @@ class YieldEstimate:
             "scatter": self.scatter.to_dict(),
             "seconds_per_sample": self.seconds_per_sample,
             "tolerances": dict(self.tolerances),
+            "tolerance_sensitivity": (
+                None if self.tolerance_sensitivity is None else self.tolerance_sensitivity.to_dict()
+            ),
         }
 
     def summary(self) -> str:
@@ -288,6 +305,18 @@ def _stragglers_finished(dataset, kernel, columns, units, **sweep_options):
     return dataset
 
 
+def stored_run_tolerances(out) -> VerdictTolerances | None:
+    """The verdict's tolerances of the yield estimate stored in the folder `out` (its sweep's
+    settings, `origami_jax.net.stored_tolerances`: a run stored when the fixed 0.01 was the
+    default names none and gets 0.01), or `None` where nothing readable is stored (the sweep then
+    says what is wrong). What `yield_estimate` resumes with when given no `tolerances`."""
+    try:
+        manifest = json.loads((Path(out) / "sweep.json").read_text())
+        return stored_tolerances(manifest["settings"])
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+
+
 def _stored_samples(out) -> int:
     """Samples a resumed estimate finds stored (the sweep's chunk files name their counts)."""
     if out is None:
@@ -362,10 +391,14 @@ def yield_estimate(
       scattered cube nets every verdict was the same from rtol 1e-4 to 1e-10 (atol 1e-2 rtol,
       the defaults' ratio), with 40 % fewer steps at 1e-5 than at the default; check on a few
       samples of your own net before relying on it.
-    - `tolerances`: the verdict's (`origami_jax.simulation.VerdictTolerances`; default 3° and a
-      seam fraction of 0.01 of the largest panel's size: 2 µm on 200 µm panels). The seam
-      tolerance is the stricter of the two by default (0.01 of the panel is about 0.6° of crease
-      error) and decides most verdicts.
+    - `tolerances`: the verdict's (`origami_jax.simulation.VerdictTolerances`; default 3° and each
+      seam's tolerance derived from it and the geometry: the gap creases each within 3° would
+      leave). `VerdictTolerances(seam=0.01)` is the fixed 1 % of the largest panel's size that
+      was the default before (2 µm on 200 µm panels, about 0.6° of crease error: it decided most
+      verdicts). Resuming (`run.resume`) without `tolerances` keeps the stored run's (a run
+      stored without a seam tolerance in its settings: the fixed 0.01; `stored_tolerances`).
+      The estimate also reports the yield at the tolerances × 0.5, 1 and 2
+      (`YieldEstimate.tolerance_sensitivity`).
     - `bias`: a closed-loop pattern's pre-fold (rad, `CreasePattern.start_state`): 0 (default)
       starts every sample flat, a bifurcation where the inputs pick the branch; a membrane is
       never quite flat, and a small bias along the pattern's own angles (0.05) is what most
@@ -382,7 +415,9 @@ def yield_estimate(
     """
     if isinstance(n_samples, bool) or not isinstance(n_samples, int | np.integer):
         raise ValueError(f"n_samples must be an integer >= 1, got {n_samples!r}.")
-    tolerances = VerdictTolerances() if tolerances is None else tolerances
+    if tolerances is None:
+        resumed = isinstance(run, RunOptions) and run.resume and run.out is not None
+        tolerances = (resumed and stored_run_tolerances(run.out)) or VerdictTolerances()
     if not isinstance(tolerances, VerdictTolerances):
         raise ValueError(f"tolerances must be a VerdictTolerances, got {tolerances!r}.")
     if n_samples < 1:
@@ -516,6 +551,7 @@ def yield_estimate(
     )
     n_run = n - min(stored, n)
     seconds = float(dataset.attrs.get("run_s", 0.0))
+    sensitivity = tolerance_sensitivity(dataset, tolerances.to_dict())
     return YieldEstimate(
         fraction=folded / n,
         interval=(low, high),
@@ -529,4 +565,5 @@ def yield_estimate(
         seconds_per_sample=seconds / n_run if n_run else 0.0,
         tolerances=tolerances.to_dict(),
         nominal={k: np.array(v) for k, v in nominal.items()},
+        tolerance_sensitivity=sensitivity,
     )

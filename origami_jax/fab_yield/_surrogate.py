@@ -43,13 +43,14 @@ class SoftYield:
     with the release times as an etch front, `{"front_angle": rad, "front_speed": µm/µs}` (scalars,
     both, instead of `release`; `front_release_times`).
 
-    Each sample's score is ``Π_j σ(m_j / τ) · σ(m_s / τ_s)``: ``m_j = tol − |θ_j(t_end) − θ*_j|`` the
-    margin of crease ``j``'s final angle to the pattern's angle ``θ*_j``, ``m_s`` the margin to the
-    seam tolerance (`seam_tolerance`, 1 % of the largest panel's size ``L`` by default) of the
-    largest gap among the seams whose panels do not touch at the end (the verdict holds a touching
-    seam closed whatever its gap; whether panels touch is a switch, not smoothed), ``σ`` the
-    logistic function, ``τ`` = `temperature_deg` (in rad) and ``τ_s = τ L`` (a seam gap ``δ`` is a
-    crease off by about ``δ / L``). As ``τ → 0`` the score tends to the indicator of the
+    Each sample's score is ``Π_j σ(m_j / τ) · σ(m_s / τ)``: ``m_j = tol − |θ_j(t_end) − θ*_j|`` the
+    margin of crease ``j``'s final angle to the pattern's angle ``θ*_j``, ``m_s = (1 − r) α_s`` the
+    seams' margin: ``r`` the largest gap over its seam's tolerance among the seams whose panels do
+    not touch at the end (`seam_margin`; the verdict holds a touching seam closed whatever its gap;
+    whether panels touch is a switch, not smoothed) and ``α_s`` the crease error the seam tolerance
+    stands for (`VerdictTolerances.seam_equivalent_angle`: the angle tolerance for the default,
+    derived, seam tolerance; the fraction ``seam`` for a fixed one, a gap ``δ`` being a crease off
+    by about ``δ / L``), ``σ`` the logistic function and ``τ`` = `temperature_deg` (in rad). As ``τ → 0`` the score tends to the indicator of the
     folded verdict for samples that have settled (`fold_outcome` also asks the last tenth of the run
     to be still). The mean over samples is the soft yield; `jax.grad` of it goes through every
     sample's contact simulation.
@@ -124,10 +125,10 @@ def soft_yield(
     )
     tol = tolerances.angle
     tau = float(np.radians(temperature_deg))
-    scale = the_net.panel_size()  # the largest panel's size (length)
-    seam_length = tolerances.seam_length(scale)
-    # A seam gap δ is a crease off by about δ / scale: the same temperature in angle units.
-    tau_seam = tau * scale
+    # The seam margin in angle units: a seam at a fraction (1 − r) of its tolerance below it is
+    # (1 − r) of the tolerance's crease error (`seam_equivalent_angle`) from opening (for a fixed
+    # fraction of the panel size L: (seam · L − gap) / L, a gap δ being a crease off by δ / L).
+    seam_angle = tolerances.seam_equivalent_angle
     start = {"target": aims, "hinge_width": nominal["hinge_width"], "release": nominal["release"]}
 
     def fn(variables):
@@ -160,8 +161,8 @@ def soft_yield(
         params.update({f"target[{j}]": jnp.full(n_samples, current["target"][j]) for j in range(m)})
         out = jax.vmap(kernel.fn)(params)
         margin = tol - jnp.abs(out["final_angle"] - jnp.asarray(intended))
-        seam = seam_length - out["max_open_seam_gap"]
-        score = jnp.prod(jax.nn.sigmoid(margin / tau), axis=-1) * jax.nn.sigmoid(seam / tau_seam)
+        seam = (1.0 - out["seam_margin"]) * seam_angle
+        score = jnp.prod(jax.nn.sigmoid(margin / tau), axis=-1) * jax.nn.sigmoid(seam / tau)
         return jnp.mean(jnp.where(jnp.isfinite(score), score, 0.0))
 
     return SoftYield(

@@ -27,6 +27,7 @@ from ._joints import RevoluteJoints as RevoluteJoints
 from ._kernel import FOLD_KERNEL_SOLVE as FOLD_KERNEL_SOLVE
 from ._kernel import check_kernel_sampling as check_kernel_sampling
 from ._kernel import fold_kernel as fold_kernel
+from ._kernel import stored_tolerances as stored_tolerances
 from ._net import Net as Net
 from ._net import NetLayout as NetLayout
 from ._net import folding_animation as folding_animation

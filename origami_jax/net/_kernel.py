@@ -26,6 +26,7 @@ from .._kernel import (
 from .._limits import CONTACT_SAMPLING, MAX_CONTACT_SAMPLING, MAX_SAMPLES
 from ..contact import check_sampling, contact_kind, sampling_pair
 from ..simulation import (
+    LEGACY_SEAM_FRACTION,
     RESULTS,
     ImplicitStep,
     SaveAt,
@@ -88,8 +89,12 @@ def fold_kernel(
     seams whose panels do not touch: the verdict holds a touching seam closed whatever its gap),
     `seams_touching` (how many seams' panels touch at the end; −1 where the simulation failed),
     `min_gap`, `penetration` (µm), `engaged`
-    (contact pairs engaged at the end; −1 where the simulation failed), `num_steps`, `result` (the
-    solver's code; −1 invalid input).
+    (contact pairs engaged at the end; −1 where the simulation failed), `angle_margin` and
+    `seam_margin` (the largest crease error over the angle tolerance, the largest open seam's gap
+    over its tolerance, at the end: a succeeded run is folded at the angle tolerance × ``a`` and
+    the seam tolerances × ``s`` iff both are below those factors,
+    `origami_jax.simulation.FoldOutcome`; NaN where the simulation failed), `num_steps`, `result`
+    (the solver's code; −1 invalid input).
 
     **Arguments** (fixed for the whole sweep, recorded in its settings and checked on resume):
     - `pattern`: a `Net` or a `CreasePattern` (an [`origami_jax.system.AbstractPattern`][] with
@@ -102,8 +107,11 @@ def fold_kernel(
       its `solver`: explicit Tsit5 unless given (any diffrax solver, or the fixed-step engine
       `ImplicitStep(dt=...)`: every member of a vmapped batch does the same work; recorded in the
       settings); it never throws (a failed member's `result` says so).
-    - `tolerances`: the verdict's (`origami_jax.simulation.VerdictTolerances`; default 3°, 1 % of
-      the largest panel).
+    - `tolerances`: the verdict's (`origami_jax.simulation.VerdictTolerances`; default 3°, each
+      seam's tolerance derived from it and the geometry). Recorded in the settings as
+      `angle_tolerance_deg` and `seam_tolerance` (a fraction, or null: derived); a store whose
+      settings name no `seam_tolerance` was judged with the fixed 0.01 of the largest panel (the
+      default then), and `stored_tolerances` reads it back so.
     - `bias`: a closed-loop pattern's pre-fold (rad; nets take 0).
     - `targets`: the angles the hinges aim at (rad, one per crease; default the pattern's).
     - `hinge_lengths`: `"ideal"` (default): every design's hinge bends exactly to its target
@@ -260,6 +268,8 @@ def fold_kernel(
             "min_gap": masked(outcome.min_gap),
             "penetration": masked(outcome.penetration),
             "engaged": jnp.where(failed, -1, outcome.engaged).astype(jnp.int32),
+            "angle_margin": masked(outcome.angle_margin),
+            "seam_margin": masked(outcome.seam_margin),
             "num_steps": jnp.asarray(trajectory.stats["num_steps"], dtype=jnp.int32),
             "result": result,
         }
@@ -292,7 +302,13 @@ def fold_kernel(
             # Arc hinges on nets are laid out as fillets (stores of the drawn layout differ).
             **({"arc_layout": "fillet"} if layout else {}),
             "angle_tolerance_deg": tolerances.angle_deg,
-            **({} if tolerances.seam == 0.01 else {"seam_tolerance": tolerances.seam}),
+            # No key: the fixed 0.01 that was the default (stores written then still resume);
+            # null: derived (the default now).
+            **(
+                {}
+                if tolerances.seam == LEGACY_SEAM_FRACTION
+                else {"seam_tolerance": tolerances.seam}
+            ),
             "closed_loops": resume["closed_loops"],
             "bias": bias,
             **({} if design is None else {"design": design_settings(design)}),
@@ -315,6 +331,19 @@ def fold_kernel(
         # CPU, chunks of one net side by side beat wide vmapped chunks (benchmarks/history.md).
         cpu_chunk_size=1,
     )
+
+
+def stored_tolerances(settings) -> VerdictTolerances:
+    """The verdict's tolerances a fold kernel's `settings` record (a stored sweep's, e.g. its
+    `sweep.json`'s `settings`): `angle_tolerance_deg` (default 3) and `seam_tolerance` (a fraction,
+    or null: derived; absent: `LEGACY_SEAM_FRACTION`, the fixed 0.01 that was the default when
+    the store was written).
+
+    **Raises:** `ValueError` for settings that are not a mapping or hold a bad tolerance."""
+    if not isinstance(settings, dict):
+        raise ValueError(f"settings must be a mapping, got {type(settings).__name__}.")
+    seam = settings.get("seam_tolerance", LEGACY_SEAM_FRACTION)
+    return VerdictTolerances.from_degrees(settings.get("angle_tolerance_deg", 3.0), seam)
 
 
 def check_kernel_sampling(contact, sampling) -> tuple[int, int]:

@@ -138,6 +138,55 @@ def family_figure(result: Any, *, title: str | None = None):
     return fig
 
 
+def tolerance_figure(sensitivity: Any, *, title: str | None = None):
+    """Yield against the verdict's tolerances, from the samples' stored margins (a
+    `origami_jax.fab_yield.ToleranceSensitivity`, `YieldEstimate.tolerance_sensitivity`): the
+    yield as a curve of the factor on the angle tolerance, on the seam tolerances and on both
+    (0.25 to 4, log scale), with the reported factors' intervals.
+
+    **Returns:** the matplotlib `Figure`.
+    """
+    dense = np.geomspace(0.25, 4.0, 97)
+    one = np.ones_like(dense)
+    fig, ax = plt.subplots(figsize=(5.0, 3.4), layout="constrained")
+    curves = (
+        ("both", dense, dense, "k"),
+        ("angle only", dense, one, "C0"),
+        ("seams only", one, dense, "C1"),
+    )
+    factors = np.asarray(sensitivity.factors, dtype=float)
+    ones = np.ones_like(factors)
+    for (label, a, s, color), (pa, ps) in zip(
+        curves, ((factors, factors), (factors, ones), (ones, factors)), strict=True
+    ):
+        ax.plot(dense, sensitivity.yield_at(a, s), color=color, label=label, lw=1.2)
+        folded = np.sum(sensitivity.folded_at(pa, ps), axis=-1)
+        y = folded / sensitivity.n_samples
+        bounds = np.array([sensitivity.interval(k) for k in folded])
+        ax.errorbar(
+            factors, y, yerr=[y - bounds[:, 0], bounds[:, 1] - y], fmt="o", color=color,
+            capsize=4, ms=4,
+        )  # fmt: skip
+    ax.set_xscale("log")
+    ax.minorticks_off()
+    ax.set_xticks([0.25, 0.5, 1, 2, 4], ["0.25", "0.5", "1", "2", "4"])
+    ax.set_xlabel("tolerance (× the verdict's)")
+    ax.set_ylabel("yield")
+    ax.set_ylim(0, 1.02)
+    ax.legend(fontsize=8, loc="upper left")
+    tol = sensitivity.tolerances
+    seam = tol.get("seam_fraction")
+    seam_text = "seams derived" if seam == "derived" else f"seams {seam:g} of the panel"
+    ax.set_title(
+        f"{tol.get('angle_deg', 3.0):g}°, {seam_text}; n={sensitivity.n_samples}, "
+        f"{100 * sensitivity.confidence:g} % intervals",
+        fontsize=9,
+    )
+    if title:
+        fig.suptitle(title)
+    return fig
+
+
 def representative_samples(estimate) -> dict[str, int]:
     """For each verdict other than folded that some sample got, the sample whose final crease
     angles are nearest (Euclidean, in rad) to that verdict's median final angles: one typical

@@ -40,6 +40,7 @@ from ._slow_ramp import simulate_slow_ramp as simulate_slow_ramp
 from ._switching import StiffnessSwitching as StiffnessSwitching
 from ._switching import implicit_solver as implicit_solver
 from ._verdict import DEFAULT_TOLERANCES as DEFAULT_TOLERANCES
+from ._verdict import LEGACY_SEAM_FRACTION as LEGACY_SEAM_FRACTION
 from ._verdict import VERDICT_CODES as VERDICT_CODES
 from ._verdict import AbstractFoldReport as AbstractFoldReport
 from ._verdict import FoldOutcome as FoldOutcome

@@ -3,7 +3,8 @@
 `assess(system, trajectory)` compares the end of a simulation with the shape the device is meant to take:
 
 - **folded**: every crease within the angle tolerance of its intended angle and every seam closed
-  (both tolerances in `VerdictTolerances`: 3° and 1 % of the panel size by default);
+  (both tolerances in `VerdictTolerances`: 3°, and each seam's tolerance derived from the 3° and
+  the geometry, by default);
   `time_to_fold` is when it got there for good. A seam is closed when its gap is below the seam
   tolerance, or when its two panels touch: some sample point of one lies within 1.1 ``ĝ`` of the
   other's plate, its face or its rounded rim (`PanelContact.report`'s `touching`; a resting panel
@@ -67,35 +68,36 @@ class VerdictTolerances:
 
     **Fields:**
     - `angle`: rad (default 3°, ``0.0524``): every crease within this of its intended angle.
-    - `seam`: a fraction of the panel size ``L`` (default 0.01): every seam's gap below ``seam · L``,
-      with ``L`` the largest panel's size (`origami_jax.contact.ContactTables.scale`: the largest
-      extent of any panel's outline along the axes; 200 µm for the catalogue's nets of 200 µm
-      squares, so the default is 2 µm).
-
-    - `seam=None`: each seam's tolerance *derived* from the angle tolerance and the geometry
-      (`derived_seam_tolerances`): the gap the seam has at the intended angles plus the
-      root-sum-square of the gaps that each crease alone, off by the angle tolerance either way,
-      opens. The two tolerances then say the same thing: a folding whose creases err by the angle
-      tolerance, independently, is within the seam tolerance on average, and no seam is judged
-      stricter than the creases that place it (for a cube of 200 µm panels at 3°: 10–20 µm
-      against the fraction's 2 µm). Needs a device whose coordinates are its hinge angles (nets).
+    - `seam`: `None` (the default): each seam's tolerance *derived* from the angle tolerance and
+      the geometry (`derived_seam_tolerances`): the gap the seam has at the intended angles plus
+      the root-sum-square of the gaps that each crease alone, off by the angle tolerance either
+      way, opens. In plain words: a seam is closed when its gap is no larger than what creases
+      that are each just within the angle tolerance would leave, so the two tolerances say the
+      same thing and no seam is judged stricter than the creases that place it (for a cube of
+      200 µm panels at 3°: 10–20 µm per seam). Needs a device whose coordinates are its hinge
+      angles (nets and crease patterns are).
+    - `seam` a number: a fixed fraction of the panel size ``L``: every seam's gap below
+      ``seam · L``, with ``L`` the largest panel's size
+      (`origami_jax.contact.ContactTables.scale`: the largest extent of any panel's outline along
+      the axes; 200 µm for the catalogue's nets of 200 µm squares, so ``seam=0.01``, the default
+      before the derived one, is 2 µm).
 
     A seam whose two panels touch (a sample point of one within 1.1 ``ĝ``, the contact's activation
     gap, of the other's face or rim) counts as closed whatever its gap (module
     docstring); `seam` judges the seams whose panels do not touch.
 
-    The two are not equally strict: a crease off by ``δθ`` opens a seam along a panel of size ``L``
-    by about ``L δθ``, so the default seam tolerance (``0.01 L``) corresponds to about 0.6° of
-    crease error, five times stricter than the default angle tolerance, and decides most verdicts of
-    a net with seams. `seam_equivalent_angle` gives that angle; loosen `seam` to about
-    ``angle`` (in rad, ``0.05``) to make them equally strict.
+    A fixed fraction and the angle tolerance are not equally strict: a crease off by ``δθ`` opens a
+    seam along a panel of size ``L`` by about ``L δθ``, so ``seam=0.01`` corresponds to about 0.6°
+    of crease error, five times stricter than the 3° angle tolerance, and decides most verdicts of
+    a net with seams (under the yield's default scatter about 3 cube nets in 10,000 passed it: the
+    yield measured the tolerance). `seam_equivalent_angle` gives that angle.
 
     **Raises:** `ValueError` (one line, before anything compiles) for a tolerance that is not a
     finite number, not positive, an angle of π or more, or a seam fraction of 1 or more.
     """
 
     angle: float = float(np.radians(3.0))
-    seam: float | None = 0.01
+    seam: float | None = None
 
     def __post_init__(self):
         for name, limit, unit in (("angle", np.pi, "rad"), ("seam", 1.0, "of the panel size")):
@@ -111,8 +113,9 @@ class VerdictTolerances:
             object.__setattr__(self, name, float(value))
 
     @classmethod
-    def from_degrees(cls, angle_deg: float = 3.0, seam: float | None = 0.01) -> "VerdictTolerances":
-        """The tolerances with the angle in degrees (what the CLI takes)."""
+    def from_degrees(cls, angle_deg: float = 3.0, seam: float | None = None) -> "VerdictTolerances":
+        """The tolerances with the angle in degrees (what the CLI takes); `seam` as the field
+        (default `None`: derived)."""
         if isinstance(angle_deg, bool) or not isinstance(angle_deg, int | float | np.floating):
             raise ValueError(f"the angle tolerance must be a number (degrees), got {angle_deg!r}.")
         if not (np.isfinite(angle_deg) and 0 < angle_deg < 180):
@@ -151,7 +154,12 @@ class VerdictTolerances:
 
 
 DEFAULT_TOLERANCES = VerdictTolerances()
-"""The verdict's default tolerances: 3° per crease, seams within 1 % of the panel size."""
+"""The verdict's default tolerances: 3° per crease, each seam's tolerance derived from the 3° and
+the geometry (`derived_seam_tolerances`)."""
+
+LEGACY_SEAM_FRACTION = 0.01
+"""The fixed seam tolerance that was the default before the derived one (1 % of the largest panel's
+size): what a stored sweep or yield run whose settings name no seam tolerance was judged with."""
 
 
 def derived_seam_tolerances(
@@ -343,6 +351,15 @@ class FoldOutcome(eqx.Module):
     the seam tolerance; `engaged` contact pairs at the end;
     `min_gap` over the run (`inf` without contact); `penetration`, the largest over the run
     (length).
+
+    The margins, what the folded test (the last state's) is at other tolerances:
+    `angle_margin`, the largest crease error at the end over the angle tolerance (`inf` for a
+    non-finite state); `seam_margin`, the largest gap over its seam's tolerance at the end among
+    the seams whose panels do not touch (0 if none). With the angle tolerance multiplied by ``a``
+    and every seam's tolerance by ``s``, the last state passes iff ``angle_margin < a`` and
+    ``seam_margin < s`` (for ``a = s = 1``: iff the verdict is folded, for a run that succeeded):
+    the yield at any tolerance is a count of the stored margins
+    (`origami_jax.fab_yield.tolerance_sensitivity`).
     """
 
     code: Int[Array, ""]
@@ -356,6 +373,8 @@ class FoldOutcome(eqx.Module):
     engaged: Int[Array, ""]
     min_gap: Float[Array, ""]
     penetration: Float[Array, ""]
+    angle_margin: Float[Array, ""]
+    seam_margin: Float[Array, ""]
 
 
 def fold_outcome(
@@ -403,7 +422,7 @@ def fold_outcome(
         penetration = jnp.zeros((), dtype)
         engaged = jnp.zeros((), jnp.int32)
     within = jnp.all(jnp.abs(theta - intended) < angle_tolerance, axis=-1) & finite
-    max_gap = open_gap = jnp.zeros((), dtype)
+    max_gap = open_gap = seam_margin = jnp.zeros((), dtype)
     final_gaps = jnp.zeros((0,), dtype)
     seams_touching = jnp.zeros((0,), bool)
     if seam_gaps is not None:
@@ -414,9 +433,14 @@ def fold_outcome(
             within = within & jnp.all((gaps < seam_tolerance) | touch, axis=-1)
             max_gap = jnp.max(gaps[-1])
             open_gap = jnp.max(jnp.where(touch[-1], 0.0, gaps[-1]))
+            # gap < tolerance · s  ⇔  gap / tolerance < s (the tolerances are positive).
+            seam_margin = jnp.max(jnp.where(touch[-1], 0.0, gaps[-1] / seam_tolerance))
         seams_touching = touch[-1] & finite[-1]
         final_gaps = gaps[-1]
     final = theta[-1]
+    angle_margin = jnp.where(
+        finite[-1], jnp.max(jnp.abs(final - intended), initial=0.0) / angle_tolerance, jnp.inf
+    )
     # A crease released in the run's last tenth (or after its end) has had no time to come to
     # rest: the run is unfinished, not misfolded, whatever its angles.
     settled = _settled(times, theta, angle_tolerance) & ~jnp.any(_released_late(system, times))
@@ -458,6 +482,8 @@ def fold_outcome(
         engaged=engaged,
         min_gap=min_gap,
         penetration=penetration,
+        angle_margin=angle_margin,
+        seam_margin=seam_margin,
     )
 
 
@@ -671,7 +697,8 @@ def assess(
       `bodies` attribute (`(s, 2)` int, the two bodies each seam joins, numbered as in the
       contact tables, as `origami_jax.net.SeamGaps` has) a seam whose panels touch counts as
       closed whatever its gap (module docstring); a plain function judges the gaps alone.
-    - `tolerances`: a `VerdictTolerances` (default: 3°, seams within 1 % of the panel size), or
+    - `tolerances`: a `VerdictTolerances` (default: 3°, each seam's tolerance derived from it and
+      the geometry; `VerdictTolerances(seam=0.01)`: seams within 1 % of the panel size), or
       the two as `angle_tolerance` (rad) and `seam_tolerance` (a length; not both ways).
     - `panel_size`: the ``L`` the seam tolerance is a fraction of (length; default the contact
       model's largest panel, `ContactTables.scale`; a system without contact and without
@@ -705,6 +732,13 @@ def assess(
             f"intended_angles must have shape {trajectory.theta.shape[-1:]}, got {intended.shape}."
         )
     bodies = getattr(seam_gaps, "bodies", None)
+    if seam_gaps is not None:
+        # One tolerance per seam whether derived or fixed: one compiled verdict serves both.
+        q0 = trajectory.theta[0] if trajectory.state is None else trajectory.state[0][0]
+        n_seams = jax.eval_shape(seam_gaps, q0).shape[-1]
+        judged_tolerance = np.broadcast_to(seam_tolerance, (n_seams,))
+    else:
+        judged_tolerance = seam_tolerance
     # On one device: a run's arrays are committed to a device or not depending on how they were
     # computed (the command line's exported solve returns committed ones), and each pattern of
     # committed arguments would compile the verdict again.
@@ -716,7 +750,7 @@ def assess(
             getattr(seam_gaps, "function", seam_gaps),
             None if bodies is None else tuple(map(tuple, np.asarray(bodies).tolist())),
             jnp.asarray(angle_tolerance),
-            jnp.asarray(seam_tolerance),
+            jnp.asarray(judged_tolerance),
         )
     )
     outcome = jax.device_get(_outcome_compiled(*arguments))

@@ -30,6 +30,7 @@ points. In `lhs` / `uniform`, it is sampled in `[min, max)`; parameters given by
 crossed with the samples (every sample with every value). Units default to the model's.
 """
 
+import json
 import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -39,8 +40,10 @@ from typing import Any
 import numpy as np
 
 from .._kernel import Kernel
+from ..simulation import LEGACY_SEAM_FRACTION
 from ._kernels import MODELS, get_model
 from ._space import AbstractDesignSpace, Grid, Product, Range, Samples, Table
+from ._store import MANIFEST
 
 KINDS = ("grid", "lhs", "uniform", "table")
 
@@ -107,8 +110,25 @@ def _grid_axis(name: str, spec: Mapping[str, Any]) -> np.ndarray | list:
     return np.linspace(low, high, num)
 
 
-def load_config(path: str | Path) -> SweepConfig:
+def _stored_manifest(folder: str | Path) -> dict[str, Any]:
+    """The manifest of the sweep stored in `folder` (`{}` if none is readable: the sweep itself
+    then says what is wrong)."""
+    try:
+        stored = json.loads((Path(folder) / MANIFEST).read_text())
+    except (OSError, ValueError):
+        return {}
+    if not isinstance(stored, dict) or not isinstance(stored.get("settings"), dict):
+        return {}
+    return stored
+
+
+def load_config(path: str | Path, *, resume_from: str | Path | None = None) -> SweepConfig:
     """Read a sweep TOML file (format: see the module docstring).
+
+    `resume_from`: the folder of a stored sweep this config resumes (`origami-jax sweep
+    --resume`): a `"net-fold"` sweep stored when the fixed seam tolerance 0.01 was the default
+    (its settings name no `seam_tolerance`) keeps it where the config names none (the default is
+    derived now), so the stored sweep resumes with its verdicts judged as before.
 
     **Raises:** `ValueError` for an unknown model, kind or key, or a malformed parameter.
     """
@@ -121,6 +141,10 @@ def load_config(path: str | Path) -> SweepConfig:
     model = dict(raw.get("model", {}))
     name = _model_name(model)
     settings = {k: v for k, v in model.items() if k not in ("name", "input")}
+    if resume_from is not None and name == "net-fold" and "seam_tolerance" not in settings:
+        stored = _stored_manifest(resume_from)
+        if stored.get("model") == "net-fold" and "seam_tolerance" not in stored.get("settings", {}):
+            settings["seam_tolerance"] = LEGACY_SEAM_FRACTION
     kernel = get_model(name, **settings)
     units = dict(kernel.parameters or {})
 

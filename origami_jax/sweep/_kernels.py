@@ -156,7 +156,11 @@ def net_fold(*, net: str = "cube_net_01", **settings: Any) -> Kernel:
       `hinges` (`"point"`), `contact_sampling` (`(4, 2)`);
     - the solve's: `t_end` (µs, default 1500), `n_save` (301), `rtol`, `atol` (`None`: the
       simulation's), `max_steps` (200,000);
-    - the verdict's: `angle_tolerance_deg` (3) and `seam_tolerance` (0.01);
+    - the verdict's: `angle_tolerance_deg` (3) and `seam_tolerance` (default `"derived"`: each
+      seam's from the angle tolerance and the geometry, `origami_jax.simulation.VerdictTolerances`;
+      or a fraction of the largest panel's size, e.g. 0.01, the default before). Resuming a store
+      written when 0.01 was the default, with a config that names no `seam_tolerance`, keeps its
+      0.01 (`origami-jax sweep --resume`);
     - `fold_kernel`'s others: `fluid`, `design`, `bias`, `targets`, `hinge_lengths`.
 
     **Raises:** `TypeError` for an unknown setting (`get_model` says which), `ValueError` for a bad
@@ -170,7 +174,9 @@ def net_fold(*, net: str = "cube_net_01", **settings: Any) -> Kernel:
         if k in settings
     }
     angle = settings.pop("angle_tolerance_deg", 3.0)
-    seam = settings.pop("seam_tolerance", 0.01)
+    seam = settings.pop("seam_tolerance", None)
+    if isinstance(seam, str) and seam.strip().lower() == "derived":
+        seam = None  # TOML has no null
     unknown = sorted(set(settings) - {"fluid", "design", "bias", "targets", "hinge_lengths"})
     if unknown:
         raise TypeError(f"net-fold has no setting(s) {unknown}")
