@@ -521,3 +521,63 @@ def test_surface_physics_is_off_by_default_and_zero_parameters_change_nothing():
     )
     np.testing.assert_allclose(_force(zero, mechanism, q, v), base, rtol=1e-14, atol=1e-14)
     assert float(_potential(zero, mechanism, q)) == float(_potential(plain, mechanism, q))
+
+
+# ---- through the pattern ----
+
+
+def test_a_pattern_carries_its_adhesion_and_friction_into_its_systems():
+    # The pattern's options reach its systems' plate contact: the closed cube's seams bond with
+    # −7 γ L, as when attached by hand (above); friction is attached as given; a traced design
+    # (a sweep's, a fit's) still gets the host's surface tables; stores record both.
+    from origami_jax.loops import load_pattern
+    from origami_jax.net import fold_kernel
+
+    gamma, side = 0.02, 100.0
+    adhesion, friction = Adhesion(work=0.05, range=0.4, line=gamma), Friction(0.3, 0.01)
+    net = load_net("cube_net_01", length_scale=0.5)
+    sticky = net.with_model(adhesion=adhesion, friction=friction)
+    assert sticky.adhesion is adhesion and net.adhesion is None
+    system, bare = sticky.system(), net.system()
+    assert system.contact.friction is friction
+    closed = jnp.asarray(net.intended_angles)
+    bonded = _potential(system.contact, system.mechanism, closed)
+    energy = float(bonded - _potential(bare.contact, bare.mechanism, closed))
+    assert energy == pytest.approx(-7 * gamma * side, rel=EXACT)
+
+    nominal = net.default_design()
+
+    @jax.jit
+    def traced(t_structural):
+        design = eqx.tree_at(lambda d: d.t_structural, nominal, t_structural)
+        traced_system = sticky.system(design)
+        return traced_system.contact.potential(traced_system.mechanism, closed)
+
+    assert float(traced(nominal.t_structural)) == pytest.approx(float(bonded), rel=1e-12)
+
+    settings = fold_kernel(sticky).settings
+    assert settings["adhesion"] == {"work": 0.05, "range": 0.4, "line": gamma, "samples": 3}
+    assert settings["friction"] == {"coefficient": 0.3, "slip": 0.01}
+    assert "adhesion" not in fold_kernel(net).settings  # stores written without it still resume
+
+    loops = load_pattern("waterbomb_base").with_model(friction=friction)
+    assert loops.system().contact.friction is friction
+
+
+@pytest.mark.parametrize(
+    "options, message",
+    [
+        ({"adhesion": 0.05}, "must be None or an origami_jax.contact.Adhesion"),
+        ({"friction": "0.3"}, "must be None or an origami_jax.contact.Friction"),
+    ],
+)
+def test_a_pattern_refuses_what_is_not_surface_physics(options, message):
+    with pytest.raises(ValueError, match=message):
+        load_net("cube_net_01").with_model(**options)
+
+
+@pytest.mark.parametrize("contact", [False, "sampled"])
+def test_surface_physics_needs_the_plate_contact(contact):
+    net = load_net("cube_net_01").with_model(contact=contact, adhesion=Adhesion(0.05, 0.4))
+    with pytest.raises(ValueError, match="need the plate contact"):
+        net.system()

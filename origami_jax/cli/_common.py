@@ -272,6 +272,79 @@ def contact_sampling(text: str, model: str = "sampled") -> tuple[int, int]:
     return ring, rim
 
 
+# Friction's slip speed ε_v when --friction gives none (m/s = µm/µs): below it friction is a
+# viscous creep; a few per cent of a folding 200 µm panel's edge speed (~0.2 m/s in KOH).
+DEFAULT_FRICTION_SLIP = 0.01
+
+
+def add_surface_arguments(parser: argparse.ArgumentParser) -> None:
+    """`--adhesion W[,RANGE[,LINE]]` and `--friction MU[,SLIP]` (a pattern's `adhesion` and
+    `friction`, `Net.with_model`; parse them with `surface_model`)."""
+    parser.add_argument(
+        "--adhesion",
+        default=None,
+        metavar="W[,RANGE[,LINE]]",
+        help="surfaces that touch stick (off by default): work of adhesion W in J/m² (1e-3 to 0.1 "
+        "in air, below 1e-2 in water or KOH; origami_jax.contact.Adhesion), its range in µm "
+        "(default twice the contact's activation gap: numerical, see the docs) and the seams' "
+        "edge-on-edge adhesion LINE in J/m (default 0; ~ W × the film thickness)",
+    )
+    parser.add_argument(
+        "--friction",
+        default=None,
+        metavar="MU[,SLIP]",
+        help="smoothed Coulomb friction where plates touch (off by default): coefficient MU (0.2 "
+        "to 0.7 dry, 0.05 to 0.3 wet; origami_jax.contact.Friction) and the slip speed in m/s "
+        f"below which it is a viscous creep (default {DEFAULT_FRICTION_SLIP:g})",
+    )
+
+
+def _surface_numbers(text: str, flag: str, form: str, most: int) -> list[float | None]:
+    """The comma-separated numbers of `flag` (an empty one, after the first: None, its default)."""
+    parts = [x.strip() for x in text.split(",")]
+    try:
+        values = [float(x) if (x or k == 0) else None for k, x in enumerate(parts)]
+    except ValueError:
+        values = []
+    if not 1 <= len(values) <= most or not all(v is None or math.isfinite(v) for v in values):
+        fail(f"{flag} expects {form}: up to {most} comma-separated numbers, got {text!r}.")
+    return values + [None] * (most - len(values))
+
+
+def surface_model(args: argparse.Namespace, pattern: Any, design: Any) -> dict:
+    """The `with_model` options `--adhesion` and `--friction` ask of `pattern` (folded with
+    `design`): `{}` when neither is given, else `adhesion`/`friction` objects in the design's
+    units, or a one-line exit. Adhesion's default range is twice the pattern's contact activation
+    gap (its system is built once on the host to read it)."""
+    from ..contact import Adhesion, Friction
+
+    options: dict[str, Any] = {}
+    if args.adhesion is not None:
+        values = _surface_numbers(args.adhesion, "--adhesion", "W[,RANGE[,LINE]]", 3)
+        work, line = values[0], (0.0 if values[2] is None else values[2])
+        if values[1] is not None:
+            span = values[1] * 1e-6
+        else:
+            contact = pattern.system(design).contact
+            if contact is None:
+                fail("--adhesion acts where plates meet: it needs contact (drop --no-contact).")
+            span = 2 * float(contact.activation) * design.units.metre_per_length
+        try:
+            options["adhesion"] = Adhesion.from_si(design.units, work=work, range=span, line=line)
+        except ValueError as error:
+            fail(f"--adhesion {args.adhesion}: {one_line(str(error))}")
+    if args.friction is not None:
+        values = _surface_numbers(args.friction, "--friction", "MU[,SLIP]", 2)
+        slip = DEFAULT_FRICTION_SLIP if values[1] is None else values[1]
+        try:
+            options["friction"] = Friction(
+                coefficient=values[0], slip=design.units.from_si(slip, length=1, time=-1)
+            )
+        except ValueError as error:
+            fail(f"--friction {args.friction}: {one_line(str(error))}")
+    return options
+
+
 def jsonable(value: Any) -> Any:
     """`value` as plain JSON: NumPy and JAX numbers and arrays as Python numbers and lists, NaN and
     infinities as `None` (JSON `null`: strict JSON has no NaN), mappings and sequences recursed."""

@@ -19,6 +19,7 @@ from ._common import (
     add_contact_sampling_argument,
     add_figures_argument,
     add_out_argument,
+    add_surface_arguments,
     contact_sampling,
     dumps_json,
     fail,
@@ -27,6 +28,7 @@ from ._common import (
     int_range,
     positive,
     seam_tolerance_value,
+    surface_model,
 )
 from ._panels import check_has_creases, check_panels_thicker_than_film, check_targets
 
@@ -138,6 +140,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     parser.add_argument("--no-contact", action="store_true", help="panels pass through each other")
     add_contact_sampling_argument(parser)
+    add_surface_arguments(parser)
     parser.add_argument("--drag", choices=("panel", "hinge"), default="panel", help="default panel")
     parser.add_argument(
         "--hinges", choices=("point", "arc"), default="point", help="point creases or bending arcs"
@@ -368,6 +371,7 @@ def run(args: argparse.Namespace) -> int:
             model["check_rigid"] = not args.no_rigid_check
         layout = {"arc_layout": args.arc_layout} if args.hinges == "arc" and not loops else {}
         net = net.with_model(**model)
+        net = net.with_model(**surface_model(args, net, design))
         system = net.system(design, targets=targets, release_times=release, **layout)
         if args.bias:
             net.start_state(system, bias=args.bias)  # refused here, before the output folder
@@ -393,6 +397,7 @@ def _run(args, net, system, params, release, sampling, output, unfolded) -> int:
 
     import origami_jax.simulation as sim
     from origami_jax.fold import write_fold
+    from origami_jax.net import surface_settings
 
     out = output.dir
     m = net.n_creases
@@ -458,6 +463,7 @@ def _run(args, net, system, params, release, sampling, output, unfolded) -> int:
         drag=args.drag,
         hinges=args.hinges,
         **({"arc_layout": args.arc_layout} if args.hinges == "arc" and not loops else {}),
+        **surface_settings(net),
         closed_loops=net.n_loops if loops else 0,
         unfolded_from_folded_form=unfolded,
         bias=args.bias,

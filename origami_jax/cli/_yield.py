@@ -10,6 +10,7 @@ from ._common import (
     Interrupted,
     OutputFolder,
     add_contact_sampling_argument,
+    add_surface_arguments,
     contact_sampling,
     dumps_json,
     fail,
@@ -18,6 +19,7 @@ from ._common import (
     out_path,
     positive,
     seam_tolerance_value,
+    surface_model,
     write_atomic,
 )
 from ._panels import check_has_creases, check_panels_thicker_than_film, check_targets
@@ -144,6 +146,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     parser.add_argument("--fluid", choices=("air", "koh"), default="koh", help="default koh")
     add_contact_sampling_argument(parser)
+    add_surface_arguments(parser)
     parser.add_argument("--t-end", type=float, default=1500.0, help="simulated time, µs (1500)")
     parser.add_argument(
         "--bias",
@@ -344,7 +347,9 @@ def _run_family(args: argparse.Namespace, members: list[str], sampling) -> int:
         check_targets(pattern, None, name)
         process = _process(args.process, pattern.n_creases)
         try:
-            patterns.append(pattern.with_model(contact=args.contact, contact_sampling=sampling))
+            pattern = pattern.with_model(contact=args.contact, contact_sampling=sampling)
+            surface = surface_model(args, pattern, pattern.default_design(fluid))
+            patterns.append(pattern.with_model(**surface))
         except ValueError as error:
             fail(f"{name}: {error}")
     out = Path(args.out)
@@ -658,6 +663,9 @@ def run(args: argparse.Namespace) -> int:
     process = _process(args.process, pattern.n_creases)
     try:
         pattern = pattern.with_model(contact=args.contact, contact_sampling=sampling)
+        pattern = pattern.with_model(
+            **surface_model(args, pattern, pattern.default_design(_fluid(args)))
+        )
     except ValueError as error:
         fail(f"{args.net}: {error}")
     # Held for the whole run (the estimates' sweep stores borrow its lock): another run into the

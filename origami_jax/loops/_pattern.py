@@ -31,6 +31,8 @@ from jaxtyping import ArrayLike, Float
 from .._limits import CONTACT_SAMPLING
 from .._validate import is_traced
 from ..contact import (
+    Adhesion,
+    Friction,
     PanelContact,
     PlateContact,
     build_plate_tables,
@@ -56,6 +58,7 @@ from ..net import (
     Net,
     check_loader_arguments,
     check_per_crease,
+    check_surface_model,
     default_design,
     folding_animation,
     front_release,
@@ -64,6 +67,7 @@ from ..net import (
     unit_front_direction,
     vertex_corners,
     warn_if_hinges_wider_than_creases,
+    with_surface_physics,
 )
 from ..simulation import assess, fold_outcome
 from ..system import MICRO, FoldingSystem, HingeDesign, Hinges
@@ -94,6 +98,8 @@ PATTERN_MODEL = {
     "hinges": "point",
     "contact_sampling": CONTACT_SAMPLING,
     "check_rigid": True,
+    "adhesion": None,
+    "friction": None,
 }
 
 
@@ -112,8 +118,9 @@ class CreasePattern(AbstractPanelPattern):
     then cut creases); body ``j`` is face ``geometry.tree.order[j + 1]``; the root face is the
     fixed base. The physics model its systems take unless `system` is told otherwise
     (`with_model`): `contact` (default `True`), `drag` (`"panel"`, the only one), `hinges`
-    (`"point"`, the only one), `contact_sampling` (`(4, 2)`) and `check_rigid` (`True`), as
-    `system` documents them.
+    (`"point"`, the only one), `contact_sampling` (`(4, 2)`), `check_rigid` (`True`), `adhesion`
+    and `friction` (`None`: off; an `origami_jax.contact.Adhesion` or `Friction` attaches it to the
+    plate contact), as `system` documents them.
     """
 
     geometry: LoopGeometry
@@ -126,10 +133,15 @@ class CreasePattern(AbstractPanelPattern):
     hinges: str = "point"
     contact_sampling: tuple[int, int] = CONTACT_SAMPLING
     check_rigid: bool = True
+    adhesion: Adhesion | None = None
+    friction: Friction | None = None
 
     # ---- the pattern ----
 
     MODEL: ClassVar[dict[str, Any]] = PATTERN_MODEL
+
+    def __post_init__(self):
+        check_surface_model(self.adhesion, self.friction)
 
     @property
     def continues_from_angles(self) -> bool:
@@ -444,6 +456,9 @@ class CreasePattern(AbstractPanelPattern):
             contact_model = model.for_system(
                 mechanism, stiffness, targets, thickness=design.t_structural, tables=tables, **extra
             )
+            contact_model = with_surface_physics(self, contact_model, kind, lambda: host)
+        else:
+            contact_model = with_surface_physics(self, None, None, lambda: None)
         return FoldingSystem(
             mechanism, hinges_, drag_model, contact=contact_model, units=design.units
         )

@@ -28,6 +28,7 @@ from ._kernel import FOLD_KERNEL_SOLVE as FOLD_KERNEL_SOLVE
 from ._kernel import check_kernel_sampling as check_kernel_sampling
 from ._kernel import fold_kernel as fold_kernel
 from ._kernel import stored_tolerances as stored_tolerances
+from ._kernel import surface_settings as surface_settings
 from ._net import Net as Net
 from ._net import NetLayout as NetLayout
 from ._net import folding_animation as folding_animation
@@ -40,11 +41,13 @@ from ._pattern import AbstractPanelPattern as AbstractPanelPattern
 from ._pattern import HostCache as HostCache
 from ._pattern import check_loader_arguments as check_loader_arguments
 from ._pattern import check_per_crease as check_per_crease
+from ._pattern import check_surface_model as check_surface_model
 from ._pattern import default_design as default_design
 from ._pattern import front_release as front_release
 from ._pattern import hinges_within_creases as hinges_within_creases
 from ._pattern import unit_front_direction as unit_front_direction
 from ._pattern import warn_if_hinges_wider_than_creases as warn_if_hinges_wider_than_creases
+from ._pattern import with_surface_physics as with_surface_physics
 from ._plate import Plate as Plate
 from ._plate import polygon_plate as polygon_plate
 from ._strip import StripTree as StripTree

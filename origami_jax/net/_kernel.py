@@ -56,6 +56,25 @@ FOLD_KERNEL_SOLVE = SolveOptions(t1=1500.0, saveat=SaveAt(n=301), max_steps=200_
 tolerances (change one with `FOLD_KERNEL_SOLVE.replace(t1=600.0)`)."""
 
 
+def surface_settings(pattern) -> dict:
+    """What a stored run records of `pattern`'s adhesion and friction: their numbers (the design's
+    units), each only when on, so that a store written without them still resumes and one written
+    with them is not resumed with other values."""
+    recorded = {}
+    if pattern.adhesion is not None:
+        a = pattern.adhesion
+        recorded["adhesion"] = {
+            "work": float(a.work),
+            "range": float(a.range),
+            "line": float(a.line),
+            "samples": a.samples,
+        }
+    if pattern.friction is not None:
+        f = pattern.friction
+        recorded["friction"] = {"coefficient": float(f.coefficient), "slip": float(f.slip)}
+    return recorded
+
+
 def fold_kernel(
     pattern,
     *,
@@ -315,6 +334,7 @@ def fold_kernel(
             **({} if aims is None else {"targets": aims.tolist()}),
             **({} if hinge_lengths == "ideal" else {"hinge_lengths": hinge_lengths}),
             **({} if sampling == CONTACT_SAMPLING else {"contact_sampling": list(sampling)}),
+            **surface_settings(pattern),
         },
         parameters=parameters,
         output_units={

@@ -34,6 +34,8 @@ from .._limits import CONTACT_SAMPLING
 from .._math import safe_norm
 from .._validate import is_traced
 from ..contact import (
+    Adhesion,
+    Friction,
     PanelContact,
     PlateContact,
     check_sampling,
@@ -59,10 +61,12 @@ from ._pattern import (
     HostCache,
     check_loader_arguments,
     check_per_crease,
+    check_surface_model,
     default_design,
     front_release,
     unit_front_direction,
     warn_if_hinges_wider_than_creases,
+    with_surface_physics,
 )
 from ._strip import StripTree, strip_tree
 from ._tree import PanelTree, panel_tree
@@ -75,6 +79,8 @@ NET_MODEL = {
     "added_mass": False,
     "viscous": False,
     "contact_sampling": CONTACT_SAMPLING,
+    "adhesion": None,
+    "friction": None,
 }
 
 
@@ -89,8 +95,9 @@ class Net(AbstractPanelPattern):
     FOLD frame) and `crease_edge_ids` (its edges on each crease). `seams`: those that close at the
     pattern's fold angles. The physics model its systems take unless `system` is told otherwise
     (`with_model`): `contact` (default `True`: the plate model), `drag` (`"panel"`), `hinges`
-    (`"point"`), `added_mass`, `viscous` (`False`) and `contact_sampling` (`(4, 2)`), as
-    `system` documents them.
+    (`"point"`), `added_mass`, `viscous` (`False`), `contact_sampling` (`(4, 2)`), `adhesion` and
+    `friction` (`None`: off; an `origami_jax.contact.Adhesion` or `Friction` attaches it to the plate
+    contact), as `system` documents them.
 
     Hinge ``j`` of the systems it builds is the geometry's crease ``j``; body ``j`` is face
     ``geometry.order[j + 1]``; the root face is the fixed base.
@@ -108,8 +115,13 @@ class Net(AbstractPanelPattern):
     added_mass: bool = False
     viscous: bool = False
     contact_sampling: tuple[int, int] = CONTACT_SAMPLING
+    adhesion: Adhesion | None = None
+    friction: Friction | None = None
 
     MODEL: ClassVar[dict[str, Any]] = NET_MODEL
+
+    def __post_init__(self):
+        check_surface_model(self.adhesion, self.friction)
 
     @property
     def continues_from_angles(self) -> bool:
@@ -300,7 +312,9 @@ class Net(AbstractPanelPattern):
           `folded` by 1.9 ms.
 
         The physics options (`contact` to `contact_sampling`) left `None` are the net's own
-        (its fields; `with_model`).
+        (its fields; `with_model`). Adhesion and friction are the net's only (`with_model(adhesion=
+        Adhesion(...), friction=Friction(...))`, off by default): they act at the plate contact
+        (`PlateContact.with_surface`).
         """
         contact = self.contact if contact is None else contact
         arc_layout = "fillet" if arc_layout is None else arc_layout
@@ -398,6 +412,12 @@ class Net(AbstractPanelPattern):
                 base_thickness=design.t_structural,
                 **geometry,
             )
+        contact_model = with_surface_physics(
+            self,
+            contact_model,
+            kind,
+            lambda: self.tree(HingeDesign.literature(), hinges=hinges, arc_layout=layout),
+        )
         return FoldingSystem(tree, hinges_, drag_model, contact=contact_model, units=design.units)
 
     def contact_tables(

@@ -18,11 +18,13 @@ from collections.abc import Callable, Hashable, Mapping
 from typing import Any, ClassVar, final
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 import numpy as np
 
 from .._limits import FOLD_SEGMENT, MAX_FOLD_SEGMENTS
 from .._validate import is_traced
+from ..contact import Adhesion, Friction
 from ..simulation import fold_pattern
 from ..system import AbstractPattern, HingeDesign
 from ._kernel import fold_kernel
@@ -163,6 +165,39 @@ class AbstractPanelPattern(AbstractPattern):
         """The fold kernel of this pattern for `sweep` (`origami_jax.net.fold_kernel`, `settings`
         its keyword arguments)."""
         return fold_kernel(self, **settings)
+
+
+def check_surface_model(adhesion, friction) -> None:
+    """One-line errors for a pattern's `adhesion` and `friction` options (each `None` or the
+    `origami_jax.contact` class of that name), before anything is built."""
+    for name, value, kind in (("adhesion", adhesion, Adhesion), ("friction", friction, Friction)):
+        if value is not None and not isinstance(value, kind):
+            raise ValueError(
+                f"{name} must be None or an origami_jax.contact.{kind.__name__}, got "
+                f"{type(value).__name__}."
+            )
+
+
+def with_surface_physics(
+    pattern: "AbstractPanelPattern", contact_model, kind: str | None, host_mechanism: Callable
+):
+    """`contact_model` with `pattern`'s adhesion and friction attached (itself when it has
+    neither). `host_mechanism()` builds, on the host, a mechanism with the geometry the contact
+    tables were drawn from (the contact's numbers may be traced: the surface tables are geometry
+    only, so a sweep's or a fit's traced design still gets them).
+
+    **Raises:** `ValueError` when the pattern asks for surface physics without the plate contact
+    (adhesion and friction act where plates meet)."""
+    adhesion, friction = pattern.adhesion, pattern.friction
+    if adhesion is None and friction is None:
+        return contact_model
+    if kind != "plate":
+        raise ValueError(
+            f"{pattern.name}: adhesion and friction act where plates meet: they need the plate "
+            f"contact (contact='plate' or True), not {'no contact' if kind is None else repr(kind)}."
+        )
+    with jax.ensure_compile_time_eval():
+        return contact_model.with_surface(host_mechanism(), adhesion=adhesion, friction=friction)
 
 
 def hinges_within_creases(design: HingeDesign, lengths) -> HingeDesign:
