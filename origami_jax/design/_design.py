@@ -25,6 +25,7 @@ from ..simulation import (
     FIT_OPTIONS,
     AbstractInput,
     EtchRamp,
+    ImplicitStep,
     SolveOptions,
     Step,
     response_metrics,
@@ -63,12 +64,17 @@ class SimulationSettings(eqx.Module):
       [`origami_jax.simulation.FIT_OPTIONS`][]: Tsit5, rtol 1e-8, 1201 samples). Rise times, peaks
       and settling must happen well inside `t1`. Its sample count is part of the compiled fit, which
       runs `simulate` under `jit`, where sample counts are not padded. The fit always solves with
-      `throw=False` and `diffrax.ForwardMode()`.
+      `throw=False` and `diffrax.ForwardMode()`. With the fixed-step engine
+      (`solver=ImplicitStep(dt=...)`) the derivatives are those of the discrete map (the implicit
+      function theorem at every step), and its sample times must be evenly spaced (`SaveAt(n=...)`).
+    - `horizon` (static): `t1` as a number. The fixed-step engine takes its step count from it (the
+      fit traces `options`, and with it `options.t1`); a new run length compiles a new fit there.
     """
 
     layout: AbstractLayout = eqx.field(static=True)
     inputs: AbstractInput | Callable | None
     options: SolveOptions
+    horizon: float = eqx.field(static=True)
 
     def __init__(
         self,
@@ -102,7 +108,13 @@ class SimulationSettings(eqx.Module):
             )
         self.layout = Accordion(int(n_flaps)) if layout is None else layout
         self.inputs = inputs
+        if isinstance(options.solver, ImplicitStep) and saveat.ts is not None:
+            raise ValueError(
+                "ImplicitStep fixes its steps from the sample times, which a fit traces: give "
+                "SaveAt(n=...) (evenly spaced samples), not SaveAt(ts=...)."
+            )
         self.options = options.replace(t1=float(t1))
+        self.horizon = float(t1)
 
     @property
     def n_hinges(self) -> int:
@@ -124,7 +136,13 @@ def response(hinge: HingeDesign, settings: SimulationSettings):
     else:
         inputs = settings.inputs(hinge)
     options = settings.options.replace(throw=False, adjoint=diffrax.ForwardMode())
-    trajectory = simulate(system, inputs, options)
+    if isinstance(options.solver, ImplicitStep):
+        # Its step count is fixed from the run length, which must be a known number here, not the
+        # traced `options.t1` (the forward-mode adjoint does not apply: the engine's derivatives
+        # are its own, by the implicit function theorem).
+        trajectory = simulate(system, inputs, options.replace(t1=None), t1=settings.horizon)
+    else:
+        trajectory = simulate(system, inputs, options)
     return trajectory, response_metrics(trajectory)
 
 
