@@ -9,6 +9,7 @@ from ._common import (
     EXIT_OK,
     OutputFolder,
     add_contact_sampling_argument,
+    add_solver_arguments,
     contact_sampling,
     dumps_json,
     fail,
@@ -17,6 +18,8 @@ from ._common import (
     out_path,
     positive,
     seam_tolerance_value,
+    solver_choice,
+    with_solver,
     write_atomic,
 )
 from ._panels import check_has_creases, check_panels_thicker_than_film, check_targets
@@ -63,6 +66,12 @@ the folding order (the release scatter is added to them); e.g. for examples/flap
 N again, all together, with the full budget (OUT/stragglers/): the same results, and on a GPU (or
 with --chunk-size on a CPU) less time, since a vmapped chunk steps until its slowest member is done.
 Take a few times the median sample's steps (sweep.nc's num_steps); result.json counts the stragglers.
+
+--solver implicit-step --dt US folds every sample in fixed implicit Euler steps (a fixed count of
+Newton iterations capped by the plates' collision detection): every sample of a vmapped chunk does
+the same work, where the adaptive default (tsit5) steps until its slowest member is done; it takes
+no --rtol or --step-budget. The solver is recorded in result.json and the store; --resume continues
+with the same one only.
 
 --widths 0.5,1,2 also estimates the yield with every scatter width multiplied by each factor (the
 same draws, so the same fabricated nets made more or less carefully; each in OUT/widths/xF/) and
@@ -127,6 +136,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="the solver's relative tolerance (default 1e-7); looser is faster and moves contact "
         "events in time (1e-5: 40 %% fewer steps on cube nets, the same verdicts on 16 of them)",
     )
+    add_solver_arguments(parser, "tsit5, adaptive (the fold kernel's)")
     parser.add_argument(
         "--confidence", type=float, default=0.95, help="level of the interval (default 0.95)"
     )
@@ -228,10 +238,11 @@ OWNS = (
 )
 
 
-def _check_resumable(out: Path, factors: list[float]) -> None:
+def _check_resumable(out: Path, factors: list[float], solver: dict) -> None:
     """`--resume` into `out`: its result.json, if any, is a yield estimate's that this run rewrites
     whole (not another command's; not a finished --improve ascent, which cannot be resumed; no
-    --widths factor left out)."""
+    --widths factor left out; the same `solver`, `solver_choice`'s record: the store refuses
+    another too, but a finished estimate is refused here, with the flags it was run with)."""
     import json
 
     path = out / "result.json"
@@ -258,6 +269,23 @@ def _check_resumable(out: Path, factors: list[float]) -> None:
             "result.json holds the yield at those widths, which this run would drop; give them "
             "in --widths."
         )
+    stored_solver = {k: stored[k] for k in _SOLVER_KEYS if k in stored} or {"solver": "tsit5"}
+    if stored_solver != solver:
+        fail(
+            f"cannot resume {out} with {_solver_flags(solver)}: its estimate was run with "
+            f"{_solver_flags(stored_solver)}; resume with the same solver, or choose another --out."
+        )
+
+
+_SOLVER_KEYS = ("solver", "dt_us", "newton_iterations")
+
+
+def _solver_flags(record: dict) -> str:
+    """A solver record (`solver_choice`) as the flags that give it."""
+    flags = f"--solver {record['solver']}"
+    if "dt_us" in record:
+        flags += f" --dt {record['dt_us']:g} --newton-iterations {record['newton_iterations']}"
+    return flags
 
 
 def _numbers(text: str | None, flag: str) -> list[float] | None:
@@ -387,6 +415,14 @@ def run(args: argparse.Namespace) -> int:
         )
     if args.workers is not None:
         int_range(args.workers, "--workers", 1, 4096)
+    choice = solver_choice(args, args.t_end, "--t-end") or {"solver": "tsit5"}
+    if choice["solver"] == "implicit-step":
+        for flag, value in (("--rtol", args.rtol), ("--step-budget", args.step_budget)):
+            if value is not None:
+                fail(
+                    f"{flag} is for the adaptive solvers; --solver implicit-step takes fixed steps "
+                    "(its accuracy is --dt, every sample the same work): drop it."
+                )
     in_range(args.angle_tolerance, "--angle-tolerance", 0.0, 180.0, what=" degrees")
     if args.seam_tolerance is not None:
         in_range(
@@ -468,12 +504,16 @@ def run(args: argparse.Namespace) -> int:
     )
     with output, chunks_kept_on_interrupt(output.out):
         return _run(
-            args, output, pattern, loops, scatter, sampling, factors, release, process, improve
-        )
+            args, output, pattern, loops, scatter, sampling, factors, release, process, improve,
+            choice,
+        )  # fmt: skip
 
 
-def _run(args, output, pattern, loops, scatter, sampling, factors, release, process, improve):
-    """The estimates (and the ascent) into `output.out`, the results staged in `output.dir`."""
+def _run(
+    args, output, pattern, loops, scatter, sampling, factors, release, process, improve, choice
+):
+    """The estimates (and the ascent) into `output.out`, the results staged in `output.dir`;
+    `choice`, the solver (`solver_choice`)."""
     import dataclasses
 
     from ..fab_yield import RunOptions, yield_estimate
@@ -483,7 +523,7 @@ def _run(args, output, pattern, loops, scatter, sampling, factors, release, proc
 
     out = output.out
     if args.resume:
-        _check_resumable(out, factors)
+        _check_resumable(out, factors, choice)
     design = pattern.default_design(KOH_SOLUTION if args.fluid == "koh" else AIR)
     print(
         f"[yield] {args.net}: {args.samples} samples, seed {args.seed}, scatter "
@@ -494,7 +534,7 @@ def _run(args, output, pattern, loops, scatter, sampling, factors, release, proc
 
     # What every estimate of this run shares: the estimate itself, the other widths, the ascent.
     # The solve's tolerances: --rtol with the defaults' ratio for the absolute one.
-    solve = FOLD_KERNEL_SOLVE.replace(t1=args.t_end)
+    solve = with_solver(FOLD_KERNEL_SOLVE.replace(t1=args.t_end), choice, default="tsit5")
     if args.rtol is not None:
         solve = solve.replace(rtol=float(args.rtol), atol=DEFAULT_ATOL / DEFAULT_RTOL * args.rtol)
     run = RunOptions(
@@ -568,6 +608,7 @@ def _run(args, output, pattern, loops, scatter, sampling, factors, release, proc
         "t_end_us": args.t_end,
         **({"bias_rad": args.bias} if loops else {}),
         "rtol": args.rtol,
+        **choice,
         "contact": args.contact,
         "contact_sampling": list(sampling),
         **estimate.to_dict(),
