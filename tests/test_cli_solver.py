@@ -158,6 +158,29 @@ def test_sweep_takes_the_solver_once_and_for_the_net_fold_model(tmp_path, capsys
     assert "net-fold model's solver" in _one_line(capsys.readouterr().err)
 
 
+def test_closed_loops_are_refused_the_fixed_steps(tmp_path, capsys, monkeypatch):
+    """The engine does not hold a crease pattern's loops closed: refused by the commands, the fold
+    kernel and `simulate`, each in one line."""
+    import origami_jax.cli._fold as fold_cli
+    import origami_jax.cli._yield as yield_cli
+    from origami_jax.loops import load_pattern
+    from origami_jax.net import fold_kernel
+
+    monkeypatch.setattr(fold_cli, "_run", _no_compiling)
+    monkeypatch.setattr(yield_cli, "_run", _no_compiling)
+    flags = ["--solver", "implicit-step", "--dt", "1", "--out", str(tmp_path / "o")]
+    for command in (["fold", "waterbomb_base"], ["yield", "waterbomb_base", "--no-progress"]):
+        assert main([*command, *flags]) == 2
+        assert "do not hold closed loops closed" in _one_line(capsys.readouterr().err)
+    pattern = load_pattern("waterbomb_base")
+    fixed = sim.SolveOptions(saveat=sim.SaveAt(n=3), solver=sim.ImplicitStep(dt=1.0))
+    with pytest.raises(ValueError, match="do not hold its loops closed"):
+        fold_kernel(pattern, solve=fixed)
+    with pytest.raises(ValueError, match="does not hold closed loops closed"):
+        pattern = pattern.with_model(contact=False, check_rigid=False)
+        sim.simulate(pattern.system(pattern.default_design()), sim.Step(), fixed, t1=2.0)
+
+
 def test_the_net_fold_model_records_its_solver_and_keeps_older_stores_resumable():
     """The sweep's settings (what a resume compares) name the fixed-step engine with its settings;
     Tsit5 named or not is the kernel's default, recorded as before."""

@@ -345,6 +345,11 @@ def run(args: argparse.Namespace) -> int:
             flat_creases=args.flat_creases,
         )
         loops = net.n_loops > 0
+        if loops and choice is not None and choice["solver"] == "implicit-step":
+            fail(
+                f"{args.net}: --solver implicit-step takes nets (trees of panels): its fixed steps "
+                "do not hold closed loops closed; give tsit5 (the default here) or kvaerno5."
+            )
         check_has_creases(net, args.net)
         if args.bias and not loops:
             fail(f"--bias pre-folds closed-loop patterns; {args.net} is a net, which starts flat.")
@@ -372,12 +377,6 @@ def run(args: argparse.Namespace) -> int:
         layout = {"arc_layout": args.arc_layout} if args.hinges == "arc" and not loops else {}
         net = net.with_model(**model)
         system = net.system(design, targets=targets, release_times=release, **layout)
-        fixed_step = choice is not None and choice["solver"] == "implicit-step"
-        if fixed_step and system.mechanism.n_coordinates != system.mechanism.n_velocities:
-            fail(
-                f"{args.net}: --solver implicit-step takes nets (trees of panels); a crease pattern "
-                "with closed loops needs an adaptive solver (tsit5, the default, or kvaerno5)."
-            )
         if args.bias:
             net.start_state(system, bias=args.bias)  # refused here, before the output folder
     except FileNotFoundError as error:
@@ -390,11 +389,11 @@ def run(args: argparse.Namespace) -> int:
 
     output = OutputFolder(Path(args.out), command="fold", owns=OWNS, overwrite=args.overwrite)
     with output:
-        code = _run(args, net, system, params, release, sampling, output, unfolded, choice)
+        code = _run(args, net, system, params, release, sampling, output, unfolded, choice=choice)
     return code
 
 
-def _run(args, net, system, params, release, sampling, output, unfolded, choice) -> int:
+def _run(args, net, system, params, release, sampling, output, unfolded, *, choice) -> int:
     """Fold, assess and write into the staging folder of `output`; returns the exit code.
     `unfolded`: the file held a folded form, read as the crease pattern it unfolds to; `choice`:
     `--solver` and its settings (`solver_choice`)."""

@@ -461,6 +461,11 @@ def run(args: argparse.Namespace) -> int:
         fail(f"--bias must be a pre-fold angle in [0, 1) rad, got {args.bias}.")
     if args.bias and not loops:
         fail(f"--bias pre-folds closed-loop patterns; {args.net} is a net, which starts flat.")
+    if loops and choice["solver"] == "implicit-step":
+        fail(
+            f"{args.net}: --solver implicit-step takes nets (trees of panels): its fixed steps do "
+            "not hold closed loops closed; give tsit5 (the default) or kvaerno5."
+        )
     if loops and (front is not None or args.improve):
         fail(
             f"{args.net} is a crease pattern with closed loops: --etch-front and --improve take "

@@ -9,7 +9,7 @@ verdict and, for targets that are not met, how far off they are and why.
 
 import functools
 from collections.abc import Callable, Mapping, Sequence
-from typing import Any
+from typing import Any, cast
 
 import diffrax
 import equinox as eqx
@@ -67,14 +67,15 @@ class SimulationSettings(eqx.Module):
       `throw=False` and `diffrax.ForwardMode()`. With the fixed-step engine
       (`solver=ImplicitStep(dt=...)`) the derivatives are those of the discrete map (the implicit
       function theorem at every step), and its sample times must be evenly spaced (`SaveAt(n=...)`).
-    - `horizon` (static): `t1` as a number. The fixed-step engine takes its step count from it (the
-      fit traces `options`, and with it `options.t1`); a new run length compiles a new fit there.
+    - `horizon` (static): with the fixed-step engine, `t1` as a number, from which it takes its
+      step count (the fit traces `options`, and with it `options.t1`; a new run length compiles a
+      new fit there); `None` with the adaptive solvers, whose fits a new `t1` does not recompile.
     """
 
     layout: AbstractLayout = eqx.field(static=True)
     inputs: AbstractInput | Callable | None
     options: SolveOptions
-    horizon: float = eqx.field(static=True)
+    horizon: float | None = eqx.field(static=True)
 
     def __init__(
         self,
@@ -114,7 +115,7 @@ class SimulationSettings(eqx.Module):
                 "SaveAt(n=...) (evenly spaced samples), not SaveAt(ts=...)."
             )
         self.options = options.replace(t1=float(t1))
-        self.horizon = float(t1)
+        self.horizon = float(t1) if isinstance(options.solver, ImplicitStep) else None
 
     @property
     def n_hinges(self) -> int:
@@ -140,7 +141,8 @@ def response(hinge: HingeDesign, settings: SimulationSettings):
         # Its step count is fixed from the run length, which must be a known number here, not the
         # traced `options.t1` (the forward-mode adjoint does not apply: the engine's derivatives
         # are its own, by the implicit function theorem).
-        trajectory = simulate(system, inputs, options.replace(t1=None), t1=settings.horizon)
+        horizon = cast(float, settings.horizon)  # set with the engine (`SimulationSettings`)
+        trajectory = simulate(system, inputs, options.replace(t1=None), t1=horizon)
     else:
         trajectory = simulate(system, inputs, options)
     return trajectory, response_metrics(trajectory)

@@ -55,6 +55,15 @@ FOLD_KERNEL_SOLVE = SolveOptions(t1=1500.0, saveat=SaveAt(n=301), max_steps=200_
 tolerances (change one with `FOLD_KERNEL_SOLVE.replace(t1=600.0)`)."""
 
 
+CLOSED_LOOPS_NEED_ADAPTIVE = (
+    "a crease pattern with closed loops folds with an adaptive solver (tsit5, kvaerno5): the fixed "
+    "implicit steps (ImplicitStep) do not hold its loops closed."
+)
+"""The one-line refusal of the fixed-step engine for a pattern with closed loops (its closure is a
+constraint of the mechanism's `forward_dynamics`, which the engine's incremental problem does not
+call)."""
+
+
 def fold_kernel(
     pattern,
     *,
@@ -139,6 +148,8 @@ def fold_kernel(
         raise ValueError(
             f"tolerances must be a VerdictTolerances, got {type(tolerances).__name__}."
         )
+    if isinstance(solver, ImplicitStep) and pattern.n_loops > 0:
+        raise ValueError(CLOSED_LOOPS_NEED_ADAPTIVE)
     contact = pattern.contact
     sampling = check_kernel_sampling(contact, pattern.contact_sampling)
     if design is not None and fluid is not None:
