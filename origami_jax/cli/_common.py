@@ -239,9 +239,10 @@ def add_solver_arguments(parser: argparse.ArgumentParser, default: str) -> None:
         type=float,
         default=None,
         metavar="US",
-        help="--solver implicit-step: its fixed step, µs (required: no step suits every net and "
-        "question; 2.5 gives cube nets of 100-200 µm panels the adaptive solver's verdicts, "
-        "shorter resolves ringing better)",
+        help="--solver implicit-step: its largest step, µs, each interval between samples cut "
+        "into equal steps no longer (required: no step suits every net and question; 2.5 judged "
+        "cube_net_01 as the adaptive solver does, in KOH and in air; shorter resolves ringing "
+        "better)",
     )
     parser.add_argument(
         "--newton-iterations",
@@ -270,8 +271,8 @@ def solver_choice(args: argparse.Namespace, t1: float, t1_flag: str) -> dict[str
         return None if args.solver is None else {"solver": args.solver}
     if args.dt is None:
         fail(
-            "--solver implicit-step needs --dt US, its fixed step in µs (e.g. --dt 2.5 for a cube "
-            "net of 100-200 µm panels; see the docs' guide to simulating: Two engines)."
+            "--solver implicit-step needs --dt US, its fixed step in µs (e.g. --dt 2.5, which "
+            "judged cube_net_01 as the adaptive solver does; see the guide Simulating: Two engines)."
         )
     positive(args.dt, "--dt", "µs")
     if args.dt > t1:
