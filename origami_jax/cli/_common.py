@@ -226,6 +226,93 @@ def int_range(value: int, flag: str, low: int, high: int, *, why: str = "") -> i
     return value
 
 
+SOLVER_CHOICES = ("tsit5", "kvaerno5", "implicit-step")
+"""`--solver`'s choices (`origami_jax.simulation.SOLVER_NAMES`; named here so that parsing the command
+line imports no JAX)."""
+DEFAULT_NEWTON_ITERATIONS = 6
+"""`--newton-iterations`' default: `ImplicitStep`'s."""
+
+
+def add_solver_arguments(parser: argparse.ArgumentParser, default: str) -> None:
+    """`--solver`, `--dt` and `--newton-iterations` (`fold`, `yield`, `sweep`); `default` says what
+    the command runs without `--solver`. Check them with `solver_choice`."""
+    parser.add_argument(
+        "--solver",
+        choices=SOLVER_CHOICES,
+        default=None,
+        help="the time stepper: tsit5 (adaptive explicit Runge-Kutta: accurate trajectories), "
+        "kvaerno5 (adaptive implicit: stiff runs), or implicit-step (fixed implicit Euler steps "
+        "of --dt, a fixed count of Newton iterations capped by collision detection: the same work "
+        "for every sample of a batch, first-order accurate and damped; needs --dt); "
+        f"default {default}",
+    )
+    parser.add_argument(
+        "--dt",
+        type=float,
+        default=None,
+        metavar="US",
+        help="--solver implicit-step: its largest step, µs, each interval between samples cut "
+        "into equal steps no longer (required: no step suits every net and question; 2.5 judged "
+        "cube_net_01 as the adaptive solver does, in KOH and in air; shorter resolves ringing "
+        "better)",
+    )
+    parser.add_argument(
+        "--newton-iterations",
+        type=int,
+        default=None,
+        metavar="N",
+        help=f"--solver implicit-step: Newton iterations per step (default "
+        f"{DEFAULT_NEWTON_ITERATIONS}; more for steps long against an impact)",
+    )
+
+
+def solver_choice(args: argparse.Namespace, t1: float, t1_flag: str) -> dict[str, Any] | None:
+    """`--solver`, `--dt` and `--newton-iterations` checked before anything compiles (a one-line
+    exit otherwise; `t1`, the run or segment length in µs that `t1_flag` sets, bounds `--dt`): what
+    `result.json` records of them (`solver`, and with implicit-step `dt_us` and
+    `newton_iterations`), or `None` without `--solver`. `with_solver` makes it a solve."""
+    fixed = {"--dt": args.dt, "--newton-iterations": args.newton_iterations}
+    given = [flag for flag, value in fixed.items() if value is not None]
+    if args.solver != "implicit-step":
+        if given:
+            fail(
+                f"{' and '.join(given)} set{'s' if len(given) == 1 else ''} the implicit-step "
+                "engine's fixed steps: add --solver implicit-step, or drop "
+                f"{'it' if len(given) == 1 else 'them'} (the adaptive solvers choose their own steps)."
+            )
+        return None if args.solver is None else {"solver": args.solver}
+    if args.dt is None:
+        fail(
+            "--solver implicit-step needs --dt US, its fixed step in µs (e.g. --dt 2.5, which "
+            "judged cube_net_01 as the adaptive solver does; see the guide Simulating: Two engines)."
+        )
+    positive(args.dt, "--dt", "µs")
+    if args.dt > t1:
+        fail(
+            f"--dt {args.dt:g} µs is longer than the run ({t1_flag}: {t1:g} µs): give a step a "
+            "small fraction of it."
+        )
+    iterations = (
+        DEFAULT_NEWTON_ITERATIONS if args.newton_iterations is None else args.newton_iterations
+    )
+    int_range(iterations, "--newton-iterations", 1, 1000)
+    return {"solver": "implicit-step", "dt_us": float(args.dt), "newton_iterations": iterations}
+
+
+def with_solver(options: Any, choice: dict[str, Any] | None, default: str | None = None) -> Any:
+    """The `SolveOptions` `options` with the solver of `choice` (`solver_choice`): unchanged without
+    one, or when it names the command's `default` solver (the solve it runs anyway, so that a sweep
+    store of it resumes whether or not `--solver` named it)."""
+    if choice is None or choice["solver"] == default:
+        return options
+    from ..simulation import named_solver
+
+    fixed = {}
+    if "dt_us" in choice:
+        fixed = {"dt": choice["dt_us"], "newton_iterations": choice["newton_iterations"]}
+    return options.replace(solver=named_solver(choice["solver"], **fixed))
+
+
 def add_contact_sampling_argument(parser: argparse.ArgumentParser) -> None:
     """`--contact {plate,sampled}` and `--contact-sampling RING,RIM` (`contact` and
     `contact_sampling` of `Net.system`; parse the sampling with `contact_sampling`)."""

@@ -2,6 +2,7 @@
 
 import argparse
 import contextlib
+import dataclasses
 import time
 from pathlib import Path
 
@@ -10,8 +11,10 @@ from ._common import (
     EXIT_OK,
     Interrupted,
     OutputFolder,
+    add_solver_arguments,
     fail,
     out_path,
+    solver_choice,
     write_atomic,
 )
 
@@ -28,6 +31,12 @@ another --out. A second sweep on a folder in use by a running one is refused. Ct
 or a kill keep every finished chunk: continue with --resume.
 Exit codes: 0 all designs succeeded, 1 some designs failed (marked in `result`) or the run stopped
 (disk full), 2 bad config or a folder in use, 130 interrupted.
+
+--solver, --dt and --newton-iterations choose the net-fold model's solver (as its config's
+solver, dt and newton_iterations settings do; give them in one place): implicit-step folds every
+design in fixed implicit Euler steps of --dt µs, the same work for every member of a chunk. The
+solver is part of the sweep's settings (sweep.json, sweep.nc's settings): --resume continues with
+the same one only.
 """
 
 
@@ -51,6 +60,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument(
         "--list-models", action="store_true", help="list the models the sweep knows"
     )
+    add_solver_arguments(parser, "the config's, else tsit5 (net-fold model only)")
     parser.set_defaults(func=run)
 
 
@@ -104,6 +114,7 @@ def run(args: argparse.Namespace) -> int:
         config = load_config(args.config, resume_from=Path(args.out) if args.resume else None)
     except (ValueError, OSError) as error:
         fail(f"bad config {args.config}: {error}")
+    config = _with_solver_flags(args, config)
     # The summary and plots describe the dataset: replaced together (the sweep itself decides,
     # through its manifest, that this run may write here). The folder is held for the whole run
     # (the sweep's store borrows its lock): another run into it meanwhile is refused.
@@ -113,6 +124,40 @@ def run(args: argparse.Namespace) -> int:
     )
     with output, chunks_kept_on_interrupt(output.out):
         return _run(args, config, output)
+
+
+_ENGINE_SETTINGS = ("solver", "dt", "newton_iterations")
+
+
+def _with_solver_flags(args: argparse.Namespace, config):
+    """`config` with the net-fold model's solver set by `--solver`, `--dt` and
+    `--newton-iterations` (checked first: one-line exits); unchanged without `--solver`."""
+    if args.solver is None and args.dt is None and args.newton_iterations is None:
+        return config
+    if config.kernel.name != "net-fold":
+        fail(
+            f"--solver, --dt and --newton-iterations choose the net-fold model's solver; "
+            f"{args.config} sweeps {config.kernel.name}."
+        )
+    choice = solver_choice(args, float(config.kernel.settings["t_end_us"]), "the config's t_end")
+    model = {k: v for k, v in config.raw.get("model", {}).items() if k not in ("name", "input")}
+    named = sorted(set(model) & set(_ENGINE_SETTINGS))
+    if named:
+        fail(
+            f"{args.config} sets {', '.join(named)} in [model]: give the solver there or on the "
+            "command line, not both."
+        )
+    assert choice is not None  # --dt or --newton-iterations without --solver already exited
+    engine: dict = {"solver": choice["solver"]}
+    if "dt_us" in choice:
+        engine.update(dt=choice["dt_us"], newton_iterations=choice["newton_iterations"])
+    from ..sweep import get_model
+
+    try:
+        kernel = get_model("net-fold", **model, **engine)
+    except ValueError as error:
+        fail(f"bad config {args.config}: {error}")
+    return dataclasses.replace(config, kernel=kernel)
 
 
 def _run(args: argparse.Namespace, config, output: OutputFolder) -> int:
@@ -138,6 +183,11 @@ def _run(args: argparse.Namespace, config, output: OutputFolder) -> int:
     n, failed = dataset.attrs["n_designs"], dataset.attrs["n_failed"]
     lines = [
         f"model: {config.kernel.name}",
+        *(
+            [f"solver: {config.kernel.settings['solver']}"]
+            if "solver" in (config.kernel.settings or {})
+            else []
+        ),
         f"designs: {n} ({failed} failed), parameters: {', '.join(config.space.names)}",
         f"wall time this run: {elapsed:.1f} s (compilation included)",
         f"  of which compiling {dataset.attrs['compile_s']:.1f} s, computing and storing chunks "

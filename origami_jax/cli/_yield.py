@@ -10,6 +10,7 @@ from ._common import (
     Interrupted,
     OutputFolder,
     add_contact_sampling_argument,
+    add_solver_arguments,
     add_surface_arguments,
     contact_sampling,
     dumps_json,
@@ -19,7 +20,9 @@ from ._common import (
     out_path,
     positive,
     seam_tolerance_value,
+    solver_choice,
     surface_model,
+    with_solver,
     write_atomic,
 )
 from ._panels import check_has_creases, check_panels_thicker_than_film, check_targets
@@ -71,6 +74,12 @@ the folding order (the release scatter is added to them); e.g. for examples/flap
 N again, all together, with the full budget (OUT/stragglers/): the same results, and on a GPU (or
 with --chunk-size on a CPU) less time, since a vmapped chunk steps until its slowest member is done.
 Take a few times the median sample's steps (sweep.nc's num_steps); result.json counts the stragglers.
+
+--solver implicit-step --dt US folds every sample in fixed implicit Euler steps (a fixed count of
+Newton iterations capped by the plates' collision detection): every sample of a vmapped chunk does
+the same work, where the adaptive default (tsit5) steps until its slowest member is done; it takes
+no --rtol or --step-budget. The solver is recorded in result.json and the store; --resume continues
+with the same one only.
 
 --widths 0.5,1,2 also estimates the yield with every scatter width multiplied by each factor (the
 same draws, so the same fabricated nets made more or less carefully; each in OUT/widths/xF/) and
@@ -161,6 +170,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="the solver's relative tolerance (default 1e-7); looser is faster and moves contact "
         "events in time (1e-5: 40 %% fewer steps on cube nets, the same verdicts on 16 of them)",
     )
+    add_solver_arguments(parser, "tsit5, adaptive (the fold kernel's)")
     parser.add_argument(
         "--confidence", type=float, default=0.95, help="level of the interval (default 0.95)"
     )
@@ -282,14 +292,15 @@ def _scatter(args: argparse.Namespace):
         fail(f"bad scatter config {args.scatter}: {error}")
 
 
-def _solve(args: argparse.Namespace, stored=None):
-    """Each sample's solve (--t-end, and --rtol with the defaults' ratio for the absolute
-    tolerance) and the verdict's tolerances (--angle-tolerance, --seam-tolerance; with --resume
-    and no --seam-tolerance the stored run's, `stored`: `_seam_tolerance`)."""
+def _solve(args: argparse.Namespace, choice: dict, stored=None):
+    """Each sample's solve (--t-end; the solver `choice`, `solver_choice`'s record; --rtol with the
+    defaults' ratio for the absolute tolerance) and the verdict's tolerances (--angle-tolerance,
+    --seam-tolerance; with --resume and no --seam-tolerance the stored run's, `stored`:
+    `_seam_tolerance`)."""
     from ..net import FOLD_KERNEL_SOLVE
     from ..simulation import DEFAULT_ATOL, DEFAULT_RTOL, VerdictTolerances
 
-    solve = FOLD_KERNEL_SOLVE.replace(t1=args.t_end)
+    solve = with_solver(FOLD_KERNEL_SOLVE.replace(t1=args.t_end), choice, default="tsit5")
     if args.rtol is not None:
         solve = solve.replace(rtol=float(args.rtol), atol=DEFAULT_ATOL / DEFAULT_RTOL * args.rtol)
     return solve, VerdictTolerances.from_degrees(
@@ -315,7 +326,7 @@ def _load(name: str):
         fail(f"cannot load {name}: {error}")
 
 
-def _run_family(args: argparse.Namespace, members: list[str], sampling) -> int:
+def _run_family(args: argparse.Namespace, members: list[str], sampling, choice: dict) -> int:
     """A family of nets: each net's estimate into OUT/NET/, then the table, the rank
     correlations with compactness and the figure (`origami_jax.fab_yield.family_yield`)."""
     from ..fab_yield import RunOptions, family_yield
@@ -374,7 +385,7 @@ def _run_family(args: argparse.Namespace, members: list[str], sampling) -> int:
     def on_net(name: str, index: int, total: int) -> None:
         print(f"[yield] net {index + 1}/{total}: {name}", flush=True)
 
-    solve, tolerances = _solve(args)
+    solve, tolerances = _solve(args, choice)
     start = time.perf_counter()
     with output:
         try:
@@ -413,6 +424,7 @@ def _run_family(args: argparse.Namespace, members: list[str], sampling) -> int:
             "rtol": args.rtol,
             "contact": args.contact,
             "contact_sampling": list(sampling),
+            **choice,
             **family.to_dict(),
             "wall_s": elapsed,
         }
@@ -431,10 +443,11 @@ def _run_family(args: argparse.Namespace, members: list[str], sampling) -> int:
     return EXIT_OK
 
 
-def _check_resumable(out: Path, factors: list[float]) -> None:
+def _check_resumable(out: Path, factors: list[float], solver: dict) -> None:
     """`--resume` into `out`: its result.json, if any, is a yield estimate's that this run rewrites
     whole (not another command's; not a finished --improve ascent, which cannot be resumed; no
-    --widths factor left out)."""
+    --widths factor left out; the same `solver`, `solver_choice`'s record: the store refuses
+    another too, but a finished estimate is refused here, with the flags it was run with)."""
     import json
 
     path = out / "result.json"
@@ -461,6 +474,23 @@ def _check_resumable(out: Path, factors: list[float]) -> None:
             "result.json holds the yield at those widths, which this run would drop; give them "
             "in --widths."
         )
+    stored_solver = {k: stored[k] for k in _SOLVER_KEYS if k in stored} or {"solver": "tsit5"}
+    if stored_solver != solver:
+        fail(
+            f"cannot resume {out} with {_solver_flags(solver)}: its estimate was run with "
+            f"{_solver_flags(stored_solver)}; resume with the same solver, or choose another --out."
+        )
+
+
+_SOLVER_KEYS = ("solver", "dt_us", "newton_iterations")
+
+
+def _solver_flags(record: dict) -> str:
+    """A solver record (`solver_choice`) as the flags that give it."""
+    flags = f"--solver {record['solver']}"
+    if "dt_us" in record:
+        flags += f" --dt {record['dt_us']:g} --newton-iterations {record['newton_iterations']}"
+    return flags
 
 
 def _seam_tolerance(args: argparse.Namespace, stored) -> float | None:
@@ -600,6 +630,14 @@ def run(args: argparse.Namespace) -> int:
         )
     if args.workers is not None:
         int_range(args.workers, "--workers", 1, 4096)
+    choice = solver_choice(args, args.t_end, "--t-end") or {"solver": "tsit5"}
+    if choice["solver"] == "implicit-step":
+        for flag, value in (("--rtol", args.rtol), ("--step-budget", args.step_budget)):
+            if value is not None:
+                fail(
+                    f"{flag} is for the adaptive solvers; --solver implicit-step takes fixed steps "
+                    "(its accuracy is --dt, every sample the same work): drop it."
+                )
     in_range(args.angle_tolerance, "--angle-tolerance", 0.0, 180.0, what=" degrees")
     if args.seam_tolerance is not None and args.seam_tolerance is not _SEAM_NOT_GIVEN:
         in_range(
@@ -612,7 +650,7 @@ def run(args: argparse.Namespace) -> int:
 
     members = family_names(args.net)
     if members is not None:
-        return _run_family(args, members, sampling)
+        return _run_family(args, members, sampling, choice)
     if (Path(args.out) / FAMILY_OWNS[0]).is_file():
         fail(
             f"{args.out} holds a family of yield estimates ({FAMILY_OWNS[0]}): one net's estimate "
@@ -637,6 +675,11 @@ def run(args: argparse.Namespace) -> int:
         fail(f"--bias must be a pre-fold angle in [0, 1) rad, got {args.bias}.")
     if args.bias and not loops:
         fail(f"--bias pre-folds closed-loop patterns; {args.net} is a net, which starts flat.")
+    if loops and choice["solver"] == "implicit-step":
+        fail(
+            f"{args.net}: --solver implicit-step takes nets (trees of panels): its fixed steps do "
+            "not hold closed loops closed; give tsit5 (the default) or kvaerno5."
+        )
     if loops and (front is not None or args.improve):
         fail(
             f"{args.net} is a crease pattern with closed loops: --etch-front and --improve take "
@@ -683,19 +726,23 @@ def run(args: argparse.Namespace) -> int:
     )
     with output, chunks_kept_on_interrupt(output.out):
         return _run(
-            args, output, pattern, loops, scatter, sampling, factors, release, process, improve
-        )
+            args, output, pattern, loops, scatter, sampling, factors, release, process, improve,
+            choice,
+        )  # fmt: skip
 
 
-def _run(args, output, pattern, loops, scatter, sampling, factors, release, process, improve):
-    """The estimates (and the ascent) into `output.out`, the results staged in `output.dir`."""
+def _run(
+    args, output, pattern, loops, scatter, sampling, factors, release, process, improve, choice
+):
+    """The estimates (and the ascent) into `output.out`, the results staged in `output.dir`;
+    `choice`, the solver (`solver_choice`)."""
     import dataclasses
 
     from ..fab_yield import RunOptions, stored_run_tolerances, yield_estimate
 
     out = output.out
     if args.resume:
-        _check_resumable(out, factors)
+        _check_resumable(out, factors, choice)
     design = pattern.default_design(_fluid(args))
     print(
         f"[yield] {args.net}: {args.samples} samples, seed {args.seed}, scatter "
@@ -706,7 +753,7 @@ def _run(args, output, pattern, loops, scatter, sampling, factors, release, proc
 
     # What every estimate of this run shares: the estimate itself, the other widths, the ascent.
     # The solve's tolerances: --rtol with the defaults' ratio for the absolute one.
-    solve, tolerances = _solve(args, stored_run_tolerances(out))
+    solve, tolerances = _solve(args, choice, stored_run_tolerances(out))
     run = RunOptions(
         resume=args.resume,
         chunk_size=args.chunk_size,
@@ -778,6 +825,7 @@ def _run(args, output, pattern, loops, scatter, sampling, factors, release, proc
         "t_end_us": args.t_end,
         **({"bias_rad": args.bias} if loops else {}),
         "rtol": args.rtol,
+        **choice,
         "contact": args.contact,
         "contact_sampling": list(sampling),
         **estimate.to_dict(),

@@ -9,7 +9,7 @@ verdict and, for targets that are not met, how far off they are and why.
 
 import functools
 from collections.abc import Callable, Mapping, Sequence
-from typing import Any
+from typing import Any, cast
 
 import diffrax
 import equinox as eqx
@@ -25,6 +25,7 @@ from ..simulation import (
     FIT_OPTIONS,
     AbstractInput,
     EtchRamp,
+    ImplicitStep,
     SolveOptions,
     Step,
     response_metrics,
@@ -63,12 +64,18 @@ class SimulationSettings(eqx.Module):
       [`origami_jax.simulation.FIT_OPTIONS`][]: Tsit5, rtol 1e-8, 1201 samples). Rise times, peaks
       and settling must happen well inside `t1`. Its sample count is part of the compiled fit, which
       runs `simulate` under `jit`, where sample counts are not padded. The fit always solves with
-      `throw=False` and `diffrax.ForwardMode()`.
+      `throw=False` and `diffrax.ForwardMode()`. With the fixed-step engine
+      (`solver=ImplicitStep(dt=...)`) the derivatives are those of the discrete map (the implicit
+      function theorem at every step), and its sample times must be evenly spaced (`SaveAt(n=...)`).
+    - `horizon` (static): with the fixed-step engine, `t1` as a number, from which it takes its
+      step count (the fit traces `options`, and with it `options.t1`; a new run length compiles a
+      new fit there); `None` with the adaptive solvers, whose fits a new `t1` does not recompile.
     """
 
     layout: AbstractLayout = eqx.field(static=True)
     inputs: AbstractInput | Callable | None
     options: SolveOptions
+    horizon: float | None = eqx.field(static=True)
 
     def __init__(
         self,
@@ -102,7 +109,13 @@ class SimulationSettings(eqx.Module):
             )
         self.layout = Accordion(int(n_flaps)) if layout is None else layout
         self.inputs = inputs
+        if isinstance(options.solver, ImplicitStep) and saveat.ts is not None:
+            raise ValueError(
+                "ImplicitStep fixes its steps from the sample times, which a fit traces: give "
+                "SaveAt(n=...) (evenly spaced samples), not SaveAt(ts=...)."
+            )
         self.options = options.replace(t1=float(t1))
+        self.horizon = float(t1) if isinstance(options.solver, ImplicitStep) else None
 
     @property
     def n_hinges(self) -> int:
@@ -127,7 +140,14 @@ def response(
     else:
         inputs = settings.inputs(hinge)
     options = settings.options.replace(throw=False, adjoint=diffrax.ForwardMode())
-    trajectory = simulate(system, inputs, options)
+    if isinstance(options.solver, ImplicitStep):
+        # Its step count is fixed from the run length, which must be a known number here, not the
+        # traced `options.t1` (the forward-mode adjoint does not apply: the engine's derivatives
+        # are its own, by the implicit function theorem).
+        horizon = cast(float, settings.horizon)  # set with the engine (`SimulationSettings`)
+        trajectory = simulate(system, inputs, options.replace(t1=None), t1=horizon)
+    else:
+        trajectory = simulate(system, inputs, options)
     return trajectory, response_metrics(trajectory)
 
 

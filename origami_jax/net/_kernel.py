@@ -75,6 +75,15 @@ def surface_settings(pattern) -> dict:
     return recorded
 
 
+CLOSED_LOOPS_NEED_ADAPTIVE = (
+    "a crease pattern with closed loops folds with an adaptive solver (tsit5, kvaerno5): the fixed "
+    "implicit steps (ImplicitStep) do not hold its loops closed."
+)
+"""The one-line refusal of the fixed-step engine for a pattern with closed loops (its closure is a
+constraint of the mechanism's `forward_dynamics`, which the engine's incremental problem does not
+call)."""
+
+
 def fold_kernel(
     pattern,
     *,
@@ -166,6 +175,8 @@ def fold_kernel(
         raise ValueError(
             f"tolerances must be a VerdictTolerances, got {type(tolerances).__name__}."
         )
+    if isinstance(solver, ImplicitStep) and pattern.n_loops > 0:
+        raise ValueError(CLOSED_LOOPS_NEED_ADAPTIVE)
     contact = pattern.contact
     sampling = check_kernel_sampling(contact, pattern.contact_sampling)
     if design is not None and fluid is not None:

@@ -27,8 +27,10 @@ from ._options import FIT_OPTIONS as FIT_OPTIONS
 from ._options import FIT_RTOL as FIT_RTOL
 from ._options import SLOW_RAMP_OPTIONS as SLOW_RAMP_OPTIONS
 from ._options import SLOW_RAMP_WINDOW_OPTIONS as SLOW_RAMP_WINDOW_OPTIONS
+from ._options import SOLVER_NAMES as SOLVER_NAMES
 from ._options import SaveAt as SaveAt
 from ._options import SolveOptions as SolveOptions
+from ._options import named_solver as named_solver
 from ._results import RESULTS as RESULTS
 from ._simulate import Trajectory as Trajectory
 from ._simulate import default_controller as default_controller

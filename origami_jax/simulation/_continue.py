@@ -28,7 +28,7 @@ _STEP_COUNTS = ("num_steps", "num_accepted_steps", "num_rejected_steps")
 def join_trajectories(first: Trajectory, then: Trajectory) -> Trajectory:
     """`first` followed by `then`, a run continued from `first`'s last sample (its first sample is
     that one, and is dropped): samples (and states, where the runs keep them) concatenated, step
-    counts added, the later result code (and the first stiffness switch, if `first` had one). Dense
+    counts added (the fixed-step engine's `newton_error`, the larger), the later result code (and the first stiffness switch, if `first` had one). Dense
     output is not joined: evaluate each run's own."""
     if first.theta.ndim != 2 or then.theta.ndim != 2:
         raise ValueError("join_trajectories joins single runs, not batches.")
@@ -43,6 +43,10 @@ def join_trajectories(first: Trajectory, then: Trajectory) -> Trajectory:
     for key in _STEP_COUNTS:
         if key in first.stats and key in then.stats:
             stats[key] = first.stats[key] + then.stats[key]
+    if "newton_error" in first.stats and "newton_error" in then.stats:
+        # The fixed-step engine's largest Newton update left at the end of a step: of the whole run.
+        errors = (np.asarray(first.stats["newton_error"]), np.asarray(then.stats["newton_error"]))
+        stats["newton_error"] = jax.device_put(np.maximum(*errors))
     if "switch_time" in first.stats and np.isfinite(float(first.stats["switch_time"])):
         stats["switch_time"] = first.stats["switch_time"]
     state = None

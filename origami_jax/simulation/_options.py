@@ -15,6 +15,7 @@ import numpy as np
 from jaxtyping import ArrayLike, Float
 
 from .._validate import is_traced
+from ._implicit import ImplicitStep
 from ._switching import implicit_solver
 
 DEFAULT_RTOL = 1e-7
@@ -136,6 +137,40 @@ class SolveOptions(eqx.Module):
         if value is None or is_traced(value) or np.ndim(value) != 0:
             return value
         return float(np.asarray(value))
+
+
+SOLVER_NAMES = ("tsit5", "kvaerno5", "implicit-step")
+"""The solvers a command line (`--solver`) or a sweep's config (`solver = ...`) names: see
+`named_solver`."""
+
+
+def named_solver(name: str, *, dt: float | None = None, newton_iterations: int | None = None):
+    """The solver called `name` (one of `SOLVER_NAMES`), as `SolveOptions(solver=...)` takes it:
+
+    - `"tsit5"`: `diffrax.Tsit5()`, adaptive explicit Runge–Kutta (order 5);
+    - `"kvaerno5"`: [`origami_jax.simulation.implicit_solver`][], adaptive L-stable ESDIRK, for
+      stiff runs;
+    - `"implicit-step"`: [`origami_jax.simulation.ImplicitStep`][] with the fixed step `dt` (time
+      units; required) and `newton_iterations` (default the engine's, 6).
+
+    **Raises:** `ValueError` for an unknown name, a missing or bad `dt`, or `dt`/`newton_iterations`
+    given with an adaptive solver (which takes no fixed step).
+    """
+    if name not in SOLVER_NAMES:
+        raise ValueError(f"unknown solver {name!r}; the solvers are {', '.join(SOLVER_NAMES)}.")
+    if name != "implicit-step":
+        if dt is not None or newton_iterations is not None:
+            raise ValueError(
+                f"dt and newton_iterations set the implicit-step engine's fixed steps; {name} "
+                "chooses its own steps (drop them, or choose implicit-step)."
+            )
+        return implicit_solver() if name == "kvaerno5" else diffrax.Tsit5()
+    if dt is None:
+        raise ValueError("the implicit-step engine needs dt, its fixed step (time units).")
+    if isinstance(dt, bool) or not isinstance(dt, int | float):
+        raise ValueError(f"dt must be a number (time units), got {dt!r}.")
+    extra = {} if newton_iterations is None else {"newton_iterations": newton_iterations}
+    return ImplicitStep(dt=float(dt), **extra)
 
 
 FIT_RTOL = 1e-8

@@ -624,6 +624,13 @@ def _simulate_implicit(system, inputs, solver, times, q0, v0, *, dense: bool, th
             "ImplicitStep needs a mechanism whose velocities are its coordinates' rates (chains and "
             "panel trees); use the adaptive solvers for this one."
         )
+    if hasattr(mechanism, "closure"):
+        # Closed loops are held by the constraint solve inside `forward_dynamics`, which the
+        # engine's incremental problem (mass matrix and generalized force) does not call.
+        raise ValueError(
+            "ImplicitStep does not hold closed loops closed (a crease pattern with loops): use an "
+            "adaptive solver, e.g. diffrax.Tsit5()."
+        )
     if dense:
         raise ValueError(
             "ImplicitStep has no dense output; ask for samples (SaveAt(n=...) or SaveAt(ts=...))."

@@ -28,7 +28,7 @@ from .._limits import CONTACT_SAMPLING, MAX_SAMPLES
 from ..chain import accordion_step
 from ..loops import load_pattern
 from ..net import FOLD_KERNEL_SOLVE, check_kernel_sampling, fold_kernel
-from ..simulation import DEFAULT_ATOL, DEFAULT_RTOL, SaveAt, VerdictTolerances
+from ..simulation import DEFAULT_ATOL, DEFAULT_RTOL, SaveAt, VerdictTolerances, named_solver
 from ..vertex import DEFAULT_P, RESULTS, DescentSettings, random_vertex
 from ..vertex import unfold_kernel as descend
 
@@ -155,7 +155,9 @@ def net_fold(*, net: str = "cube_net_01", **settings: Any) -> Kernel:
     - the pattern's physics (`Net.with_model`): `contact` (default `True`), `drag` (`"panel"`),
       `hinges` (`"point"`), `contact_sampling` (`(4, 2)`);
     - the solve's: `t_end` (µs, default 1500), `n_save` (301), `rtol`, `atol` (`None`: the
-      simulation's), `max_steps` (200,000);
+      simulation's), `max_steps` (200,000); `solver` (`"tsit5"`, the default, `"kvaerno5"` or
+      `"implicit-step"`: `origami_jax.simulation.named_solver`) with, for `"implicit-step"`, `dt`
+      (µs, its fixed step; required, at most `t_end`) and `newton_iterations` (default 6);
     - the verdict's: `angle_tolerance_deg` (3) and `seam_tolerance` (default `"derived"`: each
       seam's from the angle tolerance and the geometry, `origami_jax.simulation.VerdictTolerances`;
       or a fraction of the largest panel's size, e.g. 0.01, the default before). Resuming a store
@@ -173,6 +175,7 @@ def net_fold(*, net: str = "cube_net_01", **settings: Any) -> Kernel:
         for k in ("t_end", "n_save", "rtol", "atol", "max_steps")
         if k in settings
     }
+    engine = {k: settings.pop(k) for k in ("solver", "dt", "newton_iterations") if k in settings}
     angle = settings.pop("angle_tolerance_deg", 3.0)
     seam = settings.pop("seam_tolerance", None)
     if isinstance(seam, str) and seam.strip().lower() == "derived":
@@ -189,13 +192,23 @@ def net_fold(*, net: str = "cube_net_01", **settings: Any) -> Kernel:
     atol = solve.get("atol")
     rtol = DEFAULT_RTOL if rtol is None else check_setting(rtol, "rtol", low=0.0)
     atol = DEFAULT_ATOL if atol is None else check_setting(atol, "atol", low=0.0)
+    # Tsit5, the kernel's own default, unnamed: a store written without `solver` resumes with it.
+    name = engine.pop("solver", "tsit5")
+    solver = None if name == "tsit5" and not engine else named_solver(name, **engine)
+    if solver is not None and name == "implicit-step" and solver.dt > t_end:
+        raise ValueError(f"dt {solver.dt:g} µs is longer than the run (t_end {t_end:g} µs).")
     tolerances = VerdictTolerances.from_degrees(angle, seam)
     sampling = check_kernel_sampling(model.get("contact", True), sampling)
     pattern = load_pattern(net).with_model(**model, contact_sampling=sampling)
     return fold_kernel(
         pattern,
         solve=FOLD_KERNEL_SOLVE.replace(
-            t1=t_end, saveat=SaveAt(n=n_save), rtol=rtol, atol=atol, max_steps=max_steps
+            t1=t_end,
+            saveat=SaveAt(n=n_save),
+            rtol=rtol,
+            atol=atol,
+            max_steps=max_steps,
+            solver=solver,
         ),
         tolerances=tolerances,
         **settings,
