@@ -252,6 +252,46 @@ def test_bad_hinge_parameters_are_refused_in_one_line(param, message, capsys):
     assert message in err and len(err.strip().splitlines()) == 1 and "Traceback" not in err
 
 
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["--adhesion", "abc"], "--adhesion expects W[,RANGE[,LINE]]"),
+        (["--adhesion", "0.05,1,2,3"], "up to 3 comma-separated numbers"),
+        (["--adhesion", "-0.05"], "Adhesion.work"),
+        (["--adhesion", "0.05", "--no-contact"], "needs contact"),
+        (["--adhesion", "0.05,0.4", "--no-contact"], "need the plate contact"),
+        (["--friction", "0.3", "--contact", "sampled"], "need the plate contact"),
+        (["--friction", "nan"], "--friction expects MU[,SLIP]"),
+        (["--friction", "0.3,-1"], "Friction.slip"),
+    ],
+)
+def test_bad_surface_physics_is_refused_in_one_line(argv, message, capsys, tmp_path):
+    assert main(["fold", "cube_net_01", *argv, "--no-figures", "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert message in err and len(err.strip().splitlines()) == 1 and "Traceback" not in err
+
+
+def test_surface_flags_become_the_patterns_options():
+    # --adhesion W,,LINE: the range defaults to twice the contact's activation gap; SI in, the
+    # design's units (MICRO: J/m² is 1, J/m is 1e6 µN) out; --friction MU: the default slip.
+    import argparse
+
+    from origami_jax.cli._common import DEFAULT_FRICTION_SLIP, surface_model
+
+    net = load_net("cube_net_01")
+    design = net.default_design()
+    args = argparse.Namespace(adhesion="0.05,,2e-8", friction="0.3")
+    options = surface_model(args, net, design)
+    activation = float(net.system(design).contact.activation)
+    assert float(options["adhesion"].work) == pytest.approx(0.05, rel=1e-12)
+    assert float(options["adhesion"].range) == pytest.approx(2 * activation, rel=1e-12)
+    assert float(options["adhesion"].line) == pytest.approx(0.02, rel=1e-12)
+    assert float(options["friction"].coefficient) == 0.3
+    assert float(options["friction"].slip) == pytest.approx(DEFAULT_FRICTION_SLIP, rel=1e-12)
+    none = argparse.Namespace(adhesion=None, friction=None)
+    assert surface_model(none, net, design) == {}
+
+
 def test_a_hinge_parameter_given_per_crease_reaches_each_crease():
     # The hinge-width warning asks for one width per crease: --param takes them in crease order.
     from origami_jax.cli._fold import _design, _params
