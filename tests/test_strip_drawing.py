@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from origami_jax import fold
+from origami_jax.cli import main
 from origami_jax.fold import FoldFormatError
 from origami_jax.net import HINGE_KEY, fillet_layout, load_net, strip_fold
 from origami_jax.net._net import default_design
@@ -262,3 +263,19 @@ def test_a_design_other_than_the_strips_radius_is_refused(cube):
     assert "\n" not in str(refused.value)
     back.system(design, contact=False)
     assert math.isfinite(float(np.max(back.seam_gaps(back.intended_angles))))
+
+
+def test_cli_refuses_strips_drawn_for_another_radius(cube, tmp_path, capsys):
+    """`origami-jax fold FILE --hinges arc` on strips drawn for 1.2 ρ: exit 2, one line, before
+    anything compiles (the run of a well-drawn file is the fold command's own)."""
+    net, design, _, _, _ = cube
+    wide = fillet_layout(
+        net.geometry, net.length_scale, 1.2 * float(design.radius()), net.intended_angles
+    )
+    path = tmp_path / "wide.fold"
+    fold.write_fold(path, strip_fold(net, wide))
+    code = main(["fold", str(path), "--hinges", "arc", "--t1", "10", "--no-figures",
+                 "--out", str(tmp_path / "out")])  # fmt: skip
+    err = capsys.readouterr().err.strip()
+    assert code == 2
+    assert "20 % off" in err and len(err.splitlines()) == 1
