@@ -31,8 +31,10 @@ from .._validate import is_traced
 from ..fold import FoldFile, FoldFormatError, FoldFrame, NetGeometry, net_geometry
 from ._fillet import ArcLayout, _trim, fillet_layout
 
-# The FOLD face property that marks hinge strips (FOLD's custom-property convention: a colon).
 HINGE_KEY = "faces_origami_jax:hinge"
+"""The FOLD face property that marks a net's hinge strips (FOLD's custom properties carry a
+namespace and a colon): per face `false` or `null` (a panel), `true` (a strip folding by the sum of
+its two creases' angles) or the strip's fold angle in degrees (valley +)."""
 # A strip's width and the design's bending radius agree within this fraction of the radius:
 # the drawing is lithography for one radius, and 1 % is a few tenths of a micron on ~100 µm strips.
 STRIP_RADIUS_RTOL = 0.01
