@@ -157,9 +157,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument(
         "--arc-layout",
         choices=("fillet", "drawn"),
-        default="fillet",
+        default=None,
         help="with --hinges arc (nets): panels trimmed for their strips so seams close "
-        "(default), or strips at the drawn creases",
+        "(default), or strips at the drawn creases; a file drawn with its hinge strips "
+        "(faces_origami_jax:hinge) takes them as drawn unless told",
     )
     parser.add_argument("--root", type=int, default=None, help="the fixed face (default: largest)")
     parser.add_argument(
@@ -487,7 +488,11 @@ def _run(args, net, system, params, release, sampling, output, unfolded, *, choi
         contact_sampling=list(sampling),
         drag=args.drag,
         hinges=args.hinges,
-        **({"arc_layout": args.arc_layout} if args.hinges == "arc" and not loops else {}),
+        **(
+            {"arc_layout": _arc_layout_name(args, net)}
+            if args.hinges == "arc" and not loops
+            else {}
+        ),
         **surface_settings(net),
         closed_loops=net.n_loops if loops else 0,
         unfolded_from_folded_form=unfolded,
@@ -533,6 +538,14 @@ def _run(args, net, system, params, release, sampling, output, unfolded, *, choi
         written += _figures(system, trajectory, report, out, net.name, t_max, animation=animation)
     print(f"wrote {output.out}: {', '.join(written)}")
     return EXIT_OK if report.verdict == "folded" else EXIT_FAILED
+
+
+def _arc_layout_name(args, net) -> str:
+    """The arc layout a net's arc hinges took: the one asked for, else the file's hinge strips
+    (`"strips"`) or `"fillet"`."""
+    if args.arc_layout is not None:
+        return args.arc_layout
+    return "fillet" if getattr(net, "drawn_layout", None) is None else "strips"
 
 
 def numbering(net) -> dict[str, list]:

@@ -7,7 +7,9 @@ tree with Featherstone's algorithms in the world frame (CRBA, RNEA, the tree-spa
 ([`origami_jax.net.polygon_plate`][]). Hinges are point creases ([`origami_jax.net.RevoluteJoints`][])
 or bending arcs ([`origami_jax.net.ArcJoints`][]); [`origami_jax.net.StripTree`][] gives the arcs'
 strips their own mass and inertia ([`origami_jax.net.strip_tree`][]); a net laid out for them
-([`origami_jax.net.fillet_layout`][]) trims its panels so that its seams close. Fold angles are valley positive.
+([`origami_jax.net.fillet_layout`][]) trims its panels so that its seams close; a net drawn with its
+hinge strips in FOLD is read as such, and [`origami_jax.net.strip_fold`][] draws one. Fold angles
+are valley positive.
 
 [`origami_jax.net.Net`][] is a pattern ([`origami_jax.system.AbstractPattern`][]) read from FOLD; it
 and the closed-loop crease patterns built on it ([`origami_jax.loops.CreasePattern`][]) share
@@ -52,5 +54,7 @@ from ._plate import Plate as Plate
 from ._plate import polygon_plate as polygon_plate
 from ._strip import StripTree as StripTree
 from ._strip import strip_tree as strip_tree
+from ._strips import HINGE_KEY as HINGE_KEY
+from ._strips import strip_fold as strip_fold
 from ._tree import PanelTree as PanelTree
 from ._tree import panel_tree as panel_tree

@@ -329,8 +329,13 @@ def fold_kernel(
             "contact": contact_kind(contact) or False,
             "drag": pattern.drag,
             "hinges": pattern.hinges,
-            # Arc hinges on nets are laid out as fillets (stores of the drawn layout differ).
-            **({"arc_layout": "fillet"} if layout else {}),
+            # Arc hinges on nets are laid out as fillets (stores of the drawn layout differ), or
+            # as the file draws its hinge strips.
+            **(
+                {"arc_layout": "fillet" if pattern.drawn_layout is None else "strips"}
+                if layout
+                else {}
+            ),
             "angle_tolerance_deg": tolerances.angle_deg,
             # No key: the fixed 0.01 that was the default (stores written then still resume);
             # null: derived (the default now).

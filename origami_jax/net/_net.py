@@ -69,6 +69,7 @@ from ._pattern import (
     with_surface_physics,
 )
 from ._strip import StripTree, strip_tree
+from ._strips import check_strip_radius, drawn_layout, strip_drawing
 from ._tree import PanelTree, panel_tree
 
 # The physics options of a net (`Net.with_model`) and their defaults: `Net.system`'s.
@@ -97,7 +98,10 @@ class Net(AbstractPanelPattern):
     (`with_model`): `contact` (default `True`: the plate model), `drag` (`"panel"`), `hinges`
     (`"point"`), `added_mass`, `viscous` (`False`), `contact_sampling` (`(4, 2)`), `adhesion` and
     `friction` (`None`: off; an `origami_jax.contact.Adhesion` or `Friction` attaches it to the plate
-    contact), as `system` documents them.
+    contact), as `system` documents them. `drawn_layout`: for a net drawn with its hinge strips
+    (`load_net`, the FOLD face property ``faces_origami_jax:hinge``), the strips as drawn (an
+    `ArcLayout`), which its arc systems take unless told otherwise; `None` for a net drawn for
+    point creases.
 
     Hinge ``j`` of the systems it builds is the geometry's crease ``j``; body ``j`` is face
     ``geometry.order[j + 1]``; the root face is the fixed base.
@@ -117,6 +121,7 @@ class Net(AbstractPanelPattern):
     contact_sampling: tuple[int, int] = CONTACT_SAMPLING
     adhesion: Adhesion | None = None
     friction: Friction | None = None
+    drawn_layout: ArcLayout | None = None
 
     MODEL: ClassVar[dict[str, Any]] = NET_MODEL
 
@@ -174,7 +179,7 @@ class Net(AbstractPanelPattern):
         *,
         hinges: str = "point",
         targets: Float[ArrayLike, " m"] | None = None,
-        arc_layout: "str | ArcLayout" = "fillet",
+        arc_layout: "str | ArcLayout | None" = None,
         layout_design: HingeDesign | None = None,
     ) -> PanelTree | StripTree:
         """The panels as a `PanelTree` in the design's units (plates of thickness ``t₁``); with
@@ -182,7 +187,9 @@ class Net(AbstractPanelPattern):
         ``ρ₁t₁ + ρ₂t₂``, width the design's `hinge_width`), laid out by `arc_layout`
         (`system`: `"fillet"`, the panels trimmed and moved for their strips, lengths
         ``ρ|θ|`` of `layout_design`'s ``ρ``; an `ArcLayout` drawn before; or `"drawn"`, strips of
-        length ``ρ |θ_target|`` at the drawn creases)."""
+        length ``ρ |θ_target|`` at the drawn creases; default the net's `drawn_layout`, else
+        `"fillet"`)."""
+        arc_layout = self.default_arc_layout if arc_layout is None else arc_layout
         g = self.geometry
         scale = self.length_scale
         order = np.asarray(g.order)
@@ -227,6 +234,12 @@ class Net(AbstractPanelPattern):
             width=design.hinge_width,
             thickness=design.t_structural + design.t_hinge,
         )
+
+    @property
+    def default_arc_layout(self) -> "str | ArcLayout":
+        """Where arc hinges go unless told: the strips as drawn (`drawn_layout`) for a net drawn
+        with them, else `"fillet"`."""
+        return "fillet" if self.drawn_layout is None else self.drawn_layout
 
     def arc_layout(self, design: HingeDesign, angles: ArrayLike | None = None) -> ArcLayout:
         """The net laid out for bending strips of `design`'s radius ``ρ`` folding to `angles`
@@ -298,10 +311,15 @@ class Net(AbstractPanelPattern):
           creases put it and the seams close (`Net.arc_layout`, docs/physics.md "The hinge is a
           bending arc"); `"drawn"`: the strips start at the drawn creases and each child hangs
           at its strip's end, displaced from the point-crease shape (a cube's seams stay open by
-          ~ρ√2); or an `ArcLayout`.
+          ~ρ√2); or an `ArcLayout`. A net read from a file drawn with its hinge strips
+          (`drawn_layout`) takes them as drawn by default: the panels where the file puts them,
+          each strip as long as it is wide in the file (`"fillet"` and `"drawn"` then lay out the
+          point-crease net the strips fillet).
         - `layout_design`: the design whose radius ``ρ`` draws the fillet layout (lithography: the
           nominal one), with `targets` (the pattern's angles when `targets` is traced); default
-          `design`. A sample whose films bend more or less then folds off the layout's shape.
+          `design`. A sample whose films bend more or less then folds off the layout's shape. For
+          strips drawn in the file, the design they must be drawn for: a radius ``ρ`` off their
+          ``w/|θ|`` by more than 1 % is refused (`ValueError`).
         - `added_mass`, `viscous`: the fluid's inertia on every panel and its viscous drag (strip
           theory across each crease, Sader's hydrodynamic function at each hinge's frequency;
           `origami_jax.fluid.fluid_loads`, docs/physics.md "The fluid moves with the flap"); off by
@@ -317,7 +335,7 @@ class Net(AbstractPanelPattern):
         (`PlateContact.with_surface`).
         """
         contact = self.contact if contact is None else contact
-        arc_layout = "fillet" if arc_layout is None else arc_layout
+        arc_layout = self.default_arc_layout if arc_layout is None else arc_layout
         drag = self.drag if drag is None else drag
         hinges = self.hinges if hinges is None else hinges
         added_mass = self.added_mass if added_mass is None else added_mass
@@ -354,6 +372,9 @@ class Net(AbstractPanelPattern):
                     layout_design or design, None if is_traced(targets) else targets
                 )
             )
+        if hinges == "arc" and layout is self.drawn_layout:
+            # The strips' widths are the file's: the (nominal) design must bend to their radius.
+            check_strip_radius(layout, layout_design or design, self.name)
         if isinstance(layout, ArcLayout):  # kept: the seam gaps find it (`_layout_of`)
             self.host_cache.get(("kept", id(layout)), lambda: layout)
         tree = self.tree(design, hinges=hinges, targets=targets, arc_layout=layout)
@@ -664,14 +685,22 @@ def load_net(
     `name`: a label (default the catalogue name or file stem). A folded form (a file without its
     flat frame) is read as the net it unfolds to (`origami_jax.fold.unfold_folded_form`).
 
+    A file drawn with its hinge strips (faces marked by the FOLD face property
+    ``faces_origami_jax:hinge``: docs, "FOLD files in and out") is read as the panels joined by
+    arc hinges of the strips' widths (`origami_jax.net.strip_fold` writes one): its geometry is the
+    point-crease net the strips fillet, its `drawn_layout` the strips as drawn, `root` a face id
+    of the file.
+
     **Raises:** `FoldFormatError` for a file that is not a net (closed loops, disconnected or
-    overlapping faces, a crease without a target); `ValueError` for a unitless file without
-    `length_scale`.
+    overlapping faces, a crease without a target) or whose hinge strips are malformed (a strip
+    between other than two panels, bending both ways, panels that do not meet across it);
+    `ValueError` for a unitless file without `length_scale`.
     """
     check_loader_arguments(root, length_scale)
     units = MICRO if units is None else units
     label = name
     key = None
+    drawing = None
     if isinstance(net, NetGeometry):
         geometry = net
     else:
@@ -680,6 +709,9 @@ def load_net(
         else:
             path, label = source_and_label(net, label)
             fold = read_fold(path)
+        drawing = strip_drawing(fold, root=root)
+        if drawing is not None:
+            fold, root = FoldFile(frames=(drawing.key_frame,)), drawing.geometry.root
         fold = flat_fold(fold, root=root)
         geometry = net_geometry(fold, root=root)
         key = fold.frame(0)
@@ -694,7 +726,8 @@ def load_net(
         key, crease_edges = key_frame(geometry, label)
     else:
         crease_edges = tuple(tuple(int(e) for e in edges) for edges in geometry.crease_edges)
-    return Net(geometry, label, float(length_scale), key, crease_edges)
+    layout = None if drawing is None else drawn_layout(drawing, float(length_scale))
+    return Net(geometry, label, float(length_scale), key, crease_edges, drawn_layout=layout)
 
 
 def NetLayout(net: Net, **options) -> Net:  # noqa: N802 (the former layout class)
