@@ -19,6 +19,7 @@ HEAVY = {
     "interactive_view.ipynb",
     "single_vertex_unfolding.ipynb",
     "cube_net_yield.ipynb",
+    "device_physics.ipynb",
 }
 # Notebooks whose cells run longer than CELL_TIMEOUT_S: the yield study compiles eleven nets;
 # `compare_models` in paper_vs_extended compiles the extended model for the steps and for the ramp
