@@ -526,20 +526,36 @@ def test_surface_physics_is_off_by_default_and_zero_parameters_change_nothing():
 # ---- through the pattern ----
 
 
+def test_a_pattern_records_its_adhesion_and_friction_and_hands_them_on():
+    # Cheap (no compilation): the options reach the system's plate contact, with the host's
+    # surface tables; stores record them only when on (a store written without them resumes).
+    from origami_jax.net import fold_kernel
+
+    adhesion, friction = Adhesion(work=0.05, range=0.4, line=0.02), Friction(0.3, 0.01)
+    net = load_net("cube_net_01", length_scale=0.5)
+    sticky = net.with_model(adhesion=adhesion, friction=friction)
+    assert sticky.adhesion is adhesion and net.adhesion is None
+    contact = sticky.system().contact
+    assert contact.friction is friction and contact.adhesion is adhesion
+    assert contact.surface is not None and net.system().contact.surface is None
+    settings = fold_kernel(sticky).settings
+    assert settings["adhesion"] == {"work": 0.05, "range": 0.4, "line": 0.02, "samples": 3}
+    assert settings["friction"] == {"coefficient": 0.3, "slip": 0.01}
+    assert "adhesion" not in fold_kernel(net).settings
+
+
+@pytest.mark.slow  # ~10 s: the contact potential compiled for three systems
 def test_a_pattern_carries_its_adhesion_and_friction_into_its_systems():
     # The pattern's options reach its systems' plate contact: the closed cube's seams bond with
-    # −7 γ L, as when attached by hand (above); friction is attached as given; a traced design
-    # (a sweep's, a fit's) still gets the host's surface tables; stores record both.
+    # −7 γ L, as when attached by hand (above); a traced design (a sweep's, a fit's) still gets
+    # the host's surface tables; a crease pattern's options reach its contact too.
     from origami_jax.loops import load_pattern
-    from origami_jax.net import fold_kernel
 
     gamma, side = 0.02, 100.0
     adhesion, friction = Adhesion(work=0.05, range=0.4, line=gamma), Friction(0.3, 0.01)
     net = load_net("cube_net_01", length_scale=0.5)
     sticky = net.with_model(adhesion=adhesion, friction=friction)
-    assert sticky.adhesion is adhesion and net.adhesion is None
     system, bare = sticky.system(), net.system()
-    assert system.contact.friction is friction
     closed = jnp.asarray(net.intended_angles)
     bonded = _potential(system.contact, system.mechanism, closed)
     energy = float(bonded - _potential(bare.contact, bare.mechanism, closed))
@@ -554,13 +570,7 @@ def test_a_pattern_carries_its_adhesion_and_friction_into_its_systems():
         return traced_system.contact.potential(traced_system.mechanism, closed)
 
     assert float(traced(nominal.t_structural)) == pytest.approx(float(bonded), rel=1e-12)
-
-    settings = fold_kernel(sticky).settings
-    assert settings["adhesion"] == {"work": 0.05, "range": 0.4, "line": gamma, "samples": 3}
-    assert settings["friction"] == {"coefficient": 0.3, "slip": 0.01}
-    assert "adhesion" not in fold_kernel(net).settings  # stores written without it still resume
-
-    loops = load_pattern("waterbomb_base").with_model(friction=friction)
+    loops = load_pattern("vertex_degree4").with_model(friction=friction, check_rigid=False)
     assert loops.system().contact.friction is friction
 
 

@@ -86,6 +86,7 @@ def test_strip_file_reads_back_as_the_cube_net_and_its_fillet_layout(cube):
         )
 
 
+@pytest.mark.slow  # ~10 s: two arc systems' kinematics compiled
 def test_strip_net_arc_system_is_the_fillet_system_and_closes(cube):
     """Its arc system (the strips as drawn, by default) folds to the targets with every seam
     closed to round-off; its panels (rest frames, outlines, base) and strips (hinge points,
