@@ -8,7 +8,8 @@ there. Ours in fixed implicit Euler steps of 2.5 µs (`ImplicitStep(dt=2.5)`, it
 iterations, halvings and collision chords: 600 steps), beside the adaptive default of `bench_net`
 (explicit Tsit5 at the default tolerances) on the same nets:
 
-- one step, compiled, from a state in contact (the folding's state at 300 µs), ms per step;
+- one step, compiled, from the fold's state at 300 µs (mid-fold, before the panels meet: a
+  step's work is fixed but for the collision check's loop), ms per step;
 - one fold, warm, ours fixed steps against ours adaptive (compile apart, in `compile_s`);
 - the batch: nets/s of the fixed steps (`jax.vmap`) against MuJoCo over the same nets on two
   threads, and of the adaptive engine over the same nets.
@@ -38,7 +39,7 @@ from ._mujoco_tree import release_controls
 DT = 2.5  # µs: the fixed step the docs use for cube nets
 T1 = bench_net.T1
 N_SAVE = bench_net.N_SAVE
-CONTACT_STATE_US = 300.0  # the per-step row's state: panels meeting (the fold is under way)
+CONTACT_STATE_US = 300.0  # the per-step row's state: mid-fold
 
 
 def _fixed(system, dt=DT):
