@@ -20,7 +20,12 @@ from scipy.optimize import linprog, minimize
 
 import origami_jax.simulation as sim
 from origami_jax.contact import PlateContact, additive_ccd, overlap_depth
-from origami_jax.contact._primitives import point_polygon_sq, polygon_normal, segment_segment_sq
+from origami_jax.contact._primitives import (
+    additive_ccd_groups,
+    point_polygon_sq,
+    polygon_normal,
+    segment_segment_sq,
+)
 from origami_jax.net import load_net
 from origami_jax.system import HingeDrag
 
@@ -201,6 +206,30 @@ def test_ccd_bounds_the_time_of_impact_from_below():
         jnp.array([0.05]),
     )  # fmt: skip
     assert 0.2 < float(toi[0]) <= 0.45
+
+
+def test_grouped_ccd_gives_each_pair_its_own_time_of_impact():
+    # Random vertex–face and edge–edge pairs, some moving into contact, some clear, some already
+    # within ξ: one loop over both groups (`additive_ccd_groups`, what `PlateContact` runs) gives
+    # each pair the time `additive_ccd` gives its group alone, to the last bit but rounding (the
+    # pairs advance independently; only the loop's length is shared).
+    rng = np.random.default_rng(3)
+    square = jnp.asarray(np.broadcast_to(_square(), (40, 4, 3)))
+    point = jnp.asarray(rng.uniform(-0.5, 1.5, (40, 3)))
+    fall = jnp.asarray(rng.normal(0, 1.5, (40, 3)))
+    ends = [jnp.asarray(rng.normal(0, 1, (30, 3))) for _ in range(4)]
+    moves = [jnp.asarray(rng.normal(0, 1, (30, 3))) for _ in range(4)]
+
+    def vertex_face(p, poly):
+        return point_polygon_sq(p, poly, polygon_normal(poly))
+
+    vf = (vertex_face, (point, square), (fall, 0.3 * fall[:, None] + 0 * square), jnp.full(40, 0.1))
+    ee = (segment_segment_sq, tuple(ends), tuple(moves), jnp.full(30, 0.05))
+    alone = jnp.concatenate([additive_ccd(*vf), additive_ccd(*ee)])
+    together = additive_ccd_groups([vf, ee])
+    hits = np.isfinite(np.asarray(alone)) & (np.asarray(alone) > 0)
+    assert 5 < hits.sum() < 65  # the draw has impacts, clear pairs and pairs within ξ
+    np.testing.assert_allclose(together, alone, rtol=1e-12, atol=0)
 
 
 # ---- the model: forces from the energy, exact reports ----

@@ -70,7 +70,7 @@ from ._barrier import (
 from ._plate_geometry import plate_overlaps, plate_tables_for, plate_vertices
 from ._plate_tables import PlateTables
 from ._primitives import (
-    additive_ccd,
+    additive_ccd_groups,
     closest_on_segments,
     overlap_depth,
     point_polygon_sq,
@@ -388,7 +388,7 @@ class PlateContact(AbstractContact):
         vertices `x0` and `x1`; pairs already closer than ``ξ`` at `x0` get ``inf`` (the barrier
         pushes them apart; a step cannot be refused for them)."""
         half_vf, half_ee = self._half_sums(x0.dtype)
-        times = []
+        groups = []
         for points, distance_sq, half in (
             (
                 self._vertex_face_points,
@@ -400,14 +400,13 @@ class PlateContact(AbstractContact):
             if not len(half):
                 continue
             start, end = points(x0), points(x1)
-            toi = additive_ccd(
-                distance_sq,
-                start,
-                tuple(e - s for s, e in zip(start, end, strict=True)),
-                _CCD_SEPARATION * half,
-            )
-            times.append(jnp.where(toi > 0, toi, jnp.inf))
-        return jnp.concatenate(times) if times else jnp.full((0,), jnp.inf, x0.dtype)
+            motion = tuple(e - s for s, e in zip(start, end, strict=True))
+            groups.append((distance_sq, start, motion, _CCD_SEPARATION * half))
+        if not groups:
+            return jnp.full((0,), jnp.inf, x0.dtype)
+        # Both kinds of pairs in one loop (`additive_ccd_groups`): each pair's answer is its own.
+        toi = additive_ccd_groups(groups)
+        return jnp.where(toi > 0, toi, jnp.inf)
 
     def crossed(self, mechanism, q0, q1) -> Array:
         """Whether the straight path of every vertex from ``q0`` to ``q1`` brings a primitive pair

@@ -17,6 +17,7 @@ distance is positive (squared distances: no square root at zero).
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, Float
 
 
@@ -221,20 +222,52 @@ def additive_ccd(
 
     The bound: with the mean displacement removed, no point moves further than ``l_p`` (the largest
     displacement of each primitive, added), so over ``Δt`` the distance shrinks at most ``l_p Δt``;
-    each advance is a fraction of the distance left above ``ξ`` over ``l_p``.
+    each advance is a fraction of the distance left above ``ξ`` over ``l_p``. Several kinds of
+    primitive pairs at once: `additive_ccd_groups`.
     """
-    points = [x.reshape(x.shape[0], -1, 3) for x in start]
-    moves = [m.reshape(m.shape[0], -1, 3) for m in motion]
-    mean = jnp.mean(jnp.concatenate(moves, axis=1), axis=1, keepdims=True)
-    moves = [m - mean for m in moves]
-    reach = sum(jnp.max(jnp.linalg.norm(m, axis=-1), axis=-1) for m in moves)  # l_p, (k,)
+    return additive_ccd_groups(
+        [(distance_sq, start, motion, separation)],
+        conservative=conservative,
+        max_iterations=max_iterations,
+    )
+
+
+def additive_ccd_groups(
+    groups, *, conservative: float = 0.1, max_iterations: int = 64
+) -> Float[Array, " k"]:
+    """`additive_ccd` of several groups of primitive pairs (each ``(distance_sq, start, motion,
+    separation)`` as its arguments; e.g. vertex–face and edge–edge pairs) in one loop, their times
+    of impact concatenated in order: each pair's answer is the one `additive_ccd` gives it alone
+    (every pair advances on its own; the loop runs until the slowest is done), at the cost of one
+    loop rather than one per group.
+
+    A pair whose first advance already passes the end of the step (clear over the whole step by the
+    bound) gets ``inf`` without iterating; when every pair is clear the loop does not run."""
+    shapes, reaches, points_all, moves_all, separations = [], [], [], [], []
+    for _, start, motion, separation in groups:
+        points = [x.reshape(x.shape[0], -1, 3) for x in start]
+        moves = [m.reshape(m.shape[0], -1, 3) for m in motion]
+        mean = jnp.mean(jnp.concatenate(moves, axis=1), axis=1, keepdims=True)
+        moves = [m - mean for m in moves]
+        reaches.append(sum(jnp.max(jnp.linalg.norm(m, axis=-1), axis=-1) for m in moves))
+        shapes.append([x.shape for x in start])
+        points_all.append(points)
+        moves_all.append(moves)
+        separations.append(separation)
+    reach = jnp.concatenate(reaches)  # l_p, (k,)
+    separation = jnp.concatenate(separations)
+    sizes = np.cumsum([0] + [len(r) for r in reaches])
 
     def clearance(t):
-        positions = [
-            (x + t[:, None, None] * m).reshape(s.shape)
-            for x, m, s in zip(points, moves, start, strict=True)
-        ]
-        d_sq = distance_sq(*positions)
+        gaps = []
+        for g, (distance_sq, *_) in enumerate(groups):
+            tg = t[sizes[g] : sizes[g + 1]]
+            positions = [
+                (x + tg[:, None, None] * m).reshape(shape)
+                for x, m, shape in zip(points_all[g], moves_all[g], shapes[g], strict=True)
+            ]
+            gaps.append(distance_sq(*positions))
+        d_sq = jnp.concatenate(gaps)
         d = jnp.sqrt(jnp.maximum(d_sq, 0.0))
         return (d_sq - separation**2) / (d + separation)  # d − ξ, written as IPC's code does
 
@@ -259,11 +292,14 @@ def additive_ccd(
         return toi, advance, active & ~hit & ~done, iteration + 1
 
     initial_advance = (1 - conservative) * jnp.maximum(first, 0.0) / safe_reach
-    active = moving & ~already
+    # Clear over the whole step: the first advance ends past it, where the bound keeps the gap
+    # above the target (a hit there, by rounding, would report t = 0, which counts as clear too).
+    clear = initial_advance > 1.0
+    active = moving & ~already & ~clear
     t, _, still, _ = jax.lax.while_loop(
         cond, body, (jnp.zeros_like(separation), initial_advance, active, jnp.asarray(0))
     )
     # Stopped on an impact: t; ran past the step: inf; undecided after the cap: t (conservative).
     finished = ~still & (t > 1.0)
-    toi = jnp.where(already, 0.0, jnp.where(~moving | finished, jnp.inf, t))
+    toi = jnp.where(already, 0.0, jnp.where(~moving | finished | clear, jnp.inf, t))
     return toi

@@ -14,7 +14,7 @@ scheme is first-order accurate and dissipative (backward Euler damps oscillation
 about ``2π² (h/T)²`` of their energy per period, more as ``h/T`` grows).
 
 **Newton.** A fixed number of Newton iterations (`ImplicitStep.newton_iterations`) from the
-predictor ``q_n + h v_n``, the Jacobian by forward-mode differentiation of ``r`` (`jax.jacfwd`; the
+predictor ``q_n + h v_n``, the Jacobian by forward-mode differentiation of ``r`` (`_jacobian`; the
 mechanism's ``n`` coordinates, a few to a few tens). Each update is capped, as in IPC, by the
 contact's continuous collision detection: the largest step moves no coordinate more than
 `ImplicitStep.max_update` and is ``0.9`` of the fraction of the path that stays clear, checked on a
@@ -129,6 +129,31 @@ def _residual_from_start(system, inputs, t_next, h, q_n, v_n, q):
     return _residual(system, inputs, t_next, h, q_n, v_n, mass, bias, q)
 
 
+def _jacobian(residual, q):
+    """``(∂r/∂q, r(q))``: one linearisation of `residual` at `q`, applied to the unit vectors one
+    after another (`jax.lax.map`). The same columns as `jax.jacfwd`, which pushes the unit vectors
+    through together: on a CPU that batched pass through the contact force's own linearisation and
+    transpose costs 3–4× the sequential one (cube net, 253 primitive pairs: 9.5 against 2.9 ms)."""
+    r, tangent = jax.linearize(residual, q)
+    columns = jax.lax.map(tangent, jnp.eye(q.shape[0], dtype=q.dtype))
+    return columns.T, r
+
+
+def _all_trials(merit, q, dq, longest, m0, halvings: int):
+    """The line search of `_step` with its `halvings` trials ``α_j = longest / 2^j`` evaluated
+    together (one vectorised merit over the trials rather than one after another: on a CPU a
+    residual of a few hundred contact pairs costs its operations' dispatch more than its
+    arithmetic, so `halvings` trials in one pass cost little more than one). The choice is the
+    sequential one's: the first ``α_j`` with Armijo's decrease, else the one of least merit below
+    ``m0`` (the earliest of equals), else 0."""
+    alphas = longest * 0.5 ** jnp.arange(halvings, dtype=q.dtype)
+    merits = jax.vmap(lambda a: merit(q + a * dq))(alphas)
+    armijo = merits <= (1 - 2 * _ARMIJO * alphas) * m0
+    least = jnp.argmin(merits)
+    best = jnp.where(merits[least] < m0, alphas[least], 0.0)
+    return jnp.where(jnp.any(armijo), alphas[jnp.argmax(armijo)], best)
+
+
 def _step(system: FoldingSystem, inputs: AbstractInput, solver: ImplicitStep, t_next, h, q_n, v_n):
     """One step from ``(q_n, v_n)`` to ``t_next = t_n + h``: ``(q, v, newton_error)``."""
     mechanism = system.mechanism
@@ -140,8 +165,7 @@ def _step(system: FoldingSystem, inputs: AbstractInput, solver: ImplicitStep, t_
     bias = mechanism.bias_force(s_q, s_v)
 
     def residual(q):
-        r = _residual(s_system, s_inputs, t_next, s_h, s_q, s_v, mass, bias, q)
-        return r, r
+        return _residual(s_system, s_inputs, t_next, s_h, s_q, s_v, mass, bias, q)
 
     def largest_step(q, dq):
         """The line search's longest trial: no coordinate moving more than `max_update`, and 0.9 of
@@ -161,12 +185,12 @@ def _step(system: FoldingSystem, inputs: AbstractInput, solver: ImplicitStep, t_
         return alpha * jnp.where(clear >= 1, 1.0, _TOI_FRACTION * clear)
 
     def merit(q):
-        r = residual(q)[0]
+        r = residual(q)
         m = r @ r
         return jnp.where(jnp.isfinite(m), m, jnp.inf)
 
     def newton(q):
-        jac, r = jax.jacfwd(residual, has_aux=True)(q)
+        jac, r = _jacobian(residual, q)
         dq = -jnp.linalg.solve(jac, r)
         dq = jnp.where(jnp.all(jnp.isfinite(dq)), dq, 0.0)
         m0 = r @ r
@@ -180,16 +204,15 @@ def _step(system: FoldingSystem, inputs: AbstractInput, solver: ImplicitStep, t_
             best = jnp.where(better, alpha, best)
             return j + 1, 0.5 * alpha, first, best, jnp.minimum(m, best_m)
 
-        zero = jnp.zeros((), q.dtype)
-        start = (0, largest_step(q, dq), jnp.full((), jnp.nan, q.dtype), zero, m0)
+        longest = largest_step(q, dq)
         if solver.early_exit:
+            zero = jnp.zeros((), q.dtype)
+            start = (0, longest, jnp.full((), jnp.nan, q.dtype), zero, m0)
             searching = lambda c: (c[0] < solver.halvings) & jnp.isnan(c[2])  # noqa: E731
             _, _, first, best, _ = jax.lax.while_loop(searching, trial, start)
+            alpha = jnp.where(jnp.isnan(first), best, first)
         else:
-            _, _, first, best, _ = jax.lax.fori_loop(
-                0, solver.halvings, lambda _, c: trial(c), start
-            )
-        alpha = jnp.where(jnp.isnan(first), best, first)
+            alpha = _all_trials(merit, q, dq, longest, m0, solver.halvings)
         return q + alpha * dq, jnp.max(jnp.abs(alpha * dq))
 
     # The predictor, capped like an update (q_n is clear of contact).
@@ -206,7 +229,7 @@ def _step(system: FoldingSystem, inputs: AbstractInput, solver: ImplicitStep, t_
         _, q, _ = jax.lax.while_loop(iterating, iterate, (0, q, jnp.full((), jnp.inf, q.dtype)))
     else:
         q = jax.lax.fori_loop(0, solver.newton_iterations, lambda _, q: newton(q)[0], q)
-    jac, r = jax.jacfwd(residual, has_aux=True)(q)
+    jac, r = _jacobian(residual, q)
     jac = jax.lax.stop_gradient(jac)
     error = jnp.max(jnp.abs(jnp.linalg.solve(jac, r)))
     q = jax.lax.stop_gradient(q)

@@ -1,0 +1,213 @@
+"""The fixed-step engine (`ImplicitStep`) on a cube net with contact: one step, one fold, a batch.
+
+The net and the peer are those of `bench_net`: `cube_net_01` (six 200 µm SiNx squares, literature
+bilayer hinges, KOH solution, the exact plate contact `PlateContact`), folded from flat by a step
+release to 1500 µs and checked to close the cube; the scattered batch (±10 % stiffness per crease,
+release times over 20 µs) and MuJoCo (C, `mujoco.rollout` over one model per net, two threads) as
+there. Ours in fixed implicit Euler steps of 2.5 µs (`ImplicitStep(dt=2.5)`, its default Newton
+iterations, halvings and collision chords: 600 steps), beside the adaptive default of `bench_net`
+(explicit Tsit5 at the default tolerances) on the same nets:
+
+- one step, compiled, from the fold's state at 300 µs (mid-fold, before the panels meet: a
+  step's work is fixed but for the collision check's loop), ms per step;
+- one fold, warm, ours fixed steps against ours adaptive (compile apart, in `compile_s`);
+- the batch: nets/s of the fixed steps (`jax.vmap`) against MuJoCo over the same nets on two
+  threads, and of the adaptive engine over the same nets.
+
+Every batch's members are checked to close the cube before they are timed; each fold's verdict is
+the net's (`Net.assess`).
+
+Run: ``python -m benchmarks --only engine`` (``--quick``: a batch of 4, one repeat).
+"""
+
+import time
+
+import diffrax
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+import origami_jax.simulation as sim
+from origami_jax.net import load_net
+from origami_jax.simulation import _implicit
+from origami_jax.system import KOH_SOLUTION, HingeDesign
+
+from . import bench_net
+from ._harness import Result, time_calls
+from ._mujoco_tree import release_controls
+
+DT = 2.5  # µs: the fixed step the docs use for cube nets
+T1 = bench_net.T1
+N_SAVE = bench_net.N_SAVE
+CONTACT_STATE_US = 300.0  # the per-step row's state: mid-fold
+
+
+def _fixed(system, dt=DT):
+    return sim.simulate(
+        system,
+        sim.Step(),
+        sim.SolveOptions(saveat=sim.SaveAt(n=N_SAVE), solver=sim.ImplicitStep(dt=dt)),
+        t1=T1,
+    )
+
+
+def _adaptive(system):
+    return sim.simulate(
+        system,
+        sim.Step(),
+        sim.SolveOptions(
+            saveat=sim.SaveAt(n=N_SAVE), solver=diffrax.Tsit5(), max_steps=200_000, throw=False
+        ),
+        t1=T1,
+    )
+
+
+def _progress(message: str) -> None:
+    print(f"[engine {time.strftime('%H:%M:%S')}] {message}", flush=True)
+
+
+def _compiled(fn, *args):
+    start = time.perf_counter()
+    compiled = jax.jit(fn).lower(*args).compile()
+    return compiled, time.perf_counter() - start
+
+
+def run(quick: bool) -> list[Result]:
+    jax.config.update("jax_enable_x64", True)
+    repeats = 1 if quick else 3
+    batch = 4 if quick else 16
+    net = load_net(bench_net.NET)
+    design = HingeDesign.literature(fluid=KOH_SOLUTION)
+    system = net.system(design, contact="plate")
+    targets = np.asarray(system.hinges.target)
+    contact = system.contact
+    rows: list[Result] = []
+
+    # One fold, fixed steps and adaptive.
+    _progress("compiling one fold, fixed steps")
+    fixed, fixed_compile = _compiled(_fixed, system)
+    _progress("compiling one fold, adaptive")
+    adaptive, adaptive_compile = _compiled(_adaptive, system)
+    folds = {}
+    for name, solve in (("fixed", fixed), ("adaptive", adaptive)):
+        trajectory = solve(system)
+        report = net.assess(system, trajectory)
+        if report.verdict != "folded":
+            raise AssertionError(f"ours ({name} steps): {report.summary()}")
+        bench_net._check(f"ours ({name})", net, np.asarray(trajectory.theta[-1])[None], targets)
+        folds[name] = trajectory
+    steps = int(folds["fixed"].stats["num_steps"])
+    adaptive_steps = int(folds["adaptive"].stats["num_steps"])
+    fixed_time = time_calls(lambda: fixed(system).theta, repeats=repeats, warmup=0)
+    adaptive_time = time_calls(lambda: adaptive(system).theta, repeats=repeats, warmup=0)
+    difference = float(
+        np.max(
+            np.abs(np.asarray(folds["fixed"].theta[-1]) - np.asarray(folds["adaptive"].theta[-1]))
+        )
+    )
+    rows.append(
+        Result(
+            name=f"{bench_net.NET} (plate contact) one fold to {T1:g} us: ImplicitStep dt {DT:g} us "
+            f"vs adaptive Tsit5",
+            ours=fixed_time,
+            peer_name="ours, adaptive Tsit5 at the default tolerances",
+            peer=adaptive_time,
+            compile_s=fixed_compile,
+            max_abs_difference=difference,
+            notes=(
+                f"warm; fixed: {steps} steps, newton_error "
+                f"{float(folds['fixed'].stats['newton_error']):.1e} rad; adaptive: {adaptive_steps} "
+                f"steps, compile {adaptive_compile:.1f} s; both fold the cube (final angles compared)"
+            ),
+            extra={
+                "fixed_steps": steps,
+                "adaptive_steps": adaptive_steps,
+                "adaptive_compile_s": adaptive_compile,
+                "fixed_ms_per_step": 1e3 * fixed_time.median / steps,
+            },
+        )
+    )
+    print(rows[-1].line(), flush=True)
+
+    # One step from a state in contact.
+    index = int(round(CONTACT_STATE_US / T1 * (N_SAVE - 1)))
+    q, v = folds["fixed"].theta[index], folds["fixed"].theta_dot[index]
+    solver = sim.ImplicitStep(dt=DT)
+    step_fn = jax.jit(
+        lambda q, v: _implicit._step(system, sim.Step(), solver, CONTACT_STATE_US + DT, DT, q, v)
+    )
+    one_step = time_calls(lambda: step_fn(q, v)[0], repeats=max(repeats, 5) * 4, warmup=1)
+    report = contact.report(system.mechanism, q)
+    rows.append(
+        Result(
+            name=f"{bench_net.NET} (plate contact) one ImplicitStep step (dt {DT:g} us), compiled",
+            ours=one_step,
+            notes=(
+                f"from the fold's state at {CONTACT_STATE_US:g} us ({int(report['engaged'])} primitive "
+                f"pairs engaged of {contact.tables.n_primitives}); {solver.newton_iterations} Newton "
+                f"iterations, {solver.halvings} trials per line search, {solver.ccd_pieces} "
+                "collision chords"
+            ),
+            extra={"primitive_pairs": contact.tables.n_primitives},
+        )
+    )
+    print(rows[-1].line(), flush=True)
+
+    # A scattered batch: fixed steps, adaptive, and MuJoCo over the same nets.
+    m = net.n_creases
+    factor, release = bench_net.scattered_draws(batch, m)
+    args = (jnp.asarray(factor), jnp.asarray(release))
+
+    def fixed_member(f, r):
+        return _fixed(bench_net._scattered(system, f, r)).theta[-1]
+
+    def adaptive_member(f, r):
+        return _adaptive(bench_net._scattered(system, f, r)).theta[-1]
+
+    per_net = {}
+    compile_s = {}
+    for name, member in (("fixed", fixed_member), ("adaptive", adaptive_member)):
+        _progress(f"compiling a batch of {batch}, {name}")
+        batched, compile_s[name] = _compiled(jax.vmap(member), *args)
+        bench_net._check(f"ours (batch, {name})", net, np.asarray(batched(*args)), targets)
+        per_net[name] = time_calls(lambda b=batched: b(*args), repeats=repeats, warmup=0)
+    _progress(f"MuJoCo over the batch of {batch}")
+    dt_mj, nstep = bench_net.mujoco_step(system)
+    models = bench_net.scattered_mujoco(system, design, dt_mj, factor)
+    controls = release_controls(release, nstep, dt_mj)
+    bench_net._check(
+        "MuJoCo (batch)",
+        net,
+        bench_net._mujoco_final(models, controls, bench_net._datas(models[0], 2)),
+        targets,
+    )
+    mujoco = bench_net.mujoco_batch_seconds(models, controls, 2, repeats=repeats)
+    for name, label in (("fixed", f"ImplicitStep dt {DT:g} us"), ("adaptive", "adaptive Tsit5")):
+        timing = per_net[name]
+        rows.append(
+            Result(
+                name=f"{bench_net.NET} (plate contact) with scattered hinges, nets/s: ours "
+                f"{label} vmap over {batch} vs MuJoCo over the same {batch} on 2 threads",
+                ours=timing,
+                peer_name=f"MuJoCo rollout over {batch} models (C), 2 threads",
+                peer=mujoco,
+                compile_s=compile_s[name],
+                per_item=batch,
+                notes=(
+                    f"per net; ours {batch / timing.median:.3g} nets/s, MuJoCo "
+                    f"{batch / mujoco.median:.3g} nets/s; every member of both closes the cube"
+                ),
+                extra={
+                    "batch": batch,
+                    "ours_nets_per_s": batch / timing.median,
+                    "mujoco_nets_per_s": batch / mujoco.median,
+                },
+            )
+        )
+        print(rows[-1].line(), flush=True)
+    return rows
+
+
+if __name__ == "__main__":
+    for row in run(quick=True):
+        print(row.line())
