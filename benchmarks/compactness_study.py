@@ -130,11 +130,23 @@ def run(args) -> int:
         "wall_s_per_net": {n: walls.get(n) for n in names},
         **family.to_dict(),
     }
-    (out / "family.json").write_text(json.dumps(record, indent=1, default=str) + "\n")
+    text = json.dumps(_strict(record), indent=1, default=str, allow_nan=False)
+    (out / "family.json").write_text(text + "\n")
     (out / "family.csv").write_text(family.to_csv())
     print(family.summary())
     print(f"wall {wall:.0f} s (the nets' own, compilation included)")
     return 0
+
+
+def _strict(value):
+    """`value` with NaN as None (strict JSON: ρ is NaN when every net has the same yield)."""
+    if isinstance(value, dict):
+        return {k: _strict(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_strict(v) for v in value]
+    if isinstance(value, float) and value != value:
+        return None
+    return value
 
 
 def table(folders) -> str:
@@ -163,8 +175,9 @@ def table(folders) -> str:
         )
     for r in records:
         for c in r["spearman"].values():
-            rho = "undefined (equal yields)" if c["rho"] is None else f"{c['rho']:+.2f}"
-            p = "" if c["p_value"] is None else f", p = {c['p_value']:.2g}"
+            equal = c["rho"] is None or c["rho"] != c["rho"]
+            rho = "undefined (equal yields)" if equal else f"{c['rho']:+.2f}"
+            p = "" if equal else f", p = {c['p_value']:.2g}"
             lines.append(f"\n{r['config']}: Spearman ρ vs {c['measure']} {rho}{p} (n = {c['n']})")
         lines.append(f"{r['config']}: wall {r['wall_s']:.0f} s, {r['n_samples']} samples per net")
     for folder, r in zip(folders, records, strict=True):

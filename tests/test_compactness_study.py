@@ -49,5 +49,5 @@ def test_table_reads_the_stored_pilot():
             assert f"| {net['name']} |" in text
             assert f"{folded}/{net['n_samples']}" in text
         for c in record["spearman"].values():
-            shown = "undefined" if c["rho"] is None else f"{c['rho']:+.2f}"
+            shown = "undefined" if c["rho"] is None or c["rho"] != c["rho"] else f"{c['rho']:+.2f}"
             assert f"{record['config']}: Spearman ρ vs {c['measure']} {shown}" in text
