@@ -370,7 +370,8 @@ def _implicit(system, ts, q0, solver, steps):
     return q, v, jax.vmap(system.energy)(q, v)
 
 
-@pytest.mark.parametrize("ratio", [0.5, 1.5])
+# The sticking case (0.5) integrates long enough to see the creep: ~25 s, in the slow suite.
+@pytest.mark.parametrize("ratio", [pytest.param(0.5, marks=pytest.mark.slow), 1.5])
 def test_the_implicit_step_takes_friction_in_its_residual(ratio):
     # `ImplicitStep` puts the full generalized force, friction included, into its implicit-Euler
     # residual at v = (q − q_n)/h. Steady motion is a fixed point of the scheme: the same closed
@@ -462,6 +463,7 @@ def _central(f, x, step):
     return np.stack(rows)
 
 
+@pytest.mark.slow  # ~55 s on 2 cores: forward and reverse derivatives compiled through both
 def test_gradients_through_adhesion_and_friction_match_central_differences():
     w, mu, delta = 0.05, 0.3, 0.8
     mechanism = Slider(side=20.0, base=20.0, height=5.0)
