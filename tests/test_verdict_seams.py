@@ -219,8 +219,13 @@ def test_a_flap_held_on_its_neighbours_edge_closes_the_seam():
     tolerance, but the flaps touch: folded, by contact. The gap-only rule calls the same run
     misfolded."""
     net = load_net("corner_cube")
+    # The closed form above is the sampled model's (its rim points stand t + ĝ off the face); the
+    # plate model, now the default, holds flap 1 by the plates' exact geometry, nearer 90°.
     system = net.system(
-        KOH, targets=jnp.radians(jnp.full(2, 92.0)), release_times=jnp.array([0.0, 200.0])
+        KOH,
+        targets=jnp.radians(jnp.full(2, 92.0)),
+        release_times=jnp.array([0.0, 200.0]),
+        contact="sampled",
     )
     trajectory = sim.simulate(
         system,
