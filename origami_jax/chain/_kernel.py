@@ -17,11 +17,11 @@ from .._limits import MAX_FLAPS, MAX_SAMPLES
 from ..simulation import (
     DEFAULT_ATOL,
     DEFAULT_RTOL,
-    RESULTS,
     SaveAt,
     SolveOptions,
     Step,
     implicit_solver,
+    kernel_result_messages,
     response_metrics,
     simulate,
 )
@@ -199,8 +199,6 @@ def accordion_step(
         }
 
     joint = ("joint",)
-    messages = {INVALID_INPUT: "invalid input"}
-    messages.update({int(item._value): name for name, item in RESULTS._name_to_item.items()})
     return Kernel(
         fn=fn,
         never_raises=True,  # bad values come back as INVALID_INPUT
@@ -246,7 +244,7 @@ def accordion_step(
                 "settling_ill_posed",
             )
         },
-        result_messages=messages,
+        result_messages=kernel_result_messages(),
         cost=cost,
         categories={"fluid": FLUIDS},
     )

@@ -27,12 +27,12 @@ from .._limits import CONTACT_SAMPLING, MAX_CONTACT_SAMPLING, MAX_SAMPLES
 from ..contact import check_sampling, contact_kind, sampling_pair
 from ..simulation import (
     LEGACY_SEAM_FRACTION,
-    RESULTS,
     ImplicitStep,
     SaveAt,
     SolveOptions,
     Step,
     VerdictTolerances,
+    kernel_result_messages,
     simulate,
 )
 from ..system import AIR, KOH_SOLUTION, HingeDesign
@@ -304,8 +304,6 @@ def fold_kernel(
             "result": result,
         }
 
-    messages = {INVALID_INPUT: "invalid input"}
-    messages.update({int(item._value): name for name, item in RESULTS._name_to_item.items()})
     resume = pattern.resume_settings()
     return Kernel(
         fn=fn,
@@ -362,7 +360,7 @@ def fold_kernel(
             "penetration": "um",
         },
         output_dims={"final_angle": ("crease",)},
-        result_messages=messages,
+        result_messages=kernel_result_messages(),
         # Contact makes the step counts of scattered nets spread tenfold and unpredictably: on a
         # CPU, chunks of one net side by side beat wide vmapped chunks (benchmarks/history.md).
         cpu_chunk_size=1,

@@ -32,6 +32,7 @@ from ._options import SaveAt as SaveAt
 from ._options import SolveOptions as SolveOptions
 from ._options import named_solver as named_solver
 from ._results import RESULTS as RESULTS
+from ._results import kernel_result_messages as kernel_result_messages
 from ._simulate import Trajectory as Trajectory
 from ._simulate import default_controller as default_controller
 from ._simulate import default_solver as default_solver

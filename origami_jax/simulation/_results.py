@@ -4,6 +4,8 @@ import diffrax
 import jax.numpy as jnp
 import numpy as np
 
+from .._kernel import INVALID_INPUT
+
 
 class RESULTS(diffrax.RESULTS):  # pyright: ignore[reportGeneralTypeIssues]
     """Outcome of [`origami_jax.simulation.simulate`][]: diffrax's codes plus our own.
@@ -41,3 +43,11 @@ def promote(item, enumeration=RESULTS):
     else:
         promoted = jnp.asarray(offsets)[value]
     return type(enumeration.successful)(promoted, enumeration)
+
+
+def kernel_result_messages() -> dict[int, str]:
+    """The `result_messages` of a sweep kernel whose result codes are `RESULTS`'s (a simulation's):
+    each code's name, and `INVALID_INPUT` (−1) for a design outside the model's domain."""
+    messages = {INVALID_INPUT: "invalid input"}
+    messages.update({int(item._value): name for name, item in RESULTS._name_to_item.items()})
+    return messages
