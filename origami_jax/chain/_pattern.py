@@ -10,7 +10,13 @@ from jaxtyping import ArrayLike, Float
 
 from .._validate import is_traced
 from ..simulation import assess, fold_outcome, fold_pattern
-from ..system import AbstractPattern, FoldingSystem, HingeDesign, UnitSystem
+from ..system import (
+    AbstractPattern,
+    FoldingSystem,
+    HingeDesign,
+    UnitSystem,
+    check_known_names,
+)
 from ._chain import flap_size
 from ._extended import fluid_parts
 from ._kernel import accordion_step
@@ -100,23 +106,21 @@ class Accordion(AbstractPattern):
     def with_geometry(self, **geometry) -> "Accordion":
         """This accordion with other flap geometry (`flap_length`, `flap_width`; values may be
         traced, as in a fit of the flap size). **Raises:** `ValueError` for another name."""
-        unknown = sorted(set(geometry) - set(ACCORDION_GEOMETRY))
-        if unknown:
-            raise ValueError(
-                f"Accordion.with_geometry: unknown field(s) {unknown}; the geometry's are "
-                f"{list(ACCORDION_GEOMETRY)}."
-            )
+        check_known_names(
+            "Accordion.with_geometry",
+            geometry,
+            ACCORDION_GEOMETRY,
+            kind="field",
+            whose="geometry's",
+        )
         return dataclasses.replace(self, **geometry)
 
     def with_model(self, **options) -> "Accordion":
         """This accordion with other physics options (`hinges`, `fluid`, `contact`).
         **Raises:** `ValueError` for an unknown option."""
-        unknown = sorted(set(options) - set(ACCORDION_MODEL))
-        if unknown:
-            raise ValueError(
-                f"Accordion.with_model: unknown option(s) {unknown}; the model's are "
-                f"{sorted(ACCORDION_MODEL)}."
-            )
+        check_known_names(
+            "Accordion.with_model", options, sorted(ACCORDION_MODEL), kind="option", whose="model's"
+        )
         return dataclasses.replace(self, **options)
 
     def default_design(self, fluid=None) -> HingeDesign:

@@ -26,7 +26,7 @@ from .._limits import FOLD_SEGMENT, MAX_FOLD_SEGMENTS
 from .._validate import is_traced
 from ..contact import Adhesion, Friction
 from ..simulation import fold_pattern
-from ..system import AbstractPattern, HingeDesign
+from ..system import AbstractPattern, HingeDesign, check_known_names
 from ._kernel import fold_kernel
 
 
@@ -138,12 +138,13 @@ class AbstractPanelPattern(AbstractPattern):
         """This pattern with other physics options (the names of `MODEL`): the same object for the
         same options, kept in this pattern's `host_cache` (shared with the copy), so a compiled fit
         or sweep of it is reused. **Raises:** `ValueError` for an unknown option."""
-        unknown = sorted(set(options) - set(self.MODEL))
-        if unknown:
-            raise ValueError(
-                f"{type(self).__name__}.with_model: unknown option(s) {unknown}; the model's are "
-                f"{sorted(self.MODEL)}."
-            )
+        check_known_names(
+            f"{type(self).__name__}.with_model",
+            options,
+            sorted(self.MODEL),
+            kind="option",
+            whose="model's",
+        )
         if "contact_sampling" in options:
             options = {
                 **options,

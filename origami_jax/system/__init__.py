@@ -38,6 +38,7 @@ from ._measured_hinges import measured_hinges_table as measured_hinges_table
 from ._mechanism import AbstractMechanism as AbstractMechanism
 from ._mechanism import HingeLayout as HingeLayout
 from ._pattern import AbstractPattern as AbstractPattern
+from ._pattern import check_known_names as check_known_names
 from ._system import AbstractContact as AbstractContact
 from ._system import FoldingSystem as FoldingSystem
 from ._units import MICRO as MICRO

@@ -23,6 +23,15 @@ from ._hinge import HingeDesign
 from ._system import FoldingSystem
 
 
+def check_known_names(method: str, given, known, *, kind: str, whose: str) -> None:
+    """Refuse (one-line `ValueError`) names in `given` that are not in `known`: the check of a
+    pattern's `with_model` (`kind="option"`, `whose="model's"`) and of its other `with_...`
+    methods. `method` names the call (`"Net.with_model"`); `known` is listed as given."""
+    unknown = sorted(set(given) - set(known))
+    if unknown:
+        raise ValueError(f"{method}: unknown {kind}(s) {unknown}; the {whose} are {list(known)}.")
+
+
 class AbstractPattern(abc.ABC):
     """What is folded (panels, hinges, seams, the physics model) and what counts as folded.
 
