@@ -72,10 +72,11 @@ def _compiled(fn, *args):
     return compiled, time.perf_counter() - start
 
 
-def run(quick: bool) -> list[Result]:
+def run(quick: bool, batch: int | None = None) -> list[Result]:
     jax.config.update("jax_enable_x64", True)
     repeats = 1 if quick else 3
-    batch = 4 if quick else 16
+    if batch is None:
+        batch = 4 if quick else 16
     net = load_net(bench_net.NET)
     design = HingeDesign.literature(fluid=KOH_SOLUTION)
     system = net.system(design, contact="plate")
@@ -209,5 +210,17 @@ def run(quick: bool) -> list[Result]:
 
 
 if __name__ == "__main__":
-    for row in run(quick=True):
+    import argparse
+
+    from ._harness import dump_json
+
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="one repeat (and a batch of 4)")
+    parser.add_argument("--batch", type=int, default=None, help="nets in the scattered batch")
+    parser.add_argument("--json", default=None, help="write the rows as JSON here")
+    args = parser.parse_args()
+    rows = run(quick=args.quick, batch=args.batch)
+    for row in rows:
         print(row.line())
+    if args.json:
+        dump_json(args.json, rows)

@@ -48,6 +48,20 @@ def _barrier_slope(x):
     return jnp.where(x >= 1, 0.0, jnp.where(inside, log_slope, taylor))
 
 
+def smoothstep_slope(x: Float[ArrayLike, "..."]) -> Float[Array, "..."]:
+    """The derivative of `smoothstep`: ``30 x² (1 − x)²`` on ``[0, 1]``, 0 outside."""
+    x = jnp.clip(x, 0.0, 1.0)
+    return 30 * x**2 * (1 - x) ** 2
+
+
+def _barrier_curvature(x):
+    """``B''(x)`` of `barrier` (piece by piece; 0 beyond the activation gap)."""
+    inside = (x > _X_MIN) & (x < 1)
+    safe = jnp.where(inside, x, 0.5)
+    log_curvature = -2 * jnp.log(safe) - 4 * (safe - 1) / safe + (safe - 1) ** 2 / safe**2
+    return jnp.where(x >= 1, 0.0, jnp.where(inside, log_curvature, _D2B_MIN))
+
+
 def _ramp_integral(x):
     """``∫₀ˣ smoothstep``: 0 for ``x ≤ 0``, ``x⁴(5/2 − 3x + x²)`` on ``[0, 1]``, ``x − ½`` beyond (C³)."""
     inside = jnp.clip(x, 0.0, 1.0)

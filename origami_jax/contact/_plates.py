@@ -18,9 +18,12 @@ with gap ``g``:
 - a dissipative force ``−c a(g) ġ ∇g`` (``a`` a C² ramp from 0 at ``ĝ`` to 1 at contact), so contact
   never adds energy: ``v · f = −dE/dt − c Σ a ġ² ≤ −dE/dt``.
 
-Forces act at the primitives' points (``−∂E/∂x`` on every polygon vertex, by automatic
-differentiation of the energy in the world vertex positions) and add up to one wrench per body,
-which the mechanism maps to its coordinates.
+Forces act at each pair's closest points, along the line joining them (``−∂E/∂g`` times the gap's
+gradient: the derivative of a least distance is the derivative at its minimiser, so no
+differentiation of the distance functions is needed), plus the turning of nearly parallel edge
+pairs by their mollifier, and add up to one wrench per body, which the mechanism maps to its
+coordinates; the same as ``−∂E/∂x`` on every polygon vertex, at a fraction of the cost.
+`force_jacobians` adds the Gauss–Newton derivatives an implicit step's Newton iterations use.
 
 **Continuous collision detection.** `crossed` is the step guard of `simulate`
 (`ContactGuard`): a step is refused when, with every vertex moving on the straight path between
@@ -58,20 +61,30 @@ from .._math import normalise
 from ..system import AbstractContact, AbstractMechanism
 from ._barrier import (
     DEFAULT_DAMPING_RATIO,
+    _barrier_curvature,
     _barrier_slope,
     _rest_poses,
     barrier,
     check_contact_numbers,
     half_thicknesses,
     smoothstep,
+    smoothstep_slope,
     with_base_pose,
     with_default_contact,
 )
 from ._plate_geometry import plate_overlaps, plate_tables_for, plate_vertices
 from ._plate_tables import PlateTables
 from ._primitives import (
+    _closest,
+    _closest_on_polygon,
+    _normal,
+    _split,
+    _sub,
+    _vcross,
+    _vdot,
     additive_ccd_groups,
     closest_on_segments,
+    earliest_impact,
     overlap_depth,
     point_polygon_sq,
     polygon_normal,
@@ -90,6 +103,8 @@ from ._surface import (
 _PARALLEL = 1e-3
 # The guard's impact distance ξ, as a fraction of the two plates' half-thicknesses added.
 _CCD_SEPARATION = 0.5
+# Pairs of each kind whose time of impact the collision check iterates (`earliest_impact`).
+_CCD_PAIRS = 32
 
 
 def _mollifier(ea, eb):
@@ -99,6 +114,46 @@ def _mollifier(ea, eb):
     eps = _PARALLEL * jnp.sum(ea * ea, axis=-1) * jnp.sum(eb * eb, axis=-1)
     r = x / eps
     return jnp.where(r < 1, (2 - r) * r, 1.0)
+
+
+def _mollifier_turns(ea, eb):
+    """``(e_a × ∂m/∂e_a, e_b × ∂m/∂e_b)`` of `_mollifier`, by component (tuples of three `(m,)`
+    arrays): the moment about the origin of the forces ``∓∂m/∂e`` on an edge's two ends is
+    ``−e × ∂m/∂e`` (the part of ``∂ε`` along ``e`` has none)."""
+    cross = _vcross(ea, eb)
+    x = _vdot(cross, cross)
+    eps = _PARALLEL * _vdot(ea, ea) * _vdot(eb, eb)
+    r = x / eps
+    scale = jnp.where(r < 1, 2 - 2 * r, 0.0) * 2 / eps
+    turn_a = _vcross(ea, _vcross(eb, cross))
+    turn_b = _vcross(eb, _vcross(cross, ea))
+    return tuple(scale * c for c in turn_a), tuple(scale * c for c in turn_b)
+
+
+class _Pairs(eqx.Module):
+    """Every primitive pair's state at some world vertices (vertex–face pairs first, then
+    edge–edge), vectors by component (tuples of three `(k,)` arrays: elementwise arithmetic over
+    the pairs vectorises, over a batch too, where a trailing axis of three does not): the closest
+    points `on_first` and `on_second` on the pair's first and second bodies, `direction`
+    ``∂g/∂(on_first)`` (the unit normal from the second towards the first, shortened by the
+    distance's smoothing), the `gap` `(k,)` (length), the energy's `weight` (the edge pairs'
+    mollifier, 1 for vertex–face pairs) and the edge pairs' mollifier turns
+    (`_mollifier_turns`, `(m,)` components)."""
+
+    on_first: tuple[Array, Array, Array]
+    on_second: tuple[Array, Array, Array]
+    direction: tuple[Array, Array, Array]
+    gap: Array
+    weight: Array
+    turns: tuple[tuple[Array, Array, Array], tuple[Array, Array, Array]]
+
+    def midpoints(self):
+        """The midpoints of the closest points, `(k, 3)`."""
+        return 0.5 * (jnp.stack(self.on_first, axis=-1) + jnp.stack(self.on_second, axis=-1))
+
+    def normals(self):
+        """The unit normals from the second body towards the first, `(k, 3)`."""
+        return normalise(jnp.stack(_sub(self.on_first, self.on_second), axis=-1))
 
 
 class PlateContact(AbstractContact):
@@ -301,6 +356,84 @@ class PlateContact(AbstractContact):
         distance = jnp.sqrt(jnp.concatenate([d_vf, d_ee]) + tiny**2) - tiny
         return distance - jnp.concatenate([half_vf, half_ee]), _mollifier(p1 - p0, q1 - q0)
 
+    def _pairs(self, x) -> _Pairs:
+        """The primitive pairs' closest points, gaps and directions at world vertices `x`
+        (`_Pairs`): the gaps of `_gaps`, and ``∂g/∂x`` as a direction at two points. Any
+        change of the vertices that moves each body rigidly changes a gap by the direction dotted
+        with the motion of the first point less that of the second (the closest points are where
+        the distance is least: the derivative of a minimum is the derivative at its minimiser), so
+        the forces and rates of contact need no differentiation of the distances."""
+        tiny = 1e-6 * self.activation
+        point, polygon = self._vertex_face_points(x)
+        point, polygon = _split(point), _split(polygon)
+        on_face = _closest_on_polygon(point, polygon, _normal(polygon))
+        p0, p1, q0, q1 = (_split(e) for e in self._edge_edge_points(x))
+        on_p, on_q = _closest(p0, p1, q0, q1)
+        first = tuple(jnp.concatenate(c) for c in zip(point, on_p, strict=True))
+        second = tuple(jnp.concatenate(c) for c in zip(on_face, on_q, strict=True))
+        apart = _sub(first, second)
+        smoothed = jnp.sqrt(_vdot(apart, apart) + tiny**2)
+        half_vf, half_ee = self._half_sums(x.dtype)
+        gap = smoothed - tiny - jnp.concatenate([half_vf, half_ee])
+        ea, eb = _sub(p1, p0), _sub(q1, q0)
+        cross = _vcross(ea, eb)
+        r = _vdot(cross, cross) / (_PARALLEL * _vdot(ea, ea) * _vdot(eb, eb))
+        mollifier = jnp.where(r < 1, (2 - r) * r, 1.0)
+        weight = jnp.concatenate([jnp.ones(len(half_vf), x.dtype), mollifier])
+        direction = tuple(c / smoothed for c in apart)
+        return _Pairs(first, second, direction, gap, weight, _mollifier_turns(ea, eb))
+
+    def _pair_rates(self, pairs: _Pairs, velocity):
+        """Each pair's gap rate ``ġ`` `(k,)` under world body twists `velocity` `(n, 6)` (the base
+        last): the direction dotted with the first point's velocity less the second's."""
+        a, b = self._pair_bodies()
+        n = velocity.shape[0]
+        first, second = _pick(a, n, velocity), _pick(b, n, velocity)
+        speed_first = _point_velocity(_split6(first), pairs.on_first)
+        speed_second = _point_velocity(_split6(second), pairs.on_second)
+        return _vdot(pairs.direction, _sub(speed_first, speed_second))
+
+    def _gap_gradient(self, pairs: _Pairs, unit_twists):
+        """``G = ∂g/∂q̇`` `(k, nv)`: each pair's gap rate per unit generalized velocity, from the
+        bodies' unit twists `(n, 6, nv)` (the base last): each pair's unit wrenches on the bodies,
+        ``(u, p × u)`` on its first body at its point ``p`` and the opposite on its second, `(k,
+        6n)`, times the twists `(6n, nv)` (one dense product: gathering every pair's bodies'
+        twists under `vmap` moves far more memory)."""
+        a, b = self._pair_bodies()
+        n, _, nv = unit_twists.shape
+        u = pairs.direction
+        wrench_first = jnp.stack([*u, *_vcross(pairs.on_first, u)], axis=-1)
+        wrench_second = jnp.stack([*u, *_vcross(pairs.on_second, u)], axis=-1)
+        eye = np.eye(n)
+        first, second = jnp.asarray(eye[a], u[0].dtype), jnp.asarray(eye[b], u[0].dtype)
+        wrenches = (
+            first[:, :, None] * wrench_first[:, None, :]
+            - second[:, :, None] * wrench_second[:, None, :]
+        )
+        return wrenches.reshape(-1, n * 6) @ unit_twists.reshape(n * 6, nv)
+
+    def _pair_wrenches(self, pairs: _Pairs, push, on_mollifier, n: int):
+        """One world wrench per body `(n, 6)` from each pair's `push` ``∂E/∂g`` (plus damping) along
+        its direction (``−push·direction`` at the first point, the opposite at the second) and the
+        edge pairs' energy `on_mollifier` ``κ B`` turning them through the mollifier."""
+        a, b = self._pair_bodies()
+        force = tuple(-push * c for c in pairs.direction)
+        n_vf = len(self.tables.vertex_face)
+        zeros = jnp.zeros((n_vf,), push.dtype)
+        turn_a, turn_b = (
+            tuple(jnp.concatenate([zeros, -on_mollifier * c]) for c in turn) for turn in pairs.turns
+        )
+        moment_first = _vcross(pairs.on_first, force)
+        moment_second = _vcross(pairs.on_second, force)
+        on_first = jnp.stack(
+            [*force, *(m + t for m, t in zip(moment_first, turn_a, strict=True))], axis=-1
+        )
+        on_second = jnp.stack(
+            [*(-f for f in force), *(t - m for m, t in zip(moment_second, turn_b, strict=True))],
+            axis=-1,
+        )
+        return _pick(a, n, on_first, transpose=True) + _pick(b, n, on_second, transpose=True)
+
     def _energy(self, x):
         gap, mollifier = self._gaps(x)
         n_vf = len(self.tables.vertex_face)
@@ -331,46 +464,76 @@ class PlateContact(AbstractContact):
     def _contact_frames(self, x):
         """Every primitive pair's contact point (the midpoint of its closest points) and unit
         normal (from the second body's primitive towards the first's), `(k, 3)` each, world."""
-        point, polygon = self._vertex_face_points(x)
-        normal = polygon_normal(polygon)
-        # ∇_p |p − c|² = 2 (p − c), c the polygon's closest point.
-        towards = 0.5 * jax.grad(lambda p: jnp.sum(point_polygon_sq(p, polygon, normal)))(point)
-        on_p, on_q = closest_on_segments(*self._edge_edge_points(x))
-        where = jnp.concatenate([point - 0.5 * towards, 0.5 * (on_p + on_q)], axis=0)
-        return where, normalise(jnp.concatenate([towards, on_p - on_q], axis=0))
+        pairs = self._pairs(x)
+        return pairs.midpoints(), pairs.normals()
 
     def force(self, mechanism, q, v):
+        return self._force(mechanism, q, v)[0]
+
+    def _force(self, mechanism, q, v):
+        """The generalized force at ``(q, v)`` and what `force_jacobians` builds on: the pairs
+        (`_Pairs`), their rates, the bodies' world twists and the mechanism's wrench map."""
         poses, velocity, wrench_force = mechanism.body_motion(q, v)
         poses = self._frames(poses)
-        if self.tables.has_base:
-            velocity = jnp.concatenate([velocity, jnp.zeros((1, 6), velocity.dtype)], axis=0)
+        velocity = self._with_base_twist(velocity)
         x = self._world(poses)
-        x_dot = velocity[:, None, :3] + jnp.cross(velocity[:, None, 3:], x)
-        # One linearisation of the gaps (and the edge pairs' mollifier) gives the rates (forward)
-        # and the forces (reverse): the energy's gradient and the damping together, one pass each.
-        (gap, mollifier), tangent = jax.linearize(self._gaps, x)
-        rate, _ = tangent(x_dot)
-        n_vf = len(self.tables.vertex_face)
-        ratio = gap / self.activation
-        weight = jnp.concatenate([jnp.ones(n_vf, x.dtype), mollifier])
+        pairs = self._pairs(x)
+        rate = self._pair_rates(pairs, velocity)
+        ratio = pairs.gap / self.activation
+        # ∂E/∂g of the barrier, and the damping along the same direction.
         push = (
-            self.stiffness * weight * _barrier_slope(ratio) / self.activation
+            self.stiffness * pairs.weight * _barrier_slope(ratio) / self.activation
             + self.damping * smoothstep(1 - ratio) * rate
         )
+        n_vf = len(self.tables.vertex_face)
         on_mollifier = self.stiffness * barrier(ratio[n_vf:])
-        (gradient,) = jax.linear_transpose(tangent, x)((push, on_mollifier))
+        n = x.shape[0]
+        wrenches = self._pair_wrenches(pairs, push, on_mollifier, n)
         if self.adhesion is not None:
-            gradient = gradient + jax.grad(self._adhesion)(x)
-        wrenches = self._wrenches(x, -gradient)
+            wrenches = wrenches + self._wrenches(x, -jax.grad(self._adhesion)(x))
         if self.friction is not None:
             # The normal force of each pair: the barrier's push alone (not its damping).
-            normal_force = -self.stiffness * weight * _barrier_slope(ratio) / self.activation
-            point, normal = self._contact_frames(x)
+            normal_force = -self.stiffness * pairs.weight * _barrier_slope(ratio) / self.activation
             a, b = self._pair_bodies()
             wrenches = wrenches + friction_wrenches(
-                self.friction, normal_force, point, normal, a, b, velocity
+                self.friction, normal_force, pairs.midpoints(), pairs.normals(), a, b, velocity
             )
-        return wrench_force(wrenches[: self.tables.n_bodies])
+        return wrench_force(wrenches[: self.tables.n_bodies]), pairs, rate, velocity
+
+    def _with_base_twist(self, velocity):
+        if self.tables.has_base:
+            return jnp.concatenate([velocity, jnp.zeros((1, 6), velocity.dtype)], axis=0)
+        return velocity
+
+    def force_jacobians(
+        self, mechanism: AbstractMechanism, q: Float[Array, " nq"], v: Float[Array, " nv"]
+    ) -> tuple[Float[Array, " nv"], Float[Array, "nv nq"], Float[Array, "nv nv"]]:
+        """The force at ``(q, v)`` with Gauss–Newton approximations of its derivatives
+        ``(f, ∂f/∂q, ∂f/∂v)`` (what an implicit step's Newton iterations need).
+
+        The barrier and its damping act on each pair along its gap's gradient ``G_p = ∂g_p/∂q``
+        (each row the pair's direction paired with the unit twists of the mechanism); holding
+        ``G`` fixed, ``∂f/∂q ≈ −Gᵀ diag(κ m B''/ĝ² + c a'(g) ġ) G`` and ``∂f/∂v = −Gᵀ diag(c a(g)) G``,
+        as IPC's Newton iterations do. Left out: the change of the contact directions and points
+        (the barrier's force times the pairs' curvature, small against the barrier's stiffness
+        near contact), the mollifier's and adhesion's and friction's own derivatives. Symmetric and
+        positive semi-definite in the barrier's part. Exact values of ``f``; only the Newton
+        directions use the approximations, so a converged step is the same root."""
+        force, pairs, rate, _ = self._force(mechanism, q, v)
+        # The bodies' twists per unit generalized velocity, `(n, 6, nv)` (the base's zero).
+        unit_twists = jax.jacfwd(lambda v: mechanism.spatial_velocities(q, v))(v)
+        if self.tables.has_base:
+            unit_twists = jnp.concatenate([unit_twists, jnp.zeros_like(unit_twists[:1])], axis=0)
+        gradient = self._gap_gradient(pairs, unit_twists)
+        ratio = pairs.gap / self.activation
+        ramp = smoothstep(1 - ratio)
+        stiffness = (
+            self.stiffness * pairs.weight * _barrier_curvature(ratio) / self.activation**2
+            - self.damping * smoothstep_slope(1 - ratio) * rate / self.activation
+        )
+        d_dq = -_weighted_gram(gradient, jnp.maximum(stiffness, 0.0))
+        d_dv = -_weighted_gram(gradient, self.damping * ramp)
+        return force, d_dq, d_dv
 
     # ---- continuous collision detection (the step guard) ----
 
@@ -381,12 +544,33 @@ class PlateContact(AbstractContact):
         positions) that no primitive pair is known to take closer than ``ξ``: a conservative time of
         impact in ``[0, 1]``, 1 where the whole step is clear (a line search's cap, as in IPC)."""
         x0, x1 = self.vertices(mechanism, q0), self.vertices(mechanism, q1)
-        return jnp.minimum(jnp.min(self._impacts(x0, x1), initial=jnp.inf), 1.0)
+        return jnp.minimum(self._earliest_impact(x0, x1), 1.0)
+
+    def _earliest_impact(self, x0, x1):
+        """The earliest conservative time of impact of any primitive pair between world vertices
+        `x0` and `x1` (`earliest_impact`: at most `_CCD_PAIRS` pairs of each kind iterated, a lower
+        bound for the others), ``inf`` where none comes within ``ξ``; pairs already closer than
+        ``ξ`` at `x0` are not counted (the barrier pushes them apart; a step cannot be refused for
+        them)."""
+        groups = self._ccd_groups(x0, x1)
+        if not groups:
+            return jnp.full((), jnp.inf, x0.dtype)
+        return earliest_impact(groups, limit=_CCD_PAIRS)
 
     def _impacts(self, x0, x1):
         """Every primitive pair's conservative time of impact (`additive_ccd`) between world
         vertices `x0` and `x1`; pairs already closer than ``ξ`` at `x0` get ``inf`` (the barrier
         pushes them apart; a step cannot be refused for them)."""
+        groups = self._ccd_groups(x0, x1)
+        if not groups:
+            return jnp.full((0,), jnp.inf, x0.dtype)
+        # Both kinds of pairs in one loop (`additive_ccd_groups`): each pair's answer is its own.
+        toi = additive_ccd_groups(groups)
+        return jnp.where(toi > 0, toi, jnp.inf)
+
+    def _ccd_groups(self, x0, x1):
+        """The vertex–face and edge–edge pairs' CCD arguments (`additive_ccd_groups`) between
+        world vertices `x0` and `x1`."""
         half_vf, half_ee = self._half_sums(x0.dtype)
         groups = []
         for points, distance_sq, half in (
@@ -402,11 +586,7 @@ class PlateContact(AbstractContact):
             start, end = points(x0), points(x1)
             motion = tuple(e - s for s, e in zip(start, end, strict=True))
             groups.append((distance_sq, start, motion, _CCD_SEPARATION * half))
-        if not groups:
-            return jnp.full((0,), jnp.inf, x0.dtype)
-        # Both kinds of pairs in one loop (`additive_ccd_groups`): each pair's answer is its own.
-        toi = additive_ccd_groups(groups)
-        return jnp.where(toi > 0, toi, jnp.inf)
+        return groups
 
     def crossed(self, mechanism, q0, q1) -> Array:
         """Whether the straight path of every vertex from ``q0`` to ``q1`` brings a primitive pair
@@ -414,7 +594,7 @@ class PlateContact(AbstractContact):
         not counted, the barrier pushes them apart), or the polygons of two bodies overlap more at
         ``q1`` than at ``q0`` (boolean scalar): a step that would let a plate through another."""
         x0, x1 = self.vertices(mechanism, q0), self.vertices(mechanism, q1)
-        hit = jnp.any(self._impacts(x0, x1) <= 1)
+        hit = self._earliest_impact(x0, x1) <= 1
         a, b = self.tables.body_pairs.T
         before = overlap_depth(x0[a], x0[b])
         after = overlap_depth(x1[a], x1[b])
@@ -475,7 +655,26 @@ class PlateContact(AbstractContact):
         return total / jnp.maximum(count, 1)[..., None], count.astype(jnp.int32)
 
 
-def _pick(rows: np.ndarray, size: int, flat: Array) -> Array:
+def _split6(twists, axis=-1):
+    """World twists ``(v, ω)`` along `axis` (of six) as two component triples."""
+    parts = tuple(jnp.take(twists, j, axis=axis) for j in range(6))
+    return parts[:3], parts[3:]
+
+
+def _point_velocity(twist, point):
+    """The velocity ``v + ω × p`` of a point `p` moving with twist ``(v, ω)``, by component."""
+    linear, angular = twist
+    return tuple(u + w for u, w in zip(linear, _vcross(angular, point), strict=True))
+
+
+def _weighted_gram(rows, weights):
+    """``Σ_k w_k g_k g_kᵀ`` `(nv, nv)` of rows `(k, nv)` and weights `(k,)` (``Gᵀ diag(w) G``)."""
+    return jnp.sum(weights[:, None, None] * rows[:, :, None] * rows[:, None, :], axis=0)
+
+
+def _pick(rows: np.ndarray, size: int, flat: Array, *, transpose: bool = False) -> Array:
     """``flat[rows]`` as the product of a constant one-hot matrix `(len(rows), size)` (host) with
-    `flat` `(size, 3)`."""
-    return jnp.asarray(np.eye(size)[rows], flat.dtype) @ flat
+    `flat` `(size, c)`; with `transpose`, the sum of the rows of `flat` `(len(rows), c)` into
+    `size` rows (the adjoint: a scatter-add as a dense product)."""
+    one_hot = jnp.asarray(np.eye(size)[rows], flat.dtype)
+    return one_hot.T @ flat if transpose else one_hot @ flat

@@ -147,6 +147,39 @@ def point_polygon_sq(
     return xp.where(inside, height**2, xp.min(to_edges, axis=-1))
 
 
+def _closest_on_polygon(point, corners, n):
+    """`closest_on_polygon` by component: `point` and `n` tuples of `(…)` arrays, `corners` of
+    `(…, v)`; returns a tuple of `(…)` arrays."""
+    nxt = _roll(corners)
+    n = tuple(c[..., None] for c in n)
+    point = tuple(c[..., None] for c in point)
+    edge = _sub(nxt, corners)
+    inward = _vcross(n, edge)
+    to_point = _sub(point, corners)
+    inside = jnp.all(_vdot(to_point, inward) >= 0, axis=-1)
+    height = _vdot(to_point, n)[..., :1]
+    projected = tuple((u - height * w)[..., 0] for u, w in zip(point, n, strict=True))
+    length_sq = _vdot(edge, edge)
+    s = jnp.clip(_vdot(to_point, edge) / jnp.where(length_sq > 0, length_sq, 1.0), 0.0, 1.0)
+    on_edges = _along(corners, s, edge)
+    away = _sub(point, on_edges)
+    # The nearest edge as a one-hot weight (elementwise: vectorises, and differentiates without a
+    # scatter); a padding edge is a point and repeats its neighbour's end.
+    nearest = jax.nn.one_hot(jnp.argmin(_vdot(away, away), axis=-1), s.shape[-1], dtype=s.dtype)
+    on_edge = tuple(jnp.sum(nearest * c, axis=-1) for c in on_edges)
+    return tuple(jnp.where(inside, u, w) for u, w in zip(projected, on_edge, strict=True))
+
+
+def closest_on_polygon(
+    p: Float[Array, "*b 3"], vertices: Float[Array, "*b v 3"], normal: Float[Array, "*b 3"]
+) -> Float[Array, "*b 3"]:
+    """The point of convex planar polygons (`point_polygon_sq`'s arguments) closest to points `p`:
+    the projection onto the plane where it falls inside, else the closest point of the nearest edge
+    (the first of equals). ``|p − closest|²`` is `point_polygon_sq`."""
+    closest = _closest_on_polygon(_split(p), _split(vertices), _split(normal))
+    return jnp.stack(closest, axis=-1)
+
+
 def overlap_depth(
     a: Float[Array, "*b v 3"],
     b: Float[Array, "*b w 3"],
@@ -303,3 +336,51 @@ def additive_ccd_groups(
     finished = ~still & (t > 1.0)
     toi = jnp.where(already, 0.0, jnp.where(~moving | finished | clear, jnp.inf, t))
     return toi
+
+
+def earliest_impact(
+    groups, *, limit: int = 32, conservative: float = 0.1, max_iterations: int = 64
+) -> Float[Array, ""]:
+    """The earliest conservative time of impact over several groups of primitive pairs (arguments
+    as `additive_ccd_groups`'s), ignoring pairs already within ``ξ`` at the start (``inf`` where no
+    pair comes within ``ξ`` over the step): the least of `additive_ccd_groups`'s answers that are
+    positive, bounded from below at the cost of iterating at most `limit` pairs per group.
+
+    Every pair's first advance is a lower bound of its time of impact (the distance above ``ξ``
+    cannot shrink faster than the pair's reach). Only the `limit` pairs of each group with the
+    smallest such bound are iterated (`additive_ccd_groups`); any other pair is either clear over
+    the whole step or contributes its first advance, itself a lower bound. The answer is therefore
+    conservative always, and the same as iterating every pair whenever at most `limit` pairs of a
+    group are undecided by their first advance. Iterating a few pairs rather than every one is
+    what keeps the check cheap under `vmap`, where the loop runs until the slowest member's pairs
+    are done."""
+    subgroups, rest = [], []
+    for distance_sq, start, motion, separation in groups:
+        k = separation.shape[0]
+        moves = [m.reshape(k, -1, 3) for m in motion]
+        mean = jnp.mean(jnp.concatenate(moves, axis=1), axis=1, keepdims=True)
+        reach = sum(jnp.max(jnp.linalg.norm(m - mean, axis=-1), axis=-1) for m in moves)
+        d_sq = distance_sq(*start)
+        d = jnp.sqrt(jnp.maximum(d_sq, 0.0))
+        first = (d_sq - separation**2) / (d + separation)
+        advance = (1 - conservative) * jnp.maximum(first, 0.0) / jnp.where(reach > 0, reach, 1.0)
+        undecided = (reach > 0) & (first > 0) & (advance <= 1.0)
+        key = jnp.where(undecided, advance, jnp.inf)
+        chosen = min(limit, k)
+        smallest, index = jax.lax.top_k(-key, min(chosen + 1, k))
+        if k > chosen:
+            rest.append(-smallest[chosen])
+        index = index[:chosen]
+        subgroups.append(
+            (
+                distance_sq,
+                tuple(x[index] for x in start),
+                tuple(m[index] for m in motion),
+                separation[index],
+            )
+        )
+    toi = additive_ccd_groups(subgroups, conservative=conservative, max_iterations=max_iterations)
+    earliest = jnp.min(jnp.where(toi > 0, toi, jnp.inf), initial=jnp.inf)
+    for bound in rest:
+        earliest = jnp.minimum(earliest, bound)
+    return earliest

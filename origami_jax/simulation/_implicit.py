@@ -14,8 +14,11 @@ scheme is first-order accurate and dissipative (backward Euler damps oscillation
 about ``2π² (h/T)²`` of their energy per period, more as ``h/T`` grows).
 
 **Newton.** A fixed number of Newton iterations (`ImplicitStep.newton_iterations`) from the
-predictor ``q_n + h v_n``, the Jacobian by forward-mode differentiation of ``r`` (`_jacobian`; the
-mechanism's ``n`` coordinates, a few to a few tens). Each update is capped, as in IPC, by the
+predictor ``q_n + h v_n``. Their matrix (`ImplicitStep.jacobian`) is by default the Gauss–Newton
+one: the plate contact's barrier and damping by their pairs' gap gradients
+(`PlateContact.force_jacobians`, as IPC's Newton iterations use its barrier's Hessian), the rest of
+``r`` (inertia, hinges, drag, inputs: a few coordinates) by forward-mode differentiation; or the
+exact Jacobian of all of ``r`` (`_jacobian`). Each update is capped, as in IPC, by the
 contact's continuous collision detection: the largest step moves no coordinate more than
 `ImplicitStep.max_update` and is ``0.9`` of the fraction of the path that stays clear, checked on a
 few chords of it (`PlateContact.time_of_impact`; models without it, such as the sampled
@@ -27,14 +30,15 @@ not refused: `Trajectory.stats["newton_error"]` reports the largest remaining Ne
 step (rad; small against the motion when the steps converged).
 
 **Gradients.** The derivative of each step is that of its root by the implicit function theorem,
-``∂q_{n+1} = −J⁻¹ ∂r`` (with ``J = ∂r/∂q`` at the root), not the derivative of the iterations: the
-Newton iterations run on values without derivatives, and a zero-valued correction carries the
-derivative. Reverse mode stores per step the state and the Jacobian (``n × n``) and recomputes the
-residual's linearisation (`jax.checkpoint`). Exact for the discrete map where the Newton iterations
-converged, and away from the onset of contact, where the barrier switches on and the map is only
-once differentiable.
+``∂q_{n+1} = −J⁻¹ ∂r`` with the exact ``J = ∂r/∂q`` at the root (`_root`, a custom JVP: computed
+only when differentiating), not the derivative of the iterations, which run on values without
+derivatives. Reverse mode recomputes the residual's linearisation per step (`jax.checkpoint`)
+rather than storing the contact's intermediates. Exact for the discrete map where the Newton
+iterations converged, and away from the onset of contact, where the barrier switches on and the
+map is only once differentiable.
 """
 
+import functools
 import math
 
 import equinox as eqx
@@ -53,6 +57,7 @@ _TOI_FRACTION = 0.9
 _CONVERGED = 1e-10
 # Armijo's sufficient decrease of |r|² along the Newton direction (slope −2|r|²).
 _ARMIJO = 1e-4
+_JACOBIANS = ("gauss-newton", "exact")
 
 
 class ImplicitStep(eqx.Module):
@@ -70,6 +75,13 @@ class ImplicitStep(eqx.Module):
       1e-10 rad, and each line search at its first acceptable trial (default `False`: every
       count fixed). Faster for a single run; under `vmap` every member then iterates as long as
       the slowest one. Gradients are unchanged (they do not pass through the iterations).
+    - `jacobian`: the Newton iterations' matrix. `"gauss-newton"` (default): the contact's
+      barrier and damping by their Gauss–Newton part (`PlateContact.force_jacobians`: each pair's
+      gap gradient held fixed, as IPC does), everything else by forward-mode differentiation;
+      contacts without it (the sampled `PanelContact`) or with adhesion or friction (whose own
+      derivatives it leaves out) get the exact one. `"exact"`: forward-mode differentiation of the
+      whole residual (several times the cost per iteration, quadratic convergence through contact).
+      The root, and so a converged step, is the same; gradients always use the exact Jacobian.
 
     The collision check follows every vertex on a straight line between two states, while a
     hinge moves a vertex on an arc: a rotation ``φ`` at reach ``R`` departs from its chord by
@@ -90,8 +102,14 @@ class ImplicitStep(eqx.Module):
     max_update: float = eqx.field(static=True, default=0.1)
     ccd_pieces: int = eqx.field(static=True, default=4)
     early_exit: bool = eqx.field(static=True, default=False)
+    jacobian: str = eqx.field(static=True, default="gauss-newton")
 
     def __check_init__(self):
+        if self.jacobian not in _JACOBIANS:
+            raise ValueError(
+                f"ImplicitStep.jacobian must be one of {', '.join(map(repr, _JACOBIANS))}, got "
+                f"{self.jacobian!r}."
+            )
         if not (isinstance(self.dt, int | float) and math.isfinite(self.dt) and self.dt > 0):
             raise ValueError(f"ImplicitStep.dt must be a positive finite step, got {self.dt!r}.")
         if not (isinstance(self.max_update, int | float) and self.max_update > 0):
@@ -154,18 +172,77 @@ def _all_trials(merit, q, dq, longest, m0, halvings: int):
     return jnp.where(jnp.any(armijo), alphas[jnp.argmax(armijo)], best)
 
 
+def _gauss_newton_applies(system: FoldingSystem, solver: ImplicitStep) -> bool:
+    """Whether `solver`'s Newton matrix takes the contact's Gauss–Newton part (`ImplicitStep`,
+    field `jacobian`)."""
+    contact = system.contact
+    return (
+        solver.jacobian == "gauss-newton"
+        and contact is not None
+        and hasattr(contact, "force_jacobians")
+        and getattr(contact, "adhesion", None) is None
+        and getattr(contact, "friction", None) is None
+    )
+
+
+def _newton_matrix(system, inputs, solver, t_next, h, q_n, v_n, mass, bias):
+    """``q ↦ (J, r(q))``: the residual and the Newton iterations' matrix (`ImplicitStep.jacobian`).
+    With the Gauss–Newton contact, everything but the contact is differentiated (`jax.jacfwd`:
+    hinges, drag and inputs cost little) and the contact gives its own force and derivatives."""
+
+    def residual(q):
+        return _residual(system, inputs, t_next, h, q_n, v_n, mass, bias, q)
+
+    if not _gauss_newton_applies(system, solver):
+        return functools.partial(_jacobian, residual), residual
+    bare = eqx.tree_at(lambda s: s.contact, system, None, is_leaf=lambda x: x is None)
+
+    def bare_residual(q):
+        r = _residual(bare, inputs, t_next, h, q_n, v_n, mass, bias, q)
+        return r, r
+
+    def matrix(q):
+        jac, r = jax.jacfwd(bare_residual, has_aux=True)(q)
+        force, d_dq, d_dv = system.contact.force_jacobians(system.mechanism, q, (q - q_n) / h)
+        return jac - h * h * d_dq - h * d_dv, r - h * h * force
+
+    return matrix, residual
+
+
+@eqx.filter_custom_jvp
+def _root(q, system, inputs, t_next, h, q_n, v_n):
+    """`q`, the converged root of the step's residual, whose derivative is that of the root by the
+    implicit function theorem, ``−J⁻¹ ∂r`` (exact ``J`` at the root; `_root_jvp`): the derivative
+    of the discrete map whatever the Newton iterations did."""
+    return q
+
+
+@_root.def_jvp
+def _root_jvp(primals, tangents):
+    q, *args = primals
+    _, *arg_tangents = tangents
+
+    def residual(args):
+        return _residual_from_start(*args, q)
+
+    # Recomputed, not stored, by reverse mode (the contact's intermediates, per step).
+    _, dr = eqx.filter_jvp(eqx.filter_checkpoint(residual), (args,), (arg_tangents,))
+    jac, _ = _jacobian(lambda q: _residual_from_start(*args, q), q)
+    return q, -jnp.linalg.solve(jac, dr)
+
+
 def _step(system: FoldingSystem, inputs: AbstractInput, solver: ImplicitStep, t_next, h, q_n, v_n):
     """One step from ``(q_n, v_n)`` to ``t_next = t_n + h``: ``(q, v, newton_error)``."""
     mechanism = system.mechanism
     contact = system.contact
     capped = hasattr(contact, "time_of_impact")
-    # The iterations run without derivatives; the correction below carries them (IFT).
+    # The iterations run without derivatives; `_root` carries them (IFT).
     s_system, s_inputs, s_h, s_q, s_v = _without_derivatives((system, inputs, h, q_n, v_n))
     mass = mechanism.mass_matrix(s_q)
     bias = mechanism.bias_force(s_q, s_v)
-
-    def residual(q):
-        return _residual(s_system, s_inputs, t_next, s_h, s_q, s_v, mass, bias, q)
+    newton_matrix, residual = _newton_matrix(
+        s_system, s_inputs, solver, t_next, s_h, s_q, s_v, mass, bias
+    )
 
     def largest_step(q, dq):
         """The line search's longest trial: no coordinate moving more than `max_update`, and 0.9 of
@@ -190,7 +267,7 @@ def _step(system: FoldingSystem, inputs: AbstractInput, solver: ImplicitStep, t_
         return jnp.where(jnp.isfinite(m), m, jnp.inf)
 
     def newton(q):
-        jac, r = _jacobian(residual, q)
+        jac, r = newton_matrix(q)
         dq = -jnp.linalg.solve(jac, r)
         dq = jnp.where(jnp.all(jnp.isfinite(dq)), dq, 0.0)
         m0 = r @ r
@@ -229,16 +306,10 @@ def _step(system: FoldingSystem, inputs: AbstractInput, solver: ImplicitStep, t_
         _, q, _ = jax.lax.while_loop(iterating, iterate, (0, q, jnp.full((), jnp.inf, q.dtype)))
     else:
         q = jax.lax.fori_loop(0, solver.newton_iterations, lambda _, q: newton(q)[0], q)
-    jac, r = _jacobian(residual, q)
-    jac = jax.lax.stop_gradient(jac)
+    jac, r = newton_matrix(q)
     error = jnp.max(jnp.abs(jnp.linalg.solve(jac, r)))
-    q = jax.lax.stop_gradient(q)
-    # Implicit function theorem: the value of `q` unchanged, its derivative −J⁻¹ ∂r.
-    correction = -jnp.linalg.solve(
-        jac, eqx.filter_checkpoint(_residual_from_start)(system, inputs, t_next, h, q_n, v_n, q)
-    )
-    q = q + (correction - jax.lax.stop_gradient(correction))
-    return q, (q - q_n) / h, error
+    q = _root(jax.lax.stop_gradient(q), system, inputs, t_next, h, q_n, v_n)
+    return q, (q - q_n) / h, jax.lax.stop_gradient(error)
 
 
 def integrate(
