@@ -24,15 +24,12 @@ from origami_jax.contact._primitives import (
     earliest_impact,
     point_polygon_sq,
     polygon_normal,
-    segment_segment_sq,
 )
 from origami_jax.net import load_net
 
+from .test_plate_contact import random_ccd_groups
+
 SCALE = 0.5  # the catalogue's cube net at half scale: 100 µm panels
-
-
-def _square():
-    return np.array([[0.0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]])
 
 
 def test_closest_point_on_a_polygon_gives_its_distance_and_lies_on_it():
@@ -66,24 +63,8 @@ def test_closest_point_on_a_polygon_gives_its_distance_and_lies_on_it():
     assert 10 < inside.sum() < 190
 
 
-def _random_groups(seed=3):
-    rng = np.random.default_rng(seed)
-    square = jnp.asarray(np.broadcast_to(_square(), (40, 4, 3)))
-    point = jnp.asarray(rng.uniform(-0.5, 1.5, (40, 3)))
-    fall = jnp.asarray(rng.normal(0, 1.5, (40, 3)))
-    ends = [jnp.asarray(rng.normal(0, 1, (30, 3))) for _ in range(4)]
-    moves = [jnp.asarray(rng.normal(0, 1, (30, 3))) for _ in range(4)]
-
-    def vertex_face(p, poly):
-        return point_polygon_sq(p, poly, polygon_normal(poly))
-
-    vf = (vertex_face, (point, square), (fall, 0.3 * fall[:, None] + 0 * square), jnp.full(40, 0.1))
-    ee = (segment_segment_sq, tuple(ends), tuple(moves), jnp.full(30, 0.05))
-    return [vf, ee]
-
-
 def test_iterating_a_few_pairs_bounds_the_earliest_impact_from_below():
-    groups = _random_groups()
+    groups = random_ccd_groups()
     arrays = [(start, motion, sep) for _, start, motion, sep in groups]
     kinds = [g[0] for g in groups]
 

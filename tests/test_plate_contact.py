@@ -208,12 +208,11 @@ def test_ccd_bounds_the_time_of_impact_from_below():
     assert 0.2 < float(toi[0]) <= 0.45
 
 
-def test_grouped_ccd_gives_each_pair_its_own_time_of_impact():
-    # Random vertex–face and edge–edge pairs, some moving into contact, some clear, some already
-    # within ξ: one loop over both groups (`additive_ccd_groups`, what `PlateContact` runs) gives
-    # each pair the time `additive_ccd` gives its group alone, to the last bit but rounding (the
-    # pairs advance independently; only the loop's length is shared).
-    rng = np.random.default_rng(3)
+def random_ccd_groups(seed=3):
+    """Random CCD groups: 40 vertex–face pairs (points falling past the unit square) and 30
+    edge–edge pairs, some moving into contact, some clear, some already within ξ (arguments of
+    `additive_ccd_groups`)."""
+    rng = np.random.default_rng(seed)
     square = jnp.asarray(np.broadcast_to(_square(), (40, 4, 3)))
     point = jnp.asarray(rng.uniform(-0.5, 1.5, (40, 3)))
     fall = jnp.asarray(rng.normal(0, 1.5, (40, 3)))
@@ -225,6 +224,15 @@ def test_grouped_ccd_gives_each_pair_its_own_time_of_impact():
 
     vf = (vertex_face, (point, square), (fall, 0.3 * fall[:, None] + 0 * square), jnp.full(40, 0.1))
     ee = (segment_segment_sq, tuple(ends), tuple(moves), jnp.full(30, 0.05))
+    return [vf, ee]
+
+
+def test_grouped_ccd_gives_each_pair_its_own_time_of_impact():
+    # Random vertex–face and edge–edge pairs, some moving into contact, some clear, some already
+    # within ξ: one loop over both groups (`additive_ccd_groups`, what `PlateContact` runs) gives
+    # each pair the time `additive_ccd` gives its group alone, to the last bit but rounding (the
+    # pairs advance independently; only the loop's length is shared).
+    vf, ee = random_ccd_groups()
     alone = jnp.concatenate([additive_ccd(*vf), additive_ccd(*ee)])
     together = additive_ccd_groups([vf, ee])
     hits = np.isfinite(np.asarray(alone)) & (np.asarray(alone) > 0)

@@ -7,6 +7,8 @@
 - [`origami_jax.contact.Adhesion`][], [`origami_jax.contact.Friction`][]: optional surface physics of
   `PlateContact` (adhesion of touching faces and seams, smoothed Coulomb friction).
 - `barrier`, `smoothstep`: the scalar functions it is built from.
+- `overlap_depth`, `additive_ccd`, `earliest_impact`, `closest_on_polygon`: the plate contact's exact
+  primitives (the overlap of two plates, conservative times of impact, closest points).
 - `contact_points`: where a system's panels touch along a trajectory (for views and exports).
 """
 
@@ -22,6 +24,8 @@ from ._plate_tables import PlateTables as PlateTables
 from ._plate_tables import build_plate_tables as build_plate_tables
 from ._plates import PlateContact as PlateContact
 from ._primitives import additive_ccd as additive_ccd
+from ._primitives import closest_on_polygon as closest_on_polygon
+from ._primitives import earliest_impact as earliest_impact
 from ._primitives import overlap_depth as overlap_depth
 from ._surface import Adhesion as Adhesion
 from ._surface import Friction as Friction
