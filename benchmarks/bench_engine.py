@@ -3,23 +3,25 @@
 The net and the peer are those of `bench_net`: `cube_net_01` (six 200 µm SiNx squares, literature
 bilayer hinges, KOH solution, the exact plate contact `PlateContact`), folded from flat by a step
 release to 1500 µs and checked to close the cube; the scattered batch (±10 % stiffness per crease,
-release times over 20 µs) and MuJoCo (C, `mujoco.rollout` over one model per net, two threads) as
-there. Ours in fixed implicit Euler steps of 2.5 µs (`ImplicitStep(dt=2.5)`, its default Newton
+release times over 20 µs) and MuJoCo (C, `mujoco.rollout` over one model per net, one thread per
+core) as there. Ours in fixed implicit Euler steps of 2.5 µs (`ImplicitStep(dt=2.5)`, its default Newton
 iterations, halvings and collision chords: 600 steps), beside the adaptive default of `bench_net`
 (explicit Tsit5 at the default tolerances) on the same nets:
 
 - one step, compiled, from the fold's state at 300 µs (mid-fold, before the panels meet: a
   step's work is fixed but for the collision check's loop), ms per step;
 - one fold, warm, ours fixed steps against ours adaptive (compile apart, in `compile_s`);
-- the batch: nets/s of the fixed steps (`jax.vmap`) against MuJoCo over the same nets on two
-  threads, and of the adaptive engine over the same nets.
+- the batch: nets/s of the fixed steps (`jax.vmap`) against MuJoCo over the same nets on every
+  core, and of the adaptive engine over the same nets.
 
 Every batch's members are checked to close the cube before they are timed; each fold's verdict is
 the net's (`Net.assess`).
 
-Run: ``python -m benchmarks --only engine`` (``--quick``: a batch of 4, one repeat).
+Run: ``python -m benchmarks --only engine`` (``--quick``: a batch of 4, one repeat; the batch from
+``ENGINE_BATCH``), or ``python -m benchmarks.bench_engine [--quick] [--batch N] [--json PATH]``.
 """
 
+import os
 import time
 
 import diffrax
@@ -76,7 +78,8 @@ def run(quick: bool, batch: int | None = None) -> list[Result]:
     jax.config.update("jax_enable_x64", True)
     repeats = 1 if quick else 3
     if batch is None:
-        batch = 4 if quick else 16
+        # `ENGINE_BATCH`: a larger batch where a device fills it (benchmarks/device_run.sh).
+        batch = int(os.environ.get("ENGINE_BATCH", 4 if quick else 16))
     net = load_net(bench_net.NET)
     design = HingeDesign.literature(fluid=KOH_SOLUTION)
     system = net.system(design, contact="plate")
@@ -172,25 +175,27 @@ def run(quick: bool, batch: int | None = None) -> list[Result]:
         batched, compile_s[name] = _compiled(jax.vmap(member), *args)
         bench_net._check(f"ours (batch, {name})", net, np.asarray(batched(*args)), targets)
         per_net[name] = time_calls(lambda b=batched: b(*args), repeats=repeats, warmup=0)
-    _progress(f"MuJoCo over the batch of {batch}")
+    # MuJoCo at its best: one thread per core of the machine (2 on the CI-sized CPU).
+    threads = os.cpu_count() or 2
+    _progress(f"MuJoCo over the batch of {batch} on {threads} threads")
     dt_mj, nstep = bench_net.mujoco_step(system)
     models = bench_net.scattered_mujoco(system, design, dt_mj, factor)
     controls = release_controls(release, nstep, dt_mj)
     bench_net._check(
         "MuJoCo (batch)",
         net,
-        bench_net._mujoco_final(models, controls, bench_net._datas(models[0], 2)),
+        bench_net._mujoco_final(models, controls, bench_net._datas(models[0], threads)),
         targets,
     )
-    mujoco = bench_net.mujoco_batch_seconds(models, controls, 2, repeats=repeats)
+    mujoco = bench_net.mujoco_batch_seconds(models, controls, threads, repeats=repeats)
     for name, label in (("fixed", f"ImplicitStep dt {DT:g} us"), ("adaptive", "adaptive Tsit5")):
         timing = per_net[name]
         rows.append(
             Result(
                 name=f"{bench_net.NET} (plate contact) with scattered hinges, nets/s: ours "
-                f"{label} vmap over {batch} vs MuJoCo over the same {batch} on 2 threads",
+                f"{label} vmap over {batch} vs MuJoCo over the same {batch} on {threads} threads",
                 ours=timing,
-                peer_name=f"MuJoCo rollout over {batch} models (C), 2 threads",
+                peer_name=f"MuJoCo rollout over {batch} models (C), {threads} threads",
                 peer=mujoco,
                 compile_s=compile_s[name],
                 per_item=batch,

@@ -63,4 +63,7 @@ run simulate 90
 run chain_peers 60
 run design 150
 run net ${NET_LIMIT:-420}  # ours and MJX over the same 1,000 scattered cube nets (--quick: 64) on the GPU
+# the fixed-step engine and the adaptive one over a scattered batch against C MuJoCo on the host's cores
+export ENGINE_BATCH=${ENGINE_BATCH:-256}
+run engine ${ENGINE_LIMIT:-400}
 echo "done $(date +%T)"
