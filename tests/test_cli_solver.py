@@ -1,4 +1,4 @@
-"""`--solver`, `--dt` and `--newton-iterations` of `fold`, `yield` and `sweep`: one place turns them
+"""`--solver`, `--dt` and `--newton-iterations` of `fold`, `yield`, `sweep` and `design`: one place turns them
 into the solve (`cli._common.solver_choice`, `with_solver`), bad values are refused in one line
 before anything compiles, the choice is recorded, and a resume with another solver is refused.
 """
@@ -218,6 +218,34 @@ def test_yield_resume_refuses_another_solver(tmp_path, capsys):
     (folder / "result.json").write_text(json.dumps({**stored, "newton_iterations": 6}))
     assert main([*base, "--resume", "--solver", "implicit-step", "--dt", "1"]) == 2
     assert "was run with --solver implicit-step --dt 2.5" in _one_line(capsys.readouterr().err)
+
+
+@pytest.mark.parametrize(
+    "flags, message",
+    [
+        BAD[0],
+        BAD[2],
+        (["--solver", "implicit-step", "--dt", "500"], "longer than the run (the run"),
+    ],
+)
+def test_design_refuses_bad_solver_flags_in_one_line(flags, message, tmp_path, capsys, monkeypatch):
+    """`design` takes the same flags (its run length from the targets: 6 × 37 µs here)."""
+    import origami_jax.design as ojd
+
+    monkeypatch.setattr(ojd, "design", _no_compiling)
+    out = tmp_path / "design"
+    assert main(["design", "--target-rise", "37e-6", *flags, "--out", str(out)]) == 2
+    assert message in _one_line(capsys.readouterr().err)
+    assert not (out / "design.json").exists()
+
+
+@pytest.mark.slow  # a short fit through the fixed steps: ~15 s on an idle 2-core machine
+def test_design_through_the_fixed_step_engine_records_it(tmp_path, capsys):
+    out = tmp_path / "design"
+    flags = ["--solver", "implicit-step", "--dt", "0.5", "--starts", "1", "--max-steps", "2"]
+    assert main(["design", "--target-rise", "37e-6", *flags, "--out", str(out)]) in (0, 1)
+    result = json.loads((out / "design.json").read_text())
+    assert result["solver"] == {"solver": "implicit-step", "dt_us": 0.5, "newton_iterations": 6}
 
 
 @pytest.mark.slow  # a whole fold command: ~12 s on an idle 2-core machine

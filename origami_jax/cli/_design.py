@@ -13,10 +13,13 @@ from ._common import (
     EXIT_USAGE,
     OutputFolder,
     add_out_argument,
+    add_solver_arguments,
     dumps_json,
     fail,
     int_range,
     positive,
+    solver_choice,
+    with_solver,
     write_atomic,
 )
 
@@ -27,6 +30,8 @@ MAX_FIT_STEPS = 10_000
 _EPILOG = """\
 Times are in SI seconds on the command line; per-joint lists are comma-separated with '-' for a joint
 without a target. A single --target-overshoot value targets joint 1 (as the paper reports it).
+--solver implicit-step --dt US fits through fixed implicit Euler steps (--dt in µs, as for fold, yield
+and sweep): the fit's derivatives are then those of the discrete map; design.json records the solver.
 
 example (the paper's Fig. 7 step response):
   origami-jax design --target-rise 37e-6,101e-6,38e-6 --target-overshoot 0.39 \\
@@ -79,6 +84,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument(
         "--tolerance", type=float, default=0.05, help="relative miss counted as met"
     )
+    add_solver_arguments(parser, "tsit5 (the fit's derivatives are the resolved motion's)")
     add_out_argument(parser)
     parser.set_defaults(func=run)
 
@@ -233,6 +239,14 @@ def _fit(args, out: Path, n, table, rise, overshoot, peak, settling, final, t90)
         t1 = None if args.t1 is None else units.time(args.t1)
     except ValueError as error:
         fail(str(error))
+    # --dt in µs, bounded by the run: --t1's, else the one the targets give (`design`'s default).
+    horizon = t1 if t1 is not None else ojd.time_horizon(targets)
+    choice = solver_choice(
+        args,
+        math.inf if horizon is None else float(horizon),
+        "--t1" if t1 is not None else "the run length the targets give",
+    )
+    options = with_solver(sim.FIT_OPTIONS.replace(t1=t1), choice)
 
     print(
         f"  targets: {', '.join(targets.labels) or '-'}{' + measured curve' if curve is not None else ''}"
@@ -246,7 +260,7 @@ def _fit(args, out: Path, n, table, rise, overshoot, peak, settling, final, t90)
             targets,
             free,
             bounds=bounds,
-            options=sim.FIT_OPTIONS.replace(t1=t1),
+            options=options,
             n_starts=args.starts,
             max_steps=args.max_steps,
             tolerance=args.tolerance,
@@ -257,6 +271,7 @@ def _fit(args, out: Path, n, table, rise, overshoot, peak, settling, final, t90)
     print(result.summary())
 
     payload = result.to_dict()
+    payload["solver"] = choice or {"solver": "tsit5"}
     payload["units_note"] = "values in MICRO units: µm, µs, ng, MPa; overshoot as a fraction"
     payload["targets_si"] = {
         row.label: {
