@@ -82,7 +82,6 @@ from ._primitives import (
     _sub,
     _vcross,
     _vdot,
-    additive_ccd_groups,
     closest_on_segments,
     earliest_impact,
     overlap_depth,
@@ -107,27 +106,24 @@ _CCD_SEPARATION = 0.5
 _CCD_PAIRS = 32
 
 
-def _mollifier(ea, eb):
-    """IPC's ``m(x) = (2 − x/ε) x/ε`` below ``ε``, 1 beyond, with ``x = |e_a × e_b|²``."""
-    cross = jnp.cross(ea, eb)
-    x = jnp.sum(cross * cross, axis=-1)
-    eps = _PARALLEL * jnp.sum(ea * ea, axis=-1) * jnp.sum(eb * eb, axis=-1)
-    r = x / eps
-    return jnp.where(r < 1, (2 - r) * r, 1.0)
-
-
-def _mollifier_turns(ea, eb):
-    """``(e_a × ∂m/∂e_a, e_b × ∂m/∂e_b)`` of `_mollifier`, by component (tuples of three `(m,)`
-    arrays): the moment about the origin of the forces ``∓∂m/∂e`` on an edge's two ends is
-    ``−e × ∂m/∂e`` (the part of ``∂ε`` along ``e`` has none)."""
+def _mollifier_parts(ea, eb):
+    """IPC's mollifier ``m(x) = (2 − x/ε) x/ε`` below ``ε = 10⁻³ |e_a|²|e_b|²``, 1 beyond, with
+    ``x = |e_a × e_b|²``, and its turns ``(e_a × ∂m/∂e_a, e_b × ∂m/∂e_b)``, all by component (edges
+    and turns tuples of three `(m,)` arrays): the moment about the origin of the forces ``∓∂m/∂e``
+    on an edge's two ends is ``−e × ∂m/∂e`` (the part of ``∂ε`` along ``e`` has none)."""
     cross = _vcross(ea, eb)
-    x = _vdot(cross, cross)
     eps = _PARALLEL * _vdot(ea, ea) * _vdot(eb, eb)
-    r = x / eps
+    r = _vdot(cross, cross) / eps
+    mollifier = jnp.where(r < 1, (2 - r) * r, 1.0)
     scale = jnp.where(r < 1, 2 - 2 * r, 0.0) * 2 / eps
     turn_a = _vcross(ea, _vcross(eb, cross))
     turn_b = _vcross(eb, _vcross(cross, ea))
-    return tuple(scale * c for c in turn_a), tuple(scale * c for c in turn_b)
+    return mollifier, (tuple(scale * c for c in turn_a), tuple(scale * c for c in turn_b))
+
+
+def _mollifier(ea, eb):
+    """`_mollifier_parts`' mollifier of edges `(m, 3)`."""
+    return _mollifier_parts(_split(ea), _split(eb))[0]
 
 
 class _Pairs(eqx.Module):
@@ -138,7 +134,7 @@ class _Pairs(eqx.Module):
     ``∂g/∂(on_first)`` (the unit normal from the second towards the first, shortened by the
     distance's smoothing), the `gap` `(k,)` (length), the energy's `weight` (the edge pairs'
     mollifier, 1 for vertex–face pairs) and the edge pairs' mollifier turns
-    (`_mollifier_turns`, `(m,)` components)."""
+    (`_mollifier_parts`, `(m,)` components)."""
 
     on_first: tuple[Array, Array, Array]
     on_second: tuple[Array, Array, Array]
@@ -375,13 +371,10 @@ class PlateContact(AbstractContact):
         smoothed = jnp.sqrt(_vdot(apart, apart) + tiny**2)
         half_vf, half_ee = self._half_sums(x.dtype)
         gap = smoothed - tiny - jnp.concatenate([half_vf, half_ee])
-        ea, eb = _sub(p1, p0), _sub(q1, q0)
-        cross = _vcross(ea, eb)
-        r = _vdot(cross, cross) / (_PARALLEL * _vdot(ea, ea) * _vdot(eb, eb))
-        mollifier = jnp.where(r < 1, (2 - r) * r, 1.0)
+        mollifier, turns = _mollifier_parts(_sub(p1, p0), _sub(q1, q0))
         weight = jnp.concatenate([jnp.ones(len(half_vf), x.dtype), mollifier])
         direction = tuple(c / smoothed for c in apart)
-        return _Pairs(first, second, direction, gap, weight, _mollifier_turns(ea, eb))
+        return _Pairs(first, second, direction, gap, weight, turns)
 
     def _pair_rates(self, pairs: _Pairs, velocity):
         """Each pair's gap rate ``ġ`` `(k,)` under world body twists `velocity` `(n, 6)` (the base
@@ -404,8 +397,7 @@ class PlateContact(AbstractContact):
         u = pairs.direction
         wrench_first = jnp.stack([*u, *_vcross(pairs.on_first, u)], axis=-1)
         wrench_second = jnp.stack([*u, *_vcross(pairs.on_second, u)], axis=-1)
-        eye = np.eye(n)
-        first, second = jnp.asarray(eye[a], u[0].dtype), jnp.asarray(eye[b], u[0].dtype)
+        first, second = _one_hot(a, n, u[0].dtype), _one_hot(b, n, u[0].dtype)
         wrenches = (
             first[:, :, None] * wrench_first[:, None, :]
             - second[:, :, None] * wrench_second[:, None, :]
@@ -460,12 +452,6 @@ class PlateContact(AbstractContact):
         if self.adhesion is None:
             return self._energy(x)
         return self._energy(x) + self._adhesion(x)
-
-    def _contact_frames(self, x):
-        """Every primitive pair's contact point (the midpoint of its closest points) and unit
-        normal (from the second body's primitive towards the first's), `(k, 3)` each, world."""
-        pairs = self._pairs(x)
-        return pairs.midpoints(), pairs.normals()
 
     def force(self, mechanism, q, v):
         return self._force(mechanism, q, v)[0]
@@ -556,17 +542,6 @@ class PlateContact(AbstractContact):
         if not groups:
             return jnp.full((), jnp.inf, x0.dtype)
         return earliest_impact(groups, limit=_CCD_PAIRS)
-
-    def _impacts(self, x0, x1):
-        """Every primitive pair's conservative time of impact (`additive_ccd`) between world
-        vertices `x0` and `x1`; pairs already closer than ``ξ`` at `x0` get ``inf`` (the barrier
-        pushes them apart; a step cannot be refused for them)."""
-        groups = self._ccd_groups(x0, x1)
-        if not groups:
-            return jnp.full((0,), jnp.inf, x0.dtype)
-        # Both kinds of pairs in one loop (`additive_ccd_groups`): each pair's answer is its own.
-        toi = additive_ccd_groups(groups)
-        return jnp.where(toi > 0, toi, jnp.inf)
 
     def _ccd_groups(self, x0, x1):
         """The vertex–face and edge–edge pairs' CCD arguments (`additive_ccd_groups`) between
@@ -676,5 +651,10 @@ def _pick(rows: np.ndarray, size: int, flat: Array, *, transpose: bool = False) 
     """``flat[rows]`` as the product of a constant one-hot matrix `(len(rows), size)` (host) with
     `flat` `(size, c)`; with `transpose`, the sum of the rows of `flat` `(len(rows), c)` into
     `size` rows (the adjoint: a scatter-add as a dense product)."""
-    one_hot = jnp.asarray(np.eye(size)[rows], flat.dtype)
+    one_hot = _one_hot(rows, size, flat.dtype)
     return one_hot.T @ flat if transpose else one_hot @ flat
+
+
+def _one_hot(rows: np.ndarray, size: int, dtype) -> Array:
+    """The constant one-hot matrix `(len(rows), size)` of `rows` (built on the host)."""
+    return jnp.asarray(np.eye(size)[rows], dtype)

@@ -265,6 +265,22 @@ def additive_ccd(
     )
 
 
+def _relative_moves(motion):
+    """Each pair's points' displacements `(k, p, 3)` with the pair's mean displacement removed,
+    and its reach ``l_p`` `(k,)`: the largest of each primitive's displacements, added (no point
+    moves further relative to the other primitive)."""
+    moves = [m.reshape(m.shape[0], -1, 3) for m in motion]
+    mean = jnp.mean(jnp.concatenate(moves, axis=1), axis=1, keepdims=True)
+    moves = [m - mean for m in moves]
+    return moves, sum(jnp.max(jnp.linalg.norm(m, axis=-1), axis=-1) for m in moves)
+
+
+def _clearance(d_sq, separation):
+    """``d − ξ`` from squared distances, written as IPC's code does."""
+    d = jnp.sqrt(jnp.maximum(d_sq, 0.0))
+    return (d_sq - separation**2) / (d + separation)
+
+
 def additive_ccd_groups(
     groups, *, conservative: float = 0.1, max_iterations: int = 64
 ) -> Float[Array, " k"]:
@@ -279,10 +295,8 @@ def additive_ccd_groups(
     shapes, reaches, points_all, moves_all, separations = [], [], [], [], []
     for _, start, motion, separation in groups:
         points = [x.reshape(x.shape[0], -1, 3) for x in start]
-        moves = [m.reshape(m.shape[0], -1, 3) for m in motion]
-        mean = jnp.mean(jnp.concatenate(moves, axis=1), axis=1, keepdims=True)
-        moves = [m - mean for m in moves]
-        reaches.append(sum(jnp.max(jnp.linalg.norm(m, axis=-1), axis=-1) for m in moves))
+        moves, reach = _relative_moves(motion)
+        reaches.append(reach)
         shapes.append([x.shape for x in start])
         points_all.append(points)
         moves_all.append(moves)
@@ -300,9 +314,7 @@ def additive_ccd_groups(
                 for x, m, shape in zip(points_all[g], moves_all[g], shapes[g], strict=True)
             ]
             gaps.append(distance_sq(*positions))
-        d_sq = jnp.concatenate(gaps)
-        d = jnp.sqrt(jnp.maximum(d_sq, 0.0))
-        return (d_sq - separation**2) / (d + separation)  # d − ξ, written as IPC's code does
+        return _clearance(jnp.concatenate(gaps), separation)
 
     first = clearance(jnp.zeros_like(separation))
     target = conservative * first
@@ -357,12 +369,8 @@ def earliest_impact(
     subgroups, rest = [], []
     for distance_sq, start, motion, separation in groups:
         k = separation.shape[0]
-        moves = [m.reshape(k, -1, 3) for m in motion]
-        mean = jnp.mean(jnp.concatenate(moves, axis=1), axis=1, keepdims=True)
-        reach = sum(jnp.max(jnp.linalg.norm(m - mean, axis=-1), axis=-1) for m in moves)
-        d_sq = distance_sq(*start)
-        d = jnp.sqrt(jnp.maximum(d_sq, 0.0))
-        first = (d_sq - separation**2) / (d + separation)
+        _, reach = _relative_moves(motion)
+        first = _clearance(distance_sq(*start), separation)
         advance = (1 - conservative) * jnp.maximum(first, 0.0) / jnp.where(reach > 0, reach, 1.0)
         undecided = (reach > 0) & (first > 0) & (advance <= 1.0)
         key = jnp.where(undecided, advance, jnp.inf)
