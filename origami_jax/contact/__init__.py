@@ -22,6 +22,7 @@ from ._model import PanelContact as PanelContact
 from ._model import contact_points as contact_points
 from ._plate_tables import PlateTables as PlateTables
 from ._plate_tables import build_plate_tables as build_plate_tables
+from ._plates import PairSelection as PairSelection
 from ._plates import PlateContact as PlateContact
 from ._primitives import additive_ccd as additive_ccd
 from ._primitives import closest_on_polygon as closest_on_polygon

@@ -152,6 +152,19 @@ class _Pairs(eqx.Module):
         return normalise(jnp.stack(_sub(self.on_first, self.on_second), axis=-1))
 
 
+class PairSelection(eqx.Module):
+    """The primitive pairs a contact evaluates for a while (`PlateContact.select_pairs`): the rows
+    of the vertex–face and edge–edge tables kept, `(k,)` and `(m,)` integer indices; `cut`, the
+    smallest gap (length) of the pairs left out (``inf`` where none is); `at`, the world vertices
+    `(n, v, 3)` at which the gaps were taken (the collision check bounds the left-out pairs from
+    there)."""
+
+    vertex_face: Array
+    edge_edge: Array
+    cut: Array
+    at: Array
+
+
 class PlateContact(AbstractContact):
     """Exact contact between the plates of a mechanism and its fixed base, with continuous collision
     detection (module docstring: the model).
@@ -166,6 +179,8 @@ class PlateContact(AbstractContact):
     - `friction`: a [`origami_jax.contact.Friction`][] or `None` (default: frictionless).
     - `surface` (static): adhesion's quadrature points and edge pairs
       ([`origami_jax.contact.SurfaceTables`][]), present with `adhesion`.
+    - `selection`: `None` (every primitive pair, the default) or a `PairSelection` of the pairs
+      evaluated (`select_pairs`: an implicit step's working set).
 
     Build it with [`origami_jax.contact.PlateContact.for_system`][] (defaults from the hinges and
     panels) or `PlateContact.from_mechanism`.
@@ -179,6 +194,7 @@ class PlateContact(AbstractContact):
     adhesion: Adhesion | None = None
     friction: Friction | None = None
     surface: SurfaceTables | None = eqx.field(static=True, default=None)
+    selection: PairSelection | None = None
 
     def __check_init__(self):
         self._check_surface()
@@ -317,18 +333,28 @@ class PlateContact(AbstractContact):
     # than by indexing: a gather's derivative is a scatter-add, which runs element by element on a
     # CPU and does not vectorise over a batch; a small dense product does both.
 
+    def _rows(self):
+        """The vertex–face `(k, 3)` and edge–edge `(m, 6)` table rows evaluated: every one (host
+        arrays), or those of the `selection` (traced)."""
+        if self.selection is None:
+            return self.tables.vertex_face, self.tables.edge_edge
+        return (
+            jnp.asarray(self.tables.vertex_face)[self.selection.vertex_face],
+            jnp.asarray(self.tables.edge_edge)[self.selection.edge_edge],
+        )
+
     def _vertex_face_points(self, x):
         """The vertex–face pairs' points: each vertex `(k, 3)` and the other polygon `(k, v, 3)`."""
-        a, i, b = self.tables.vertex_face.T
+        a, i, b = self._rows()[0].T
         n, v = x.shape[:2]
         flat = x.reshape(n * v, 3)
         point = _pick(a * v + i, n * v, flat)
         polygon = _pick((b[:, None] * v + np.arange(v)).ravel(), n * v, flat)
-        return point, polygon.reshape(len(a), v, 3)
+        return point, polygon.reshape(a.shape[0], v, 3)
 
     def _edge_edge_points(self, x):
         """The edge–edge pairs' end points, four `(m, 3)` arrays."""
-        a, i0, i1, b, j0, j1 = self.tables.edge_edge.T
+        a, i0, i1, b, j0, j1 = self._rows()[1].T
         n, v = x.shape[:2]
         flat = x.reshape(n * v, 3)
         return tuple(
@@ -337,7 +363,7 @@ class PlateContact(AbstractContact):
 
     def _half_sums(self, dtype):
         half = self.half_thickness.astype(dtype)
-        vf, ee = self.tables.vertex_face, self.tables.edge_edge
+        vf, ee = self._rows()
         return half[vf[:, 0]] + half[vf[:, 2]], half[ee[:, 0]] + half[ee[:, 3]]
 
     def _gaps(self, x):
@@ -410,7 +436,7 @@ class PlateContact(AbstractContact):
         edge pairs' energy `on_mollifier` ``κ B`` turning them through the mollifier."""
         a, b = self._pair_bodies()
         force = tuple(-push * c for c in pairs.direction)
-        n_vf = len(self.tables.vertex_face)
+        n_vf = self._rows()[0].shape[0]
         zeros = jnp.zeros((n_vf,), push.dtype)
         turn_a, turn_b = (
             tuple(jnp.concatenate([zeros, -on_mollifier * c]) for c in turn) for turn in pairs.turns
@@ -428,7 +454,7 @@ class PlateContact(AbstractContact):
 
     def _energy(self, x):
         gap, mollifier = self._gaps(x)
-        n_vf = len(self.tables.vertex_face)
+        n_vf = self._rows()[0].shape[0]
         weight = jnp.concatenate([jnp.ones(n_vf, x.dtype), mollifier])
         return self.stiffness * jnp.sum(weight * barrier(gap / self.activation))
 
@@ -471,7 +497,7 @@ class PlateContact(AbstractContact):
             self.stiffness * pairs.weight * _barrier_slope(ratio) / self.activation
             + self.damping * smoothstep(1 - ratio) * rate
         )
-        n_vf = len(self.tables.vertex_face)
+        n_vf = self._rows()[0].shape[0]
         on_mollifier = self.stiffness * barrier(ratio[n_vf:])
         n = x.shape[0]
         wrenches = self._pair_wrenches(pairs, push, on_mollifier, n)
@@ -521,6 +547,56 @@ class PlateContact(AbstractContact):
         d_dv = -_weighted_gram(gradient, self.damping * ramp)
         return force, d_dq, d_dv
 
+    # ---- a working set of pairs ----
+
+    def select_pairs(
+        self, mechanism: AbstractMechanism, q: Float[Array, " nq"], counts: tuple[int, int]
+    ) -> "PlateContact":
+        """This contact evaluating only the primitive pairs of least gap at ``q``: `counts` ``(k,
+        m)`` vertex–face and edge–edge pairs (each at most as many as there are). The forces and
+        their derivatives are those of every pair as long as each pair left out stays beyond the
+        activation gap, where it has none (`left_out_engaged` tells); the collision check still
+        covers every pair, the left-out ones by a bound from their least gap (`_left_out_impact`),
+        so no plate passes through another either way. An implicit step's working set
+        (`ImplicitStep.active_pairs`): its Newton iterations then cost in proportion to the pairs
+        kept, not to every pair of the pattern."""
+        full = dataclasses.replace(self, selection=None)
+        x = full.vertices(mechanism, q)
+        gap, _ = full._gaps(x)
+        n_vf = len(self.tables.vertex_face)
+        cut = jnp.full((), jnp.inf, x.dtype)
+        kept = []
+        for part, count in ((gap[:n_vf], counts[0]), (gap[n_vf:], counts[1])):
+            size = part.shape[0]
+            count = min(int(count), size)
+            if size == 0 or count == 0:
+                kept.append(jnp.zeros((0,), jnp.int32))
+                if size:
+                    cut = jnp.minimum(cut, jnp.min(part))
+                continue
+            smallest, index = jax.lax.top_k(-part, min(count + 1, size))
+            if size > count:
+                cut = jnp.minimum(cut, -smallest[count])
+            kept.append(index[:count])
+        return dataclasses.replace(self, selection=PairSelection(*kept, cut, x))
+
+    def left_out_engaged(self, mechanism: AbstractMechanism, q: Float[Array, " nq"]) -> Array:
+        """Whether some primitive pair left out of the `selection` is within the activation gap at
+        ``q`` (a force the selection missed; boolean scalar, `False` without a selection)."""
+        if self.selection is None:
+            return jnp.zeros((), bool)
+        full = dataclasses.replace(self, selection=None)
+        gap, _ = full._gaps(full.vertices(mechanism, q))
+        n_vf = len(self.tables.vertex_face)
+        kept = (
+            jnp.zeros(gap.shape, bool)
+            .at[self.selection.vertex_face]
+            .set(True)
+            .at[n_vf + self.selection.edge_edge]
+            .set(True)
+        )
+        return jnp.any(~kept & (gap < self.activation))
+
     # ---- continuous collision detection (the step guard) ----
 
     def time_of_impact(
@@ -537,11 +613,33 @@ class PlateContact(AbstractContact):
         `x0` and `x1` (`earliest_impact`: at most `_CCD_PAIRS` pairs of each kind iterated, a lower
         bound for the others), ``inf`` where none comes within ``ξ``; pairs already closer than
         ``ξ`` at `x0` are not counted (the barrier pushes them apart; a step cannot be refused for
-        them)."""
+        them). With a `selection`, the pairs left out are bounded together (`_left_out_impact`)."""
         groups = self._ccd_groups(x0, x1)
-        if not groups:
-            return jnp.full((), jnp.inf, x0.dtype)
-        return earliest_impact(groups, limit=_CCD_PAIRS)
+        earliest = jnp.full((), jnp.inf, x0.dtype)
+        if groups:
+            earliest = earliest_impact(groups, limit=_CCD_PAIRS)
+        if self.selection is None:
+            return earliest
+        return jnp.minimum(earliest, self._left_out_impact(x0, x1))
+
+    def _left_out_impact(self, x0, x1, conservative: float = 0.1):
+        """A lower bound of the time of impact of every pair left out of the `selection`, on the
+        straight path from world vertices `x0` to `x1` (``inf`` where none can come within ``ξ``).
+
+        Each left-out pair's distance less its ``ξ`` was at least ``cut + (1 − ½)·(t_a + t_b)/2 ≥
+        cut + ½ t_min`` where the selection was made (`selection.at`); a distance changes no more
+        than its two primitives' points move, and no point of a plate moves further than its
+        farthest vertex, so from there to `x0` it shrank by at most ``2 D`` (``D`` the largest
+        vertex displacement) and along the path by at most ``2 M t`` (``M`` the largest vertex
+        move over it). Stopping at the fraction ``1 − conservative`` of that, as the iterated
+        pairs do, keeps a step short of any impact."""
+        selection = self.selection
+        half = jnp.min(self.half_thickness).astype(x0.dtype)
+        drift = jnp.max(jnp.linalg.norm(x0 - selection.at, axis=-1))
+        move = jnp.max(jnp.linalg.norm(x1 - x0, axis=-1))
+        clearance = selection.cut + 2 * (1 - _CCD_SEPARATION) * half - 2 * drift
+        bound = (1 - conservative) * jnp.maximum(clearance, 0.0) / jnp.where(move > 0, 2 * move, 1.0)
+        return jnp.where(move > 0, bound, jnp.inf)
 
     def _ccd_groups(self, x0, x1):
         """The vertex–face and edge–edge pairs' CCD arguments (`additive_ccd_groups`) between
@@ -584,8 +682,9 @@ class PlateContact(AbstractContact):
         return plate_overlaps(self.tables, self.half_thickness, self.vertices(mechanism, q))
 
     def _pair_bodies(self):
-        vf, ee = self.tables.vertex_face, self.tables.edge_edge
-        return np.concatenate([vf[:, 0], ee[:, 0]]), np.concatenate([vf[:, 2], ee[:, 3]])
+        vf, ee = self._rows()
+        xp = np if self.selection is None else jnp
+        return xp.concatenate([vf[:, 0], ee[:, 0]]), xp.concatenate([vf[:, 2], ee[:, 3]])
 
     def report(self, mechanism, q) -> dict[str, Array]:
         """Contact state at ``q``: the smallest primitive gap (length, `inf` if none is checked), how
@@ -655,6 +754,9 @@ def _pick(rows: np.ndarray, size: int, flat: Array, *, transpose: bool = False) 
     return one_hot.T @ flat if transpose else one_hot @ flat
 
 
-def _one_hot(rows: np.ndarray, size: int, dtype) -> Array:
-    """The constant one-hot matrix `(len(rows), size)` of `rows` (built on the host)."""
-    return jnp.asarray(np.eye(size)[rows], dtype)
+def _one_hot(rows, size: int, dtype) -> Array:
+    """The one-hot matrix `(len(rows), size)` of `rows`: a constant built on the host for host
+    `rows`, a comparison for traced ones (a selection's)."""
+    if isinstance(rows, np.ndarray):
+        return jnp.asarray(np.eye(size)[rows], dtype)
+    return (rows[:, None] == jnp.arange(size)).astype(dtype)

@@ -22,7 +22,7 @@ from ._options import SolveOptions
 from ._simulate import Trajectory, simulate
 from ._verdict import AbstractFoldReport
 
-_STEP_COUNTS = ("num_steps", "num_accepted_steps", "num_rejected_steps")
+_STEP_COUNTS = ("num_steps", "num_accepted_steps", "num_rejected_steps", "contacts_left_out")
 
 
 def join_trajectories(first: Trajectory, then: Trajectory) -> Trajectory:

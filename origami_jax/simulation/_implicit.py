@@ -29,6 +29,12 @@ and none waits for another; the price is that a step whose Newton iterations did
 not refused: `Trajectory.stats["newton_error"]` reports the largest remaining Newton update of any
 step (rad; small against the motion when the steps converged).
 
+**Working set.** Each step evaluates the plate contact's pairs of least gap at its start
+(`ImplicitStep.active_pairs`, `PlateContact.select_pairs`), not every pair of the pattern: a pair
+beyond the activation gap has no force, so the step is the same while no pair left out comes
+within it (counted in `Trajectory.stats["contacts_left_out"]`); the collision check bounds the
+left-out pairs from their least gap, so none passes through a plate either way.
+
 **Gradients.** The derivative of each step is that of its root by the implicit function theorem,
 ``∂q_{n+1} = −J⁻¹ ∂r`` with the exact ``J = ∂r/∂q`` at the root (`_root`, a custom JVP: computed
 only when differentiating), not the derivative of the iterations, which run on values without
@@ -58,6 +64,9 @@ _CONVERGED = 1e-10
 # Armijo's sufficient decrease of |r|² along the Newton direction (slope −2|r|²).
 _ARMIJO = 1e-4
 _JACOBIANS = ("gauss-newton", "exact")
+# `ImplicitStep.active_pairs`' default per body: a closed cube net (6 bodies, the base one of them)
+# has 24 vertex–face and 41 edge–edge pairs within twice the activation gap, against 36 and 60 kept.
+_PAIRS_PER_BODY = 16
 
 
 class ImplicitStep(eqx.Module):
@@ -75,6 +84,14 @@ class ImplicitStep(eqx.Module):
       1e-10 rad, and each line search at its first acceptable trial (default `False`: every
       count fixed). Faster for a single run; under `vmap` every member then iterates as long as
       the slowest one. Gradients are unchanged (they do not pass through the iterations).
+    - `active_pairs`: how many of the plate contact's primitive pairs each step evaluates, those
+      of least gap at the step's start (`PlateContact.select_pairs`; split between vertex–face
+      and edge–edge pairs in proportion to their numbers). Default `None`: 16 per body, the base
+      included (96 of a cube net's 253; a closed cube engages 65). The forces are every pair's
+      as long as no pair left out comes within the activation gap during the step, which
+      `Trajectory.stats["contacts_left_out"]` counts (steps where one did: raise it); the
+      collision check covers every pair either way. At least the number of pairs: all of them,
+      every step.
     - `jacobian`: the Newton iterations' matrix. `"gauss-newton"` (default): the contact's
       barrier and damping by their Gauss–Newton part (`PlateContact.force_jacobians`: each pair's
       gap gradient held fixed, as IPC does), everything else by forward-mode differentiation;
@@ -103,6 +120,7 @@ class ImplicitStep(eqx.Module):
     ccd_pieces: int = eqx.field(static=True, default=4)
     early_exit: bool = eqx.field(static=True, default=False)
     jacobian: str = eqx.field(static=True, default="gauss-newton")
+    active_pairs: int | None = eqx.field(static=True, default=None)
 
     def __check_init__(self):
         if self.jacobian not in _JACOBIANS:
@@ -114,6 +132,15 @@ class ImplicitStep(eqx.Module):
             raise ValueError(f"ImplicitStep.dt must be a positive finite step, got {self.dt!r}.")
         if not (isinstance(self.max_update, int | float) and self.max_update > 0):
             raise ValueError(f"ImplicitStep.max_update must be positive, got {self.max_update!r}.")
+        if self.active_pairs is not None and (
+            isinstance(self.active_pairs, bool)
+            or not isinstance(self.active_pairs, int)
+            or self.active_pairs < 1
+        ):
+            raise ValueError(
+                "ImplicitStep.active_pairs must be a positive integer or None (16 per body), got "
+                f"{self.active_pairs!r}."
+            )
         for name in ("newton_iterations", "halvings", "ccd_pieces"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
@@ -170,6 +197,24 @@ def _all_trials(merit, q, dq, longest, m0, halvings: int):
     least = jnp.argmin(merits)
     best = jnp.where(merits[least] < m0, alphas[least], 0.0)
     return jnp.where(jnp.any(armijo), alphas[jnp.argmax(armijo)], best)
+
+
+def _pair_counts(contact, solver: ImplicitStep) -> tuple[int, int] | None:
+    """The working set of `solver.active_pairs` for `contact`: ``(vertex–face, edge–edge)`` pair
+    counts in proportion to the tables', or `None` where every pair is evaluated (a contact without
+    a working set, or a budget at least the number of pairs)."""
+    if contact is None or not hasattr(contact, "select_pairs"):
+        return None
+    tables = contact.tables
+    n_vf, n_ee = len(tables.vertex_face), len(tables.edge_edge)
+    total = n_vf + n_ee
+    budget = solver.active_pairs
+    if budget is None:
+        budget = _PAIRS_PER_BODY * tables.vertices.shape[0]
+    if budget >= total:
+        return None
+    k_vf = min(n_vf, max(1, round(budget * n_vf / total)))
+    return k_vf, min(n_ee, budget - k_vf)
 
 
 def _gauss_newton_applies(system: FoldingSystem, solver: ImplicitStep) -> bool:
@@ -232,12 +277,18 @@ def _root_jvp(primals, tangents):
 
 
 def _step(system: FoldingSystem, inputs: AbstractInput, solver: ImplicitStep, t_next, h, q_n, v_n):
-    """One step from ``(q_n, v_n)`` to ``t_next = t_n + h``: ``(q, v, newton_error)``."""
+    """One step from ``(q_n, v_n)`` to ``t_next = t_n + h``: ``(q, v, newton_error,
+    left_out)``, `left_out` whether a contact pair outside the step's working set came within the
+    activation gap (`ImplicitStep.active_pairs`)."""
     mechanism = system.mechanism
     contact = system.contact
     capped = hasattr(contact, "time_of_impact")
     # The iterations run without derivatives; `_root` carries them (IFT).
     s_system, s_inputs, s_h, s_q, s_v = _without_derivatives((system, inputs, h, q_n, v_n))
+    counts = _pair_counts(contact, solver)
+    if counts is not None:
+        working = s_system.contact.select_pairs(s_system.mechanism, s_q, counts)
+        s_system = eqx.tree_at(lambda s: s.contact, s_system, working)
     mass = mechanism.mass_matrix(s_q)
     bias = mechanism.bias_force(s_q, s_v)
     newton_matrix, residual = _newton_matrix(
@@ -308,8 +359,11 @@ def _step(system: FoldingSystem, inputs: AbstractInput, solver: ImplicitStep, t_
         q = jax.lax.fori_loop(0, solver.newton_iterations, lambda _, q: newton(q)[0], q)
     jac, r = newton_matrix(q)
     error = jnp.max(jnp.abs(jnp.linalg.solve(jac, r)))
+    left_out = jnp.zeros((), bool)
+    if counts is not None:
+        left_out = s_system.contact.left_out_engaged(s_system.mechanism, q)
     q = _root(jax.lax.stop_gradient(q), system, inputs, t_next, h, q_n, v_n)
-    return q, (q - q_n) / h, jax.lax.stop_gradient(error)
+    return q, (q - q_n) / h, jax.lax.stop_gradient(error), left_out
 
 
 def integrate(
@@ -334,17 +388,19 @@ def integrate(
         h = jnp.where(moves, length / steps, 1.0)
 
         def step(carry, j):
-            q, v, error = carry
-            q_next, v_next, e = _step(system, inputs, solver, t_start + (j + 1) * h, h, q, v)
+            q, v, error, left_out = carry
+            q_next, v_next, e, out = _step(system, inputs, solver, t_start + (j + 1) * h, h, q, v)
             q_next = jnp.where(moves, q_next, q)
             v_next = jnp.where(moves, v_next, v)
-            return (q_next, v_next, jnp.maximum(error, jnp.where(moves, e, 0.0))), None
+            error = jnp.maximum(error, jnp.where(moves, e, 0.0))
+            return (q_next, v_next, error, left_out + (moves & out).astype(jnp.int32)), None
 
         state, _ = jax.lax.scan(step, state, jnp.arange(steps, dtype=ts.dtype))
         return state, state[:2]
 
     zero = jnp.zeros((), q0.dtype)
-    (_, _, error), (q, v) = jax.lax.scan(interval, (q0, v0, zero), (starts, ts))
+    start = (q0, v0, zero, jnp.zeros((), jnp.int32))
+    (_, _, error, left_out), (q, v) = jax.lax.scan(interval, start, (starts, ts))
     count = jnp.sum(ts > starts).astype(jnp.int32) * steps
     finite = jnp.all(jnp.isfinite(q)) & jnp.all(jnp.isfinite(v))
     result = RESULTS.where(finite, RESULTS.successful, RESULTS.nonfinite_state)
@@ -353,5 +409,6 @@ def integrate(
         "num_accepted_steps": count,
         "num_rejected_steps": jnp.zeros((), jnp.int32),
         "newton_error": jax.lax.stop_gradient(error),
+        "contacts_left_out": left_out,
     }
     return q, v, stats, result

@@ -71,7 +71,10 @@ class Trajectory(eqx.Module):
       last sample.
     - `stats`: diffrax's statistics (`num_steps`, `num_accepted_steps`, `num_rejected_steps`, `max_steps`);
       with [`origami_jax.simulation.StiffnessSwitching`][] (the default) also `switch_time`, the time the
-      solver turned implicit (`inf` if it never did).
+      solver turned implicit (`inf` if it never did); with [`origami_jax.simulation.ImplicitStep`][]
+      also `newton_error` (the largest Newton update left at the end of a step, rad) and
+      `contacts_left_out` (steps in which a contact pair outside the step's working set came within
+      the activation gap: `ImplicitStep.active_pairs`).
     - `result`: a [`origami_jax.simulation.RESULTS`][] code; samples after a failure are `inf`.
     - `solution`: the diffrax solution with dense output when `SaveAt(dense=True)`, else `None`.
     - `state`: the mechanism's samples ``(q, v)`` when its coordinates are not its hinge angles (else

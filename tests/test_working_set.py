@@ -1,0 +1,117 @@
+"""The fixed-step engine's working set of contact pairs (`PlateContact.select_pairs`,
+`ImplicitStep.active_pairs`): it keeps the pairs of least gap, gives every pair's force while the
+pairs left out stay beyond the activation gap, says when one did not, and its collision check
+bounds the left-out pairs from below.
+
+Independent references: the full contact's own gaps, forces and times of impact (every pair).
+Tolerances: forces and derivatives to 1e-12 relative (the same sums over a few more zero terms);
+trajectories to 1e-9 rad (the same steps; rounding of sums in another order).
+"""
+
+import functools
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import origami_jax.simulation as sim
+from origami_jax.net import load_net
+from origami_jax.simulation._implicit import _pair_counts
+
+from .test_contact_jacobians import _derivatives, _engaged_state
+
+
+@functools.cache
+def _selected(counts):
+    system, q, v = _engaged_state()
+    return system.contact.select_pairs(system.mechanism, q, counts)
+
+
+def test_the_default_budget_and_its_checks():
+    system, _, _ = _engaged_state()
+    contact = system.contact
+    n_vf, n_ee = len(contact.tables.vertex_face), len(contact.tables.edge_edge)
+    # 16 per body (five panels and the base), split in proportion to the two kinds of pairs.
+    k_vf, k_ee = _pair_counts(contact, sim.ImplicitStep(dt=1.0))
+    assert k_vf + k_ee == 16 * 6
+    assert k_vf / (k_vf + k_ee) == pytest.approx(n_vf / (n_vf + n_ee), abs=0.01)
+    # A budget of every pair, or a contact without a working set: every pair, as before.
+    assert _pair_counts(contact, sim.ImplicitStep(dt=1.0, active_pairs=n_vf + n_ee)) is None
+    sampled = load_net("cube_net_01", length_scale=0.5).system(contact="sampled")
+    assert _pair_counts(sampled.contact, sim.ImplicitStep(dt=1.0)) is None
+    for bad in (0, -3, 2.5, True):
+        with pytest.raises(ValueError, match="active_pairs must be a positive integer"):
+            sim.ImplicitStep(dt=1.0, active_pairs=bad)
+
+
+def test_a_working_set_keeps_the_least_gaps_and_every_force():
+    system, q, v = _engaged_state()
+    contact, mechanism = system.contact, system.mechanism
+    counts = _pair_counts(contact, sim.ImplicitStep(dt=1.0))
+    working = _selected(counts)
+    gap = np.asarray(contact._gaps(contact.vertices(mechanism, q))[0])
+    n_vf = len(contact.tables.vertex_face)
+    kept_vf, kept_ee = np.asarray(working.selection.vertex_face), np.asarray(
+        working.selection.edge_edge
+    )
+    # The least gaps of each kind, and the cut: the least gap left out.
+    for part, kept, count in ((gap[:n_vf], kept_vf, counts[0]), (gap[n_vf:], kept_ee, counts[1])):
+        assert len(set(kept.tolist())) == count
+        np.testing.assert_allclose(np.sort(part[kept]), np.sort(part)[:count], rtol=0, atol=0)
+    left_out = np.delete(gap, np.concatenate([kept_vf, n_vf + kept_ee]))
+    assert float(working.selection.cut) == left_out.min()
+    # Every engaged pair kept: the same force and derivatives as every pair's.
+    assert float(working.selection.cut) > float(contact.activation)
+    assert (gap < float(contact.activation)).sum() > 0
+    full = _derivatives(contact, mechanism, q, v)
+    part = _derivatives(working, mechanism, q, v)
+    for a, b in zip(full[:3], part[:3], strict=True):
+        np.testing.assert_allclose(b, a, rtol=1e-12, atol=1e-12 * float(np.abs(a).max()))
+    assert not bool(working.left_out_engaged(mechanism, q))
+    # Too few kept: engaged pairs are left out, and it is said.
+    assert bool(_selected((1, 1)).left_out_engaged(mechanism, q))
+
+
+def test_the_collision_check_bounds_the_pairs_left_out():
+    """From the engaged state, straight steps to random nearby states (some into contact): with a
+    working set, the time of impact is at most every pair's (conservative), and with every engaged
+    pair kept it is the same where the left-out pairs are clear."""
+    system, q, _ = _engaged_state()
+    contact, mechanism = system.contact, system.mechanism
+    rng = np.random.default_rng(7)
+    scales = np.geomspace(1e-4, 2e-2, 24)[:, None]
+    ends = q + jnp.asarray(rng.normal(size=(24, q.shape[0])) * scales)
+
+    @eqx.filter_jit
+    def impacts(contact, ends):
+        return jax.vmap(lambda end: contact.time_of_impact(mechanism, q, end))(ends)
+
+    every = np.asarray(impacts(contact, ends))
+    assert 0 < (every < 1).sum() < len(every)  # some steps meet, others are clear
+    default = np.asarray(impacts(_selected(_pair_counts(contact, sim.ImplicitStep(dt=1.0))), ends))
+    few = np.asarray(impacts(_selected((1, 1)), ends))
+    assert np.all(default <= every * (1 + 1e-12))
+    assert np.all(few <= every * (1 + 1e-12))
+    assert np.mean(default == every) > 0.5  # the bound is not what decides most steps
+
+
+@pytest.mark.slow  # two fixed-step folds of a cube net to compile: ~50 s
+def test_a_fold_on_the_working_set_is_the_fold_on_every_pair():
+    """`cube_net_01` in KOH to 1500 µs in steps of 2.5 µs: the default working set (96 of 253
+    pairs) and every pair give the same trajectory, and no contact was left out."""
+    from origami_jax.system import KOH_SOLUTION, HingeDesign
+
+    net = load_net("cube_net_01")
+    system = net.system(HingeDesign.literature(fluid=KOH_SOLUTION), contact="plate")
+    runs = {}
+    for budget in (None, 10_000):
+        options = sim.SolveOptions(
+            saveat=sim.SaveAt(n=61), solver=sim.ImplicitStep(dt=2.5, active_pairs=budget)
+        )
+        trajectory = eqx.filter_jit(sim.simulate)(system, sim.Step(), options, t1=1500.0)
+        assert net.assess(system, trajectory).verdict == "folded"
+        assert int(trajectory.stats["contacts_left_out"]) == 0
+        runs[budget] = np.asarray(trajectory.theta)
+    np.testing.assert_allclose(runs[None], runs[10_000], rtol=0, atol=1e-9)
