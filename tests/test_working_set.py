@@ -53,8 +53,9 @@ def test_a_working_set_keeps_the_least_gaps_and_every_force():
     working = _selected(counts)
     gap = np.asarray(contact._gaps(contact.vertices(mechanism, q))[0])
     n_vf = len(contact.tables.vertex_face)
-    kept_vf, kept_ee = np.asarray(working.selection.vertex_face), np.asarray(
-        working.selection.edge_edge
+    kept_vf, kept_ee = (
+        np.asarray(working.selection.vertex_face),
+        np.asarray(working.selection.edge_edge),
     )
     # The least gaps of each kind, and the cut: the least gap left out.
     for part, kept, count in ((gap[:n_vf], kept_vf, counts[0]), (gap[n_vf:], kept_ee, counts[1])):

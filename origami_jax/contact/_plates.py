@@ -638,7 +638,9 @@ class PlateContact(AbstractContact):
         drift = jnp.max(jnp.linalg.norm(x0 - selection.at, axis=-1))
         move = jnp.max(jnp.linalg.norm(x1 - x0, axis=-1))
         clearance = selection.cut + 2 * (1 - _CCD_SEPARATION) * half - 2 * drift
-        bound = (1 - conservative) * jnp.maximum(clearance, 0.0) / jnp.where(move > 0, 2 * move, 1.0)
+        bound = (
+            (1 - conservative) * jnp.maximum(clearance, 0.0) / jnp.where(move > 0, 2 * move, 1.0)
+        )
         return jnp.where(move > 0, bound, jnp.inf)
 
     def _ccd_groups(self, x0, x1):
