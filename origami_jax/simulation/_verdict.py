@@ -175,7 +175,14 @@ def derived_seam_tolerances(
     root-sum-square of what each crease alone, off by the tolerance, opens (independent crease
     errors). ``2h + 1`` evaluations of the gaps; traceable."""
     intended = jnp.asarray(intended_angles, dtype=jnp.result_type(float))
-    steps = jnp.asarray(angle, intended.dtype) * jnp.eye(intended.shape[0], dtype=intended.dtype)
+    return _derived_seam_tolerances(seam_gaps, intended, jnp.asarray(angle, intended.dtype))
+
+
+# One compiled program (op by op, the gaps' many small operations cost more than a verdict's run,
+# and every verdict of a fold asks again); under an outer trace it is traced inline.
+@eqx.filter_jit
+def _derived_seam_tolerances(seam_gaps, intended, angle):
+    steps = angle * jnp.eye(intended.shape[0], dtype=intended.dtype)
     base = seam_gaps(intended)
     up = jax.vmap(seam_gaps)(intended + steps)
     down = jax.vmap(seam_gaps)(intended - steps)
