@@ -13,8 +13,8 @@ every force is implicit, so stiff hinges, drag and the contact barrier cost no s
 scheme is first-order accurate and dissipative (backward Euler damps oscillations of period ``T`` by
 about ``2π² (h/T)²`` of their energy per period, more as ``h/T`` grows).
 
-**Newton.** A fixed number of Newton iterations (`ImplicitStep.newton_iterations`) from the
-predictor ``q_n + h v_n``. Their matrix (`ImplicitStep.jacobian`) is by default the Gauss–Newton
+**Newton.** At most `ImplicitStep.newton_iterations` Newton iterations from the predictor
+``q_n + h v_n``, stopping once an update moves no coordinate more than 1e-10 rad. Their matrix (`ImplicitStep.jacobian`) is by default the Gauss–Newton
 one: the plate contact's barrier and damping by their pairs' gap gradients
 (`PlateContact.force_jacobians`, as IPC's Newton iterations use its barrier's Hessian), the rest of
 ``r`` (inertia, hinges, drag, inputs: a few coordinates) by forward-mode differentiation; or the
@@ -22,10 +22,12 @@ exact Jacobian of all of ``r`` (`_jacobian`). Each update is capped, as in IPC, 
 contact's continuous collision detection: the largest step moves no coordinate more than
 `ImplicitStep.max_update` and is ``0.9`` of the fraction of the path that stays clear, checked on a
 few chords of it (`PlateContact.time_of_impact`; models without it, such as the sampled
-`PanelContact`, are capped in size only), then a fixed number of halvings
-(`ImplicitStep.halvings`) looks for a decrease of ``|r|²`` (the first with Armijo's decrease, else
-the best, else no move). Every count is fixed, so the members of a `vmap`ped batch do the same work
-and none waits for another; the price is that a step whose Newton iterations did not converge is
+`PanelContact`, are capped in size only), then up to `ImplicitStep.halvings` halvings look for a
+decrease of ``|r|²`` (the first with Armijo's decrease, else the best, else no move). Every member
+of a `vmap`ped batch takes the same steps, and its iterations are bounded by the same counts: a
+member that converged waits at most those few iterations for the others, never for more steps
+(`early_exit=False` fixes every count: the same work always, at a measured 2–3× the cost on a
+cube net). The price of bounded work is that a step whose Newton iterations did not converge is
 not refused: `Trajectory.stats["newton_error"]` reports the largest remaining Newton update of any
 step (rad; small against the motion when the steps converged).
 
@@ -81,9 +83,11 @@ class ImplicitStep(eqx.Module):
     - `max_update`: the largest change of any coordinate in one Newton update, rad (default 0.1).
     - `ccd_pieces`: chords of a Newton update's path checked for collisions (default 4).
     - `early_exit`: stop the Newton iterations once an update moves no coordinate more than
-      1e-10 rad, and each line search at its first acceptable trial (default `False`: every
-      count fixed). Faster for a single run; under `vmap` every member then iterates as long as
-      the slowest one. Gradients are unchanged (they do not pass through the iterations).
+      1e-10 rad, and each line search at its first acceptable trial (default `True`; `False`
+      runs every count in full, the same work for every step and member). Under `vmap` the
+      batch iterates until its slowest member has converged, at most the counts above; a
+      vmapped batch of 16 cube nets ran 2.6× faster than with the full counts, on the same roots
+      to 1e-9 rad. Gradients are unchanged (they do not pass through the iterations).
     - `active_pairs`: how many of the plate contact's primitive pairs each step evaluates, those
       of least gap at the step's start (`PlateContact.select_pairs`; split between vertex–face
       and edge–edge pairs in proportion to their numbers). Default `None`: 16 per body, the base
@@ -118,7 +122,7 @@ class ImplicitStep(eqx.Module):
     halvings: int = eqx.field(static=True, default=5)
     max_update: float = eqx.field(static=True, default=0.1)
     ccd_pieces: int = eqx.field(static=True, default=4)
-    early_exit: bool = eqx.field(static=True, default=False)
+    early_exit: bool = eqx.field(static=True, default=True)
     jacobian: str = eqx.field(static=True, default="gauss-newton")
     active_pairs: int | None = eqx.field(static=True, default=None)
 
