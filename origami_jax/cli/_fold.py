@@ -87,7 +87,8 @@ up to 8000 µs), invalid (the simulation failed).
 the plates' collision detection: no panel steps through another however long the step), first-order
 accurate and damped; the adaptive default resolves every impact and the ringing. result.json
 records the solver (with the step and Newton iterations) and its stats the largest Newton update
-left at the end of a step (newton_error, rad: small against the motion when the steps converged).
+left at the end of a step (newton_error, rad: small against the motion when the steps converged)
+and the steps whose working set of contact pairs missed one (contacts_left_out: 0 expected).
 Exit codes: 0 folded, 1 any other verdict, 2 bad input.
 """
 )
