@@ -13,6 +13,7 @@ import diffrax
 import equinox._errors
 import jax
 import jax.numpy as jnp
+import pytest
 
 from origami_jax import _exported
 
@@ -58,6 +59,7 @@ def _process(folder) -> dict:
     return run_python(_RUN, env, str(folder))
 
 
+@pytest.mark.slow  # two Python processes, one exporting and one loading a solve: ~20 s
 def test_a_later_process_runs_the_exported_solve_without_tracing_it(tmp_path):
     first = _process(tmp_path)  # traces, exports, writes
     files = sorted((tmp_path / "exported").glob("solve_until_stiff-*.bin"))

@@ -447,6 +447,7 @@ def test_resuming_a_run_stored_with_the_old_fixed_seam_tolerance_keeps_it(tmp_pa
     np.testing.assert_allclose(ds["seam_margin"].values[new], open_gap / 2.0, rtol=1e-12)
 
 
+@pytest.mark.slow  # two estimates of 8 samples to compile and run: ~25 s
 def test_a_step_budget_runs_the_stragglers_again_and_gives_the_same_samples(tmp_path):
     # With a budget of the median sample's steps about half the samples reach it in the first
     # pass; run again together with the full max_steps they give exactly what one pass gives (a
