@@ -560,9 +560,7 @@ class PlateContact(AbstractContact):
         so no plate passes through another either way. An implicit step's working set
         (`ImplicitStep.active_pairs`): its Newton iterations then cost in proportion to the pairs
         kept, not to every pair of the pattern."""
-        full = dataclasses.replace(self, selection=None)
-        x = full.vertices(mechanism, q)
-        gap, _ = full._gaps(x)
+        gap, x = self._every_gap(mechanism, q)
         n_vf = len(self.tables.vertex_face)
         cut = jnp.full((), jnp.inf, x.dtype)
         kept = []
@@ -580,13 +578,19 @@ class PlateContact(AbstractContact):
             kept.append(index[:count])
         return dataclasses.replace(self, selection=PairSelection(*kept, cut, x))
 
+    def _every_gap(self, mechanism, q):
+        """Every primitive pair's gap at ``q`` whatever the `selection` (vertex–face pairs first,
+        as the tables), and the world vertices."""
+        full = dataclasses.replace(self, selection=None)
+        x = full.vertices(mechanism, q)
+        return full._gaps(x)[0], x
+
     def left_out_engaged(self, mechanism: AbstractMechanism, q: Float[Array, " nq"]) -> Array:
         """Whether some primitive pair left out of the `selection` is within the activation gap at
         ``q`` (a force the selection missed; boolean scalar, `False` without a selection)."""
         if self.selection is None:
             return jnp.zeros((), bool)
-        full = dataclasses.replace(self, selection=None)
-        gap, _ = full._gaps(full.vertices(mechanism, q))
+        gap, _ = self._every_gap(mechanism, q)
         n_vf = len(self.tables.vertex_face)
         kept = (
             jnp.zeros(gap.shape, bool)

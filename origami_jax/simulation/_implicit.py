@@ -14,12 +14,12 @@ scheme is first-order accurate and dissipative (backward Euler damps oscillation
 about ``2π² (h/T)²`` of their energy per period, more as ``h/T`` grows).
 
 **Newton.** At most `ImplicitStep.newton_iterations` Newton iterations from the predictor
-``q_n + h v_n``, stopping once an update moves no coordinate more than 1e-10 rad. Their matrix (`ImplicitStep.jacobian`) is by default the Gauss–Newton
-one: the plate contact's barrier and damping by their pairs' gap gradients
-(`PlateContact.force_jacobians`, as IPC's Newton iterations use its barrier's Hessian), the rest of
-``r`` (inertia, hinges, drag, inputs: a few coordinates) by forward-mode differentiation; or the
-exact Jacobian of all of ``r`` (`_jacobian`). Each update is capped, as in IPC, by the
-contact's continuous collision detection: the largest step moves no coordinate more than
+``q_n + h v_n``, stopping once an update moves no coordinate more than 1e-10 rad. Their matrix
+(`ImplicitStep.jacobian`) is by default the Gauss–Newton one: the plate contact's barrier and
+damping by their pairs' gap gradients (`PlateContact.force_jacobians`, as IPC's Newton iterations
+use its barrier's Hessian), the rest of ``r`` (inertia, hinges, drag, inputs: a few coordinates)
+by forward-mode differentiation; or the exact Jacobian of all of ``r`` (`_jacobian`). Each update
+is capped, as in IPC, by the contact's continuous collision detection: the largest step moves no coordinate more than
 `ImplicitStep.max_update` and is ``0.9`` of the fraction of the path that stays clear, checked on a
 few chords of it (`PlateContact.time_of_impact`; models without it, such as the sampled
 `PanelContact`, are capped in size only), then up to `ImplicitStep.halvings` halvings look for a
