@@ -13,23 +13,23 @@ every force is implicit, so stiff hinges, drag and the contact barrier cost no s
 scheme is first-order accurate and dissipative (backward Euler damps oscillations of period ``T`` by
 about ``2π² (h/T)²`` of their energy per period, more as ``h/T`` grows).
 
-**Newton.** At most `ImplicitStep.newton_iterations` Newton iterations from the predictor
-``q_n + h v_n``, stopping once an update moves no coordinate more than 1e-10 rad. Their matrix
+**Newton.** At most `ImplicitStep.newton_iterations` Newton iterations from the predictor ``q_n + h
+v_n``, stopping once an update moves no coordinate more than 1e-10 rad. Their matrix
 (`ImplicitStep.jacobian`) is by default the Gauss–Newton one: the plate contact's barrier and
 damping by their pairs' gap gradients (`PlateContact.force_jacobians`, as IPC's Newton iterations
-use its barrier's Hessian), the rest of ``r`` (inertia, hinges, drag, inputs: a few coordinates)
-by forward-mode differentiation; or the exact Jacobian of all of ``r`` (`_jacobian`). Each update
-is capped, as in IPC, by the contact's continuous collision detection: the largest step moves no coordinate more than
-`ImplicitStep.max_update` and is ``0.9`` of the fraction of the path that stays clear, checked on a
-few chords of it (`PlateContact.time_of_impact`; models without it, such as the sampled
-`PanelContact`, are capped in size only), then up to `ImplicitStep.halvings` halvings look for a
-decrease of ``|r|²`` (the first with Armijo's decrease, else the best, else no move). Every member
-of a `vmap`ped batch takes the same steps, and its iterations are bounded by the same counts: a
-member that converged waits at most those few iterations for the others, never for more steps
-(`early_exit=False` fixes every count: the same work always, at a measured 2–3× the cost on a
-cube net). The price of bounded work is that a step whose Newton iterations did not converge is
-not refused: `Trajectory.stats["newton_error"]` reports the largest remaining Newton update of any
-step (rad; small against the motion when the steps converged).
+use its barrier's Hessian), the rest of ``r`` (inertia, hinges, drag, inputs: a few coordinates) by
+forward-mode differentiation; or the exact Jacobian of all of ``r`` (`_jacobian`). Each update is
+capped, as in IPC, by the contact's continuous collision detection: the largest step moves no
+coordinate more than `ImplicitStep.max_update` and is ``0.9`` of the fraction of the path that
+stays clear, checked on a few chords of it (`PlateContact.time_of_impact`; models without it, such
+as the sampled `PanelContact`, are capped in size only), then up to `ImplicitStep.halvings`
+halvings look for a decrease of ``|r|²`` (the first with Armijo's decrease, else the best, else no
+move). Every member of a `vmap`ped batch takes the same steps, and its iterations are bounded by
+the same counts: a member that converged waits at most those few iterations for the others, never
+for more steps (`early_exit=False` fixes every count: the same work always, at a measured 2–3× the
+cost on a cube net). The price of bounded work is that a step whose Newton iterations did not
+converge is not refused: `Trajectory.stats["newton_error"]` reports the largest remaining Newton
+update of any step (rad; small against the motion when the steps converged).
 
 **Working set.** Each step evaluates the plate contact's pairs of least gap at its start
 (`ImplicitStep.active_pairs`, `PlateContact.select_pairs`), not every pair of the pattern: a pair
