@@ -596,6 +596,7 @@ _BAD_FOLD = {
 _BAD_YIELD = {
     "--samples": st.sampled_from(["0", "-3", str(10**9)]),
     "--t-end": st.one_of(_NOT_FINITE, st.sampled_from(["0", "-5"])),
+    "--t-settle": st.one_of(_NOT_FINITE, st.sampled_from(["-1", "-8000"])),
     "--contact-sampling": st.sampled_from(["0,2", "33,2", "9,x"]),
     "--chunk-size": st.sampled_from(["0", str(10**9)]),
     "--workers": st.sampled_from(["0", str(10**6)]),

@@ -518,10 +518,17 @@ def test_verdicts():
     _, air = _accordion("air")
     assert sim.assess(system, air).verdict == "unfinished"  # still rattling after 1.5 ms in air
     stacked = jnp.array([np.pi - 0.005, -np.pi + 0.01, np.pi - 0.01])
-    # Held in contact short of where it should be: jammed. The same angles without contact to
-    # explain them (wrong sign on one crease): misfolded.
-    jammed = sim.assess(system, _held(system, stacked), intended_angles=jnp.array([3.3, -3.3, 3.3]))
+    # Held in contact short of where it should be and of where its hinges aim: jammed. Short of
+    # the intended angles but where its hinges rest (drawn for 180°): misfolded, the panels'
+    # contact notwithstanding. The same angles without contact to explain them (wrong sign on one
+    # crease): misfolded.
+    intended = jnp.array([3.3, -3.3, 3.3])
+    aimed = eqx.tree_at(lambda s: s.hinges.target, system, intended)
+    jammed = sim.assess(aimed, _held(aimed, stacked), intended_angles=intended)
     assert jammed.verdict == "jammed", jammed.reason
+    resting = sim.assess(system, _held(system, stacked), intended_angles=intended)
+    assert resting.verdict == "misfolded" and resting.contacts > 0, resting.reason
+    assert "where its hinge rests" in resting.reason
     wrong = sim.assess(system, _held(system, jnp.array([1.0, 1.0, 1.0])))
     assert wrong.verdict == "misfolded" and "crease 1" in wrong.reason
     moving = _held(system, jnp.zeros(3))

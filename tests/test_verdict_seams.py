@@ -10,6 +10,7 @@ rim points over panel 4's face are from it) are checked by computations independ
 the host's rigid folding of the flat pattern (`Net.seam_gaps`) and the panels' poses and outlines."""
 
 import diffrax
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -245,3 +246,33 @@ def test_a_flap_held_on_its_neighbours_edge_closes_the_seam():
     assert report.settled and report.max_penetration == 0.0 and report.time_to_fold is not None
     plain = _judge(net, system, trajectory, lambda q: net.seam_gap_function(system)(q))
     assert plain.verdict == "misfolded" and plain.reason == "creases at their angles but seams open"
+
+
+def test_jammed_needs_contact_holding_a_crease_away_from_its_hinge(cube):
+    """The same held state (panel 0's rim on panel 4's face: contact engaged) judged against
+    creases intended at 100°, every one of them ~10° short: jammed when the hinges aim at 100°
+    (contact holds them 10° from where they would rest), misfolded when they aim at 90°, where
+    they are (a hinge drawn or bent short, nothing holding it: the panels touch by the way)."""
+    net, system = cube
+    angles = _angles(0.8)
+    intended = np.radians(np.full(5, 100.0))
+
+    def judge(targets_deg):
+        aimed = eqx.tree_at(lambda s: s.hinges.target, system, jnp.radians(targets_deg))
+        return sim.assess(
+            aimed,
+            held_trajectory(aimed, angles),
+            intended_angles=intended,
+            seam_gaps=_one_seam(net, aimed),
+            panel_size=net.panel_size(aimed),
+            tolerances=FIXED,
+        )
+
+    held = judge(np.full(5, 100.0))
+    assert held.verdict == "jammed" and held.contacts > 0, held.summary()
+    resting = judge(np.full(5, 90.0))
+    assert resting.verdict == "misfolded" and resting.contacts > 0, resting.summary()
+    assert resting.reason == "crease 0 at 90.0° instead of 100.0°, where its hinge rests (90.0°)"
+    # One crease held 5° from its hinge's aim is enough (the others resting short where they aim).
+    one = judge(np.array([90.0, 90.0, 90.0, 90.0, 95.0]))
+    assert one.verdict == "jammed", one.summary()

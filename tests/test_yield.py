@@ -18,7 +18,7 @@ from scipy import stats
 import origami_jax.fab_yield as ojy
 from origami_jax.fab_yield._scatter import _resolved
 from origami_jax.net import FOLD_KERNEL_SOLVE, load_net
-from origami_jax.simulation import VerdictTolerances
+from origami_jax.simulation import SaveAt, VerdictTolerances
 from origami_jax.system import KOH_SOLUTION, HingeDesign
 
 NET = "corner_cube"
@@ -235,6 +235,27 @@ def test_rtol_reaches_the_solver(monkeypatch):
         assert (settings["rtol"], settings["atol"]) == pytest.approx(expected, rel=1e-12)
 
 
+def test_each_engine_gets_its_own_kernel(monkeypatch):
+    # The kernels are kept per process by their settings: an estimate with the fixed steps after
+    # one with the adaptive default (the same everything else) must not get the adaptive kernel.
+    import origami_jax.fab_yield._estimate as estimate
+    from origami_jax.simulation import ImplicitStep
+
+    kernels = []
+
+    def fake_sweep(kernel, *args, **kwargs):
+        kernels.append(kernel)
+        raise RuntimeError("stop here")
+
+    monkeypatch.setattr(estimate, "sweep", fake_sweep)
+    for solver in (None, ImplicitStep(dt=2.5), ImplicitStep(dt=5.0)):
+        with pytest.raises(RuntimeError, match="stop here"):
+            ojy.yield_estimate(NET, n_samples=2, **{**RUN, "solve": SOLVE.replace(solver=solver)})
+    solvers = [k.settings.get("solver") for k in kernels]
+    assert solvers[0] is None and len(set(solvers)) == 3, solvers
+    assert "dt=5.0" in solvers[2]
+
+
 # ---- simulated estimates -----------------------------------------------------------------------
 
 
@@ -270,6 +291,33 @@ def test_zero_scatter_gives_yield_one_for_a_net_that_folds():
     np.testing.assert_array_equal(open_gap[touching == 0], every_gap[touching == 0])
 
 
+def test_samples_still_moving_at_the_end_are_judged_where_they_settle():
+    # 200 µs is too short for the corner cube (it folds by ~320 µs): every sample is unfinished
+    # there. Settled to 600 µs, each is run again from the start with the same sample spacing:
+    # the same kernel and numbers as a 600 µs estimate, so the same final angles to rounding,
+    # folded.
+    short = SOLVE.replace(t1=T_END / 3, saveat=SaveAt(n=(SOLVE.saveat.n - 1) // 3 + 1))
+    run = {**RUN, "solve": short, "n_samples": 4, "seed": 1}
+    at_end = ojy.yield_estimate(NET, ojy.Scatter.none(), **run, t_settle=None)
+    assert at_end.counts["unfinished"] == 4 and at_end.to_dict()["continued"] == 0
+    settled = ojy.yield_estimate(NET, ojy.Scatter.none(), **run, t_settle=T_END)
+    assert settled.counts["folded"] == 4, settled.summary()
+    assert settled.to_dict()["continued"] == 4 and settled.to_dict()["t_settle_us"] == T_END
+    assert "4 still moving at the end, run on to 600 µs" in settled.summary()
+    direct = _estimate("none", 4).dataset
+    for name in ("final_angle", "time_to_fold", "max_seam_gap", "num_steps"):
+        np.testing.assert_allclose(
+            settled.dataset[name].values, direct[name].values, rtol=1e-12, err_msg=name
+        )
+    # A settling time not past the end settles nothing; a bad one is refused before compiling.
+    assert ojy.yield_estimate(NET, ojy.Scatter.none(), **run, t_settle=T_END / 3).counts == (
+        at_end.counts
+    )
+    for bad in (0.0, -1.0, float("nan"), True, "8000"):
+        with pytest.raises(ValueError, match="t_settle must be a positive end time"):
+            ojy.yield_estimate(NET, **RUN, t_settle=bad)
+
+
 def test_zero_scatter_gives_yield_zero_for_a_net_aimed_at_80_degrees():
     estimate = _estimate("none", 4, targets_deg=80.0)
     assert estimate.fraction == 0.0 and estimate.counts["misfolded"] == 4, estimate.summary()
@@ -277,6 +325,7 @@ def test_zero_scatter_gives_yield_zero_for_a_net_aimed_at_80_degrees():
     np.testing.assert_allclose(np.degrees(estimate.dataset["final_angle"]), 80.0, atol=0.2)
 
 
+@pytest.mark.slow  # a closed-loop kernel to compile and 8 samples to fold: ~35 s
 def test_a_closed_loop_pattern_folds_on_its_branch_or_is_misfolded_on_the_other():
     # A single degree-4 vertex (one closed loop), pre-folded 0.01 rad along its own angles: with
     # no scatter every sample folds to the pattern. Its hinges aimed at the mirror image (every

@@ -75,6 +75,11 @@ N again, all together, with the full budget (OUT/stragglers/): the same results,
 with --chunk-size on a CPU) less time, since a vmapped chunk steps until its slowest member is done.
 Take a few times the median sample's steps (sweep.nc's num_steps); result.json counts the stragglers.
 
+A sample whose panels still move at --t-end (unfinished, its solve successful) is run again from
+the start to --t-settle (8000 µs; OUT/settled/) and judged where it comes to rest, as `fold`
+continues a folding until it settles; result.json's "continued" counts them. --t-settle 0 keeps
+the verdicts at --t-end.
+
 --solver implicit-step --dt US folds every sample in fixed implicit Euler steps (a fixed count of
 Newton iterations capped by the plates' collision detection): every sample of a vmapped chunk does
 the same work, where the adaptive default (tsit5) steps until its slowest member is done; it takes
@@ -157,6 +162,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add_contact_sampling_argument(parser)
     add_surface_arguments(parser)
     parser.add_argument("--t-end", type=float, default=1500.0, help="simulated time, µs (1500)")
+    parser.add_argument(
+        "--t-settle",
+        type=float,
+        default=8000.0,
+        help="samples still moving at --t-end run again to this time, µs (default 8000, the "
+        "longest folding `fold` continues to; 0: judge them at --t-end, unfinished)",
+    )
     parser.add_argument(
         "--bias",
         type=float,
@@ -399,6 +411,7 @@ def _run_family(args: argparse.Namespace, members: list[str], sampling, choice: 
                     process=process,
                     solve=solve,
                     tolerances=tolerances,
+                    t_settle=args.t_settle or None,
                     confidence=args.confidence,
                     interval=args.interval,
                     run=RunOptions(
@@ -620,6 +633,8 @@ def run(args: argparse.Namespace) -> int:
     if args.seed < 0:
         fail(f"--seed must be >= 0, got {args.seed}.")
     positive(args.t_end, "--t-end", "µs")
+    if not (math.isfinite(args.t_settle) and args.t_settle >= 0):
+        fail(f"--t-settle must be a time >= 0 µs (0: no settling run), got {args.t_settle:g}.")
     if args.rtol is not None:
         in_range(args.rtol, "--rtol", 0.0, 1.0)
     if args.chunk_size is not None:
@@ -768,6 +783,7 @@ def _run(
         solve=solve,
         tolerances=tolerances,
         bias=args.bias,
+        t_settle=args.t_settle or None,
     )
 
     def estimate_at(scatter, folder):

@@ -12,11 +12,21 @@ from typing import Any
 import numpy as np
 
 from .._kernel import design_settings
+from .._limits import FOLD_SEGMENT, MAX_FOLD_SEGMENTS, MAX_SAMPLES
 from ..fold import FoldFormatError
 from ..loops import load_pattern
 from ..net import FOLD_KERNEL_SOLVE, stored_tolerances
-from ..simulation import RESULTS, FoldVerdict, SolveOptions, VerdictTolerances
+from ..simulation import (
+    RESULTS,
+    VERDICT_CODES,
+    FoldVerdict,
+    SaveAt,
+    SolveOptions,
+    VerdictTolerances,
+)
 from ..sweep import Table, sweep
+from ..sweep._store import RESULT as SWEEP_RESULT
+from ..sweep._store import netcdf_bytes, write_atomic
 from ..system import KOH_SOLUTION, AbstractPattern, HingeDesign
 from ._scatter import PARAMETERS, Scatter, sample_values, standard_draws
 from ._stats import INTERVAL_METHODS, binomial_interval
@@ -126,15 +136,29 @@ class YieldEstimate:
             "tolerance_sensitivity": (
                 None if self.tolerance_sensitivity is None else self.tolerance_sensitivity.to_dict()
             ),
+            # The samples still moving at the solve's end and run on to `t_settle` (µs; None: not
+            # settled).
+            "t_settle_us": self._attrs.get("t_settle_us"),
+            "continued": int(self._attrs.get("continued", 0)),
         }
+
+    @property
+    def _attrs(self) -> Mapping[str, Any]:
+        return getattr(self.dataset, "attrs", {})
 
     def summary(self) -> str:
         """One line for people."""
         low, high = self.interval
         counts = ", ".join(f"{k} {v}" for k, v in self.counts.items() if v)
+        continued = int(self._attrs.get("continued", 0))
+        settled = (
+            f" ({continued} still moving at the end, run on to {self._attrs['t_settle_us']:g} µs)"
+            if continued
+            else ""
+        )
         return (
             f"yield {self.fraction:.3f} ({100 * self.confidence:g} % interval {low:.3f}-{high:.3f},"
-            f" {self.method}) over {self.n_samples} samples: {counts}"
+            f" {self.method}) over {self.n_samples} samples: {counts}{settled}"
         )
 
 
@@ -272,8 +296,10 @@ def _kernel(pattern, **options):
     described = {
         **options,
         "design": design_settings(options["design"]),
+        # The solver too (its settings in its repr): an estimate with another engine in the same
+        # process must not reuse this one's kernel.
         "solve": [float(solve.t1), solve.saveat.n, float(solve.rtol), float(solve.atol)]
-        + [solve.max_steps],
+        + [solve.max_steps, repr(solve.solver)],
         "tolerances": tolerances.to_dict(),
     }
     key = (pattern, json.dumps(described, sort_keys=True, default=str))
@@ -299,6 +325,41 @@ def _stragglers_finished(dataset, kernel, columns, units, **sweep_options):
     rest = sweep(kernel, rows, **sweep_options)
     for name in dataset.data_vars:
         dataset[name].values[over] = rest[name].values
+    for key in ("run_s", "compile_s"):
+        dataset.attrs[key] = float(dataset.attrs.get(key, 0.0)) + float(rest.attrs.get(key, 0.0))
+    dataset.attrs["n_failed"] = int(np.sum(np.asarray(dataset["result"].values) != 0))
+    return dataset
+
+
+SETTLE_TIME = MAX_FOLD_SEGMENTS * FOLD_SEGMENT
+"""`yield_estimate`'s default `t_settle`: a sample still moving at the end of its run is run
+again up to this time (µs in the MICRO units), the longest folding `fold` continues to."""
+
+
+def _unfinished_settled(dataset, pattern, options, columns, units, t_settle, **sweep_options):
+    """`dataset` with its samples judged `unfinished` because their panels still moved at the end
+    (a successful solve whose time ran out) run again from the start to `t_settle`, all in one
+    sweep, with the same spacing of saved samples (so the verdict's tail and drift judge the same
+    time resolution). Its attributes say how many there were (`continued`) and to when
+    (`t_settle_us`); `run_s` and `compile_s` include that pass."""
+    solve = options["solve"]
+    t_end, n_save = solve.number("t1"), solve.saveat.n
+    dataset = dataset.copy(deep=True)
+    dataset.attrs["t_settle_us"] = float(t_settle)
+    moving = (np.asarray(dataset["verdict"].values) == VERDICT_CODES[FoldVerdict.UNFINISHED]) & (
+        np.asarray(dataset["result"].values) == int(RESULTS.successful._value)
+    )
+    rows = np.flatnonzero(moving)
+    dataset.attrs["continued"] = int(rows.size)
+    if not rows.size:
+        return dataset
+    n_long = min(int(round((n_save - 1) * t_settle / t_end)) + 1, MAX_SAMPLES)
+    longer = solve.replace(t1=float(t_settle), saveat=SaveAt(n=n_long))
+    kernel = _kernel(pattern, **{**options, "solve": longer})
+    table = Table({name: np.asarray(c)[rows] for name, c in columns.items()}, units=units)
+    rest = sweep(kernel, table, **sweep_options)
+    for name in dataset.data_vars:
+        dataset[name].values[rows] = rest[name].values
     for key in ("run_s", "compile_s"):
         dataset.attrs[key] = float(dataset.attrs.get(key, 0.0)) + float(rest.attrs.get(key, 0.0))
     dataset.attrs["n_failed"] = int(np.sum(np.asarray(dataset["result"].values) != 0))
@@ -344,6 +405,7 @@ def yield_estimate(
     tolerances=None,
     bias: float = 0.0,
     run: RunOptions | None = None,
+    t_settle: float | None = SETTLE_TIME,
 ) -> YieldEstimate:
     """The fraction of fabricated nets that fold into the intended shape, with its confidence
     interval (module docstring).
@@ -405,6 +467,15 @@ def yield_estimate(
       devices start from. Nets take 0.
     - `run`: a `RunOptions`: where the samples are kept (`out`, `resume`), how they are computed
       (`chunk_size`, `workers`, `step_budget`) and reported (`progress`, `on_chunk`).
+    - `t_settle`: µs (default `SETTLE_TIME`, 8,000 µs: the longest folding `fold` continues to).
+      A sample whose panels still move at the end of the solve's `t1` (verdict `unfinished`, the
+      solve successful) is run again from the start to `t_settle`, with the same spacing of saved
+      samples, and judged there: the estimate then judges where the nets come to rest, as `fold`
+      does, rather than how far they got by `t1` (in the etch bath a scattered cube net can creep
+      or ring for milliseconds after the nominal one has closed). The samples continued run in
+      one more sweep (one more compilation; `out/settled` when stored); the dataset's attributes
+      `continued` and `t_settle_us` say how many and to when. `None`, or a time not past `t1`,
+      keeps the verdicts at `t1`.
 
     The interval is the 95 % Wilson interval; `YieldEstimate.with_interval` gives another.
 
@@ -422,6 +493,16 @@ def yield_estimate(
         raise ValueError(f"tolerances must be a VerdictTolerances, got {tolerances!r}.")
     if n_samples < 1:
         raise ValueError(f"n_samples must be an integer >= 1, got {n_samples!r}.")
+    if t_settle is not None and not (
+        isinstance(t_settle, int | float)
+        and not isinstance(t_settle, bool)
+        and np.isfinite(t_settle)
+        and t_settle > 0
+    ):
+        raise ValueError(
+            f"t_settle must be a positive end time (µs) or None (no settling run), got "
+            f"{t_settle!r}."
+        )
     solve = FOLD_KERNEL_SOLVE if solve is None else solve
     if not isinstance(solve, SolveOptions):
         raise ValueError(f"solve must be a SolveOptions, got {type(solve).__name__}.")
@@ -537,6 +618,24 @@ def yield_estimate(
         )
         # The first pass's kernel settings say max_steps = the budget; the second pass's did not.
         dataset.attrs.update({"step_budget": int(step_budget), "max_steps": int(max_steps)})
+    if t_settle is not None and isinstance(t_end, int | float) and t_settle > t_end:
+        dataset = _unfinished_settled(
+            dataset,
+            pattern,
+            options,
+            columns,
+            units,
+            t_settle,
+            out=None if out is None else Path(out) / "settled",
+            resume=run.resume,
+            chunk_size=run.chunk_size,
+            workers=run.workers,
+            progress=run.progress,
+        )
+    if out is not None and (dataset.attrs.get("stragglers") or dataset.attrs.get("continued")):
+        # The store's sweep.nc gathers the first pass; the samples as judged (the later passes'
+        # rows merged in) replace it. A resume gathers the chunks again, so nothing is lost.
+        write_atomic(Path(out) / SWEEP_RESULT, netcdf_bytes(dataset))
     codes = np.asarray(dataset["verdict"].values)
     counts = {str(v): int(np.sum(codes == i)) for i, v in enumerate(FoldVerdict)}
     folded = counts[str(FoldVerdict.FOLDED)]

@@ -11,9 +11,9 @@ The yield at any tolerance is then a count, and a curve of it is free.
 Which verdicts can move: only *folded* against the others. The folded test looks at the last
 state alone (every crease within the angle tolerance, every seam closed), and it comes first: a
 sample that passes it is folded whatever else. A sample that fails it is unfinished (not at
-rest), jammed (a crease short of its angle with contact) or misfolded, and since the tests for
-rest and for "short" also use the angle tolerance, which of the three it is can change with the
-tolerance too; that split needs the run's last tenth, which is not stored, and is not recomputed
+rest), jammed (a crease short of its angle, held there by contact) or misfolded, and since the
+tests for rest, for "short" and for "held" also use the angle tolerance, which of the three it
+is can change with the tolerance too; that split needs the run's last tenth, which is not stored, and is not recomputed
 here. A sample whose simulation failed (`invalid`, or `unfinished` because it ran out of solver
 steps) never folds at any tolerance.
 

@@ -17,7 +17,11 @@
   as `origami_jax.net.Net.seam_gap_function` gives); a plain function of ``q`` keeps the gap-only
   rule. A touching seam does not close the others.
 - **jammed**: the device came to rest short of that, with panels in contact: a crease stopped short
-  of its intended angle (same sign, smaller magnitude) while contact holds it.
+  of its intended angle (same sign, smaller magnitude) while contact holds it (panels touch, and
+  some crease rests more than the angle tolerance away from its own hinge's target, where it would
+  rest without contact). A crease short because its hinge is drawn or bends to a smaller angle (a
+  fabricated film off its stress), with nothing holding it there, is misfolded, whether or not
+  panels happen to touch.
 - **misfolded**: it came to rest in another state (a crease on the wrong side or past its angle, seams
   open without contact to explain it, a different stacking).
 - **unfinished**: time ran out (the solver's step budget, or still moving at the end of the run).
@@ -458,6 +462,11 @@ def fold_outcome(
     short = (jnp.abs(final) < jnp.abs(intended) - angle_tolerance) & (
         jnp.sign(final) * jnp.sign(intended) >= 0
     )
+    # Contact holds the device: some crease rests more than the angle tolerance away from where
+    # its own hinge would put it (every hinge of a tree of panels without contact rests at its
+    # target). A hinge whose film bends it short of the intended angle, with panels merely near
+    # each other, is misfolded, whatever contact pairs happen to lie within the activation layer.
+    held = jnp.any(jnp.abs(final - system.hinges.target) > angle_tolerance)
     codes = VERDICT_CODES
     code = jnp.where(
         within[-1],
@@ -466,7 +475,7 @@ def fold_outcome(
             ~settled,
             codes[FoldVerdict.UNFINISHED],
             jnp.where(
-                jnp.any(short) & (engaged > 0),
+                jnp.any(short) & (engaged > 0) & held,
                 codes[FoldVerdict.JAMMED],
                 codes[FoldVerdict.MISFOLDED],
             ),
@@ -811,6 +820,9 @@ def assess(
             f"crease {worst} at {np.degrees(final[worst]):.1f}° instead of "
             f"{np.degrees(intended[worst]):.1f}°"
         )
+        rest = np.asarray(system.hinges.target)[worst]
+        if abs(final[worst] - rest) <= angle_tolerance < abs(rest - intended[worst]):
+            reason += f", where its hinge rests ({np.degrees(rest):.1f}°)"
     time_to_fold = float(outcome.time_to_fold)
     penetration = float(outcome.penetration)
     return FoldReport(
