@@ -257,7 +257,7 @@ def test_jammed_needs_contact_holding_a_crease_away_from_its_hinge(cube):
     angles = _angles(0.8)
     intended = np.radians(np.full(5, 100.0))
 
-    def judge(targets_deg):
+    def judge(targets_deg, intended=intended):
         aimed = eqx.tree_at(lambda s: s.hinges.target, system, jnp.radians(targets_deg))
         return sim.assess(
             aimed,
@@ -276,3 +276,9 @@ def test_jammed_needs_contact_holding_a_crease_away_from_its_hinge(cube):
     # One crease held 5° from its hinge's aim is enough (the others resting short where they aim).
     one = judge(np.array([90.0, 90.0, 90.0, 90.0, 95.0]))
     assert one.verdict == "jammed", one.summary()
+    assert one.reason == "contact stops crease(s) 4 short"
+    # Contact holding a crease that would fold past its angle (aimed at 95°) at it is no jam of the
+    # crease that is short where its own hinge puts it (crease 1, intended at 100°, aimed at 90°).
+    crease_1_short = np.radians([90.0, 100.0, 90.0, 90.0, 90.0])
+    other = judge(np.array([95.0, 90.0, 90.0, 90.0, 90.0]), crease_1_short)
+    assert other.verdict == "misfolded", other.summary()

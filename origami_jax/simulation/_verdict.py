@@ -18,10 +18,10 @@
   rule. A touching seam does not close the others.
 - **jammed**: the device came to rest short of that, with panels in contact: a crease stopped short
   of its intended angle (same sign, smaller magnitude) while contact holds it (panels touch, and
-  some crease rests more than the angle tolerance away from its own hinge's target, where it would
+  that crease rests more than the angle tolerance away from its own hinge's target, where it would
   rest without contact). A crease short because its hinge is drawn or bends to a smaller angle (a
   fabricated film off its stress), with nothing holding it there, is misfolded, whether or not
-  panels happen to touch.
+  panels happen to touch (or hold another crease, one that would fold past its angle, at it).
 - **misfolded**: it came to rest in another state (a crease on the wrong side or past its angle, seams
   open without contact to explain it, a different stacking).
 - **unfinished**: time ran out (the solver's step budget, or still moving at the end of the run).
@@ -462,11 +462,12 @@ def fold_outcome(
     short = (jnp.abs(final) < jnp.abs(intended) - angle_tolerance) & (
         jnp.sign(final) * jnp.sign(intended) >= 0
     )
-    # Contact holds the device: some crease rests more than the angle tolerance away from where
-    # its own hinge would put it (every hinge of a tree of panels without contact rests at its
-    # target). A hinge whose film bends it short of the intended angle, with panels merely near
-    # each other, is misfolded, whatever contact pairs happen to lie within the activation layer.
-    held = jnp.any(jnp.abs(final - system.hinges.target) > angle_tolerance)
+    # Contact holds a crease short: it rests more than the angle tolerance away from where its
+    # own hinge would put it (every hinge of a tree of panels without contact rests at its
+    # target). A crease whose film bends it short of the intended angle, with panels merely near
+    # each other (or holding another crease, one that would overfold, at its angle), is
+    # misfolded, whatever contact pairs happen to lie within the activation layer.
+    held = jnp.any(short & (jnp.abs(final - system.hinges.target) > angle_tolerance))
     codes = VERDICT_CODES
     code = jnp.where(
         within[-1],
@@ -475,7 +476,7 @@ def fold_outcome(
             ~settled,
             codes[FoldVerdict.UNFINISHED],
             jnp.where(
-                jnp.any(short) & (engaged > 0) & held,
+                held & (engaged > 0),
                 codes[FoldVerdict.JAMMED],
                 codes[FoldVerdict.MISFOLDED],
             ),
@@ -810,7 +811,10 @@ def assess(
                 "of the run (or after it) to judge: run longer"
             )
     elif verdict == FoldVerdict.JAMMED:
-        creases = ", ".join(str(i) for i in np.nonzero(outcome.short)[0])
+        held = np.asarray(outcome.short) & (
+            np.abs(final - np.asarray(system.hinges.target)) > angle_tolerance
+        )
+        creases = ", ".join(str(i) for i in np.nonzero(held)[0])
         reason = f"contact stops crease(s) {creases} short"
     elif np.all(np.abs(errors) < angle_tolerance):
         reason = "creases at their angles but seams open"
