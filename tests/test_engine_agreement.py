@@ -2,7 +2,11 @@
 steps (`ImplicitStep(dt=2.5)`), on the same draws of the default fabrication scatter.
 
 The contact issue's test: verdicts agree on at least 99 % of 1,000 scattered cube nets, and the
-two yields lie within each other's Wilson intervals. Slow: about 1.2 s (adaptive) and 1.7 s
+two yields lie within each other's Wilson intervals. Both estimates settle the samples still moving
+at 1500 µs (`yield_estimate`'s `t_settle`, 8000 µs), so the engines are compared where the nets come
+to rest. (Before 2026-12-05 the second estimate in one process reused the first one's kernel, the
+adaptive one: the cache of kernels did not key on the solver. The CLI's figures, one process per
+engine, were not affected.) Slow: about 1.2 s (adaptive) and 1.7 s
 (fixed steps) per sample on a 2-core machine, ~50 minutes for both; `ENGINE_AGREEMENT_SAMPLES`
 runs fewer (the 99 % then needs at most one disagreement in a hundred).
 """

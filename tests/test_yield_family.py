@@ -81,8 +81,8 @@ def fake(monkeypatch):
     """`yield_estimate` replaced: the counts of `FOLDED`, every call recorded."""
     calls = []
 
-    def estimate(net, scatter, n, seed, *, design, process, solve, tolerances, run):
-        calls.append({"name": net.name, "n": n, "seed": seed, "out": run.out})
+    def estimate(net, scatter, n, seed, *, design, process, solve, tolerances, run, t_settle):
+        calls.append({"name": net.name, "n": n, "seed": seed, "out": run.out, "settle": t_settle})
         if run.out is not None:
             run.out.mkdir(parents=True, exist_ok=True)
         folded = FOLDED[net.name]
@@ -100,7 +100,7 @@ def test_family_yield_table_and_correlations(fake, tmp_path):
     )
     # Every net from the same seed and samples, each in its own folder.
     assert [c["name"] for c in fake] == list(FOLDED)
-    assert {(c["n"], c["seed"]) for c in fake} == {(4, 7)}
+    assert {(c["n"], c["seed"], c["settle"]) for c in fake} == {(4, 7, ojy.SETTLE_TIME)}
     assert [c["out"] for c in fake] == [out / n for n in FOLDED]
     assert family.names == tuple(FOLDED)
     yields = [FOLDED[n] / 4 for n in FOLDED]
