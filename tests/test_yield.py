@@ -13,6 +13,7 @@ import math
 
 import numpy as np
 import pytest
+import xarray as xr
 from scipy import stats
 
 import origami_jax.fab_yield as ojy
@@ -291,7 +292,7 @@ def test_zero_scatter_gives_yield_one_for_a_net_that_folds():
     np.testing.assert_array_equal(open_gap[touching == 0], every_gap[touching == 0])
 
 
-def test_samples_still_moving_at_the_end_are_judged_where_they_settle():
+def test_samples_still_moving_at_the_end_are_judged_where_they_settle(tmp_path):
     # 200 µs is too short for the corner cube (it folds by ~320 µs): every sample is unfinished
     # there. Settled to 600 µs, each is run again from the start with the same sample spacing:
     # the same kernel and numbers as a 600 µs estimate, so the same final angles to rounding,
@@ -300,8 +301,12 @@ def test_samples_still_moving_at_the_end_are_judged_where_they_settle():
     run = {**RUN, "solve": short, "n_samples": 4, "seed": 1}
     at_end = ojy.yield_estimate(NET, ojy.Scatter.none(), **run, t_settle=None)
     assert at_end.counts["unfinished"] == 4 and at_end.to_dict()["continued"] == 0
-    settled = ojy.yield_estimate(NET, ojy.Scatter.none(), **run, t_settle=T_END)
+    stored = dataclasses.replace(run["run"], out=tmp_path / "settle")
+    settled = ojy.yield_estimate(NET, ojy.Scatter.none(), **{**run, "run": stored}, t_settle=T_END)
     assert settled.counts["folded"] == 4, settled.summary()
+    # The store's samples are the samples as judged (the settling pass merged in).
+    on_disk = xr.load_dataset(tmp_path / "settle" / "sweep.nc")
+    assert on_disk["verdict"].values.tolist() == [0] * 4 and on_disk.attrs["continued"] == 4
     assert settled.to_dict()["continued"] == 4 and settled.to_dict()["t_settle_us"] == T_END
     assert "4 still moving at the end, run on to 600 µs" in settled.summary()
     direct = _estimate("none", 4).dataset

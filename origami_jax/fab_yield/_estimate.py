@@ -319,16 +319,21 @@ def _stragglers_finished(dataset, kernel, columns, units, **sweep_options):
     )
     dataset = dataset.copy(deep=True)
     dataset.attrs["stragglers"] = int(over.size)
-    if not over.size:
-        return dataset
-    rows = Table({name: np.asarray(c)[over] for name, c in columns.items()}, units=units)
-    rest = sweep(kernel, rows, **sweep_options)
+    if over.size:
+        _run_again(dataset, over, kernel, columns, units, **sweep_options)
+    return dataset
+
+
+def _run_again(dataset, rows, kernel, columns, units, **sweep_options) -> None:
+    """The samples `rows` of `dataset` run again by `kernel` in one sweep, their outputs written
+    over theirs (in place); `run_s` and `compile_s` then include that pass."""
+    table = Table({name: np.asarray(c)[rows] for name, c in columns.items()}, units=units)
+    rest = sweep(kernel, table, **sweep_options)
     for name in dataset.data_vars:
-        dataset[name].values[over] = rest[name].values
+        dataset[name].values[rows] = rest[name].values
     for key in ("run_s", "compile_s"):
         dataset.attrs[key] = float(dataset.attrs.get(key, 0.0)) + float(rest.attrs.get(key, 0.0))
     dataset.attrs["n_failed"] = int(np.sum(np.asarray(dataset["result"].values) != 0))
-    return dataset
 
 
 SETTLE_TIME = MAX_FOLD_SEGMENTS * FOLD_SEGMENT
@@ -351,18 +356,11 @@ def _unfinished_settled(dataset, pattern, options, columns, units, t_settle, **s
     )
     rows = np.flatnonzero(moving)
     dataset.attrs["continued"] = int(rows.size)
-    if not rows.size:
-        return dataset
-    n_long = min(int(round((n_save - 1) * t_settle / t_end)) + 1, MAX_SAMPLES)
-    longer = solve.replace(t1=float(t_settle), saveat=SaveAt(n=n_long))
-    kernel = _kernel(pattern, **{**options, "solve": longer})
-    table = Table({name: np.asarray(c)[rows] for name, c in columns.items()}, units=units)
-    rest = sweep(kernel, table, **sweep_options)
-    for name in dataset.data_vars:
-        dataset[name].values[rows] = rest[name].values
-    for key in ("run_s", "compile_s"):
-        dataset.attrs[key] = float(dataset.attrs.get(key, 0.0)) + float(rest.attrs.get(key, 0.0))
-    dataset.attrs["n_failed"] = int(np.sum(np.asarray(dataset["result"].values) != 0))
+    if rows.size:
+        n_long = min(int(round((n_save - 1) * t_settle / t_end)) + 1, MAX_SAMPLES)
+        longer = solve.replace(t1=float(t_settle), saveat=SaveAt(n=n_long))
+        kernel = _kernel(pattern, **{**options, "solve": longer})
+        _run_again(dataset, rows, kernel, columns, units, **sweep_options)
     return dataset
 
 
@@ -604,33 +602,26 @@ def yield_estimate(
         units[f"target[{j}]"] = "rad"
     stored = _stored_samples(out) if run.resume else 0
     dataset = sweep(kernel, Table(columns, units=units), **run.sweep_options())
-    if step_budget is not None:
-        dataset = _stragglers_finished(
-            dataset,
-            _kernel(pattern, **options),
-            columns,
-            units,
-            out=None if out is None else Path(out) / "stragglers",
+
+    def later_pass(folder: str) -> dict[str, Any]:
+        """The sweep options of a pass that runs some samples again (stored in `out/folder`)."""
+        return dict(
+            out=None if out is None else Path(out) / folder,
             resume=run.resume,
             chunk_size=run.chunk_size,
             workers=run.workers,
             progress=run.progress,
         )
+
+    if step_budget is not None:
+        dataset = _stragglers_finished(
+            dataset, _kernel(pattern, **options), columns, units, **later_pass("stragglers")
+        )
         # The first pass's kernel settings say max_steps = the budget; the second pass's did not.
         dataset.attrs.update({"step_budget": int(step_budget), "max_steps": int(max_steps)})
     if t_settle is not None and isinstance(t_end, int | float) and t_settle > t_end:
         dataset = _unfinished_settled(
-            dataset,
-            pattern,
-            options,
-            columns,
-            units,
-            t_settle,
-            out=None if out is None else Path(out) / "settled",
-            resume=run.resume,
-            chunk_size=run.chunk_size,
-            workers=run.workers,
-            progress=run.progress,
+            dataset, pattern, options, columns, units, t_settle, **later_pass("settled")
         )
     if out is not None and (dataset.attrs.get("stragglers") or dataset.attrs.get("continued")):
         # The store's sweep.nc gathers the first pass; the samples as judged (the later passes'
