@@ -298,29 +298,30 @@ def test_samples_still_moving_at_the_end_are_judged_where_they_settle(tmp_path):
     # the same kernel and numbers as a 600 µs estimate, so the same final angles to rounding,
     # folded.
     short = SOLVE.replace(t1=T_END / 3, saveat=SaveAt(n=(SOLVE.saveat.n - 1) // 3 + 1))
-    run = {**RUN, "solve": short, "n_samples": 4, "seed": 1}
-    at_end = ojy.yield_estimate(NET, ojy.Scatter.none(), **run, t_settle=None)
+
+    def estimate(t_settle, **changes):
+        run = dataclasses.replace(RUN["run"], t_settle=t_settle, **changes)
+        return ojy.yield_estimate(NET, ojy.Scatter.none(), 4, 1, solve=short, run=run)
+
+    at_end = estimate(None)
     assert at_end.counts["unfinished"] == 4 and at_end.to_dict()["continued"] == 0
-    stored = dataclasses.replace(run["run"], out=tmp_path / "settle")
-    settled = ojy.yield_estimate(NET, ojy.Scatter.none(), **{**run, "run": stored}, t_settle=T_END)
+    settled = estimate(T_END, out=tmp_path / "settle")
     assert settled.counts["folded"] == 4, settled.summary()
+    assert settled.to_dict()["continued"] == 4 and settled.to_dict()["t_settle_us"] == T_END
+    assert "4 still moving at the end, run on to 600 µs" in settled.summary()
     # The store's samples are the samples as judged (the settling pass merged in).
     on_disk = xr.load_dataset(tmp_path / "settle" / "sweep.nc")
     assert on_disk["verdict"].values.tolist() == [0] * 4 and on_disk.attrs["continued"] == 4
-    assert settled.to_dict()["continued"] == 4 and settled.to_dict()["t_settle_us"] == T_END
-    assert "4 still moving at the end, run on to 600 µs" in settled.summary()
     direct = _estimate("none", 4).dataset
     for name in ("final_angle", "time_to_fold", "max_seam_gap", "num_steps"):
         np.testing.assert_allclose(
             settled.dataset[name].values, direct[name].values, rtol=1e-12, err_msg=name
         )
     # A settling time not past the end settles nothing; a bad one is refused before compiling.
-    assert ojy.yield_estimate(NET, ojy.Scatter.none(), **run, t_settle=T_END / 3).counts == (
-        at_end.counts
-    )
+    assert estimate(T_END / 3).counts == at_end.counts
     for bad in (0.0, -1.0, float("nan"), True, "8000"):
         with pytest.raises(ValueError, match="t_settle must be a positive end time"):
-            ojy.yield_estimate(NET, **RUN, t_settle=bad)
+            ojy.yield_estimate(NET, solve=SOLVE, run=ojy.RunOptions(t_settle=bad))
 
 
 def test_zero_scatter_gives_yield_zero_for_a_net_aimed_at_80_degrees():

@@ -81,8 +81,10 @@ def fake(monkeypatch):
     """`yield_estimate` replaced: the counts of `FOLDED`, every call recorded."""
     calls = []
 
-    def estimate(net, scatter, n, seed, *, design, process, solve, tolerances, run, t_settle):
-        calls.append({"name": net.name, "n": n, "seed": seed, "out": run.out, "settle": t_settle})
+    def estimate(net, scatter, n, seed, *, design, process, solve, tolerances, run):
+        calls.append(
+            {"name": net.name, "n": n, "seed": seed, "out": run.out, "settle": run.t_settle}
+        )
         if run.out is not None:
             run.out.mkdir(parents=True, exist_ok=True)
         folded = FOLDED[net.name]

@@ -320,6 +320,19 @@ def _solve(args: argparse.Namespace, choice: dict, stored=None):
     )
 
 
+def _run_settings(args: argparse.Namespace) -> dict:
+    """How the estimates run, `RunOptions`' fields but the output folder (--resume, --chunk-size,
+    --workers, --no-progress, --step-budget, --t-settle; 0 is no settling run)."""
+    return dict(
+        resume=args.resume,
+        chunk_size=args.chunk_size,
+        workers=args.workers,
+        progress=not args.no_progress,
+        step_budget=args.step_budget,
+        t_settle=args.t_settle or None,
+    )
+
+
 def _fluid(args: argparse.Namespace):
     """The --fluid the nets fold in."""
     from ..system import AIR, KOH_SOLUTION
@@ -411,17 +424,9 @@ def _run_family(args: argparse.Namespace, members: list[str], sampling, choice: 
                     process=process,
                     solve=solve,
                     tolerances=tolerances,
-                    t_settle=args.t_settle or None,
                     confidence=args.confidence,
                     interval=args.interval,
-                    run=RunOptions(
-                        out=output.out,
-                        resume=args.resume,
-                        chunk_size=args.chunk_size,
-                        workers=args.workers,
-                        progress=not args.no_progress,
-                        step_budget=args.step_budget,
-                    ),
+                    run=RunOptions(out=output.out, **_run_settings(args)),
                     on_net=on_net,
                 )
         except Interrupted:
@@ -769,13 +774,7 @@ def _run(
     # What every estimate of this run shares: the estimate itself, the other widths, the ascent.
     # The solve's tolerances: --rtol with the defaults' ratio for the absolute one.
     solve, tolerances = _solve(args, choice, stored_run_tolerances(out))
-    run = RunOptions(
-        resume=args.resume,
-        chunk_size=args.chunk_size,
-        workers=args.workers,
-        progress=not args.no_progress,
-        step_budget=args.step_budget,
-    )
+    run = RunOptions(**_run_settings(args))
     common = dict(
         design=design,
         release_times=release,
@@ -783,7 +782,6 @@ def _run(
         solve=solve,
         tolerances=tolerances,
         bias=args.bias,
-        t_settle=args.t_settle or None,
     )
 
     def estimate_at(scatter, folder):

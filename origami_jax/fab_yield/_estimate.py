@@ -24,9 +24,7 @@ from ..simulation import (
     SolveOptions,
     VerdictTolerances,
 )
-from ..sweep import Table, sweep
-from ..sweep._store import RESULT as SWEEP_RESULT
-from ..sweep._store import netcdf_bytes, write_atomic
+from ..sweep import Table, store_result, sweep
 from ..system import KOH_SOLUTION, AbstractPattern, HingeDesign
 from ._scatter import PARAMETERS, Scatter, sample_values, standard_draws
 from ._stats import INTERVAL_METHODS, binomial_interval
@@ -162,10 +160,15 @@ class YieldEstimate:
         )
 
 
+SETTLE_TIME = MAX_FOLD_SEGMENTS * FOLD_SEGMENT
+"""`RunOptions.t_settle`'s default: a sample still moving at the end of its run is run
+again up to this time (µs in the MICRO units), the longest folding `fold` continues to."""
+
+
 @dataclasses.dataclass(frozen=True)
 class RunOptions:
     """How a yield estimate runs and where it keeps its samples: nothing here changes a sample's
-    result.
+    simulation (`t_settle` decides how long one still moving at the end is followed).
 
     **Fields:**
     - `out`: a folder to store the samples in as they finish (`origami_jax.sweep.sweep`'s), or
@@ -183,6 +186,16 @@ class RunOptions:
       budget of a few times the median sample's steps (the dataset's `num_steps`) keeps the
       second pass small.
 
+    - `t_settle`: µs (default `SETTLE_TIME`, 8,000 µs: the longest folding `fold` continues to).
+      A sample whose panels still move at the end of the solve's `t1` (verdict `unfinished`, the
+      solve successful) is run again from the start to `t_settle`, with the same spacing of saved
+      samples, and judged there: the estimate then judges where the nets come to rest, as `fold`
+      does, rather than how far they got by `t1` (in the etch bath a scattered cube net can creep
+      or ring for milliseconds after the nominal one has closed). The samples continued run in
+      one more sweep (one more compilation; `out/settled` when stored); the dataset's attributes
+      `continued` and `t_settle_us` say how many and to when. `None`, or a time not past `t1`,
+      keeps the verdicts at `t1` (`unfinished`).
+
     Change one with `dataclasses.replace(run, out=...)`.
     """
 
@@ -193,6 +206,7 @@ class RunOptions:
     progress: bool = True
     on_chunk: Callable[[int, int], None] | None = None
     step_budget: int | None = None
+    t_settle: float | None = SETTLE_TIME
 
     def sweep_options(self) -> dict[str, Any]:
         """The keyword arguments of `origami_jax.sweep.sweep` these options set."""
@@ -336,11 +350,6 @@ def _run_again(dataset, rows, kernel, columns, units, **sweep_options) -> None:
     dataset.attrs["n_failed"] = int(np.sum(np.asarray(dataset["result"].values) != 0))
 
 
-SETTLE_TIME = MAX_FOLD_SEGMENTS * FOLD_SEGMENT
-"""`yield_estimate`'s default `t_settle`: a sample still moving at the end of its run is run
-again up to this time (µs in the MICRO units), the longest folding `fold` continues to."""
-
-
 def _unfinished_settled(dataset, pattern, options, columns, units, t_settle, **sweep_options):
     """`dataset` with its samples judged `unfinished` because their panels still moved at the end
     (a successful solve whose time ran out) run again from the start to `t_settle`, all in one
@@ -403,7 +412,6 @@ def yield_estimate(
     tolerances=None,
     bias: float = 0.0,
     run: RunOptions | None = None,
-    t_settle: float | None = SETTLE_TIME,
 ) -> YieldEstimate:
     """The fraction of fabricated nets that fold into the intended shape, with its confidence
     interval (module docstring).
@@ -464,16 +472,8 @@ def yield_estimate(
       never quite flat, and a small bias along the pattern's own angles (0.05) is what most
       devices start from. Nets take 0.
     - `run`: a `RunOptions`: where the samples are kept (`out`, `resume`), how they are computed
-      (`chunk_size`, `workers`, `step_budget`) and reported (`progress`, `on_chunk`).
-    - `t_settle`: µs (default `SETTLE_TIME`, 8,000 µs: the longest folding `fold` continues to).
-      A sample whose panels still move at the end of the solve's `t1` (verdict `unfinished`, the
-      solve successful) is run again from the start to `t_settle`, with the same spacing of saved
-      samples, and judged there: the estimate then judges where the nets come to rest, as `fold`
-      does, rather than how far they got by `t1` (in the etch bath a scattered cube net can creep
-      or ring for milliseconds after the nominal one has closed). The samples continued run in
-      one more sweep (one more compilation; `out/settled` when stored); the dataset's attributes
-      `continued` and `t_settle_us` say how many and to when. `None`, or a time not past `t1`,
-      keeps the verdicts at `t1`.
+      (`chunk_size`, `workers`, `step_budget`) and reported (`progress`, `on_chunk`), and how
+      long a sample still moving at `t1` is followed (`t_settle`, default 8,000 µs).
 
     The interval is the 95 % Wilson interval; `YieldEstimate.with_interval` gives another.
 
@@ -491,6 +491,16 @@ def yield_estimate(
         raise ValueError(f"tolerances must be a VerdictTolerances, got {tolerances!r}.")
     if n_samples < 1:
         raise ValueError(f"n_samples must be an integer >= 1, got {n_samples!r}.")
+    solve = FOLD_KERNEL_SOLVE if solve is None else solve
+    if not isinstance(solve, SolveOptions):
+        raise ValueError(f"solve must be a SolveOptions, got {type(solve).__name__}.")
+    rtol = solve.number("rtol")
+    if not (isinstance(rtol, float) and 0 < rtol < 1):
+        raise ValueError(f"rtol must be a number strictly between 0 and 1, got {rtol!r}.")
+    run = RunOptions() if run is None else run
+    if not isinstance(run, RunOptions):
+        raise ValueError(f"run must be a RunOptions, got {type(run).__name__}.")
+    t_settle = run.t_settle
     if t_settle is not None and not (
         isinstance(t_settle, int | float)
         and not isinstance(t_settle, bool)
@@ -501,15 +511,6 @@ def yield_estimate(
             f"t_settle must be a positive end time (µs) or None (no settling run), got "
             f"{t_settle!r}."
         )
-    solve = FOLD_KERNEL_SOLVE if solve is None else solve
-    if not isinstance(solve, SolveOptions):
-        raise ValueError(f"solve must be a SolveOptions, got {type(solve).__name__}.")
-    rtol = solve.number("rtol")
-    if not (isinstance(rtol, float) and 0 < rtol < 1):
-        raise ValueError(f"rtol must be a number strictly between 0 and 1, got {rtol!r}.")
-    run = RunOptions() if run is None else run
-    if not isinstance(run, RunOptions):
-        raise ValueError(f"run must be a RunOptions, got {type(run).__name__}.")
     if scatter is None:
         scatter = Scatter()
     elif isinstance(scatter, Mapping):
@@ -626,7 +627,7 @@ def yield_estimate(
     if out is not None and (dataset.attrs.get("stragglers") or dataset.attrs.get("continued")):
         # The store's sweep.nc gathers the first pass; the samples as judged (the later passes'
         # rows merged in) replace it. A resume gathers the chunks again, so nothing is lost.
-        write_atomic(Path(out) / SWEEP_RESULT, netcdf_bytes(dataset))
+        store_result(out, dataset)
     codes = np.asarray(dataset["verdict"].values)
     counts = {str(v): int(np.sum(codes == i)) for i, v in enumerate(FoldVerdict)}
     folded = counts[str(FoldVerdict.FOLDED)]

@@ -20,7 +20,7 @@ from ..fold import catalogue_families, catalogue_family
 from ..net import Net
 from ..simulation import FoldVerdict, VerdictTolerances
 from ..system import KOH_SOLUTION
-from ._estimate import SETTLE_TIME, RunOptions, as_pattern, yield_estimate
+from ._estimate import RunOptions, as_pattern, yield_estimate
 from ._scatter import Scatter
 from ._stats import INTERVAL_METHODS, binomial_interval, spearman
 
@@ -224,7 +224,6 @@ def family_yield(
     interval: str = "wilson",
     run: RunOptions | None = None,
     on_net: Callable[[str, int, int], None] | None = None,
-    t_settle: float | None = SETTLE_TIME,
 ) -> FamilyYield:
     """The yield of every net of a family (`yield_estimate`, one after the other) and Spearman's
     rank correlation of the yields with the nets' compactness.
@@ -247,8 +246,6 @@ def family_yield(
     - `fluid`: each net's nominal design is its `default_design(fluid)` (default the KOH bath).
     - `process`, `solve`, `tolerances`: as `yield_estimate` (`process` values one number each:
       the nets have different numbers of creases).
-    - `t_settle`: as `yield_estimate` (µs; the samples still moving at the solve's end run on to
-      it).
     - `confidence`, `interval`: every net's interval (`YieldEstimate.with_interval`).
     - `run`: a `RunOptions`; with `out`, net `name` keeps its samples in `out/name/` and, once
       finished, its summary in `out/name/estimate.json`; with `resume`, nets whose summary is
@@ -300,7 +297,7 @@ def family_yield(
     if not isinstance(tolerances, VerdictTolerances):
         raise ValueError(f"tolerances must be a VerdictTolerances, got {tolerances!r}.")
     run = RunOptions() if run is None else run
-    settings = _settings(n_samples, seed, scatter, fluid, process, solve, tolerances, t_settle)
+    settings = _settings(n_samples, seed, scatter, fluid, process, solve, tolerances, run.t_settle)
     rows = []
     for index, net in enumerate(nets):
         if on_net is not None:
@@ -322,7 +319,6 @@ def family_yield(
                 solve=solve,
                 tolerances=tolerances,
                 run=dataclasses.replace(run, out=folder),
-                t_settle=t_settle,
             )
             counts, seconds = dict(estimate.counts), estimate.seconds_per_sample
             if folder is not None:

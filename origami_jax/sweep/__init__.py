@@ -40,3 +40,4 @@ from ._space import Range as Range
 from ._space import Samples as Samples
 from ._space import Table as Table
 from ._store import SweepBusyError as SweepBusyError
+from ._store import store_result as store_result

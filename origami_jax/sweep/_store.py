@@ -281,6 +281,14 @@ class Store:
         return dataset
 
 
+def store_result(out: str | os.PathLike, dataset: xr.Dataset) -> Path:
+    """Write `dataset` as the store `out`'s `sweep.nc`, atomically: for a caller that ran some of
+    a finished sweep's designs again (a longer run, a larger step budget) and merged them in, so
+    that the store's gathered file holds the results as reported. The chunks are left as they
+    are (a resumed sweep gathers them again). Returns the file's path."""
+    return write_atomic(Path(out) / RESULT, netcdf_bytes(dataset))
+
+
 def _read_index(path: Path, names: list[str]) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     import h5netcdf
 
