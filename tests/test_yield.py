@@ -11,6 +11,7 @@ import functools
 import json
 import math
 
+import jax
 import numpy as np
 import pytest
 import xarray as xr
@@ -214,6 +215,17 @@ def test_bad_estimates_are_refused_before_compiling(tmp_path):
     path.write_text("defaults = false\n[misfit_strain]\nwidth = 0.05\n")
     scatter = ojy.load_scatter(path)
     assert scatter.active() == {"misfit_strain": _resolved("misfit_strain", ojy.Spread(width=0.05))}
+
+
+def test_float32_is_refused_before_compiling():
+    # In float32 a cube net's samples ran out of their 200,000 steps (minutes each) and came back
+    # unfinished: refused at once instead.
+    jax.config.update("jax_enable_x64", False)
+    try:
+        with pytest.raises(RuntimeError, match="yield_estimate needs float64"):
+            ojy.yield_estimate(NET, n_samples=2, **RUN)
+    finally:
+        jax.config.update("jax_enable_x64", True)
 
 
 def test_rtol_reaches_the_solver(monkeypatch):

@@ -9,6 +9,7 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
+import jax
 import numpy as np
 
 from .._kernel import design_settings
@@ -480,8 +481,16 @@ def yield_estimate(
     **Returns:** a `YieldEstimate`.
 
     **Raises:** `ValueError` (before anything compiles) for a bad scatter, a pattern that cannot
-    be read, bad counts or settings; the sweep's errors for a folder that holds another estimate.
+    be read, bad counts or settings; `RuntimeError` without float64
+    (`jax.config.update("jax_enable_x64", True)`); the sweep's errors for a folder that holds
+    another estimate.
     """
+    if not jax.config.jax_enable_x64:  # pyright: ignore[reportAttributeAccessIssue] (a flag)
+        # In float32 a net's contact solve runs out of steps: every sample would come back
+        # unfinished after the whole step budget (minutes per sample).
+        raise RuntimeError(
+            'yield_estimate needs float64: call jax.config.update("jax_enable_x64", True) first'
+        )
     if isinstance(n_samples, bool) or not isinstance(n_samples, int | np.integer):
         raise ValueError(f"n_samples must be an integer >= 1, got {n_samples!r}.")
     if tolerances is None:
