@@ -280,6 +280,7 @@ def test_anisotropic_added_inertia_matches_jacobian_formula(small_tree):
 # ---- a tiny tree: gradients, rows of states, poses ------------------------------------------------
 
 
+@pytest.mark.slow  # ~18 s of compilation; the trees' dynamics are checked in value by default
 def test_forward_dynamics_gradients(tiny_tree):
     """Forward and reverse mode against central finite differences, in the states and the forces,
     through `jax.vmap` (its batching rule and the custom derivative rule underneath): the JVP along
