@@ -186,7 +186,6 @@ class RunOptions:
       wide (accelerators, or a `chunk_size` on a CPU) at the price of one more compilation. A
       budget of a few times the median sample's steps (the dataset's `num_steps`) keeps the
       second pass small.
-
     - `t_settle`: µs (default `SETTLE_TIME`, 8,000 µs: the longest folding `fold` continues to).
       A sample whose panels still move at the end of the solve's `t1` (verdict `unfinished`, the
       solve successful) is run again from the start to `t_settle`, with the same spacing of saved
@@ -614,14 +613,10 @@ def yield_estimate(
     dataset = sweep(kernel, Table(columns, units=units), **run.sweep_options())
 
     def later_pass(folder: str) -> dict[str, Any]:
-        """The sweep options of a pass that runs some samples again (stored in `out/folder`)."""
-        return dict(
-            out=None if out is None else Path(out) / folder,
-            resume=run.resume,
-            chunk_size=run.chunk_size,
-            workers=run.workers,
-            progress=run.progress,
-        )
+        """The sweep options of a pass that runs some samples again (stored in `out/folder`;
+        `on_chunk` counts the estimate's samples, so not these)."""
+        folder = None if out is None else Path(out) / folder
+        return {**run.sweep_options(), "out": folder, "on_chunk": None}
 
     if step_budget is not None:
         dataset = _stragglers_finished(

@@ -353,7 +353,9 @@ class FoldOutcome(eqx.Module):
     """The traceable verdict of one folding (arrays; a batch under `vmap` gives one per member).
 
     **Fields:** `code` (`VERDICT_CODES`); `time_to_fold` (time units, `inf` if it never got there);
-    `settled`; `short` per crease (stopped short of its angle, same sign); `max_seam_gap` at the end
+    `settled`; `short` per crease (stopped short of its angle, same sign); `held` per crease (short,
+    and more than the angle tolerance from its hinge's target: what contact must explain for
+    `jammed`); `max_seam_gap` at the end
     (length, 0 without seams; a seam above the tolerance may still be closed by contact);
     `seam_gaps` per seam `(s,)`, its gap at the end (length; empty without seams);
     `seams_touching` per seam `(s,)`, its two panels touch at the end (closed whatever its gap;
@@ -377,6 +379,7 @@ class FoldOutcome(eqx.Module):
     time_to_fold: Float[Array, ""]
     settled: Bool[Array, ""]
     short: Bool[Array, " h"]
+    held: Bool[Array, " h"]
     max_seam_gap: Float[Array, ""]
     seam_gaps: Float[Array, " s"]
     seams_touching: Bool[Array, " s"]
@@ -467,7 +470,7 @@ def fold_outcome(
     # target). A crease whose film bends it short of the intended angle, with panels merely near
     # each other (or holding another crease, one that would overfold, at its angle), is
     # misfolded, whatever contact pairs happen to lie within the activation layer.
-    held = jnp.any(short & (jnp.abs(final - system.hinges.target) > angle_tolerance))
+    held = short & (jnp.abs(final - system.hinges.target) > angle_tolerance)
     codes = VERDICT_CODES
     code = jnp.where(
         within[-1],
@@ -476,7 +479,7 @@ def fold_outcome(
             ~settled,
             codes[FoldVerdict.UNFINISHED],
             jnp.where(
-                held & (engaged > 0),
+                jnp.any(held) & (engaged > 0),
                 codes[FoldVerdict.JAMMED],
                 codes[FoldVerdict.MISFOLDED],
             ),
@@ -492,6 +495,7 @@ def fold_outcome(
         time_to_fold=time_to_fold,
         settled=settled,
         short=short,
+        held=held,
         max_seam_gap=max_gap,
         seam_gaps=final_gaps,
         seams_touching=seams_touching,
@@ -811,10 +815,7 @@ def assess(
                 "of the run (or after it) to judge: run longer"
             )
     elif verdict == FoldVerdict.JAMMED:
-        held = np.asarray(outcome.short) & (
-            np.abs(final - np.asarray(system.hinges.target)) > angle_tolerance
-        )
-        creases = ", ".join(str(i) for i in np.nonzero(held)[0])
+        creases = ", ".join(str(i) for i in np.nonzero(outcome.held)[0])
         reason = f"contact stops crease(s) {creases} short"
     elif np.all(np.abs(errors) < angle_tolerance):
         reason = "creases at their angles but seams open"
