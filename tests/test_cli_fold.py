@@ -263,6 +263,8 @@ def test_bad_hinge_parameters_are_refused_in_one_line(param, message, capsys):
         (["--friction", "0.3", "--contact", "sampled"], "need the plate contact"),
         (["--friction", "nan"], "--friction expects MU[,SLIP]"),
         (["--friction", "0.3,-1"], "Friction.slip"),
+        (["--release-ramp", "0"], "--release-ramp must be a positive time in µs"),
+        (["--release-ramp", "inf"], "--release-ramp must be a positive time in µs"),
     ],
 )
 def test_bad_surface_physics_is_refused_in_one_line(argv, message, capsys, tmp_path):

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import origami_jax.simulation as sim
-from origami_jax.chain import alternating_targets
+from origami_jax.chain import accordion_system, alternating_targets
 from origami_jax.system import MICRO
 
 from .helpers import make_system
@@ -121,3 +121,73 @@ def test_slow_ramp_is_affordable_and_validated():
     assert int(result.trajectory.stats["num_steps"]) < 5000
     assert float(jnp.max(result.quasi_static_error)) < 1e-6
     assert float(jnp.max(result.large_step_error)) < 1e-6
+
+
+def test_step_ramp_torque_grows_linearly_from_each_release():
+    _, system = literature()
+    release = jnp.array([0.0, 50.0, 100.0])
+    staged = make_system(
+        system.mechanism,
+        system.hinges.stiffness,
+        system.drag.coefficient,
+        system.hinges.target,
+        release_time=release,
+    )
+    k, target = staged.hinges.stiffness, staged.hinges.target
+    ramp = sim.Step(ramp=40.0)
+    zeros = jnp.zeros(3)
+    # At t = 70 µs: 70/40 (capped at 1), 20/40 and not yet released.
+    np.testing.assert_allclose(
+        ramp.torque(70.0, zeros, zeros, staged), k * target * jnp.array([1.0, 0.5, 0.0])
+    )
+    np.testing.assert_allclose(ramp.jump_times(staged), [0.0, 50.0, 100.0, 40.0, 90.0, 140.0])
+    # Without release times every hinge ramps from t = 0.
+    np.testing.assert_allclose(
+        ramp.torque(10.0, zeros, zeros, system), 0.25 * system.hinges.stiffness * target
+    )
+    np.testing.assert_allclose(ramp.jump_times(system), [40.0])
+    for bad in (0.0, -1.0, float("nan"), [1.0, 2.0]):
+        with pytest.raises(ValueError, match="Step.ramp must be a positive finite time"):
+            sim.Step(ramp=bad)
+
+
+def test_step_ramp_matches_the_driven_oscillator():
+    # One flap without drag is a linear oscillator I θ̈ + k θ = k θ_t min(t/R, 1), whose response
+    # is θ_t (t/R − sin ωt / (ωR)) during the ramp and a swing of amplitude
+    # θ_t |2 sin(ωR/2)| / (ωR) about θ_t after it (a step: θ_t, the flap swings to 2 θ_t).
+    design, _ = literature()
+    flap = accordion_system(design, 1)
+    system = make_system(flap.mechanism, flap.hinges.stiffness, 0.0, [1.0])
+    k = float(system.hinges.stiffness[0])
+    inertia = float(system.mechanism.mass_matrix(jnp.zeros(1))[0, 0])
+    omega = np.sqrt(k / inertia)
+    period = 2 * np.pi / omega
+    ramp_time = 2.3 * period
+    t1 = 4 * period
+    trajectory = sim.simulate(
+        system,
+        sim.Step(ramp=ramp_time),
+        sim.SolveOptions(saveat=sim.SaveAt(n=201), rtol=1e-10, atol=1e-12, solver=diffrax.Tsit5()),
+        t1=t1,
+    )
+    t = np.asarray(trajectory.times)
+    during = t / ramp_time - np.sin(omega * t) / (omega * ramp_time)
+    # After the ramp: the free oscillation from the ramp's end state.
+    end = 1.0 - np.sin(omega * ramp_time) / (omega * ramp_time)
+    end_rate = (1.0 - np.cos(omega * ramp_time)) / ramp_time
+    after = (
+        1.0
+        + (end - 1.0) * np.cos(omega * (t - ramp_time))
+        + end_rate / omega * np.sin(omega * (t - ramp_time))
+    )
+    expected = np.where(t <= ramp_time, during, after)
+    # Tolerance: the solve's 1e-10 relative tolerance over four periods.
+    np.testing.assert_allclose(np.asarray(trajectory.theta[:, 0]), expected, atol=1e-7)
+    # The swing after the ramp, on a dense grid of the (checked) free oscillation: the step's θ_t
+    # reduced by the ramp.
+    dense = np.linspace(0.0, t1 - ramp_time, 20001)
+    free = (end - 1.0) * np.cos(omega * dense) + end_rate / omega * np.sin(omega * dense)
+    swing = np.max(np.abs(free))
+    np.testing.assert_allclose(
+        swing, abs(2 * np.sin(omega * ramp_time / 2)) / (omega * ramp_time), rtol=1e-3
+    )

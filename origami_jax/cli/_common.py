@@ -386,6 +386,43 @@ def add_surface_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def add_dynamics_arguments(parser: argparse.ArgumentParser) -> None:
+    """`--fluid-inertia` and `--release-ramp US` (a pattern's `added_mass` and `viscous`, and its
+    `release_ramp`: `Net.with_model`; parse them with `dynamics_model`)."""
+    parser.add_argument(
+        "--fluid-inertia",
+        action="store_true",
+        help="the fluid's inertia (added mass) and viscous drag on every panel, on top of its "
+        "pressure drag (off by default; nets). In KOH the fluid's inertia is ~250 times a "
+        "panel's: a step release then flings panels past their targets, so pair it with a "
+        "quasi-static --release-ramp (30000 µs for 200 µm panels, and a --t-end past it)",
+    )
+    parser.add_argument(
+        "--release-ramp",
+        type=float,
+        default=None,
+        metavar="US",
+        help="release each hinge over US µs (its torque growing linearly from its release) "
+        "instead of at once (the paper's step, the default). A real etch frees a hinge over "
+        "minutes: a ramp long against the panels' own motion (milliseconds in the bath with "
+        "--fluid-inertia) is that quasi-static release",
+    )
+
+
+def dynamics_model(args: argparse.Namespace) -> dict:
+    """The `with_model` options `--fluid-inertia` and `--release-ramp` ask for (`{}` with
+    neither), or a one-line exit for a ramp that is not a positive, finite time."""
+    options: dict[str, Any] = {}
+    if getattr(args, "fluid_inertia", False):
+        options.update(added_mass=True, viscous=True)
+    ramp = getattr(args, "release_ramp", None)
+    if ramp is not None:
+        if not (math.isfinite(ramp) and ramp > 0):
+            fail(f"--release-ramp must be a positive time in µs, got {ramp:g}.")
+        options["release_ramp"] = float(ramp)
+    return options
+
+
 def _surface_numbers(text: str, flag: str, form: str, most: int) -> list[float | None]:
     """The comma-separated numbers of `flag` (an empty one, after the first: None, its default)."""
     parts = [x.strip() for x in text.split(",")]

@@ -17,12 +17,14 @@ from ._common import (
     EXIT_OK,
     OutputFolder,
     add_contact_sampling_argument,
+    add_dynamics_arguments,
     add_figures_argument,
     add_out_argument,
     add_solver_arguments,
     add_surface_arguments,
     contact_sampling,
     dumps_json,
+    dynamics_model,
     fail,
     hinge_params,
     in_range,
@@ -151,6 +153,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--no-contact", action="store_true", help="panels pass through each other")
     add_contact_sampling_argument(parser)
     add_surface_arguments(parser)
+    add_dynamics_arguments(parser)
     parser.add_argument("--drag", choices=("panel", "hinge"), default="panel", help="default panel")
     parser.add_argument(
         "--hinges", choices=("point", "arc"), default="point", help="point creases or bending arcs"
@@ -394,7 +397,7 @@ def run(args: argparse.Namespace) -> int:
             model["check_rigid"] = not args.no_rigid_check
         layout = {"arc_layout": args.arc_layout} if args.hinges == "arc" and not loops else {}
         net = net.with_model(**model)
-        net = net.with_model(**surface_model(args, net, design))
+        net = net.with_model(**surface_model(args, net, design), **dynamics_model(args))
         system = net.system(design, targets=targets, release_times=release, **layout)
         if args.bias:
             net.start_state(system, bias=args.bias)  # refused here, before the output folder
@@ -421,7 +424,7 @@ def _run(args, net, system, params, release, sampling, output, unfolded, *, choi
 
     import origami_jax.simulation as sim
     from origami_jax.fold import write_fold
-    from origami_jax.net import surface_settings
+    from origami_jax.net import model_settings
 
     out = output.dir
     m = net.n_creases
@@ -433,7 +436,7 @@ def _run(args, net, system, params, release, sampling, output, unfolded, *, choi
             "crease aiming at its dihedral angle in the form",
             flush=True,
         )
-    segment = FOLD_SEGMENT if args.t1 is None else args.t1
+    segment = net.fold_segment() if args.t1 is None else args.t1
     print(
         f"[fold] {net.name}: {m} creases, {kind}{system.mechanism.n_bodies} moving panels, contact "
         f"{'on' if system.contact is not None else 'off'}; compiling and folding for {segment:g} µs ...",
@@ -454,7 +457,7 @@ def _run(args, net, system, params, release, sampling, output, unfolded, *, choi
     # is not its hinge angles: one segment).
     trajectory, report = net.fold(
         system,
-        sim.Step(),
+        net.release_input(),
         t1=args.t1,
         bias=args.bias,
         tolerances=tolerances,
@@ -494,7 +497,7 @@ def _run(args, net, system, params, release, sampling, output, unfolded, *, choi
             if args.hinges == "arc" and not loops
             else {}
         ),
-        **surface_settings(net),
+        **model_settings(net),
         closed_loops=net.n_loops if loops else 0,
         unfolded_from_folded_form=unfolded,
         bias=args.bias,

@@ -10,10 +10,12 @@ from ._common import (
     Interrupted,
     OutputFolder,
     add_contact_sampling_argument,
+    add_dynamics_arguments,
     add_solver_arguments,
     add_surface_arguments,
     contact_sampling,
     dumps_json,
+    dynamics_model,
     fail,
     in_range,
     int_range,
@@ -161,6 +163,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--fluid", choices=("air", "koh"), default="koh", help="default koh")
     add_contact_sampling_argument(parser)
     add_surface_arguments(parser)
+    add_dynamics_arguments(parser)
     parser.add_argument("--t-end", type=float, default=1500.0, help="simulated time, µs (1500)")
     parser.add_argument(
         "--t-settle",
@@ -383,7 +386,9 @@ def _run_family(args: argparse.Namespace, members: list[str], sampling, choice: 
         check_targets(pattern, None, name)
         process = _process(args.process, pattern.n_creases)
         try:
-            pattern = pattern.with_model(contact=args.contact, contact_sampling=sampling)
+            pattern = pattern.with_model(
+                contact=args.contact, contact_sampling=sampling, **dynamics_model(args)
+            )
             surface = surface_model(args, pattern, pattern.default_design(fluid))
             patterns.append(pattern.with_model(**surface))
         except ValueError as error:
@@ -442,6 +447,8 @@ def _run_family(args: argparse.Namespace, members: list[str], sampling, choice: 
             "rtol": args.rtol,
             "contact": args.contact,
             "contact_sampling": list(sampling),
+            "fluid_inertia": args.fluid_inertia,
+            "release_ramp_us": args.release_ramp,
             **choice,
             **family.to_dict(),
             "wall_s": elapsed,
@@ -725,7 +732,9 @@ def run(args: argparse.Namespace) -> int:
     improve = _improve_parameters(args, scatter)
     process = _process(args.process, pattern.n_creases)
     try:
-        pattern = pattern.with_model(contact=args.contact, contact_sampling=sampling)
+        pattern = pattern.with_model(
+            contact=args.contact, contact_sampling=sampling, **dynamics_model(args)
+        )
         pattern = pattern.with_model(
             **surface_model(args, pattern, pattern.default_design(_fluid(args)))
         )
@@ -842,6 +851,8 @@ def _run(
         **choice,
         "contact": args.contact,
         "contact_sampling": list(sampling),
+        "fluid_inertia": args.fluid_inertia,
+        "release_ramp_us": args.release_ramp,
         **estimate.to_dict(),
         "compile_s": float(ds.attrs.get("compile_s", 0.0)),
         **(

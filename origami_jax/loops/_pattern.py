@@ -58,6 +58,7 @@ from ..net import (
     Net,
     check_loader_arguments,
     check_per_crease,
+    check_release_ramp,
     check_surface_model,
     default_design,
     folding_animation,
@@ -100,6 +101,7 @@ PATTERN_MODEL = {
     "check_rigid": True,
     "adhesion": None,
     "friction": None,
+    "release_ramp": None,
 }
 
 
@@ -120,7 +122,8 @@ class CreasePattern(AbstractPanelPattern):
     (`with_model`): `contact` (default `True`), `drag` (`"panel"`, the only one), `hinges`
     (`"point"`, the only one), `contact_sampling` (`(4, 2)`), `check_rigid` (`True`), `adhesion`
     and `friction` (`None`: off; an `origami_jax.contact.Adhesion` or `Friction` attaches it to the
-    plate contact), as `system` documents them.
+    plate contact), as `system` documents them; `release_ramp` (`None`: the paper's step; a time,
+    µs: each hinge's torque grows over it from its release, `release_input`).
     """
 
     geometry: LoopGeometry
@@ -135,6 +138,7 @@ class CreasePattern(AbstractPanelPattern):
     check_rigid: bool = True
     adhesion: Adhesion | None = None
     friction: Friction | None = None
+    release_ramp: float | None = None
 
     # ---- the pattern ----
 
@@ -142,6 +146,7 @@ class CreasePattern(AbstractPanelPattern):
 
     def __post_init__(self):
         check_surface_model(self.adhesion, self.friction)
+        check_release_ramp(self.release_ramp)
 
     @property
     def continues_from_angles(self) -> bool:

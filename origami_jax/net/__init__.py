@@ -29,6 +29,7 @@ from ._joints import RevoluteJoints as RevoluteJoints
 from ._kernel import FOLD_KERNEL_SOLVE as FOLD_KERNEL_SOLVE
 from ._kernel import check_kernel_sampling as check_kernel_sampling
 from ._kernel import fold_kernel as fold_kernel
+from ._kernel import model_settings as model_settings
 from ._kernel import stored_tolerances as stored_tolerances
 from ._kernel import surface_settings as surface_settings
 from ._net import Net as Net
@@ -43,6 +44,7 @@ from ._pattern import AbstractPanelPattern as AbstractPanelPattern
 from ._pattern import HostCache as HostCache
 from ._pattern import check_loader_arguments as check_loader_arguments
 from ._pattern import check_per_crease as check_per_crease
+from ._pattern import check_release_ramp as check_release_ramp
 from ._pattern import check_surface_model as check_surface_model
 from ._pattern import default_design as default_design
 from ._pattern import front_release as front_release

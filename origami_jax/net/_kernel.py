@@ -30,7 +30,6 @@ from ..simulation import (
     ImplicitStep,
     SaveAt,
     SolveOptions,
-    Step,
     VerdictTolerances,
     kernel_result_messages,
     simulate,
@@ -73,6 +72,18 @@ def surface_settings(pattern) -> dict:
         f = pattern.friction
         recorded["friction"] = {"coefficient": float(f.coefficient), "slip": float(f.slip)}
     return recorded
+
+
+def model_settings(pattern) -> dict:
+    """What a stored run records of `pattern`'s physics options beyond its contact, drag and
+    hinges, each only when not its default (so a store written before the option existed still
+    resumes, and one written with it is not resumed with another): the fluid's inertia and
+    viscosity on its panels (`added_mass`, `viscous`), the release ramp (`release_ramp_us`), and
+    adhesion and friction (`surface_settings`)."""
+    recorded = {name: True for name in ("added_mass", "viscous") if getattr(pattern, name, False)}
+    if pattern.release_ramp is not None:
+        recorded["release_ramp_us"] = float(pattern.release_ramp)
+    return {**recorded, **surface_settings(pattern)}
 
 
 CLOSED_LOOPS_NEED_ADAPTIVE = (
@@ -248,6 +259,7 @@ def fold_kernel(
             raise ValueError(f"sweep every target[j] of the {m} creases, or none.")
         return jnp.stack([jnp.asarray(a, dtype=float) for a in swept])
 
+    release = pattern.release_input()
     arcs_on_net = pattern.hinges == "arc" and not pattern.n_loops
     layout = {"layout_design": base} if arcs_on_net else {}
 
@@ -262,7 +274,7 @@ def fold_kernel(
         system = pattern.system(design, targets=aim, release_times=times, **layout)
         trajectory = simulate(
             system,
-            Step(),
+            release,
             SolveOptions(
                 saveat=SaveAt(n=n_save),
                 solver=solver,
@@ -348,7 +360,7 @@ def fold_kernel(
             **({} if aims is None else {"targets": aims.tolist()}),
             **({} if hinge_lengths == "ideal" else {"hinge_lengths": hinge_lengths}),
             **({} if sampling == CONTACT_SAMPLING else {"contact_sampling": list(sampling)}),
-            **surface_settings(pattern),
+            **model_settings(pattern),
         },
         parameters=parameters,
         output_units={

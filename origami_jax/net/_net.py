@@ -61,6 +61,7 @@ from ._pattern import (
     HostCache,
     check_loader_arguments,
     check_per_crease,
+    check_release_ramp,
     check_surface_model,
     default_design,
     front_release,
@@ -82,6 +83,7 @@ NET_MODEL = {
     "contact_sampling": CONTACT_SAMPLING,
     "adhesion": None,
     "friction": None,
+    "release_ramp": None,
 }
 
 
@@ -98,7 +100,8 @@ class Net(AbstractPanelPattern):
     (`with_model`): `contact` (default `True`: the plate model), `drag` (`"panel"`), `hinges`
     (`"point"`), `added_mass`, `viscous` (`False`), `contact_sampling` (`(4, 2)`), `adhesion` and
     `friction` (`None`: off; an `origami_jax.contact.Adhesion` or `Friction` attaches it to the plate
-    contact), as `system` documents them. `drawn_layout`: for a net drawn with its hinge strips
+    contact), as `system` documents them; `release_ramp` (`None`: the paper's step; a time, µs:
+    each hinge's torque grows over it from its release, `release_input`). `drawn_layout`: for a net drawn with its hinge strips
     (`load_net`, the FOLD face property ``faces_origami_jax:hinge``), the strips as drawn (an
     `ArcLayout`), which its arc systems take unless told otherwise; `None` for a net drawn for
     point creases.
@@ -122,11 +125,13 @@ class Net(AbstractPanelPattern):
     adhesion: Adhesion | None = None
     friction: Friction | None = None
     drawn_layout: ArcLayout | None = None
+    release_ramp: float | None = None
 
     MODEL: ClassVar[dict[str, Any]] = NET_MODEL
 
     def __post_init__(self):
         check_surface_model(self.adhesion, self.friction)
+        check_release_ramp(self.release_ramp)
 
     @property
     def continues_from_angles(self) -> bool:

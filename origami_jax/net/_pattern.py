@@ -25,7 +25,7 @@ import numpy as np
 from .._limits import FOLD_SEGMENT, MAX_FOLD_SEGMENTS
 from .._validate import is_traced
 from ..contact import Adhesion, Friction
-from ..simulation import fold_pattern
+from ..simulation import Step, fold_pattern
 from ..system import AbstractPattern, HingeDesign, check_known_names
 from ._kernel import fold_kernel
 
@@ -84,7 +84,7 @@ class AbstractPanelPattern(AbstractPattern):
         t1: float | None = None,
         bias: float = 0.0,
         tolerances=None,
-        segment: float = FOLD_SEGMENT,
+        segment: float | None = None,
         max_segments: int = MAX_FOLD_SEGMENTS,
         on_continue=None,
     ):
@@ -92,13 +92,15 @@ class AbstractPanelPattern(AbstractPattern):
         (`start_state(system, bias=bias)`: a net starts flat) and judge the run (`assess`).
 
         With `t1` (time, the system's units: µs for the default units), one run to `t1`. Without
-        it, runs of `segment` (default 1000 µs) continued from the last state while the verdict is
+        it, runs of `segment` (default `fold_segment()`: 1000 µs, after the release ramp when the
+        model has one) continued from the last state while the verdict is
         `unfinished` because the panels still move, up to `max_segments` (default 8) in all (a
         cube net in the etch bath closes in ~1.4 ms, one in air rings for much longer, and neither
         needs its end time guessed); a closed-loop pattern's run is one segment (its state is more
         than its angles; `continues_from_angles`, `origami_jax.simulation.fold_pattern`).
 
-        **Arguments:** `inputs` (default a step release, `origami_jax.simulation.Step()`);
+        **Arguments:** `inputs` (default the pattern's release, `release_input()`: the paper's
+        step, `origami_jax.simulation.Step()`, unless the model has a `release_ramp`);
         `options` (an `origami_jax.simulation.SolveOptions` for every segment: samples, solver —
         explicit Tsit5 suits closed loops: the default's implicit half differentiates through the
         closure —, tolerances, step budget, progress meter; default ``SolveOptions(throw=False)``);
@@ -108,6 +110,8 @@ class AbstractPanelPattern(AbstractPattern):
 
         **Returns:** `(trajectory, report)`, the whole run and its fold report.
         """
+        inputs = self.release_input() if inputs is None else inputs
+        segment = self.fold_segment() if segment is None else segment
         return fold_pattern(
             self, system, inputs, options, t1=t1, bias=bias, tolerances=tolerances,
             segment=segment, max_segments=max_segments, on_continue=on_continue,
@@ -116,6 +120,7 @@ class AbstractPanelPattern(AbstractPattern):
     MODEL: ClassVar[Mapping[str, Any]]
     geometry: Any
     host_cache: HostCache
+    release_ramp: float | None
 
     @property
     def n_creases(self) -> int:
@@ -157,6 +162,20 @@ class AbstractPanelPattern(AbstractPattern):
         key = ("model", repr(sorted(values.items())))
         return self.host_cache.get(key, lambda: dataclasses.replace(self, **values))
 
+    def release_input(self) -> Step:
+        """How the etch releases this pattern's hinges, the input `fold`, `kernel` (so `sweep`
+        and `yield_estimate`) and the command line drive it with: the paper's step
+        (`origami_jax.simulation.Step()`, the default), or with the model's `release_ramp` (µs)
+        each hinge's torque growing over that time from its release (`Step(ramp=...)`)."""
+        return Step() if self.release_ramp is None else Step(ramp=self.release_ramp)
+
+    def fold_segment(self) -> float:
+        """The length of each run `fold` continues by (µs): `FOLD_SEGMENT` (1000 µs), plus the
+        model's release ramp where it has one (a run that ends before the hinges' torques are
+        whole would be judged in the middle of the release)."""
+        ramp = 0.0 if self.release_ramp is None else float(self.release_ramp)
+        return ramp + FOLD_SEGMENT
+
     def default_design(self, fluid=None) -> HingeDesign:
         """The literature hinge in `fluid` (default air), each hinge no wider than its crease
         (`origami_jax.net.default_design`)."""
@@ -177,6 +196,22 @@ def check_surface_model(adhesion, friction) -> None:
                 f"{name} must be None or an origami_jax.contact.{kind.__name__}, got "
                 f"{type(value).__name__}."
             )
+
+
+def check_release_ramp(release_ramp) -> None:
+    """A one-line error for a pattern's `release_ramp` option (`None`, or a positive finite time
+    in µs), before anything is built."""
+    if release_ramp is None:
+        return
+    if (
+        isinstance(release_ramp, bool)
+        or not isinstance(release_ramp, int | float)
+        or not (math.isfinite(release_ramp) and release_ramp > 0)
+    ):
+        raise ValueError(
+            f"release_ramp must be None (the paper's step release) or a positive time in µs, "
+            f"got {release_ramp!r}."
+        )
 
 
 def with_surface_physics(

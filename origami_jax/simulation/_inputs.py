@@ -15,8 +15,10 @@ from collections.abc import Callable
 
 import equinox as eqx
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
+from .._validate import is_traced
 from ..system import FoldingSystem
 
 # β of the paper: the KOH front advances along the hinge at 1.5 µm/min (paper, "Ramp Input").
@@ -57,20 +59,47 @@ class AbstractInput(eqx.Module):
 
 
 class Step(AbstractInput):
-    """The etch releases the hinges (paper Eq. 12): ``τ = K θ_des`` from each hinge's release on.
+    """The etch releases the hinges (paper Eq. 12): ``τ = K θ_des`` from each hinge's release on, at
+    once or (with `ramp`) growing over a release time.
 
     **Fields:**
     - `theta_des`: target angles, rad, shape `(h,)`, or `None` (default) for the system's hinge
       targets (`system.hinges.target`, e.g. the accordion's ``(θ_final, −θ_final, …)``).
+    - `ramp`: the time over which each hinge's torque grows linearly from 0 to ``K θ_des`` after
+      its release (time units; MICRO: µs), a scalar, or `None` (default): the whole torque at
+      once, the paper's step. A real etch frees a stressed hinge as it undercuts it, over minutes;
+      any ramp long against the panels' own motion (tens of µs for a 100 µm panel in the bath)
+      releases them quasi-statically, which a step does not: its impulse flings panels whose
+      surrounding fluid's inertia is modelled past their target.
 
-    Hinges with a release time (`Hinges.release_time`) feel ``K θ_des`` from that time on; the release
-    times are handed to the step-size controller as jumps.
+    Hinges with a release time (`Hinges.release_time`) feel the torque from that time on (every
+    hinge from ``t = 0`` without); the releases, and the ramps' ends, are handed to the step-size
+    controller as jumps.
+
+    **Raises:** `ValueError` for a `theta_des` not of shape `(h,)` or a `ramp` that is not a
+    positive finite scalar.
     """
 
     theta_des: Float[Array, " h"] | None = None
+    ramp: Float[Array, ""] | None = None
 
-    def __init__(self, theta_des: Float[ArrayLike, " h"] | None = None):
+    def __init__(
+        self,
+        theta_des: Float[ArrayLike, " h"] | None = None,
+        *,
+        ramp: Float[ArrayLike, ""] | None = None,
+    ):
         self.theta_des = None if theta_des is None else jnp.asarray(theta_des, dtype=float)
+        if ramp is not None:
+            if not is_traced(ramp):
+                value = np.asarray(ramp, dtype=float)
+                if value.ndim != 0 or not (np.isfinite(value) and value > 0):
+                    raise ValueError(
+                        f"Step.ramp must be a positive finite time (time units, e.g. µs), got "
+                        f"{ramp!r}; leave it out (None) for the paper's step."
+                    )
+            ramp = jnp.asarray(ramp, dtype=float)
+        self.ramp = ramp
 
     def __check_init__(self):
         if self.theta_des is not None and self.theta_des.ndim != 1:
@@ -79,15 +108,32 @@ class Step(AbstractInput):
     def target(self, system):
         return system.hinges.target if self.theta_des is None else self.theta_des
 
+    def released(self, t, system) -> Float[Array, " h"]:
+        """The fraction of each hinge's torque acting at time `t`, in ``[0, 1]``, shape `(h,)`."""
+        hinges = system.hinges
+        if self.ramp is None:
+            if hinges.release_time is None:
+                return jnp.ones_like(hinges.target)
+            return hinges.released(t)
+        start = 0.0 if hinges.release_time is None else hinges.release_time
+        return jnp.broadcast_to(
+            jnp.clip((jnp.asarray(t) - start) / self.ramp, 0.0, 1.0), hinges.target.shape
+        )
+
     def torque(self, t, theta, theta_dot, system):
         del theta, theta_dot
         torque = system.hinges.stiffness * self.target(system)
-        if system.hinges.release_time is None:
+        if self.ramp is None and system.hinges.release_time is None:
             return torque
-        return torque * system.hinges.released(t)
+        return torque * self.released(t, system)
 
     def jump_times(self, system):
-        return system.hinges.release_time
+        starts = system.hinges.release_time
+        if self.ramp is None:
+            return starts
+        if starts is None:
+            return jnp.reshape(self.ramp, (1,))
+        return jnp.concatenate([starts, starts + self.ramp])
 
 
 class EtchRamp(AbstractInput):

@@ -153,7 +153,9 @@ def net_fold(*, net: str = "cube_net_01", **settings: Any) -> Kernel:
     before the pattern is read):
 
     - the pattern's physics (`Net.with_model`): `contact` (default `True`), `drag` (`"panel"`),
-      `hinges` (`"point"`), `contact_sampling` (`(4, 2)`);
+      `hinges` (`"point"`), `contact_sampling` (`(4, 2)`), `added_mass` and `viscous` (nets:
+      the fluid's inertia and viscosity, default `false`), `release_ramp` (µs: each hinge
+      released over that time; default none, the paper's step);
     - the solve's: `t_end` (µs, default 1500), `n_save` (301), `rtol`, `atol` (`None`: the
       simulation's), `max_steps` (200,000); `solver` (`"tsit5"`, the default, `"kvaerno5"` or
       `"implicit-step"`: `origami_jax.simulation.named_solver`) with, for `"implicit-step"`, `dt`
@@ -168,7 +170,11 @@ def net_fold(*, net: str = "cube_net_01", **settings: Any) -> Kernel:
     **Raises:** `TypeError` for an unknown setting (`get_model` says which), `ValueError` for a bad
     one.
     """
-    model = {k: settings.pop(k) for k in ("contact", "drag", "hinges") if k in settings}
+    model = {
+        k: settings.pop(k)
+        for k in ("contact", "drag", "hinges", "added_mass", "viscous", "release_ramp")
+        if k in settings
+    }
     sampling = settings.pop("contact_sampling", CONTACT_SAMPLING)
     solve = {
         k: settings.pop(k)
