@@ -10,7 +10,11 @@ friction" for the KOH etch bath:
   of adhesion 10 mJ/m², seams bonding with ``γ = w t`` for the 0.2 µm panels, friction
   coefficient 0.3): the most the bath's surfaces can do, so that a trend absent here is absent
   below it too;
-- `arc`, `arc-surface`: the same two with bending-arc hinges (`hinges="arc"`, fillet layout).
+- `arc`, `arc-surface`: the same two with bending-arc hinges (`hinges="arc"`, fillet layout);
+- `quasi-static`: the control with the bath's inertia and viscosity on every panel and each hinge
+  released over 30 ms (`added_mass`, `viscous`, `release_ramp`): the device's release (an etch
+  frees a hinge over minutes) where the control is the paper's step; run to the ramp + 6 ms and
+  settled to twice that (docs/physics.md, "Released as an etch releases").
 
 Run: ``python -m benchmarks.compactness_study --config control --samples 8 --out DIR``; then
 ``--table DIR1 DIR2 ...`` prints the Markdown table of the docs from the stored `family.json`
@@ -30,7 +34,7 @@ import numpy as np
 
 import origami_jax
 from origami_jax.contact import Adhesion, Friction
-from origami_jax.fab_yield import RunOptions, Scatter, family_yield, spearman
+from origami_jax.fab_yield import SETTLE_TIME, RunOptions, Scatter, family_yield, spearman
 from origami_jax.fold import catalogue_family
 from origami_jax.net import FOLD_KERNEL_SOLVE, load_net
 from origami_jax.system import KOH_SOLUTION
@@ -49,7 +53,10 @@ CONFIGS = {
     "surface": {"hinges": "point", "surface": True},
     "arc": {"hinges": "arc", "surface": False},
     "arc-surface": {"hinges": "arc", "surface": True},
+    "quasi-static": {"hinges": "point", "surface": False, "release_ramp_us": 30_000.0},
 }
+# After a release ramp: the run goes on this long for the panels to settle (µs).
+AFTER_RAMP_US = 6000.0
 
 
 def configured(name: str, config: str):
@@ -59,6 +66,9 @@ def configured(name: str, config: str):
         raise ValueError(f"config must be one of {sorted(CONFIGS)}, got {config!r}.")
     choice = CONFIGS[config]
     net = load_net(name).with_model(contact="plate", hinges=choice["hinges"])
+    if "release_ramp_us" in choice:
+        ramp = choice["release_ramp_us"]
+        net = net.with_model(added_mass=True, viscous=True, release_ramp=ramp)
     if not choice["surface"]:
         return net
     design = net.default_design(KOH_SOLUTION)
@@ -84,8 +94,19 @@ def describe(config: str) -> dict:
     return {"config": config, **choice}
 
 
+def run_times(config: str, t_end: float | None) -> tuple[float, float]:
+    """`(t_end, t_settle)` of `config` (µs): the given end time or the configuration's (1500 µs,
+    or its release ramp + `AFTER_RAMP_US`), and the yield's settling (`SETTLE_TIME`, or twice
+    the end time after a ramp)."""
+    ramp = CONFIGS[config].get("release_ramp_us")
+    if t_end is None:
+        t_end = FOLD_KERNEL_SOLVE.number("t1") if ramp is None else ramp + AFTER_RAMP_US
+    return t_end, SETTLE_TIME if ramp is None else 2 * t_end
+
+
 def run(args) -> int:
     names = args.nets.split(",") if args.nets else list(catalogue_family(args.family))
+    t_end, t_settle = run_times(args.config, args.t_end)
     nets = [configured(n, args.config) for n in names]
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -114,9 +135,14 @@ def run(args) -> int:
         Scatter(),
         args.samples,
         args.seed,
-        solve=FOLD_KERNEL_SOLVE.replace(t1=args.t_end),
+        solve=FOLD_KERNEL_SOLVE.replace(t1=t_end),
         run=RunOptions(
-            out=out, resume=True, workers=args.workers, chunk_size=args.chunk_size, progress=False
+            out=out,
+            resume=True,
+            workers=args.workers,
+            chunk_size=args.chunk_size,
+            progress=False,
+            t_settle=t_settle,
         ),
         on_net=on_net,
     )
@@ -125,7 +151,8 @@ def run(args) -> int:
     record = {
         **describe(args.config),
         "family": args.family if not args.nets else args.nets,
-        "t_end_us": args.t_end,
+        "t_end_us": t_end,
+        "t_settle_us": t_settle,
         "wall_s": wall,
         "wall_s_per_net": {n: walls.get(n) for n in names},
         **family.to_dict(),
@@ -254,7 +281,9 @@ def main(argv=None) -> int:
     parser.add_argument("--nets", default=None, help="comma-separated nets instead of the family")
     parser.add_argument("--samples", type=int, default=8)
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--t-end", type=float, default=1500.0, help="µs")
+    parser.add_argument(
+        "--t-end", type=float, default=None, help="µs (default 1500; after a ramp, it + 6000)"
+    )
     parser.add_argument("--workers", type=int, default=1)
     parser.add_argument("--chunk-size", type=int, default=None)
     parser.add_argument("--out", default=None)

@@ -7,8 +7,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from benchmarks.compactness_study import CONFIGS, configured, describe, table
+from benchmarks.compactness_study import CONFIGS, configured, describe, run_times, table
 
+from origami_jax.fab_yield import SETTLE_TIME
 from origami_jax.system import KOH_SOLUTION
 
 DATA = Path(__file__).resolve().parents[1] / "docs" / "data" / "compactness_pilot"
@@ -32,7 +33,19 @@ def test_surface_configuration_is_the_top_of_the_koh_range():
     assert describe("control") == {"config": "control", "hinges": "point"}
     with pytest.raises(ValueError, match="config must be one of"):
         configured("cube_net_10", "sticky")
-    assert sorted(CONFIGS) == ["arc", "arc-surface", "control", "surface"]
+    assert sorted(CONFIGS) == ["arc", "arc-surface", "control", "quasi-static", "surface"]
+
+
+def test_quasi_static_configuration_releases_slowly_in_the_baths_inertia():
+    """`quasi-static`: the control with the fluid's inertia and viscosity and a 30 ms release
+    ramp, run to the ramp + 6 ms and settled to twice that; the others keep 1500 µs and the
+    yield's default settling."""
+    net = configured("cube_net_10", "quasi-static")
+    assert net.added_mass and net.viscous and net.release_ramp == 30_000.0
+    assert net.adhesion is None and net.friction is None
+    assert run_times("quasi-static", None) == (36_000.0, 72_000.0)
+    assert run_times("control", None) == (1500.0, SETTLE_TIME)
+    assert run_times("control", 900.0) == (900.0, SETTLE_TIME)
 
 
 def test_table_reads_the_stored_pilot():

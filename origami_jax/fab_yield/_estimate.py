@@ -553,14 +553,6 @@ def yield_estimate(
         design = pattern.default_design(KOH_SOLUTION)
     m = pattern.n_hinges
     t_end = (solve if solve.t1 is not None else FOLD_KERNEL_SOLVE).number("t1")
-    ramp = getattr(pattern, "release_ramp", None)
-    if ramp is not None and isinstance(t_end, int | float) and ramp >= t_end:
-        # Every sample would be judged before its hinges' torques are whole.
-        raise ValueError(
-            f"the pattern's release ramp ({ramp:g} µs) lasts to or past t_end ({t_end:g} µs): "
-            "no hinge is whole before the end; give a t_end past the ramp and its settling "
-            "(CLI: --t-end; e.g. the ramp + 6000 µs)."
-        )
     if release_times is not None:
         release_times = np.asarray(release_times, dtype=float)
         if release_times.shape != (m,):

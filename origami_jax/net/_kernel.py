@@ -170,6 +170,14 @@ def fold_kernel(
     if solve.saveat.ts is not None:
         raise ValueError("the fold kernel saves evenly spaced samples: give SaveAt(n=...).")
     t_end = check_setting(solve.number("t1"), "t_end", low=0.0)
+    ramp = pattern.release_ramp
+    if ramp is not None and isinstance(t_end, int | float) and ramp >= t_end:
+        # Every member would be judged before its hinges' torques are whole.
+        raise ValueError(
+            f"the pattern's release ramp ({ramp:g} µs) lasts to or past t_end ({t_end:g} µs): "
+            "no hinge is whole before the end; give a t_end past the ramp and its settling "
+            "(CLI: --t-end; e.g. the ramp + 6000 µs)."
+        )
     n_save = check_setting(solve.saveat.n, "n_save", low=2, integer=True, high=MAX_SAMPLES)
     max_steps = check_setting(solve.max_steps, "max_steps", low=1, integer=True)
     rtol = check_setting(solve.number("rtol"), "rtol", low=0.0)
