@@ -281,7 +281,12 @@ def test_ctrl_c_stops_with_one_line_and_resume_completes(tmp_path, reference, wh
     out = tmp_path / "out"
     code = CLI.replace(
         "from origami_jax.cli import main",
-        "import os, signal\n" + _INTERRUPTS[when] + "    from origami_jax.cli import main",
+        # A Ctrl-C handler whatever the parent left: a shell's background job (`pytest ... &`)
+        # starts with SIGINT ignored, which its children inherit, and then no KeyboardInterrupt.
+        "import os, signal\n"
+        "    signal.signal(signal.SIGINT, signal.default_int_handler)\n"
+        + _INTERRUPTS[when]
+        + "    from origami_jax.cli import main",
     )
     child = _python(code, "sweep", str(config), "--out", str(out), "--no-progress")
     stdout, stderr = child.communicate(timeout=300)
