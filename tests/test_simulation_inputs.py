@@ -36,8 +36,8 @@ def test_step_torque_is_k_theta_des():
         sim.Step(jnp.zeros((3, 2)))
 
 
-def test_step_with_release_times():
-    # Hinges released one after the other: no torque before a hinge's release, K θ_target after it.
+def _staged():
+    """The literature accordion and the same with its hinges released at 0, 50 and 100 µs."""
     _, system = literature()
     release = jnp.array([0.0, 50.0, 100.0])
     staged = make_system(
@@ -47,6 +47,12 @@ def test_step_with_release_times():
         system.hinges.target,
         release_time=release,
     )
+    return system, staged, release
+
+
+def test_step_with_release_times():
+    # Hinges released one after the other: no torque before a hinge's release, K θ_target after it.
+    system, staged, release = _staged()
     step = sim.Step()
     k, target = staged.hinges.stiffness, staged.hinges.target
     np.testing.assert_allclose(
@@ -124,15 +130,7 @@ def test_slow_ramp_is_affordable_and_validated():
 
 
 def test_step_ramp_torque_grows_linearly_from_each_release():
-    _, system = literature()
-    release = jnp.array([0.0, 50.0, 100.0])
-    staged = make_system(
-        system.mechanism,
-        system.hinges.stiffness,
-        system.drag.coefficient,
-        system.hinges.target,
-        release_time=release,
-    )
+    system, staged, _ = _staged()
     k, target = staged.hinges.stiffness, staged.hinges.target
     ramp = sim.Step(ramp=40.0)
     zeros = jnp.zeros(3)
