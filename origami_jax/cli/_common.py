@@ -409,11 +409,17 @@ def add_dynamics_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def dynamics_model(args: argparse.Namespace) -> dict:
-    """The `with_model` options `--fluid-inertia` and `--release-ramp` ask for (`{}` with
-    neither), or a one-line exit for a ramp that is not a positive, finite time."""
+def dynamics_model(args: argparse.Namespace, pattern: Any) -> dict:
+    """The `with_model` options `--fluid-inertia` and `--release-ramp` ask of `pattern` (`{}`
+    with neither), or a one-line exit for a ramp that is not a positive, finite time or the
+    fluid's inertia on a crease pattern with closed loops (modelled on nets only)."""
     options: dict[str, Any] = {}
     if getattr(args, "fluid_inertia", False):
+        if pattern.n_loops:
+            fail(
+                f"{pattern.name}: --fluid-inertia is modelled on nets (trees of panels), not on "
+                "crease patterns with closed loops; drop it."
+            )
         options.update(added_mass=True, viscous=True)
     ramp = getattr(args, "release_ramp", None)
     if ramp is not None:

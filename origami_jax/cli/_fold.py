@@ -397,7 +397,7 @@ def run(args: argparse.Namespace) -> int:
             model["check_rigid"] = not args.no_rigid_check
         layout = {"arc_layout": args.arc_layout} if args.hinges == "arc" and not loops else {}
         net = net.with_model(**model)
-        net = net.with_model(**surface_model(args, net, design), **dynamics_model(args))
+        net = net.with_model(**surface_model(args, net, design), **dynamics_model(args, net))
         system = net.system(design, targets=targets, release_times=release, **layout)
         if args.bias:
             net.start_state(system, bias=args.bias)  # refused here, before the output folder

@@ -387,7 +387,7 @@ def _run_family(args: argparse.Namespace, members: list[str], sampling, choice: 
         process = _process(args.process, pattern.n_creases)
         try:
             pattern = pattern.with_model(
-                contact=args.contact, contact_sampling=sampling, **dynamics_model(args)
+                contact=args.contact, contact_sampling=sampling, **dynamics_model(args, pattern)
             )
             surface = surface_model(args, pattern, pattern.default_design(fluid))
             patterns.append(pattern.with_model(**surface))
@@ -733,7 +733,7 @@ def run(args: argparse.Namespace) -> int:
     process = _process(args.process, pattern.n_creases)
     try:
         pattern = pattern.with_model(
-            contact=args.contact, contact_sampling=sampling, **dynamics_model(args)
+            contact=args.contact, contact_sampling=sampling, **dynamics_model(args, pattern)
         )
         pattern = pattern.with_model(
             **surface_model(args, pattern, pattern.default_design(_fluid(args)))
