@@ -77,3 +77,30 @@ def test_fold_runs_on_past_the_ramp():
     net = load_net("cube_net_01")
     assert net.fold_segment() == 1000.0
     assert net.with_model(release_ramp=30_000.0).fold_segment() == 31_000.0
+
+
+def test_the_quasi_static_ramp_is_periods_of_the_slowest_hinge_mode():
+    # One flap: the mode is the flap's own, T = 2π √(I/k) (exact). A cube net: the slowest mode
+    # of M q̈ + K q = 0 is at least as slow as each hinge alone (Rayleigh's quotient).
+    import jax.numpy as jnp
+    import numpy as np
+
+    from origami_jax.chain import accordion_system
+    from origami_jax.system import KOH_SOLUTION, HingeDesign
+
+    flap = accordion_system(HingeDesign.literature(), 1)
+    inertia = float(flap.mechanism.mass_matrix(jnp.zeros(1))[0, 0])
+    period = 2 * np.pi * np.sqrt(inertia / float(flap.hinges.stiffness[0]))
+    np.testing.assert_allclose(float(sim.quasi_static_ramp(flap)), 3 * period, rtol=1e-12)
+    np.testing.assert_allclose(
+        float(sim.quasi_static_ramp(flap, periods=1.5)), 1.5 * period, rtol=1e-12
+    )
+    net = load_net("cube_net_01").with_model(added_mass=True, viscous=True)
+    system = net.system(net.default_design(KOH_SOLUTION))
+    diagonal = np.diagonal(np.asarray(system.mechanism.mass_matrix(jnp.zeros(5))))
+    alone = 2 * np.pi * np.sqrt(diagonal / np.asarray(system.hinges.stiffness))
+    slowest = float(sim.quasi_static_ramp(system, periods=1.0))
+    assert np.max(alone) <= slowest < 2 * np.max(alone)
+    assert 5_000.0 < slowest < 30_000.0  # ms in the bath with the fluid's inertia
+    with pytest.raises(ValueError, match="periods must be a positive number"):
+        sim.quasi_static_ramp(system, periods=0.0)

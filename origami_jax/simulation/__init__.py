@@ -15,6 +15,7 @@ from ._inputs import EtchRamp as EtchRamp
 from ._inputs import Step as Step
 from ._inputs import UserTorque as UserTorque
 from ._inputs import fast_ramp as fast_ramp
+from ._inputs import quasi_static_ramp as quasi_static_ramp
 from ._metrics import ResponseMetrics as ResponseMetrics
 from ._metrics import response_metrics as response_metrics
 from ._options import DEFAULT_ATOL as DEFAULT_ATOL
