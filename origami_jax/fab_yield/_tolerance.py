@@ -14,8 +14,8 @@ sample that passes it is folded whatever else. A sample that fails it is unfinis
 rest), jammed (a crease short of its angle, held there by contact) or misfolded, and since the
 tests for rest, for "short" and for "held" also use the angle tolerance, which of the three it
 is can change with the tolerance too; that split needs the run's last tenth, which is not
-stored, and is not recomputed here. A sample whose simulation failed (`invalid`, or `unfinished` because it ran out of solver
-steps) never folds at any tolerance.
+stored, and is not recomputed here. A sample whose simulation failed (`invalid`, or
+`unfinished` because it ran out of solver steps) never folds at any tolerance.
 
 A seam tolerance scaled by ``s``: each seam's tolerance (a length) times ``s``. For the fixed
 fraction of the panel size that is the fraction × ``s``; for the derived one (the default) it is,

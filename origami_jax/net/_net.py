@@ -101,10 +101,10 @@ class Net(AbstractPanelPattern):
     (`"point"`), `added_mass`, `viscous` (`False`), `contact_sampling` (`(4, 2)`), `adhesion` and
     `friction` (`None`: off; an `origami_jax.contact.Adhesion` or `Friction` attaches it to the plate
     contact), as `system` documents them; `release_ramp` (`None`: the paper's step; a time, µs:
-    each hinge's torque grows over it from its release, `release_input`). `drawn_layout`: for a net drawn with its hinge strips
-    (`load_net`, the FOLD face property ``faces_origami_jax:hinge``), the strips as drawn (an
-    `ArcLayout`), which its arc systems take unless told otherwise; `None` for a net drawn for
-    point creases.
+    each hinge's torque grows over it from its release, `release_input`). `drawn_layout`: for a
+    net drawn with its hinge strips (`load_net`, the FOLD face property
+    ``faces_origami_jax:hinge``), the strips as drawn (an `ArcLayout`), which its arc systems take
+    unless told otherwise; `None` for a net drawn for point creases.
 
     Hinge ``j`` of the systems it builds is the geometry's crease ``j``; body ``j`` is face
     ``geometry.order[j + 1]``; the root face is the fixed base.

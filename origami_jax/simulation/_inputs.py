@@ -70,9 +70,10 @@ class Step(AbstractInput):
     - `ramp`: the time over which each hinge's torque grows linearly from 0 to ``K θ_des`` after
       its release (time units; MICRO: µs), a scalar, or `None` (default): the whole torque at
       once, the paper's step. A real etch frees a stressed hinge as it undercuts it, over minutes;
-      any ramp long against the panels' own motion (tens of µs for a 100 µm panel in the bath)
-      releases them quasi-statically, which a step does not: its impulse flings panels whose
-      surrounding fluid's inertia is modelled past their target.
+      any ramp long against the hinges' own periods (`quasi_static_ramp`: milliseconds in the
+      bath once the fluid's inertia is modelled, a fraction of one without) releases them
+      quasi-statically, which a step does not: with the fluid's inertia its impulse flings the
+      panels past their targets.
 
     Hinges with a release time (`Hinges.release_time`) feel the torque from that time on (every
     hinge from ``t = 0`` without); the releases, and the ramps' ends, are handed to the step-size
