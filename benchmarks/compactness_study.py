@@ -36,7 +36,7 @@ import origami_jax
 from origami_jax.contact import Adhesion, Friction
 from origami_jax.fab_yield import SETTLE_TIME, RunOptions, Scatter, family_yield, spearman
 from origami_jax.fold import catalogue_family
-from origami_jax.net import FOLD_KERNEL_SOLVE, load_net
+from origami_jax.net import FOLD_KERNEL_SOLVE, default_t_end, load_net
 from origami_jax.system import KOH_SOLUTION
 
 # The top of the documented ranges in KOH (docs/physics.md, "Adhesion and friction"): work of
@@ -69,6 +69,8 @@ def configured(name: str, config: str):
     if "release_ramp_us" in choice:
         ramp = choice["release_ramp_us"]
         net = net.with_model(added_mass=True, viscous=True, release_ramp=ramp)
+    else:  # the paper's dynamics in the bath: no fluid inertia, released at once
+        net = net.with_model(added_mass=False, viscous=False, release_ramp=None)
     if not choice["surface"]:
         return net
     design = net.default_design(KOH_SOLUTION)
@@ -96,12 +98,12 @@ def describe(config: str) -> dict:
 
 def run_times(config: str, t_end: float | None) -> tuple[float, float]:
     """`(t_end, t_settle)` of `config` (µs): the given end time or the configuration's (1500 µs,
-    or its release ramp + `AFTER_RAMP_US`), and the yield's settling (`SETTLE_TIME`, or twice
-    the end time after a ramp)."""
+    or its release ramp + `AFTER_RAMP_US`), and the yield's settling (`RunOptions.t_settle`,
+    counted from the end of the ramp: `SETTLE_TIME`, or after a ramp to twice the end time)."""
     ramp = CONFIGS[config].get("release_ramp_us")
     if t_end is None:
-        t_end = FOLD_KERNEL_SOLVE.number("t1") if ramp is None else ramp + AFTER_RAMP_US
-    return t_end, SETTLE_TIME if ramp is None else 2 * t_end
+        t_end = default_t_end(None) if ramp is None else ramp + AFTER_RAMP_US
+    return t_end, SETTLE_TIME if ramp is None else 2 * t_end - ramp
 
 
 def run(args) -> int:

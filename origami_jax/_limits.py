@@ -18,6 +18,10 @@ FOLD_SEGMENT = 1000.0
 `Net.fold`, the `fold` command), time units: µs in the default units. A cube net in the etch bath
 settles at ~1,400 µs (two segments); one in air rings for several milliseconds."""
 
+AFTER_RELEASE_US = 1500.0
+"""How long the fold kernel (so a sweep or a yield estimate) runs after the release ramp unless
+told, µs: a cube net in the etch bath closes within it."""
+
 MAX_FOLD_SEGMENTS = 8
 """Most segments of such a folding (8,000 µs in the default units)."""
 

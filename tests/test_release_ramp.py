@@ -1,5 +1,7 @@
-"""A pattern's release ramp (`with_model(release_ramp=...)`): the input its folds, kernels and
-yields are driven by, recorded in what they store, refused when it is not a positive time."""
+"""A pattern's release ramp (`with_model(release_ramp=...)`) and the fluid's inertia: by default
+on in the etch bath with a quasi-static release, off in air with the paper's step; the input its
+folds, kernels and yields are driven by, recorded in what they store, refused when it is not a
+positive time."""
 
 import math
 
@@ -10,27 +12,93 @@ from origami_jax.net import fold_kernel, load_net, model_settings
 
 
 def test_the_release_ramp_is_the_patterns_input_everywhere():
+    from origami_jax.system import AIR, KOH_SOLUTION
+
     net = load_net("cube_net_01")
-    assert net.release_ramp is None
-    step = net.release_input()
+    assert net.release_ramp == "auto" and net.added_mass is None and net.viscous is None
+    koh, air = net.default_design(KOH_SOLUTION), net.default_design(AIR)
+    # "auto": quasi-static where the system carries the fluid's inertia (the bath), at once in air.
+    assert net.fluid_inertia(koh) == (True, True) and net.fluid_inertia(air) == (False, False)
+    step = net.release_input(net.system(air))
     assert isinstance(step, sim.Step) and step.ramp is None
+    with pytest.raises(ValueError, match="release ramp is 'auto'.*give the system"):
+        net.release_input()
     ramped = net.with_model(release_ramp=250.0)
     assert ramped is net.with_model(release_ramp=250.0)  # one object per options
     assert float(ramped.release_input().ramp) == 250.0
     # Recorded in the kernel's settings (a store is not resumed with another release) only when
-    # on: a store written before the option existed still resumes.
-    assert "release_ramp_us" not in fold_kernel(net).settings
-    assert fold_kernel(ramped).settings["release_ramp_us"] == 250.0
-    assert model_settings(ramped) == {"release_ramp_us": 250.0}
-    # The fluid's inertia and viscosity are recorded as well (they were not, before).
-    inertia = net.with_model(added_mass=True, viscous=True)
-    assert model_settings(inertia) == {"added_mass": True, "viscous": True}
-    assert fold_kernel(inertia).settings["added_mass"] is True
+    # on: a store written before the options existed still resumes.
+    assert model_settings(ramped, air) == {"release_ramp_us": 250.0}
+    assert fold_kernel(ramped, fluid="air").settings["release_ramp_us"] == 250.0
+    in_air = fold_kernel(net, fluid="air").settings
+    assert "release_ramp_us" not in in_air and "added_mass" not in in_air
+    assert in_air["t_end_us"] == 1500.0
+    # In the bath (the kernel's default fluid): the fluid's inertia and viscosity, the nominal
+    # design's quasi-static ramp for every member, and 1500 µs after it.
+    bath = fold_kernel(net).settings
+    assert bath["added_mass"] is True and bath["viscous"] is True
+    assert bath["release_ramp_us"] == net.nominal_release_ramp(koh) == 40_000.0
+    assert bath["t_end_us"] == 41_500.0
+    # The paper's dynamics in the bath, asked for by name.
+    paper = net.with_model(added_mass=False, viscous=False, release_ramp=None)
+    assert model_settings(paper, koh) == {}
+    assert fold_kernel(paper).settings["t_end_us"] == 1500.0
+
+
+def test_the_automatic_ramp_is_the_quasi_static_one_rounded_up():
+    from origami_jax.net._pattern import quasi_static_release, rounded_up
+    from origami_jax.system import KOH_SOLUTION
+
+    assert rounded_up(39.6) == 40.0 and rounded_up(13.2) == 14.0 and rounded_up(1000.0) == 1000.0
+    assert math.isclose(rounded_up(0.01234), 0.013)
+    net = load_net("cube_net_01")
+    system = net.system(net.default_design(KOH_SOLUTION))
+    exact = float(sim.quasi_static_ramp(system))
+    ramp = quasi_static_release(system)
+    assert exact <= ramp < 1.1 * exact
+    assert net.release_ramp_for(system) == ramp == 40_000.0
+    assert net.fold_segment(system) == 41_000.0
+
+
+def test_a_fluid_knows_whether_it_is_a_liquid():
+    import jax
+    import jax.numpy as jnp
+
+    from origami_jax.system import AIR, KOH_SOLUTION, MICRO, Fluid, HingeDesign
+
+    assert KOH_SOLUTION.liquid and not AIR.liquid
+    assert KOH_SOLUTION.to(MICRO).liquid and not AIR.to(MICRO).liquid
+    assert Fluid(1000.0).liquid and not Fluid(1.2).liquid  # kg/m³ (SI)
+    assert Fluid(1e-3, MICRO).liquid and not Fluid(1e-6, MICRO).liquid  # ng/µm³: 1000, 1 kg/m³
+    with pytest.raises(ValueError, match="liquid must be True, False or None"):
+        Fluid(1000.0, liquid="yes")
+    net = load_net("cube_net_01")
+
+    def inertia(density, liquid=None):
+        design = HingeDesign.literature(fluid=Fluid(density, liquid=liquid))
+        return jnp.asarray(net.fluid_inertia(design), dtype=float)
+
+    # Traced, the density cannot say: the fluid must, or the model.
+    with pytest.raises(ValueError, match="is a liquid is unknown"):
+        jax.jit(inertia)(1000.0)
+    assert jax.jit(lambda d: inertia(d, liquid=True))(1000.0).tolist() == [1.0, 1.0]
+
+
+def test_a_crease_pattern_is_released_at_once():
+    # Closed loops do not carry the fluid's inertia (nets only), so "auto" is the step.
+    from origami_jax.loops import load_pattern
+    from origami_jax.system import KOH_SOLUTION
+
+    pattern = load_pattern("miura_3x3")
+    assert pattern.release_ramp == "auto"
+    design = pattern.default_design(KOH_SOLUTION)
+    assert pattern.fluid_inertia(design) == (False, False)
+    assert pattern.nominal_release_ramp(design) is None
 
 
 @pytest.mark.parametrize("bad", [0.0, -5.0, math.inf, math.nan, True, "100"])
 def test_a_bad_release_ramp_is_refused_in_one_line(bad):
-    with pytest.raises(ValueError, match="release_ramp must be None .* or a positive time in µs"):
+    with pytest.raises(ValueError, match="release_ramp must be 'auto' .* or a positive time"):
         load_net("cube_net_01").with_model(release_ramp=bad)
 
 
@@ -40,7 +108,13 @@ def test_a_sweep_config_names_the_release_ramp_and_the_fluids_inertia():
     kernel = get_model("net-fold", net="cube_net_01", release_ramp=100.0, added_mass=True)
     assert kernel.settings["release_ramp_us"] == 100.0
     assert kernel.settings["added_mass"] is True
-    with pytest.raises(ValueError, match="release_ramp must be None"):
+    assert kernel.settings["t_end_us"] == 1600.0
+    # TOML has no null: 0 is the paper's step.
+    paper = get_model(
+        "net-fold", net="cube_net_01", release_ramp=0, added_mass=False, viscous=False
+    )
+    assert "release_ramp_us" not in paper.settings and paper.settings["t_end_us"] == 1500.0
+    with pytest.raises(ValueError, match="release_ramp must be 'auto'"):
         get_model("net-fold", net="cube_net_01", release_ramp=-1.0)
 
 
@@ -70,11 +144,11 @@ def test_a_yield_whose_ramp_outlasts_the_run_is_refused_before_compiling():
 
     ramped = load_net("cube_net_01").with_model(release_ramp=30_000.0)
     with pytest.raises(ValueError, match=r"release ramp \(30000 µs\) lasts to or past t_end"):
-        yield_estimate(ramped, n_samples=2)
+        yield_estimate(ramped, n_samples=2, solve=sim.SolveOptions(t1=1500.0))
 
 
 def test_fold_runs_on_past_the_ramp():
-    net = load_net("cube_net_01")
+    net = load_net("cube_net_01").with_model(release_ramp=None)
     assert net.fold_segment() == 1000.0
     assert net.with_model(release_ramp=30_000.0).fold_segment() == 31_000.0
 

@@ -387,45 +387,48 @@ def add_surface_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def add_dynamics_arguments(parser: argparse.ArgumentParser) -> None:
-    """`--fluid-inertia` and `--release-ramp US` (a pattern's `added_mass` and `viscous`, and its
-    `release_ramp`: `Net.with_model`; parse them with `dynamics_model`)."""
+    """`--fluid-inertia`/`--no-fluid-inertia` and `--release-ramp US` (a pattern's `added_mass`
+    and `viscous`, and its `release_ramp`: `Net.with_model`; parse them with
+    `dynamics_model`)."""
     parser.add_argument(
         "--fluid-inertia",
-        action="store_true",
+        action=argparse.BooleanOptionalAction,
+        default=None,
         help="the fluid's inertia (added mass) and viscous drag on every panel, on top of its "
-        "pressure drag (off by default; nets). In KOH the fluid's inertia is ~250 times a "
-        "panel's: a step release then flings panels past their targets, so pair it with a "
-        "quasi-static --release-ramp (30000 µs for 200 µm panels, and a --t-end past it)",
+        "pressure drag (nets). Default: on in the etch bath (koh), where the fluid's inertia is "
+        "~250 times a panel's, off in air; --no-fluid-inertia is the paper's model in the bath",
     )
     parser.add_argument(
         "--release-ramp",
         type=float,
         default=None,
         metavar="US",
-        help="release each hinge over US µs (its torque growing linearly from its release) "
-        "instead of at once (the paper's step, the default). A real etch frees a hinge over "
-        "minutes: a ramp long against the panels' own motion (milliseconds in the bath with "
-        "--fluid-inertia) is that quasi-static release",
+        help="release each hinge over US µs (its torque growing linearly from its release); 0: "
+        "at once (the paper's step). Default: quasi-static where the panels carry the fluid's "
+        "inertia (three periods of their slowest motion: 40000 µs for a 200 µm cube net in KOH; "
+        "a real etch frees a hinge over minutes), at once otherwise",
     )
 
 
 def dynamics_model(args: argparse.Namespace, pattern: Any) -> dict:
-    """The `with_model` options `--fluid-inertia` and `--release-ramp` ask of `pattern` (`{}`
-    with neither), or a one-line exit for a ramp that is not a positive, finite time or the
-    fluid's inertia on a crease pattern with closed loops (modelled on nets only)."""
+    """The `with_model` options `--fluid-inertia`/`--no-fluid-inertia` and `--release-ramp` ask
+    of `pattern` (`{}` with neither: the defaults), or a one-line exit for a ramp that is not a
+    time >= 0 or the fluid's inertia on a crease pattern with closed loops (modelled on nets
+    only)."""
     options: dict[str, Any] = {}
-    if getattr(args, "fluid_inertia", False):
-        if pattern.n_loops:
-            fail(
-                f"{pattern.name}: --fluid-inertia is modelled on nets (trees of panels), not on "
-                "crease patterns with closed loops; drop it."
-            )
-        options.update(added_mass=True, viscous=True)
+    inertia = getattr(args, "fluid_inertia", None)
+    if inertia is not None and not pattern.n_loops:
+        options.update(added_mass=inertia, viscous=inertia)
+    elif inertia:
+        fail(
+            f"{pattern.name}: --fluid-inertia is modelled on nets (trees of panels), not on "
+            "crease patterns with closed loops; drop it."
+        )
     ramp = getattr(args, "release_ramp", None)
     if ramp is not None:
-        if not (math.isfinite(ramp) and ramp > 0):
-            fail(f"--release-ramp must be a positive time in µs, got {ramp:g}.")
-        options["release_ramp"] = float(ramp)
+        if not (math.isfinite(ramp) and ramp >= 0):
+            fail(f"--release-ramp must be a time >= 0 µs (0: at once), got {ramp:g}.")
+        options["release_ramp"] = float(ramp) if ramp > 0 else None
     return options
 
 

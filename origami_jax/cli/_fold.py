@@ -67,7 +67,11 @@ override any HingeDesign field with --param NAME=VALUE or NAME=V0,V1,... per cre
 µm, µs, ng, MPa) folding to the crease's edges_foldAngle, in the KOH etch bath where released
 devices fold (--fluid air: the paper's setting, where panels ring far longer). Panels have the
 membrane's thickness and meet (contact) unless --no-contact; drag acts on every panel from its own
-motion (--drag hinge: the paper's per-hinge drag).
+motion (--drag hinge: the paper's per-hinge drag). In the bath the panels also carry the fluid's
+inertia (hundreds of times their own) and its viscous drag, and each hinge is released
+quasi-statically, its torque growing over a few periods of the panels' slowest motion (40 ms for a
+200 µm cube net; a real etch frees a hinge over minutes): --no-fluid-inertia and --release-ramp 0
+are the paper's dynamics, released at once.
 
 A closed-loop pattern starts flat, where its folding branches meet, and the hinges pick the branch;
 --bias RAD starts it pre-folded by RAD along the branch the hinges aim at. A pattern that rigid panels
@@ -82,8 +86,8 @@ Verdicts: folded (every crease within --tolerance, every seam closed: within the
 its panels touching; by default each seam's tolerance is the gap it would have with every crease
 just within --tolerance, derived from the geometry; --seam-tolerance 0.01 judges every seam against
 1 % of the largest panel's size instead, the default before), jammed (contact stops a crease short), misfolded (another final state, another branch),
-unfinished (time ran out; without --t1 a net still moving is folded on, 1000 µs at a time,
-up to 8000 µs), invalid (the simulation failed).
+unfinished (time ran out; without --t1 a net still moving is folded on, 1000 µs at a time after
+the release ramp, up to 8 such segments), invalid (the simulation failed).
 
 --solver implicit-step --dt US folds in fixed implicit Euler steps (Newton iterations capped by
 the plates' collision detection: no panel steps through another however long the step), first-order
@@ -132,8 +136,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "--t1",
         type=float,
         default=None,
-        help=f"end time, µs (default {FOLD_SEGMENT:g}, continued by {FOLD_SEGMENT:g} µs at a time while "
-        f"the panels still move, up to {MAX_FOLD_SEGMENTS * FOLD_SEGMENT:g})",
+        help=f"end time, µs (default {FOLD_SEGMENT:g} after the release ramp, continued by as "
+        f"much while the panels still move, up to {MAX_FOLD_SEGMENTS} times)",
     )
     parser.add_argument(
         "--n-save", type=int, default=501, help="samples per segment (default 501, at least 21)"
@@ -211,9 +215,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         f"{PROGRESS_CREASES} creases; with a bar the solve compiles in every run (it calls back "
         "into Python, which the compilation cache cannot store)",
     )
-    add_solver_arguments(
-        parser, "Tsit5 switching to Kvaerno5 once the run turns stiff (tsit5 for closed loops)"
-    )
+    add_solver_arguments(parser, "tsit5, as the yield and sweep kernels")
     add_figures_argument(parser)
     add_out_argument(parser)
     parser.set_defaults(func=run)
@@ -399,6 +401,12 @@ def run(args: argparse.Namespace) -> int:
         net = net.with_model(**model)
         net = net.with_model(**surface_model(args, net, design), **dynamics_model(args, net))
         system = net.system(design, targets=targets, release_times=release, **layout)
+        ramp = net.release_ramp_for(system)
+        if args.t1 is not None and ramp is not None and args.t1 <= ramp:
+            raise ValueError(
+                f"--t1 {args.t1:g} µs ends within the release ramp ({ramp:g} µs): no hinge is "
+                "whole before the end; give a longer --t1, or --release-ramp 0 (released at once)"
+            )
         if args.bias:
             net.start_state(system, bias=args.bias)  # refused here, before the output folder
     except FileNotFoundError as error:
@@ -411,14 +419,17 @@ def run(args: argparse.Namespace) -> int:
 
     output = OutputFolder(Path(args.out), command="fold", owns=OWNS, overwrite=args.overwrite)
     with output:
-        code = _run(args, net, system, params, release, sampling, output, unfolded, choice=choice)
+        code = _run(
+            args, net, system, params, release, sampling, output, unfolded,
+            choice=choice, design=design,
+        )  # fmt: skip
     return code
 
 
-def _run(args, net, system, params, release, sampling, output, unfolded, *, choice) -> int:
+def _run(args, net, system, params, release, sampling, output, unfolded, *, choice, design) -> int:
     """Fold, assess and write into the staging folder of `output`; returns the exit code.
     `unfolded`: the file held a folded form, read as the crease pattern it unfolds to; `choice`:
-    `--solver` and its settings (`solver_choice`)."""
+    `--solver` and its settings (`solver_choice`); `design`, the one `system` was built with."""
     import diffrax
     import numpy as np
 
@@ -436,15 +447,17 @@ def _run(args, net, system, params, release, sampling, output, unfolded, *, choi
             "crease aiming at its dihedral angle in the form",
             flush=True,
         )
-    segment = net.fold_segment() if args.t1 is None else args.t1
+    segment = net.fold_segment(system) if args.t1 is None else args.t1
     print(
         f"[fold] {net.name}: {m} creases, {kind}{system.mechanism.n_bodies} moving panels, contact "
         f"{'on' if system.contact is not None else 'off'}; compiling and folding for {segment:g} µs ...",
         flush=True,
     )
-    # Closed loops: explicit Tsit5 (the default solver's implicit half differentiates through the
-    # constraint solve and compiles for minutes).
-    solver = diffrax.Tsit5() if loops else None
+    # Explicit Tsit5, as the kernels that judge yields. The library's default (switching to
+    # Kvaerno5 once stiff) fires on a quasi-static release in the bath, where the explicit steps
+    # were fewer and each far cheaper, and its implicit half is one more program to compile (on
+    # closed loops it differentiates through the constraint solve and compiles for minutes).
+    solver = diffrax.Tsit5()
     tolerances = sim.VerdictTolerances.from_degrees(args.tolerance, args.seam_tolerance)
     segments = 1
 
@@ -457,7 +470,7 @@ def _run(args, net, system, params, release, sampling, output, unfolded, *, choi
     # is not its hinge angles: one segment).
     trajectory, report = net.fold(
         system,
-        net.release_input(),
+        net.release_input(system),
         t1=args.t1,
         bias=args.bias,
         tolerances=tolerances,
@@ -497,11 +510,11 @@ def _run(args, net, system, params, release, sampling, output, unfolded, *, choi
             if args.hinges == "arc" and not loops
             else {}
         ),
-        **model_settings(net),
+        **model_settings(net, design, system),
         closed_loops=net.n_loops if loops else 0,
         unfolded_from_folded_form=unfolded,
         bias=args.bias,
-        **(choice or {"solver": "tsit5" if loops else "auto"}),
+        **(choice or {"solver": "tsit5"}),
         length_scale=float(net.length_scale),  # µm per FOLD length unit, as used
         t1=t_end,
         segments=segments,

@@ -1,10 +1,12 @@
 """`origami-jax yield`: how often a net folds correctly under fabrication scatter (Monte Carlo)."""
 
 import argparse
+import json
 import math
 import time
 from pathlib import Path
 
+from .._limits import AFTER_RELEASE_US
 from ._common import (
     EXIT_OK,
     Interrupted,
@@ -164,13 +166,19 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add_contact_sampling_argument(parser)
     add_surface_arguments(parser)
     add_dynamics_arguments(parser)
-    parser.add_argument("--t-end", type=float, default=1500.0, help="simulated time, µs (1500)")
+    parser.add_argument(
+        "--t-end",
+        type=float,
+        default=None,
+        help="simulated time, µs (default 1500 after the release ramp: --release-ramp)",
+    )
     parser.add_argument(
         "--t-settle",
         type=float,
         default=8000.0,
-        help="samples still moving at --t-end run again to this time, µs (default 8000, the "
-        "longest folding `fold` continues to; 0: judge them at --t-end, unfinished)",
+        help="samples still moving at --t-end run again to this time after the release ramp, µs "
+        "(default 8000, the longest folding `fold` continues to; 0: judge them at --t-end, "
+        "unfinished)",
     )
     parser.add_argument(
         "--bias",
@@ -336,6 +344,15 @@ def _run_settings(args: argparse.Namespace) -> dict:
     )
 
 
+def _dynamics_record(pattern, design) -> dict:
+    """What result.json records of the samples' dynamics: whether they carry the fluid's inertia
+    and the release ramp (µs, `None`: at once), as resolved for the nominal `design`."""
+    return {
+        "fluid_inertia": any(pattern.fluid_inertia(design)),
+        "release_ramp_us": pattern.nominal_release_ramp(design),
+    }
+
+
 def _fluid(args: argparse.Namespace):
     """The --fluid the nets fold in."""
     from ..system import AIR, KOH_SOLUTION
@@ -447,8 +464,10 @@ def _run_family(args: argparse.Namespace, members: list[str], sampling, choice: 
             "rtol": args.rtol,
             "contact": args.contact,
             "contact_sampling": list(sampling),
-            "fluid_inertia": args.fluid_inertia,
-            "release_ramp_us": args.release_ramp,
+            "fluid_inertia": any(patterns[0].fluid_inertia(patterns[0].default_design(fluid))),
+            "release_ramp_us": {
+                p.name: p.nominal_release_ramp(p.default_design(fluid)) for p in patterns
+            },
             **choice,
             **family.to_dict(),
             "wall_s": elapsed,
@@ -644,7 +663,8 @@ def run(args: argparse.Namespace) -> int:
     int_range(args.samples, "--samples", 1, 10_000_000)
     if args.seed < 0:
         fail(f"--seed must be >= 0, got {args.seed}.")
-    positive(args.t_end, "--t-end", "µs")
+    if args.t_end is not None:
+        positive(args.t_end, "--t-end", "µs")
     if not (math.isfinite(args.t_settle) and args.t_settle >= 0):
         fail(f"--t-settle must be a time >= 0 µs (0: no settling run), got {args.t_settle:g}.")
     if args.rtol is not None:
@@ -657,7 +677,7 @@ def run(args: argparse.Namespace) -> int:
         )
     if args.workers is not None:
         int_range(args.workers, "--workers", 1, 4096)
-    choice = solver_choice(args, args.t_end, "--t-end") or {"solver": "tsit5"}
+    choice = solver_choice(args, args.t_end or AFTER_RELEASE_US, "--t-end") or {"solver": "tsit5"}
     if choice["solver"] == "implicit-step":
         for flag, value in (("--rtol", args.rtol), ("--step-budget", args.step_budget)):
             if value is not None:
@@ -721,7 +741,7 @@ def run(args: argparse.Namespace) -> int:
         if len(release) != pattern.n_creases:
             n = pattern.n_creases
             fail(f"--release: {len(release)} values for {n} creases (give one per crease).")
-        late = [j for j, t in enumerate(release) if t >= args.t_end]
+        late = [j for j, t in enumerate(release) if args.t_end is not None and t >= args.t_end]
         if late:
             flag = "--etch-front" if front is not None else "--release"
             fail(
@@ -845,14 +865,13 @@ def _run(
         "fluid": args.fluid,
         "release_us": None if release is None else [float(t) for t in release],
         "process": process,
-        "t_end_us": args.t_end,
+        "t_end_us": json.loads(ds.attrs["settings"])["t_end_us"],
         **({"bias_rad": args.bias} if loops else {}),
         "rtol": args.rtol,
         **choice,
         "contact": args.contact,
         "contact_sampling": list(sampling),
-        "fluid_inertia": args.fluid_inertia,
-        "release_ramp_us": args.release_ramp,
+        **_dynamics_record(pattern, design),
         **estimate.to_dict(),
         "compile_s": float(ds.attrs.get("compile_s", 0.0)),
         **(

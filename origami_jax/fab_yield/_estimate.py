@@ -16,7 +16,7 @@ from .._kernel import design_settings
 from .._limits import FOLD_SEGMENT, MAX_FOLD_SEGMENTS, MAX_SAMPLES
 from ..fold import FoldFormatError
 from ..loops import load_pattern
-from ..net import FOLD_KERNEL_SOLVE, stored_tolerances
+from ..net import FOLD_KERNEL_SOLVE, default_t_end, stored_tolerances
 from ..simulation import (
     RESULTS,
     VERDICT_CODES,
@@ -454,7 +454,9 @@ def yield_estimate(
       `t_structural`, `drag_coefficient` (a number); default none (the process hits the design).
     - `solve`: a `SolveOptions`, each sample's simulated time `t1`, saved samples `saveat.n`,
       step budget `max_steps` and tolerances `rtol`, `atol` (default
-      `origami_jax.net.FOLD_KERNEL_SOLVE`: 1500 µs, 301 samples, 200,000 steps, the simulation's
+      `origami_jax.net.FOLD_KERNEL_SOLVE`: 1500 µs after the release ramp — in the etch bath,
+      by default, the quasi-static ramp of the nominal design, `Net.nominal_release_ramp` —,
+      301 samples, 200,000 steps, the simulation's
       tolerances). Looser tolerances are faster and move contact events in time: on 16
       scattered cube nets every verdict was the same from rtol 1e-4 to 1e-10 (atol 1e-2 rtol,
       the defaults' ratio), with 40 % fewer steps at 1e-5 than at the default; check on a few
@@ -473,7 +475,8 @@ def yield_estimate(
       devices start from. Nets take 0.
     - `run`: a `RunOptions`: where the samples are kept (`out`, `resume`), how they are computed
       (`chunk_size`, `workers`, `step_budget`) and reported (`progress`, `on_chunk`), and how
-      long a sample still moving at `t1` is followed (`t_settle`, default 8,000 µs).
+      long a sample still moving at `t1` is followed (`t_settle`, default 8,000 µs after the
+      release ramp).
 
     The interval is the 95 % Wilson interval; `YieldEstimate.with_interval` gives another.
 
@@ -552,7 +555,11 @@ def yield_estimate(
     if design is None:
         design = pattern.default_design(KOH_SOLUTION)
     m = pattern.n_hinges
-    t_end = (solve if solve.t1 is not None else FOLD_KERNEL_SOLVE).number("t1")
+    # Every sample is released over the nominal design's ramp (`nominal_release_ramp`).
+    ramp = pattern.nominal_release_ramp(design)
+    t_end = solve.number("t1") if solve.t1 is not None else default_t_end(ramp)
+    if t_settle is not None:
+        t_settle = t_settle + (0.0 if ramp is None else ramp)
     if release_times is not None:
         release_times = np.asarray(release_times, dtype=float)
         if release_times.shape != (m,):

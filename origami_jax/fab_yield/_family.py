@@ -17,7 +17,7 @@ import numpy as np
 
 from .._kernel import design_settings
 from ..fold import catalogue_families, catalogue_family
-from ..net import Net
+from ..net import Net, model_settings
 from ..simulation import FoldVerdict, VerdictTolerances
 from ..system import KOH_SOLUTION
 from ._estimate import RunOptions, as_pattern, yield_estimate
@@ -200,7 +200,7 @@ def _settings(
         else {k: np.asarray(v).tolist() for k, v in process.items()},
         "solve": None
         if solve is None
-        else [float(solve.number("t1")), solve.saveat.n, float(solve.number("rtol"))]
+        else [solve.number("t1"), solve.saveat.n, float(solve.number("rtol"))]
         + [float(solve.number("atol")), solve.max_steps],
         "tolerances": tolerances.to_dict(),
         # Always named: a family stored before samples were settled judged them at t1, and is
@@ -304,7 +304,10 @@ def family_yield(
             on_net(net.name, index, len(nets))
         rg, connections = compactness(net)
         folder = None if run.out is None else Path(run.out) / net.name
-        stored = _stored(folder, settings) if run.resume else None
+        design = net.default_design(fluid)
+        # The net's own physics (its fluid's inertia, its release ramp) belongs to its record.
+        net_settings = {**settings, "model": model_settings(net, design)}
+        stored = _stored(folder, net_settings) if run.resume else None
         if stored is not None:
             counts = {str(k): int(v) for k, v in stored["counts"].items()}
             seconds = 0.0
@@ -314,7 +317,7 @@ def family_yield(
                 scatter,
                 int(n_samples),
                 int(seed),
-                design=net.default_design(fluid),
+                design=design,
                 process=process,
                 solve=solve,
                 tolerances=tolerances,
@@ -322,7 +325,7 @@ def family_yield(
             )
             counts, seconds = dict(estimate.counts), estimate.seconds_per_sample
             if folder is not None:
-                record = {"settings": settings, "net": net.name, **estimate.to_dict()}
+                record = {"settings": net_settings, "net": net.name, **estimate.to_dict()}
                 (folder / ESTIMATE_FILE).write_text(json.dumps(record, indent=1, default=str))
         folded = counts[str(FoldVerdict.FOLDED)]
         rows.append(
@@ -370,7 +373,7 @@ def _stored(folder: Path | None, settings: dict[str, Any]) -> dict[str, Any] | N
     if record.get("settings") != settings:
         raise ValueError(
             f"{folder} holds an estimate made with other settings (samples, seed, scatter, fluid, "
-            "process, solve or tolerances); resume with the settings it was made with, or choose "
-            "another output folder."
+            "process, solve, tolerances or the net's physics model); resume with the settings it "
+            "was made with, or choose another output folder."
         )
     return record

@@ -119,7 +119,7 @@ def soft_yield(
         the_net,
         design=design,
         hinge_lengths="designed",
-        solve=solve.replace(t1=FOLD_KERNEL_SOLVE.t1) if solve.t1 is None else solve,
+        solve=solve,
         tolerances=tolerances,
         bias=0.0,
     )

@@ -101,7 +101,7 @@ PATTERN_MODEL = {
     "check_rigid": True,
     "adhesion": None,
     "friction": None,
-    "release_ramp": None,
+    "release_ramp": "auto",
 }
 
 
@@ -122,8 +122,10 @@ class CreasePattern(AbstractPanelPattern):
     (`with_model`): `contact` (default `True`), `drag` (`"panel"`, the only one), `hinges`
     (`"point"`, the only one), `contact_sampling` (`(4, 2)`), `check_rigid` (`True`), `adhesion`
     and `friction` (`None`: off; an `origami_jax.contact.Adhesion` or `Friction` attaches it to the
-    plate contact), as `system` documents them; `release_ramp` (`None`: the paper's step; a time,
-    µs: each hinge's torque grows over it from its release, `release_input`).
+    plate contact), as `system` documents them; `release_ramp` (`"auto"`, the default, and `None`:
+    the paper's step — the fluid's inertia, which calls for a slow release in the bath, is
+    modelled on nets only —; a time, µs: each hinge's torque grows over it from its release,
+    `release_input`).
     """
 
     geometry: LoopGeometry
@@ -138,7 +140,7 @@ class CreasePattern(AbstractPanelPattern):
     check_rigid: bool = True
     adhesion: Adhesion | None = None
     friction: Friction | None = None
-    release_ramp: float | None = None
+    release_ramp: float | str | None = "auto"
 
     # ---- the pattern ----
 

@@ -28,6 +28,7 @@ from ._joints import ArcJoints as ArcJoints
 from ._joints import RevoluteJoints as RevoluteJoints
 from ._kernel import FOLD_KERNEL_SOLVE as FOLD_KERNEL_SOLVE
 from ._kernel import check_kernel_sampling as check_kernel_sampling
+from ._kernel import default_t_end as default_t_end
 from ._kernel import fold_kernel as fold_kernel
 from ._kernel import model_settings as model_settings
 from ._kernel import stored_tolerances as stored_tolerances

@@ -23,13 +23,14 @@ from .._kernel import (
     design_settings,
     replace_fields,
 )
-from .._limits import CONTACT_SAMPLING, MAX_CONTACT_SAMPLING, MAX_SAMPLES
+from .._limits import AFTER_RELEASE_US, CONTACT_SAMPLING, MAX_CONTACT_SAMPLING, MAX_SAMPLES
 from ..contact import check_sampling, contact_kind, sampling_pair
 from ..simulation import (
     LEGACY_SEAM_FRACTION,
     ImplicitStep,
     SaveAt,
     SolveOptions,
+    Step,
     VerdictTolerances,
     kernel_result_messages,
     simulate,
@@ -50,9 +51,16 @@ NET_GLOBAL_PARAMETERS = {
     "b_scale": "1",
 }
 
-FOLD_KERNEL_SOLVE = SolveOptions(t1=1500.0, saveat=SaveAt(n=301), max_steps=200_000, throw=False)
-"""The fold kernel's solve unless given one: 1500 µs, 301 samples, 200,000 steps, the simulation's
-tolerances (change one with `FOLD_KERNEL_SOLVE.replace(t1=600.0)`)."""
+FOLD_KERNEL_SOLVE = SolveOptions(saveat=SaveAt(n=301), max_steps=200_000, throw=False)
+"""The fold kernel's solve unless given one: to 1500 µs after the release ramp (`t1=None`:
+`default_t_end`), 301 samples, 200,000 steps, the simulation's tolerances (change one with
+`FOLD_KERNEL_SOLVE.replace(t1=600.0)`)."""
+
+
+def default_t_end(ramp: float | None) -> float:
+    """How long the fold kernel runs unless told (µs): `AFTER_RELEASE_US` (1500 µs) after the
+    release ramp (`ramp`, µs, or `None` for a step release)."""
+    return AFTER_RELEASE_US + (0.0 if ramp is None else ramp)
 
 
 def surface_settings(pattern) -> dict:
@@ -74,15 +82,24 @@ def surface_settings(pattern) -> dict:
     return recorded
 
 
-def model_settings(pattern) -> dict:
+def model_settings(pattern, design: HingeDesign | None = None, system=None) -> dict:
     """What a stored run records of `pattern`'s physics options beyond its contact, drag and
-    hinges, each only when not its default (so a store written before the option existed still
-    resumes, and one written with it is not resumed with another): the fluid's inertia and
-    viscosity on its panels (`added_mass`, `viscous`), the release ramp (`release_ramp_us`), and
+    hinges, as they act on `design` (default the pattern's default design; its fluid decides the
+    defaults), each only when on (so a store written before the option existed still resumes,
+    and one written with it is not resumed without): the fluid's inertia and viscosity on its
+    panels (`added_mass`, `viscous`), the release ramp (`release_ramp_us`, µs: `system`'s where
+    given, one the pattern built with `design`, else `nominal_release_ramp(design)`), and
     adhesion and friction (`surface_settings`)."""
-    recorded = {name: True for name in ("added_mass", "viscous") if getattr(pattern, name, False)}
-    if pattern.release_ramp is not None:
-        recorded["release_ramp_us"] = float(pattern.release_ramp)
+    inertia = pattern.fluid_inertia(design)
+    recorded = {
+        name: True for name, on in zip(("added_mass", "viscous"), inertia, strict=True) if on
+    }
+    if system is not None:
+        ramp = pattern.release_ramp_for(system)
+    else:
+        ramp = pattern.nominal_release_ramp(design)
+    if ramp is not None:
+        recorded["release_ramp_us"] = ramp
     return {**recorded, **surface_settings(pattern)}
 
 
@@ -137,12 +154,15 @@ def fold_kernel(
 
     **Arguments** (fixed for the whole sweep, recorded in its settings and checked on resume):
     - `pattern`: a `Net` or a `CreasePattern` (an [`origami_jax.system.AbstractPattern`][] with
-      seams); its physics options (`contact`, `drag`, `hinges`, `contact_sampling`) are the
-      kernel's.
+      seams); its physics options (`contact`, `drag`, `hinges`, `contact_sampling`, the fluid's
+      inertia, the release ramp: `with_model`) are the kernel's. Every member is released over
+      one ramp, the nominal design's (`nominal_release_ramp`: in the etch bath, by default, a
+      quasi-static release of the net carrying the fluid's inertia).
     - `fluid` (`"air"` or `"koh"`, default `"koh"`) or `design`, a whole `HingeDesign` (MICRO
       units) for what is not swept (its fluid included; not both).
     - `solve`: a [`origami_jax.simulation.SolveOptions`][]: its `t1` (µs), `saveat.n`, `rtol`,
-      `atol` and `max_steps` (default `FOLD_KERNEL_SOLVE`: 1500 µs, 301 samples, 200,000 steps);
+      `atol` and `max_steps` (default `FOLD_KERNEL_SOLVE`: 1500 µs after the release ramp, 301
+      samples, 200,000 steps);
       its `solver`: explicit Tsit5 unless given (any diffrax solver, or the fixed-step engine
       `ImplicitStep(dt=...)`: every member of a vmapped batch does the same work; recorded in the
       settings); it never throws (a failed member's `result` says so).
@@ -165,18 +185,33 @@ def fold_kernel(
     solve = FOLD_KERNEL_SOLVE if solve is None else solve
     if not isinstance(solve, SolveOptions):
         raise ValueError(f"solve must be a SolveOptions, got {type(solve).__name__}.")
-    if solve.t1 is None:
-        solve = solve.replace(t1=FOLD_KERNEL_SOLVE.t1)
     if solve.saveat.ts is not None:
         raise ValueError("the fold kernel saves evenly spaced samples: give SaveAt(n=...).")
+    if design is not None and fluid is not None:
+        raise ValueError("give the fluid in the design (HingeDesign(fluid=...)), not both.")
+    if design is not None and not isinstance(design, HingeDesign):
+        raise ValueError(f"design must be a HingeDesign, got {type(design).__name__}.")
+    fluid = "koh" if fluid is None else fluid
+    if fluid not in FLUIDS:
+        raise ValueError(f"fluid must be one of {FLUIDS}, got {fluid!r}.")
+    # As `system` without a design.
+    base = (
+        pattern.default_design(AIR if fluid == "air" else KOH_SOLUTION)
+        if design is None
+        else design
+    )
+    # One release for every member: the nominal design's (the etch is the same for all).
+    ramp = pattern.nominal_release_ramp(base)
+    if solve.t1 is None:
+        solve = solve.replace(t1=default_t_end(ramp))
     t_end = check_setting(solve.number("t1"), "t_end", low=0.0)
-    ramp = pattern.release_ramp
     if ramp is not None and isinstance(t_end, int | float) and ramp >= t_end:
         # Every member would be judged before its hinges' torques are whole.
         raise ValueError(
             f"the pattern's release ramp ({ramp:g} µs) lasts to or past t_end ({t_end:g} µs): "
             "no hinge is whole before the end; give a t_end past the ramp and its settling "
-            "(CLI: --t-end; e.g. the ramp + 6000 µs)."
+            f"(CLI: --t-end; default the ramp + {AFTER_RELEASE_US:g} µs), or another "
+            "release_ramp (with_model)."
         )
     n_save = check_setting(solve.saveat.n, "n_save", low=2, integer=True, high=MAX_SAMPLES)
     max_steps = check_setting(solve.max_steps, "max_steps", low=1, integer=True)
@@ -198,13 +233,6 @@ def fold_kernel(
         raise ValueError(CLOSED_LOOPS_NEED_ADAPTIVE)
     contact = pattern.contact
     sampling = check_kernel_sampling(contact, pattern.contact_sampling)
-    if design is not None and fluid is not None:
-        raise ValueError("give the fluid in the design (HingeDesign(fluid=...)), not both.")
-    if design is not None and not isinstance(design, HingeDesign):
-        raise ValueError(f"design must be a HingeDesign, got {type(design).__name__}.")
-    fluid = "koh" if fluid is None else fluid
-    if fluid not in FLUIDS:
-        raise ValueError(f"fluid must be one of {FLUIDS}, got {fluid!r}.")
     if hinge_lengths not in ("ideal", "designed"):
         raise ValueError(f"hinge_lengths must be 'ideal' or 'designed', got {hinge_lengths!r}.")
     if hinge_lengths == "designed" and pattern.hinges != "point":
@@ -213,12 +241,6 @@ def fold_kernel(
         )
     theta0 = pattern.start_state(bias=bias)[0]
     m = pattern.n_hinges
-    # As `system` without a design.
-    base = (
-        pattern.default_design(AIR if fluid == "air" else KOH_SOLUTION)
-        if design is None
-        else design
-    )
     aims = None
     if targets is not None:
         aims = np.asarray(targets, dtype=float)
@@ -267,7 +289,7 @@ def fold_kernel(
             raise ValueError(f"sweep every target[j] of the {m} creases, or none.")
         return jnp.stack([jnp.asarray(a, dtype=float) for a in swept])
 
-    release = pattern.release_input()
+    release = Step(ramp=ramp)
     arcs_on_net = pattern.hinges == "arc" and not pattern.n_loops
     layout = {"layout_design": base} if arcs_on_net else {}
 
@@ -368,7 +390,7 @@ def fold_kernel(
             **({} if aims is None else {"targets": aims.tolist()}),
             **({} if hinge_lengths == "ideal" else {"hinge_lengths": hinge_lengths}),
             **({} if sampling == CONTACT_SAMPLING else {"contact_sampling": list(sampling)}),
-            **model_settings(pattern),
+            **model_settings(pattern, base),
         },
         parameters=parameters,
         output_units={

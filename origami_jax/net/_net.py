@@ -73,17 +73,21 @@ from ._strip import StripTree, strip_tree
 from ._strips import check_strip_radius, drawn_layout, strip_drawing
 from ._tree import PanelTree, panel_tree
 
+# Compiled (and so kept in the persistent cache): op by op, the frequency's fixed point costs
+# seconds of dispatch each time a system is built outside a trace.
+_fluid_loads = eqx.filter_jit(fluid_loads)
+
 # The physics options of a net (`Net.with_model`) and their defaults: `Net.system`'s.
 NET_MODEL = {
     "contact": True,
     "drag": "panel",
     "hinges": "point",
-    "added_mass": False,
-    "viscous": False,
+    "added_mass": None,
+    "viscous": None,
     "contact_sampling": CONTACT_SAMPLING,
     "adhesion": None,
     "friction": None,
-    "release_ramp": None,
+    "release_ramp": "auto",
 }
 
 
@@ -98,10 +102,12 @@ class Net(AbstractPanelPattern):
     FOLD frame) and `crease_edge_ids` (its edges on each crease). `seams`: those that close at the
     pattern's fold angles. The physics model its systems take unless `system` is told otherwise
     (`with_model`): `contact` (default `True`: the plate model), `drag` (`"panel"`), `hinges`
-    (`"point"`), `added_mass`, `viscous` (`False`), `contact_sampling` (`(4, 2)`), `adhesion` and
-    `friction` (`None`: off; an `origami_jax.contact.Adhesion` or `Friction` attaches it to the plate
-    contact), as `system` documents them; `release_ramp` (`None`: the paper's step; a time, µs:
-    each hinge's torque grows over it from its release, `release_input`). `drawn_layout`: for a
+    (`"point"`), `added_mass`, `viscous` (`None`: on in a liquid — the etch bath —, off in a gas;
+    `True`/`False` either way), `contact_sampling` (`(4, 2)`), `adhesion` and `friction` (`None`:
+    off; an `origami_jax.contact.Adhesion` or `Friction` attaches it to the plate contact), as
+    `system` documents them; `release_ramp` (`"auto"`: released quasi-statically where the system
+    carries the fluid's inertia, at once otherwise; `None`: the paper's step; a time, µs: each
+    hinge's torque grows over it from its release; `release_ramp_for`). `drawn_layout`: for a
     net drawn with its hinge strips (`load_net`, the FOLD face property
     ``faces_origami_jax:hinge``), the strips as drawn (an `ArcLayout`), which its arc systems take
     unless told otherwise; `None` for a net drawn for point creases.
@@ -119,13 +125,13 @@ class Net(AbstractPanelPattern):
     contact: bool | str = True
     drag: str = "panel"
     hinges: str = "point"
-    added_mass: bool = False
-    viscous: bool = False
+    added_mass: bool | None = None
+    viscous: bool | None = None
     contact_sampling: tuple[int, int] = CONTACT_SAMPLING
     adhesion: Adhesion | None = None
     friction: Friction | None = None
     drawn_layout: ArcLayout | None = None
-    release_ramp: float | None = None
+    release_ramp: float | str | None = "auto"
 
     MODEL: ClassVar[dict[str, Any]] = NET_MODEL
 
@@ -271,6 +277,34 @@ class Net(AbstractPanelPattern):
             key, lambda: fillet_layout(self.geometry, self.length_scale, radius, angles)
         )
 
+    def fluid_inertia(
+        self,
+        design: HingeDesign | None = None,
+        *,
+        added_mass: bool | None = None,
+        viscous: bool | None = None,
+    ) -> tuple[bool, bool]:
+        """Whether this net's systems in `design`'s fluid carry the fluid's inertia and its viscous
+        drag: `(added_mass, viscous)`, the arguments if given, else the model's (`with_model`),
+        else (`None`, the default) whether the fluid is a liquid (`Fluid.liquid`: the etch bath).
+
+        **Raises:** `ValueError` where the default is asked of a fluid whose liquidity is unknown
+        (built from a traced density without `liquid=`)."""
+        design = default_design(self) if design is None else design
+        resolved = []
+        for name, value in (("added_mass", added_mass), ("viscous", viscous)):
+            value = getattr(self, name) if value is None else value
+            if value is None:
+                if design.fluid.liquid is None:
+                    raise ValueError(
+                        f"{name}: whether {design.fluid.name!r} is a liquid is unknown (its "
+                        "density is traced): give Fluid(..., liquid=...) or "
+                        f"with_model({name}=True/False)."
+                    )
+                value = design.fluid.liquid
+            resolved.append(bool(value))
+        return resolved[0], resolved[1]
+
     def system(
         self,
         design: HingeDesign | None = None,
@@ -327,12 +361,13 @@ class Net(AbstractPanelPattern):
           ``w/|θ|`` by more than 1 % is refused (`ValueError`).
         - `added_mass`, `viscous`: the fluid's inertia on every panel and its viscous drag (strip
           theory across each crease, Sader's hydrodynamic function at each hinge's frequency;
-          `origami_jax.fluid.fluid_loads`, docs/physics.md "The fluid moves with the flap"); off by
-          default, in the etch bath too: there the fluid's inertia is hundreds of times the
-          panels', and on `cube_net_01` in KOH (literature design) it made a fold 3.1x slower with
-          point creases (77 s against 25 s of wall time, compiled, 2 CPU cores) and 2.5x with arcs,
-          and left the cube still moving after 8 ms (`unfinished`) where without it the cube is
-          `folded` by 1.9 ms.
+          `origami_jax.fluid.fluid_loads`, docs/physics.md "The fluid moves with the flap"). By
+          default (`None`) on in a liquid (`design.fluid.liquid`: the etch bath, where the
+          fluid's inertia is hundreds of times the panels' and makes their motion milliseconds
+          slow) and off in a gas (air's is a few tenths of the panels' and the paper leaves it
+          out); `False` is the paper's model in the bath. A net that carries the fluid's inertia
+          is released quasi-statically by default (`release_ramp_for`): released at once, its
+          panels would be flung past their targets by the torque they cannot yet feel resisted.
 
         The physics options (`contact` to `contact_sampling`) left `None` are the net's own
         (its fields; `with_model`). Adhesion and friction are the net's only (`with_model(adhesion=
@@ -343,13 +378,12 @@ class Net(AbstractPanelPattern):
         arc_layout = self.default_arc_layout if arc_layout is None else arc_layout
         drag = self.drag if drag is None else drag
         hinges = self.hinges if hinges is None else hinges
-        added_mass = self.added_mass if added_mass is None else added_mass
-        viscous = self.viscous if viscous is None else viscous
         if contact_sampling is None:
             contact_sampling = self.contact_sampling
         lengths = self.crease_lengths
         if design is None:
             design = default_design(self)
+        added_mass, viscous = self.fluid_inertia(design, added_mass=added_mass, viscous=viscous)
         m = self.n_creases
         targets = self.intended_angles if targets is None else targets
         targets = jnp.asarray(targets, dtype=jnp.result_type(float))
@@ -400,7 +434,7 @@ class Net(AbstractPanelPattern):
             raise ValueError(f"drag must be 'panel' or 'hinge', got {drag!r}.")
         if added_mass or viscous:
             outlines = tree.outlines()
-            loads = fluid_loads(
+            loads = _fluid_loads(
                 tree,
                 jnp.stack([polygon_added_inertia(o) for o in outlines]),
                 jnp.asarray([float(np.ptp(o[:, 1])) for o in outlines]),

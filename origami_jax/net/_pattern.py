@@ -25,7 +25,7 @@ import numpy as np
 from .._limits import FOLD_SEGMENT, MAX_FOLD_SEGMENTS
 from .._validate import is_traced
 from ..contact import Adhesion, Friction
-from ..simulation import Step, fold_pattern
+from ..simulation import Step, fold_pattern, quasi_static_ramp
 from ..system import AbstractPattern, HingeDesign, check_known_names
 from ._kernel import fold_kernel
 
@@ -92,15 +92,15 @@ class AbstractPanelPattern(AbstractPattern):
         (`start_state(system, bias=bias)`: a net starts flat) and judge the run (`assess`).
 
         With `t1` (time, the system's units: µs for the default units), one run to `t1`. Without
-        it, runs of `segment` (default `fold_segment()`: 1000 µs, after the release ramp when the
-        model has one) continued from the last state while the verdict is
+        it, runs of `segment` (default `fold_segment(system)`: 1000 µs, after the release ramp
+        when there is one) continued from the last state while the verdict is
         `unfinished` because the panels still move, up to `max_segments` (default 8) in all (a
         cube net in the etch bath closes in ~1.4 ms, one in air rings for much longer, and neither
         needs its end time guessed); a closed-loop pattern's run is one segment (its state is more
         than its angles; `continues_from_angles`, `origami_jax.simulation.fold_pattern`).
 
-        **Arguments:** `inputs` (default the pattern's release, `release_input()`: the paper's
-        step, `origami_jax.simulation.Step()`, unless the model has a `release_ramp`);
+        **Arguments:** `inputs` (default the pattern's release, `release_input(system)`: the
+        paper's step, `origami_jax.simulation.Step()`, or a ramp, `release_ramp_for`);
         `options` (an `origami_jax.simulation.SolveOptions` for every segment: samples, solver —
         explicit Tsit5 suits closed loops: the default's implicit half differentiates through the
         closure —, tolerances, step budget, progress meter; default ``SolveOptions(throw=False)``);
@@ -110,8 +110,9 @@ class AbstractPanelPattern(AbstractPattern):
 
         **Returns:** `(trajectory, report)`, the whole run and its fold report.
         """
-        inputs = self.release_input() if inputs is None else inputs
-        segment = self.fold_segment() if segment is None else segment
+        ramp = self.release_ramp_for(system) if inputs is None or segment is None else None
+        inputs = Step(ramp=ramp) if inputs is None else inputs
+        segment = (0.0 if ramp is None else ramp) + FOLD_SEGMENT if segment is None else segment
         return fold_pattern(
             self, system, inputs, options, t1=t1, bias=bias, tolerances=tolerances,
             segment=segment, max_segments=max_segments, on_continue=on_continue,
@@ -120,7 +121,7 @@ class AbstractPanelPattern(AbstractPattern):
     MODEL: ClassVar[Mapping[str, Any]]
     geometry: Any
     host_cache: HostCache
-    release_ramp: float | None
+    release_ramp: float | str | None
 
     @property
     def n_creases(self) -> int:
@@ -162,19 +163,65 @@ class AbstractPanelPattern(AbstractPattern):
         key = ("model", repr(sorted(values.items())))
         return self.host_cache.get(key, lambda: dataclasses.replace(self, **values))
 
-    def release_input(self) -> Step:
+    def fluid_inertia(self, design: HingeDesign | None = None, **given) -> tuple[bool, bool]:
+        """Whether this pattern's systems carry the fluid's inertia and viscous drag,
+        `(added_mass, viscous)`: a pattern with closed loops does not model them (a net does,
+        `Net.fluid_inertia`)."""
+        del design, given
+        return False, False
+
+    def release_ramp_for(self, system) -> float | None:
+        """The release ramp (time units of `system`, µs by default) this pattern's `system` (one
+        it built) is released over, or `None` for the paper's step: the model's `release_ramp`,
+        or for `"auto"` (the default) a quasi-static release where `system` carries the fluid's
+        inertia (`quasi_static_release`: in the etch bath a hinge's own motion takes
+        milliseconds, and a real etch frees it over minutes) and the step otherwise (in air the
+        panels move in microseconds, the paper's setting)."""
+        ramp = self.release_ramp
+        if ramp != "auto":
+            return None if ramp is None else float(ramp)
+        if not system.mechanism.carries_added_inertia:
+            return None
+        return quasi_static_release(system)
+
+    def nominal_release_ramp(self, design: HingeDesign | None = None) -> float | None:
+        """`release_ramp_for` the system of `design` (default `default_design()`): the one ramp a
+        sweep or yield releases every sample over (the etch is the same for all; time units of
+        the design, µs by default). The system is built (compiled, not on the host) only for an
+        `"auto"` ramp with the fluid's inertia."""
+        if self.release_ramp != "auto":
+            return self._ramp(None)
+        design = self.default_design() if design is None else design
+        if not any(self.fluid_inertia(design)):
+            return None
+        return rounded_up(float(_design_ramp(self, design)))
+
+    def release_input(self, system=None) -> Step:
         """How the etch releases this pattern's hinges, the input `fold`, `kernel` (so `sweep`
         and `yield_estimate`) and the command line drive it with: the paper's step
-        (`origami_jax.simulation.Step()`, the default), or with the model's `release_ramp` (µs)
-        each hinge's torque growing over that time from its release (`Step(ramp=...)`)."""
-        return Step() if self.release_ramp is None else Step(ramp=self.release_ramp)
+        (`origami_jax.simulation.Step()`) or each hinge's torque growing over the ramp
+        `release_ramp_for(system)` from its release (`Step(ramp=...)`). `system` (one this
+        pattern built: the nominal one of a sweep) is needed for the `"auto"` ramp only.
 
-    def fold_segment(self) -> float:
+        **Raises:** `ValueError` for an `"auto"` ramp without a system."""
+        return Step(ramp=self._ramp(system))
+
+    def fold_segment(self, system=None) -> float:
         """The length of each run `fold` continues by (µs): `FOLD_SEGMENT` (1000 µs), plus the
-        model's release ramp where it has one (a run that ends before the hinges' torques are
-        whole would be judged in the middle of the release)."""
-        ramp = 0.0 if self.release_ramp is None else float(self.release_ramp)
-        return ramp + FOLD_SEGMENT
+        release ramp where there is one (`release_ramp_for(system)`: a run that ends before the
+        hinges' torques are whole would be judged in the middle of the release)."""
+        ramp = self._ramp(system)
+        return (0.0 if ramp is None else ramp) + FOLD_SEGMENT
+
+    def _ramp(self, system) -> float | None:
+        if system is None:
+            if self.release_ramp == "auto":
+                raise ValueError(
+                    f"{self.name}'s release ramp is 'auto' (quasi-static where the system carries "
+                    "the fluid's inertia): give the system it releases."
+                )
+            return None if self.release_ramp is None else float(self.release_ramp)
+        return self.release_ramp_for(system)
 
     def default_design(self, fluid=None) -> HingeDesign:
         """The literature hinge in `fluid` (default air), each hinge no wider than its crease
@@ -198,10 +245,34 @@ def check_surface_model(adhesion, friction) -> None:
             )
 
 
+@eqx.filter_jit
+def _quasi_static_ramp(system):
+    return quasi_static_ramp(system)
+
+
+@eqx.filter_jit
+def _design_ramp(pattern, design):
+    return quasi_static_ramp(pattern.system(design))
+
+
+def rounded_up(time: float) -> float:
+    """`time` rounded up to two significant figures (39.6 → 40, 13.2 → 14)."""
+    unit = 10.0 ** (math.floor(math.log10(time)) - 1)
+    return math.ceil(time / unit * (1 - 1e-12)) * unit
+
+
+def quasi_static_release(system) -> float:
+    """The ramp an `"auto"` release gives `system` (time units): `quasi_static_ramp(system)`
+    (three periods of its hinges' slowest mode about flat) rounded up to two significant figures,
+    so that the release recorded with a run reads as a number a person would choose (40 ms for
+    a 200 µm cube net in KOH)."""
+    return rounded_up(float(_quasi_static_ramp(system)))
+
+
 def check_release_ramp(release_ramp) -> None:
-    """A one-line error for a pattern's `release_ramp` option (`None`, or a positive finite time
-    in µs), before anything is built."""
-    if release_ramp is None:
+    """A one-line error for a pattern's `release_ramp` option (`"auto"`, `None`, or a positive
+    finite time in µs), before anything is built."""
+    if release_ramp is None or (isinstance(release_ramp, str) and release_ramp == "auto"):
         return
     if (
         isinstance(release_ramp, bool)
@@ -209,8 +280,8 @@ def check_release_ramp(release_ramp) -> None:
         or not (math.isfinite(release_ramp) and release_ramp > 0)
     ):
         raise ValueError(
-            f"release_ramp must be None (the paper's step release) or a positive time in µs, "
-            f"got {release_ramp!r}."
+            f"release_ramp must be 'auto' (quasi-static where the fluid's inertia is carried), "
+            f"None (the paper's step release) or a positive time in µs, got {release_ramp!r}."
         )
 
 

@@ -87,6 +87,10 @@ class StripTree(AbstractMechanism):
         added = self.expanded.added_inertias
         return None if added is None else added[: self.n_hinges]
 
+    @property
+    def carries_added_inertia(self) -> bool:
+        return self.expanded.carries_added_inertia
+
     def with_added_inertias(self, added: Float[ArrayLike, "n 6 6"] | None) -> "StripTree":
         """The same tree with the panels' added inertias replaced (`None`: none); the strips carry
         none."""

@@ -276,6 +276,10 @@ class PanelTree(AbstractMechanism):
         constrained solve needs; `mass_matrix` and `bias_force` separately compute them twice)."""
         return _mass_matrix_and_bias(self, jnp.asarray(q), jnp.asarray(v))
 
+    @property
+    def carries_added_inertia(self) -> bool:
+        return self.added_inertias is not None
+
     def with_added_inertias(self, added: Float[ArrayLike, "n 6 6"] | None) -> "PanelTree":
         """The same tree with its panels' added inertias replaced (`None`: none)."""
         return eqx.tree_at(lambda t: t.added_inertias, self, added, is_leaf=lambda x: x is None)

@@ -24,7 +24,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._kernel import INVALID_INPUT, Kernel, check_setting
-from .._limits import CONTACT_SAMPLING, MAX_SAMPLES
+from .._limits import AFTER_RELEASE_US, CONTACT_SAMPLING, MAX_SAMPLES
 from ..chain import accordion_step
 from ..loops import load_pattern
 from ..net import FOLD_KERNEL_SOLVE, check_kernel_sampling, fold_kernel
@@ -154,9 +154,10 @@ def net_fold(*, net: str = "cube_net_01", **settings: Any) -> Kernel:
 
     - the pattern's physics (`Net.with_model`): `contact` (default `True`), `drag` (`"panel"`),
       `hinges` (`"point"`), `contact_sampling` (`(4, 2)`), `added_mass` and `viscous` (nets:
-      the fluid's inertia and viscosity, default `false`), `release_ramp` (µs: each hinge
-      released over that time; default none, the paper's step);
-    - the solve's: `t_end` (µs, default 1500), `n_save` (301), `rtol`, `atol` (`None`: the
+      the fluid's inertia and viscosity, default on in the etch bath, off in air),
+      `release_ramp` (µs: each hinge released over that time; 0 at once, the paper's step;
+      default `"auto"`: quasi-static where the fluid's inertia is on, at once otherwise);
+    - the solve's: `t_end` (µs, default 1500 after the release ramp), `n_save` (301), `rtol`, `atol` (`None`: the
       simulation's), `max_steps` (200,000); `solver` (`"tsit5"`, the default, `"kvaerno5"` or
       `"implicit-step"`: `origami_jax.simulation.named_solver`) with, for `"implicit-step"`, `dt`
       (µs, its fixed step; required, at most `t_end`) and `newton_iterations` (default 6);
@@ -189,7 +190,10 @@ def net_fold(*, net: str = "cube_net_01", **settings: Any) -> Kernel:
     unknown = sorted(set(settings) - {"fluid", "design", "bias", "targets", "hinge_lengths"})
     if unknown:
         raise TypeError(f"net-fold has no setting(s) {unknown}")
-    t_end = check_setting(solve.get("t_end", 1500.0), "t_end", low=0.0)
+    t_end = solve.get("t_end")
+    t_end = None if t_end is None else check_setting(t_end, "t_end", low=0.0)
+    if model.get("release_ramp") == 0:
+        model["release_ramp"] = None  # TOML has no null: 0 is the step
     n_save = check_setting(
         solve.get("n_save", 301), "n_save", low=2, integer=True, high=MAX_SAMPLES
     )
@@ -201,8 +205,9 @@ def net_fold(*, net: str = "cube_net_01", **settings: Any) -> Kernel:
     # Tsit5, the kernel's own default, unnamed: a store written without `solver` resumes with it.
     name = engine.pop("solver", "tsit5")
     solver = None if name == "tsit5" and not engine else named_solver(name, **engine)
-    if solver is not None and name == "implicit-step" and solver.dt > t_end:
-        raise ValueError(f"dt {solver.dt:g} µs is longer than the run (t_end {t_end:g} µs).")
+    shortest = AFTER_RELEASE_US if t_end is None else t_end
+    if solver is not None and name == "implicit-step" and solver.dt > shortest:
+        raise ValueError(f"dt {solver.dt:g} µs is longer than the run (t_end {shortest:g} µs).")
     tolerances = VerdictTolerances.from_degrees(angle, seam)
     sampling = check_kernel_sampling(model.get("contact", True), sampling)
     pattern = load_pattern(net).with_model(**model, contact_sampling=sampling)

@@ -22,6 +22,7 @@ from ._drag import HingeDrag as HingeDrag
 from ._hinge import AIR as AIR
 from ._hinge import CR as CR
 from ._hinge import KOH_SOLUTION as KOH_SOLUTION
+from ._hinge import LIQUID_DENSITY as LIQUID_DENSITY
 from ._hinge import SINX as SINX
 from ._hinge import Fluid as Fluid
 from ._hinge import HingeDesign as HingeDesign

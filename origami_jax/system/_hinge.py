@@ -71,6 +71,11 @@ class Material(eqx.Module):
         )
 
 
+LIQUID_DENSITY = 100.0
+"""The density (kg/m³) from which a `Fluid` is a liquid: every liquid is denser (water 1000, KOH
+baths ~1300, liquid hydrocarbons from ~600), every gas at ordinary pressures lighter (air 1.2)."""
+
+
 class Fluid(eqx.Module):
     """The fluid the flaps fold in.
 
@@ -81,13 +86,18 @@ class Fluid(eqx.Module):
 
     **Fields:** `density` (mass/length³ of `units`), `viscosity` (dynamic viscosity, mass/(length·time)
     of `units`: Pa·s in SI, ng/(µm·µs) = Pa·s in MICRO; `None` when unknown: the viscous models then
-    refuse the fluid), `units` (static, SI by default), `name` (static).
+    refuse the fluid), `units` (static, SI by default), `name` (static), `liquid` (static: `True`
+    for a liquid such as the etch bath, `False` for a gas; by default from the density, a liquid
+    from `LIQUID_DENSITY` (100 kg/m³) up — every liquid is above it, every gas at ordinary
+    pressures below 10 kg/m³; `None` when the density is traced and `liquid` not given). A net in
+    a liquid carries the fluid's inertia by default (`origami_jax.net.Net.system`).
     """
 
     density: Float[Array, "..."]
     viscosity: Float[Array, "..."] | None
     units: UnitSystem = eqx.field(static=True)
     name: str = eqx.field(static=True)
+    liquid: bool | None = eqx.field(static=True)
 
     def __init__(
         self,
@@ -96,8 +106,15 @@ class Fluid(eqx.Module):
         name: str = "fluid",
         *,
         viscosity: ArrayLike | None = None,
+        liquid: bool | None = None,
     ):
         self.density = check_positive(as_float_array(density, "density"), "density", "mass/length³")
+        if liquid is None and not is_traced(self.density):
+            si_density = np.asarray(units.to_si(np.asarray(self.density), mass=1, length=-3))
+            liquid = bool(np.all(si_density >= LIQUID_DENSITY))
+        elif liquid is not None and not isinstance(liquid, bool):
+            raise ValueError(f"liquid must be True, False or None, got {liquid!r}.")
+        self.liquid = liquid
         self.viscosity = (
             None
             if viscosity is None
@@ -125,6 +142,7 @@ class Fluid(eqx.Module):
             units,
             self.name,
             viscosity=viscosity,
+            liquid=self.liquid,
         )
 
 

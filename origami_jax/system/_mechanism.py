@@ -235,6 +235,11 @@ class AbstractMechanism(eqx.Module):
         """The fixed base (substrate panel) as a world-frame polygon `(k, 3)`, or `None`."""
         return None
 
+    @property
+    def carries_added_inertia(self) -> bool:
+        """Whether its panels carry a fluid's added inertia (`with_added_inertias`; static)."""
+        return False
+
     def with_added_inertias(self, added: Float[ArrayLike, "b 6 6"] | None) -> "AbstractMechanism":
         """The same mechanism with its panels' added (fluid) inertias replaced, body frames `(b, 6, 6)`
         (`None`: none), for `origami_jax.fluid.fluid_loads`. Panel trees implement it; other
