@@ -68,7 +68,7 @@ def held_folder(tmp_path_factory):
 @pytest.mark.parametrize(
     "argv",
     [
-        ["fold", "cube_net_01", "--t1", "1", "--overwrite"],
+        ["fold", "cube_net_01", "--t1", "1", "--release-ramp", "0", "--overwrite"],
         ["simulate", "--flaps", "1", "--overwrite"],
         ["unfold", "open-chain", "--overwrite"],
         ["export", "corner-cube", "--overwrite"],

@@ -25,6 +25,8 @@ NET_FOLD_TOML = """
 name = "net-fold"
 net = "corner_cube"
 contact = false
+added_mass = false  # the paper's dynamics in the bath: released at once, 60 µs is a run
+viscous = false
 t_end = 60.0
 n_save = 21
 {extra}
@@ -34,6 +36,9 @@ kind = "grid"
 [parameters]
 k_scale = {{ values = [1.0, 2.0] }}
 """
+
+
+PAPER = {"net": "corner_cube", "added_mass": False, "viscous": False}
 
 
 def _one_line(err: str) -> str:
@@ -183,23 +188,22 @@ def test_closed_loops_are_refused_the_fixed_steps(tmp_path, capsys, monkeypatch)
 
 def test_the_net_fold_model_records_its_solver_and_keeps_older_stores_resumable():
     """The sweep's settings (what a resume compares) name the fixed-step engine with its settings;
-    Tsit5 named or not is the kernel's default, recorded as before."""
-    default = get_model("net-fold", net="corner_cube", t_end=60.0).settings
+    Tsit5 named or not is the kernel's default, recorded as before (the paper's dynamics in the
+    bath: released at once, 60 µs runs)."""
+    default = get_model("net-fold", **PAPER, t_end=60.0).settings
     assert "solver" not in default
-    assert get_model("net-fold", net="corner_cube", t_end=60.0, solver="tsit5").settings == default
+    assert get_model("net-fold", **PAPER, t_end=60.0, solver="tsit5").settings == default
     fixed = get_model(
-        "net-fold", net="corner_cube", t_end=60.0, solver="implicit-step", dt=2.0,
+        "net-fold", **PAPER, t_end=60.0, solver="implicit-step", dt=2.0,
         newton_iterations=8,
     ).settings  # fmt: skip
     assert fixed["solver"].startswith("ImplicitStep(dt=2.0, newton_iterations=8")
     assert {k: v for k, v in fixed.items() if k != "solver"} == default
-    assert get_model("net-fold", net="corner_cube", solver="kvaerno5").settings["solver"] == (
-        "Kvaerno5"
-    )
+    assert get_model("net-fold", **PAPER, solver="kvaerno5").settings["solver"] == ("Kvaerno5")
     with pytest.raises(ValueError, match="longer than the run"):
-        get_model("net-fold", net="corner_cube", t_end=60.0, solver="implicit-step", dt=61.0)
+        get_model("net-fold", **PAPER, t_end=60.0, solver="implicit-step", dt=61.0)
     with pytest.raises(ValueError, match="chooses its own steps"):
-        get_model("net-fold", net="corner_cube", dt=2.0)
+        get_model("net-fold", **PAPER, dt=2.0)
 
 
 def test_yield_resume_refuses_another_solver(tmp_path, capsys):
@@ -256,6 +260,7 @@ def test_fold_with_the_fixed_step_engine_records_it(tmp_path, capsys):
     out = tmp_path / "fold"
     flags = ["--solver", "implicit-step", "--dt", "1", "--newton-iterations", "4"]
     argv = ["fold", "corner_cube", "--no-contact", "--t1", "40", "--n-save", "21", *flags]
+    argv += ["--no-fluid-inertia"]  # released at once: 40 µs is a run
     assert main([*argv, "--figures", "none", "--out", str(out)]) in (0, 1)
     result = json.loads((out / "result.json").read_text())
     assert result["solver"] == "implicit-step"

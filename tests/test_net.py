@@ -23,7 +23,7 @@ KOH = HingeDesign.literature(fluid=KOH_SOLUTION)
 
 def test_fold_accordion_is_the_chain_engines_accordion():
     net = load_net("accordion")
-    tree_system = net.system(KOH, contact=False, drag="hinge")
+    tree_system = net.system(KOH, contact=False, drag="hinge", added_mass=False, viscous=False)
     chain_system = accordion_system(KOH, 3)
     np.testing.assert_allclose(tree_system.hinges.target, chain_system.hinges.target)
     np.testing.assert_allclose(
@@ -171,7 +171,7 @@ def test_a_batch_members_folding_does_not_depend_on_the_others():
     the same in each: its folding must be the same bit for bit whatever its partner. Contact makes
     the dynamics chaotic (a 1-ulp change grows to 1e-6 rad and different step counts), so any
     coupling between batch members shows; without contact the test would pass regardless."""
-    system = load_net("cube_net_01").system(KOH)
+    system = load_net("cube_net_01").system(KOH, added_mass=False, viscous=False)
 
     @jax.jit
     def folded(factor, release):
@@ -229,12 +229,12 @@ def test_hinge_widths_designed_so_a_cube_nets_creases_finish_within_ten_percent(
     net = load_net("cube_net_01")
     m, t1 = net.n_creases, 2000.0
     hinge = HingeDesign.literature(fluid=KOH_SOLUTION, hinge_width=np.full(m, 180.0))
-    before, _ = _finish_times(net.system(hinge), t1)
+    before, _ = _finish_times(net.system(hinge, added_mass=False, viscous=False), t1)
     assert before.max() / before.min() > 1.5  # far from finishing together to start with
 
     settings = ojd.SimulationSettings(
         t1,
-        layout=net.with_model(contact=False),
+        layout=net.with_model(contact=False, added_mass=False, viscous=False),
         options=sim.FIT_OPTIONS.replace(saveat=sim.SaveAt(n=401), rtol=1e-7, atol=1e-9),
     )
     result = ojd.design(
@@ -249,7 +249,7 @@ def test_hinge_widths_designed_so_a_cube_nets_creases_finish_within_ten_percent(
     assert "t90[crease 0]" in result.summary()  # named as the net's verdicts name them
     if result.reached and result.result == ojd.RESULTS.max_steps_reached:
         assert any("would only refine" in w for w in result.warnings), result.warnings
-    system = net.system(result.hinge)  # contact on
+    system = net.system(result.hinge, added_mass=False, viscous=False)  # contact on
     after, trajectory = _finish_times(system, 1.5 * t1)  # and time for the cube to close
     assert after.max() / after.min() < 1.10, (after, result.summary())
     report = net.assess(system, trajectory)

@@ -3,7 +3,8 @@ estimate with zero scatter (a net that folds: 1; one aimed at 80°: 0), the fabr
 angles against the closed-form Timoshenko curvature, resume after an interruption, the CLI.
 
 Every simulated case runs the smallest net of the catalogue, the corner cube (two creases, one
-seam), for 600 µs in KOH (its nominal folding is done by ~320 µs), in chunks of 4 samples: the cases
+seam), for 600 µs in KOH with the paper's dynamics (its nominal folding is done by ~320 µs), in
+chunks of 4 samples: the cases
 share two compiled kernels (the persistent compilation cache of `conftest.py`)."""
 
 import dataclasses
@@ -24,6 +25,9 @@ from origami_jax.simulation import SaveAt, VerdictTolerances
 from origami_jax.system import KOH_SOLUTION, HingeDesign
 
 NET = "corner_cube"
+# The estimate's machinery on the paper's dynamics (no fluid inertia, released at once): 600 µs
+# runs. The bath's default dynamics: `tests/test_release_ramp.py`.
+PATTERN = load_net(NET).with_model(added_mass=False, viscous=False)
 T_END = 600.0  # µs
 CHUNK = 4
 SOLVE = FOLD_KERNEL_SOLVE.replace(t1=T_END)
@@ -189,25 +193,25 @@ def test_bad_scatter_configs_are_refused(config, message):
 
 def test_bad_estimates_are_refused_before_compiling(tmp_path):
     with pytest.raises(ValueError, match="unknown scatter parameter"):
-        ojy.yield_estimate(NET, {"stress": {"width": 0.1}}, n_samples=4)
+        ojy.yield_estimate(PATTERN, {"stress": {"width": 0.1}}, n_samples=4)
     with pytest.raises(ValueError, match="n_samples"):
-        ojy.yield_estimate(NET, ojy.Scatter(), n_samples=0)
+        ojy.yield_estimate(PATTERN, ojy.Scatter(), n_samples=0)
     with pytest.raises(ValueError, match="relative width of nominal release times"):
-        ojy.yield_estimate(NET, ojy.Scatter(release=ojy.Spread("uniform", 0.2, relative=True)))
+        ojy.yield_estimate(PATTERN, ojy.Scatter(release=ojy.Spread("uniform", 0.2, relative=True)))
     with pytest.raises(ValueError, match="release_times must be 2"):
-        ojy.yield_estimate(NET, release_times=[0.0, 1.0, 2.0])
+        ojy.yield_estimate(PATTERN, release_times=[0.0, 1.0, 2.0])
     with pytest.raises(ValueError, match="bias pre-folds closed-loop patterns only"):
-        ojy.yield_estimate(NET, bias=0.05)
+        ojy.yield_estimate(PATTERN, bias=0.05)
     with pytest.raises(ValueError, match=r"bias must be a pre-fold angle in \[0, 1\) rad"):
         ojy.yield_estimate("vertex_degree4", bias=-0.1)
     with pytest.raises(ValueError, match="interval"):
         _estimate("none", 4).with_interval(0.95, "wald")
     for rtol in (0.0, 1.5):
         with pytest.raises(ValueError, match="rtol must be a number strictly between 0 and 1"):
-            ojy.yield_estimate(NET, solve=SOLVE.replace(rtol=rtol))
+            ojy.yield_estimate(PATTERN, solve=SOLVE.replace(rtol=rtol))
     for rtol in (True, "1e-5"):
         with pytest.raises(ValueError, match="take numbers"):
-            ojy.yield_estimate(NET, solve=SOLVE.replace(rtol=rtol))
+            ojy.yield_estimate(PATTERN, solve=SOLVE.replace(rtol=rtol))
     path = tmp_path / "scatter.toml"
     path.write_text("[misfit_strain]\nwidth = 0.05\nper = 'wafer'\n")
     with pytest.raises(ValueError, match="per must be 'crease' or 'net'"):
@@ -223,7 +227,7 @@ def test_float32_is_refused_before_compiling():
     jax.config.update("jax_enable_x64", False)
     try:
         with pytest.raises(RuntimeError, match="yield_estimate needs float64"):
-            ojy.yield_estimate(NET, n_samples=2, **RUN)
+            ojy.yield_estimate(PATTERN, n_samples=2, **RUN)
     finally:
         jax.config.update("jax_enable_x64", True)
 
@@ -243,7 +247,7 @@ def test_rtol_reaches_the_solver(monkeypatch):
     for rtol, expected in ((1e-5, (1e-5, 1e-7)), (None, (1e-7, 1e-9))):
         solve = SOLVE if rtol is None else SOLVE.replace(rtol=rtol, atol=1e-2 * rtol)
         with pytest.raises(RuntimeError, match="stop here"):
-            ojy.yield_estimate(NET, n_samples=2, **{**RUN, "solve": solve})
+            ojy.yield_estimate(PATTERN, n_samples=2, **{**RUN, "solve": solve})
         settings = kernels[-1].settings
         assert (settings["rtol"], settings["atol"]) == pytest.approx(expected, rel=1e-12)
 
@@ -263,7 +267,9 @@ def test_each_engine_gets_its_own_kernel(monkeypatch):
     monkeypatch.setattr(estimate, "sweep", fake_sweep)
     for solver in (None, ImplicitStep(dt=2.5), ImplicitStep(dt=5.0)):
         with pytest.raises(RuntimeError, match="stop here"):
-            ojy.yield_estimate(NET, n_samples=2, **{**RUN, "solve": SOLVE.replace(solver=solver)})
+            ojy.yield_estimate(
+                PATTERN, n_samples=2, **{**RUN, "solve": SOLVE.replace(solver=solver)}
+            )
     solvers = [k.settings.get("solver") for k in kernels]
     assert solvers[0] is None and len(set(solvers)) == 3, solvers
     assert "dt=5.0" in solvers[2]
@@ -276,7 +282,9 @@ def test_each_engine_gets_its_own_kernel(monkeypatch):
 def _estimate(scatter: str, n: int, targets_deg: float | None = None):
     scatters = {"none": ojy.Scatter.none(), "default": ojy.Scatter()}
     targets = None if targets_deg is None else np.radians([targets_deg, targets_deg])
-    return ojy.yield_estimate(NET, scatters[scatter], n_samples=n, seed=1, targets=targets, **RUN)
+    return ojy.yield_estimate(
+        PATTERN, scatters[scatter], n_samples=n, seed=1, targets=targets, **RUN
+    )
 
 
 def test_zero_scatter_gives_yield_one_for_a_net_that_folds():
@@ -313,7 +321,7 @@ def test_samples_still_moving_at_the_end_are_judged_where_they_settle(tmp_path):
 
     def estimate(t_settle, **changes):
         run = dataclasses.replace(RUN["run"], t_settle=t_settle, **changes)
-        return ojy.yield_estimate(NET, ojy.Scatter.none(), 4, 1, solve=short, run=run)
+        return ojy.yield_estimate(PATTERN, ojy.Scatter.none(), 4, 1, solve=short, run=run)
 
     at_end = estimate(None)
     assert at_end.counts["unfinished"] == 4 and at_end.to_dict()["continued"] == 0
@@ -333,7 +341,7 @@ def test_samples_still_moving_at_the_end_are_judged_where_they_settle(tmp_path):
     assert estimate(T_END / 3).counts == at_end.counts
     for bad in (0.0, -1.0, float("nan"), True, "8000"):
         with pytest.raises(ValueError, match="t_settle must be a positive end time"):
-            ojy.yield_estimate(NET, solve=SOLVE, run=ojy.RunOptions(t_settle=bad))
+            ojy.yield_estimate(PATTERN, solve=SOLVE, run=ojy.RunOptions(t_settle=bad))
 
 
 def test_zero_scatter_gives_yield_zero_for_a_net_aimed_at_80_degrees():
@@ -431,11 +439,11 @@ def test_resume_after_an_interruption_gives_the_same_samples(tmp_path):
         raise _Stop
 
     with pytest.raises(_Stop):
-        ojy.yield_estimate(NET, ojy.Scatter(), 8, 1, **_run(out=out, on_chunk=stop))
+        ojy.yield_estimate(PATTERN, ojy.Scatter(), 8, 1, **_run(out=out, on_chunk=stop))
     assert len(list((out / "chunks").glob("part-*.nc"))) == 1
     with pytest.raises(FileExistsError, match="resume=True"):  # checked before compiling
-        ojy.yield_estimate(NET, ojy.Scatter(), 8, 1, **_run(out=out))
-    resumed = ojy.yield_estimate(NET, ojy.Scatter(), 8, 1, **_run(out=out, resume=True))
+        ojy.yield_estimate(PATTERN, ojy.Scatter(), 8, 1, **_run(out=out))
+    resumed = ojy.yield_estimate(PATTERN, ojy.Scatter(), 8, 1, **_run(out=out, resume=True))
     assert resumed.seconds_per_sample > 0
     ds = resumed.dataset
     for name in reference.coords:
@@ -494,14 +502,14 @@ def test_resuming_a_run_stored_with_the_old_fixed_seam_tolerance_keeps_it(tmp_pa
 
     with pytest.raises(_Stop):
         ojy.yield_estimate(
-            NET, ojy.Scatter(), 8, 1, tolerances=fixed, **_run(out=out, on_chunk=stop)
+            PATTERN, ojy.Scatter(), 8, 1, tolerances=fixed, **_run(out=out, on_chunk=stop)
         )
     assert "seam_tolerance" not in json.loads((out / "sweep.json").read_text())["settings"]
     [chunk] = list((out / "chunks").glob("part-*.nc"))
     old = xr.load_dataset(chunk).drop_vars(["angle_margin", "seam_margin"])
     old.to_netcdf(chunk)  # as a store written before the margins existed
     stored_verdicts = np.asarray(old["verdict"].values)
-    resumed = ojy.yield_estimate(NET, ojy.Scatter(), 8, 1, **_run(out=out, resume=True))
+    resumed = ojy.yield_estimate(PATTERN, ojy.Scatter(), 8, 1, **_run(out=out, resume=True))
     assert resumed.tolerances == {"angle_deg": 3.0, "seam_fraction": 0.01}
     assert resumed.tolerance_sensitivity is None
     ds = resumed.dataset
@@ -523,7 +531,7 @@ def test_a_step_budget_runs_the_stragglers_again_and_gives_the_same_samples(tmp_
     steps = np.asarray(reference.dataset["num_steps"].values)
     budget = int(np.median(steps))
     out = tmp_path / "budget"
-    two = ojy.yield_estimate(NET, ojy.Scatter(), 8, 1, **_run(step_budget=budget, out=out))
+    two = ojy.yield_estimate(PATTERN, ojy.Scatter(), 8, 1, **_run(step_budget=budget, out=out))
     assert two.dataset.attrs["stragglers"] == int(np.sum(steps > budget)) > 0
     assert (out / "stragglers" / "sweep.nc").is_file()
     for name in ("verdict", "result", "num_steps", "final_angle", "max_seam_gap"):
@@ -532,11 +540,11 @@ def test_a_step_budget_runs_the_stragglers_again_and_gives_the_same_samples(tmp_
         )
     assert two.counts == reference.counts
     again = ojy.yield_estimate(
-        NET, ojy.Scatter(), 8, 1, **_run(step_budget=budget, out=out, resume=True)
+        PATTERN, ojy.Scatter(), 8, 1, **_run(step_budget=budget, out=out, resume=True)
     )
     assert again.counts == reference.counts and again.seconds_per_sample == 0
     with pytest.raises(ValueError, match="step_budget must be a whole number"):
-        ojy.yield_estimate(NET, run=ojy.RunOptions(step_budget=200_000))
+        ojy.yield_estimate(PATTERN, run=ojy.RunOptions(step_budget=200_000))
 
 
 def test_cli_writes_result_and_figure(tmp_path, capsys):
@@ -546,6 +554,7 @@ def test_cli_writes_result_and_figure(tmp_path, capsys):
     config.write_text("[misfit_strain]\nwidth = 0.05\n")
     out = tmp_path / "cli"
     argv = ["yield", NET, "--samples", "4", "--seed", "1", "--scatter", str(config)]
+    argv += ["--no-fluid-inertia"]  # released at once, as the library cases
     argv += ["--t-end", str(T_END), "--chunk-size", str(CHUNK), "--no-progress", "--widths", "0,1"]
     argv += ["--out", str(out)]
     assert main(argv) == 2  # a width factor of 0: refused before compiling
@@ -556,6 +565,8 @@ def test_cli_writes_result_and_figure(tmp_path, capsys):
     assert code == 0, captured.err
     result = json.loads((out / "result.json").read_text())
     assert result["n_samples"] == 4 and sum(result["counts"].values()) == 4
+    assert result["fluid_inertia"] is False and result["release_ramp_us"] is None
+    assert result["t_end_us"] == T_END
     low, high = result["interval"]
     assert low <= result["yield"] <= high
     # The default seam tolerance is derived from the angle tolerance (it was the fixed 0.01).

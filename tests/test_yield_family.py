@@ -229,20 +229,18 @@ FLAP = {  # one 200 µm square flap on a 200 µm square base, folding up 90°: t
 
 @pytest.mark.slow  # two nets' fold kernels compile (tens of seconds each on 2 cores)
 def test_family_yield_runs_two_small_nets_like_their_own_estimates(tmp_path):
-    from origami_jax.net import FOLD_KERNEL_SOLVE
-
     flap = tmp_path / "flap.fold"
     flap.write_text(json.dumps(FLAP))
-    solve = FOLD_KERNEL_SOLVE.replace(t1=600.0)
+    # In the bath by default: the fluid's inertia, each net released over its quasi-static ramp.
     run = ojy.RunOptions(chunk_size=2, progress=False)
     family = ojy.family_yield(
-        ["corner_cube", str(flap)], ojy.Scatter(), 2, seed=1, solve=solve,
+        ["corner_cube", str(flap)], ojy.Scatter(), 2, seed=1,
         run=dataclasses.replace(run, out=tmp_path / "family"),
     )  # fmt: skip
     assert family.names == ("corner_cube", "flap")
     for row, source in zip(family.rows, ["corner_cube", str(flap)], strict=True):
         # The same seed scheme as one net's own estimate: the same samples, the same verdicts.
-        alone = ojy.yield_estimate(source, ojy.Scatter(), 2, 1, solve=solve, run=run)
+        alone = ojy.yield_estimate(source, ojy.Scatter(), 2, 1, run=run)
         assert row.counts == alone.counts
         assert sum(row.counts.values()) == 2
         assert (tmp_path / "family" / row.name / "sweep.nc").is_file()

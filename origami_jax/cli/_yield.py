@@ -344,6 +344,23 @@ def _run_settings(args: argparse.Namespace) -> dict:
     )
 
 
+def _check_released_in_time(args, pattern, release, flag: str) -> None:
+    """A one-line exit where a crease is released at or after the run's end (--t-end, default
+    1500 µs after the release ramp): every sample would be a 0 that says nothing."""
+    t_end = args.t_end
+    if t_end is None:
+        ramp = pattern.nominal_release_ramp(pattern.default_design(_fluid(args)))
+        t_end = AFTER_RELEASE_US + (ramp or 0.0)
+    late = [j for j, t in enumerate(release) if t >= t_end]
+    if late:
+        end = f"--t-end {t_end:g} µs" if args.t_end is not None else f"the run's end, {t_end:g} µs"
+        fail(
+            f"{flag}: crease {late[0]} is released at {release[late[0]]:g} µs, at or after "
+            f"{end}, so no sample could fold (a yield of 0 that says nothing); give a longer "
+            "--t-end or earlier release times."
+        )
+
+
 def _dynamics_record(pattern, design) -> dict:
     """What result.json records of the samples' dynamics: whether they carry the fluid's inertia
     and the release ramp (µs, `None`: at once), as resolved for the nominal `design`."""
@@ -741,14 +758,6 @@ def run(args: argparse.Namespace) -> int:
         if len(release) != pattern.n_creases:
             n = pattern.n_creases
             fail(f"--release: {len(release)} values for {n} creases (give one per crease).")
-        late = [j for j, t in enumerate(release) if args.t_end is not None and t >= args.t_end]
-        if late:
-            flag = "--etch-front" if front is not None else "--release"
-            fail(
-                f"{flag}: crease {late[0]} is released at {release[late[0]]:g} µs, at or after "
-                f"--t-end {args.t_end:g} µs, so no sample could fold (a yield of 0 that says "
-                "nothing); give a longer --t-end or earlier release times."
-            )
     improve = _improve_parameters(args, scatter)
     process = _process(args.process, pattern.n_creases)
     try:
@@ -760,6 +769,8 @@ def run(args: argparse.Namespace) -> int:
         )
     except ValueError as error:
         fail(f"{args.net}: {error}")
+    if release is not None:
+        _check_released_in_time(args, pattern, release, "--etch-front" if front else "--release")
     # Held for the whole run (the estimates' sweep stores borrow its lock): another run into the
     # folder meanwhile is refused, and so is a folder holding results without --resume (a yield
     # never replaces results).

@@ -8,6 +8,7 @@ verdict and, for targets that are not met, how far off they are and why.
 """
 
 import functools
+import warnings
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any, cast
 
@@ -135,6 +136,17 @@ def response(
     system = (settings.layout if layout is None else layout)(hinge)
     if settings.inputs is None:
         inputs = Step()
+        # A pattern of panels (a net) carries the fluid's inertia in a liquid by default; the
+        # accordion's extended fluid is asked for by name, with the step of the paper's figures.
+        pattern = settings.layout if layout is None else layout
+        if hasattr(pattern, "nominal_release_ramp") and system.mechanism.carries_added_inertia:
+            warnings.warn(
+                "the panels carry the fluid's inertia (a net in a liquid, by default) and are "
+                "released at once: they are flung past their targets. Give the release "
+                "(inputs=Step(ramp=net.nominal_release_ramp(hinge))) or the paper's dynamics "
+                "(net.with_model(added_mass=False, viscous=False)).",
+                stacklevel=3,
+            )
     elif isinstance(settings.inputs, AbstractInput):
         inputs = settings.inputs
     else:

@@ -567,7 +567,7 @@ def yield_ascent(
         "corner_cube", "misfit_strain", film, n_samples=32, design=design,
         settings=ojy.AscentSettings(steps=4, step=1.0, confirm_samples=32),
         process={"misfit_strain": 0.97 * float(design.misfit_strain)},  # a film 3 % too relaxed
-        tolerances=VerdictTolerances(seam=0.05), solve=FOLD_KERNEL_SOLVE.replace(t1=600.0),
+        tolerances=VerdictTolerances(seam=0.05),
     )
     print(ascent.summary())
     ```

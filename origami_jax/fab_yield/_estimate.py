@@ -428,9 +428,8 @@ def yield_estimate(
     ```python
     pattern = load_pattern("corner_cube").with_model(contact="plate")
     estimate = yield_estimate(
-        pattern, Scatter(), 32, seed=1, solve=FOLD_KERNEL_SOLVE.replace(t1=600.0),
-        run=RunOptions(out="yield-out", chunk_size=4),
-    )
+        pattern, Scatter(), 32, seed=1, run=RunOptions(out="yield-out", chunk_size=4)
+    )  # in the KOH bath: the fluid's inertia, released over the quasi-static ramp
     ```
 
     **Arguments** (lengths µm, times µs: the MICRO units):
