@@ -194,7 +194,19 @@ class AbstractPanelPattern(AbstractPattern):
         design = self.default_design() if design is None else design
         if not any(self.fluid_inertia(design)):
             return None
-        return rounded_up(float(_design_ramp(self, design)))
+        # Kept per geometry, model and design (tracing and compiling the system costs seconds for
+        # each net), across the pattern objects that load the same net.
+        g = self.geometry
+        key = (
+            type(self).__name__, float(self.length_scale), g.root,
+            np.asarray(g.vertices_coords).tobytes(), repr(g.faces), np.asarray(g.targets).tobytes(),
+            repr(sorted((n, repr(getattr(self, n))) for n in self.MODEL)),
+            jax.tree_util.tree_structure(design),
+            *(np.asarray(leaf).tobytes() for leaf in jax.tree_util.tree_leaves(design)),
+        )  # fmt: skip
+        if key not in _NOMINAL_RAMPS:
+            _NOMINAL_RAMPS[key] = rounded_up(float(_design_ramp(self, design)))
+        return _NOMINAL_RAMPS[key]
 
     def release_input(self, system=None) -> Step:
         """How the etch releases this pattern's hinges, the input `fold`, `kernel` (so `sweep`
@@ -250,9 +262,15 @@ def _quasi_static_ramp(system):
     return quasi_static_ramp(system)
 
 
+_NOMINAL_RAMPS: dict = {}
+"""`AbstractPanelPattern.nominal_release_ramp`'s values, by geometry, model and design."""
+
+
 @eqx.filter_jit
 def _design_ramp(pattern, design):
-    return quasi_static_ramp(pattern.system(design))
+    # The contact does not change the modes about flat (the panels are apart): left out, it
+    # leaves less to trace.
+    return quasi_static_ramp(pattern.system(design, contact=False))
 
 
 def rounded_up(time: float) -> float:
