@@ -6,7 +6,7 @@ import math
 import time
 from pathlib import Path
 
-from .._limits import AFTER_RELEASE_US
+from .._limits import AFTER_RELEASE_US, default_t_end
 from ._common import (
     EXIT_OK,
     Interrupted,
@@ -170,7 +170,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "--t-end",
         type=float,
         default=None,
-        help="simulated time, µs (default 1500 after the release ramp: --release-ramp)",
+        help="simulated time, µs (default 1500, or past a release ramp (--release-ramp) the "
+        "longer of 1500 and a fifth of the ramp)",
     )
     parser.add_argument(
         "--t-settle",
@@ -346,11 +347,12 @@ def _run_settings(args: argparse.Namespace) -> dict:
 
 def _check_released_in_time(args, pattern, release, flag: str) -> None:
     """A one-line exit where a crease is released at or after the run's end (--t-end, default
-    1500 µs after the release ramp): every sample would be a 0 that says nothing."""
+    `default_t_end`, 1500 µs or a fifth of the release ramp past it): every sample would be a 0
+    that says nothing."""
     t_end = args.t_end
     if t_end is None:
         ramp = pattern.nominal_release_ramp(pattern.default_design(_fluid(args)))
-        t_end = AFTER_RELEASE_US + (ramp or 0.0)
+        t_end = default_t_end(ramp)
     late = [j for j, t in enumerate(release) if t >= t_end]
     if late:
         end = f"--t-end {t_end:g} µs" if args.t_end is not None else f"the run's end, {t_end:g} µs"

@@ -23,7 +23,12 @@ from .._kernel import (
     design_settings,
     replace_fields,
 )
-from .._limits import AFTER_RELEASE_US, CONTACT_SAMPLING, MAX_CONTACT_SAMPLING, MAX_SAMPLES
+from .._limits import (
+    CONTACT_SAMPLING,
+    MAX_CONTACT_SAMPLING,
+    MAX_SAMPLES,
+    default_t_end,
+)
 from ..contact import check_sampling, contact_kind, sampling_pair
 from ..simulation import (
     LEGACY_SEAM_FRACTION,
@@ -52,15 +57,10 @@ NET_GLOBAL_PARAMETERS = {
 }
 
 FOLD_KERNEL_SOLVE = SolveOptions(saveat=SaveAt(n=301), max_steps=200_000, throw=False)
-"""The fold kernel's solve unless given one: to 1500 µs after the release ramp (`t1=None`:
+"""The fold kernel's solve unless given one: to 1500 µs after a step release, a fifth of the ramp
+after a release ramp (`t1=None`:
 `default_t_end`), 301 samples, 200,000 steps, the simulation's tolerances (change one with
 `FOLD_KERNEL_SOLVE.replace(t1=600.0)`)."""
-
-
-def default_t_end(ramp: float | None) -> float:
-    """How long the fold kernel runs unless told (µs): `AFTER_RELEASE_US` (1500 µs) after the
-    release ramp (`ramp`, µs, or `None` for a step release)."""
-    return AFTER_RELEASE_US + (0.0 if ramp is None else ramp)
 
 
 def surface_settings(pattern) -> dict:
@@ -161,7 +161,7 @@ def fold_kernel(
     - `fluid` (`"air"` or `"koh"`, default `"koh"`) or `design`, a whole `HingeDesign` (MICRO
       units) for what is not swept (its fluid included; not both).
     - `solve`: a [`origami_jax.simulation.SolveOptions`][]: its `t1` (µs), `saveat.n`, `rtol`,
-      `atol` and `max_steps` (default `FOLD_KERNEL_SOLVE`: 1500 µs after the release ramp, 301
+      `atol` and `max_steps` (default `FOLD_KERNEL_SOLVE`: `default_t_end`, 1500 µs or a fifth of the release ramp past it, 301
       samples, 200,000 steps);
       its `solver`: explicit Tsit5 unless given (any diffrax solver, or the fixed-step engine
       `ImplicitStep(dt=...)`: every member of a vmapped batch does the same work; recorded in the
@@ -210,7 +210,7 @@ def fold_kernel(
         raise ValueError(
             f"the pattern's release ramp ({ramp:g} µs) lasts to or past t_end ({t_end:g} µs): "
             "no hinge is whole before the end; give a t_end past the ramp and its settling "
-            f"(CLI: --t-end; default the ramp + {AFTER_RELEASE_US:g} µs), or another "
+            f"(CLI: --t-end; default {default_t_end(ramp):g} µs, past it), or another "
             "release_ramp (with_model)."
         )
     n_save = check_setting(solve.saveat.n, "n_save", low=2, integer=True, high=MAX_SAMPLES)

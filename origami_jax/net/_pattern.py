@@ -22,7 +22,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._limits import FOLD_SEGMENT, MAX_FOLD_SEGMENTS
+from .._limits import FOLD_SEGMENT, MAX_FOLD_SEGMENTS, default_t_end
 from .._validate import is_traced
 from ..contact import Adhesion, Friction
 from ..simulation import Step, fold_pattern, quasi_static_ramp
@@ -112,7 +112,7 @@ class AbstractPanelPattern(AbstractPattern):
         """
         ramp = self.release_ramp_for(system) if inputs is None or segment is None else None
         inputs = Step(ramp=ramp) if inputs is None else inputs
-        segment = (0.0 if ramp is None else ramp) + FOLD_SEGMENT if segment is None else segment
+        segment = default_t_end(ramp, FOLD_SEGMENT) if segment is None else segment
         return fold_pattern(
             self, system, inputs, options, t1=t1, bias=bias, tolerances=tolerances,
             segment=segment, max_segments=max_segments, on_continue=on_continue,
@@ -219,11 +219,11 @@ class AbstractPanelPattern(AbstractPattern):
         return Step(ramp=self._ramp(system))
 
     def fold_segment(self, system=None) -> float:
-        """The length of each run `fold` continues by (µs): `FOLD_SEGMENT` (1000 µs), plus the
+        """The length of each run `fold` continues by (µs): `FOLD_SEGMENT` (1000 µs), or past the
         release ramp where there is one (`release_ramp_for(system)`: a run that ends before the
-        hinges' torques are whole would be judged in the middle of the release)."""
-        ramp = self._ramp(system)
-        return (0.0 if ramp is None else ramp) + FOLD_SEGMENT
+        hinges' torques are whole would be judged in the middle of the release) the longer of
+        that and a fifth of the ramp (`default_t_end`)."""
+        return default_t_end(self._ramp(system), FOLD_SEGMENT)
 
     def _ramp(self, system) -> float | None:
         if system is None:
