@@ -5,7 +5,9 @@ Spearman rank correlation with the nets' compactness (`origami_jax.fab_yield.fam
 Configurations (`CONFIGS`), every value inside the ranges of docs/physics.md "Adhesion and
 friction" for the KOH etch bath:
 
-- `control`: point creases, plate contact, no adhesion, no friction (the package's defaults);
+- `control`: point creases, plate contact, no adhesion, no friction, the paper's dynamics in the
+  bath (no fluid inertia, every hinge released at once: the package's defaults until nets in a
+  liquid carried the fluid's inertia);
 - `surface`: the same with adhesion and friction at the top of the bath's documented range (work
   of adhesion 10 mJ/m², seams bonding with ``γ = w t`` for the 0.2 µm panels, friction
   coefficient 0.3): the most the bath's surfaces can do, so that a trend absent here is absent
@@ -14,7 +16,11 @@ friction" for the KOH etch bath:
 - `quasi-static`: the control with the bath's inertia and viscosity on every panel and each hinge
   released over 30 ms (`added_mass`, `viscous`, `release_ramp`): the device's release (an etch
   frees a hinge over minutes) where the control is the paper's step; run to the ramp + 6 ms and
-  settled to twice that (docs/physics.md, "Released as an etch releases").
+  settled to twice that (docs/physics.md, "Released as an etch releases");
+- `bath`: the package's defaults in the bath: the control with the fluid's inertia and viscosity,
+  each net released over its own quasi-static ramp (`release_ramp="auto"`: three periods of its
+  slowest mode, 24–69 ms for the cube nets, where 30 ms is 1.3–3.8 of them), run and settled by
+  the defaults (`default_t_end`, `SETTLE_TIME` after the ramp).
 
 Run: ``python -m benchmarks.compactness_study --config control --samples 8 --out DIR``; then
 ``--table DIR1 DIR2 ...`` prints the Markdown table of the docs from the stored `family.json`
@@ -54,6 +60,7 @@ CONFIGS = {
     "arc": {"hinges": "arc", "surface": False},
     "arc-surface": {"hinges": "arc", "surface": True},
     "quasi-static": {"hinges": "point", "surface": False, "release_ramp_us": 30_000.0},
+    "bath": {"hinges": "point", "surface": False, "release_ramp_us": "auto"},
 }
 # After a release ramp: the run goes on this long for the panels to settle (µs).
 AFTER_RAMP_US = 6000.0
@@ -66,7 +73,9 @@ def configured(name: str, config: str):
         raise ValueError(f"config must be one of {sorted(CONFIGS)}, got {config!r}.")
     choice = CONFIGS[config]
     net = load_net(name).with_model(contact="plate", hinges=choice["hinges"])
-    if "release_ramp_us" in choice:
+    if choice.get("release_ramp_us") == "auto":
+        pass  # the package's defaults: the fluid's inertia in a liquid, the quasi-static ramp
+    elif "release_ramp_us" in choice:
         ramp = choice["release_ramp_us"]
         net = net.with_model(added_mass=True, viscous=True, release_ramp=ramp)
     else:  # the paper's dynamics in the bath: no fluid inertia, released at once
@@ -96,11 +105,13 @@ def describe(config: str) -> dict:
     return {"config": config, **choice}
 
 
-def run_times(config: str, t_end: float | None) -> tuple[float, float]:
+def run_times(config: str, t_end: float | None) -> tuple[float | None, float]:
     """`(t_end, t_settle)` of `config` (µs): the given end time or the configuration's (1500 µs,
     or its release ramp + `AFTER_RAMP_US`), and the yield's settling (`RunOptions.t_settle`,
     counted from the end of the ramp: `SETTLE_TIME`, or after a ramp to twice the end time)."""
     ramp = CONFIGS[config].get("release_ramp_us")
+    if ramp == "auto":
+        return t_end, SETTLE_TIME  # each net's own: `default_t_end` of its ramp
     if t_end is None:
         t_end = default_t_end(None) if ramp is None else ramp + AFTER_RAMP_US
     return t_end, SETTLE_TIME if ramp is None else 2 * t_end - ramp

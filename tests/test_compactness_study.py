@@ -36,7 +36,11 @@ def test_surface_configuration_is_the_top_of_the_koh_range():
     assert describe("control") == {"config": "control", "hinges": "point"}
     with pytest.raises(ValueError, match="config must be one of"):
         configured("cube_net_10", "sticky")
-    assert sorted(CONFIGS) == ["arc", "arc-surface", "control", "quasi-static", "surface"]
+    assert sorted(CONFIGS) == ["arc", "arc-surface", "bath", "control", "quasi-static", "surface"]
+    # `bath`: the package's defaults (each net's own quasi-static ramp, its own run time).
+    bath = configured("cube_net_10", "bath")
+    assert bath.release_ramp == "auto" and bath.added_mass is None
+    assert run_times("bath", None) == (None, SETTLE_TIME)
 
 
 def test_quasi_static_configuration_releases_slowly_in_the_baths_inertia():
