@@ -162,13 +162,9 @@ def test_gauss_newton_and_exact_newton_matrices_fold_a_cube_net_alike():
     the mid-fold difference stays below 0.02 rad)."""
     from origami_jax.system import KOH_SOLUTION, HingeDesign
 
-    net = load_net("cube_net_01")
-    system = net.system(
-        HingeDesign.literature(fluid=KOH_SOLUTION),
-        contact="plate",
-        added_mass=False,
-        viscous=False,
-    )  # fmt: skip  (the paper's dynamics: released at once)
+    # The paper's dynamics in the bath: no fluid inertia, released at once.
+    net = load_net("cube_net_01").with_model(added_mass=False, viscous=False)
+    system = net.system(HingeDesign.literature(fluid=KOH_SOLUTION), contact="plate")
     runs = {}
     for name in ("gauss-newton", "exact"):
         options = sim.SolveOptions(

@@ -117,13 +117,9 @@ def test_a_fold_on_the_working_set_is_the_fold_on_every_pair():
     pairs) and every pair give the same trajectory, and no contact was left out."""
     from origami_jax.system import KOH_SOLUTION, HingeDesign
 
-    net = load_net("cube_net_01")
-    system = net.system(
-        HingeDesign.literature(fluid=KOH_SOLUTION),
-        contact="plate",
-        added_mass=False,
-        viscous=False,
-    )  # fmt: skip  (the paper's dynamics: released at once)
+    # The paper's dynamics in the bath: no fluid inertia, released at once.
+    net = load_net("cube_net_01").with_model(added_mass=False, viscous=False)
+    system = net.system(HingeDesign.literature(fluid=KOH_SOLUTION), contact="plate")
     runs = {}
     for budget in (None, 10_000):
         options = sim.SolveOptions(
