@@ -179,3 +179,20 @@ def test_the_quasi_static_ramp_is_periods_of_the_slowest_hinge_mode():
     assert 5_000.0 < slowest < 30_000.0  # ms in the bath with the fluid's inertia
     with pytest.raises(ValueError, match="periods must be a positive number"):
         sim.quasi_static_ramp(system, periods=0.0)
+
+
+def test_the_yield_command_records_the_samples_physics():
+    # result.json's record of the dynamics and the surfaces, as resolved for the nominal design.
+    from origami_jax.cli._yield import _dynamics_record
+    from origami_jax.contact import Adhesion, Friction
+    from origami_jax.system import AIR, KOH_SOLUTION
+
+    net = load_net("cube_net_01")
+    koh, air = net.default_design(KOH_SOLUTION), net.default_design(AIR)
+    assert _dynamics_record(net, koh) == {"fluid_inertia": True, "release_ramp_us": 40_000.0}
+    assert _dynamics_record(net, air) == {"fluid_inertia": False, "release_ramp_us": None}
+    sticky = net.with_model(
+        adhesion=Adhesion(work=0.01, range=2.0), friction=Friction(coefficient=0.3, slip=0.01)
+    )
+    record = _dynamics_record(sticky, air)
+    assert record["adhesion"]["work"] == 0.01 and record["friction"]["coefficient"] == 0.3

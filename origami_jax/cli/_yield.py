@@ -364,11 +364,15 @@ def _check_released_in_time(args, pattern, release, flag: str) -> None:
 
 
 def _dynamics_record(pattern, design) -> dict:
-    """What result.json records of the samples' dynamics: whether they carry the fluid's inertia
-    and the release ramp (µs, `None`: at once), as resolved for the nominal `design`."""
+    """What result.json records of the samples' physics beyond the contact: whether they carry
+    the fluid's inertia, the release ramp (µs, `None`: at once), as resolved for the nominal
+    `design`, and adhesion and friction where on (their numbers in the design's units)."""
+    from ..net import surface_settings
+
     return {
         "fluid_inertia": any(pattern.fluid_inertia(design)),
         "release_ramp_us": pattern.nominal_release_ramp(design),
+        **surface_settings(pattern),
     }
 
 
