@@ -94,6 +94,10 @@ def test_a_crease_pattern_is_released_at_once():
     design = pattern.default_design(KOH_SOLUTION)
     assert pattern.fluid_inertia(design) == (False, False)
     assert pattern.nominal_release_ramp(design) is None
+    # The paper's dynamics are asked of every pattern alike; the fluid's inertia of nets only.
+    assert pattern.with_model(added_mass=False, viscous=False) is pattern
+    with pytest.raises(ValueError, match="modelled on nets"):
+        pattern.with_model(added_mass=True)
 
 
 @pytest.mark.parametrize("bad", [0.0, -5.0, math.inf, math.nan, True, "100"])

@@ -102,6 +102,8 @@ PATTERN_MODEL = {
     "adhesion": None,
     "friction": None,
     "release_ramp": "auto",
+    "added_mass": False,
+    "viscous": False,
 }
 
 
@@ -125,7 +127,8 @@ class CreasePattern(AbstractPanelPattern):
     plate contact), as `system` documents them; `release_ramp` (`"auto"`, the default, and `None`:
     the paper's step — the fluid's inertia, which calls for a slow release in the bath, is
     modelled on nets only —; a time, µs: each hinge's torque grows over it from its release,
-    `release_input`).
+    `release_input`); `added_mass`, `viscous` (`False`, the only value: the fluid's inertia is
+    modelled on nets; named so that one call asks every pattern for the paper's dynamics).
     """
 
     geometry: LoopGeometry
@@ -141,6 +144,8 @@ class CreasePattern(AbstractPanelPattern):
     adhesion: Adhesion | None = None
     friction: Friction | None = None
     release_ramp: float | str | None = "auto"
+    added_mass: bool = False
+    viscous: bool = False
 
     # ---- the pattern ----
 
@@ -149,6 +154,12 @@ class CreasePattern(AbstractPanelPattern):
     def __post_init__(self):
         check_surface_model(self.adhesion, self.friction)
         check_release_ramp(self.release_ramp)
+        for name in ("added_mass", "viscous"):
+            if getattr(self, name) not in (False, None):
+                raise ValueError(
+                    f"{name}: the fluid's inertia and viscous drag are modelled on nets (trees of "
+                    "panels), not on crease patterns with closed loops; leave it False."
+                )
 
     @property
     def continues_from_angles(self) -> bool:
