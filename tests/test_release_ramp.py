@@ -186,17 +186,17 @@ def test_the_quasi_static_ramp_is_periods_of_the_slowest_hinge_mode():
 
 
 def test_the_yield_command_records_the_samples_physics():
-    # result.json's record of the dynamics and the surfaces, as resolved for the nominal design.
+    # result.json's record of the dynamics and the surfaces: the kernel's settings, as run.
     from origami_jax.cli._yield import _dynamics_record
     from origami_jax.contact import Adhesion, Friction
-    from origami_jax.system import AIR, KOH_SOLUTION
 
     net = load_net("cube_net_01")
-    koh, air = net.default_design(KOH_SOLUTION), net.default_design(AIR)
-    assert _dynamics_record(net, koh) == {"fluid_inertia": True, "release_ramp_us": 40_000.0}
-    assert _dynamics_record(net, air) == {"fluid_inertia": False, "release_ramp_us": None}
+    bath = _dynamics_record(dict(fold_kernel(net).settings))
+    assert bath == {"fluid_inertia": True, "release_ramp_us": 40_000.0}
+    air = _dynamics_record(dict(fold_kernel(net, fluid="air").settings))
+    assert air == {"fluid_inertia": False, "release_ramp_us": None}
     sticky = net.with_model(
         adhesion=Adhesion(work=0.01, range=2.0), friction=Friction(coefficient=0.3, slip=0.01)
     )
-    record = _dynamics_record(sticky, air)
+    record = _dynamics_record(dict(fold_kernel(sticky, fluid="air").settings))
     assert record["adhesion"]["work"] == 0.01 and record["friction"]["coefficient"] == 0.3

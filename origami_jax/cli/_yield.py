@@ -363,16 +363,16 @@ def _check_released_in_time(args, pattern, release, flag: str) -> None:
         )
 
 
-def _dynamics_record(pattern, design) -> dict:
-    """What result.json records of the samples' physics beyond the contact: whether they carry
-    the fluid's inertia, the release ramp (µs, `None`: at once), as resolved for the nominal
-    `design`, and adhesion and friction where on (their numbers in the design's units)."""
-    from ..net import surface_settings
-
+def _dynamics_record(settings: dict) -> dict:
+    """What result.json records of the samples' physics beyond the contact, read from the
+    estimate's kernel settings (what they were run with): whether they carry the fluid's
+    inertia, the release ramp (µs, `None`: at once), and adhesion and friction where on (their
+    numbers in the design's units)."""
+    surfaces = {k: settings[k] for k in ("adhesion", "friction") if k in settings}
     return {
-        "fluid_inertia": any(pattern.fluid_inertia(design)),
-        "release_ramp_us": pattern.nominal_release_ramp(design),
-        **surface_settings(pattern),
+        "fluid_inertia": bool(settings.get("added_mass", False)),
+        "release_ramp_us": settings.get("release_ramp_us"),
+        **surfaces,
     }
 
 
@@ -888,7 +888,7 @@ def _run(
         **choice,
         "contact": args.contact,
         "contact_sampling": list(sampling),
-        **_dynamics_record(pattern, design),
+        **_dynamics_record(json.loads(ds.attrs["settings"])),
         **estimate.to_dict(),
         "compile_s": float(ds.attrs.get("compile_s", 0.0)),
         **(

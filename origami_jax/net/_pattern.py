@@ -268,9 +268,7 @@ _NOMINAL_RAMPS: dict = {}
 
 @eqx.filter_jit
 def _design_ramp(pattern, design):
-    # The contact does not change the modes about flat (the panels are apart): left out, it
-    # leaves less to trace.
-    return quasi_static_ramp(pattern.system(design, contact=False))
+    return quasi_static_ramp(pattern.system(design))
 
 
 def rounded_up(time: float) -> float:
