@@ -200,3 +200,20 @@ def test_the_yield_command_records_the_samples_physics():
     )
     record = _dynamics_record(dict(fold_kernel(sticky, fluid="air").settings))
     assert record["adhesion"]["work"] == 0.01 and record["friction"]["coefficient"] == 0.3
+
+
+def test_design_releases_a_net_in_the_bath_as_its_fold_does():
+    # The fit's candidates share the nominal design's release, as a sweep's members do; a run that
+    # ends within it is refused before anything compiles.
+    import origami_jax.design as ojd
+    from origami_jax.design._design import with_pattern_release
+    from origami_jax.system import AIR, KOH_SOLUTION
+
+    net = load_net("corner_cube")
+    koh = net.default_design(KOH_SOLUTION)
+    settings = ojd.SimulationSettings(8000.0, layout=net)
+    released = with_pattern_release(settings, koh)
+    assert float(released.inputs.ramp) == net.nominal_release_ramp(koh) == 5900.0
+    assert with_pattern_release(settings, net.default_design(AIR)).inputs is None
+    with pytest.raises(ValueError, match="ends within the pattern's release ramp"):
+        with_pattern_release(ojd.SimulationSettings(600.0, layout=net), koh)

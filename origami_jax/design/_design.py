@@ -59,8 +59,9 @@ class SimulationSettings(eqx.Module):
     **Fields:**
     - `layout`: what the design builds (static), an [`origami_jax.system.AbstractLayout`][]; default
       the accordion with `n_flaps` flaps ([`origami_jax.chain.Accordion`][]).
-    - `inputs`: the input (default the step `Step()` to the system's hinge targets, paper Eq. 12), or
-      a function `HingeDesign -> AbstractInput`.
+    - `inputs`: the input (default the step `Step()` to the system's hinge targets, paper Eq. 12;
+      for a pattern that releases its hinges over a ramp, a net in a liquid, `design` gives that
+      release, `with_pattern_release`), or a function `HingeDesign -> AbstractInput`.
     - `options`: the solve, a [`origami_jax.simulation.SolveOptions`][] with its end time `t1` (default
       [`origami_jax.simulation.FIT_OPTIONS`][]: Tsit5, rtol 1e-8, 1201 samples). Rise times, peaks
       and settling must happen well inside `t1`. Its sample count is part of the compiled fit, which
@@ -168,6 +169,28 @@ class _Problem(eqx.Module):
     space: ParameterSpace
     targets: Targets
     settings: SimulationSettings
+
+
+def with_pattern_release(settings: SimulationSettings, hinge: HingeDesign) -> SimulationSettings:
+    """`settings` whose layout is a pattern that releases its hinges over a ramp (a net in a
+    liquid: `nominal_release_ramp(hinge)`, the one ramp of every candidate, as a sweep's) and
+    whose input is the default: with that release as the input, as the pattern's `fold` has it.
+
+    **Raises:** `ValueError` where the run (`options.t1`) ends within the ramp."""
+    nominal = getattr(settings.layout, "nominal_release_ramp", None)
+    if settings.inputs is not None or nominal is None:
+        return settings
+    ramp = nominal(hinge)
+    if ramp is None:
+        return settings
+    t1 = float(settings.options.t1)
+    if t1 <= ramp:
+        raise ValueError(
+            f"the run ({t1:g} time units) ends within the pattern's release ramp ({ramp:g}): "
+            "no hinge is whole before the end; give a longer t1, or the paper's dynamics "
+            "(with_model(added_mass=False, viscous=False, release_ramp=None))."
+        )
+    return eqx.tree_at(lambda s: s.inputs, settings, Step(ramp=ramp), is_leaf=lambda x: x is None)
 
 
 def _all_metrics(metrics) -> Array:
@@ -322,6 +345,7 @@ def design(
         raise ValueError(
             f"targets are for {targets.n_joints} hinges but the system has {settings.n_hinges}."
         )
+    settings = with_pattern_release(settings, hinge)
     if n_starts < 1:
         raise ValueError(f"n_starts must be at least 1, got {n_starts}.")
     space = parameter_space(hinge, free, bounds, pattern=settings.layout)
