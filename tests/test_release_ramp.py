@@ -217,3 +217,18 @@ def test_design_releases_a_net_in_the_bath_as_its_fold_does():
     assert with_pattern_release(settings, net.default_design(AIR)).inputs is None
     with pytest.raises(ValueError, match="ends within the pattern's release ramp"):
         with_pattern_release(ojd.SimulationSettings(600.0, layout=net), koh)
+
+
+def test_fold_continues_past_a_ramp_by_its_settling_only():
+    # The first run is the ramp and its settling (300 + 1000 µs), each continuation the settling
+    # alone (1000 µs), not the ramp again. The second crease, released at 1250 µs, is still moving
+    # at the end of the first run.
+    net = load_net("corner_cube").with_model(contact=False, release_ramp=300.0)
+    system = net.system(release_times=[0.0, 1250.0])
+    calls = []
+    options = sim.SolveOptions(saveat=sim.SaveAt(n=21), throw=False)
+    trajectory, _ = net.fold(
+        system, options=options, max_segments=2, on_continue=lambda *ends: calls.append(ends)
+    )
+    assert calls == [(1300.0, 2300.0)]
+    assert float(trajectory.times[-1]) == 2300.0

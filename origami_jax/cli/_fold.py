@@ -474,7 +474,6 @@ def _run(args, net, system, params, release, sampling, output, unfolded, *, choi
         t1=args.t1,
         bias=args.bias,
         tolerances=tolerances,
-        segment=segment,
         on_continue=still_moving,
         options=with_solver(
             sim.SolveOptions(

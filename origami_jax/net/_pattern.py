@@ -92,8 +92,9 @@ class AbstractPanelPattern(AbstractPattern):
         (`start_state(system, bias=bias)`: a net starts flat) and judge the run (`assess`).
 
         With `t1` (time, the system's units: µs for the default units), one run to `t1`. Without
-        it, runs of `segment` (default `fold_segment(system)`: 1000 µs, after the release ramp
-        when there is one) continued from the last state while the verdict is
+        it, runs of `segment` (default: a first of `fold_segment(system)`, 1000 µs or past a
+        release ramp the longer of that and a fifth of the ramp, then continuations of as long
+        as that first run lasted past the ramp) continued from the last state while the verdict is
         `unfinished` because the panels still move, up to `max_segments` (default 8) in all (a
         cube net in the etch bath closes in ~1.4 ms, one in air rings for much longer, and neither
         needs its end time guessed); a closed-loop pattern's run is one segment (its state is more
@@ -112,10 +113,14 @@ class AbstractPanelPattern(AbstractPattern):
         """
         ramp = self.release_ramp_for(system) if inputs is None or segment is None else None
         inputs = Step(ramp=ramp) if inputs is None else inputs
-        segment = default_t_end(ramp, FOLD_SEGMENT) if segment is None else segment
+        first = None
+        if segment is None:
+            # The ramp and its settling, then the settling alone at a time.
+            first = default_t_end(ramp, FOLD_SEGMENT)
+            segment = first - (0.0 if ramp is None else ramp)
         return fold_pattern(
             self, system, inputs, options, t1=t1, bias=bias, tolerances=tolerances,
-            segment=segment, max_segments=max_segments, on_continue=on_continue,
+            segment=segment, max_segments=max_segments, on_continue=on_continue, first=first,
         )  # fmt: skip
 
     MODEL: ClassVar[Mapping[str, Any]]
@@ -219,10 +224,11 @@ class AbstractPanelPattern(AbstractPattern):
         return Step(ramp=self._ramp(system))
 
     def fold_segment(self, system=None) -> float:
-        """The length of each run `fold` continues by (µs): `FOLD_SEGMENT` (1000 µs), or past the
-        release ramp where there is one (`release_ramp_for(system)`: a run that ends before the
-        hinges' torques are whole would be judged in the middle of the release) the longer of
-        that and a fifth of the ramp (`default_t_end`)."""
+        """The length of `fold`'s first run (µs): `FOLD_SEGMENT` (1000 µs), or past the release
+        ramp where there is one (`release_ramp_for(system)`: a run that ends before the hinges'
+        torques are whole would be judged in the middle of the release) the longer of that and a
+        fifth of the ramp (`default_t_end`); its continuations last as long as it does past the
+        ramp."""
         return default_t_end(self._ramp(system), FOLD_SEGMENT)
 
     def _ramp(self, system) -> float | None:

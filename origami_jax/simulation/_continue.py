@@ -73,6 +73,7 @@ def fold_until_settled(
     theta0=None,
     theta_dot0=None,
     on_continue: Callable[[float, float], None] | None = None,
+    first: float | None = None,
 ) -> tuple[Trajectory, AbstractFoldReport, int]:
     """Simulate `system` under `inputs` for `segment` (time units of the system; default 1000, µs in
     the default units), judge the run with `judge`, and while the verdict is `unfinished` with a
@@ -84,7 +85,10 @@ def fold_until_settled(
     segment (default ``SolveOptions(throw=False)``, so that a failed segment is reported by the
     verdict; its `t1` must be `None`: the segments decide it); `t0`, `theta0`, `theta_dot0` the
     start (defaults: the system's rest); `on_continue(end, next_end)` is called before each
-    continuation (e.g. to print progress).
+    continuation (e.g. to print progress); `first`, the first segment's length where it differs
+    (default `segment`: a release ramp's run is the ramp and its settling, each continuation
+    only the settling; the end time is traced, so the continuations reuse the first's compiled
+    solve).
 
     **Returns:** `(trajectory, report, segments)`: the joined run, its verdict, how many segments
     it took. The verdict is the whole run's (the same `judge` on the joined trajectory).
@@ -92,33 +96,35 @@ def fold_until_settled(
     **Raises:** `ValueError` for a non-positive or non-finite `segment`, `max_segments < 1`, or
     options with a `t1`.
     """
-    if not (np.isfinite(segment) and segment > 0):
-        raise ValueError(f"segment must be a positive, finite time, got {segment}.")
+    first = segment if first is None else first
+    for name, value in (("segment", segment), ("first", first)):
+        if not (np.isfinite(value) and value > 0):
+            raise ValueError(f"{name} must be a positive, finite time, got {value}.")
     if int(max_segments) != max_segments or max_segments < 1:
         raise ValueError(f"max_segments must be a whole number >= 1, got {max_segments}.")
     options = SolveOptions(throw=False) if options is None else options
     if options.t1 is not None:
         raise ValueError("fold_until_settled runs segments: give segment=, not SolveOptions(t1=).")
 
-    def run(start, theta, theta_dot):
+    def run(start, length, theta, theta_dot):
         return simulate(
             system,
             inputs,
             options,
             t0=start,
-            t1=start + segment,
+            t1=start + length,
             theta0=theta,
             theta_dot0=theta_dot,
         )
 
-    trajectory = run(t0, theta0, theta_dot0)
+    trajectory = run(t0, first, theta0, theta_dot0)
     report = judge(trajectory)
     segments = 1
     while report.verdict == "unfinished" and bool(trajectory.succeeded) and segments < max_segments:
         end = float(trajectory.times[-1])
         if on_continue is not None:
             on_continue(end, end + segment)
-        more = run(end, trajectory.theta[-1], trajectory.theta_dot[-1])
+        more = run(end, segment, trajectory.theta[-1], trajectory.theta_dot[-1])
         trajectory = join_trajectories(trajectory, more)
         report = judge(trajectory)
         segments += 1
@@ -137,14 +143,16 @@ def fold_pattern(
     bias: float = 0.0,
     tolerances=None,
     on_continue: Callable[[float, float], None] | None = None,
+    first: float | None = None,
 ) -> tuple[Trajectory, AbstractFoldReport]:
     """The fold of a pattern (`AbstractPattern.fold`): `system` (one `pattern` built) simulated
     from `pattern.start_state(system, bias=bias)` and judged by `pattern.assess`.
 
     With `t1` (time units of the system: µs by default), one run to `t1`. Without it, runs of
     `segment` continued while the verdict is `unfinished` because the panels still move, up to
-    `max_segments` in all (`fold_until_settled`), where the pattern's state is its hinge angles
-    (`pattern.continues_from_angles`); otherwise one segment.
+    `max_segments` in all (`fold_until_settled`; `first`, the first segment's length where it
+    differs), where the pattern's state is its hinge angles (`pattern.continues_from_angles`);
+    otherwise one segment.
 
     **Arguments:** `inputs` (default a step release, `Step()`); `tolerances` (a
     `VerdictTolerances`, for `assess`); `on_continue(end, next_end)`, called before each
@@ -159,7 +167,7 @@ def fold_pattern(
         t1 = options.t1 if t1 is None else t1
         options = options.replace(t1=None)
     if t1 is not None:
-        segment, max_segments = float(t1), 1
+        segment, max_segments, first = float(t1), 1, None
     elif not pattern.continues_from_angles:
         max_segments = 1
     theta0, theta_dot0 = pattern.start_state(system, bias=bias)
@@ -173,5 +181,6 @@ def fold_pattern(
         theta0=theta0,
         theta_dot0=theta_dot0,
         on_continue=on_continue,
+        first=first,
     )
     return trajectory, report
