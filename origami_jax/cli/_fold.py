@@ -470,7 +470,7 @@ def _run(args, net, system, params, release, sampling, output, unfolded, *, choi
     # is not its hinge angles: one segment).
     trajectory, report = net.fold(
         system,
-        net.release_input(system),
+        None,  # the pattern's own release (`release_input`), its ramp computed once there
         t1=args.t1,
         bias=args.bias,
         tolerances=tolerances,

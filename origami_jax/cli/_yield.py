@@ -776,7 +776,9 @@ def run(args: argparse.Namespace) -> int:
     except ValueError as error:
         fail(f"{args.net}: {error}")
     if release is not None:
-        _check_released_in_time(args, pattern, release, "--etch-front" if front else "--release")
+        _check_released_in_time(
+            args, pattern, release, "--etch-front" if front is not None else "--release"
+        )
     # Held for the whole run (the estimates' sweep stores borrow its lock): another run into the
     # folder meanwhile is refused, and so is a folder holding results without --resume (a yield
     # never replaces results).
@@ -877,18 +879,19 @@ def _run(
             )
     elapsed = time.perf_counter() - start
     ds = estimate.dataset
+    settings = json.loads(ds.attrs["settings"])  # the kernel's, as the samples were run
     result = {
         "net": args.net,
         "fluid": args.fluid,
         "release_us": None if release is None else [float(t) for t in release],
         "process": process,
-        "t_end_us": json.loads(ds.attrs["settings"])["t_end_us"],
+        "t_end_us": settings["t_end_us"],
         **({"bias_rad": args.bias} if loops else {}),
         "rtol": args.rtol,
         **choice,
         "contact": args.contact,
         "contact_sampling": list(sampling),
-        **_dynamics_record(json.loads(ds.attrs["settings"])),
+        **_dynamics_record(settings),
         **estimate.to_dict(),
         "compile_s": float(ds.attrs.get("compile_s", 0.0)),
         **(

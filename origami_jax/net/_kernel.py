@@ -57,10 +57,9 @@ NET_GLOBAL_PARAMETERS = {
 }
 
 FOLD_KERNEL_SOLVE = SolveOptions(saveat=SaveAt(n=301), max_steps=200_000, throw=False)
-"""The fold kernel's solve unless given one: to 1500 µs after a step release, a fifth of the ramp
-after a release ramp (`t1=None`:
-`default_t_end`), 301 samples, 200,000 steps, the simulation's tolerances (change one with
-`FOLD_KERNEL_SOLVE.replace(t1=600.0)`)."""
+"""The fold kernel's solve unless given one: `t1=None`, run to `default_t_end` (1500 µs after a
+step release, the longer of that and a fifth of a release ramp past it), 301 samples, 200,000
+steps, the simulation's tolerances (change one with `FOLD_KERNEL_SOLVE.replace(t1=600.0)`)."""
 
 
 def surface_settings(pattern) -> dict:
@@ -161,8 +160,8 @@ def fold_kernel(
     - `fluid` (`"air"` or `"koh"`, default `"koh"`) or `design`, a whole `HingeDesign` (MICRO
       units) for what is not swept (its fluid included; not both).
     - `solve`: a [`origami_jax.simulation.SolveOptions`][]: its `t1` (µs), `saveat.n`, `rtol`,
-      `atol` and `max_steps` (default `FOLD_KERNEL_SOLVE`: `default_t_end`, 1500 µs or a fifth of the release ramp past it, 301
-      samples, 200,000 steps);
+      `atol` and `max_steps` (default `FOLD_KERNEL_SOLVE`: `default_t_end`, 1500 µs or a fifth of
+      the release ramp past it, 301 samples, 200,000 steps);
       its `solver`: explicit Tsit5 unless given (any diffrax solver, or the fixed-step engine
       `ImplicitStep(dt=...)`: every member of a vmapped batch does the same work; recorded in the
       settings); it never throws (a failed member's `result` says so).

@@ -157,7 +157,8 @@ def net_fold(*, net: str = "cube_net_01", **settings: Any) -> Kernel:
       the fluid's inertia and viscosity, default on in the etch bath, off in air),
       `release_ramp` (µs: each hinge released over that time; 0 at once, the paper's step;
       default `"auto"`: quasi-static where the fluid's inertia is on, at once otherwise);
-    - the solve's: `t_end` (µs, default 1500, or a fifth of the release ramp past it: `default_t_end`), `n_save` (301), `rtol`, `atol` (`None`: the
+    - the solve's: `t_end` (µs, default 1500, or a fifth of the release ramp past it:
+      `default_t_end`), `n_save` (301), `rtol`, `atol` (`None`: the
       simulation's), `max_steps` (200,000); `solver` (`"tsit5"`, the default, `"kvaerno5"` or
       `"implicit-step"`: `origami_jax.simulation.named_solver`) with, for `"implicit-step"`, `dt`
       (µs, its fixed step; required, at most `t_end`) and `newton_iterations` (default 6);
