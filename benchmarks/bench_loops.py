@@ -2,7 +2,8 @@
 
 The sheet: `n × n` parallelograms (200 µm sides, 60°) whose hinges are released at ``t = 0`` towards
 Schenk and Guest's folding parameter ``θ = 45°`` (a folded state that closes every loop), literature
-bilayer hinges, KOH solution, no contact (none of the peers has panel contact). Three models of it:
+bilayer hinges, KOH solution with the paper's dynamics (no added fluid inertia: the peers' bodies
+carry none), no contact (none of the peers has panel contact). Three models of it:
 
 - **ours**: `origami_jax.loops` (rigid panels on a spanning tree, vertex-loop closure as constraints,
   Baumgarte, augmented-Lagrangian solve), panel drag, explicit Tsit5 at rtol 1e-6, jitted;
@@ -64,7 +65,9 @@ ANSWER_TOL = 0.02  # rad: MuJoCo's end state against the targets (soft connect c
 def _pattern(n: int):
     pattern = load_pattern(miura_sheet(n, n), name=f"miura_{n}x{n}")
     design = HingeDesign.literature(fluid=KOH_SOLUTION)
-    return pattern, pattern.system(design, contact=False, check_rigid=False)
+    # The paper's dynamics in the bath (the peers' bodies carry no added mass), released at once.
+    paper = {"added_mass": False, "viscous": False}
+    return pattern, pattern.system(design, contact=False, check_rigid=False, **paper)
 
 
 def _solve(system, t1, n_save=51, rtol=1e-6, atol=1e-9):

@@ -252,13 +252,6 @@ def test_bad_hinge_parameters_are_refused_in_one_line(param, message, capsys):
     assert message in err and len(err.strip().splitlines()) == 1 and "Traceback" not in err
 
 
-def test_fluid_inertia_on_a_crease_pattern_is_refused_in_one_line(capsys, tmp_path):
-    argv = ["fold", "vertex_degree6", "--fluid-inertia", "--no-figures", "--out", str(tmp_path)]
-    assert main(argv) == 2
-    err = capsys.readouterr().err
-    assert "--fluid-inertia is modelled on nets" in err and len(err.strip().splitlines()) == 1
-
-
 @pytest.mark.parametrize(
     "argv, message",
     [

@@ -84,20 +84,58 @@ def test_a_fluid_knows_whether_it_is_a_liquid():
     assert jax.jit(lambda d: inertia(d, liquid=True))(1000.0).tolist() == [1.0, 1.0]
 
 
-def test_a_crease_pattern_is_released_at_once():
-    # Closed loops do not carry the fluid's inertia (nets only), so "auto" is the step.
-    from origami_jax.loops import load_pattern
-    from origami_jax.system import KOH_SOLUTION
+def test_a_crease_pattern_carries_the_fluids_inertia_and_is_released_over_its_branchs_mode():
+    """Closed loops of panels in the bath: each panel's added inertia is the strip theory's, as the
+    same panels get in the net of their spanning tree (1e-12: the same numbers), and the automatic
+    ramp is three periods of the slowest mode along the branch the pattern folds on, computed
+    here again with SciPy (the closure's null space and the generalized eigenproblem; 1e-9), no
+    longer than the spanning tree's bound (Rayleigh: the loops can only make it faster)."""
+    import equinox as eqx
+    import jax.numpy as jnp
+    import numpy as np
+    import scipy.linalg
 
-    pattern = load_pattern("miura_3x3")
-    assert pattern.release_ramp == "auto"
-    design = pattern.default_design(KOH_SOLUTION)
-    assert pattern.fluid_inertia(design) == (False, False)
-    assert pattern.nominal_release_ramp(design) is None
-    # The paper's dynamics are asked of every pattern alike; the fluid's inertia of nets only.
-    assert pattern.with_model(added_mass=False, viscous=False) is pattern
-    with pytest.raises(ValueError, match="modelled on nets"):
-        pattern.with_model(added_mass=True)
+    from origami_jax.loops import load_pattern
+    from origami_jax.net._pattern import rounded_up
+    from origami_jax.system import AIR, KOH_SOLUTION
+
+    pattern = load_pattern("vertex_degree4").with_model(contact=False)
+    assert pattern.release_ramp == "auto" and pattern.added_mass is None
+    koh = pattern.default_design(KOH_SOLUTION)
+    assert pattern.fluid_inertia(koh) == (True, True)
+    assert pattern.fluid_inertia(pattern.default_design(AIR)) == (False, False)
+    in_air = pattern.default_design(AIR)
+    assert pattern.with_model(added_mass=True).fluid_inertia(in_air) == (True, False)
+    system = pattern.system(koh)
+    mechanism = system.mechanism
+    assert mechanism.carries_added_inertia
+    # The tree's creases are the pattern's first ones, with their own hinge widths.
+    tree_design = eqx.tree_at(lambda d: d.hinge_width, koh, koh.hinge_width[: mechanism.n_tree])
+    tree_net = pattern.net().with_model(contact=False)
+    np.testing.assert_allclose(
+        mechanism.tree.added_inertias,
+        tree_net.system(tree_design).mechanism.added_inertias,
+        rtol=1e-12,
+        atol=0.0,
+    )
+    # The branch's slowest mode, independently.
+    theta, _ = pattern.start_state(bias=0.01)
+    basis = scipy.linalg.null_space(np.asarray(mechanism.closure_jacobian(jnp.asarray(theta))))
+    mass = np.asarray(mechanism.mass_matrix(jnp.asarray(theta)))
+    stiffness = np.diag(np.asarray(system.hinges.stiffness))
+    slowest = scipy.linalg.eigh(
+        basis.T @ stiffness @ basis, basis.T @ mass @ basis, eigvals_only=True
+    ).min()
+    exact = 3 * 2 * np.pi / np.sqrt(slowest)
+    about = pattern.oscillation_state()
+    np.testing.assert_allclose(float(sim.quasi_static_ramp(system, about=about)), exact, rtol=1e-9)
+    assert pattern.release_ramp_for(system) == rounded_up(exact) == 4000.0
+    assert pattern.nominal_release_ramp(koh) == 4000.0
+    assert float(sim.quasi_static_ramp(system)) >= exact  # the spanning tree's bound
+    # The paper's dynamics, by name: no added inertia, the step.
+    paper = pattern.with_model(added_mass=False, viscous=False)
+    assert not paper.system(koh).mechanism.carries_added_inertia
+    assert paper.nominal_release_ramp(koh) is None
 
 
 @pytest.mark.parametrize("bad", [0.0, -5.0, math.inf, math.nan, True, "100"])

@@ -395,7 +395,7 @@ def add_dynamics_arguments(parser: argparse.ArgumentParser) -> None:
         action=argparse.BooleanOptionalAction,
         default=None,
         help="the fluid's inertia (added mass) and viscous drag on every panel, on top of its "
-        "pressure drag (nets). Default: on in the etch bath (koh), where the fluid's inertia is "
+        "pressure drag. Default: on in the etch bath (koh), where the fluid's inertia is "
         "~250 times a panel's, off in air; --no-fluid-inertia is the paper's model in the bath",
     )
     parser.add_argument(
@@ -410,20 +410,14 @@ def add_dynamics_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def dynamics_model(args: argparse.Namespace, pattern: Any) -> dict:
+def dynamics_model(args: argparse.Namespace) -> dict:
     """The `with_model` options `--fluid-inertia`/`--no-fluid-inertia` and `--release-ramp` ask
-    of `pattern` (`{}` with neither: the defaults), or a one-line exit for a ramp that is not a
-    time >= 0 or the fluid's inertia on a crease pattern with closed loops (modelled on nets
-    only)."""
+    of a pattern (`{}` with neither: the defaults), or a one-line exit for a ramp that is not a
+    time >= 0."""
     options: dict[str, Any] = {}
     inertia = getattr(args, "fluid_inertia", None)
-    if inertia is not None and not pattern.n_loops:
+    if inertia is not None:
         options.update(added_mass=inertia, viscous=inertia)
-    elif inertia:
-        fail(
-            f"{pattern.name}: --fluid-inertia is modelled on nets (trees of panels), not on "
-            "crease patterns with closed loops; drop it."
-        )
     ramp = getattr(args, "release_ramp", None)
     if ramp is not None:
         if not (math.isfinite(ramp) and ramp >= 0):

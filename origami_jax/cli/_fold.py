@@ -399,7 +399,7 @@ def run(args: argparse.Namespace) -> int:
             model["check_rigid"] = not args.no_rigid_check
         layout = {"arc_layout": args.arc_layout} if args.hinges == "arc" and not loops else {}
         net = net.with_model(**model)
-        net = net.with_model(**surface_model(args, net, design), **dynamics_model(args, net))
+        net = net.with_model(**surface_model(args, net, design), **dynamics_model(args))
         system = net.system(design, targets=targets, release_times=release, **layout)
         ramp = net.release_ramp_for(system)
         if args.t1 is not None and ramp is not None and args.t1 <= ramp:

@@ -427,7 +427,7 @@ def _run_family(args: argparse.Namespace, members: list[str], sampling, choice: 
         process = _process(args.process, pattern.n_creases)
         try:
             pattern = pattern.with_model(
-                contact=args.contact, contact_sampling=sampling, **dynamics_model(args, pattern)
+                contact=args.contact, contact_sampling=sampling, **dynamics_model(args)
             )
             surface = surface_model(args, pattern, pattern.default_design(fluid))
             patterns.append(pattern.with_model(**surface))
@@ -768,7 +768,7 @@ def run(args: argparse.Namespace) -> int:
     process = _process(args.process, pattern.n_creases)
     try:
         pattern = pattern.with_model(
-            contact=args.contact, contact_sampling=sampling, **dynamics_model(args, pattern)
+            contact=args.contact, contact_sampling=sampling, **dynamics_model(args)
         )
         pattern = pattern.with_model(
             **surface_model(args, pattern, pattern.default_design(_fluid(args)))

@@ -65,11 +65,15 @@ def fluid_loads(
     """The fluid's inertia and viscous drag on `mechanism`'s panels (module docstring).
 
     **Arguments** (the mechanism's units):
-    - `mechanism`: a `PanelTree` or `StripTree` whose body ``b`` hangs from hinge ``b``.
+    - `mechanism`: a mechanism that carries added inertias (`carries_added_inertia` once given
+      them: a `PanelTree`, a `StripTree`, or the `LoopedPanels` of a crease pattern) whose body
+      ``b`` hangs from hinge ``b`` (a pattern's cut creases, numbered after its `b` bodies' hinges,
+      close loops and carry no body: a panel's frequency is that of its own tree hinge).
     - `unit_added`: each panel's strip-theory added inertia per unit fluid density, body frame,
       `(b, 6, 6)` (`rectangle_added_inertia`, `polygon_added_inertia`).
     - `chord`: each panel's chord across its hinge (length), `(b,)`: the Reynolds number's length.
-    - `stiffness`, `target`: the hinges' ``k`` and fold targets, `(h,)` (the frequencies).
+    - `stiffness`, `target`: the hinges' ``k`` and fold targets, `(h,)`, ``h ≥ b`` (the
+      frequencies).
     - `density`, `viscosity`: the fluid's ``ρ_f`` and ``μ``; `viscosity=None` is an inviscid fluid
       (``Γ = 1``, no viscous drag).
     - `coefficient`: ``C_a`` (the design's `added_mass_coefficient`).
@@ -99,11 +103,12 @@ def fluid_loads(
 
     # M_bb is affine in the added inertia: its own part and the fluid's at Γ = 1 (two mass
     # matrices), then the fixed point on elementwise arithmetic.
-    own = jnp.diagonal(mechanism.mass_matrix(middle))
+    own = jnp.diagonal(mechanism.mass_matrix(middle))[:n]
     fluid = jnp.zeros_like(own)
     if added_mass:
         potential = with_added_inertias(mechanism, scale * unit_added)
-        fluid = jnp.diagonal(potential.mass_matrix(middle)) - own
+        fluid = jnp.diagonal(potential.mass_matrix(middle))[:n] - own
+    stiffness = stiffness[:n]
 
     def frequency_of(real):
         return jnp.sqrt(stiffness / (own + real * fluid))

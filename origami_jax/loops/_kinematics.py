@@ -99,6 +99,17 @@ def close_nearby(directions, index, theta, *, rcond: float = 1e-4, steps: int = 
     return theta
 
 
+def motion_basis(directions, index, theta, *, rcond: float = 1e-6) -> np.ndarray:
+    """An orthonormal basis `(m, d)` of the crease rates that keep every loop closed at `theta`
+    (rad, `(m,)`): the null space of the closure's Jacobian, its singular values below `rcond`
+    of the largest counted as zero (the loops of a Miura-ori are dependent: some are exactly
+    zero; at a state 0.01 rad along a branch the smallest that are not are ~1e-4)."""
+    _, jac = _residual_and_jacobian(jnp.asarray(directions), index, jnp.asarray(theta, float))
+    _, singular, vh = np.linalg.svd(np.asarray(jac))
+    rank = int(np.sum(singular > rcond * singular[0])) if singular.size else 0
+    return vh[rank:].T
+
+
 def max_residual(directions, index, theta) -> float:
     """Largest closure residual over the loops (the rotation angle, rad)."""
     residual = _closure.closure(jnp.asarray(directions), index, jnp.asarray(theta, dtype=float))

@@ -238,6 +238,22 @@ class LoopedPanels(AbstractMechanism):
 
         return poses, twists, wrench_force
 
+    @property
+    def carries_added_inertia(self) -> bool:
+        return self.tree.carries_added_inertia
+
+    def with_added_inertias(self, added: Float[Array, "b 6 6"] | None) -> "LoopedPanels":
+        """The same panels with their added (fluid) inertias replaced, body frames `(b, 6, 6)`
+        (`None`: none): the spanning tree's (the cut creases carry no body)."""
+        return eqx.tree_at(lambda mech: mech.tree, self, self.tree.with_added_inertias(added))
+
+    def without_loops(self, stiffness: Float[Array, " m"]) -> tuple[PanelTree, Float[Array, " t"]]:
+        """The spanning tree with its own hinges' stiffness (the cut creases, their springs and
+        the closure dropped): a looser mechanism whose slowest small oscillation is slower than
+        the pattern's (Rayleigh: a constraint or a spring can only raise the lowest frequency),
+        for `origami_jax.simulation.quasi_static_ramp`."""
+        return self.tree, jnp.asarray(stiffness)[: self.n_tree]
+
     def outlines(self) -> list[np.ndarray]:
         return self.tree.outlines()
 

@@ -52,6 +52,7 @@ from ._pattern import front_release as front_release
 from ._pattern import hinges_within_creases as hinges_within_creases
 from ._pattern import unit_front_direction as unit_front_direction
 from ._pattern import warn_if_hinges_wider_than_creases as warn_if_hinges_wider_than_creases
+from ._pattern import with_fluid_loads as with_fluid_loads
 from ._pattern import with_surface_physics as with_surface_physics
 from ._plate import Plate as Plate
 from ._plate import polygon_plate as polygon_plate

@@ -42,7 +42,7 @@ from ..contact import (
     contact_kind,
     sampling_pair,
 )
-from ..fluid import CombinedDrag, PanelDrag, fluid_loads, polygon_added_inertia
+from ..fluid import PanelDrag
 from ..fold import (
     FoldFile,
     FoldFrame,
@@ -67,15 +67,12 @@ from ._pattern import (
     front_release,
     unit_front_direction,
     warn_if_hinges_wider_than_creases,
+    with_fluid_loads,
     with_surface_physics,
 )
 from ._strip import StripTree, strip_tree
 from ._strips import check_strip_radius, drawn_layout, strip_drawing
 from ._tree import PanelTree, panel_tree
-
-# Compiled (and so kept in the persistent cache): op by op, the frequency's fixed point costs
-# seconds of dispatch each time a system is built outside a trace.
-_fluid_loads = eqx.filter_jit(fluid_loads)
 
 # The physics options of a net (`Net.with_model`) and their defaults: `Net.system`'s.
 NET_MODEL = {
@@ -277,34 +274,6 @@ class Net(AbstractPanelPattern):
             key, lambda: fillet_layout(self.geometry, self.length_scale, radius, angles)
         )
 
-    def fluid_inertia(
-        self,
-        design: HingeDesign | None = None,
-        *,
-        added_mass: bool | None = None,
-        viscous: bool | None = None,
-    ) -> tuple[bool, bool]:
-        """Whether this net's systems in `design`'s fluid carry the fluid's inertia and its viscous
-        drag: `(added_mass, viscous)`, the arguments if given, else the model's (`with_model`),
-        else (`None`, the default) whether the fluid is a liquid (`Fluid.liquid`: the etch bath).
-
-        **Raises:** `ValueError` where the default is asked of a fluid whose liquidity is unknown
-        (built from a traced density without `liquid=`)."""
-        design = default_design(self) if design is None else design
-        resolved = []
-        for name, value in (("added_mass", added_mass), ("viscous", viscous)):
-            value = getattr(self, name) if value is None else value
-            if value is None:
-                if design.fluid.liquid is None:
-                    raise ValueError(
-                        f"{name}: whether {design.fluid.name!r} is a liquid is unknown (its "
-                        "density is traced): give Fluid(..., liquid=...) or "
-                        f"with_model({name}=True/False)."
-                    )
-                value = design.fluid.liquid
-            resolved.append(bool(value))
-        return resolved[0], resolved[1]
-
     def system(
         self,
         design: HingeDesign | None = None,
@@ -432,23 +401,9 @@ class Net(AbstractPanelPattern):
             drag_model = HingeDrag(_hinge_drag(tree, design))
         else:
             raise ValueError(f"drag must be 'panel' or 'hinge', got {drag!r}.")
-        if added_mass or viscous:
-            outlines = tree.outlines()
-            loads = _fluid_loads(
-                tree,
-                jnp.stack([polygon_added_inertia(o) for o in outlines]),
-                jnp.asarray([float(np.ptp(o[:, 1])) for o in outlines]),
-                stiffness,
-                targets,
-                density=design.fluid.density,
-                viscosity=design.fluid.viscosity,
-                coefficient=design.added_mass_coefficient,
-                added_mass=added_mass,
-                viscous=viscous,
-            )
-            tree = loads.mechanism
-            if loads.viscous is not None:
-                drag_model = CombinedDrag((drag_model, loads.viscous))
+        tree, drag_model = with_fluid_loads(
+            tree, drag_model, design, stiffness, targets, added_mass=added_mass, viscous=viscous
+        )
         contact_model = None
         kind = contact_kind(contact)
         check_sampling(kind, contact_sampling)

@@ -25,6 +25,7 @@ import numpy as np
 from .._limits import FOLD_SEGMENT, MAX_FOLD_SEGMENTS, default_t_end
 from .._validate import is_traced
 from ..contact import Adhesion, Friction
+from ..fluid import CombinedDrag, fluid_loads, polygon_added_inertia
 from ..simulation import Step, fold_pattern, quasi_static_ramp
 from ..system import AbstractPattern, HingeDesign, check_known_names
 from ._kernel import fold_kernel
@@ -168,12 +169,39 @@ class AbstractPanelPattern(AbstractPattern):
         key = ("model", repr(sorted(values.items())))
         return self.host_cache.get(key, lambda: dataclasses.replace(self, **values))
 
-    def fluid_inertia(self, design: HingeDesign | None = None, **given) -> tuple[bool, bool]:
-        """Whether this pattern's systems carry the fluid's inertia and viscous drag,
-        `(added_mass, viscous)`: a pattern with closed loops does not model them (a net does,
-        `Net.fluid_inertia`)."""
-        del design, given
-        return False, False
+    def fluid_inertia(
+        self,
+        design: HingeDesign | None = None,
+        *,
+        added_mass: bool | None = None,
+        viscous: bool | None = None,
+    ) -> tuple[bool, bool]:
+        """Whether this pattern's systems in `design`'s fluid carry the fluid's inertia and its viscous
+        drag: `(added_mass, viscous)`, the arguments if given, else the model's (`with_model`),
+        else (`None`, the default) whether the fluid is a liquid (`Fluid.liquid`: the etch bath).
+
+        **Raises:** `ValueError` where the default is asked of a fluid whose liquidity is unknown
+        (built from a traced density without `liquid=`)."""
+        design = self.default_design() if design is None else design
+        resolved = []
+        for name, value in (("added_mass", added_mass), ("viscous", viscous)):
+            value = getattr(self, name) if value is None else value
+            if value is None:
+                if design.fluid.liquid is None:
+                    raise ValueError(
+                        f"{name}: whether {design.fluid.name!r} is a liquid is unknown (its "
+                        "density is traced): give Fluid(..., liquid=...) or "
+                        f"with_model({name}=True/False)."
+                    )
+                value = design.fluid.liquid
+            resolved.append(bool(value))
+        return resolved[0], resolved[1]
+
+    def oscillation_state(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """Where the quasi-static ramp linearises this pattern's motion
+        (`origami_jax.simulation.quasi_static_ramp`'s `about`): `None` (the flat state, every
+        crease free), which a pattern with closed loops overrides."""
+        return None
 
     def release_ramp_for(self, system) -> float | None:
         """The release ramp (time units of `system`, µs by default) this pattern's `system` (one
@@ -187,7 +215,7 @@ class AbstractPanelPattern(AbstractPattern):
             return None if ramp is None else float(ramp)
         if not system.mechanism.carries_added_inertia:
             return None
-        return quasi_static_release(system)
+        return quasi_static_release(system, self.oscillation_state())
 
     def nominal_release_ramp(self, design: HingeDesign | None = None) -> float | None:
         """`release_ramp_for` the system of `design` (default `default_design()`): the one ramp a
@@ -202,15 +230,17 @@ class AbstractPanelPattern(AbstractPattern):
         # Kept per geometry, model and design (tracing and compiling the system costs seconds for
         # each net), across the pattern objects that load the same net.
         g = self.geometry
+        root = getattr(g, "tree", g).root  # a crease pattern's spanning tree holds its base
         key = (
-            type(self).__name__, float(self.length_scale), g.root,
+            type(self).__name__, float(self.length_scale), root,
             np.asarray(g.vertices_coords).tobytes(), repr(g.faces), np.asarray(g.targets).tobytes(),
             repr(sorted((n, repr(getattr(self, n))) for n in self.MODEL)),
             jax.tree_util.tree_structure(design),
             *(np.asarray(leaf).tobytes() for leaf in jax.tree_util.tree_leaves(design)),
         )  # fmt: skip
         if key not in _NOMINAL_RAMPS:
-            _NOMINAL_RAMPS[key] = rounded_up(float(_design_ramp(self, design)))
+            about = self.oscillation_state()
+            _NOMINAL_RAMPS[key] = rounded_up(float(_design_ramp(self, design, about)))
         return _NOMINAL_RAMPS[key]
 
     def release_input(self, system=None) -> Step:
@@ -252,6 +282,40 @@ class AbstractPanelPattern(AbstractPattern):
         return fold_kernel(self, **settings)
 
 
+# Compiled (and so kept in the persistent cache): op by op, the frequency's fixed point costs
+# seconds of dispatch each time a system is built outside a trace.
+_fluid_loads = eqx.filter_jit(fluid_loads)
+
+
+def with_fluid_loads(
+    mechanism, drag_model, design: HingeDesign, stiffness, targets, *, added_mass, viscous
+):
+    """`(mechanism, drag_model)` with the fluid's inertia on every panel and its viscous drag added
+    to `drag_model` (`origami_jax.fluid.fluid_loads`: strip theory across each panel's chord, the
+    fluid and added-mass coefficient of `design`); unchanged where neither is asked. `mechanism`:
+    a panel tree, a strip tree or closed loops of panels; `stiffness`, `targets`: its hinges'."""
+    if not (added_mass or viscous):
+        return mechanism, drag_model
+    outlines = mechanism.outlines()
+    loads = _fluid_loads(
+        mechanism,
+        jnp.stack([polygon_added_inertia(o) for o in outlines]),
+        # Each body's chord across its hinge: its extent along the body frame's y (the hinge
+        # lies along x).
+        jnp.asarray([float(np.ptp(o[:, 1])) for o in outlines]),
+        stiffness,
+        targets,
+        density=design.fluid.density,
+        viscosity=design.fluid.viscosity,
+        coefficient=design.added_mass_coefficient,
+        added_mass=added_mass,
+        viscous=viscous,
+    )
+    if loads.viscous is not None:
+        drag_model = CombinedDrag((drag_model, loads.viscous))
+    return loads.mechanism, drag_model
+
+
 def check_surface_model(adhesion, friction) -> None:
     """One-line errors for a pattern's `adhesion` and `friction` options (each `None` or the
     `origami_jax.contact` class of that name), before anything is built."""
@@ -264,8 +328,8 @@ def check_surface_model(adhesion, friction) -> None:
 
 
 @eqx.filter_jit
-def _quasi_static_ramp(system):
-    return quasi_static_ramp(system)
+def _quasi_static_ramp(system, about):
+    return quasi_static_ramp(system, about=about)
 
 
 _NOMINAL_RAMPS: dict = {}
@@ -273,8 +337,8 @@ _NOMINAL_RAMPS: dict = {}
 
 
 @eqx.filter_jit
-def _design_ramp(pattern, design):
-    return quasi_static_ramp(pattern.system(design))
+def _design_ramp(pattern, design, about):
+    return quasi_static_ramp(pattern.system(design), about=about)
 
 
 def rounded_up(time: float) -> float:
@@ -283,12 +347,13 @@ def rounded_up(time: float) -> float:
     return math.ceil(time / unit * (1 - 1e-12)) * unit
 
 
-def quasi_static_release(system) -> float:
-    """The ramp an `"auto"` release gives `system` (time units): `quasi_static_ramp(system)`
-    (three periods of its hinges' slowest mode about flat) rounded up to two significant figures,
-    so that the release recorded with a run reads as a number a person would choose (40 ms for
-    a 200 µm cube net in KOH)."""
-    return rounded_up(float(_quasi_static_ramp(system)))
+def quasi_static_release(system, about=None) -> float:
+    """The ramp an `"auto"` release gives `system` (time units): `quasi_static_ramp(system,
+    about=about)` (three periods of its hinges' slowest mode about flat, or about the state and
+    in the motions `about` gives: `AbstractPanelPattern.oscillation_state`) rounded up to two
+    significant figures, so that the release recorded with a run reads as a number a person
+    would choose (40 ms for a 200 µm cube net in KOH)."""
+    return rounded_up(float(_quasi_static_ramp(system, about)))
 
 
 def check_release_ramp(release_ramp) -> None:

@@ -289,10 +289,15 @@ class UserTorque(AbstractInput):
         return self.jumps
 
 
-def quasi_static_ramp(system: FoldingSystem, *, periods: float = 3.0) -> Float[Array, ""]:
+def quasi_static_ramp(
+    system: FoldingSystem,
+    *,
+    periods: float = 3.0,
+    about: tuple[Float[ArrayLike, " n"], Float[ArrayLike, "n d"]] | None = None,
+) -> Float[Array, ""]:
     """A release ramp long enough to release `system`'s hinges quasi-statically (`Step(ramp=...)`,
     a pattern's `release_ramp`): `periods` (default 3) times the longest period of its hinges'
-    small oscillations about the flat state, time units.
+    small oscillations about the flat state (or `about`), time units.
 
     The period is that of the slowest mode of ``M q̈ + K q = 0`` at ``q = 0``: ``M`` the mass
     matrix (the fluid's added inertia included where the system has it, as it should: it is what
@@ -301,24 +306,37 @@ def quasi_static_ramp(system: FoldingSystem, *, periods: float = 3.0) -> Float[A
     are 40 ms, past the 30 ms that already releases it quasi-statically (the same verdicts as
     60 ms on 198 of 200 scattered samples; docs: "Released as an etch releases").
 
-    **Raises:** `ValueError` for a mechanism whose coordinates are not its hinge angles (closed
-    loops) or a `periods` that is not positive.
+    Panels that close loops (a crease pattern) move only along their loops' branches, and the
+    flat state, where the branches meet, allows more motions than any branch does. `about`
+    `= (q, basis)` linearises about a state `q` on a branch, `(n,)`, in the motions it allows
+    there, the columns of `basis`, `(n, d)` (the closure's null space: ``Nᵀ M N`` and
+    ``Nᵀ K N``; `origami_jax.loops.CreasePattern.oscillation_state` gives both). Without it,
+    such panels get the slowest mode of their spanning tree with its own hinges
+    (`AbstractMechanism.without_loops`): the loops' constraints and the cut creases' springs
+    can only make the pattern's slowest mode faster, so that ramp errs long (1.3–4 times the
+    branch's on the catalogue's crease patterns).
+
+    **Raises:** `ValueError` for a mechanism with no mechanism of hinge angles to bound it, or a
+    `periods` that is not positive.
     """
     if not (isinstance(periods, int | float) and periods > 0):
         raise ValueError(f"periods must be a positive number, got {periods!r}.")
-    mechanism = system.mechanism
-    if not mechanism.coordinates_are_hinge_angles:
-        raise ValueError(
-            "quasi_static_ramp takes mechanisms whose coordinates are their hinge angles (chains, "
-            "trees of panels), not closed loops."
-        )
-    flat = jnp.zeros(mechanism.n_hinges, dtype=float)
+    if about is None:
+        mechanism, hinge_stiffness = system.mechanism.without_loops(system.hinges.stiffness)
+        state = jnp.zeros(mechanism.n_hinges, dtype=float)
+        basis = None
+    else:
+        mechanism, hinge_stiffness = system.mechanism, system.hinges.stiffness
+        state, basis = (jnp.asarray(x, dtype=float) for x in about)
 
     def spring_force(q):
-        return mechanism.hinge_force(q, -system.hinges.stiffness * mechanism.hinge_angles(q))
+        return mechanism.hinge_force(q, -hinge_stiffness * mechanism.hinge_angles(q))
 
-    stiffness = -jax.jacfwd(spring_force)(flat)
-    lower = jnp.linalg.cholesky(mechanism.mass_matrix(flat))
+    stiffness = -jax.jacfwd(spring_force)(state)
+    mass = mechanism.mass_matrix(state)
+    if basis is not None:
+        stiffness, mass = (basis.T @ x @ basis for x in (stiffness, mass))
+    lower = jnp.linalg.cholesky(mass)
     # M⁻½ K M⁻ᵀᐟ² through the Cholesky factor: its eigenvalues are the modes' ω².
     scaled = jax.scipy.linalg.solve_triangular(
         lower, jax.scipy.linalg.solve_triangular(lower, stiffness, lower=True).T, lower=True

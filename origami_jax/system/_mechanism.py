@@ -250,6 +250,23 @@ class AbstractMechanism(eqx.Module):
             "'paper'."
         )
 
+    def without_loops(
+        self, stiffness: Float[Array, " h"]
+    ) -> tuple["AbstractMechanism", Float[Array, " k"]]:
+        """A mechanism whose coordinates are its hinge angles, with its hinges' stiffness
+        (`stiffness`, one per hinge of this one), whose slowest small oscillation about flat is no
+        faster than this one's: itself where its coordinates are already its hinge angles; closed
+        loops cut open (`origami_jax.loops.LoopedPanels`). For
+        `origami_jax.simulation.quasi_static_ramp`.
+
+        **Raises:** `ValueError` where the mechanism has no such loosening."""
+        if not self.coordinates_are_hinge_angles:
+            raise ValueError(
+                f"{type(self).__name__}: its coordinates are not its hinge angles and it has no "
+                "mechanism of hinge angles to bound its slowest oscillation."
+            )
+        return self, stiffness
+
     def panel_polygons(self, q: Float[ArrayLike, " nq"]) -> list[np.ndarray]:
         """World-frame outline of every moving body at ``q`` (host arrays), for plotting and export."""
         poses = np.asarray(self.body_poses(jnp.asarray(q)))
