@@ -21,6 +21,7 @@ from .helpers import run_python
 
 _RUN = """
     import hashlib, json, sys
+    import diffrax
     import jax
     jax.config.update("jax_enable_x64", True)
     import numpy as np
@@ -33,23 +34,43 @@ _RUN = """
 
     folder = sys.argv[1]
     origami_jax.enable_compilation_cache(folder)
-    traced = []
-    solve = _simulate._solve_until_stiff
-    _simulate._solve_until_stiff = lambda *a: traced.append(1) or solve(*a)
+    traced = {"solve_until_stiff": [], "solve": []}
+    for name in traced:  # the functions the exports trace (their jitted fallbacks are the originals)
+        function = getattr(_simulate, "_" + name)
+        setattr(_simulate, "_" + name, lambda *a, f=function, n=name: traced[n].append(1) or f(*a))
+    from origami_jax.net import _pattern, load_net
+    from origami_jax.system import KOH_SOLUTION
+    loads = _pattern._fluid_loads
+    _pattern._fluid_loads = lambda *a: traced["fluid_loads"].append(1) or loads(*a)
+    traced["fluid_loads"] = []
+    net = load_net("corner_cube").with_model(contact=False)
+    inertia = lambda: np.asarray(net.system(net.default_design(KOH_SOLUTION)).mechanism.added_inertias)  # noqa
     system = accordion_system(HingeDesign.literature(), 1)
-    run = lambda: sim.simulate(system, sim.Step(), sim.SolveOptions(saveat=sim.SaveAt(n=101), throw=False), t1=300.0)  # noqa
-    plain = run()  # the ordinary jitted solve
-    traced.clear()
+    solvers = {"solve_until_stiff": None, "solve": diffrax.Tsit5()}  # the default and a named one
+    def run(solver):
+        options = sim.SolveOptions(saveat=sim.SaveAt(n=101), throw=False, solver=solver)
+        return sim.simulate(system, sim.Step(), options, t1=300.0)
+    plain = {name: run(solver) for name, solver in solvers.items()}  # ordinary jitted solves
+    plain_inertia = inertia()
+    for calls in traced.values():
+        calls.clear()
     _exported.enable_exported_programs(folder + "/exported")
-    ours = run()
+    ours = {name: run(solver) for name, solver in solvers.items()}
+    ours_inertia = inertia()
     digest = lambda t: hashlib.sha256(np.asarray(t.theta).tobytes()).hexdigest()  # noqa
     print(json.dumps({
-        "traced": len(traced),
-        "plain": digest(plain),
-        "ours": digest(ours),
-        "steps": [int(plain.stats["num_steps"]), int(ours.stats["num_steps"])],
-        "succeeded": bool(ours.succeeded),
-    }))
+        name: {
+            "traced": len(traced[name]),
+            "plain": digest(plain[name]),
+            "ours": digest(ours[name]),
+            "steps": [int(plain[name].stats["num_steps"]), int(ours[name].stats["num_steps"])],
+            "succeeded": bool(ours[name].succeeded),
+        }
+        for name in solvers
+    } | {"fluid_loads": {
+        "traced": len(traced["fluid_loads"]),
+        "same": bool(np.array_equal(plain_inertia, ours_inertia)),
+    }}))
 """
 
 
@@ -59,23 +80,34 @@ def _process(folder) -> dict:
     return run_python(_RUN, env, str(folder))
 
 
-@pytest.mark.slow  # two Python processes, one exporting and one loading a solve: ~20 s
+@pytest.mark.slow  # three Python processes, each exporting or loading two solves: ~40 s
 def test_a_later_process_runs_the_exported_solve_without_tracing_it(tmp_path):
+    """The default solver's explicit phase (`solve_until_stiff`), a named solver's whole solve
+    (`solve`: the command line's Tsit5) and a net's fluid loads alike."""
     first = _process(tmp_path)  # traces, exports, writes
-    files = sorted((tmp_path / "exported").glob("solve_until_stiff-*.bin"))
-    assert len(files) == 1 and first["traced"] == 1
-    assert first["ours"] == first["plain"] and first["succeeded"]
+    fluid = first.pop("fluid_loads")  # a net's fluid loads in the bath: one more program
+    assert fluid["traced"] == 1 and fluid["same"]
+    for name, run in first.items():
+        files = sorted((tmp_path / "exported").glob(f"{name}-*.bin"))
+        assert len(files) == 1 and run["traced"] == 1, name
+        assert run["ours"] == run["plain"] and run["succeeded"], name
+    files = sorted((tmp_path / "exported").glob("*.bin"))
+    assert len(files) == 3
 
-    later = _process(tmp_path)  # loads the program: no trace of the solve, the same samples
-    assert later["traced"] == 0
-    assert later["ours"] == later["plain"] == first["plain"]
-    assert later["steps"][0] == later["steps"][1]
+    later = _process(tmp_path)  # loads the programs: no trace of the solves, the same samples
+    fluid = later.pop("fluid_loads")
+    assert fluid["traced"] == 0 and fluid["same"]
+    for name, run in later.items():
+        assert run["traced"] == 0, name
+        assert run["ours"] == run["plain"] == first[name]["plain"], name
+        assert run["steps"][0] == run["steps"][1], name
     assert sorted((tmp_path / "exported").glob("*.bin")) == files
 
-    files[0].write_bytes(b"not a program")  # a damaged entry is traced again and replaced
-    repaired = _process(tmp_path)
-    assert repaired["traced"] == 1 and repaired["ours"] == first["plain"]
-    assert files[0].read_bytes() != b"not a program"
+    damaged = next((tmp_path / "exported").glob("solve_until_stiff-*.bin"))
+    damaged.write_bytes(b"not a program")  # a damaged entry is traced again and replaced
+    repaired = _process(tmp_path)["solve_until_stiff"]
+    assert repaired["traced"] == 1 and repaired["ours"] == first["solve_until_stiff"]["plain"]
+    assert damaged.read_bytes() != b"not a program"
 
 
 def _torque(t, theta, theta_dot):  # a user's function: its code is not part of any key

@@ -22,6 +22,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .._exported import exported_call
 from .._limits import FOLD_SEGMENT, MAX_FOLD_SEGMENTS, default_t_end
 from .._validate import is_traced
 from ..contact import Adhesion, Friction
@@ -282,9 +283,20 @@ class AbstractPanelPattern(AbstractPattern):
         return fold_kernel(self, **settings)
 
 
+def _fluid_loads(mechanism, unit_added, chord, stiffness, targets, numbers, parts):
+    density, viscosity, coefficient = numbers
+    added_mass, viscous = parts
+    return fluid_loads(
+        mechanism, unit_added, chord, stiffness, targets, density=density, viscosity=viscosity,
+        coefficient=coefficient, added_mass=added_mass, viscous=viscous,
+    )  # fmt: skip
+
+
 # Compiled (and so kept in the persistent cache): op by op, the frequency's fixed point costs
-# seconds of dispatch each time a system is built outside a trace.
-_fluid_loads = eqx.filter_jit(fluid_loads)
+# seconds of dispatch each time a system is built outside a trace; outside one, its traced program
+# comes from disk where the command line keeps them (`exported_call`: tracing it cost a warm
+# `origami-jax fold` ~1 s).
+_fluid_loads_jit = eqx.filter_jit(_fluid_loads)
 
 
 def with_fluid_loads(
@@ -297,7 +309,7 @@ def with_fluid_loads(
     if not (added_mass or viscous):
         return mechanism, drag_model
     outlines = mechanism.outlines()
-    loads = _fluid_loads(
+    arguments = (
         mechanism,
         jnp.stack([polygon_added_inertia(o) for o in outlines]),
         # Each body's chord across its hinge: its extent along the body frame's y (the hinge
@@ -305,12 +317,13 @@ def with_fluid_loads(
         jnp.asarray([float(np.ptp(o[:, 1])) for o in outlines]),
         stiffness,
         targets,
-        density=design.fluid.density,
-        viscosity=design.fluid.viscosity,
-        coefficient=design.added_mass_coefficient,
-        added_mass=added_mass,
-        viscous=viscous,
+        (design.fluid.density, design.fluid.viscosity, design.added_mass_coefficient),
+        (bool(added_mass), bool(viscous)),
     )
+    if is_traced(arguments):
+        loads = _fluid_loads_jit(*arguments)
+    else:
+        loads = exported_call("fluid_loads", _fluid_loads, _fluid_loads_jit, *arguments)
     if loads.viscous is not None:
         drag_model = CombinedDrag((drag_model, loads.viscous))
     return loads.mechanism, drag_model

@@ -7,6 +7,7 @@ system's mechanism (hinge angles and rates for chains and trees); units are the 
 """
 
 import dataclasses
+import functools
 from typing import cast
 
 import diffrax
@@ -966,6 +967,10 @@ def simulate(
         solve = _solve_lazily
     elif explicit_only:
         solve = _solve_explicit_phase
+    elif pad:
+        # A top-level call with a named solver (the command line's Tsit5): its traced program
+        # from disk where it was exported before, as the default solver's explicit phase.
+        solve = functools.partial(exported_call, "solve", _solve, _solve_jit)
     else:
         solve = _solve_jit
     try:
