@@ -276,10 +276,17 @@ class _Compilations:
 
 @pytest.fixture(scope="module")
 def compilations():
+    from origami_jax import _exported
+
+    # Library semantics: a command run in this process earlier (`main`) turned exported programs
+    # on, and a named solver's solve would then be the exported one, not `_solve_jit`'s.
+    folder = _exported._FOLDER
+    _exported.enable_exported_programs(None)
     counter = _Compilations()
     jax.monitoring.register_event_duration_secs_listener(counter)
     yield counter
     jax.monitoring.unregister_event_duration_listener(counter)
+    _exported._FOLDER = folder
 
 
 class Push(eqx.Module):
