@@ -186,7 +186,8 @@ def compare_unfolding(
     docstring), in one call.
 
     **Arguments:** `vertex`: a closed `SingleVertex` in its folded state (default the corner cube);
-    `design`: the hinges, films and fluid (default `HingeDesign.literature()` in KOH solution);
+    `design`: the hinges, films and fluid (default `HingeDesign.literature()` in KOH solution;
+    the paper's dynamics: the fluid's drag on the panels, not its added inertia);
     `options`: the runs' [`origami_jax.simulation.SolveOptions`][] (default
     `UNFOLDING_OPTIONS`: explicit Tsit5, 401 samples, rtol 1e-8; its `t1`, the end of the runs,
     default ``3 × duration``); `duration`: time over which the driven hinges follow the path (µs);
@@ -214,7 +215,9 @@ def compare_unfolding(
     result = unfold(vertex, energy=energy)
     unfolding = np.asarray(result.fold_angles, dtype=float)[::-1]
     progress = _progress(unfolding, final)
-    system = pattern.system(design, contact=False)
+    # The paper's dynamics (no added fluid inertia): the path is followed over `duration`, the
+    # paper's time scale; carrying the bath's inertia, the panels would need milliseconds.
+    system = pattern.system(design, contact=False, added_mass=False, viscous=False)
     sectors = np.asarray(vertex.sector_angles, dtype=float)
 
     def certify(angles):
