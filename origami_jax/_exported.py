@@ -14,9 +14,12 @@ function, say) makes `exported_call` trace as usual. Programs that call back int
 meters, `equinox.error_if` unless ``EQX_ON_ERROR=nan``) cannot be exported and are traced as usual.
 
 Off unless `enable_exported_programs` was called: the command line does it, in the compilation
-cache's folder (``exported/``); library users keep plain `jit` semantics. Used for the default
-solver's explicit phase (`origami_jax.simulation.simulate` called outside any transformation), the
-program a warm command would otherwise spend most of its own time tracing.
+cache's folder (``exported/``); library users keep plain `jit` semantics. Used for the solve
+(`origami_jax.simulation.simulate` called outside any transformation: the default solver's
+explicit phase, or a named solver's whole solve), the program a warm command would otherwise spend
+most of its own time tracing, and through `exported_jit` for the smaller programs a command runs
+once each (a net's fluid loads, the verdict, its seam tolerances, the contact's defaults and the
+points where panels touch).
 """
 
 from __future__ import annotations
@@ -232,3 +235,25 @@ def exported_call(name: str, fn, jitted, *args) -> Any:
         constants[i] if i in constants else next(arrays) for i in range(out_tree.num_leaves)
     ]
     return jax.tree.unflatten(out_tree, out_leaves)
+
+
+def exported_jit(name: str):
+    """A decorator: the function `equinox.filter_jit`-compiled, and called outside any trace through
+    `exported_call` under `name` (its traced program read from disk where the command line keeps
+    them); inside a trace (`jit`, `vmap`, `grad`) it is the compiled function, traced inline."""
+    import equinox as eqx
+
+    from ._validate import is_traced
+
+    def decorate(fn):
+        jitted = eqx.filter_jit(fn)
+
+        @functools.wraps(fn)
+        def call(*args):
+            if is_traced(args):
+                return jitted(*args)
+            return exported_call(name, fn, jitted, *args)
+
+        return call
+
+    return decorate

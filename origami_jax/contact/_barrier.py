@@ -7,6 +7,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
+from .._exported import exported_jit
 from .._validate import is_traced
 
 # The contact's damping ratio at half its activation gap (`with_default_damping`): enough to take a
@@ -136,7 +137,7 @@ def _rest_poses(mechanism):
     return mechanism.body_poses(mechanism.rest_state()[0])
 
 
-@eqx.filter_jit
+@exported_jit("rest_inertia")
 def _rest_inertia(mechanism):
     return jnp.diag(mechanism.mass_matrix(mechanism.rest_state()[0]))
 

@@ -69,6 +69,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
+from .._exported import exported_jit
 from .._validate import is_traced
 from ..system import AbstractContact, AbstractMechanism
 from ._barrier import (
@@ -518,6 +519,6 @@ def contact_points(
     return frames.astype(np.int64), points[frames, a, b], np.stack([a, b], axis=1).astype(np.int64)
 
 
-@eqx.filter_jit
+@exported_jit("engaged_points")
 def _engaged_over_states(contact, mechanism, q):
     return jax.vmap(lambda x: contact.engaged_points(mechanism, x))(q)

@@ -22,7 +22,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._exported import exported_call
+from .._exported import exported_jit
 from .._limits import FOLD_SEGMENT, MAX_FOLD_SEGMENTS, default_t_end
 from .._validate import is_traced
 from ..contact import Adhesion, Friction
@@ -283,6 +283,10 @@ class AbstractPanelPattern(AbstractPattern):
         return fold_kernel(self, **settings)
 
 
+# Compiled (and so kept in the persistent cache): op by op, the frequency's fixed point costs
+# seconds of dispatch each time a system is built outside a trace; outside one, its traced program
+# comes from disk where the command line keeps them (tracing it cost a warm `origami-jax fold` ~1 s).
+@exported_jit("fluid_loads")
 def _fluid_loads(mechanism, unit_added, chord, stiffness, targets, numbers, parts):
     density, viscosity, coefficient = numbers
     added_mass, viscous = parts
@@ -290,13 +294,6 @@ def _fluid_loads(mechanism, unit_added, chord, stiffness, targets, numbers, part
         mechanism, unit_added, chord, stiffness, targets, density=density, viscosity=viscosity,
         coefficient=coefficient, added_mass=added_mass, viscous=viscous,
     )  # fmt: skip
-
-
-# Compiled (and so kept in the persistent cache): op by op, the frequency's fixed point costs
-# seconds of dispatch each time a system is built outside a trace; outside one, its traced program
-# comes from disk where the command line keeps them (`exported_call`: tracing it cost a warm
-# `origami-jax fold` ~1 s).
-_fluid_loads_jit = eqx.filter_jit(_fluid_loads)
 
 
 def with_fluid_loads(
@@ -320,10 +317,7 @@ def with_fluid_loads(
         (design.fluid.density, design.fluid.viscosity, design.added_mass_coefficient),
         (bool(added_mass), bool(viscous)),
     )
-    if is_traced(arguments):
-        loads = _fluid_loads_jit(*arguments)
-    else:
-        loads = exported_call("fluid_loads", _fluid_loads, _fluid_loads_jit, *arguments)
+    loads = _fluid_loads(*arguments)
     if loads.viscous is not None:
         drag_model = CombinedDrag((drag_model, loads.viscous))
     return loads.mechanism, drag_model

@@ -44,7 +44,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Bool, Float, Int
 
-from .._exported import exported_call
+from .._exported import exported_call, exported_jit
 from .._result_codes import message
 from .._validate import is_traced
 from ._results import RESULTS
@@ -185,7 +185,7 @@ def derived_seam_tolerances(
 
 # One compiled program (op by op, the gaps' many small operations cost more than a verdict's run,
 # and every verdict of a fold asks again); under an outer trace it is traced inline.
-@eqx.filter_jit
+@exported_jit("seam_tolerances")
 def _derived_seam_tolerances(seam_gaps, intended, angle):
     steps = angle * jnp.eye(intended.shape[0], dtype=intended.dtype)
     base = seam_gaps(intended)
