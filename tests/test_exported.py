@@ -40,8 +40,8 @@ _RUN = """
         setattr(_simulate, "_" + name, lambda *a, f=function, n=name: traced[n].append(1) or f(*a))
     from origami_jax.net import _pattern, load_net
     from origami_jax.system import KOH_SOLUTION
-    loads = _pattern._fluid_loads
-    _pattern._fluid_loads = lambda *a: traced["fluid_loads"].append(1) or loads(*a)
+    loads = _pattern.fluid_loads  # called when its program is traced, not when it is loaded
+    _pattern.fluid_loads = lambda *a, **k: traced["fluid_loads"].append(1) or loads(*a, **k)
     traced["fluid_loads"] = []
     net = load_net("corner_cube").with_model(contact=False)
     inertia = lambda: np.asarray(net.system(net.default_design(KOH_SOLUTION)).mechanism.added_inertias)  # noqa
