@@ -242,15 +242,14 @@ def exported_jit(name: str):
     `exported_call` under `name` (its traced program read from disk where the command line keeps
     them); inside a trace (`jit`, `vmap`, `grad`) it is the compiled function, traced inline."""
     import equinox as eqx
-
-    from ._validate import is_traced
+    import jax
 
     def decorate(fn):
         jitted = eqx.filter_jit(fn)
 
         @functools.wraps(fn)
         def call(*args):
-            if is_traced(args):
+            if any(isinstance(leaf, jax.core.Tracer) for leaf in jax.tree.leaves(args)):
                 return jitted(*args)
             return exported_call(name, fn, jitted, *args)
 

@@ -10,6 +10,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
+from .._exported import exported_jit
 from ._gif import save_gif
 
 _COLOURS = plt.rcParams["axes.prop_cycle"].by_key()["color"]
@@ -121,8 +122,6 @@ def _poses_of(mechanism, states):
 def _batched_poses(mechanism, states):
     # Compiled, and in a command read from disk as a traced program (`exported_jit`): tracing and
     # lowering it took a warm `origami-jax fold` ~0.9 s per frame count.
-    from .._exported import exported_jit
-
     global _BATCHED_POSES
     if _BATCHED_POSES is None:
         _BATCHED_POSES = exported_jit("batched_poses")(_poses_of)
