@@ -175,6 +175,28 @@ def test_a_script_stores_its_solve_and_sweep_and_still_raises(tmp_path):
     assert out["setting"] == "raise" and "user" in out, out
 
 
+def test_a_sweep_in_the_bath_stores_its_kernel(tmp_path):  # a subprocess, ~15 s
+    # In the etch bath the kernel releases every member over the nominal design's quasi-static
+    # ramp, computed first by a program of its own; traced with callbacks, that program's inner
+    # traces were reused by the kernel's, which then could not be stored (a warm yield compiled
+    # its kernel again: 15 s of a 20 s run).
+    code = """
+        import json, jax
+        import origami_jax
+        from origami_jax.sweep import Table, get_model, sweep
+        folder = origami_jax.enable_compilation_cache()
+        jax.config.update("jax_enable_x64", True)
+        model = get_model("net-fold", net="corner_cube", contact=False, n_save=11)
+        data = sweep(model, Table({"misfit_strain": [0.004]}), progress=False)
+        stored = sorted(p.name for p in folder.iterdir() if p.name.startswith("jit_sweep_chunk-"))
+        print(json.dumps({"stored": stored, "ramp": model.settings.get("release_ramp_us"),
+                          "result": data["result"].values.tolist()}))
+    """
+    out = run_python(code, _environment(tmp_path, **{CACHE_ENV: str(tmp_path / "cache")}))
+    assert out["ramp"] is not None and out["result"] == [0], out  # the bath's ramp, a clean run
+    assert len(out["stored"]) == 1, out
+
+
 @pytest.mark.slow  # a design compiled in a subprocess (~15 s)
 def test_a_script_stores_its_design_fit(tmp_path):
     # `calibrate` from a script: the fit runs this package's code only, so its program is traced

@@ -24,6 +24,7 @@ import numpy as np
 
 from .._exported import exported_jit
 from .._limits import FOLD_SEGMENT, MAX_FOLD_SEGMENTS, default_t_end
+from .._runtime_errors import checks_as_nan
 from .._validate import is_traced
 from ..contact import Adhesion, Friction
 from ..fluid import CombinedDrag, fluid_loads, polygon_added_inertia
@@ -241,7 +242,12 @@ class AbstractPanelPattern(AbstractPattern):
         )  # fmt: skip
         if key not in _NOMINAL_RAMPS:
             about = self.oscillation_state()
-            _NOMINAL_RAMPS[key] = rounded_up(float(_design_ramp(self, design, about)))
+            # Traced with equinox's checks as NaN, as the sweep that follows traces its kernel:
+            # the system's inner programs traced here with callbacks would be reused there, and a
+            # program that calls back is never stored (a warm yield compiled its kernel again).
+            with checks_as_nan():
+                ramp = float(_design_ramp(self, design, about))
+            _NOMINAL_RAMPS[key] = rounded_up(ramp)
         return _NOMINAL_RAMPS[key]
 
     def release_input(self, system=None) -> Step:
@@ -360,7 +366,9 @@ def quasi_static_release(system, about=None) -> float:
     in the motions `about` gives: `AbstractPanelPattern.oscillation_state`) rounded up to two
     significant figures, so that the release recorded with a run reads as a number a person
     would choose (40 ms for a 200 µm cube net in KOH)."""
-    return rounded_up(float(_quasi_static_ramp(system, about)))
+    with checks_as_nan():  # as `nominal_release_ramp`: keeps the solve that follows storable
+        ramp = float(_quasi_static_ramp(system, about))
+    return rounded_up(ramp)
 
 
 def check_release_ramp(release_ramp) -> None:
