@@ -15,6 +15,7 @@ Everything is differentiable in the design.
 
 from typing import NamedTuple
 
+import jax
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
@@ -115,8 +116,11 @@ def fluid_loads(
 
     real = jnp.ones(n, dtype)
     if added_mass:
-        for _ in range(FREQUENCY_PASSES):
-            real = gamma_at(frequency_of(real))[0]
+        # A loop, not unrolled: each pass evaluates Sader's function (Bessel functions of a complex
+        # argument), and eight copies of it made the program's compilation ~4 times longer.
+        real = jax.lax.fori_loop(
+            0, FREQUENCY_PASSES, lambda _, real: gamma_at(frequency_of(real))[0], real
+        )
         mechanism = with_added_inertias(mechanism, (scale * real)[:, None, None] * unit_added)
     frequency = frequency_of(real)
     _, imag, reynolds = gamma_at(frequency)
