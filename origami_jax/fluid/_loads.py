@@ -117,7 +117,8 @@ def fluid_loads(
     real = jnp.ones(n, dtype)
     if added_mass:
         # A loop, not unrolled: each pass evaluates Sader's function (Bessel functions of a complex
-        # argument), and eight copies of it made the program's compilation ~4 times longer.
+        # argument); eight copies made a cube net's program half again as large (325 against
+        # 223 kB of StableHLO) and its compilation ~15 % longer.
         real = jax.lax.fori_loop(
             0, FREQUENCY_PASSES, lambda _, real: gamma_at(frequency_of(real))[0], real
         )
