@@ -153,8 +153,8 @@ def net_fold(*, net: str = "cube_net_01", **settings: Any) -> Kernel:
     before the pattern is read):
 
     - the pattern's physics (`Net.with_model`): `contact` (default `True`), `drag` (`"panel"`),
-      `hinges` (`"point"`), `contact_sampling` (`(4, 2)`), `added_mass` and `viscous` (nets:
-      the fluid's inertia and viscosity, default on in the etch bath, off in air),
+      `hinges` (`"point"`), `contact_sampling` (`(4, 2)`), `added_mass` and `viscous` (the
+      fluid's inertia and viscosity, default on in the etch bath, off in air),
       `release_ramp` (µs: each hinge released over that time; 0 at once, the paper's step;
       default `"auto"`: quasi-static where the fluid's inertia is on, at once otherwise);
     - the solve's: `t_end` (µs, default 1500, or a fifth of the release ramp past it:
