@@ -448,9 +448,13 @@ def _run(args, net, system, params, release, sampling, output, unfolded, *, choi
             flush=True,
         )
     segment = net.fold_segment(system) if args.t1 is None else args.t1
+    ramp = net.release_ramp_for(system)
+    # A quasi-static release sets the time to fold: say so before it is read as the hinges' own.
+    released = "" if ramp is None else f", each hinge released over {ramp:g} µs"
     print(
         f"[fold] {net.name}: {m} creases, {kind}{system.mechanism.n_bodies} moving panels, contact "
-        f"{'on' if system.contact is not None else 'off'}; compiling and folding for {segment:g} µs ...",
+        f"{'on' if system.contact is not None else 'off'}{released}; compiling and folding for "
+        f"{segment:g} µs ...",
         flush=True,
     )
     # Explicit Tsit5, as the kernels that judge yields. The library's default (switching to
