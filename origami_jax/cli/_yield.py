@@ -818,6 +818,10 @@ def _run(
         + f" -> {out}",
         flush=True,
     )
+    ramp = pattern.nominal_release_ramp(design)  # kept: the estimate's kernel reads it again
+    if ramp is not None:
+        # A quasi-static release sets the samples' times to fold: say so before they are read.
+        print(f"[yield] each hinge released over {ramp:g} µs, every sample alike", flush=True)
 
     # What every estimate of this run shares: the estimate itself, the other widths, the ascent.
     # The solve's tolerances: --rtol with the defaults' ratio for the absolute one.
