@@ -69,3 +69,26 @@ def run_python(code: str, env: dict[str, str], *argv: str):
     )
     assert process.returncode == 0, process.stderr[-3000:]
     return json.loads(process.stdout.strip().splitlines()[-1])
+
+
+def stepped_energy_balance(system, trajectory):
+    """The energy balance of a step-released folding whose drags are `system.drag.parts`:
+    `(balance, lost, scale, rates)`. ``balance`` = kinetic + spring energy − the step input's work
+    ``Σ k θ_target θ`` + the work the drags took out so far, ``∫ Σ_parts (−q̇ᵀ f) dt`` (`lost`,
+    composite Simpson's rule over each pair of the trajectory's evenly spaced samples; `balance`
+    and `lost` at every other sample), constant when no energy is gained or lost elsewhere;
+    ``scale`` = ``Σ k θ_target²``; ``rates`` each part's dissipation at the samples."""
+    q, v, t = trajectory.theta, trajectory.theta_dot, np.asarray(trajectory.times)
+    energy = jax.vmap(system.energy)(q, v) - q @ (system.hinges.stiffness * system.hinges.target)
+    rates = [
+        np.asarray(jax.vmap(lambda a, b, p=p: p.dissipation(system.mechanism, a, b))(q, v))
+        for p in system.drag.parts
+    ]
+    power = sum(rates)
+    h = t[1] - t[0]
+    lost = np.concatenate(
+        [[0.0], np.cumsum(h / 3 * (power[:-2:2] + 4 * power[1:-1:2] + power[2::2]))]
+    )
+    balance = np.asarray(energy)[::2] + lost
+    scale = float(np.sum(system.hinges.stiffness * system.hinges.target**2))
+    return balance, lost, scale, rates

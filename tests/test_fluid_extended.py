@@ -28,6 +28,7 @@ from origami_jax.net import PanelTree, StripTree
 from origami_jax.system import AIR, KOH_SOLUTION, MICRO, Fluid, HingeDesign
 
 from .chain_cases import FAST_COMPILE
+from .helpers import stepped_energy_balance
 
 quick_jit = functools.partial(jax.jit, compiler_options=FAST_COMPILE)
 
@@ -206,21 +207,8 @@ def test_energy_lost_is_the_fluids_dissipation(koh_folding):
     then, and each part dissipates (none adds energy)."""
     system, trajectory = koh_folding
     assert isinstance(system.mechanism, StripTree) and isinstance(system.drag, CombinedDrag)
-    q, v, t = trajectory.theta, trajectory.theta_dot, np.asarray(trajectory.times)
-    energy = jax.vmap(system.energy)(q, v) - q @ (system.hinges.stiffness * system.hinges.target)
-    rates = [
-        np.asarray(jax.vmap(lambda a, b, p=p: p.dissipation(system.mechanism, a, b))(q, v))
-        for p in system.drag.parts
-    ]
+    balance, lost, scale, rates = stepped_energy_balance(system, trajectory)
     assert all(r.min() >= -1e-12 * np.abs(r).max() for r in rates)
-    power = sum(rates)
-    h = t[1] - t[0]
-    # Composite Simpson's rule over each pair of intervals.
-    lost = np.concatenate(
-        [[0.0], np.cumsum(h / 3 * (power[:-2:2] + 4 * power[1:-1:2] + power[2::2]))]
-    )
-    balance = np.asarray(energy)[::2] + lost
-    scale = float(np.sum(system.hinges.stiffness * system.hinges.target**2))
     assert lost[-1] > 0.3 * scale
     np.testing.assert_allclose(balance, balance[0], atol=1e-6 * scale)
 

@@ -32,6 +32,8 @@ from origami_jax.loops import (
 from origami_jax.net import Net
 from origami_jax.system import AIR, KOH_SOLUTION, HingeDesign
 
+from .helpers import stepped_energy_balance
+
 KOH = HingeDesign.literature(fluid=KOH_SOLUTION)
 # The paper's dynamics in the bath (no added inertia, released at once): the closed forms and
 # branches below are checked on its time scale of hundreds of µs.
@@ -534,20 +536,8 @@ def test_closed_loops_in_the_bath_lose_exactly_the_fluids_dissipation():
         t1=6000.0,
         theta0=pattern.start_state(system, bias=1e-3)[0],
     )
-    q, v, t = trajectory.theta, trajectory.theta_dot, np.asarray(trajectory.times)
-    energy = jax.vmap(system.energy)(q, v) - q @ (system.hinges.stiffness * system.hinges.target)
-    rates = [
-        np.asarray(jax.vmap(lambda a, b, p=p: p.dissipation(system.mechanism, a, b))(q, v))
-        for p in system.drag.parts
-    ]
+    balance, lost, scale, rates = stepped_energy_balance(system, trajectory)
     assert all(r.min() >= -1e-12 * np.abs(r).max() for r in rates)
-    power = sum(rates)
-    h = t[1] - t[0]
-    lost = np.concatenate(
-        [[0.0], np.cumsum(h / 3 * (power[:-2:2] + 4 * power[1:-1:2] + power[2::2]))]
-    )
-    balance = np.asarray(energy)[::2] + lost
-    scale = float(np.sum(system.hinges.stiffness * system.hinges.target**2))
     assert lost[-1] > 0.3 * scale
     np.testing.assert_allclose(balance, balance[0], atol=1e-7 * scale)
 
