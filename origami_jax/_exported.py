@@ -240,7 +240,8 @@ def exported_call(name: str, fn, jitted, *args) -> Any:
 def exported_jit(name: str):
     """A decorator: the function `equinox.filter_jit`-compiled, and called outside any trace through
     `exported_call` under `name` (its traced program read from disk where the command line keeps
-    them); inside a trace (`jit`, `vmap`, `grad`) it is the compiled function, traced inline."""
+    them); inside a trace (`jit`, `vmap`, `grad`) it is the compiled function, traced inline. The
+    compiled function is the decorated one's `jitted` attribute."""
     import equinox as eqx
     import jax
 
@@ -253,6 +254,7 @@ def exported_jit(name: str):
                 return jitted(*args)
             return exported_call(name, fn, jitted, *args)
 
+        call.jitted = jitted
         return call
 
     return decorate

@@ -189,15 +189,15 @@ def test_a_second_verdict_on_the_same_net_compiles_nothing(cube):
 
     net, system = cube
     net.assess(system, held_trajectory(system, _angles(0.8)))
-    compiled = _verdict._outcome_compiled._cached._cache_size()
+    compiled = _verdict._outcome_compiled.jitted._cached._cache_size()
     tolerances = sim.VerdictTolerances.from_degrees(2.0, 0.02)
     report = net.assess(system, held_trajectory(system, _angles(-0.8)), tolerances=tolerances)
-    assert _verdict._outcome_compiled._cached._cache_size() == compiled
+    assert _verdict._outcome_compiled.jitted._cached._cache_size() == compiled
     # Runs continued segment by segment (the fold command's 501 samples, then 1001; segments of
     # 201, then 401) are judged by the 11-sample run's program too (all padded to 1024 samples).
     for n in (201, 401, 501, 1001):
         net.assess(system, held_trajectory(system, _angles(0.8), n=n))
-    assert _verdict._outcome_compiled._cached._cache_size() == compiled
+    assert _verdict._outcome_compiled.jitted._cached._cache_size() == compiled
     np.testing.assert_allclose(report.seam_gaps, net.seam_gaps(_angles(-0.8)), atol=1e-9)
     assert report.angle_tolerance == pytest.approx(np.radians(2.0))
 

@@ -44,7 +44,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Bool, Float, Int
 
-from .._exported import exported_call, exported_jit
+from .._exported import exported_jit
 from .._result_codes import message
 from .._validate import is_traced
 from ._results import RESULTS
@@ -578,13 +578,15 @@ def _released_late(system, times):
     return release > times[total - tail]
 
 
-def _outcome(system, trajectory, intended, function, bodies, angle_tolerance, seam_tolerance):
+@exported_jit("fold_outcome")
+def _outcome_compiled(
+    system, trajectory, intended, function, bodies, angle_tolerance, seam_tolerance
+):
     """`assess`'s `fold_outcome` in one compiled program (op by op, a first verdict compiled one per
     operation: seconds), shared by every verdict on a model of the same structure: the tolerances
     are traced, and a net's seam function (`function`, an `equinox.Module`) is data; `bodies`, the
-    seams' bodies, a static tuple (`None` when not known). `_outcome_compiled` compiles it;
-    outside a trace `assess` reads its traced program from disk where the command line keeps
-    them (`exported_call`)."""
+    seams' bodies, a static tuple (`None` when not known). In a command its traced program is
+    read from disk (`exported_jit`)."""
     seam_gaps = None
     if function is not None:
         seam_gaps = function if bodies is None else SeamGaps(function, bodies)
@@ -596,9 +598,6 @@ def _outcome(system, trajectory, intended, function, bodies, angle_tolerance, se
         angle_tolerance=angle_tolerance,
         seam_tolerance=seam_tolerance,
     )
-
-
-_outcome_compiled = eqx.filter_jit(_outcome)
 
 
 class SeamGaps:
@@ -777,7 +776,7 @@ def assess(
             jnp.asarray(judged_tolerance),
         )
     )
-    outcome = jax.device_get(exported_call("fold_outcome", _outcome, _outcome_compiled, *arguments))
+    outcome = jax.device_get(_outcome_compiled(*arguments))
     contact = system.contact
     if thickness is None and contact is not None:
         thickness = 2 * float(np.min(contact.half_thickness))
