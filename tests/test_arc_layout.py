@@ -109,6 +109,7 @@ def test_trimmed_panels_lie_where_the_point_creases_put_them(cube):
     assert np.ptp(layout.face_coords[order[0]][:, 1]) == pytest.approx(200.0 - rho, rel=1e-12)
 
 
+@pytest.mark.slow  # builds and compiles a whole system; keeps the default suite short
 def test_folded_fillet_cube_does_not_penetrate(cube):
     """At the targets the trimmed plates meet edge to edge: their exact overlap is below the film
     thickness (where the drawn layout's walls pass tens of microns into each other)."""

@@ -163,6 +163,7 @@ def test_sweep_takes_the_solver_once_and_for_the_net_fold_model(tmp_path, capsys
     assert "net-fold model's solver" in _one_line(capsys.readouterr().err)
 
 
+@pytest.mark.slow  # builds and compiles a whole system; keeps the default suite short
 def test_closed_loops_are_refused_the_fixed_steps(tmp_path, capsys, monkeypatch):
     """The engine does not hold a crease pattern's loops closed: refused by the commands, the fold
     kernel and `simulate`, each in one line."""

@@ -84,6 +84,7 @@ def test_a_fluid_knows_whether_it_is_a_liquid():
     assert jax.jit(lambda d: inertia(d, liquid=True))(1000.0).tolist() == [1.0, 1.0]
 
 
+@pytest.mark.slow  # builds and compiles a whole system; keeps the default suite short
 def test_a_crease_pattern_carries_the_fluids_inertia_and_is_released_over_its_branchs_mode():
     """Closed loops of panels in the bath: each panel's added inertia is the strip theory's, as the
     same panels get in the net of their spanning tree (1e-12: the same numbers), and the automatic

@@ -608,6 +608,74 @@ def test_cli_writes_result_and_figure(tmp_path, capsys):
     assert "--bias must be a pre-fold angle" in capsys.readouterr().err
     assert main([*bad, "--step-budget", "0"]) == 2
     assert "--step-budget must be between 1 and 199999" in capsys.readouterr().err
+    # A precision: a half-width below 0.5; its cap at least the first round; not with an ascent.
+    assert main([*bad, "--precision", "0.5"]) == 2
+    assert "--precision must lie strictly between 0 and 0.5" in capsys.readouterr().err
+    assert main([*bad, "--max-samples", "40"]) == 2
+    assert "--max-samples caps --precision's rounds" in capsys.readouterr().err
+    assert main([*bad, "--precision", "0.1", "--max-samples", "2"]) == 2
+    assert "--max-samples must be between 4 and" in capsys.readouterr().err
+    assert main([*bad, "--precision", "0.1", "--improve", "2"]) == 2
+    assert "--improve takes a fixed --samples" in capsys.readouterr().err
+
+
+# ---- sampling to a precision -------------------------------------------------------------------
+
+
+def test_sample_until_sizes_each_round_for_the_half_width_asked():
+    """`SampleUntil.next_count`: nothing more once the interval is narrow enough or the cap is
+    reached; otherwise the smallest count (at least 25 % more) at which the same yield gives the
+    interval asked for, so the count before it would not have; the settings are checked."""
+    until = ojy.SampleUntil(half_width=0.1, first=20, most=400)
+    half = lambda k, n: np.diff(ojy.binomial_interval(k, n, 0.95, "wilson"))[0] / 2  # noqa: E731
+    assert until.next_count(0, 20) is None  # 0 of 20: the interval is [0, 0.16]
+    assert half(0, 20) <= 0.1
+    for folded, n in [(2, 20), (10, 20), (3, 25), (15, 40)]:
+        more = until.next_count(folded, n)
+        assert more is not None and more >= n + math.ceil(0.25 * n)
+        p = folded / n
+        assert half(round(p * more), more) <= 0.1
+        if more > n + math.ceil(0.25 * n):
+            assert half(round(p * (more - 1)), more - 1) > 0.1
+    # Near a yield of 0.5 the Wilson interval needs ~96 samples for ±0.1.
+    assert 90 <= until.next_count(10, 20) <= 100
+    assert ojy.SampleUntil(half_width=0.01, first=20, most=50).next_count(10, 20) == 50
+    assert ojy.SampleUntil(half_width=0.01, first=20, most=50).next_count(25, 50) is None
+    for bad, match in [
+        ({"half_width": 0.5}, "half_width"),
+        ({"first": 0}, "first"),
+        ({"first": 30, "most": 20}, "most"),
+        ({"method": "wald"}, "method"),
+    ]:
+        with pytest.raises(ValueError, match=match):
+            ojy.SampleUntil(**bad)
+    with pytest.raises(ValueError, match="or a SampleUntil"):
+        ojy.yield_estimate(PATTERN, n_samples=2.5)
+
+
+def test_an_estimate_to_a_precision_holds_the_first_samples_of_the_sequence(tmp_path):
+    """Sampled in rounds to ±0.2 from 4 samples (at most 12): the samples are the first ones of
+    the seed's sequence, the same verdicts and final angles as an estimate of that many samples at
+    once; a resumed estimate takes the same rounds from its folders and runs nothing."""
+    until = ojy.SampleUntil(half_width=0.2, first=4, most=12)
+    out = tmp_path / "until"
+    estimate = ojy.yield_estimate(PATTERN, ojy.Scatter(), until, seed=3, **_run(out=str(out)))
+    n = estimate.n_samples
+    assert 4 < n <= 12 and estimate.dataset.attrs["rounds"] >= 2
+    assert until.reached(estimate.counts["folded"], n) or n == 12
+    np.testing.assert_array_equal(estimate.dataset["design"].values, np.arange(n))
+    assert sorted(p.name for p in out.glob("samples-*"))  # the later rounds' folders
+    at_once = ojy.yield_estimate(PATTERN, ojy.Scatter(), n, seed=3, **RUN)
+    np.testing.assert_array_equal(estimate.dataset["verdict"], at_once.dataset["verdict"])
+    np.testing.assert_allclose(
+        estimate.dataset["final_angle"], at_once.dataset["final_angle"], rtol=0, atol=1e-9
+    )
+    resumed = ojy.yield_estimate(
+        PATTERN, ojy.Scatter(), until, seed=3, **_run(out=str(out), resume=True)
+    )
+    assert resumed.n_samples == n and resumed.counts == estimate.counts
+    assert resumed.seconds_per_sample == 0.0  # nothing run again
+    assert xr.load_dataset(out / "sweep.nc").sizes["design"] == n  # every round's, as reported
 
 
 # ---- the differentiable surrogate --------------------------------------------------------------

@@ -67,13 +67,22 @@ def test_spearman_undefined_and_bad_input():
 FOLDED = {"cube_net_01": 1, "cube_net_02": 3, "cube_net_03": 2}  # of 4 samples
 
 
+# With a precision (`SampleUntil`), the samples each net took.
+TAKEN = {"cube_net_01": 20, "cube_net_02": 45, "cube_net_03": 30}
+
+
 @dataclasses.dataclass
 class _Estimate:
     counts: dict
+    n_samples: int = 4
     seconds_per_sample: float = 0.5
 
     def to_dict(self):
-        return {"counts": self.counts, "yield": self.counts["folded"] / 4}
+        return {
+            "counts": self.counts,
+            "yield": self.counts["folded"] / self.n_samples,
+            "n_samples": self.n_samples,
+        }
 
 
 @pytest.fixture
@@ -88,8 +97,9 @@ def fake(monkeypatch):
         if run.out is not None:
             run.out.mkdir(parents=True, exist_ok=True)
         folded = FOLDED[net.name]
+        n = TAKEN[net.name] if isinstance(n, ojy.SampleUntil) else n
         return _Estimate({"folded": folded, "jammed": n - folded, "misfolded": 0,
-                          "unfinished": 0, "invalid": 0})  # fmt: skip
+                          "unfinished": 0, "invalid": 0}, n)  # fmt: skip
 
     monkeypatch.setattr(_family, "yield_estimate", estimate)
     return calls
@@ -155,6 +165,28 @@ def test_family_resume_skips_finished_nets(fake, tmp_path):
         ojy.family_yield(names, n_samples=5, run=ojy.RunOptions(out=out, resume=True))
 
 
+def test_family_to_a_precision_gives_each_net_its_own_count(fake, tmp_path):
+    """With a `SampleUntil`, each net's estimate gets it (and samples as its yield needs): each
+    row's yield and interval are over its own count; the settings record the precision, and a
+    family resumed with another one is refused."""
+    out = tmp_path / "family"
+    until = ojy.SampleUntil(half_width=0.1, first=20, most=200)
+    family = ojy.family_yield(list(FOLDED), n_samples=until, run=ojy.RunOptions(out=out))
+    assert {c["n"] for c in fake} == {until}
+    assert [r.n_samples for r in family.rows] == list(TAKEN.values())
+    assert [r.fraction for r in family.rows] == [FOLDED[n] / TAKEN[n] for n in FOLDED]
+    assert family.rows[1].interval == ojy.wilson_interval(3, 45)
+    assert family.n_samples == 45 and family.settings["n_samples"]["half_width"] == 0.1
+    assert "45 samples" in family.summary()
+    again = ojy.family_yield(
+        list(FOLDED), n_samples=until, run=ojy.RunOptions(out=out, resume=True)
+    )
+    assert again.table() == family.table()
+    with pytest.raises(ValueError, match="other settings"):
+        ojy.family_yield(list(FOLDED), n_samples=dataclasses.replace(until, half_width=0.05),
+                         run=ojy.RunOptions(out=out, resume=True))  # fmt: skip
+
+
 def test_family_refuses_what_is_not_a_family(fake):
     with pytest.raises(ValueError, match="at least two nets"):
         ojy.family_yield(["cube_net_01"])
@@ -192,6 +224,14 @@ def test_cli_family_writes_table_figure_and_resumes(fake, tmp_path, capsys):
     single = ["yield", "cube_net_01", "--samples", "4", "--out", str(out), "--resume"]
     assert main(single) == 2
     assert "holds a family of yield estimates" in capsys.readouterr().err
+    # To a precision: every net its own count, in the table and the first line.
+    fake.clear()
+    precise = [*argv[:-1], str(tmp_path / "precise"), "--precision", "0.1", "--max-samples", "300"]
+    assert main(precise) == 0, capsys.readouterr().err
+    assert {c["n"] for c in fake} == {ojy.SampleUntil(0.1, first=4, most=300)}
+    result = json.loads((tmp_path / "precise" / "family.json").read_text())
+    assert [n["n_samples"] for n in result["nets"]] == list(TAKEN.values())
+    assert "samples until ±0.1 (first 4, at most 300)" in capsys.readouterr().out
 
 
 @pytest.mark.parametrize(

@@ -90,6 +90,12 @@ the same work, where the adaptive default (tsit5) steps until its slowest member
 no --rtol or --step-budget. The solver is recorded in result.json and the store; --resume continues
 with the same one only.
 
+--precision 0.1 samples until the yield's 95 % interval is at most ±0.1: --samples first, then
+rounds sized to what the yield so far needs (at least a quarter more each; OUT/samples-FROM-TO/),
+at most --max-samples (1000). The samples are one sequence of draws whatever their count (the first
+n of a longer estimate are those of an estimate of n), so a family gives each net as many as its
+own interval needs: ~35 at a yield near 0.1, ~96 near 0.5, 17 when none folds.
+
 --widths 0.5,1,2 also estimates the yield with every scatter width multiplied by each factor (the
 same draws, so the same fabricated nets made more or less carefully; each in OUT/widths/xF/) and
 plots it against the factor (OUT/yield_widths.png).
@@ -151,7 +157,27 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("net", help="FOLD file or catalogue name")
-    parser.add_argument("--samples", type=int, default=100, help="nets to draw (default 100)")
+    parser.add_argument(
+        "--samples",
+        type=int,
+        default=100,
+        help="nets to draw (default 100; with --precision, the first round's)",
+    )
+    parser.add_argument(
+        "--precision",
+        type=float,
+        default=None,
+        metavar="HALF_WIDTH",
+        help="draw in rounds until the yield's interval is this narrow, its half-width (0.1: "
+        "±0.1): --samples first, then as many more as the yield so far needs (each net its own "
+        "in a family), at most --max-samples",
+    )
+    parser.add_argument(
+        "--max-samples",
+        type=int,
+        default=None,
+        help=f"--precision: at most this many samples in all (default {_MOST_SAMPLES})",
+    )
     parser.add_argument("--seed", type=int, default=0, help="seed of the draws (default 0)")
     parser.add_argument("--scatter", type=Path, default=None, help="scatter config (TOML)")
     parser.add_argument(
@@ -332,6 +358,27 @@ def _solve(args: argparse.Namespace, choice: dict, stored=None):
     )
 
 
+# `--max-samples`' default: `SampleUntil`'s.
+_MOST_SAMPLES = 1000
+
+
+def _sample_count(args: argparse.Namespace, until: type):
+    """`--samples`, or with `--precision` a `SampleUntil` (`until`, the class: the caller has
+    `origami_jax.fab_yield` imported) starting from it (checked in `run`)."""
+    if args.precision is None:
+        return args.samples
+    most = _MOST_SAMPLES if args.max_samples is None else args.max_samples
+    return until(half_width=args.precision, first=args.samples, most=max(most, args.samples))
+
+
+def _samples_said(args: argparse.Namespace) -> str:
+    """How many samples, for the first line: a count, or the precision asked for."""
+    if args.precision is None:
+        return f"{args.samples} samples"
+    most = _MOST_SAMPLES if args.max_samples is None else args.max_samples
+    return f"samples until ±{args.precision:g} (first {args.samples}, at most {max(most, args.samples)})"
+
+
 def _run_settings(args: argparse.Namespace) -> dict:
     """How the estimates run, `RunOptions`' fields but the output folder (--resume, --chunk-size,
     --workers, --no-progress, --step-budget, --t-settle; 0 is no settling run)."""
@@ -397,7 +444,7 @@ def _load(name: str):
 def _run_family(args: argparse.Namespace, members: list[str], sampling, choice: dict) -> int:
     """A family of nets: each net's estimate into OUT/NET/, then the table, the rank
     correlations with compactness and the figure (`origami_jax.fab_yield.family_yield`)."""
-    from ..fab_yield import RunOptions, family_yield
+    from ..fab_yield import RunOptions, SampleUntil, family_yield
 
     for name in _SINGLE_NET_ONLY:
         if getattr(args, name) is not None:
@@ -447,7 +494,7 @@ def _run_family(args: argparse.Namespace, members: list[str], sampling, choice: 
         "family stored there)",
     )
     print(
-        f"[yield] family {args.net}: {len(patterns)} nets x {args.samples} samples, seed "
+        f"[yield] family {args.net}: {len(patterns)} nets x {_samples_said(args)}, seed "
         f"{args.seed} -> {output.out}",
         flush=True,
     )
@@ -463,7 +510,7 @@ def _run_family(args: argparse.Namespace, members: list[str], sampling, choice: 
                 family = family_yield(
                     patterns,
                     scatter,
-                    args.samples,
+                    _sample_count(args, SampleUntil),
                     args.seed,
                     fluid=fluid,
                     process=process,
@@ -684,6 +731,16 @@ def _improve_parameters(args: argparse.Namespace, scatter) -> tuple[str, ...]:
 
 def run(args: argparse.Namespace) -> int:
     int_range(args.samples, "--samples", 1, 10_000_000)
+    if args.precision is not None:
+        in_range(args.precision, "--precision", 0.0, 0.5, what=" (a half-width: 0.1 for ±0.1)")
+        if args.improve:
+            fail("--improve takes a fixed --samples per step: drop --precision (or --improve).")
+    if args.max_samples is not None:
+        if args.precision is None:
+            fail("--max-samples caps --precision's rounds: add --precision HALF_WIDTH, or drop it.")
+        int_range(
+            args.max_samples, "--max-samples", args.samples, 10_000_000, why=" (at least --samples)"
+        )
     if args.seed < 0:
         fail(f"--seed must be >= 0, got {args.seed}.")
     if args.t_end is not None:
@@ -806,14 +863,14 @@ def _run(
     `choice`, the solver (`solver_choice`)."""
     import dataclasses
 
-    from ..fab_yield import RunOptions, stored_run_tolerances, yield_estimate
+    from ..fab_yield import RunOptions, SampleUntil, stored_run_tolerances, yield_estimate
 
     out = output.out
     if args.resume:
         _check_resumable(out, factors, choice)
     design = pattern.default_design(_fluid(args))
     print(
-        f"[yield] {args.net}: {args.samples} samples, seed {args.seed}, scatter "
+        f"[yield] {args.net}: {_samples_said(args)}, seed {args.seed}, scatter "
         + (", ".join(f"{n} {s.width:g}" for n, s in scatter.active().items()) or "none")
         + f" -> {out}",
         flush=True,
@@ -836,12 +893,12 @@ def _run(
         bias=args.bias,
     )
 
-    def estimate_at(scatter, folder):
+    def estimate_at(scatter, folder, count):
         with stored_sweep_errors(out):
             estimate = yield_estimate(
                 pattern,
                 scatter,
-                args.samples,
+                count,
                 args.seed,
                 run=dataclasses.replace(run, out=folder),
                 **common,
@@ -849,7 +906,7 @@ def _run(
         return estimate.with_interval(args.confidence, args.interval)
 
     start = time.perf_counter()
-    estimate = estimate_at(scatter, out)
+    estimate = estimate_at(scatter, out, _sample_count(args, SampleUntil))
     # The yield at other widths: the same draws scaled (Scatter.scaled), each its own store.
     at_width = {}
     for factor in factors:
@@ -857,7 +914,10 @@ def _run(
             at_width[factor] = estimate
             continue
         print(f"[yield] scatter widths x {factor:g}", flush=True)
-        at_width[factor] = estimate_at(scatter.scaled(factor), out / "widths" / f"x{factor:g}")
+        # The same samples as the estimate's (with --precision, as many as it took).
+        at_width[factor] = estimate_at(
+            scatter.scaled(factor), out / "widths" / f"x{factor:g}", estimate.n_samples
+        )
     ascent = None
     if improve:
         from ..fab_yield import AscentSettings, yield_ascent

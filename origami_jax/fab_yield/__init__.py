@@ -28,7 +28,8 @@ estimate.dataset            # xarray.Dataset: the drawn parameters and every sam
   stop a crease that overfolds; one that underfolds leaves its seams open).
 - The samples run through the sweep engine (`origami_jax.sweep.sweep`): chunked, vmapped, sharded
   over the devices, stored as they finish in `RunOptions.out`; `RunOptions(resume=True)`
-  continues an interrupted estimate with the same samples. The solve's settings are a
+  continues an interrupted estimate with the same samples; `SampleUntil` as the sample count
+  draws in rounds until the interval is as narrow as asked ("±0.1"). The solve's settings are a
   `origami_jax.simulation.SolveOptions`, the physics model the pattern's (`Net.with_model`).
 - The result, `YieldEstimate`: the yield, its confidence interval (`wilson_interval`, or
   `clopper_pearson_interval` by `YieldEstimate.with_interval`), the verdict counts and the
@@ -121,3 +122,4 @@ from ._surrogate import soft_yield as soft_yield
 from ._tolerance import TOLERANCE_FACTORS as TOLERANCE_FACTORS
 from ._tolerance import ToleranceSensitivity as ToleranceSensitivity
 from ._tolerance import tolerance_sensitivity as tolerance_sensitivity
+from ._until import SampleUntil as SampleUntil

@@ -25,11 +25,12 @@ from ..simulation import (
     SolveOptions,
     VerdictTolerances,
 )
-from ..sweep import Table, store_result, sweep
+from ..sweep import AXIS, Table, store_result, sweep
 from ..system import KOH_SOLUTION, AbstractPattern, HingeDesign
 from ._scatter import PARAMETERS, Scatter, sample_values, standard_draws
 from ._stats import INTERVAL_METHODS, binomial_interval
 from ._tolerance import ToleranceSensitivity, tolerance_sensitivity
+from ._until import SampleUntil
 
 _GLOBAL = ("t_structural", "drag_coefficient")
 
@@ -440,7 +441,11 @@ def yield_estimate(
       (`origami_jax.fold.catalogue_names()`, e.g. `"cube_net_01"`) or a `.fold` path, read once
       here (`load_pattern`, its default model).
     - `scatter`: a `Scatter` (default `Scatter()`, the documented defaults) or a mapping of one.
-    - `n_samples`, `seed`: how many nets to draw, and from which seed.
+    - `n_samples`, `seed`: how many nets to draw, and from which seed; or, for `n_samples`, a
+      `SampleUntil` (e.g. `SampleUntil(half_width=0.1)`): draw in rounds until the interval is
+      that narrow (each further round in `run.out/samples-<from>-<to>/`; the samples are the same
+      sequence of draws whatever the count, so the first `n` of a larger estimate are the `n` of
+      a smaller one). The dataset's attributes `rounds` and `sample_until` record it.
     - `design`: the nominal `HingeDesign` (default `HingeDesign.literature(fluid=KOH_SOLUTION)`,
       each hinge no wider than its crease: the fold happens in the etch bath); its `theta_final`
       is not used.
@@ -492,15 +497,17 @@ def yield_estimate(
         raise RuntimeError(
             'yield_estimate needs float64: call jax.config.update("jax_enable_x64", True) first'
         )
-    if isinstance(n_samples, bool) or not isinstance(n_samples, int | np.integer):
-        raise ValueError(f"n_samples must be an integer >= 1, got {n_samples!r}.")
+    if not isinstance(n_samples, SampleUntil) and (
+        isinstance(n_samples, bool) or not isinstance(n_samples, int | np.integer) or n_samples < 1
+    ):
+        raise ValueError(
+            f"n_samples must be an integer >= 1 or a SampleUntil (a precision), got {n_samples!r}."
+        )
     if tolerances is None:
         resumed = isinstance(run, RunOptions) and run.resume and run.out is not None
         tolerances = (resumed and stored_run_tolerances(run.out)) or VerdictTolerances()
     if not isinstance(tolerances, VerdictTolerances):
         raise ValueError(f"tolerances must be a VerdictTolerances, got {tolerances!r}.")
-    if n_samples < 1:
-        raise ValueError(f"n_samples must be an integer >= 1, got {n_samples!r}.")
     solve = FOLD_KERNEL_SOLVE if solve is None else solve
     if not isinstance(solve, SolveOptions):
         raise ValueError(f"solve must be a SolveOptions, got {type(solve).__name__}.")
@@ -587,15 +594,6 @@ def yield_estimate(
             "scatter of release: a relative width of nominal release times that are all 0 is no "
             "scatter; give relative = false (a width in µs) or nominal release_times."
         )
-    values = sample_values(scatter, nominal, standard_draws(seed, int(n_samples), m))
-    bad = {n: int(np.sum(np.any(v <= 0, axis=1))) for n, v in values.items() if n != "release"}
-    bad = {n: c for n, c in bad.items() if c}
-    if bad:
-        warnings.warn(
-            f"the scatter draws non-positive values for {bad} sample(s); they count as invalid "
-            "(not folded): narrow the spread or use a lognormal one.",
-            stacklevel=2,
-        )
     aims = pattern.intended_angles if targets is None else np.asarray(targets, dtype=float)
     if aims.shape != (m,) or not np.all(np.isfinite(aims)):
         raise ValueError(f"targets must be {m} finite angles (rad, one per crease).")
@@ -610,38 +608,72 @@ def yield_estimate(
     kernel = _kernel(
         pattern, **{**options, "solve": options["solve"].replace(max_steps=first_pass)}
     )
-    columns, units = _columns(values)
-    # The hinges' drawn angles are data, not settings: nets aimed elsewhere share the compiled call.
-    for j in range(m):
-        columns[f"target[{j}]"] = np.full(int(n_samples), aims[j])
-        units[f"target[{j}]"] = "rad"
-    stored = _stored_samples(out) if run.resume else 0
-    dataset = sweep(kernel, Table(columns, units=units), **run.sweep_options())
 
-    def later_pass(folder: str) -> dict[str, Any]:
-        """The sweep options of a pass that runs some samples again (stored in `out/folder`;
-        `on_chunk` counts the estimate's samples, so not these)."""
-        folder = None if out is None else Path(out) / folder
-        return {**run.sweep_options(), "out": folder, "on_chunk": None}
+    def samples(start: int, end: int, folder, chunk_size) -> tuple[Any, int]:
+        """Samples `start` to `end` (of the one sequence of draws) simulated and judged, stored in
+        `folder`; and how many of them a resumed estimate found stored."""
+        values = sample_values(scatter, nominal, standard_draws(seed, end, m))
+        values = {name: v[start:end] for name, v in values.items()}
+        _warn_non_positive(values)
+        columns, units = _columns(values)
+        # The hinges' drawn angles are data, not settings: nets aimed elsewhere share the
+        # compiled call.
+        for j in range(m):
+            columns[f"target[{j}]"] = np.full(end - start, aims[j])
+            units[f"target[{j}]"] = "rad"
+        part_run = dataclasses.replace(run, out=folder, chunk_size=chunk_size)
+        stored = _stored_samples(folder) if run.resume else 0
+        dataset = sweep(kernel, Table(columns, units=units), **part_run.sweep_options())
 
-    if step_budget is not None:
-        dataset = _stragglers_finished(
-            dataset, _kernel(pattern, **options), columns, units, **later_pass("stragglers")
-        )
-        # The first pass's kernel settings say max_steps = the budget; the second pass's did not.
-        dataset.attrs.update({"step_budget": int(step_budget), "max_steps": int(max_steps)})
-    if t_settle is not None and isinstance(t_end, int | float) and t_settle > t_end:
-        dataset = _unfinished_settled(
-            dataset, pattern, options, columns, units, t_settle, **later_pass("settled")
-        )
-    if out is not None and (dataset.attrs.get("stragglers") or dataset.attrs.get("continued")):
-        # The store's sweep.nc gathers the first pass; the samples as judged (the later passes'
-        # rows merged in) replace it. A resume gathers the chunks again, so nothing is lost.
-        store_result(out, dataset)
+        def later_pass(name: str) -> dict[str, Any]:
+            """The sweep options of a pass that runs some samples again (stored in
+            `folder/name`; `on_chunk` counts the estimate's samples, so not these)."""
+            where = None if folder is None else Path(folder) / name
+            return {**part_run.sweep_options(), "out": where, "on_chunk": None}
+
+        if step_budget is not None:
+            dataset = _stragglers_finished(
+                dataset, _kernel(pattern, **options), columns, units, **later_pass("stragglers")
+            )
+            # The first pass's kernel settings say max_steps = the budget; the second's did not.
+            dataset.attrs.update({"step_budget": int(step_budget), "max_steps": int(max_steps)})
+        if t_settle is not None and isinstance(t_end, int | float) and t_settle > t_end:
+            dataset = _unfinished_settled(
+                dataset, pattern, options, columns, units, t_settle, **later_pass("settled")
+            )
+        if folder is not None and (
+            dataset.attrs.get("stragglers") or dataset.attrs.get("continued")
+        ):
+            # The store's sweep.nc gathers the first pass; the samples as judged (the later
+            # passes' rows merged in) replace it. A resume gathers the chunks again.
+            store_result(folder, dataset)
+        return dataset, stored
+
+    until = n_samples if isinstance(n_samples, SampleUntil) else None
+    n = until.first if until is not None else int(n_samples)
+    dataset, stored = samples(0, n, out, run.chunk_size)
+    parts = [dataset]
+    chunk_size = run.chunk_size or dataset.attrs.get("chunk_size")
+    while until is not None:
+        folded = int(np.sum(np.asarray(dataset["verdict"].values) == _FOLDED_CODE))
+        more = until.next_count(folded, n)
+        if more is None:
+            break
+        # Each further round in a folder of its own (a sweep of its own rows), named by its
+        # rows, so that a resumed estimate finds it again.
+        folder = None if out is None else Path(out) / f"samples-{n}-{more}"
+        part, stored_part = samples(n, more, folder, chunk_size)
+        parts.append(part)
+        stored += stored_part
+        dataset, n = _joined(parts), more
+    if until is not None:
+        dataset.attrs["rounds"] = len(parts)
+        dataset.attrs["sample_until"] = json.dumps(until.to_dict(), sort_keys=True)
+        if out is not None and len(parts) > 1:
+            store_result(out, dataset)  # every round's samples, as reported
     codes = np.asarray(dataset["verdict"].values)
     counts = {str(v): int(np.sum(codes == i)) for i, v in enumerate(FoldVerdict)}
     folded = counts[str(FoldVerdict.FOLDED)]
-    n = int(n_samples)
     low, high = binomial_interval(folded, n, 0.95, "wilson")
     dataset.attrs.update(
         {
@@ -668,3 +700,38 @@ def yield_estimate(
         nominal={k: np.array(v) for k, v in nominal.items()},
         tolerance_sensitivity=sensitivity,
     )
+
+
+_FOLDED_CODE = [i for i, v in enumerate(FoldVerdict) if v == FoldVerdict.FOLDED][0]
+
+# Attributes of a round's dataset that count its work: a joined estimate's are their sums.
+_SUMMED_ATTRS = ("run_s", "compile_s", "stragglers", "continued", "n_failed")
+
+
+def _warn_non_positive(values: Mapping[str, np.ndarray]) -> None:
+    bad = {n: int(np.sum(np.any(v <= 0, axis=1))) for n, v in values.items() if n != "release"}
+    bad = {n: c for n, c in bad.items() if c}
+    if bad:
+        warnings.warn(
+            f"the scatter draws non-positive values for {bad} sample(s); they count as invalid "
+            "(not folded): narrow the spread or use a lognormal one.",
+            stacklevel=4,
+        )
+
+
+def _joined(parts):
+    """The rounds' datasets as one, the samples numbered on from round to round along the sweep's
+    axis; the work attributes (`_SUMMED_ATTRS`) summed."""
+    import xarray as xr
+
+    offset, shifted = 0, []
+    for part in parts:
+        size = part.sizes[AXIS]
+        shifted.append(part.assign_coords({AXIS: np.arange(offset, offset + size)}))
+        offset += size
+    joined = xr.concat(shifted, dim=AXIS, combine_attrs="override")
+    for key in _SUMMED_ATTRS:
+        present = [p.attrs[key] for p in parts if key in p.attrs]
+        if present:
+            joined.attrs[key] = type(present[0])(sum(present))
+    return joined

@@ -23,6 +23,7 @@ from ..system import KOH_SOLUTION
 from ._estimate import RunOptions, as_pattern, yield_estimate
 from ._scatter import Scatter
 from ._stats import INTERVAL_METHODS, binomial_interval, spearman
+from ._until import SampleUntil
 
 # The compactness measures the yields are ranked against: the flat net's radius of gyration
 # (µm; small is compact) and its number of vertex connections (many is compact).
@@ -91,8 +92,10 @@ class FamilyYield:
     """The yields of a family of nets against their compactness (`family_yield`).
 
     **Fields:** `rows` (one `NetYield` per net, in the order given), `correlations`
-    (`measure` → `RankCorrelation`, one per `MEASURES`), `seed`, `n_samples`, `confidence` and
-    `method` (of every net's interval), `settings` (what the estimates shared, JSON-ready).
+    (`measure` → `RankCorrelation`, one per `MEASURES`), `seed`, `n_samples` (samples per net:
+    the most of any net where a `SampleUntil` gave each its own; each row has its count),
+    `confidence` and `method` (of every net's interval), `settings` (what the estimates shared,
+    JSON-ready).
     """
 
     rows: tuple[NetYield, ...]
@@ -154,8 +157,9 @@ class FamilyYield:
     def summary(self) -> str:
         """A few lines for people: one per net, then the correlations."""
         lines = [
-            f"{r.name}: yield {r.fraction:.3f} ({r.interval[0]:.3f}-{r.interval[1]:.3f}), "
-            f"Rg {r.radius_of_gyration:.1f} µm, {r.vertex_connections} vertex connections"
+            f"{r.name}: yield {r.fraction:.3f} ({r.interval[0]:.3f}-{r.interval[1]:.3f}, "
+            f"{r.n_samples} samples), Rg {r.radius_of_gyration:.1f} µm, "
+            f"{r.vertex_connections} vertex connections"
             for r in self.rows
         ]
         for c in self.correlations.values():
@@ -191,7 +195,7 @@ def _settings(
 ) -> dict[str, Any]:
     """What every net's estimate shares, JSON-ready: a resumed family must match it."""
     described = {
-        "n_samples": int(n_samples),
+        "n_samples": n_samples.to_dict() if isinstance(n_samples, SampleUntil) else int(n_samples),
         "seed": int(seed),
         "scatter": scatter.to_dict(),
         "fluid": design_settings(fluid) if fluid is not None else None,
@@ -239,7 +243,8 @@ def family_yield(
       catalogue names, `.fold` paths or `Net` objects (with the physics model their samples fold
       with: `Net.with_model`). Nets only (trees of panels): compactness is a net's. At least two,
       with distinct names.
-    - `scatter`, `n_samples`, `seed`: as `yield_estimate`, the same for every net: every net is
+    - `scatter`, `n_samples`, `seed`: as `yield_estimate`, the same for every net (a
+      `SampleUntil` samples each net until its own interval is as narrow as asked): every net is
       estimated from the same `seed` (common random numbers: sample `k` of every net draws its
       films from the same standard normals, crease `j` of one net the same as crease `j` of
       another), so differences between nets are not differences between independent draws.
@@ -287,8 +292,12 @@ def family_yield(
         raise ValueError(f"interval must be one of {INTERVAL_METHODS}, got {interval!r}.")
     if not (isinstance(confidence, int | float) and 0 < confidence < 1):
         raise ValueError(f"confidence must lie strictly between 0 and 1, got {confidence!r}.")
-    if isinstance(n_samples, bool) or not isinstance(n_samples, int | np.integer) or n_samples < 1:
-        raise ValueError(f"n_samples must be an integer >= 1, got {n_samples!r}.")
+    if not isinstance(n_samples, SampleUntil) and (
+        isinstance(n_samples, bool) or not isinstance(n_samples, int | np.integer) or n_samples < 1
+    ):
+        raise ValueError(
+            f"n_samples must be an integer >= 1 or a SampleUntil (a precision), got {n_samples!r}."
+        )
     if scatter is None:
         scatter = Scatter()
     elif isinstance(scatter, Mapping):
@@ -310,12 +319,12 @@ def family_yield(
         stored = _stored(folder, net_settings) if run.resume else None
         if stored is not None:
             counts = {str(k): int(v) for k, v in stored["counts"].items()}
-            seconds = 0.0
+            seconds, count = 0.0, int(stored["n_samples"])
         else:
             estimate = yield_estimate(
                 net,
                 scatter,
-                int(n_samples),
+                n_samples if isinstance(n_samples, SampleUntil) else int(n_samples),
                 int(seed),
                 design=design,
                 process=process,
@@ -324,6 +333,7 @@ def family_yield(
                 run=dataclasses.replace(run, out=folder),
             )
             counts, seconds = dict(estimate.counts), estimate.seconds_per_sample
+            count = estimate.n_samples
             if folder is not None:
                 record = {"settings": net_settings, "net": net.name, **estimate.to_dict()}
                 (folder / ESTIMATE_FILE).write_text(json.dumps(record, indent=1, default=str))
@@ -331,10 +341,10 @@ def family_yield(
         rows.append(
             NetYield(
                 name=net.name,
-                fraction=folded / int(n_samples),
-                interval=binomial_interval(folded, int(n_samples), float(confidence), interval),
+                fraction=folded / count,
+                interval=binomial_interval(folded, count, float(confidence), interval),
                 counts=counts,
-                n_samples=int(n_samples),
+                n_samples=count,
                 radius_of_gyration=rg,
                 vertex_connections=connections,
                 seconds_per_sample=float(seconds),
@@ -353,7 +363,7 @@ def family_yield(
         rows=tuple(rows),
         correlations=correlations,
         seed=int(seed),
-        n_samples=int(n_samples),
+        n_samples=max(r.n_samples for r in rows),
         confidence=float(confidence),
         method=interval,
         settings=settings,

@@ -28,6 +28,7 @@ devices and process 0 gathers the dataset (see `sweep`'s module for details).
 from .._kernel import Kernel as Kernel
 from ._config import SweepConfig as SweepConfig
 from ._config import load_config as load_config
+from ._engine import AXIS as AXIS
 from ._engine import TRACES as TRACES
 from ._engine import TraceCache as TraceCache
 from ._engine import sweep as sweep

@@ -67,6 +67,7 @@ from ._space import AbstractDesignSpace
 from ._store import RESULT, Store, SweepBusyError, gather, logger
 
 AXIS = "design"
+"""The dimension of a sweep's dataset along which its designs lie (coordinate: their indices)."""
 # Default chunk sizing (see `_default_chunk_size`).
 MIN_CHUNKS = 8
 PER_DEVICE_CAP = {"cpu": 256}
