@@ -219,7 +219,14 @@ def table(folders) -> str:
             rho = "undefined (equal yields)" if equal else f"{c['rho']:+.2f}"
             p = "" if equal else f", p = {c['p_value']:.2g}"
             lines.append(f"\n{r['config']}: Spearman ρ vs {c['measure']} {rho}{p} (n = {c['n']})")
-        lines.append(f"{r['config']}: wall {r['wall_s']:.0f} s, {r['n_samples']} samples per net")
+        counts = sorted(n["n_samples"] for n in r["nets"])
+        per_net = (
+            f"{counts[0]} samples per net"
+            if counts[0] == counts[-1]
+            else f"{counts[0]}–{counts[-1]} samples per net (to ±"
+            f"{r['settings']['n_samples']['half_width']:g})"
+        )
+        lines.append(f"{r['config']}: wall {r['wall_s']:.0f} s, {per_net}")
     for folder, r in zip(folders, records, strict=True):
         loose = loosened(folder, 2.0)
         folded = ", ".join(f"{n[-2:]} {k}/{m}" for n, (k, m) in sorted(loose["yields"].items()))

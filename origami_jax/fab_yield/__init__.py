@@ -85,6 +85,8 @@ from ._ascent import ascend as ascend
 from ._ascent import check_ascent as check_ascent
 from ._ascent import yield_ascent as yield_ascent
 from ._estimate import SETTLE_TIME as SETTLE_TIME
+from ._estimate import YIELD_RTOL as YIELD_RTOL
+from ._estimate import YIELD_SOLVE as YIELD_SOLVE
 from ._estimate import RunOptions as RunOptions
 from ._estimate import YieldEstimate as YieldEstimate
 from ._estimate import stored_run_tolerances as stored_run_tolerances

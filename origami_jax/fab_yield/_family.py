@@ -20,7 +20,7 @@ from ..fold import catalogue_families, catalogue_family
 from ..net import Net, model_settings
 from ..simulation import FoldVerdict, VerdictTolerances
 from ..system import KOH_SOLUTION
-from ._estimate import RunOptions, as_pattern, yield_estimate
+from ._estimate import YIELD_RTOL, RunOptions, as_pattern, yield_estimate
 from ._scatter import Scatter
 from ._stats import INTERVAL_METHODS, binomial_interval, spearman
 from ._until import SampleUntil
@@ -206,6 +206,9 @@ def _settings(
         if solve is None
         else [solve.number("t1"), solve.saveat.n, float(solve.number("rtol"))]
         + [float(solve.number("atol")), solve.max_steps],
+        # The tolerance the default solve stands for: a net finished under another default (1e-7
+        # before 2026-12-05) is not read back into this family.
+        "default_rtol": YIELD_RTOL if solve is None else None,
         "tolerances": tolerances.to_dict(),
         # Always named: a family stored before samples were settled judged them at t1, and is
         # not mixed with nets judged where they come to rest.
