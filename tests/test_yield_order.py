@@ -110,6 +110,8 @@ def test_bad_searches_are_refused_before_compiling():
         ojy.order_search(TWO_FLAPS, {"a": [0.0, 0.0]}, release_times=[0.0, 1.0])
     with pytest.raises(ValueError, match="unknown scatter parameter"):
         ojy.order_search(TWO_FLAPS, {"a": [0.0, 0.0]}, {"stress": {"width": 0.1}})
+    with pytest.raises(ValueError, match="same samples: give n_samples as a count"):
+        ojy.order_search(TWO_FLAPS, {"a": [0.0, 0.0]}, n_samples=ojy.SampleUntil(0.1))
 
 
 @pytest.mark.slow  # builds the surrogate (the net's contact tables and kernel: ~20 s here)

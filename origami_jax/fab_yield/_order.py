@@ -20,6 +20,7 @@ import numpy as np
 
 from ..net import front_release, load_net
 from ._estimate import RunOptions, YieldEstimate, as_pattern, yield_estimate
+from ._until import SampleUntil
 
 
 def front_release_times(net, angle, speed):
@@ -144,6 +145,12 @@ def order_search(
         raise ValueError("schedules must be a non-empty mapping name -> release times (µs).")
     if "release_times" in options:
         raise ValueError("give the release times as schedules, not release_times.")
+    if isinstance(n_samples, SampleUntil):
+        # Each schedule would stop at its own count: no longer the same samples for all.
+        raise ValueError(
+            "order_search compares schedules on the same samples: give n_samples as a count, not "
+            "a SampleUntil."
+        )
     pattern = as_pattern(pattern)
     run = RunOptions() if run is None else run
     m = pattern.n_hinges
