@@ -345,6 +345,38 @@ def test_samples_still_moving_at_the_end_are_judged_where_they_settle(tmp_path):
             ojy.yield_estimate(PATTERN, solve=SOLVE, run=ojy.RunOptions(t_settle=bad))
 
 
+def test_samples_whose_working_set_missed_a_contact_are_reported():
+    """The fixed-step engine's kernel outputs `contacts_left_out` (steps whose working set of
+    contact pairs missed one within reach); the estimate counts the samples with any, in its
+    summary and record. The adaptive solvers have no working set: nothing reported."""
+    adaptive = _estimate("none", 4)
+    assert adaptive.contacts_left_out is None
+    assert "samples_with_contacts_left_out" not in adaptive.to_dict()
+    steps = xr.DataArray(np.array([0, 2, 0, 1], dtype=np.int32), dims=("design",))
+    fixed = dataclasses.replace(adaptive, dataset=adaptive.dataset.assign(contacts_left_out=steps))
+    assert fixed.contacts_left_out == 2 and fixed.to_dict()["samples_with_contacts_left_out"] == 2
+    assert "2 sample(s) had a contact outside the fixed-step engine's working set" in (
+        fixed.summary()
+    )
+
+
+@pytest.mark.slow  # the fixed-step engine's kernel, twice (a working set of one pair is another)
+def test_a_fixed_step_yield_counts_the_contacts_its_working_set_missed():
+    from origami_jax.simulation import ImplicitStep
+
+    def estimate(active_pairs):
+        solver = ImplicitStep(dt=2.5, active_pairs=active_pairs)
+        return ojy.yield_estimate(
+            PATTERN, ojy.Scatter(), 4, seed=1, solve=SOLVE.replace(solver=solver), run=RUN["run"]
+        )
+
+    default = estimate(None)
+    assert default.contacts_left_out == 0
+    assert np.all(default.dataset["contacts_left_out"].values == 0)
+    starved = estimate(1)  # one pair per step: the seam's other pairs come within reach unseen
+    assert starved.contacts_left_out > 0, starved.summary()
+
+
 def test_zero_scatter_gives_yield_zero_for_a_net_aimed_at_80_degrees():
     estimate = _estimate("none", 4, targets_deg=80.0)
     assert estimate.fraction == 0.0 and estimate.counts["misfolded"] == 4, estimate.summary()

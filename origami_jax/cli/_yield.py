@@ -88,7 +88,9 @@ the verdicts at --t-end.
 Newton iterations capped by the plates' collision detection): every sample of a vmapped chunk does
 the same work, where the adaptive default (tsit5) steps until its slowest member is done; it takes
 no --rtol or --step-budget. The solver is recorded in result.json and the store; --resume continues
-with the same one only.
+with the same one only. Each step evaluates a working set of the contact pairs nearest at its start;
+result.json's samples_with_contacts_left_out counts the samples where a pair left out came within
+reach (0 expected; the summary says so otherwise).
 
 --precision 0.1 samples until the yield's 95 % interval is at most ±0.1: --samples first, then
 rounds sized to what the yield so far needs (at least a quarter more each; OUT/samples-FROM-TO/),

@@ -142,7 +142,22 @@ class YieldEstimate:
             # settled).
             "t_settle_us": self._attrs.get("t_settle_us"),
             "continued": int(self._attrs.get("continued", 0)),
+            **(
+                {}
+                if self.contacts_left_out is None
+                else {"samples_with_contacts_left_out": self.contacts_left_out}
+            ),
         }
+
+    @property
+    def contacts_left_out(self) -> int | None:
+        """With the fixed-step engine, how many samples had a step whose working set of contact
+        pairs missed one within reach (its force was missed: 0 expected; raise
+        `ImplicitStep.active_pairs` otherwise); `None` with the adaptive solvers."""
+        dataset = self.dataset
+        if dataset is None or "contacts_left_out" not in getattr(dataset, "data_vars", {}):
+            return None
+        return int(np.sum(np.asarray(dataset["contacts_left_out"].values) > 0))
 
     @property
     def _attrs(self) -> Mapping[str, Any]:
@@ -158,9 +173,16 @@ class YieldEstimate:
             if continued
             else ""
         )
+        missed = self.contacts_left_out
+        missed = (
+            f"; {missed} sample(s) had a contact outside the fixed-step engine's working set "
+            "(its force missed: raise ImplicitStep.active_pairs)"
+            if missed
+            else ""
+        )
         return (
             f"yield {self.fraction:.3f} ({100 * self.confidence:g} % interval {low:.3f}-{high:.3f},"
-            f" {self.method}) over {self.n_samples} samples: {counts}{settled}"
+            f" {self.method}) over {self.n_samples} samples: {counts}{settled}{missed}"
         )
 
 

@@ -149,7 +149,9 @@ def fold_kernel(
     over its tolerance, at the end: a succeeded run is folded at the angle tolerance × ``a`` and
     the seam tolerances × ``s`` iff both are below those factors,
     `origami_jax.simulation.FoldOutcome`; NaN where the simulation failed), `num_steps`, `result`
-    (the solver's code; −1 invalid input).
+    (the solver's code; −1 invalid input); with the fixed-step engine also `contacts_left_out`
+    (its steps whose working set of contact pairs missed one within reach: 0 expected,
+    `ImplicitStep.active_pairs`).
 
     **Arguments** (fixed for the whole sweep, recorded in its settings and checked on resume):
     - `pattern`: a `Net` or a `CreasePattern` (an [`origami_jax.system.AbstractPattern`][] with
@@ -343,6 +345,13 @@ def fold_kernel(
             "seam_margin": masked(outcome.seam_margin),
             "num_steps": jnp.asarray(trajectory.stats["num_steps"], dtype=jnp.int32),
             "result": result,
+            # The fixed-step engine's steps whose working set of contact pairs missed one that
+            # came within reach (0 expected; more: its forces were missed, raise active_pairs).
+            **(
+                {"contacts_left_out": jnp.asarray(left_out, dtype=jnp.int32)}
+                if (left_out := trajectory.stats.get("contacts_left_out")) is not None
+                else {}
+            ),
         }
 
     resume = pattern.resume_settings()
