@@ -125,6 +125,7 @@ def test_the_simulate_command_stores_its_solve(tmp_path):
     assert run_python(code, env) == "raise"  # the library's own default is left alone
 
 
+@pytest.mark.slow  # a whole program of its own to compile; the default run stays under 10 min
 def test_a_script_stores_its_solve_and_sweep_and_still_raises(tmp_path):
     # Called from plain Python with EQX_ON_ERROR unset, `simulate` (throw=True) and a sweep of a
     # built-in model (its kernel turns bad values into result codes) compile without callbacks into
@@ -175,6 +176,7 @@ def test_a_script_stores_its_solve_and_sweep_and_still_raises(tmp_path):
     assert out["setting"] == "raise" and "user" in out, out
 
 
+@pytest.mark.slow  # a whole program of its own to compile; the default run stays under 10 min
 def test_a_sweep_in_the_bath_stores_its_kernel(tmp_path):  # a subprocess, ~15 s
     # In the etch bath the kernel releases every member over the nominal design's quasi-static
     # ramp, computed first by a program of its own; traced with callbacks, that program's inner

@@ -286,6 +286,7 @@ def test_sweeps_and_yield_estimates_take_the_sampling():
         get_model("net-fold", net="corner_cube", contact_sampling=(8, 6))
 
 
+@pytest.mark.slow  # a whole program of its own to compile; the default run stays under 10 min
 def test_net_contact_force_against_a_point_by_point_world_sum():
     # The kernel works per body pair in the face's frame with the gap's gradient by hand; the
     # reference goes point by point in the world frame (NumPy): the elastic part from the energy's

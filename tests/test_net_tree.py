@@ -146,6 +146,7 @@ def test_deep_tree_matches_pinocchio():
     _compare_with_pinocchio(tree, *to_pinocchio(tree), inverse=True, n_states=2)
 
 
+@pytest.mark.slow  # a whole program of its own to compile; the default run stays under 10 min
 def test_doubling_frames_equal_level_by_level(monkeypatch):
     """Pointer jumping and the level-by-level composition give the same kinematics (displacements,
     world motion subspaces and their derivatives) to round-off, for bending-arc hinges (whose

@@ -135,6 +135,7 @@ class _Viscous(eqx.Module):
         return self.pull - self.damping * theta_dot
 
 
+@pytest.mark.slow  # a whole program of its own to compile; the default run stays under 10 min
 def test_top_level_simulate_compiles_the_implicit_phase_only_when_a_run_turns_stiff(monkeypatch):
     # One flap in air with a linear damper c = r √(k I): eigenvalues ≈ −ω/r and −r ω. At r = 0.3
     # the run is mildly damped and never stiff; at r = 30 the fast mode makes the explicit steps

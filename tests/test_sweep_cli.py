@@ -77,6 +77,7 @@ def test_cli_reports_models_and_bad_configs(tmp_path, capsys):
     assert main(["sweep"]) == 2
 
 
+@pytest.mark.slow  # a whole program of its own to compile; the default run stays under 10 min
 def test_every_example_config_loads():
     # The shipped examples name real models, settings and parameters (they are run in full by
     # the slow test below and by users).
