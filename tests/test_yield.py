@@ -392,7 +392,8 @@ def test_a_closed_loop_pattern_folds_on_its_branch_or_is_misfolded_on_the_other(
     # pattern: misfolded. One compiled kernel for both (the targets are data).
     from origami_jax.loops import load_pattern
 
-    pattern = load_pattern("vertex_degree4")
+    # The paper's dynamics (released at once, no fluid inertia), as the other cases here.
+    pattern = load_pattern("vertex_degree4").with_model(added_mass=False, viscous=False)
     run = {**RUN, "n_samples": 4, "seed": 1, "bias": 0.01}
     folds = ojy.yield_estimate(pattern, ojy.Scatter.none(), **run)
     assert folds.counts["folded"] == 4, folds.summary()
@@ -735,7 +736,7 @@ def test_soft_yield_gradient_matches_finite_differences_without_contact():
     from origami_jax.net import load_net
 
     surrogate = ojy.soft_yield(
-        load_net(NET).with_model(contact=False),
+        load_net(NET).with_model(contact=False, added_mass=False, viscous=False),
         ojy.Scatter(),
         n_samples=4,
         seed=1,
