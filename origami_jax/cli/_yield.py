@@ -365,21 +365,26 @@ def _solve(args: argparse.Namespace, choice: dict, stored=None):
 _MOST_SAMPLES = 1000
 
 
+def _most_samples(args: argparse.Namespace) -> int:
+    """`--precision`'s cap: `--max-samples`, by default `_MOST_SAMPLES` or `--samples` if more."""
+    return max(_MOST_SAMPLES, args.samples) if args.max_samples is None else args.max_samples
+
+
 def _sample_count(args: argparse.Namespace, until: type):
     """`--samples`, or with `--precision` a `SampleUntil` (`until`, the class: the caller has
     `origami_jax.fab_yield` imported) starting from it (checked in `run`)."""
     if args.precision is None:
         return args.samples
-    most = _MOST_SAMPLES if args.max_samples is None else args.max_samples
-    return until(half_width=args.precision, first=args.samples, most=max(most, args.samples))
+    return until(half_width=args.precision, first=args.samples, most=_most_samples(args))
 
 
 def _samples_said(args: argparse.Namespace) -> str:
     """How many samples, for the first line: a count, or the precision asked for."""
     if args.precision is None:
         return f"{args.samples} samples"
-    most = _MOST_SAMPLES if args.max_samples is None else args.max_samples
-    return f"samples until ±{args.precision:g} (first {args.samples}, at most {max(most, args.samples)})"
+    return (
+        f"samples until ±{args.precision:g} (first {args.samples}, at most {_most_samples(args)})"
+    )
 
 
 def _run_settings(args: argparse.Namespace) -> dict:

@@ -23,7 +23,7 @@ from ..system import KOH_SOLUTION
 from ._estimate import YIELD_RTOL, RunOptions, as_pattern, yield_estimate
 from ._scatter import Scatter
 from ._stats import INTERVAL_METHODS, binomial_interval, spearman
-from ._until import SampleUntil
+from ._until import SampleUntil, check_sample_count
 
 # The compactness measures the yields are ranked against: the flat net's radius of gyration
 # (µm; small is compact) and its number of vertex connections (many is compact).
@@ -295,12 +295,7 @@ def family_yield(
         raise ValueError(f"interval must be one of {INTERVAL_METHODS}, got {interval!r}.")
     if not (isinstance(confidence, int | float) and 0 < confidence < 1):
         raise ValueError(f"confidence must lie strictly between 0 and 1, got {confidence!r}.")
-    if not isinstance(n_samples, SampleUntil) and (
-        isinstance(n_samples, bool) or not isinstance(n_samples, int | np.integer) or n_samples < 1
-    ):
-        raise ValueError(
-            f"n_samples must be an integer >= 1 or a SampleUntil (a precision), got {n_samples!r}."
-        )
+    check_sample_count(n_samples)
     if scatter is None:
         scatter = Scatter()
     elif isinstance(scatter, Mapping):

@@ -96,3 +96,13 @@ class SampleUntil:
     def to_dict(self) -> dict[str, object]:
         """The settings, for a record (`result.json`, a family's settings)."""
         return dataclasses.asdict(self)
+
+
+def check_sample_count(n_samples) -> None:
+    """Refuse an `n_samples` that is neither a whole number ≥ 1 nor a `SampleUntil` (one line)."""
+    if not isinstance(n_samples, SampleUntil) and (
+        isinstance(n_samples, bool) or not isinstance(n_samples, int | np.integer) or n_samples < 1
+    ):
+        raise ValueError(
+            f"n_samples must be an integer >= 1 or a SampleUntil (a precision), got {n_samples!r}."
+        )
