@@ -651,6 +651,85 @@ def test_cli_writes_result_and_figure(tmp_path, capsys):
     assert "--max-samples must be between 4 and" in capsys.readouterr().err
     assert main([*bad, "--precision", "0.1", "--improve", "2"]) == 2
     assert "--improve takes a fixed --samples" in capsys.readouterr().err
+    # Agitation: an effective temperature > 0, with the fixed-step engine.
+    assert main([*bad, "--agitation", "1e9"]) == 2
+    assert "add --solver implicit-step" in capsys.readouterr().err
+    assert main([*bad, "--agitation", "-1", "--solver", "implicit-step", "--dt", "2.5"]) == 2
+    assert "--agitation must be an effective temperature > 0 K" in capsys.readouterr().err
+
+
+# ---- agitation ---------------------------------------------------------------------------------
+
+# The corner cube with the fluid's viscous drag (which balances the noise), released at once, at
+# an effective temperature whose wobble, sqrt(k_B T / k), is ~0.3° on its hinges.
+AGITATED = load_net(NET).with_model(added_mass=False, viscous=True, release_ramp=None)
+
+
+def _agitated(temperature: float = 1e9):
+    from origami_jax.system import Agitation
+
+    return AGITATED.with_model(agitation=Agitation(temperature))
+
+
+def test_an_agitated_yield_gives_each_sample_its_noise_and_records_it(monkeypatch):
+    """Each sample's noise seed is a column of the sweep (the seed's one sequence: the first n of
+    a longer estimate are those of n); the kernel records the agitation and sweeps `noise_seed`;
+    refused before compiling without the fixed-step engine or the viscous drag."""
+    import origami_jax.fab_yield._estimate as estimate
+    from origami_jax.simulation import ImplicitStep
+
+    tables = []
+
+    def fake_sweep(kernel, table, *args, **kwargs):
+        tables.append((kernel, table))
+        raise RuntimeError("stop here")
+
+    monkeypatch.setattr(estimate, "sweep", fake_sweep)
+    solve = SOLVE.replace(solver=ImplicitStep(dt=2.5))
+    for n, seed in ((6, 3), (3, 3), (3, 4)):
+        with pytest.raises(RuntimeError, match="stop here"):
+            ojy.yield_estimate(_agitated(), n_samples=n, seed=seed, solve=solve, run=RUN["run"])
+    kernel, longer = tables[0]
+    seeds = [np.asarray(table.columns()["noise_seed"]) for _, table in tables]
+    np.testing.assert_array_equal(seeds[1], seeds[0][:3])
+    assert not np.any(seeds[2] == seeds[1])
+    assert np.all((seeds[0] >= 0) & (seeds[0] < 2**31) & (seeds[0] == np.round(seeds[0])))
+    assert "noise_seed" in kernel.parameters
+    assert kernel.settings["agitation"]["temperature_K"] == 1e9
+    with pytest.raises(ValueError, match="fixed-step engine"):
+        ojy.yield_estimate(_agitated(), n_samples=2, **RUN)
+    dry = _agitated().with_model(viscous=False)
+    with pytest.raises(ValueError, match="viscous drag to balance its noise"):
+        ojy.yield_estimate(dry, n_samples=2, solve=solve, run=RUN["run"])
+    with pytest.raises(ValueError, match="origami_jax.system.Agitation"):
+        AGITATED.with_model(agitation=300.0)
+
+
+@pytest.mark.slow  # the agitated fixed-step kernel, and the same kernel without agitation
+def test_an_agitated_yield_is_reproducible_and_wobbles_by_its_temperature():
+    """Agitated estimates of the corner cube (no fabrication scatter, so only the noise differs
+    between samples): the same seed gives the same samples (the first 2 of 4 are those of 2); the
+    samples' final angles differ from one another and from the unagitated fold by about the
+    thermal wobble ``sqrt(k_B T / k)`` (between a tenth of it and ten times it: the end state is a
+    snapshot of a fluctuating hinge, held at its target by the seam's contact or not); the
+    seam's plates never pass through each other."""
+    from origami_jax.simulation import ImplicitStep
+    from origami_jax.system import BOLTZMANN
+
+    solve = SOLVE.replace(solver=ImplicitStep(dt=2.5))
+    run = {"solve": solve, "run": RUN["run"]}
+    pattern = _agitated()
+    four = ojy.yield_estimate(pattern, ojy.Scatter.none(), 4, seed=2, **run)
+    two = ojy.yield_estimate(pattern, ojy.Scatter.none(), 2, seed=2, **run)
+    calm = ojy.yield_estimate(AGITATED, ojy.Scatter.none(), 1, seed=2, **run)
+    angles = np.asarray(four.dataset["final_angle"].values)
+    np.testing.assert_allclose(two.dataset["final_angle"].values, angles[:2], rtol=0, atol=1e-12)
+    k = float(AGITATED.system(AGITATED.default_design(KOH_SOLUTION)).hinges.stiffness[0])
+    wobble = math.sqrt(1e9 * BOLTZMANN / 1e-12 / k)
+    spread = np.abs(angles - np.asarray(calm.dataset["final_angle"].values)[0])
+    assert 0.1 * wobble < np.max(spread) < 10 * wobble, (spread, wobble)
+    assert np.all(np.asarray(four.dataset["penetration"].values) < 0.2)
+    assert four.counts["invalid"] == 0
 
 
 # ---- sampling to a precision -------------------------------------------------------------------

@@ -410,10 +410,26 @@ def add_dynamics_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def add_agitation_argument(parser: argparse.ArgumentParser) -> None:
+    """`--agitation K` (a pattern's `agitation`, `Net.with_model`; parsed by `dynamics_model`)."""
+    parser.add_argument(
+        "--agitation",
+        type=float,
+        default=None,
+        metavar="K",
+        help="random forcing by the bath at an effective temperature K (kelvin; off by default): "
+        "Langevin noise in balance with the fluid's viscous drag, each sample its own noise from "
+        "--seed; needs --solver implicit-step and the fluid's inertia (the etch bath). k_B T is "
+        "1.38e-11 pJ per kelvin and a crease's rms wobble sqrt(k_B T / k): a 200 µm cube net's "
+        "hinges (k ~ 1600 pJ/rad²) wobble 0.5° at 1e10 K; keep it well below the angle tolerance",
+    )
+
+
 def dynamics_model(args: argparse.Namespace) -> dict:
-    """The `with_model` options `--fluid-inertia`/`--no-fluid-inertia` and `--release-ramp` ask
-    of a pattern (`{}` with neither: the defaults), or a one-line exit for a ramp that is not a
-    time >= 0."""
+    """The `with_model` options `--fluid-inertia`/`--no-fluid-inertia`, `--release-ramp` and
+    `--agitation` (where the command has it) ask of a pattern (`{}` with none: the defaults), or a
+    one-line exit for a ramp that is not a time >= 0 or an agitation that is not a temperature > 0
+    with the fixed-step engine."""
     options: dict[str, Any] = {}
     inertia = getattr(args, "fluid_inertia", None)
     if inertia is not None:
@@ -423,6 +439,18 @@ def dynamics_model(args: argparse.Namespace) -> dict:
         if not (math.isfinite(ramp) and ramp >= 0):
             fail(f"--release-ramp must be a time >= 0 µs (0: at once), got {ramp:g}.")
         options["release_ramp"] = float(ramp) if ramp > 0 else None
+    temperature = getattr(args, "agitation", None)
+    if temperature is not None:
+        if not (math.isfinite(temperature) and temperature > 0):
+            fail(f"--agitation must be an effective temperature > 0 K, got {temperature:g}.")
+        if getattr(args, "solver", None) != "implicit-step":
+            fail(
+                "--agitation folds with the fixed-step engine, which adds the random force to "
+                "each step under contact: add --solver implicit-step --dt US."
+            )
+        from ..system import Agitation
+
+        options["agitation"] = Agitation(float(temperature))
     return options
 
 

@@ -11,6 +11,7 @@ from ._common import (
     EXIT_OK,
     Interrupted,
     OutputFolder,
+    add_agitation_argument,
     add_contact_sampling_argument,
     add_dynamics_arguments,
     add_solver_arguments,
@@ -91,6 +92,10 @@ no --rtol or --step-budget. The solver is recorded in result.json and the store;
 with the same one only. Each step evaluates a working set of the contact pairs nearest at its start;
 result.json's samples_with_contacts_left_out counts the samples where a pair left out came within
 reach (0 expected; the summary says so otherwise).
+
+--agitation K shakes every sample with the bath's random force at an effective temperature K
+(Langevin noise balanced by the fluid's viscous drag; needs --solver implicit-step): each sample its
+own noise, drawn from --seed. Keep the hinges' wobble sqrt(k_B T / k) well below the angle tolerance.
 
 --precision 0.1 samples until the yield's 95 % interval is at most ±0.1: --samples first, then
 rounds sized to what the yield so far needs (at least a quarter more each; OUT/samples-FROM-TO/),
@@ -194,6 +199,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add_contact_sampling_argument(parser)
     add_surface_arguments(parser)
     add_dynamics_arguments(parser)
+    add_agitation_argument(parser)
     parser.add_argument(
         "--t-end",
         type=float,
@@ -421,9 +427,9 @@ def _check_released_in_time(args, pattern, release, flag: str) -> None:
 def _dynamics_record(settings: dict) -> dict:
     """What result.json records of the samples' physics beyond the contact, read from the
     estimate's kernel settings (what they were run with): whether they carry the fluid's
-    inertia, the release ramp (µs, `None`: at once), and adhesion and friction where on (their
-    numbers in the design's units)."""
-    surfaces = {k: settings[k] for k in ("adhesion", "friction") if k in settings}
+    inertia, the release ramp (µs, `None`: at once), and adhesion, friction and agitation where
+    on (their numbers in the design's units; the agitation's temperature in kelvin)."""
+    surfaces = {k: settings[k] for k in ("adhesion", "friction", "agitation") if k in settings}
     return {
         "fluid_inertia": bool(settings.get("added_mass", False)),
         "release_ramp_us": settings.get("release_ramp_us"),

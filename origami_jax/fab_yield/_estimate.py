@@ -29,7 +29,7 @@ from ..simulation import (
 )
 from ..sweep import AXIS, Table, store_result, sweep
 from ..system import KOH_SOLUTION, AbstractPattern, HingeDesign
-from ._scatter import PARAMETERS, Scatter, sample_values, standard_draws
+from ._scatter import PARAMETERS, Scatter, noise_seeds, sample_values, standard_draws
 from ._stats import INTERVAL_METHODS, binomial_interval
 from ._tolerance import ToleranceSensitivity, tolerance_sensitivity
 from ._until import SampleUntil, check_sample_count
@@ -654,6 +654,10 @@ def yield_estimate(
         for j in range(m):
             columns[f"target[{j}]"] = np.full(end - start, aims[j])
             units[f"target[{j}]"] = "rad"
+        if getattr(pattern, "agitation", None) is not None:
+            # Each sample's own noise (`Net.with_model(agitation=...)`), from the seed.
+            columns["noise_seed"] = noise_seeds(seed, end)[start:end]
+            units["noise_seed"] = "1"
         part_run = dataclasses.replace(run, out=folder, chunk_size=chunk_size)
         stored = _stored_samples(folder) if run.resume else 0
         dataset = sweep(kernel, Table(columns, units=units), **part_run.sweep_options())

@@ -322,6 +322,14 @@ def standard_draws(seed: int, n_samples: int, n_creases: int) -> dict[str, np.nd
     }
 
 
+def noise_seeds(seed: int, n_samples: int) -> np.ndarray:
+    """Each sample's noise seed for an agitated pattern, `(n_samples,)` whole numbers in
+    ``[0, 2³¹)`` as floats (a sweep column): from the generator `default_rng([seed, len(PARAMETERS)])`,
+    the one after the parameters', so the first `n` of a longer draw are those of `n`."""
+    generator = np.random.default_rng([int(seed), len(PARAMETERS)])
+    return generator.integers(0, 2**31, size=n_samples).astype(float)
+
+
 def sample_values(
     scatter: Scatter,
     nominal: Mapping[str, np.ndarray],

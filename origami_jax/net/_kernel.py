@@ -12,8 +12,11 @@ import dataclasses
 from typing import Any
 
 import diffrax
+import equinox as eqx
+import jax
 import jax.numpy as jnp
 import numpy as np
+from jaxtyping import Array
 
 from .._kernel import (
     FLUIDS,
@@ -99,6 +102,12 @@ def model_settings(pattern, design: HingeDesign | None = None, system=None) -> d
         ramp = pattern.nominal_release_ramp(design)
     if ramp is not None:
         recorded["release_ramp_us"] = ramp
+    agitation = getattr(pattern, "agitation", None)
+    if agitation is not None:
+        recorded["agitation"] = {
+            "temperature_K": float(agitation.temperature),
+            "key": [int(x) for x in np.asarray(agitation.key)],
+        }
     return {**recorded, **surface_settings(pattern)}
 
 
@@ -133,7 +142,9 @@ def fold_kernel(
     per crease as `name[j]` (e.g. `misfit_strain[3]`: the film stress scatter of one hinge);
     `t_structural`, `drag_coefficient`, `b_scale` for the whole net; `release[j]`: crease `j`'s release
     time (µs, default 0); `target[j]`: the angle crease `j`'s hinge is drawn to fold to (rad; default
-    the `targets` setting, else the pattern's angle; give all of them or none).
+    the `targets` setting, else the pattern's angle; give all of them or none); with an agitated
+    pattern (`Net.with_model(agitation=...)`), `noise_seed`: the member's noise, a whole number in
+    ``[0, 2³¹)`` folded into the agitation's key (default: the key as it is).
 
     On a CPU, `sweep` runs this kernel one design per compiled call, several at once
     (`Kernel.cpu_chunk_size`), unless given a `chunk_size`.
@@ -232,6 +243,9 @@ def fold_kernel(
         )
     if isinstance(solver, ImplicitStep) and pattern.n_loops > 0:
         raise ValueError(CLOSED_LOOPS_NEED_ADAPTIVE)
+    agitation = getattr(pattern, "agitation", None)
+    if agitation is not None:
+        check_agitated_kernel(pattern, solver, base)
     contact = pattern.contact
     sampling = check_kernel_sampling(contact, pattern.contact_sampling)
     if hinge_lengths not in ("ideal", "designed"):
@@ -255,6 +269,8 @@ def fold_kernel(
     )
     parameters.update({f"release[{j}]": "us" for j in range(m)})
     parameters.update({f"target[{j}]": "rad" for j in range(m)})
+    if agitation is not None:
+        parameters["noise_seed"] = "1"
     intended = jnp.asarray(pattern.intended_angles)
 
     def design_of(params):
@@ -303,6 +319,10 @@ def fold_kernel(
         # The system of this member's design: its numbers are traced, so it is built in the trace.
         # Arc hinges on a net: laid out (lithography) for the nominal design, not each sample's.
         system = pattern.system(design, targets=aim, release_times=times, **layout)
+        if agitation is not None and "noise_seed" in params:
+            system = eqx.tree_at(
+                lambda s: s.agitation.key, system, member_key(agitation, params["noise_seed"])
+            )
         trajectory = simulate(
             system,
             release,
@@ -415,6 +435,30 @@ def fold_kernel(
         # CPU, chunks of one net side by side beat wide vmapped chunks (benchmarks/history.md).
         cpu_chunk_size=1,
     )
+
+
+def member_key(agitation, noise_seed) -> Array:
+    """The agitation key of a sweep member: `agitation.key` folded with its `noise_seed` (a whole
+    number in `[0, 2³¹)`, carried as a float column), `uint32[2]`."""
+    seed = jnp.asarray(noise_seed).astype(jnp.uint32)
+    return jax.random.fold_in(agitation.key, seed)
+
+
+def check_agitated_kernel(pattern, solver, design: HingeDesign) -> None:
+    """One-line errors, before anything compiles, for a kernel of an agitated pattern: its solver
+    must take the random force under contact (`ImplicitStep`), and its systems in `design`'s fluid
+    must carry the fluid's viscous drag that balances the noise."""
+    if not isinstance(solver, ImplicitStep):
+        raise ValueError(
+            "an agitated pattern's sweeps and yields fold with the fixed-step engine, which adds "
+            "the random force to each step under contact: give SolveOptions(solver="
+            "ImplicitStep(dt=...)) (CLI: --solver implicit-step --dt US)."
+        )
+    if not pattern.fluid_inertia(design)[1]:
+        raise ValueError(
+            f"{pattern.name}: agitation needs the fluid's viscous drag to balance its noise "
+            "(with_model(viscous=True); on by default in a liquid, the etch bath)."
+        )
 
 
 def stored_tolerances(settings) -> VerdictTolerances:

@@ -54,11 +54,12 @@ from ..fold import (
     source_and_label,
 )
 from ..simulation import SeamGaps, assess, fold_outcome
-from ..system import MICRO, FoldingSystem, HingeDesign, HingeDrag, Hinges
+from ..system import MICRO, Agitation, FoldingSystem, HingeDesign, HingeDrag, Hinges
 from ._fillet import ArcLayout, fillet_layout, fillet_plate_tables, layout_of
 from ._pattern import (
     AbstractPanelPattern,
     HostCache,
+    check_agitation,
     check_loader_arguments,
     check_per_crease,
     check_release_ramp,
@@ -85,6 +86,7 @@ NET_MODEL = {
     "adhesion": None,
     "friction": None,
     "release_ramp": "auto",
+    "agitation": None,
 }
 
 
@@ -107,7 +109,11 @@ class Net(AbstractPanelPattern):
     hinge's torque grows over it from its release; `release_ramp_for`). `drawn_layout`: for a
     net drawn with its hinge strips (`load_net`, the FOLD face property
     ``faces_origami_jax:hinge``), the strips as drawn (an `ArcLayout`), which its arc systems take
-    unless told otherwise; `None` for a net drawn for point creases.
+    unless told otherwise; `None` for a net drawn for point creases. `agitation` (`None`: off): an
+    `origami_jax.system.Agitation`, the bath's random forcing (Langevin, in balance with the
+    fluid's viscous drag, so it needs `viscous` on), which its systems carry; a sweep or yield
+    draws each member's noise from its key and the member's `noise_seed`, and folds with the
+    fixed-step engine (`ImplicitStep`).
 
     Hinge ``j`` of the systems it builds is the geometry's crease ``j``; body ``j`` is face
     ``geometry.order[j + 1]``; the root face is the fixed base.
@@ -129,12 +135,14 @@ class Net(AbstractPanelPattern):
     friction: Friction | None = None
     drawn_layout: ArcLayout | None = None
     release_ramp: float | str | None = "auto"
+    agitation: Agitation | None = None
 
     MODEL: ClassVar[dict[str, Any]] = NET_MODEL
 
     def __post_init__(self):
         check_surface_model(self.adhesion, self.friction)
         check_release_ramp(self.release_ramp)
+        check_agitation(self.agitation)
 
     @property
     def continues_from_angles(self) -> bool:
@@ -341,7 +349,9 @@ class Net(AbstractPanelPattern):
         The physics options (`contact` to `contact_sampling`) left `None` are the net's own
         (its fields; `with_model`). Adhesion and friction are the net's only (`with_model(adhesion=
         Adhesion(...), friction=Friction(...))`, off by default): they act at the plate contact
-        (`PlateContact.with_surface`).
+        (`PlateContact.with_surface`); so is agitation (`with_model(agitation=Agitation(...))`,
+        carried by the system: `simulate` then solves a stochastic equation, which needs the
+        fluid's viscous drag, `viscous`).
         """
         contact = self.contact if contact is None else contact
         arc_layout = self.default_arc_layout if arc_layout is None else arc_layout
@@ -433,7 +443,19 @@ class Net(AbstractPanelPattern):
             kind,
             lambda: self.tree(HingeDesign.literature(), hinges=hinges, arc_layout=layout),
         )
-        return FoldingSystem(tree, hinges_, drag_model, contact=contact_model, units=design.units)
+        if self.agitation is not None and not viscous:
+            raise ValueError(
+                f"{self.name}: agitation needs the fluid's viscous drag to balance its noise "
+                "(with_model(viscous=True); on by default in a liquid, the etch bath)."
+            )
+        return FoldingSystem(
+            tree,
+            hinges_,
+            drag_model,
+            contact=contact_model,
+            units=design.units,
+            agitation=self.agitation,
+        )
 
     def contact_tables(
         self,

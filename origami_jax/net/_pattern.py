@@ -29,7 +29,7 @@ from .._validate import is_traced
 from ..contact import Adhesion, Friction
 from ..fluid import CombinedDrag, fluid_loads, polygon_added_inertia
 from ..simulation import Step, fold_pattern, quasi_static_ramp
-from ..system import AbstractPattern, HingeDesign, check_known_names
+from ..system import AbstractPattern, Agitation, HingeDesign, check_known_names
 from ._kernel import fold_kernel
 
 
@@ -338,6 +338,16 @@ def check_surface_model(adhesion, friction) -> None:
                 f"{name} must be None or an origami_jax.contact.{kind.__name__}, got "
                 f"{type(value).__name__}."
             )
+
+
+def check_agitation(agitation) -> None:
+    """A one-line error for a pattern's `agitation` option (`None` or an
+    `origami_jax.system.Agitation`), before anything is built."""
+    if agitation is not None and not isinstance(agitation, Agitation):
+        raise ValueError(
+            f"agitation must be None or an origami_jax.system.Agitation (a temperature, kelvin, "
+            f"and a seed), got {type(agitation).__name__}."
+        )
 
 
 @eqx.filter_jit

@@ -37,6 +37,18 @@ beyond the activation gap has no force, so the step is the same while no pair le
 within it (counted in `Trajectory.stats["contacts_left_out"]`); the collision check bounds the
 left-out pairs from their least gap, so none passes through a plate either way.
 
+**Agitation.** An agitated system (`FoldingSystem(agitation=...)`, Langevin forcing in balance with
+the drag's viscous part) receives a random impulse ``L(q_n) √h ξ_n`` in each step, ``ξ_n`` standard
+normal drawn from the agitation's key folded with the step's number (the same path for the same
+seed and step, whatever the batch), ``L Lᵀ = 2 k_B T D(q_n)`` (`Agitation.noise_matrix`): implicit
+Euler for the drift with an Euler–Maruyama increment, ``M (v_{n+1} − v_n) = h F + L √h ξ_n``. Its
+stationary distribution is Boltzmann's to first order in ``h``: a harmonic hinge's ``⟨k θ²⟩``
+comes out ``k_B T (1 + O(ω₀ h))`` (implicit Euler's numerical damping takes energy from the noise;
+the test's closed form of the discrete scheme gives the factor), so keep ``ω₀ h`` small where the
+distribution matters. The impulse's dependence on ``q_n`` (through ``D``) is held fixed under
+differentiation (its square root's derivative is undefined where ``D``'s eigenvalues coincide);
+the temperature's is exact.
+
 **Gradients.** The derivative of each step is that of its root by the implicit function theorem,
 ``∂q_{n+1} = −J⁻¹ ∂r`` with the exact ``J = ∂r/∂q`` at the root (`_root`, a custom JVP: computed
 only when differentiating), not the derivative of the iterations, which run on values without
@@ -176,11 +188,35 @@ def _residual(system: FoldingSystem, inputs: AbstractInput, t_next, h, q_n, v_n,
     return mass @ (q - q_n - h * v_n) + h * h * (bias - system.generalized_force(q, v, tau))
 
 
-def _residual_from_start(system, inputs, t_next, h, q_n, v_n, q):
+def _residual_from_start(system, inputs, t_next, h, q_n, v_n, noise, q):
     mechanism = system.mechanism
     mass = mechanism.mass_matrix(q_n)
-    bias = mechanism.bias_force(q_n, v_n)
+    bias = mechanism.bias_force(q_n, v_n) - _impulse(system, h, q_n, noise) / h
     return _residual(system, inputs, t_next, h, q_n, v_n, mass, bias, q)
+
+
+def _impulse(system: FoldingSystem, h, q_n, noise):
+    """The agitation's random impulse over a step, ``L(q_n) √h ξ`` (force·time, `(n,)`; module
+    docstring), zero without agitation. ``L``'s dependence on ``q_n`` is not differentiated: the
+    unit-temperature square root is held fixed and scaled by ``√T``."""
+    agitation = system.agitation
+    if agitation is None:
+        return jnp.zeros_like(q_n)
+    unit = eqx.tree_at(lambda a: a.temperature, agitation, jnp.ones_like(agitation.temperature))
+    root = jax.lax.stop_gradient(
+        unit.noise_matrix(system.mechanism, system.drag, system.units, q_n)
+    )
+    return jnp.sqrt(agitation.temperature) * (root @ noise) * jnp.sqrt(h)
+
+
+def step_noise(system: FoldingSystem, index, size: int):
+    """The standard normal draws ``ξ_n`` `(size,)` of step `index` (the agitation's key folded with
+    it), or `None` without agitation."""
+    agitation = system.agitation
+    if agitation is None:
+        return None
+    key = jax.random.fold_in(jax.lax.stop_gradient(agitation.key), index)
+    return jax.random.normal(key, (size,))
 
 
 def _jacobian(residual, q):
@@ -264,7 +300,7 @@ def _newton_matrix(system, inputs, solver, t_next, h, q_n, v_n, mass, bias):
 
 
 @eqx.filter_custom_jvp
-def _root(q, system, inputs, t_next, h, q_n, v_n):
+def _root(q, system, inputs, t_next, h, q_n, v_n, noise):
     """`q`, the converged root of the step's residual, whose derivative is that of the root by the
     implicit function theorem, ``−J⁻¹ ∂r`` (exact ``J`` at the root; `_root_jvp`): the derivative
     of the discrete map whatever the Newton iterations did."""
@@ -285,10 +321,13 @@ def _root_jvp(primals, tangents):
     return q, -jnp.linalg.solve(jac, dr)
 
 
-def _step(system: FoldingSystem, inputs: AbstractInput, solver: ImplicitStep, t_next, h, q_n, v_n):
+def _step(
+    system: FoldingSystem, inputs: AbstractInput, solver: ImplicitStep, t_next, h, q_n, v_n, noise
+):
     """One step from ``(q_n, v_n)`` to ``t_next = t_n + h``: ``(q, v, newton_error,
     left_out)``, `left_out` whether a contact pair outside the step's working set came within the
-    activation gap (`ImplicitStep.active_pairs`)."""
+    activation gap (`ImplicitStep.active_pairs`). `noise`: the step's standard normal draws of an
+    agitated system (`step_noise`), else `None`."""
     mechanism = system.mechanism
     contact = system.contact
     capped = hasattr(contact, "time_of_impact")
@@ -300,6 +339,8 @@ def _step(system: FoldingSystem, inputs: AbstractInput, solver: ImplicitStep, t_
         s_system = eqx.tree_at(lambda s: s.contact, s_system, working)
     mass = mechanism.mass_matrix(s_q)
     bias = mechanism.bias_force(s_q, s_v)
+    if noise is not None:
+        bias = bias - _impulse(s_system, s_h, s_q, noise) / s_h
     newton_matrix, residual = _newton_matrix(
         s_system, s_inputs, solver, t_next, s_h, s_q, s_v, mass, bias
     )
@@ -371,7 +412,7 @@ def _step(system: FoldingSystem, inputs: AbstractInput, solver: ImplicitStep, t_
     left_out = jnp.zeros((), bool)
     if counts is not None:
         left_out = s_system.contact.left_out_engaged(s_system.mechanism, q)
-    q = _root(jax.lax.stop_gradient(q), system, inputs, t_next, h, q_n, v_n)
+    q = _root(jax.lax.stop_gradient(q), system, inputs, t_next, h, q_n, v_n, noise)
     return q, (q - q_n) / h, jax.lax.stop_gradient(error), left_out
 
 
@@ -391,14 +432,17 @@ def integrate(
     starts = jnp.concatenate([jnp.reshape(t0, (1,)), ts[:-1]])
 
     def interval(state, span):
-        t_start, t_end = span
+        t_start, t_end, index = span
         length = t_end - t_start
         moves = length > 0
         h = jnp.where(moves, length / steps, 1.0)
 
         def step(carry, j):
             q, v, error, left_out = carry
-            q_next, v_next, e, out = _step(system, inputs, solver, t_start + (j + 1) * h, h, q, v)
+            noise = step_noise(system, index * steps + j.astype(jnp.int32), q.shape[0])
+            q_next, v_next, e, out = _step(
+                system, inputs, solver, t_start + (j + 1) * h, h, q, v, noise
+            )
             q_next = jnp.where(moves, q_next, q)
             v_next = jnp.where(moves, v_next, v)
             error = jnp.maximum(error, jnp.where(moves, e, 0.0))
@@ -409,7 +453,8 @@ def integrate(
 
     zero = jnp.zeros((), q0.dtype)
     start = (q0, v0, zero, jnp.zeros((), jnp.int32))
-    (_, _, error, left_out), (q, v) = jax.lax.scan(interval, start, (starts, ts))
+    indices = jnp.arange(ts.shape[0], dtype=jnp.int32)
+    (_, _, error, left_out), (q, v) = jax.lax.scan(interval, start, (starts, ts, indices))
     count = jnp.sum(ts > starts).astype(jnp.int32) * steps
     finite = jnp.all(jnp.isfinite(q)) & jnp.all(jnp.isfinite(v))
     result = RESULTS.where(finite, RESULTS.successful, RESULTS.nonfinite_state)

@@ -250,14 +250,15 @@ def _agitated(system: FoldingSystem, span, term: diffrax.ODETerm, y0) -> diffrax
 
 def _agitated_solver(system: FoldingSystem, solver, q0):
     """The solver of an agitated system (default `diffrax.Heun`: its noise depends on ``q`` only,
-    so Itô and Stratonovich calculus agree); refuses the solvers that cannot take a random force."""
+    so Itô and Stratonovich calculus agree; or the fixed-step engine, which adds the random impulse
+    to each implicit step); refuses the solvers that cannot take a random force."""
     if solver is None:
         solver = diffrax.Heun()
-    if isinstance(solver, StiffnessSwitching | ImplicitStep):
+    if isinstance(solver, StiffnessSwitching):
         raise ValueError(
             f"an agitated system needs a solver for stochastic equations ({type(solver).__name__} "
-            f"is not one): leave solver unset (diffrax.Heun) or pass e.g. diffrax.Heun() or "
-            f"diffrax.SPaRK()."
+            f"is not one): leave solver unset (diffrax.Heun), or pass e.g. diffrax.Heun(), "
+            f"diffrax.SPaRK() or ImplicitStep(dt=...)."
         )
     system.agitation.check_drag(system.mechanism, system.drag, q0)
     return solver
@@ -831,7 +832,8 @@ def simulate(
           dissipative; the tolerances, controller, `dt0`, `max_steps`, `adjoint` and dense output do
           not apply to it, and its time span and sample times must be known values. A system
           with `agitation` (random forcing, `origami_jax.system.Agitation`) is solved as a
-          stochastic equation, by default with `diffrax.Heun` (docs/physics.md, "Agitation").
+          stochastic equation, by default with `diffrax.Heun` (docs/physics.md, "Agitation"),
+          or by `ImplicitStep` (a random impulse in each implicit step: under contact too).
         - `rtol`, `atol`: step-size controller tolerances (`DEFAULT_RTOL`, `DEFAULT_ATOL`). Metrics
           of the accordion step agree with rtol 1e-9 to about 1e-6 relative.
         - `stepsize_controller`: overrides [`origami_jax.simulation.default_controller`][] (an
