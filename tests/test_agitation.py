@@ -142,6 +142,38 @@ def test_the_fixed_step_engine_samples_its_own_stationary_distribution(hinge):
     np.testing.assert_allclose(alone, theta[5], rtol=1e-9, atol=1e-12)
 
 
+@pytest.mark.slow  # a reverse-mode program of the engine of its own
+def test_the_fixed_step_engines_gradient_in_the_temperature(hinge):
+    """The derivative of the agitated hinge's end angle in the temperature through `ImplicitStep`
+    (the same noise path: its key fixed) against central differences (relative steps 1e-4: the
+    angle is ``√T`` times a fixed path, smooth; 1e-6 relative), and finite at 0 K."""
+    system, k, _, omega = hinge
+    kelvin_per_k = 1 / MICRO.from_si(BOLTZMANN, length=2, time=-2, mass=1)
+
+    def end_angle(temperature):
+        agitated = dataclasses.replace(system, agitation=Agitation(temperature, 7))
+        trajectory = simulate(
+            agitated,
+            Step(jnp.zeros(1)),
+            SolveOptions(
+                saveat=SaveAt(n=3), solver=ImplicitStep(dt=float(0.1 / omega)), throw=False
+            ),
+            t1=20 / omega,
+        )
+        return trajectory.theta[-1, 0]
+
+    value_and_grad = jax.jit(jax.value_and_grad(end_angle))
+    temperature = 0.0025 * k * kelvin_per_k
+    value, grad = value_and_grad(temperature)
+    step = 1e-4 * temperature
+    central = (end_angle(temperature + step) - end_angle(temperature - step)) / (2 * step)
+    assert abs(float(value)) > 0
+    assert float(grad) == pytest.approx(float(central), rel=1e-6)
+    assert float(grad) == pytest.approx(float(value) / (2 * temperature), rel=1e-6)  # ∝ √T
+    cold_value, cold_grad = value_and_grad(0.0)
+    assert float(cold_value) == 0 and np.isfinite(float(cold_grad))
+
+
 def test_seeds_reproducible_and_independent(thermal_runs):
     """The same seed gives the same path (run alone instead of in the batch); different seeds give
     different paths, uncorrelated at the end."""

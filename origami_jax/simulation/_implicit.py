@@ -206,7 +206,11 @@ def _impulse(system: FoldingSystem, h, q_n, noise):
     root = jax.lax.stop_gradient(
         unit.noise_matrix(system.mechanism, system.drag, system.units, q_n)
     )
-    return jnp.sqrt(agitation.temperature) * (root @ noise) * jnp.sqrt(h)
+    temperature = agitation.temperature
+    hot = temperature > 0
+    # √T's derivative is infinite at 0 K: kept finite there (a cold system's noise is zero).
+    scale = jnp.where(hot, jnp.sqrt(jnp.where(hot, temperature, 1.0)), 0.0)
+    return scale * (root @ noise) * jnp.sqrt(h)
 
 
 def step_noise(system: FoldingSystem, index, size: int):
