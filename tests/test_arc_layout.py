@@ -11,6 +11,7 @@ import pytest
 from origami_jax.contact import PlateContact
 from origami_jax.net import arc_length, fillet_layout, fillet_trim, load_net
 from origami_jax.net._net import default_design
+from origami_jax.simulation import SolveOptions
 from origami_jax.system import KOH_SOLUTION
 
 # Kinematics at the targets, float64: round-off relative to the panels' size (200 µm).
@@ -201,18 +202,22 @@ def test_traced_design_needs_a_nominal_layout(cube):
 @pytest.mark.slow  # one simulated folding of the arc-hinged cube (~2 min on 2 busy cores)
 def test_arc_hinged_cube_folds_closed_in_koh():
     """The cube net on bending strips, laid out as fillets, in the etch bath (nominal design),
-    contact's activation gap at 0.4 µm: `folded`, seams below the verdict's tolerance, no
-    penetration. (At the default gap, 1 µm, the contact holds the walls' far corners that far
-    apart and the arcs' deeper chain turns it into seams of 1.7–2.9 µm against the tolerance's
-    2 µm: `misfolded`, every crease within 0.8° of its target.)"""
+    contact's activation gap at 0.4 µm: `folded` and at rest, every seam within 1 % of the panel
+    (2 µm), no penetration. The walls meet at ~1,000 µs and bounce on each other's edges, their
+    seams swinging between 1.7 and 14 µm, for ~2,700 µs more: judged by the verdict's derived
+    seam tolerances (7–18 µm) they are folded from the first contact, unsettled; the 2 µm
+    claim is checked once they rest (settled by ~3,700 µs, seams 0.6–1.65 µm). A check at a
+    fixed time within the bouncing samples the swing, not the shape."""
     # The paper's dynamics in the bath (released at once, no fluid inertia), as measured here: the
     # net's model says so, so that its fold does not release over the bath's quasi-static ramp.
     net = load_net("cube_net_01").with_model(added_mass=False, viscous=False)
     design = default_design(net, KOH_SOLUTION)
     system = net.system(design, hinges="arc")
     system = eqx.tree_at(lambda s: s.contact.activation, system, jnp.asarray(0.4))
-    trajectory, report = net.fold(system)
-    assert report.verdict == "folded", report
+    # One run to 5,000 µs (the bouncing takes more than the default step budget).
+    options = SolveOptions(throw=False, max_steps=65_536)
+    trajectory, report = net.fold(system, t1=5000.0, options=options)
+    assert report.verdict == "folded" and report.settled, report
     final = jnp.asarray(trajectory.theta[-1])
     assert np.max(np.asarray(net.seam_gap_function(system)(final))) < 0.01 * net.panel_size()
     contact = system.contact.report(system.mechanism, final)
