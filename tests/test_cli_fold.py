@@ -266,6 +266,16 @@ def test_bad_hinge_parameters_are_refused_in_one_line(param, message, capsys):
         (["--release-ramp", "-1"], "--release-ramp must be a time >= 0 µs"),
         (["--release-ramp", "inf"], "--release-ramp must be a time >= 0 µs"),
         (["--t1", "500"], "--t1 500 µs ends within the release ramp"),
+        (["--agitation", "1e9"], "add --solver implicit-step"),
+        (["--agitation", "0", "--solver", "implicit-step", "--dt", "2.5"], "temperature > 0 K"),
+        (
+            ["--agitation", "1e9", "--solver", "implicit-step", "--dt", "2.5", "--noise-seed", "-1"],
+            "--noise-seed must be a whole number >= 0",
+        ),
+        (
+            ["--agitation", "1e9", "--solver", "implicit-step", "--dt", "2.5", "--fluid", "air"],
+            "viscous drag to balance its noise",
+        ),
     ],
 )
 def test_bad_surface_physics_is_refused_in_one_line(argv, message, capsys, tmp_path):

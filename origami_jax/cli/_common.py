@@ -410,8 +410,10 @@ def add_dynamics_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def add_agitation_argument(parser: argparse.ArgumentParser) -> None:
-    """`--agitation K` (a pattern's `agitation`, `Net.with_model`; parsed by `dynamics_model`)."""
+def add_agitation_argument(parser: argparse.ArgumentParser, *, seed: bool = False) -> None:
+    """`--agitation K` (a pattern's `agitation`, `Net.with_model`; parsed by `dynamics_model`),
+    and with `seed` `--noise-seed N`, the seed of its one realisation (a yield draws each
+    sample's from its `--seed`)."""
     parser.add_argument(
         "--agitation",
         type=float,
@@ -424,6 +426,14 @@ def add_agitation_argument(parser: argparse.ArgumentParser) -> None:
         "hinges (k ~ 1600 pJ/rad²) wobble 0.17° at 1e9 K. Keep three wobbles below half the angle "
         "tolerance: the verdict takes a crease moving more over the run's last tenth as unsettled",
     )
+    if seed:
+        parser.add_argument(
+            "--noise-seed",
+            type=int,
+            default=0,
+            metavar="N",
+            help="seed of --agitation's random force (default 0; the same seed, the same path)",
+        )
 
 
 def dynamics_model(args: argparse.Namespace) -> dict:
@@ -451,7 +461,10 @@ def dynamics_model(args: argparse.Namespace) -> dict:
             )
         from ..system import Agitation
 
-        options["agitation"] = Agitation(float(temperature))
+        seed = getattr(args, "noise_seed", 0)
+        if seed < 0:
+            fail(f"--noise-seed must be a whole number >= 0, got {seed}.")
+        options["agitation"] = Agitation(float(temperature), seed)
     return options
 
 

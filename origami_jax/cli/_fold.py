@@ -16,6 +16,7 @@ from ._common import (
     EXIT_FAILED,
     EXIT_OK,
     OutputFolder,
+    add_agitation_argument,
     add_contact_sampling_argument,
     add_dynamics_arguments,
     add_figures_argument,
@@ -158,6 +159,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add_contact_sampling_argument(parser)
     add_surface_arguments(parser)
     add_dynamics_arguments(parser)
+    add_agitation_argument(parser, seed=True)
     parser.add_argument("--drag", choices=("panel", "hinge"), default="panel", help="default panel")
     parser.add_argument(
         "--hinges", choices=("point", "arc"), default="point", help="point creases or bending arcs"
