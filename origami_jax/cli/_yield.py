@@ -552,6 +552,7 @@ def _run_family(args: argparse.Namespace, members: list[str], sampling, choice: 
             "release_ramp_us": {
                 p.name: p.nominal_release_ramp(p.default_design(fluid)) for p in patterns
             },
+            "agitation_K": args.agitation,
             **choice,
             **family.to_dict(),
             "wall_s": elapsed,
