@@ -101,8 +101,8 @@ Exit codes: 0 folded, 1 any other verdict, 2 bad input.
 )
 
 
-# Without --t1: fold for FOLD_SEGMENT (µs), and while the verdict is "unfinished" because the panels
-# still move (not because the solver ran out of steps), continue from where the run ended, up to
+# Without --t1: fold for FOLD_SEGMENT (µs), and while the panels still move ("unfinished", not
+# because the solver ran out of steps, or "folded" but not at rest), continue from where the run ended, up to
 # MAX_FOLD_SEGMENTS segments (`Net.fold`'s defaults). The continuations reuse the compiled solve
 # (times and the initial state are traced values).
 

@@ -97,8 +97,8 @@ class AbstractPanelPattern(AbstractPattern):
         With `t1` (time, the system's units: µs for the default units), one run to `t1`. Without
         it, runs of `segment` (default: a first of `fold_segment(system)`, 1000 µs or past a
         release ramp the longer of that and a fifth of the ramp, then continuations of as long
-        as that first run lasted past the ramp) continued from the last state while the verdict is
-        `unfinished` because the panels still move, up to `max_segments` (default 8) in all (a
+        as that first run lasted past the ramp) continued from the last state while the panels
+        still move (the verdict `unfinished`, or `folded` but not at rest), up to `max_segments` (default 8) in all (a
         cube net in the etch bath closes in ~1.4 ms, one in air rings for much longer, and neither
         needs its end time guessed); a closed-loop pattern's run is one segment (its state is more
         than its angles; `continues_from_angles`, `origami_jax.simulation.fold_pattern`).

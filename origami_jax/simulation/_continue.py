@@ -4,8 +4,10 @@ continued from its last state, one segment at a time.
 How long a folding takes is not known before it is run (a cube net in the etch bath closes in
 ~1.4 ms, in air it rings for tens of ms), so a fixed end time is either too short (the verdict says
 `unfinished`) or wasted. `fold_until_settled` runs one segment, judges it, and while the verdict is
-`unfinished` with a successful solve (time ran out, not the step budget) runs the next segment from
-the last state. Every segment has the same length and sample count, so the continuations reuse the
+`unfinished` with a successful solve (time ran out, not the step budget), or `folded` while its
+panels still move (within the tolerances at the last sample, not at rest: walls bouncing on each
+other's edges, whose final sample is a snapshot of the swing), runs the next segment from the
+last state. Every segment has the same length and sample count, so the continuations reuse the
 first segment's compiled solve; `join_trajectories` joins them into one `Trajectory`, and `assess`
 judges runs padded to the next power of two of samples (at least 1024), so the growing run compiles
 a verdict only when it crosses one (2 verdicts for 8 segments of 201 samples).
@@ -76,9 +78,10 @@ def fold_until_settled(
     first: float | None = None,
 ) -> tuple[Trajectory, AbstractFoldReport, int]:
     """Simulate `system` under `inputs` for `segment` (time units of the system; default 1000, µs in
-    the default units), judge the run with `judge`, and while the verdict is `unfinished` with a
-    successful solve continue from the last state for another `segment`, up to `max_segments`
-    segments in all (default 8).
+    the default units), judge the run with `judge`, and while the panels still move with a
+    successful solve (the verdict `unfinished`, or `folded` but not `settled`: `still_moving`)
+    continue from the last state for another `segment`, up to `max_segments` segments in all
+    (default 8).
 
     **Arguments:** `judge` maps a trajectory to its `FoldReport` (e.g. ``lambda tr:
     net.assess(system, tr)``); `options`, a [`origami_jax.simulation.SolveOptions`][] for every
@@ -120,7 +123,7 @@ def fold_until_settled(
     trajectory = run(t0, first, theta0, theta_dot0)
     report = judge(trajectory)
     segments = 1
-    while report.verdict == "unfinished" and bool(trajectory.succeeded) and segments < max_segments:
+    while still_moving(report) and bool(trajectory.succeeded) and segments < max_segments:
         end = float(trajectory.times[-1])
         if on_continue is not None:
             on_continue(end, end + segment)
@@ -129,6 +132,14 @@ def fold_until_settled(
         report = judge(trajectory)
         segments += 1
     return trajectory, report, segments
+
+
+def still_moving(report: AbstractFoldReport) -> bool:
+    """Whether a fold report's panels still move at its end: `unfinished`, or `folded` (within the
+    tolerances at the last sample) without having `settled` — a folding worth continuing."""
+    if report.verdict == "unfinished":
+        return True
+    return report.verdict == "folded" and not bool(getattr(report, "settled", True))
 
 
 def fold_pattern(
@@ -149,7 +160,7 @@ def fold_pattern(
     from `pattern.start_state(system, bias=bias)` and judged by `pattern.assess`.
 
     With `t1` (time units of the system: µs by default), one run to `t1`. Without it, runs of
-    `segment` continued while the verdict is `unfinished` because the panels still move, up to
+    `segment` continued while the panels still move (`still_moving`), up to
     `max_segments` in all (`fold_until_settled`; `first`, the first segment's length where it
     differs), where the pattern's state is its hinge angles (`pattern.continues_from_angles`);
     otherwise one segment.
