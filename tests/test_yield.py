@@ -658,6 +658,17 @@ def test_cli_writes_result_and_figure(tmp_path, capsys):
     assert "--agitation must be an effective temperature > 0 K" in capsys.readouterr().err
 
 
+def test_yield_takes_the_figures_flags_fold_takes():
+    from origami_jax.cli import build_parser
+
+    parser = build_parser()
+    assert parser.parse_args(["yield", NET]).figures == "png"
+    assert parser.parse_args(["yield", NET, "--figures", "none"]).figures == "none"
+    assert parser.parse_args(["yield", NET, "--no-figures"]).figures == "none"
+    with pytest.raises(SystemExit):
+        parser.parse_args(["yield", NET, "--figures", "all"])  # a yield has no animation
+
+
 # ---- agitation ---------------------------------------------------------------------------------
 
 # The corner cube with the fluid's viscous drag (which balances the noise), released at once, at

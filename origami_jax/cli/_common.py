@@ -168,15 +168,16 @@ def add_out_argument(parser: argparse.ArgumentParser, default: Path = DEFAULT_OU
 FIGURE_CHOICES = ("none", "png", "all")
 
 
-def add_figures_argument(parser: argparse.ArgumentParser) -> None:
-    """`--figures none|png|all` (default all) and `--no-figures` (same as `--figures none`)."""
-    parser.add_argument(
-        "--figures",
-        choices=FIGURE_CHOICES,
-        default="all",
-        help="none; png: the angle plot and a strip of 3D frames; all (default): also the "
-        "animated GIF",
-    )
+def add_figures_argument(
+    parser: argparse.ArgumentParser,
+    *,
+    choices: tuple[str, ...] = FIGURE_CHOICES,
+    help: str = "none; png: the angle plot and a strip of 3D frames; all (default): also the "
+    "animated GIF",
+) -> None:
+    """`--figures` (one of `choices`, default the last: `none|png|all` for a folding) and
+    `--no-figures` (same as `--figures none`)."""
+    parser.add_argument("--figures", choices=choices, default=choices[-1], help=help)
     parser.add_argument(
         "--no-figures",
         dest="figures",

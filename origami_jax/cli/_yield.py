@@ -14,6 +14,7 @@ from ._common import (
     add_agitation_argument,
     add_contact_sampling_argument,
     add_dynamics_arguments,
+    add_figures_argument,
     add_solver_arguments,
     add_surface_arguments,
     contact_sampling,
@@ -308,8 +309,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         default=0.5,
         help="--improve's largest move per step, in spread widths (default 0.5)",
     )
-    parser.add_argument(
-        "--no-figures", action="store_true", help="skip the figures (yield.png, misfolds.png, ...)"
+    add_figures_argument(
+        parser,
+        choices=("none", "png"),
+        help="none, or png (default): yield.png, misfolds.png, ... (a family: family.png)",
     )
     parser.add_argument(
         "--out",
@@ -559,7 +562,7 @@ def _run_family(args: argparse.Namespace, members: list[str], sampling, choice: 
         }
         write_atomic(output.dir / "family.json", dumps_json(result))
         write_atomic(output.dir / "family.csv", family.to_csv())
-        if not args.no_figures:
+        if args.figures != "none":
             import matplotlib.pyplot as plt
 
             from ..plotting.fab_yield import family_figure
@@ -990,7 +993,7 @@ def _run(
         result["improve"] = ascent.to_dict()
     # Staged in output.dir: moved into --out, with the figures, when `run`'s `with output` ends.
     write_atomic(output.dir / "result.json", dumps_json(result))
-    if not args.no_figures:
+    if args.figures != "none":
         import matplotlib.pyplot as plt
 
         from ..plotting.fab_yield import (
