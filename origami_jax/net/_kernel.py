@@ -320,9 +320,11 @@ def fold_kernel(
         # Arc hinges on a net: laid out (lithography) for the nominal design, not each sample's.
         system = pattern.system(design, targets=aim, release_times=times, **layout)
         if agitation is not None and "noise_seed" in params:
-            system = eqx.tree_at(
-                lambda s: s.agitation.key, system, member_key(agitation, params["noise_seed"])
-            )
+            seed = jnp.asarray(params["noise_seed"], dtype=float)
+            # A seed is a whole number in [0, 2³¹): anything else is an invalid member.
+            invalid = invalid | ~((seed >= 0) & (seed < 2.0**31) & (seed == jnp.floor(seed)))
+            seed = jnp.where(invalid, 0.0, seed)
+            system = eqx.tree_at(lambda s: s.agitation.key, system, member_key(agitation, seed))
         trajectory = simulate(
             system,
             release,
