@@ -98,14 +98,16 @@ def _scattered(system, factor, release, contact=True):
     return type(system)(system.mechanism, hinges, system.drag, kept, system.units)
 
 
-def _mujoco(system, design, dt):
+def _mujoco(system, design, dt, damped_for=None):
+    """The MuJoCo model of `system`'s net: its springs, joint damping at critical for the hinge
+    stiffness `damped_for` (default the system's own)."""
     tree = system.mechanism
     k = np.asarray(system.hinges.stiffness)
     return tree_model(
         tree,
         stiffness=k,
         target=np.asarray(system.hinges.target),
-        damping=critical_damping(tree, k),
+        damping=critical_damping(tree, k if damped_for is None else damped_for),
         dt=dt,
         thickness=float(design.t_structural),
     )

@@ -45,8 +45,8 @@ from origami_jax.net import FOLD_KERNEL_SOLVE, load_net
 from origami_jax.system import KOH_SOLUTION
 
 from ._harness import Result, Timing
-from ._mujoco_tree import critical_damping, hinge_period_step, release_controls, tree_model
-from .bench_net import _datas, _mujoco_angles
+from ._mujoco_tree import hinge_period_step, release_controls
+from .bench_net import _datas, _mujoco, _mujoco_angles
 
 T1 = 1500.0  # µs, the pilot's control run
 SEED = 0
@@ -87,19 +87,10 @@ def _sample_springs(
 
 def _mujoco_finals(system, design, stiffness, aims, threads: int) -> tuple[np.ndarray, float]:
     """MuJoCo's final hinge angles `(n, m)` of every sample and the rollout's wall seconds."""
-    tree = system.mechanism
-    k0 = np.asarray(system.hinges.stiffness)
-    dt = hinge_period_step(tree, stiffness.max(axis=0))
+    dt = hinge_period_step(system.mechanism, stiffness.max(axis=0))
     models = []
     for k, aim in zip(stiffness, aims, strict=True):
-        model = tree_model(
-            tree,
-            stiffness=k0,
-            target=np.asarray(system.hinges.target),
-            damping=critical_damping(tree, k),
-            dt=dt,
-            thickness=float(design.t_structural),
-        )
+        model = _mujoco(system, design, dt, damped_for=k)
         model.actuator_gainprm[:, 0] = k * aim
         model.actuator_gainprm[:, 1] = -k
         models.append(model)

@@ -446,6 +446,16 @@ def member_key(agitation, noise_seed) -> Array:
     return jax.random.fold_in(agitation.key, seed)
 
 
+def check_agitation_balanced(pattern, viscous: bool) -> None:
+    """A one-line error, before anything is built, for an agitated `pattern` whose systems would
+    carry no viscous drag (`viscous`, as `fluid_inertia` resolves it) to balance the noise."""
+    if getattr(pattern, "agitation", None) is not None and not viscous:
+        raise ValueError(
+            f"{pattern.name}: agitation needs the fluid's viscous drag to balance its noise "
+            "(with_model(viscous=True); on by default in a liquid, the etch bath)."
+        )
+
+
 def check_agitated_kernel(pattern, solver, design: HingeDesign) -> None:
     """One-line errors, before anything compiles, for a kernel of an agitated pattern: its solver
     must take the random force under contact (`ImplicitStep`), and its systems in `design`'s fluid
@@ -456,11 +466,7 @@ def check_agitated_kernel(pattern, solver, design: HingeDesign) -> None:
             "the random force to each step under contact: give SolveOptions(solver="
             "ImplicitStep(dt=...)) (CLI: --solver implicit-step --dt US)."
         )
-    if not pattern.fluid_inertia(design)[1]:
-        raise ValueError(
-            f"{pattern.name}: agitation needs the fluid's viscous drag to balance its noise "
-            "(with_model(viscous=True); on by default in a liquid, the etch bath)."
-        )
+    check_agitation_balanced(pattern, pattern.fluid_inertia(design)[1])
 
 
 def stored_tolerances(settings) -> VerdictTolerances:

@@ -56,6 +56,7 @@ from ..fold import (
 from ..simulation import SeamGaps, assess, fold_outcome
 from ..system import MICRO, Agitation, FoldingSystem, HingeDesign, HingeDrag, Hinges
 from ._fillet import ArcLayout, fillet_layout, fillet_plate_tables, layout_of
+from ._kernel import check_agitation_balanced
 from ._pattern import (
     AbstractPanelPattern,
     HostCache,
@@ -363,6 +364,7 @@ class Net(AbstractPanelPattern):
         if design is None:
             design = default_design(self)
         added_mass, viscous = self.fluid_inertia(design, added_mass=added_mass, viscous=viscous)
+        check_agitation_balanced(self, viscous)
         m = self.n_creases
         targets = self.intended_angles if targets is None else targets
         targets = jnp.asarray(targets, dtype=jnp.result_type(float))
@@ -443,11 +445,6 @@ class Net(AbstractPanelPattern):
             kind,
             lambda: self.tree(HingeDesign.literature(), hinges=hinges, arc_layout=layout),
         )
-        if self.agitation is not None and not viscous:
-            raise ValueError(
-                f"{self.name}: agitation needs the fluid's viscous drag to balance its noise "
-                "(with_model(viscous=True); on by default in a liquid, the etch bath)."
-            )
         return FoldingSystem(
             tree,
             hinges_,

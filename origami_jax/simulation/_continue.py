@@ -139,7 +139,7 @@ def still_moving(report: AbstractFoldReport) -> bool:
     tolerances at the last sample) without having `settled` — a folding worth continuing."""
     if report.verdict == "unfinished":
         return True
-    return report.verdict == "folded" and not bool(getattr(report, "settled", True))
+    return report.verdict == "folded" and not report.settled
 
 
 def fold_pattern(
