@@ -349,10 +349,12 @@ def test_net_contact_force_against_a_point_by_point_world_sum():
 
 def _dragless_cube():
     """`cube_net_01` in KOH with its hinges' drag switched off (energy is conserved but for the
-    contact's damping)."""
+    contact's damping), in the paper's dynamics (no fluid inertia: the launch speeds and depths
+    below are for the panels' own inertia)."""
     from origami_jax.net import load_net
 
-    system = load_net("cube_net_01").system(
+    net = load_net("cube_net_01").with_model(added_mass=False, viscous=False)
+    system = net.system(
         HingeDesign.literature(fluid=KOH_SOLUTION), drag="hinge", contact="sampled"
     )
     return eqx.tree_at(lambda s: s.drag, system, HingeDrag(jnp.zeros(system.n_hinges)))
