@@ -17,7 +17,7 @@ from origami_jax.chain import accordion_system
 from origami_jax.cli import build_parser, main
 from origami_jax.net import load_net
 from origami_jax.simulation import SaveAt, SolveOptions, fold_until_settled, join_trajectories
-from origami_jax.system import KOH_SOLUTION, HingeDesign
+from origami_jax.system import BOLTZMANN, KOH_SOLUTION, Agitation, HingeDesign
 
 
 def _segment(t0, t1, n, angle0, steps, result=sim.RESULTS.successful):
@@ -202,6 +202,47 @@ def test_a_crease_still_moving_slowly_is_not_at_rest():
     assert (report.verdict, segments) == ("unfinished", 2), report.summary()
     tail_motion = np.degrees(np.ptp(np.asarray(run.theta[91:101, 0])))
     assert tail_motion < 1.5  # the first segment's tail alone would have looked at rest
+
+
+def test_an_agitated_crease_at_rest_is_settled_and_one_drifting_beyond_its_noise_is_not():
+    """Under agitation a crease at rest wobbles by ``σ = sqrt(k_B T / k)`` (`thermal_wobble`): the
+    tail bound grows by six wobbles, and a drift is seen in the tail's part means once they move
+    one way by more than ``4 √2 σ``. Synthetic runs of the flap's crease, 301 samples over 100 µs
+    (tail: the last 30, parts of 10), Gaussian noise (independent samples) of the wobble."""
+    system, _ = _flap_in_koh()
+    target = float(system.hinges.target[0])
+    k_b = system.units.from_si(BOLTZMANN, length=2, time=-2, mass=1)  # pJ per kelvin
+    times = np.linspace(0.0, 100.0, 301)
+    unit_noise = np.random.default_rng(7).normal(0.0, 1.0, times.shape)
+
+    def agitated(wobble_deg):
+        temperature = float(system.hinges.stiffness[0]) * np.radians(wobble_deg) ** 2 / k_b
+        return eqx.tree_at(
+            lambda s: s.agitation, system, Agitation(temperature), is_leaf=lambda x: x is None
+        )
+
+    def judged(which, offset, wobble_deg):
+        held = _segment(0.0, 100.0, 301, 0.0, 10)
+        angles = target + np.radians(offset + wobble_deg * unit_noise)[:, None]
+        report = sim.assess(which, eqx.tree_at(lambda t: t.theta, held, jnp.asarray(angles)))
+        return report.verdict, report.settled
+
+    np.testing.assert_allclose(sim.thermal_wobble(agitated(0.5)), [np.radians(0.5)], rtol=1e-12)
+    assert sim.thermal_wobble(system) == 0.0
+    # Wobbling by 0.5° at its angle, and at rest 20° short: the tail's spread (~2° between samples)
+    # is over the noiseless bound (1.5°), so judged without the bath's noise neither is at rest
+    # (the first would be folded on to the cap, the second is unfinished); with it, both are.
+    assert np.ptp(0.5 * unit_noise[-30:]) > 1.5
+    assert judged(system, 0.0, 0.5) == ("folded", False)
+    assert judged(agitated(0.5), 0.0, 0.5) == ("folded", True)
+    assert judged(system, -20.0, 0.5) == ("unfinished", False)
+    assert judged(agitated(0.5), -20.0, 0.5) == ("misfolded", True)
+    # Creeping at 0.15°/µs 20° short under a 0.1° wobble: 1.5° over the tail (within the widened
+    # bound, 2.1°), but its part means move 1° one way (over 4 √2 σ = 0.57°): still moving. Slower,
+    # at 0.05°/µs (0.33°), the drift is within what the noise could make: judged at rest.
+    creeping = -20.0 + 0.15 * (times - 100.0)
+    assert judged(agitated(0.1), creeping, 0.1) == ("unfinished", False)
+    assert judged(agitated(0.1), creeping / 3 - 40 / 3, 0.1) == ("misfolded", True)
 
 
 def test_a_run_too_short_or_a_crease_released_late_is_unfinished_not_misfolded():

@@ -354,9 +354,7 @@ def _dragless_cube():
     from origami_jax.net import load_net
 
     net = load_net("cube_net_01").with_model(added_mass=False, viscous=False)
-    system = net.system(
-        HingeDesign.literature(fluid=KOH_SOLUTION), drag="hinge", contact="sampled"
-    )
+    system = net.system(HingeDesign.literature(fluid=KOH_SOLUTION), drag="hinge", contact="sampled")
     return eqx.tree_at(lambda s: s.drag, system, HingeDrag(jnp.zeros(system.n_hinges)))
 
 

@@ -424,8 +424,8 @@ def add_agitation_argument(parser: argparse.ArgumentParser, *, seed: bool = Fals
         "Langevin noise in balance with the fluid's viscous drag, each sample its own noise from "
         "--seed; needs --solver implicit-step and the fluid's inertia (the etch bath). k_B T is "
         "1.38e-11 pJ per kelvin and a crease's rms wobble sqrt(k_B T / k): a 200 µm cube net's "
-        "hinges (k ~ 1600 pJ/rad²) wobble 0.17° at 1e9 K. Keep three wobbles below half the angle "
-        "tolerance: the verdict takes a crease moving more over the run's last tenth as unsettled",
+        "hinges (k ~ 1600 pJ/rad²) wobble 0.17° at 1e9 K. The verdict allows for the wobble when "
+        "it judges whether a run is at rest; keep it well below the angle tolerance",
     )
     if seed:
         parser.add_argument(

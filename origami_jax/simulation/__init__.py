@@ -55,3 +55,4 @@ from ._verdict import VerdictTolerances as VerdictTolerances
 from ._verdict import assess as assess
 from ._verdict import derived_seam_tolerances as derived_seam_tolerances
 from ._verdict import fold_outcome as fold_outcome
+from ._verdict import thermal_wobble as thermal_wobble

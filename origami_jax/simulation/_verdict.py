@@ -254,7 +254,7 @@ class AbstractFoldReport(abc.ABC):
       closed) to the end, or `None`.
     - `settled`: the run came to rest: over its last tenth every crease stayed within half the
       tolerance of its final angle, and its drift there, carried on, would not move it further
-      (`fold_outcome`).
+      (`fold_outcome`); under agitation, in the statistical sense (`thermal_wobble`).
     - `contacts`: engaged (point, face) pairs at the end; `min_gap`: the smallest contact gap over the
       run (`inf` without contact); `max_penetration`: the largest penetration over the run (length)
       and `penetration_fraction` of the panel thickness (0 is the model's aim; both 0 without
@@ -458,7 +458,9 @@ def fold_outcome(
     )
     # A crease released in the run's last tenth (or after its end) has had no time to come to
     # rest: the run is unfinished, not misfolded, whatever its angles.
-    settled = _settled(times, theta, angle_tolerance) & ~jnp.any(_released_late(system, times))
+    settled = _settled(times, theta, angle_tolerance, thermal_wobble(system)) & ~jnp.any(
+        _released_late(system, times)
+    )
     # Stays within from sample k on: a reversed cumulative AND.
     stays = jnp.flip(jnp.cumprod(jnp.flip(within).astype(jnp.int32))).astype(bool)
     first = jnp.argmax(stays)
@@ -509,10 +511,35 @@ def fold_outcome(
     )
 
 
-def _settled(times, theta, angle_tolerance):
+# How many thermal wobbles an agitated crease may move over the tail and still be at rest: the
+# largest of ~20 differences of two independent samples of a spread σ stays below 6σ (4.2 standard
+# deviations of a difference) but for ~5e-4 per crease.
+_WOBBLES_AT_REST = 6.0
+
+
+def thermal_wobble(system) -> Float[Array, " h"] | float:
+    """Each crease's equilibrium wobble under the system's agitation, ``sqrt(k_B T / k)`` (rad,
+    `(h,)`), from its hinge's stiffness ``k``: the rms angle of a harmonic hinge at the bath's
+    temperature (exact without contact whatever the masses and drag; contact only confines it);
+    0.0 without agitation."""
+    agitation = getattr(system, "agitation", None)
+    if agitation is None:
+        return 0.0
+    return jnp.sqrt(agitation.thermal_energy(system.units) / system.hinges.stiffness)
+
+
+def _settled(times, theta, angle_tolerance, wobble=0.0):
     """Whether the run has come to rest: over its last tenth of samples (at least three) every
     crease stayed within half the angle tolerance of its final angle, and where a crease moved the
     same way throughout that tail, its drift, carried on, would not take it further than that.
+
+    Under agitation a crease at rest still wobbles: each crease's bound grows by
+    `_WOBBLES_AT_REST` times its thermal `wobble` (rad, scalar or `(h,)`; `thermal_wobble`), so
+    the run is judged at rest in the statistical sense (its noise stationary) rather than
+    `unfinished` for its noise; and a drift is judged from the part means below when they move one
+    way by more than ``4 √2`` wobbles (no noisy tail moves one way at every sample; two means of a
+    stationary wobble differ by ``σ √2`` rms at most, however correlated its samples), so a drift
+    that the noise could hide over the tail goes unseen.
 
     The drift: the mean angle over three equal parts ending the tail, ``m₁, m₂, m₃``, ``d₂ = m₂ − m₁``,
     ``d₁ = m₃ − m₂``. A decaying drift (``|d₁| < |d₂|``, ratio ``r``) has ``|d₁| r/(1 − r)`` still to
@@ -532,7 +559,7 @@ def _settled(times, theta, angle_tolerance):
     position = jnp.arange(total) - (total - tail)  # 0 … tail − 1 over the tail
     recent = (position >= 0)[:, None]
     final = theta[-1]
-    moved = jnp.max(jnp.where(recent, jnp.abs(theta - final), 0.0))
+    moved_each = jnp.max(jnp.where(recent, jnp.abs(theta - final), 0.0), axis=0)
     # Safe against non-finite rows before the tail (front padding; an invalid run is judged
     # elsewhere).
     tail_theta = jnp.where(recent, theta, final)
@@ -548,11 +575,18 @@ def _settled(times, theta, angle_tolerance):
         weight = (part == k).astype(theta.dtype)[:, None]
         means.append(jnp.sum(tail_theta * weight, axis=0) / length)
     late, early = means[2] - means[1], means[1] - means[0]
+    # Under agitation no tail is monotone: a drift counts where the part means move one way by
+    # more than four times the spread of a difference of two means of the stationary wobble,
+    # ``σ √2`` whatever its correlation time (a slow mode's samples are far from independent: in
+    # the bath a crease's wobble wanders over milliseconds, longer than a tail).
+    wobble = jnp.asarray(wobble, theta.dtype)
+    one_way = one_way | (
+        (wobble > 0) & (late * early > 0) & (jnp.abs(late + early) > 4 * np.sqrt(2) * wobble)
+    )
     horizon = count / length  # the run's length in parts
     decaying = jnp.abs(late) < jnp.abs(early)
     ratio = jnp.abs(late) / jnp.where(decaying, jnp.abs(early), 1.0)
     carried = jnp.where(decaying, jnp.minimum(ratio / (1 - ratio), horizon), horizon)
-    to_go = jnp.max(jnp.where(one_way & (tail >= 3), jnp.abs(late) * carried, 0.0))
     # Speeding up one way over the whole tail (every step at least as long as the one before, the
     # last not zero): a crease starting to move, as at the start of a run too short to see it go
     # far (a tiny end time), is not at rest however little it has moved.
@@ -561,7 +595,10 @@ def _settled(times, theta, angle_tolerance):
         sizes = jnp.abs(steps)
         growing = jnp.all((sizes[1:] >= sizes[:-1]) | outside[:-1], axis=0) & (sizes[-1] > 0)
         speeding = jnp.any(one_way & growing & (tail >= 3))
-    return (moved < angle_tolerance / 2) & (to_go < angle_tolerance / 2) & ~speeding
+    bound = angle_tolerance / 2 + _WOBBLES_AT_REST * wobble
+    moved = jnp.all(moved_each < bound)
+    to_go = jnp.all(jnp.where(one_way & (tail >= 3), jnp.abs(late) * carried, 0.0) < bound)
+    return moved & to_go & ~speeding
 
 
 def _released_late(system, times):
