@@ -345,7 +345,12 @@ def test_bad_hinge_parameters_are_refused_in_one_line(param, message, capsys):
         ),
         (
             ["--agitation", "1e9", "--solver", "implicit-step", "--dt", "2.5", "--fluid", "air"],
-            "viscous drag to balance its noise",
+            "it needs --fluid koh",
+        ),
+        (
+            ["--agitation", "1e9", "--solver", "implicit-step", "--dt", "2.5"]
+            + ["--no-fluid-inertia"],
+            "drop --no-fluid-inertia",
         ),
     ],
 )

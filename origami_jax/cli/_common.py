@@ -460,6 +460,15 @@ def dynamics_model(args: argparse.Namespace) -> dict:
                 "--agitation folds with the fixed-step engine, which adds the random force to "
                 "each step under contact: add --solver implicit-step --dt US."
             )
+        # The bath's viscous drag balances the noise: a one-line refusal naming the flag that
+        # removes it, before any net is loaded.
+        if getattr(args, "fluid", None) == "air":
+            fail("--agitation is the etch bath's random force: it needs --fluid koh (the default).")
+        if inertia is False:
+            fail(
+                "--agitation needs the bath's viscous drag to balance its noise, which "
+                "--no-fluid-inertia switches off with the fluid's inertia: drop --no-fluid-inertia."
+            )
         from ..system import Agitation
 
         seed = getattr(args, "noise_seed", 0)
