@@ -85,8 +85,12 @@ def _sample_springs(
     return np.asarray(stiffness), np.asarray(aims)
 
 
-def _mujoco_finals(system, design, stiffness, aims, threads: int) -> tuple[np.ndarray, float]:
-    """MuJoCo's final hinge angles `(n, m)` of every sample and the rollout's wall seconds."""
+def _mujoco_finals(
+    system, design, stiffness, aims, threads: int
+) -> tuple[np.ndarray, float, float]:
+    """MuJoCo's final hinge angles `(n, m)` of every sample, the rollout's wall seconds and the
+    seconds building its models and data (its side of an end-to-end time)."""
+    built = time.perf_counter()
     dt = hinge_period_step(system.mechanism, stiffness.max(axis=0))
     models = []
     for k, aim in zip(stiffness, aims, strict=True):
@@ -98,7 +102,7 @@ def _mujoco_finals(system, design, stiffness, aims, threads: int) -> tuple[np.nd
     data = _datas(models[0], threads)
     start = time.perf_counter()
     finals = _mujoco_angles(models, controls, data)[:, -1]
-    return finals, time.perf_counter() - start
+    return finals, time.perf_counter() - start, start - built
 
 
 def run(quick: bool, n_samples: int | None = None) -> list[Result]:
@@ -125,7 +129,9 @@ def run(quick: bool, n_samples: int | None = None) -> list[Result]:
         ours = yield_estimate(pattern, Scatter(), n, seed=SEED, solve=solve, run=options)
         ours_angles = np.asarray(ours.dataset["final_angle"].values)
         ours_ok = np.max(np.abs(ours_angles - intended), axis=1) < ANGLE_TOLERANCE
-        finals, mujoco_s = _mujoco_finals(system, design, stiffness, aims, threads=2)
+        finals, mujoco_s, mujoco_build_s = _mujoco_finals(
+            system, design, stiffness, aims, threads=2
+        )
         mujoco_ok = np.max(np.abs(finals - intended), axis=1) < ANGLE_TOLERANCE
         # Both models' springs rest at the same aims: where neither is held by contact, their
         # final angles agree (a jam, a wall held on another's edge, may differ with the dynamics).
@@ -140,7 +146,11 @@ def run(quick: bool, n_samples: int | None = None) -> list[Result]:
                 "ours_counts": ours.counts,
                 "ours_s_per_sample": ours.seconds_per_sample,
                 "mujoco_s_per_sample": mujoco_s / n,
+                "mujoco_build_s": mujoco_build_s,
                 "compile_s": compile_s,
+                # From the net's pattern to its n verdicts: the first call (tracing, compiling
+                # and one sample) and the estimate's own wall time.
+                "ours_end_to_end_s": compile_s + ours.seconds_per_sample * n,
                 "largest_angle_difference_rad": float(np.max(np.abs(ours_angles - finals))),
                 "nominal_spring_difference": spring_check,
             }
@@ -165,6 +175,26 @@ def run(quick: bool, n_samples: int | None = None) -> list[Result]:
                 f"(of {n}); judged alike {alike}/{total}; compile per net"
             ),
             extra={"n_samples": n, "nets": per_net, "alike": alike, "total": total},
+        )
+    )
+    print(rows[-1].line(), rows[-1].notes, flush=True)
+    ours_total = sum(row["ours_end_to_end_s"] for row in per_net)
+    mujoco_total = sum(row["mujoco_build_s"] + row["mujoco_s_per_sample"] * n for row in per_net)
+    rows.append(
+        Result(
+            name=f"study scatter, {len(names)} cube nets x {n} samples (control, 1500 µs), end to "
+            "end (compile included): s/sample, ours vs MuJoCo",
+            ours=Timing.once(ours_total / total),
+            peer_name="MuJoCo: each net's models built, one rollout (C), 2 threads",
+            peer=Timing.once(mujoco_total / total),
+            notes=(
+                f"per sample, each net from its pattern to its {n} verdicts: ours "
+                f"{sum(row['compile_s'] for row in per_net):.0f} s tracing, compiling and a "
+                f"first sample over {len(names)} nets + the estimates; MuJoCo "
+                f"{sum(row['mujoco_build_s'] for row in per_net):.2f} s building models + the "
+                "rollouts"
+            ),
+            extra={"n_samples": n, "total": total},
         )
     )
     print(rows[-1].line(), rows[-1].notes, flush=True)
