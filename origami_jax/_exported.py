@@ -129,8 +129,11 @@ def _key(name: str, dynamic_leaves, static) -> str | None:
     digest = hashlib.sha256(_environment() + _flags())
     digest.update(name.encode())
     digest.update(buffer.getvalue())
+    # Shapes and dtypes only: the export traces on `ShapeDtypeStruct`s, which carry no weak type,
+    # so a leaf's weak type (a scalar a fresh trace returns weakly typed and an exported program
+    # strongly: a solve's step counts) does not change the program and must not change its key.
     for leaf in dynamic_leaves:
-        digest.update(f"{leaf.shape}{leaf.dtype}{getattr(leaf, 'weak_type', '')}".encode())
+        digest.update(f"{leaf.shape}{leaf.dtype}".encode())
     return digest.hexdigest()
 
 

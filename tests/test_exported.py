@@ -119,6 +119,12 @@ def test_the_key_covers_the_environment_and_refuses_what_it_cannot_vouch_for(mon
     key = _exported._key("p", leaves, ("static",))
     assert key == _exported._key("p", leaves, ("static",))
     assert key != _exported._key("p", [jnp.zeros(4)], ("static",))
+    assert key != _exported._key("p", [jnp.zeros(3, jnp.float32)], ("static",))
+    # A weakly typed leaf (a scalar a fresh trace returns; the same from an exported program is
+    # strongly typed) has the same program: the export traces shapes and dtypes only.
+    weak, strong = jnp.asarray(3), jnp.asarray(3, dtype=jnp.asarray(3).dtype)
+    assert weak.weak_type and not strong.weak_type
+    assert _exported._key("p", [weak], ("static",)) == _exported._key("p", [strong], ("static",))
     assert key != _exported._key("p", leaves, ("other",))
     monkeypatch.setattr(equinox._errors, "EQX_ON_ERROR", "nan")
     assert key != _exported._key("p", leaves, ("static",))
