@@ -512,8 +512,8 @@ def fold_outcome(
 
 
 # How many thermal wobbles an agitated crease may move over the tail and still be at rest: the
-# largest of ~20 differences of two independent samples of a spread σ stays below 6σ (4.2 standard
-# deviations of a difference) but for ~5e-4 per crease.
+# largest of ~30 differences (the tail of 301 samples) of two independent samples of a spread σ
+# stays below 6σ (4.2 standard deviations of a difference) but for ~7e-4 per crease.
 _WOBBLES_AT_REST = 6.0
 
 
