@@ -1,6 +1,6 @@
 """Folding order as a design variable: etch-front release times (against the host's
 `release_times_from_front` and a closed form), scaled scatters, the search's checks, and (slow) a net
-that jams unless one crease goes first.
+that jams under friction unless one crease goes first.
 
 `examples/two_flaps.fold` (the release-time tests): a 300 × 200 µm base with a 200 µm square flap
 on each short side, both folding 180° flat onto the base.
@@ -8,8 +8,10 @@ on each short side, both folding 180° flat onto the base.
 `examples/flap_under_flap.fold` (the order tests): the same base with a 280 µm flap A on its left
 side folding 180° flat onto it and a 200 µm flap B on its right side folding to 120°, leaning over
 A. B at its target stands in A's path (B's free edge is 264 µm from A's crease), so A must pass
-before B gets there: with B up first, A's face comes down on B's free edge and stops near 140°. A
-takes ~700 µs in KOH to pass 140°, B ~370 µs to reach its blocking range (above 115.5°)."""
+before B gets there: with B up first, A's face comes down on B's free edge. Frictionless, A pushes
+B's edge back and slides past it (the plates' exact contact), and the net folds in any order; with
+friction at the bath's upper value (μ = 0.3) A stops there near 140°. A takes ~700 µs in KOH to pass
+140°, B ~370 µs to reach its blocking range (above 115.5°)."""
 
 from pathlib import Path
 
@@ -30,11 +32,17 @@ ORDER_SPEED = 0.5  # µm/µs: A (crease at x = 0) 600 µs before B (x = 300 µm)
 ORDER_T_END = 2300.0  # µs: B, released at 1160 µs by the front along +x, has settled by ~1900 µs
 
 
-def _paper(path):
+def _paper(path, friction=None):
     """The net of `path` with the paper's dynamics (no fluid inertia, released at once): release
     times hundreds of µs apart order the folds only when each hinge is released at once (a
-    quasi-static release takes tens of ms)."""
-    return load_net(path).with_model(added_mass=False, viscous=False)
+    quasi-static release takes tens of ms). `friction`: a Coulomb coefficient at the contacts."""
+    net = load_net(path).with_model(added_mass=False, viscous=False)
+    if friction is None:
+        return net
+    from origami_jax.cli._common import DEFAULT_FRICTION_SLIP
+    from origami_jax.contact import Friction
+
+    return net.with_model(friction=Friction(friction, DEFAULT_FRICTION_SLIP))
 
 
 def test_front_release_times_match_the_host_and_a_closed_form():
@@ -147,31 +155,36 @@ def test_order_search_summary_and_best():
     }
 
 
-@pytest.mark.slow  # one compilation of the net, and a jammed simulation (~1 min)
-def test_released_together_the_flap_jams_and_released_first_it_folds():
-    """Without scatter: both flaps released at t = 0, B reaches its blocking range long before A
-    passes it, and A's face comes down on B's free edge: A stops near 140° (short of 180°,
-    panels in contact), B pushed back a little (below 120°). An etch front along +x at 0.5 µm/µs
-    (A 600 µs before B) folds both: A flat on the base, B at 120° over it. The search picks it."""
+@pytest.mark.slow  # two compilations of the net, six simulations (~2 min)
+def test_with_friction_b_first_jams_the_flap_and_a_first_folds_it():
+    """Without scatter. Frictionless (the default), A's face comes down on B's free edge, pushes it
+    back and slides past: every order folds (A flat, B at 120° over it), no plate through another.
+    With friction μ = 0.3 (the top of the wet range) the same contact holds A: released with B
+    first (the front along −x, B 600 µs before A) A stops near 140° on B's edge, B pushed back a
+    little (below 120°); with A first (the front along +x) both fold, and the search picks it.
+    Released together is a knife edge (A jams at μ 0.1 and 0.3, slips past at 0.2): not asserted."""
     schedules = {
-        "simultaneous": [0.0, 0.0],
         "front 0°": ojy.front_release_times(FLAP_UNDER_FLAP, 0.0, ORDER_SPEED),
+        "front 180°": ojy.front_release_times(FLAP_UNDER_FLAP, np.pi, ORDER_SPEED),
     }
-    search = ojy.order_search(
-        _paper(FLAP_UNDER_FLAP),
-        schedules,
-        ojy.Scatter.none(),
-        1,
-        solve=FOLD_KERNEL_SOLVE.replace(t1=ORDER_T_END),
-        run=ojy.RunOptions(progress=False),
+    options = dict(
+        solve=FOLD_KERNEL_SOLVE.replace(t1=ORDER_T_END), run=ojy.RunOptions(progress=False)
     )
-    together, ordered = search.estimates["simultaneous"], search.estimates["front 0°"]
-    assert together.counts["jammed"] == 1, together.summary()
+    smooth = ojy.order_search(_paper(FLAP_UNDER_FLAP), schedules, ojy.Scatter.none(), 1, **options)
+    for estimate in smooth.estimates.values():
+        assert estimate.counts["folded"] == 1, estimate.summary()
+        assert float(estimate.dataset["penetration"].values[0]) == 0.0
+    search = ojy.order_search(
+        _paper(FLAP_UNDER_FLAP, friction=0.3), schedules, ojy.Scatter.none(), 1, **options
+    )
+    blocked, ordered = search.estimates["front 180°"], search.estimates["front 0°"]
+    assert blocked.counts["jammed"] == 1, blocked.summary()
     assert ordered.counts["folded"] == 1, ordered.summary()
     assert search.best == "front 0°"
-    final = np.degrees(together.dataset["final_angle"].values[0])
+    final = np.degrees(blocked.dataset["final_angle"].values[0])
     assert 130.0 < final[0] < 150.0 and 110.0 < final[1] < 120.0, final
-    assert int(together.dataset["engaged"].values[0]) > 0
+    assert int(blocked.dataset["engaged"].values[0]) > 0
+    assert float(blocked.dataset["penetration"].values[0]) == 0.0
     final = np.degrees(ordered.dataset["final_angle"].values[0])
     np.testing.assert_allclose(final, [180.0, 120.0], atol=3.0)
 
@@ -197,11 +210,10 @@ def test_representative_samples_pick_a_typical_member_of_each_misfold_mode():
 @pytest.mark.slow  # 24 contact simulations of the net, most of them jammed (~2 min)
 def test_choosing_the_order_raises_the_yield():
     """Monte Carlo of three schedules on the same 8 fabricated nets (film stress 1 %, release
-    times ±25 µs): released together, or B first (the front along −x), almost every net jams;
-    with the front along +x (A first) every net folds, and the two 95 % Wilson intervals do not
-    overlap. Measured: 1/8, 1/8 and 8/8. The same net folds in all three: its flap B's film is
-    1.3 % weaker than nominal, and the jam is a tip resting on B's edge 0.2° short of clearing it,
-    whose outcome is not monotone in B's film strain and depends on the contact's stiffness
+    times ±25 µs), friction μ = 0.3 at the contacts: released together, or B first (the front
+    along −x), almost every net jams; with the front along +x (A first) every net folds, and the
+    two 95 % Wilson intervals do not overlap. Measured: 1/8, 8/8 and 1/8 (7 jammed each). The lock
+    is marginal, a tip on B's edge whose outcome is not monotone in the films or the friction
     (docs/physics.md, "A tip resting on an edge"), hence the margins below, not exact counts."""
     scatter = ojy.Scatter.from_mapping(
         {
@@ -216,7 +228,7 @@ def test_choosing_the_order_raises_the_yield():
         "front 180°": ojy.front_release_times(FLAP_UNDER_FLAP, np.pi, ORDER_SPEED),
     }
     search = ojy.order_search(
-        _paper(FLAP_UNDER_FLAP),
+        _paper(FLAP_UNDER_FLAP, friction=0.3),
         schedules,
         scatter,
         8,

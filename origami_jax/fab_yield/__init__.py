@@ -58,8 +58,8 @@ estimate.dataset            # xarray.Dataset: the drawn parameters and every sam
   `release_times`, `soft_yield`'s `release` or an etch front's `front_angle` and `front_speed`,
   `front_release_times`); `order_search` estimates the yield of candidate schedules
   (`front_candidates`: all at once, and straight etch fronts from several directions) on the same
-  fabricated nets and names the best. `examples/flap_under_flap.fold` jams unless its long flap
-  goes first.
+  fabricated nets and names the best. `examples/flap_under_flap.fold`, with friction at its
+  contacts, jams unless its long flap goes first.
 - The verdict's tolerances: `tolerances=`, a `origami_jax.simulation.VerdictTolerances` (the
   angle, and each seam's tolerance derived from it and the geometry by default, or a fixed
   fraction of the panel size). `tolerance_sensitivity`: the yield at multiples of both, from the

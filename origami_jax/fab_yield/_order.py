@@ -3,7 +3,8 @@ and a search for the one that maximises the Monte Carlo yield.
 
 Some nets fold only in the right order: a flap that leans over the base at its target stands in the
 path of a longer one that must fold flat under it, and the long one jams on its edge unless it is
-released well before (`examples/flap_under_flap.fold` in the source repository). The release time
+released well before (`examples/flap_under_flap.fold` in the source repository, with friction at
+its contacts: frictionless, the long flap pushes the edge back and slides past it). The release time
 of each crease is a design variable: per-hinge delays, or the path of the etch front that frees them
 (`front_release_times`: a straight front crossing the die in a direction at a speed). `order_search`
 estimates the yield of each candidate schedule on the same fabricated nets (common random numbers)
