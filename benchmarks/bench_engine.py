@@ -141,7 +141,9 @@ def run(quick: bool, batch: int | None = None) -> list[Result]:
     q, v = folds["fixed"].theta[index], folds["fixed"].theta_dot[index]
     solver = sim.ImplicitStep(dt=DT)
     step_fn = jax.jit(
-        lambda q, v: _implicit._step(system, sim.Step(), solver, CONTACT_STATE_US + DT, DT, q, v)
+        lambda q, v: _implicit._step(
+            system, sim.Step(), solver, CONTACT_STATE_US + DT, DT, q, v, None
+        )
     )
     one_step = time_calls(lambda: step_fn(q, v)[0], repeats=max(repeats, 5) * 4, warmup=1)
     report = contact.report(system.mechanism, q)

@@ -164,27 +164,31 @@ def test_sweep_takes_the_solver_once_and_for_the_net_fold_model(tmp_path, capsys
 
 
 @pytest.mark.slow  # builds and compiles a whole system; keeps the default suite short
-def test_closed_loops_are_refused_the_fixed_steps(tmp_path, capsys, monkeypatch):
-    """The engine does not hold a crease pattern's loops closed: refused by the commands, the fold
-    kernel and `simulate`, each in one line."""
-    import origami_jax.cli._fold as fold_cli
-    import origami_jax.cli._yield as yield_cli
+def test_closed_loops_fold_on_the_fixed_steps_from_a_pre_fold(tmp_path, capsys):
+    """The fixed steps hold a crease pattern's loops closed but cannot choose its branch when
+    released at once from the flat state: the fold command and the fold kernel start it
+    pre-folded by `FIXED_STEP_PRE_FOLD` (said, and recorded), and `simulate` refuses a flat start
+    at rest under a sudden release."""
     from origami_jax.loops import load_pattern
     from origami_jax.net import fold_kernel
 
-    monkeypatch.setattr(fold_cli, "_run", _no_compiling)
-    monkeypatch.setattr(yield_cli, "_run", _no_compiling)
-    flags = ["--solver", "implicit-step", "--dt", "1", "--out", str(tmp_path / "o")]
-    for command in (["fold", "waterbomb_base"], ["yield", "waterbomb_base", "--no-progress"]):
-        assert main([*command, *flags]) == 2
-        assert "do not hold closed loops closed" in _one_line(capsys.readouterr().err)
     pattern = load_pattern("waterbomb_base")
     fixed = sim.SolveOptions(saveat=sim.SaveAt(n=3), solver=sim.ImplicitStep(dt=1.0))
-    with pytest.raises(ValueError, match="do not hold its loops closed"):
-        fold_kernel(pattern, solve=fixed)
-    with pytest.raises(ValueError, match="does not hold closed loops closed"):
-        pattern = pattern.with_model(contact=False, check_rigid=False)
-        sim.simulate(pattern.system(pattern.default_design()), sim.Step(), fixed, t1=2.0)
+    kernel = fold_kernel(pattern, solve=fixed)
+    assert kernel.settings["bias"] == sim.FIXED_STEP_PRE_FOLD
+    assert fold_kernel(pattern, solve=fixed, bias=0.01).settings["bias"] == 0.01
+    with pytest.raises(ValueError, match="cannot choose a closed-loop pattern's folding branch"):
+        bare = pattern.with_model(contact=False, check_rigid=False)
+        sim.simulate(bare.system(bare.default_design()), sim.Step(), fixed, t1=2.0)
+    out = tmp_path / "o"
+    flags = ["--solver", "implicit-step", "--dt", "2.5", "--t1", "400", "--release-ramp", "0"]
+    flags += ["--no-figures"]
+    assert main(["fold", "vertex_degree4", *flags, "--out", str(out)]) in (0, 1)
+    said = capsys.readouterr().out
+    assert f"pre-folded by {sim.FIXED_STEP_PRE_FOLD:g} rad" in said
+    result = json.loads((out / "result.json").read_text())
+    assert result["bias"] == sim.FIXED_STEP_PRE_FOLD and result["solver"] == "implicit-step"
+    assert result["closure_drift"] < 1e-5
 
 
 def test_the_net_fold_model_records_its_solver_and_keeps_older_stores_resumable():

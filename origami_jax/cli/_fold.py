@@ -370,11 +370,6 @@ def run(args: argparse.Namespace) -> int:
             flat_creases=args.flat_creases,
         )
         loops = net.n_loops > 0
-        if loops and choice is not None and choice["solver"] == "implicit-step":
-            fail(
-                f"{args.net}: --solver implicit-step takes nets (trees of panels): its fixed steps "
-                "do not hold closed loops closed; give tsit5 (the default here) or kvaerno5."
-            )
         check_has_creases(net, args.net)
         if args.bias and not loops:
             fail(f"--bias pre-folds closed-loop patterns; {args.net} is a net, which starts flat.")
@@ -474,23 +469,31 @@ def _run(args, net, system, params, release, sampling, output, unfolded, *, choi
 
     # The pattern's fold: continued while still moving unless --t1 (a closed-loop pattern's state
     # is not its hinge angles: one segment).
+    options = with_solver(
+        sim.SolveOptions(
+            saveat=sim.SaveAt(n=args.n_save),
+            solver=solver,
+            max_steps=500_000,
+            throw=False,
+            progress_meter=_progress_meter(args.progress, m),
+        ),
+        choice,
+    )
+    bias = sim.start_bias(net, options.solver, args.bias)
+    if bias != args.bias:
+        print(
+            f"[fold] starting pre-folded by {bias:g} rad along the aimed branch: fixed steps cannot "
+            "choose a branch at the flat state (--bias sets the pre-fold).",
+            flush=True,
+        )
     trajectory, report = net.fold(
         system,
         None,  # the pattern's own release (`release_input`), its ramp computed once there
         t1=args.t1,
-        bias=args.bias,
+        bias=bias,
         tolerances=tolerances,
         on_continue=still_moving,
-        options=with_solver(
-            sim.SolveOptions(
-                saveat=sim.SaveAt(n=args.n_save),
-                solver=solver,
-                max_steps=500_000,
-                throw=False,
-                progress_meter=_progress_meter(args.progress, m),
-            ),
-            choice,
-        ),
+        options=options,
     )
     t_end = float(trajectory.times[-1])
     if segments == MAX_FOLD_SEGMENTS and report.verdict == "unfinished":
@@ -518,7 +521,7 @@ def _run(args, net, system, params, release, sampling, output, unfolded, *, choi
         **model_settings(net, design, system),
         closed_loops=net.n_loops if loops else 0,
         unfolded_from_folded_form=unfolded,
-        bias=args.bias,
+        bias=bias,
         **(choice or {"solver": "tsit5"}),
         length_scale=float(net.length_scale),  # µm per FOLD length unit, as used
         t1=t_end,

@@ -354,20 +354,21 @@ def _scatter(args: argparse.Namespace):
         fail(f"bad scatter config {args.scatter}: {error}")
 
 
-def _solve(args: argparse.Namespace, choice: dict, stored=None):
+def _solve(args: argparse.Namespace, choice: dict, stored=None, pattern=None):
     """Each sample's solve (--t-end; the solver `choice`, `solver_choice`'s record; --rtol with the
-    defaults' ratio for the absolute tolerance) and the verdict's tolerances (--angle-tolerance,
+    defaults' ratio for the absolute tolerance), the verdict's tolerances (--angle-tolerance,
     --seam-tolerance; with --resume and no --seam-tolerance the stored run's, `stored`:
-    `_seam_tolerance`)."""
+    `_seam_tolerance`) and the samples' pre-fold (--bias, or `pattern`'s under the fixed steps:
+    `start_bias`)."""
     from ..fab_yield import YIELD_SOLVE
-    from ..simulation import DEFAULT_ATOL, DEFAULT_RTOL, VerdictTolerances
+    from ..simulation import DEFAULT_ATOL, DEFAULT_RTOL, VerdictTolerances, start_bias
 
     solve = with_solver(YIELD_SOLVE.replace(t1=args.t_end), choice, default="tsit5")
     if args.rtol is not None:
         solve = solve.replace(rtol=float(args.rtol), atol=DEFAULT_ATOL / DEFAULT_RTOL * args.rtol)
-    return solve, VerdictTolerances.from_degrees(
-        args.angle_tolerance, _seam_tolerance(args, stored)
-    )
+    bias = args.bias if pattern is None else start_bias(pattern, solve.solver, args.bias)
+    tolerances = VerdictTolerances.from_degrees(args.angle_tolerance, _seam_tolerance(args, stored))
+    return solve, tolerances, bias
 
 
 # `--max-samples`' default: `SampleUntil`'s.
@@ -519,7 +520,7 @@ def _run_family(args: argparse.Namespace, members: list[str], sampling, choice: 
     def on_net(name: str, index: int, total: int) -> None:
         print(f"[yield] net {index + 1}/{total}: {name}", flush=True)
 
-    solve, tolerances = _solve(args, choice)
+    solve, tolerances, _ = _solve(args, choice)
     start = time.perf_counter()
     with output:
         try:
@@ -820,11 +821,6 @@ def run(args: argparse.Namespace) -> int:
         fail(f"--bias must be a pre-fold angle in [0, 1) rad, got {args.bias}.")
     if args.bias and not loops:
         fail(f"--bias pre-folds closed-loop patterns; {args.net} is a net, which starts flat.")
-    if loops and choice["solver"] == "implicit-step":
-        fail(
-            f"{args.net}: --solver implicit-step takes nets (trees of panels): its fixed steps do "
-            "not hold closed loops closed; give tsit5 (the default) or kvaerno5."
-        )
     if loops and (front is not None or args.improve):
         fail(
             f"{args.net} is a crease pattern with closed loops: --etch-front and --improve take "
@@ -900,7 +896,13 @@ def _run(
 
     # What every estimate of this run shares: the estimate itself, the other widths, the ascent.
     # The solve's tolerances: --rtol with the defaults' ratio for the absolute one.
-    solve, tolerances = _solve(args, choice, stored_run_tolerances(out))
+    solve, tolerances, bias = _solve(args, choice, stored_run_tolerances(out), pattern)
+    if bias != args.bias:
+        print(
+            f"[yield] every sample starts pre-folded by {bias:g} rad along the aimed branch: fixed "
+            "steps cannot choose a branch at the flat state (--bias sets the pre-fold).",
+            flush=True,
+        )
     run = RunOptions(**_run_settings(args))
     common = dict(
         design=design,
@@ -908,7 +910,7 @@ def _run(
         process=process,
         solve=solve,
         tolerances=tolerances,
-        bias=args.bias,
+        bias=bias,
     )
 
     def estimate_at(scatter, folder, count):

@@ -116,12 +116,25 @@ class SimulationSettings(eqx.Module):
                 "ImplicitStep fixes its steps from the sample times, which a fit traces: give "
                 "SaveAt(n=...) (evenly spaced samples), not SaveAt(ts=...)."
             )
+        ramped = getattr(inputs, "ramp", None) is not None
+        if isinstance(options.solver, ImplicitStep) and self.n_loops > 0 and not ramped:
+            # A fit starts flat, and its simulations are traced: `simulate` cannot check there.
+            raise ValueError(
+                "a fit starts its closed-loop pattern flat, where ImplicitStep cannot choose the "
+                "folding branch under a sudden release: give inputs=Step(ramp=...) (a release over "
+                "a ramp) or an adaptive solver."
+            )
         self.options = options.replace(t1=float(t1))
         self.horizon = float(t1) if isinstance(options.solver, ImplicitStep) else None
 
     @property
     def n_hinges(self) -> int:
         return self.layout.n_hinges
+
+    @property
+    def n_loops(self) -> int:
+        """The layout's closed loops (0 for chains and nets)."""
+        return int(getattr(self.layout, "n_loops", 0))
 
     @property
     def t1(self) -> Float[Array, ""]:

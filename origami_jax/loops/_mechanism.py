@@ -137,6 +137,24 @@ class LoopedPanels(AbstractMechanism):
         out = out.at[rows, comps, index[:, None, :]].add(jac)
         return out[..., : self.n_hinges].reshape(3 * self.n_loops, self.n_hinges)
 
+    def whitened_closure_force(self, q: Float[Array, " m"]) -> Float[Array, " m"]:
+        """``Jᵀ W c`` at `q`, `(m,)`: the closure residual ``c`` pulled back to the creases through
+        each vertex's whitened rows, ``W_v = (J_v J_vᵀ + δ)⁻¹`` (module docstring), so that a row
+        shrinking near the flat state still counts in full. The fixed-step engine
+        (`origami_jax.simulation.ImplicitStep`) holds loops closed with it as a stiff penalty; it
+        vanishes exactly where the loops close."""
+        q = jnp.asarray(q)
+        index = self._index()
+        product, carried = _closure.loop_products(
+            self.loop_directions, _closure.gather_angles(q, index)
+        )
+        residual = _closure.residual_of(product)
+        jac = _closure.jacobian_blocks(product, carried)
+        gram = jnp.einsum("vik,vjk->vij", jac, jac)
+        weight = _inverse3(gram + self.whitening * jnp.eye(3, dtype=gram.dtype))
+        pulled = jnp.einsum("vij,vj->vi", weight, residual)
+        return _closure.apply_transpose(jac, index, pulled, self.n_hinges)
+
     # ---- AbstractMechanism ----
 
     def mass_matrix(self, q):

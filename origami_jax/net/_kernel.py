@@ -42,6 +42,7 @@ from ..simulation import (
     VerdictTolerances,
     kernel_result_messages,
     simulate,
+    start_bias,
 )
 from ..system import AIR, KOH_SOLUTION, HingeDesign
 
@@ -111,15 +112,6 @@ def model_settings(pattern, design: HingeDesign | None = None, system=None) -> d
     return {**recorded, **surface_settings(pattern)}
 
 
-CLOSED_LOOPS_NEED_ADAPTIVE = (
-    "a crease pattern with closed loops folds with an adaptive solver (tsit5, kvaerno5): the fixed "
-    "implicit steps (ImplicitStep) do not hold its loops closed."
-)
-"""The one-line refusal of the fixed-step engine for a pattern with closed loops (its closure is a
-constraint of the mechanism's `forward_dynamics`, which the engine's incremental problem does not
-call)."""
-
-
 def fold_kernel(
     pattern,
     *,
@@ -183,7 +175,8 @@ def fold_kernel(
       `angle_tolerance_deg` and `seam_tolerance` (a fraction, or null: derived); a store whose
       settings name no `seam_tolerance` was judged with the fixed 0.01 of the largest panel (the
       default then), and `stored_tolerances` reads it back so.
-    - `bias`: a closed-loop pattern's pre-fold (rad; nets take 0).
+    - `bias`: a closed-loop pattern's pre-fold (rad; nets take 0; with `ImplicitStep` a
+      pattern's 0 becomes `origami_jax.simulation.FIXED_STEP_PRE_FOLD`: `start_bias`).
     - `targets`: the angles the hinges aim at (rad, one per crease; default the pattern's).
     - `hinge_lengths`: `"ideal"` (default): every design's hinge bends exactly to its target
       (hinge length ``ρ |θ_target|`` with the design's own radius ``ρ``); `"designed"`: the hinge
@@ -241,8 +234,6 @@ def fold_kernel(
         raise ValueError(
             f"tolerances must be a VerdictTolerances, got {type(tolerances).__name__}."
         )
-    if isinstance(solver, ImplicitStep) and pattern.n_loops > 0:
-        raise ValueError(CLOSED_LOOPS_NEED_ADAPTIVE)
     agitation = getattr(pattern, "agitation", None)
     if agitation is not None:
         check_agitated_kernel(pattern, solver, base)
@@ -254,6 +245,7 @@ def fold_kernel(
         raise ValueError(
             "hinge_lengths='designed' is implemented for point hinges (hinges='point')."
         )
+    bias = start_bias(pattern, solver, bias)
     theta0 = pattern.start_state(bias=bias)[0]
     m = pattern.n_hinges
     aims = None

@@ -7,7 +7,9 @@ Paper sections "Open Loop Control Law", "Step Input", "Ramp Input", Figs. 7–11
 from ._continue import fold_pattern as fold_pattern
 from ._continue import fold_until_settled as fold_until_settled
 from ._continue import join_trajectories as join_trajectories
+from ._implicit import FIXED_STEP_PRE_FOLD as FIXED_STEP_PRE_FOLD
 from ._implicit import ImplicitStep as ImplicitStep
+from ._implicit import start_bias as start_bias
 from ._inputs import FAST_RAMP_DURATION_SI as FAST_RAMP_DURATION_SI
 from ._inputs import KOH_ETCH_RATE_SI as KOH_ETCH_RATE_SI
 from ._inputs import AbstractInput as AbstractInput

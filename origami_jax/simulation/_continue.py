@@ -19,6 +19,7 @@ import jax
 import numpy as np
 
 from .._limits import FOLD_SEGMENT, MAX_FOLD_SEGMENTS
+from ._implicit import start_bias
 from ._inputs import Step
 from ._options import SolveOptions
 from ._simulate import Trajectory, simulate
@@ -157,7 +158,8 @@ def fold_pattern(
     first: float | None = None,
 ) -> tuple[Trajectory, AbstractFoldReport]:
     """The fold of a pattern (`AbstractPattern.fold`): `system` (one `pattern` built) simulated
-    from `pattern.start_state(system, bias=bias)` and judged by `pattern.assess`.
+    from `pattern.start_state(system, bias=bias)` and judged by `pattern.assess` (a closed-loop
+    pattern folded by `ImplicitStep` from flat starts from `FIXED_STEP_PRE_FOLD`: `start_bias`).
 
     With `t1` (time units of the system: µs by default), one run to `t1`. Without it, runs of
     `segment` continued while the panels still move (`still_moving`), up to
@@ -181,6 +183,7 @@ def fold_pattern(
         segment, max_segments, first = float(t1), 1, None
     elif not pattern.continues_from_angles:
         max_segments = 1
+    bias = start_bias(pattern, options.solver, bias)
     theta0, theta_dot0 = pattern.start_state(system, bias=bias)
     trajectory, report, _ = fold_until_settled(
         system,

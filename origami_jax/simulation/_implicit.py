@@ -49,6 +49,15 @@ distribution matters. The impulse's dependence on ``q_n`` (through ``D``) is hel
 differentiation (its square root's derivative is undefined where ``D``'s eigenvalues coincide);
 the temperature's is exact.
 
+**Closed loops.** A crease pattern's loops (`LoopedPanels`: the cut creases carry no inertia; the
+adaptive solvers hold the closure ``c(q) = 0`` inside `forward_dynamics`) enter the residual as a
+stiff penalty, ``r += w Jᵀ W c(q)`` (`LoopedPanels.whitened_closure_force`: each vertex's rows
+whitened, ``W_v = (J_v J_vᵀ + δ)⁻¹``, as the constrained dynamics do), ``w`` = `_LOOP_HOLD` times
+the mean diagonal of the step's contact-free Newton matrix at its start, and the cut creases get
+`LoopedPanels`' regularising inertia. The loops then open by ~1/`_LOOP_HOLD` of a step's motion
+(as ``h²``). The flat state is a bifurcation the steps cannot resolve under a sudden release
+(`check_off_bifurcation`; a pattern's fold starts pre-folded: `start_bias`).
+
 **Gradients.** The derivative of each step is that of its root by the implicit function theorem,
 ``∂q_{n+1} = −J⁻¹ ∂r`` with the exact ``J = ∂r/∂q`` at the root (`_root`, a custom JVP: computed
 only when differentiating), not the derivative of the iterations, which run on values without
@@ -81,6 +90,15 @@ _JACOBIANS = ("gauss-newton", "exact")
 # `ImplicitStep.active_pairs`' default per body: a closed cube net (6 bodies, the base one of them)
 # has 24 vertex–face and 41 edge–edge pairs within twice the activation gap, against 36 and 60 kept.
 _PAIRS_PER_BODY = 16
+# A crease pattern's loops: the closure penalty's weight over the step's other terms (`_loop_hold`).
+# The loops then stay closed to ~1/_LOOP_HOLD of a step's motion; far larger and the Newton matrix
+# (float64) loses the other terms' digits.
+_LOOP_HOLD = 1e4
+# A closed-loop start within this of flat (rad) at rest is at its bifurcation
+# (`check_off_bifurcation`).
+_FLAT = 1e-6
+# The cut creases' regularising inertia, relative to the tree creases' mean (as `LoopedPanels`).
+_CUT_INERTIA = 1e-12
 
 
 class ImplicitStep(eqx.Module):
@@ -168,6 +186,44 @@ class ImplicitStep(eqx.Module):
                 raise ValueError(f"ImplicitStep.{name} must be a positive integer, got {value!r}.")
 
 
+FIXED_STEP_PRE_FOLD = 1e-3
+"""The pre-fold (rad) a closed-loop pattern's fold by `ImplicitStep` starts from when none is given
+(`start_bias`): a fixed step cannot choose a branch at the flat bifurcation (module docstring)."""
+
+
+def start_bias(pattern, solver, bias: float) -> float:
+    """The pre-fold (rad) a pattern's fold starts from (`CreasePattern.start_state`): `bias`, but
+    `FIXED_STEP_PRE_FOLD` for a closed-loop pattern folded by `ImplicitStep` from flat (bias 0),
+    whose fixed steps cannot pick the branch at the flat state. Nets and the adaptive solvers
+    start where asked."""
+    if bias == 0 and isinstance(solver, ImplicitStep) and getattr(pattern, "n_loops", 0) > 0:
+        return FIXED_STEP_PRE_FOLD
+    return bias
+
+
+def check_off_bifurcation(system: FoldingSystem, inputs: AbstractInput, t0, q0, v0) -> None:
+    """Refuse a closed-loop pattern released at once from the flat state at rest: its fixed steps
+    cannot choose the branch there (a massless cut crease is held only at second order, so the
+    first step overshoots off every branch). A release whose torque starts from zero (a ramp)
+    leaves flat slowly enough to follow its branch; a pre-fold (`start_bias`) starts on it. For
+    concrete arguments only (`simulate` skips it under a trace)."""
+    mechanism = system.mechanism
+    if not hasattr(mechanism, "closure"):
+        return
+    flat = float(np.max(np.abs(np.asarray(q0)), initial=0.0)) < _FLAT
+    still = float(np.max(np.abs(np.asarray(v0)), initial=0.0)) == 0.0
+    if not (flat and still):
+        return
+    angles, rates = mechanism.hinge_angles(q0), mechanism.hinge_rates(q0, v0)
+    if float(jnp.max(jnp.abs(inputs.torque(t0, angles, rates, system)))) > 0.0:
+        raise ValueError(
+            "ImplicitStep cannot choose a closed-loop pattern's folding branch when it is released "
+            "at once from the flat state (a bifurcation its fixed steps step over): start from a "
+            f"small pre-fold, e.g. pattern.start_state(system, bias={FIXED_STEP_PRE_FOLD:g}), "
+            "release it over a ramp (Step(ramp=...)), or use an adaptive solver."
+        )
+
+
 def steps_per_interval(solver: ImplicitStep, t0, ts) -> int:
     """How many equal steps `solver` takes between consecutive sample times (static): the longest
     interval of ``(t0, ts…)`` over `solver.dt`, rounded up."""
@@ -180,19 +236,57 @@ def _without_derivatives(tree):
     return jax.tree.map(lambda x: jax.lax.stop_gradient(x) if eqx.is_array(x) else x, tree)
 
 
-def _residual(system: FoldingSystem, inputs: AbstractInput, t_next, h, q_n, v_n, mass, bias, q):
-    """``r(q)`` of the module docstring (force·time² units), shape `(n,)`."""
+def _residual(
+    system: FoldingSystem, inputs: AbstractInput, t_next, h, q_n, v_n, mass, bias, hold, q
+):
+    """``r(q)`` of the module docstring (force·time² units), shape `(n,)`; with closed loops
+    (`hold` not `None`, `_loop_hold`) plus the penalty ``hold · Jᵀ W c(q)`` that holds them
+    closed."""
     mechanism = system.mechanism
     v = (q - q_n) / h
     tau = inputs.torque(t_next, mechanism.hinge_angles(q), mechanism.hinge_rates(q, v), system)
-    return mass @ (q - q_n - h * v_n) + h * h * (bias - system.generalized_force(q, v, tau))
+    r = mass @ (q - q_n - h * v_n) + h * h * (bias - system.generalized_force(q, v, tau))
+    if hold is not None:
+        r = r + hold * mechanism.whitened_closure_force(q)
+    return r
+
+
+def _start_terms(system: FoldingSystem, inputs: AbstractInput, t_next, h, q_n, v_n, noise):
+    """What a step's residual holds fixed from its start: ``(M(q_n), C v_n + G − impulse/h,
+    hold)`` (`_residual`)."""
+    mechanism = system.mechanism
+    mass = mechanism.mass_matrix(q_n)
+    bias = mechanism.bias_force(q_n, v_n)
+    if noise is not None:
+        bias = bias - _impulse(system, h, q_n, noise) / h
+    hold = None
+    if hasattr(mechanism, "closure"):
+        mass, hold = _loop_hold(system, inputs, t_next, h, q_n, v_n, mass, bias)
+    return mass, bias, hold
+
+
+def _loop_hold(system, inputs, t_next, h, q_n, v_n, mass, bias):
+    """A crease pattern's loops in the incremental problem: the mass matrix with the cut creases'
+    regularising inertia (`LoopedPanels`: they carry none of their own) and the closure penalty's
+    weight ``hold``, `_LOOP_HOLD` times the mean diagonal of the tree creases' Newton matrix
+    without contact at the step's start (inertia, hinge springs and drag over the step: the
+    penalty outweighs whatever the step's other terms are), held fixed under differentiation."""
+    mechanism = system.mechanism
+    n_tree = mechanism.n_tree
+    scale = jnp.mean(jnp.diagonal(mass)[:n_tree])
+    cut = jnp.arange(mass.shape[0]) >= n_tree
+    mass = mass + jnp.diag(jnp.where(cut, _CUT_INERTIA * scale, 0.0))
+    bare = eqx.tree_at(lambda s: s.contact, system, None, is_leaf=lambda x: x is None)
+    matrix = jax.jacfwd(
+        lambda q: _residual(bare, inputs, t_next, h, q_n, v_n, mass, bias, None, q)
+    )(jax.lax.stop_gradient(q_n))
+    weight = jnp.mean(jnp.abs(jnp.diagonal(matrix))[:n_tree])
+    return mass, jax.lax.stop_gradient(_LOOP_HOLD * weight)
 
 
 def _residual_from_start(system, inputs, t_next, h, q_n, v_n, noise, q):
-    mechanism = system.mechanism
-    mass = mechanism.mass_matrix(q_n)
-    bias = mechanism.bias_force(q_n, v_n) - _impulse(system, h, q_n, noise) / h
-    return _residual(system, inputs, t_next, h, q_n, v_n, mass, bias, q)
+    mass, bias, hold = _start_terms(system, inputs, t_next, h, q_n, v_n, noise)
+    return _residual(system, inputs, t_next, h, q_n, v_n, mass, bias, hold, q)
 
 
 def _impulse(system: FoldingSystem, h, q_n, noise):
@@ -279,20 +373,20 @@ def _gauss_newton_applies(system: FoldingSystem, solver: ImplicitStep) -> bool:
     )
 
 
-def _newton_matrix(system, inputs, solver, t_next, h, q_n, v_n, mass, bias):
+def _newton_matrix(system, inputs, solver, t_next, h, q_n, v_n, mass, bias, hold):
     """``q ↦ (J, r(q))``: the residual and the Newton iterations' matrix (`ImplicitStep.jacobian`).
     With the Gauss–Newton contact, everything but the contact is differentiated (`jax.jacfwd`:
     hinges, drag and inputs cost little) and the contact gives its own force and derivatives."""
 
     def residual(q):
-        return _residual(system, inputs, t_next, h, q_n, v_n, mass, bias, q)
+        return _residual(system, inputs, t_next, h, q_n, v_n, mass, bias, hold, q)
 
     if not _gauss_newton_applies(system, solver):
         return functools.partial(_jacobian, residual), residual
     bare = eqx.tree_at(lambda s: s.contact, system, None, is_leaf=lambda x: x is None)
 
     def bare_residual(q):
-        r = _residual(bare, inputs, t_next, h, q_n, v_n, mass, bias, q)
+        r = _residual(bare, inputs, t_next, h, q_n, v_n, mass, bias, hold, q)
         return r, r
 
     def matrix(q):
@@ -332,7 +426,6 @@ def _step(
     left_out)``, `left_out` whether a contact pair outside the step's working set came within the
     activation gap (`ImplicitStep.active_pairs`). `noise`: the step's standard normal draws of an
     agitated system (`step_noise`), else `None`."""
-    mechanism = system.mechanism
     contact = system.contact
     capped = hasattr(contact, "time_of_impact")
     # The iterations run without derivatives; `_root` carries them (IFT).
@@ -341,12 +434,9 @@ def _step(
     if counts is not None:
         working = s_system.contact.select_pairs(s_system.mechanism, s_q, counts)
         s_system = eqx.tree_at(lambda s: s.contact, s_system, working)
-    mass = mechanism.mass_matrix(s_q)
-    bias = mechanism.bias_force(s_q, s_v)
-    if noise is not None:
-        bias = bias - _impulse(s_system, s_h, s_q, noise) / s_h
+    mass, bias, hold = _start_terms(s_system, s_inputs, t_next, s_h, s_q, s_v, noise)
     newton_matrix, residual = _newton_matrix(
-        s_system, s_inputs, solver, t_next, s_h, s_q, s_v, mass, bias
+        s_system, s_inputs, solver, t_next, s_h, s_q, s_v, mass, bias, hold
     )
 
     def largest_step(q, dq):

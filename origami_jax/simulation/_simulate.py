@@ -22,7 +22,7 @@ from .._runtime_errors import checks_as_nan
 from .._validate import check_finite, is_traced
 from ..system import FoldingSystem, HingeDrag
 from ._guard import AbstractWrappedController, ContactGuard
-from ._implicit import ImplicitStep, integrate, steps_per_interval
+from ._implicit import ImplicitStep, check_off_bifurcation, integrate, steps_per_interval
 from ._inputs import AbstractInput
 from ._options import DEFAULT_ATOL, DEFAULT_RTOL, SolveOptions
 from ._results import RESULTS, promote
@@ -629,13 +629,6 @@ def _simulate_implicit(system, inputs, solver, times, q0, v0, *, dense: bool, th
             "ImplicitStep needs a mechanism whose velocities are its coordinates' rates (chains and "
             "panel trees); use the adaptive solvers for this one."
         )
-    if hasattr(mechanism, "closure"):
-        # Closed loops are held by the constraint solve inside `forward_dynamics`, which the
-        # engine's incremental problem (mass matrix and generalized force) does not call.
-        raise ValueError(
-            "ImplicitStep does not hold closed loops closed (a crease pattern with loops): use an "
-            "adaptive solver, e.g. diffrax.Tsit5()."
-        )
     if dense:
         raise ValueError(
             "ImplicitStep has no dense output; ask for samples (SaveAt(n=...) or SaveAt(ts=...))."
@@ -643,6 +636,8 @@ def _simulate_implicit(system, inputs, solver, times, q0, v0, *, dense: bool, th
     t0, ts = times
     steps = steps_per_interval(solver, t0, ts)
     top_level = not is_traced(system, inputs, q0, v0)
+    if top_level:
+        check_off_bifurcation(system, inputs, t0, q0, v0)
     trajectory = _implicit_solve_jit(system, inputs, solver, t0, ts, q0, v0, steps)
     if throw:
         if top_level:
