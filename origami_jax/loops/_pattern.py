@@ -56,6 +56,8 @@ from ..net import (
     AbstractPanelPattern,
     HostCache,
     Net,
+    check_agitation,
+    check_agitation_balanced,
     check_loader_arguments,
     check_per_crease,
     check_release_ramp,
@@ -72,7 +74,7 @@ from ..net import (
     with_surface_physics,
 )
 from ..simulation import assess, fold_outcome
-from ..system import MICRO, FoldingSystem, HingeDesign, Hinges
+from ..system import MICRO, Agitation, FoldingSystem, HingeDesign, Hinges
 from . import _kinematics
 from ._mechanism import LoopedPanels
 from ._report import LoopFoldReport
@@ -110,6 +112,7 @@ PATTERN_MODEL = {
     "release_ramp": "auto",
     "added_mass": None,
     "viscous": None,
+    "agitation": None,
 }
 
 
@@ -134,7 +137,9 @@ class CreasePattern(AbstractPanelPattern):
     the etch bath, off in a gas, as for nets: `fluid_inertia`); `release_ramp` (`"auto"`, the
     default: quasi-static where the panels carry the fluid's inertia, the paper's step
     otherwise; `None`: the step; a time, µs: each hinge's torque grows over it from its release,
-    `release_input`).
+    `release_input`); `agitation` (`None`: off; an `origami_jax.system.Agitation`, the bath's
+    random force, carried by the systems as for nets: it needs the fluid's viscous drag and the
+    fixed-step engine, `origami_jax.simulation.ImplicitStep`).
     """
 
     geometry: LoopGeometry
@@ -152,6 +157,7 @@ class CreasePattern(AbstractPanelPattern):
     release_ramp: float | str | None = "auto"
     added_mass: bool | None = None
     viscous: bool | None = None
+    agitation: Agitation | None = None
 
     # ---- the pattern ----
 
@@ -160,6 +166,7 @@ class CreasePattern(AbstractPanelPattern):
     def __post_init__(self):
         check_surface_model(self.adhesion, self.friction)
         check_release_ramp(self.release_ramp)
+        check_agitation(self.agitation)
 
     @property
     def continues_from_angles(self) -> bool:
@@ -422,6 +429,7 @@ class CreasePattern(AbstractPanelPattern):
         hinges = self.hinges if hinges is None else hinges
         check_rigid = self.check_rigid if check_rigid is None else check_rigid
         added_mass, viscous = self.fluid_inertia(design, added_mass=added_mass, viscous=viscous)
+        check_agitation_balanced(self, viscous)
         if contact_sampling is None:
             contact_sampling = self.contact_sampling
 
@@ -521,7 +529,12 @@ class CreasePattern(AbstractPanelPattern):
         else:
             contact_model = with_surface_physics(self, None, None, lambda: None)
         return FoldingSystem(
-            mechanism, hinges_, drag_model, contact=contact_model, units=design.units
+            mechanism,
+            hinges_,
+            drag_model,
+            contact=contact_model,
+            units=design.units,
+            agitation=self.agitation,
         )
 
     # ---- start state ----

@@ -27,6 +27,7 @@ from ._joints import AbstractJoints as AbstractJoints
 from ._joints import ArcJoints as ArcJoints
 from ._joints import RevoluteJoints as RevoluteJoints
 from ._kernel import FOLD_KERNEL_SOLVE as FOLD_KERNEL_SOLVE
+from ._kernel import check_agitation_balanced as check_agitation_balanced
 from ._kernel import check_kernel_sampling as check_kernel_sampling
 from ._kernel import default_t_end as default_t_end
 from ._kernel import fold_kernel as fold_kernel
@@ -43,6 +44,7 @@ from ._net import seam_gap_function as seam_gap_function
 from ._net import vertex_corners as vertex_corners
 from ._pattern import AbstractPanelPattern as AbstractPanelPattern
 from ._pattern import HostCache as HostCache
+from ._pattern import check_agitation as check_agitation
 from ._pattern import check_loader_arguments as check_loader_arguments
 from ._pattern import check_per_crease as check_per_crease
 from ._pattern import check_release_ramp as check_release_ramp

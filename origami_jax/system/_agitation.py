@@ -108,9 +108,11 @@ class Agitation(eqx.Module):
     def check_drag(self, mechanism: AbstractMechanism, drag: AbstractDrag, q: Array) -> None:
         """Raise (one line, before compiling) when a known drag has no linear part at ``q`` to
         balance the noise."""
-        if is_traced(q, drag):
+        if is_traced(q, drag, mechanism):
             return
-        damping = viscous_damping(mechanism, drag, q)
+        # Evaluated now even inside a trace (only the agitation's key may be traced there).
+        with jax.ensure_compile_time_eval():
+            damping = viscous_damping(mechanism, drag, q)
         if not np.any(np.abs(np.asarray(damping)) > 0):
             raise ValueError(
                 "agitation needs a drag with a linear (viscous) part to balance the noise, but "
