@@ -56,12 +56,10 @@ from ..net import (
     AbstractPanelPattern,
     HostCache,
     Net,
-    check_agitation,
     check_agitation_balanced,
     check_loader_arguments,
     check_per_crease,
-    check_release_ramp,
-    check_surface_model,
+    check_physics_options,
     default_design,
     folding_animation,
     front_release,
@@ -164,9 +162,7 @@ class CreasePattern(AbstractPanelPattern):
     MODEL: ClassVar[dict[str, Any]] = PATTERN_MODEL
 
     def __post_init__(self):
-        check_surface_model(self.adhesion, self.friction)
-        check_release_ramp(self.release_ramp)
-        check_agitation(self.agitation)
+        check_physics_options(self)
 
     @property
     def continues_from_angles(self) -> bool:

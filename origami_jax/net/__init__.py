@@ -44,9 +44,9 @@ from ._net import seam_gap_function as seam_gap_function
 from ._net import vertex_corners as vertex_corners
 from ._pattern import AbstractPanelPattern as AbstractPanelPattern
 from ._pattern import HostCache as HostCache
-from ._pattern import check_agitation as check_agitation
 from ._pattern import check_loader_arguments as check_loader_arguments
 from ._pattern import check_per_crease as check_per_crease
+from ._pattern import check_physics_options as check_physics_options
 from ._pattern import check_release_ramp as check_release_ramp
 from ._pattern import check_surface_model as check_surface_model
 from ._pattern import default_design as default_design

@@ -60,11 +60,9 @@ from ._kernel import check_agitation_balanced
 from ._pattern import (
     AbstractPanelPattern,
     HostCache,
-    check_agitation,
     check_loader_arguments,
     check_per_crease,
-    check_release_ramp,
-    check_surface_model,
+    check_physics_options,
     default_design,
     front_release,
     unit_front_direction,
@@ -141,9 +139,7 @@ class Net(AbstractPanelPattern):
     MODEL: ClassVar[dict[str, Any]] = NET_MODEL
 
     def __post_init__(self):
-        check_surface_model(self.adhesion, self.friction)
-        check_release_ramp(self.release_ramp)
-        check_agitation(self.agitation)
+        check_physics_options(self)
 
     @property
     def continues_from_angles(self) -> bool:

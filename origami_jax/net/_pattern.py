@@ -350,6 +350,14 @@ def check_agitation(agitation) -> None:
         )
 
 
+def check_physics_options(pattern) -> None:
+    """One-line errors for a pattern's physics options that are objects or times (`adhesion`,
+    `friction`, `release_ramp`, `agitation`), when it is made (`with_model`)."""
+    check_surface_model(pattern.adhesion, pattern.friction)
+    check_release_ramp(pattern.release_ramp)
+    check_agitation(pattern.agitation)
+
+
 @eqx.filter_jit
 def _quasi_static_ramp(system, about):
     return quasi_static_ramp(system, about=about)
