@@ -484,6 +484,22 @@ def test_bad_input_is_refused(tmp_path):
         pattern.start_state(bias=-1.0)
 
 
+def test_a_pre_fold_lies_on_the_aimed_branch_at_the_asked_size():
+    """`start_state(bias=...)`: a closed state of about `bias` rad with every crease on its
+    target's side of flat. The waterbomb base's nearest closed state to
+    the stiffness-weighted targets falls to flat (4e-9 rad for 1e-3, 4e-7 for 0.05, before
+    2026-12-06); it is reached down the branch from the full fold instead."""
+    waterbomb = load_pattern("waterbomb_base")
+    paper = waterbomb.system(KOH, contact=False, **PAPER)
+    for pattern, system in (_degree4(), (waterbomb, paper)):
+        name = pattern.name
+        for bias in (1e-3, 0.05):
+            theta, rate = pattern.start_state(system, bias=bias)
+            assert 0.2 * bias < np.linalg.norm(theta) < 1.5 * bias, (name, bias)
+            assert np.all(np.sign(theta) == np.sign(pattern.intended_angles)), name
+            assert float(np.max(pattern.closure_residual(theta))) < 1e-12 and not np.any(rate)
+
+
 def _fan_fold(rays_deg, angles_deg) -> dict:
     """A single interior vertex in a square, creases along `rays_deg` with `angles_deg`."""
     from origami_jax.fold._catalogue_loops import _fan

@@ -93,6 +93,12 @@ class NotRigidlyFoldableError(ValueError):
         self.report = report
 
 
+# `start_state`: a pre-fold whose nearest closed state is closer to flat than this fraction of it has
+# fallen to flat; it is then reached down the branch from the full fold, in steps each at most this
+# shrink (at most so many: from a 10 rad fold to 1e-6 rad takes 45).
+_COLLAPSED = 0.1
+_SHRINK = 0.7
+_SHRINK_STEPS = 60
 OSCILLATION_BIAS = 0.01
 """How far along its branch (rad) a crease pattern's quasi-static ramp is linearised
 (`CreasePattern.oscillation_state`): the slowest mode changed by less than 1e-3 between 0.001
@@ -549,12 +555,18 @@ class CreasePattern(AbstractPanelPattern):
         membrane is never quite flat): the closed state nearest ``bias · d̂``, ``d`` = `direction`
         (default the hinge targets of `system` weighted by stiffness and by which creases release
         first, or the pattern's angles), so ``|θ0| ≈ bias`` rad along the branch the inputs aim at.
+        Where that nearest state falls to flat (a vertex whose branches leave flat far from ``d``:
+        the waterbomb base), the state of norm `bias` down the branch from `direction` or, failing
+        that, the targets at full fold.
         """
         m = self.n_creases
         if bias == 0.0:
             return np.zeros(m), np.zeros(m)
         if not bias > 0:
             raise ValueError(f"bias must be a small positive angle (rad), got {bias}.")
+        folds = [self.intended_angles if system is None else np.asarray(system.hinges.target)]
+        if direction is not None:
+            folds.insert(0, direction)
         if direction is None:
             if system is None:
                 direction = self.intended_angles
@@ -570,6 +582,15 @@ class CreasePattern(AbstractPanelPattern):
             raise ValueError(f"direction must be a non-zero vector of {m} fold angles.")
         guess = bias * direction / np.linalg.norm(direction)
         theta = self.closest_state(guess, keep_signs=True)
+        if np.linalg.norm(theta) < _COLLAPSED * bias:
+            # The nearest closed state fell to flat: a vertex whose branches leave flat far from
+            # `direction` (the waterbomb base: 4e-9 rad for a 1e-3 pre-fold). Come down the
+            # branch from the full fold instead.
+            for fold in folds:
+                along = self._down_the_branch(np.asarray(fold, dtype=float), bias)
+                if along is not None:
+                    theta = along
+                    break
         directions, index = self._padded()
         if _kinematics.max_residual(directions, index, theta) > 1e-12:
             raise ValueError(
@@ -577,6 +598,26 @@ class CreasePattern(AbstractPanelPattern):
                 "smaller bias or another direction."
             )
         return theta, np.zeros(m)
+
+    def _down_the_branch(self, fold: np.ndarray, bias: float) -> np.ndarray | None:
+        """A closed state of norm `bias` on the branch through the closed state nearest `fold`
+        (the hinges' targets, or a given direction, at the size of the pattern's angles), reached
+        by shrinking it a step at a time (each step scaled by at most `_SHRINK` and brought back
+        onto the loops, no crease crossing flat); `None` where the path falls to flat or leaves
+        the branch's signs."""
+        full = np.linalg.norm(self.intended_angles) * fold / np.linalg.norm(fold)
+        theta = self.closest_state(full, keep_signs=True)
+        signs = np.sign(theta)
+        for _ in range(_SHRINK_STEPS):
+            size = np.linalg.norm(theta)
+            if not size > 0 or np.any(np.sign(theta) != signs):
+                return None
+            if size <= bias * (1 + 1e-9):
+                break
+            theta = self.closest_state(theta * max(_SHRINK, bias / size), keep_signs=True)
+        else:
+            return None
+        return theta if np.linalg.norm(theta) >= _COLLAPSED * bias else None
 
     # ---- verdicts ----
 

@@ -219,8 +219,9 @@ def check_off_bifurcation(system: FoldingSystem, inputs: AbstractInput, t0, q0, 
         raise ValueError(
             "ImplicitStep cannot choose a closed-loop pattern's folding branch when it is released "
             "at once from the flat state (a bifurcation its fixed steps step over): start from a "
-            f"small pre-fold, e.g. pattern.start_state(system, bias={FIXED_STEP_PRE_FOLD:g}), "
-            "release it over a ramp (Step(ramp=...)), or use an adaptive solver."
+            f"small pre-fold (pattern.start_state(system, bias={FIXED_STEP_PRE_FOLD:g}); "
+            "--bias), release it over a ramp (Step(ramp=...); --release-ramp US), or use an "
+            "adaptive solver (--solver tsit5)."
         )
 
 
