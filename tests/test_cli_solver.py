@@ -189,6 +189,12 @@ def test_closed_loops_fold_on_the_fixed_steps_from_a_pre_fold(tmp_path, capsys):
     result = json.loads((out / "result.json").read_text())
     assert result["bias"] == sim.FIXED_STEP_PRE_FOLD and result["solver"] == "implicit-step"
     assert result["closure_drift"] < 1e-5
+    # A yield's samples likewise, and its result.json records the pre-fold they started from.
+    out = tmp_path / "y"
+    flags = ["--solver", "implicit-step", "--dt", "2.5", "--samples", "1", "--no-progress"]
+    assert main(["yield", "vertex_degree4", *flags, "--out", str(out)]) in (0, 1)
+    assert f"pre-folded by {sim.FIXED_STEP_PRE_FOLD:g} rad" in capsys.readouterr().out
+    assert json.loads((out / "result.json").read_text())["bias_rad"] == sim.FIXED_STEP_PRE_FOLD
 
 
 def test_the_net_fold_model_records_its_solver_and_keeps_older_stores_resumable():

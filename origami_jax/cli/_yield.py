@@ -970,7 +970,7 @@ def _run(
         "release_us": None if release is None else [float(t) for t in release],
         "process": process,
         "t_end_us": settings["t_end_us"],
-        **({"bias_rad": args.bias} if loops else {}),
+        **({"bias_rad": settings.get("bias", args.bias)} if loops else {}),
         "rtol": args.rtol,
         **choice,
         "contact": args.contact,
