@@ -14,7 +14,9 @@ iterations, halvings and collision chords: 600 steps), beside the adaptive defau
 - the batch: nets/s of the fixed steps (`jax.vmap`) against MuJoCo over the same nets on every
   core, and of the adaptive engine over the same nets;
 - the batch end to end: ours from tracing and compiling the batched fold to its first answer
-  against MuJoCo from building its models to its first rollout (one cold call each).
+  against MuJoCo from building its models to its first rollout (one cold call each);
+- a crease pattern with closed loops (`LOOPS_PATTERN`, the Miura 3×3: its loops held by the fixed
+  steps' penalty, by the adaptive solver's constrained accelerations): one fold each, warm.
 
 Every batch's members are checked to close the cube before they are timed; each fold's verdict is
 the net's (`Net.assess`).
@@ -32,6 +34,7 @@ import jax.numpy as jnp
 import numpy as np
 
 import origami_jax.simulation as sim
+from origami_jax.loops import load_pattern
 from origami_jax.net import load_net
 from origami_jax.simulation import _implicit
 from origami_jax.system import KOH_SOLUTION, HingeDesign
@@ -44,6 +47,9 @@ DT = 2.5  # µs: the fixed step the docs use for cube nets
 T1 = bench_net.T1
 N_SAVE = bench_net.N_SAVE
 CONTACT_STATE_US = 300.0  # the per-step row's state: mid-fold
+# The closed-loop row: a Miura sheet, long enough to fold in the paper's dynamics.
+LOOPS_PATTERN = "miura_3x3"
+LOOPS_T1 = 3000.0
 
 
 def _fixed(system, dt=DT):
@@ -244,7 +250,61 @@ def run(quick: bool, batch: int | None = None) -> list[Result]:
             )
         )
         print(rows[-1].line(), flush=True)
+    rows.append(_closed_loops_row(repeats))
+    print(rows[-1].line(), flush=True)
     return rows
+
+
+def _closed_loops_row(repeats: int) -> Result:
+    """`LOOPS_PATTERN` (closed loops held by the fixed steps' penalty, by the adaptive solver's
+    constrained accelerations) folded to `LOOPS_T1` from the fixed steps' pre-fold, in the paper's
+    dynamics with plate contact: one fold each, warm; both must fold it to the same angles."""
+    pattern = load_pattern(LOOPS_PATTERN)
+    design = HingeDesign.literature(fluid=KOH_SOLUTION)
+    system = pattern.system(design, contact="plate", added_mass=False, viscous=False)
+    start = pattern.start_state(system, bias=sim.FIXED_STEP_PRE_FOLD)[0]
+
+    def fold(solver):
+        options = sim.SolveOptions(
+            saveat=sim.SaveAt(n=N_SAVE), solver=solver, max_steps=200_000, throw=False
+        )
+        return lambda system: sim.simulate(system, sim.Step(), options, t1=LOOPS_T1, theta0=start)
+
+    _progress(f"compiling {LOOPS_PATTERN}, fixed steps and adaptive")
+    fixed, fixed_compile = _compiled(fold(sim.ImplicitStep(dt=DT)), system)
+    adaptive, adaptive_compile = _compiled(fold(diffrax.Tsit5()), system)
+    folds, drift = {}, {}
+    for name, solve in (("fixed", fixed), ("adaptive", adaptive)):
+        trajectory = solve(system)
+        report = pattern.assess(system, trajectory, bias=sim.FIXED_STEP_PRE_FOLD)
+        if report.verdict != "folded":
+            raise AssertionError(f"ours ({name} steps) on {LOOPS_PATTERN}: {report.summary()}")
+        folds[name], drift[name] = trajectory, report.closure_drift
+    difference = float(np.max(np.abs(folds["fixed"].theta[-1] - folds["adaptive"].theta[-1])))
+    steps = {name: int(folds[name].stats["num_steps"]) for name in folds}
+    fixed_time = time_calls(lambda: fixed(system).theta, repeats=repeats, warmup=0)
+    return Result(
+        name=f"{LOOPS_PATTERN} ({pattern.n_loops} closed loops, plate contact) one fold to "
+        f"{LOOPS_T1:g} us: ImplicitStep dt {DT:g} us vs adaptive Tsit5",
+        ours=fixed_time,
+        peer_name="ours, adaptive Tsit5 at the default tolerances",
+        peer=time_calls(lambda: adaptive(system).theta, repeats=repeats, warmup=0),
+        compile_s=fixed_compile,
+        max_abs_difference=difference,
+        notes=(
+            f"warm, from a {sim.FIXED_STEP_PRE_FOLD:g} rad pre-fold; fixed: {steps['fixed']} steps, "
+            f"closure drift {drift['fixed']:.1e} rad; adaptive: {steps['adaptive']} steps, "
+            f"closure drift {drift['adaptive']:.1e} rad, compile {adaptive_compile:.1f} s; both "
+            "fold it (final angles compared)"
+        ),
+        extra={
+            "fixed_steps": steps["fixed"],
+            "adaptive_steps": steps["adaptive"],
+            "adaptive_compile_s": adaptive_compile,
+            "closure_drift_fixed": drift["fixed"],
+            "closure_drift_adaptive": drift["adaptive"],
+        },
+    )
 
 
 if __name__ == "__main__":
