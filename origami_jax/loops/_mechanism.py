@@ -150,9 +150,7 @@ class LoopedPanels(AbstractMechanism):
         )
         residual = _closure.residual_of(product)
         jac = _closure.jacobian_blocks(product, carried)
-        gram = jnp.einsum("vik,vjk->vij", jac, jac)
-        weight = _inverse3(gram + self.whitening * jnp.eye(3, dtype=gram.dtype))
-        pulled = jnp.einsum("vij,vj->vi", weight, residual)
+        pulled = jnp.einsum("vij,vj->vi", self._whitening(jac), residual)
         return _closure.apply_transpose(jac, index, pulled, self.n_hinges)
 
     # ---- AbstractMechanism ----
@@ -184,6 +182,30 @@ class LoopedPanels(AbstractMechanism):
             return jax.vmap(self._accelerations)(q, v, force)
         return self._accelerations(q, v, force)
 
+    def _whitening(self, jac: Float[Array, "n_v 3 D"]) -> Float[Array, "n_v 3 3"]:
+        """Each vertex's weight ``W_v = (J_v J_vᵀ + δ)⁻¹``: a loop whose out-of-plane row shrinks
+        near the flat state (size σ ~ the fold) is still enforced at full strength."""
+        gram = jnp.einsum("vik,vjk->vij", jac, jac)
+        eye = jnp.eye(3, dtype=gram.dtype)
+        return _inverse3(gram + self.whitening * eye)
+
+    def _with_cut_inertia(self, m_tree: Float[Array, "t t"]) -> tuple[Array, Array]:
+        """``blockdiag(M_T, 0)`` with the cut creases' regularising inertia (`_CUT_INERTIA` of
+        ``mean(diag M_T)``), `(m, m)`, and that mean."""
+        n_tree, m = self.n_tree, self.n_hinges
+        scale = jnp.mean(jnp.diagonal(m_tree))
+        matrix = jnp.zeros((m, m), m_tree.dtype).at[:n_tree, :n_tree].set(m_tree)
+        diagonal = jnp.concatenate(
+            [jnp.zeros((n_tree,), m_tree.dtype), jnp.full((self.n_cut,), _CUT_INERTIA)]
+        )
+        return matrix + jnp.diag(diagonal * scale), scale
+
+    def regularised_mass_matrix(self, q: Float[Array, " m"]) -> Float[Array, "m m"]:
+        """`mass_matrix` with the cut creases' regularising inertia, as the constrained dynamics
+        use it: positive definite, for the fixed-step engine's incremental problem."""
+        q = jnp.asarray(q)
+        return self._with_cut_inertia(self.tree.mass_matrix(q[: self.n_tree]))[0]
+
     def _accelerations(self, q, v, force):
         n_tree, m = self.n_tree, self.n_hinges
         index = self._index()
@@ -193,22 +215,14 @@ class LoopedPanels(AbstractMechanism):
         omega = self.rate
         rate_residual = _closure.apply_blocks(jac, index, v)
         target = -gamma - 2 * omega * rate_residual - omega**2 * residual
-        # Each vertex's three rows whitened, W_v = (J_v J_vᵀ + δ)⁻¹: a loop whose out-of-plane row
-        # shrinks near the flat state (size σ ~ the fold) is still enforced at full strength.
-        gram = jnp.einsum("vik,vjk->vij", jac, jac)
-        eye = jnp.eye(3, dtype=gram.dtype)
-        weight = _inverse3(gram + self.whitening * eye)
+        weight = self._whitening(jac)
         whitened = jnp.einsum("vij,vjk->vik", weight, jac)  # W_v J_v
-        scale = jnp.mean(jnp.diagonal(m_tree))
+        matrix, scale = self._with_cut_inertia(m_tree)
         rho = self.penalty * scale
-        matrix = jnp.zeros((m, m), m_tree.dtype).at[:n_tree, :n_tree].set(m_tree)
-        diagonal = jnp.concatenate(
-            [jnp.zeros((n_tree,), m_tree.dtype), jnp.full((self.n_cut,), _CUT_INERTIA)]
-        )
         blocks = jnp.einsum("vik,vil->vkl", jac, whitened)  # J_vᵀ W_v J_v
         normal = jnp.zeros((m + 1, m + 1), m_tree.dtype)
         normal = normal.at[index[:, :, None], index[:, None, :]].add(blocks)[:m, :m]
-        matrix = matrix + jnp.diag(diagonal * scale) + rho * normal
+        matrix = matrix + rho * normal
         factor = jax.scipy.linalg.cho_factor(matrix, lower=True)
         base = free + rho * _closure.apply_transpose(
             jac, index, jnp.einsum("vij,vj->vi", weight, target), m

@@ -54,7 +54,7 @@ adaptive solvers hold the closure ``c(q) = 0`` inside `forward_dynamics`) enter 
 stiff penalty, ``r += w Jᵀ W c(q)`` (`LoopedPanels.whitened_closure_force`: each vertex's rows
 whitened, ``W_v = (J_v J_vᵀ + δ)⁻¹``, as the constrained dynamics do), ``w`` = `_LOOP_HOLD` times
 the mean diagonal of the step's contact-free Newton matrix at its start, and the cut creases get
-`LoopedPanels`' regularising inertia. The loops then open by ~1/`_LOOP_HOLD` of a step's motion
+`LoopedPanels`' regularising inertia (`LoopedPanels.regularised_mass_matrix`). The loops then open by ~1/`_LOOP_HOLD` of a step's motion
 (as ``h²``). The flat state is a bifurcation the steps cannot resolve under a sudden release
 (`check_off_bifurcation`; a pattern's fold starts pre-folded: `start_bias`).
 
@@ -97,8 +97,6 @@ _LOOP_HOLD = 1e4
 # A closed-loop start within this of flat (rad) at rest is at its bifurcation
 # (`check_off_bifurcation`).
 _FLAT = 1e-6
-# The cut creases' regularising inertia, relative to the tree creases' mean (as `LoopedPanels`).
-_CUT_INERTIA = 1e-12
 
 
 class ImplicitStep(eqx.Module):
@@ -256,33 +254,32 @@ def _start_terms(system: FoldingSystem, inputs: AbstractInput, t_next, h, q_n, v
     """What a step's residual holds fixed from its start: ``(M(q_n), C v_n + G − impulse/h,
     hold)`` (`_residual`)."""
     mechanism = system.mechanism
-    mass = mechanism.mass_matrix(q_n)
+    loops = hasattr(mechanism, "closure")
+    # A crease pattern's cut creases carry no inertia of their own: regularised as the
+    # constrained dynamics do (`LoopedPanels.regularised_mass_matrix`).
+    mass = mechanism.regularised_mass_matrix(q_n) if loops else mechanism.mass_matrix(q_n)
     bias = mechanism.bias_force(q_n, v_n)
     if noise is not None:
         bias = bias - _impulse(system, h, q_n, noise) / h
-    hold = None
-    if hasattr(mechanism, "closure"):
-        mass, hold = _loop_hold(system, inputs, t_next, h, q_n, v_n, mass, bias)
+    hold = _loop_hold(system, inputs, t_next, h, q_n, v_n, mass, bias) if loops else None
     return mass, bias, hold
 
 
+def _without_contact(system: FoldingSystem) -> FoldingSystem:
+    return eqx.tree_at(lambda s: s.contact, system, None, is_leaf=lambda x: x is None)
+
+
 def _loop_hold(system, inputs, t_next, h, q_n, v_n, mass, bias):
-    """A crease pattern's loops in the incremental problem: the mass matrix with the cut creases'
-    regularising inertia (`LoopedPanels`: they carry none of their own) and the closure penalty's
-    weight ``hold``, `_LOOP_HOLD` times the mean diagonal of the tree creases' Newton matrix
-    without contact at the step's start (inertia, hinge springs and drag over the step: the
-    penalty outweighs whatever the step's other terms are), held fixed under differentiation."""
-    mechanism = system.mechanism
-    n_tree = mechanism.n_tree
-    scale = jnp.mean(jnp.diagonal(mass)[:n_tree])
-    cut = jnp.arange(mass.shape[0]) >= n_tree
-    mass = mass + jnp.diag(jnp.where(cut, _CUT_INERTIA * scale, 0.0))
-    bare = eqx.tree_at(lambda s: s.contact, system, None, is_leaf=lambda x: x is None)
+    """A crease pattern's closure penalty weight ``hold``: `_LOOP_HOLD` times the mean diagonal of
+    the tree creases' Newton matrix without contact at the step's start (inertia, hinge springs
+    and drag over the step: the penalty outweighs whatever the step's other terms are), held fixed
+    under differentiation."""
+    bare = _without_contact(system)
     matrix = jax.jacfwd(
         lambda q: _residual(bare, inputs, t_next, h, q_n, v_n, mass, bias, None, q)
     )(jax.lax.stop_gradient(q_n))
-    weight = jnp.mean(jnp.abs(jnp.diagonal(matrix))[:n_tree])
-    return mass, jax.lax.stop_gradient(_LOOP_HOLD * weight)
+    weight = jnp.mean(jnp.abs(jnp.diagonal(matrix))[: system.mechanism.n_tree])
+    return jax.lax.stop_gradient(_LOOP_HOLD * weight)
 
 
 def _residual_from_start(system, inputs, t_next, h, q_n, v_n, noise, q):
@@ -384,7 +381,7 @@ def _newton_matrix(system, inputs, solver, t_next, h, q_n, v_n, mass, bias, hold
 
     if not _gauss_newton_applies(system, solver):
         return functools.partial(_jacobian, residual), residual
-    bare = eqx.tree_at(lambda s: s.contact, system, None, is_leaf=lambda x: x is None)
+    bare = _without_contact(system)
 
     def bare_residual(q):
         r = _residual(bare, inputs, t_next, h, q_n, v_n, mass, bias, hold, q)
