@@ -208,7 +208,8 @@ def test_thermal_energy_closed_form():
 
 def test_refusals(hinge):
     """One-line errors before compiling: the paper's drag has no viscous part to balance noise; the
-    stiffness-switching solver takes no random force; bad temperatures and seeds."""
+    stiffness-switching solver and the fixed steps' BDF2 scheme take no random force; bad
+    temperatures and seeds."""
     system, _, _, _ = hinge
     paper = accordion_system(HingeDesign.literature(), n_flaps=1)
     with pytest.raises(ValueError, match="linear \\(viscous\\) part"):
@@ -216,6 +217,9 @@ def test_refusals(hinge):
     agitated = dataclasses.replace(system, agitation=Agitation(300.0))
     with pytest.raises(ValueError, match="stochastic equations"):
         simulate(agitated, Step(), SolveOptions(solver=StiffnessSwitching()), t1=1.0)
+    bdf2 = ImplicitStep(dt=0.1, scheme="bdf2")
+    with pytest.raises(ValueError, match="takes ImplicitStep's Euler scheme"):
+        simulate(agitated, Step(), SolveOptions(solver=bdf2), t1=1.0)
     for bad in (-1.0, float("nan"), [1.0, 2.0]):
         with pytest.raises(ValueError, match="temperature"):
             Agitation(bad)

@@ -328,7 +328,8 @@ def test_bad_hinge_parameters_are_refused_in_one_line(param, message, capsys):
         (["--release-ramp", "-1"], "--release-ramp must be a time >= 0 µs"),
         (["--release-ramp", "inf"], "--release-ramp must be a time >= 0 µs"),
         (["--t1", "500"], "--t1 500 µs ends within the release ramp"),
-        (["--agitation", "1e9"], "add --solver implicit-step"),
+        (["--agitation", "1e9"], "use --solver implicit-step"),
+        (["--agitation", "1e9", "--solver", "implicit-bdf2", "--dt", "2.5"], "Euler steps"),
         (["--agitation", "0", "--solver", "implicit-step", "--dt", "2.5"], "temperature > 0 K"),
         (
             [

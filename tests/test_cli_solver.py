@@ -71,7 +71,9 @@ def test_one_place_makes_the_choice_a_solve():
     fixed = {"solver": "implicit-step", "dt_us": 2.5, "newton_iterations": 9}
     solver = with_solver(base, fixed).solver
     assert isinstance(solver, sim.ImplicitStep)
-    assert (solver.dt, solver.newton_iterations) == (2.5, 9)
+    assert (solver.dt, solver.newton_iterations, solver.scheme) == (2.5, 9, "euler")
+    bdf2 = with_solver(base, {**fixed, "solver": "implicit-bdf2"}).solver
+    assert (bdf2.dt, bdf2.newton_iterations, bdf2.scheme) == (2.5, 9, "bdf2")
     assert isinstance(with_solver(base, {"solver": "kvaerno5"}).solver, diffrax.Kvaerno5)
     assert isinstance(with_solver(base, {"solver": "tsit5"}).solver, diffrax.Tsit5)
     # The command's own default is left unnamed (a sweep store of it resumes either way).
@@ -93,6 +95,8 @@ BAD = [
     (["--solver", "implicit-step", "--dt", "nan"], "--dt must be a positive finite number"),
     (["--solver", "implicit-step", "--dt", "5000"], "--dt 5000 µs is longer than the run"),
     (["--solver", "implicit-step", "--dt", "2", "--newton-iterations", "0"], "between 1 and"),
+    (["--solver", "implicit-bdf2"], "--solver implicit-bdf2 needs --dt"),
+    (["--solver", "implicit-bdf2", "--dt", "5000"], "--dt 5000 µs is longer than the run"),
 ]
 
 

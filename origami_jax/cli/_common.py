@@ -227,9 +227,11 @@ def int_range(value: int, flag: str, low: int, high: int, *, why: str = "") -> i
     return value
 
 
-SOLVER_CHOICES = ("tsit5", "kvaerno5", "implicit-step")
+SOLVER_CHOICES = ("tsit5", "kvaerno5", "implicit-step", "implicit-bdf2")
 """`--solver`'s choices (`origami_jax.simulation.SOLVER_NAMES`; named here so that parsing the command
 line imports no JAX)."""
+FIXED_STEP_CHOICES = ("implicit-step", "implicit-bdf2")
+"""The fixed-step engines of `SOLVER_CHOICES` (`origami_jax.simulation.FIXED_STEP_SOLVERS`)."""
 DEFAULT_NEWTON_ITERATIONS = 6
 """`--newton-iterations`' default: `ImplicitStep`'s."""
 
@@ -242,9 +244,10 @@ def add_solver_arguments(parser: argparse.ArgumentParser, default: str) -> None:
         choices=SOLVER_CHOICES,
         default=None,
         help="the time stepper: tsit5 (adaptive explicit Runge-Kutta: accurate trajectories), "
-        "kvaerno5 (adaptive implicit: stiff runs), or implicit-step (fixed implicit Euler steps "
+        "kvaerno5 (adaptive implicit: stiff runs), implicit-step (fixed implicit Euler steps "
         "of --dt, a fixed count of Newton iterations capped by collision detection: the same work "
-        "for every sample of a batch, first-order accurate and damped; needs --dt); "
+        "for every sample of a batch, first-order accurate and damped; needs --dt), or "
+        "implicit-bdf2 (the same engine with second-order BDF2 steps: far less damped); "
         f"default {default}",
     )
     parser.add_argument(
@@ -252,7 +255,7 @@ def add_solver_arguments(parser: argparse.ArgumentParser, default: str) -> None:
         type=float,
         default=None,
         metavar="US",
-        help="--solver implicit-step: its largest step, µs, each interval between samples cut "
+        help="--solver implicit-step or implicit-bdf2: its largest step, µs, each interval between samples cut "
         "into equal steps no longer (required: no step suits every net and question; 2.5 judged "
         "cube_net_01 as the adaptive solver does, in KOH and in air; shorter resolves ringing "
         "better)",
@@ -262,7 +265,7 @@ def add_solver_arguments(parser: argparse.ArgumentParser, default: str) -> None:
         type=int,
         default=None,
         metavar="N",
-        help=f"--solver implicit-step: Newton iterations per step (default "
+        help=f"--solver implicit-step or implicit-bdf2: Newton iterations per step (default "
         f"{DEFAULT_NEWTON_ITERATIONS}; more for steps long against an impact)",
     )
 
@@ -274,7 +277,7 @@ def solver_choice(args: argparse.Namespace, t1: float, t1_flag: str) -> dict[str
     `newton_iterations`), or `None` without `--solver`. `with_solver` makes it a solve."""
     fixed = {"--dt": args.dt, "--newton-iterations": args.newton_iterations}
     given = [flag for flag, value in fixed.items() if value is not None]
-    if args.solver != "implicit-step":
+    if args.solver not in FIXED_STEP_CHOICES:
         if given:
             fail(
                 f"{' and '.join(given)} set{'s' if len(given) == 1 else ''} the implicit-step "
@@ -284,7 +287,7 @@ def solver_choice(args: argparse.Namespace, t1: float, t1_flag: str) -> dict[str
         return None if args.solver is None else {"solver": args.solver}
     if args.dt is None:
         fail(
-            "--solver implicit-step needs --dt US, its fixed step in µs (e.g. --dt 2.5, which "
+            f"--solver {args.solver} needs --dt US, its fixed step in µs (e.g. --dt 2.5, which "
             "judged cube_net_01 as the adaptive solver does; see the guide Simulating: Two engines)."
         )
     positive(args.dt, "--dt", "µs")
@@ -297,7 +300,7 @@ def solver_choice(args: argparse.Namespace, t1: float, t1_flag: str) -> dict[str
         DEFAULT_NEWTON_ITERATIONS if args.newton_iterations is None else args.newton_iterations
     )
     int_range(iterations, "--newton-iterations", 1, 1000)
-    return {"solver": "implicit-step", "dt_us": float(args.dt), "newton_iterations": iterations}
+    return {"solver": args.solver, "dt_us": float(args.dt), "newton_iterations": iterations}
 
 
 def with_solver(options: Any, choice: dict[str, Any] | None, default: str | None = None) -> Any:
@@ -457,8 +460,9 @@ def dynamics_model(args: argparse.Namespace) -> dict:
             fail(f"--agitation must be an effective temperature > 0 K, got {temperature:g}.")
         if getattr(args, "solver", None) != "implicit-step":
             fail(
-                "--agitation folds with the fixed-step engine, which adds the random force to "
-                "each step under contact: add --solver implicit-step --dt US."
+                "--agitation folds with the fixed-step engine's Euler steps, which add the random "
+                "force to each step under contact (balanced against that scheme's damping): "
+                "use --solver implicit-step --dt US."
             )
         # The bath's viscous drag balances the noise: a one-line refusal naming the flag that
         # removes it, before any net is loaded.

@@ -9,6 +9,7 @@ from pathlib import Path
 from .._limits import AFTER_RELEASE_US, default_t_end
 from ._common import (
     EXIT_OK,
+    FIXED_STEP_CHOICES,
     Interrupted,
     OutputFolder,
     add_agitation_argument,
@@ -777,11 +778,11 @@ def run(args: argparse.Namespace) -> int:
     if args.workers is not None:
         int_range(args.workers, "--workers", 1, 4096)
     choice = solver_choice(args, args.t_end or AFTER_RELEASE_US, "--t-end") or {"solver": "tsit5"}
-    if choice["solver"] == "implicit-step":
+    if choice["solver"] in FIXED_STEP_CHOICES:
         for flag, value in (("--rtol", args.rtol), ("--step-budget", args.step_budget)):
             if value is not None:
                 fail(
-                    f"{flag} is for the adaptive solvers; --solver implicit-step takes fixed steps "
+                    f"{flag} is for the adaptive solvers; --solver {choice['solver']} takes fixed steps "
                     "(its accuracy is --dt, every sample the same work): drop it."
                 )
     in_range(args.angle_tolerance, "--angle-tolerance", 0.0, 180.0, what=" degrees")

@@ -489,10 +489,13 @@ def check_kernel_sampling(contact, sampling) -> tuple[int, int]:
 
 def _solver_name(solver) -> str:
     """A solver as a store records it: the engine with its fixed settings, or a diffrax solver's
-    class name."""
+    class name. (The Euler scheme, the default, is not named: stores written before the engine
+    had schemes resume.)"""
     if isinstance(solver, ImplicitStep):
         fields = ", ".join(
-            f"{f.name}={getattr(solver, f.name)!r}" for f in dataclasses.fields(solver)
+            f"{f.name}={getattr(solver, f.name)!r}"
+            for f in dataclasses.fields(solver)
+            if not (f.name == "scheme" and solver.scheme == "euler")
         )
         return f"ImplicitStep({fields})"
     return type(solver).__name__

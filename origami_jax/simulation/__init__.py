@@ -28,6 +28,7 @@ from ._options import FIT_ATOL as FIT_ATOL
 from ._options import FIT_N_SAVE as FIT_N_SAVE
 from ._options import FIT_OPTIONS as FIT_OPTIONS
 from ._options import FIT_RTOL as FIT_RTOL
+from ._options import FIXED_STEP_SOLVERS as FIXED_STEP_SOLVERS
 from ._options import SLOW_RAMP_OPTIONS as SLOW_RAMP_OPTIONS
 from ._options import SLOW_RAMP_WINDOW_OPTIONS as SLOW_RAMP_WINDOW_OPTIONS
 from ._options import SOLVER_NAMES as SOLVER_NAMES

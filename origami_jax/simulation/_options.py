@@ -139,9 +139,11 @@ class SolveOptions(eqx.Module):
         return float(np.asarray(value))
 
 
-SOLVER_NAMES = ("tsit5", "kvaerno5", "implicit-step")
+SOLVER_NAMES = ("tsit5", "kvaerno5", "implicit-step", "implicit-bdf2")
 """The solvers a command line (`--solver`) or a sweep's config (`solver = ...`) names: see
 `named_solver`."""
+FIXED_STEP_SOLVERS = {"implicit-step": "euler", "implicit-bdf2": "bdf2"}
+"""The names of `SOLVER_NAMES` that take fixed steps (`dt`), and their `ImplicitStep.scheme`."""
 
 
 def named_solver(name: str, *, dt: float | None = None, newton_iterations: int | None = None):
@@ -151,26 +153,27 @@ def named_solver(name: str, *, dt: float | None = None, newton_iterations: int |
     - `"kvaerno5"`: [`origami_jax.simulation.implicit_solver`][], adaptive L-stable ESDIRK, for
       stiff runs;
     - `"implicit-step"`: [`origami_jax.simulation.ImplicitStep`][] with the fixed step `dt` (time
-      units; required) and `newton_iterations` (default the engine's, 6).
+      units; required) and `newton_iterations` (default the engine's, 6): implicit Euler;
+    - `"implicit-bdf2"`: the same engine with the second-order scheme (`scheme="bdf2"`).
 
     **Raises:** `ValueError` for an unknown name, a missing or bad `dt`, or `dt`/`newton_iterations`
     given with an adaptive solver (which takes no fixed step).
     """
     if name not in SOLVER_NAMES:
         raise ValueError(f"unknown solver {name!r}; the solvers are {', '.join(SOLVER_NAMES)}.")
-    if name != "implicit-step":
+    if name not in FIXED_STEP_SOLVERS:
         if dt is not None or newton_iterations is not None:
             raise ValueError(
                 f"dt and newton_iterations set the implicit-step engine's fixed steps; {name} "
-                "chooses its own steps (drop them, or choose implicit-step)."
+                "chooses its own steps (drop them, or choose implicit-step or implicit-bdf2)."
             )
         return implicit_solver() if name == "kvaerno5" else diffrax.Tsit5()
     if dt is None:
-        raise ValueError("the implicit-step engine needs dt, its fixed step (time units).")
+        raise ValueError(f"the {name} engine needs dt, its fixed step (time units).")
     if isinstance(dt, bool) or not isinstance(dt, int | float):
         raise ValueError(f"dt must be a number (time units), got {dt!r}.")
     extra = {} if newton_iterations is None else {"newton_iterations": newton_iterations}
-    return ImplicitStep(dt=float(dt), **extra)
+    return ImplicitStep(dt=float(dt), scheme=FIXED_STEP_SOLVERS[name], **extra)
 
 
 FIT_RTOL = 1e-8

@@ -260,6 +260,12 @@ def _agitated_solver(system: FoldingSystem, solver, q0):
             f"is not one): leave solver unset (diffrax.Heun), or pass e.g. diffrax.Heun(), "
             f"diffrax.SPaRK() or ImplicitStep(dt=...)."
         )
+    if isinstance(solver, ImplicitStep) and solver.scheme != "euler":
+        raise ValueError(
+            f"an agitated system takes ImplicitStep's Euler scheme (its random impulse is balanced "
+            f"against implicit Euler's steps), not {solver.scheme!r}: pass "
+            f"ImplicitStep(dt=..., scheme='euler') (--solver implicit-step)."
+        )
     system.agitation.check_drag(system.mechanism, system.drag, q0)
     return solver
 

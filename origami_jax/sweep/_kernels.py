@@ -28,7 +28,14 @@ from .._limits import AFTER_RELEASE_US, CONTACT_SAMPLING, MAX_SAMPLES
 from ..chain import accordion_step
 from ..loops import load_pattern
 from ..net import FOLD_KERNEL_SOLVE, check_kernel_sampling, fold_kernel
-from ..simulation import DEFAULT_ATOL, DEFAULT_RTOL, SaveAt, VerdictTolerances, named_solver
+from ..simulation import (
+    DEFAULT_ATOL,
+    DEFAULT_RTOL,
+    ImplicitStep,
+    SaveAt,
+    VerdictTolerances,
+    named_solver,
+)
 from ..vertex import DEFAULT_P, RESULTS, DescentSettings, random_vertex
 from ..vertex import unfold_kernel as descend
 
@@ -160,8 +167,9 @@ def net_fold(*, net: str = "cube_net_01", **settings: Any) -> Kernel:
     - the solve's: `t_end` (µs, default 1500, or a fifth of the release ramp past it:
       `default_t_end`), `n_save` (301), `rtol`, `atol` (`None`: the
       simulation's), `max_steps` (200,000); `solver` (`"tsit5"`, the default, `"kvaerno5"` or
-      `"implicit-step"`: `origami_jax.simulation.named_solver`) with, for `"implicit-step"`, `dt`
-      (µs, its fixed step; required, at most `t_end`) and `newton_iterations` (default 6);
+      `"implicit-step"`, `"implicit-bdf2"`: `origami_jax.simulation.named_solver`) with, for the
+      last two, `dt` (µs, its fixed step; required, at most `t_end`) and `newton_iterations`
+      (default 6);
     - the verdict's: `angle_tolerance_deg` (3) and `seam_tolerance` (default `"derived"`: each
       seam's from the angle tolerance and the geometry, `origami_jax.simulation.VerdictTolerances`;
       or a fraction of the largest panel's size, e.g. 0.01, the default before). Resuming a store
@@ -207,7 +215,7 @@ def net_fold(*, net: str = "cube_net_01", **settings: Any) -> Kernel:
     name = engine.pop("solver", "tsit5")
     solver = None if name == "tsit5" and not engine else named_solver(name, **engine)
     shortest = AFTER_RELEASE_US if t_end is None else t_end
-    if solver is not None and name == "implicit-step" and solver.dt > shortest:
+    if isinstance(solver, ImplicitStep) and solver.dt > shortest:
         raise ValueError(f"dt {solver.dt:g} µs is longer than the run (t_end {shortest:g} µs).")
     tolerances = VerdictTolerances.from_degrees(angle, seam)
     sampling = check_kernel_sampling(model.get("contact", True), sampling)
