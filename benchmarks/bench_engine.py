@@ -25,6 +25,7 @@ Run: ``python -m benchmarks --only engine`` (``--quick``: a batch of 4, one repe
 ``ENGINE_BATCH``), or ``python -m benchmarks.bench_engine [--quick] [--batch N] [--json PATH]``.
 """
 
+import functools
 import os
 import time
 
@@ -52,12 +53,10 @@ LOOPS_PATTERN = "miura_3x3"
 LOOPS_T1 = 3000.0
 
 
-def _fixed(system, dt=DT):
+def _fixed(system, dt=DT, scheme="euler"):
+    solver = sim.ImplicitStep(dt=dt, scheme=scheme)
     return sim.simulate(
-        system,
-        sim.Step(),
-        sim.SolveOptions(saveat=sim.SaveAt(n=N_SAVE), solver=sim.ImplicitStep(dt=dt)),
-        t1=T1,
+        system, sim.Step(), sim.SolveOptions(saveat=sim.SaveAt(n=N_SAVE), solver=solver), t1=T1
     )
 
 
@@ -138,6 +137,35 @@ def run(quick: bool, batch: int | None = None) -> list[Result]:
                 "adaptive_compile_s": adaptive_compile,
                 "fixed_ms_per_step": 1e3 * fixed_time.median / steps,
             },
+        )
+    )
+    print(rows[-1].line(), flush=True)
+
+    # The same fold in BDF2 steps: its cost against Euler's and its distance from the adaptive fold.
+    _progress("compiling one fold, BDF2 steps")
+    bdf2, bdf2_compile = _compiled(functools.partial(_fixed, scheme="bdf2"), system)
+    bdf2_fold = bdf2(system)
+    report = net.assess(system, bdf2_fold)
+    if report.verdict != "folded":
+        raise AssertionError(f"ours (BDF2 steps): {report.summary()}")
+    bdf2_time = time_calls(lambda: bdf2(system).theta, repeats=repeats, warmup=0)
+    final = {name: np.asarray(folds[name].theta[-1]) for name in folds}
+    bdf2_final = np.asarray(bdf2_fold.theta[-1])
+    rows.append(
+        Result(
+            name=f"{bench_net.NET} (plate contact) one fold to {T1:g} us: ImplicitStep BDF2 dt "
+            f"{DT:g} us vs Euler",
+            ours=bdf2_time,
+            peer_name=f"ours, ImplicitStep Euler dt {DT:g} us",
+            peer=fixed_time,
+            compile_s=bdf2_compile,
+            max_abs_difference=float(np.max(np.abs(bdf2_final - final["adaptive"]))),
+            notes=(
+                f"warm; difference: BDF2's final angles from the adaptive fold's (Euler's: "
+                f"{difference:.1e} rad); newton_error {float(bdf2_fold.stats['newton_error']):.1e}"
+                " rad; both fold the cube"
+            ),
+            extra={"euler_from_adaptive_rad": difference},
         )
     )
     print(rows[-1].line(), flush=True)
