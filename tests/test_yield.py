@@ -653,7 +653,7 @@ def test_cli_writes_result_and_figure(tmp_path, capsys):
     assert "--improve takes a fixed --samples" in capsys.readouterr().err
     # Agitation: an effective temperature > 0, with the fixed-step engine.
     assert main([*bad, "--agitation", "1e9"]) == 2
-    assert "add --solver implicit-step" in capsys.readouterr().err
+    assert "use --solver implicit-step" in capsys.readouterr().err
     assert main([*bad, "--agitation", "-1", "--solver", "implicit-step", "--dt", "2.5"]) == 2
     assert "--agitation must be an effective temperature > 0 K" in capsys.readouterr().err
 
