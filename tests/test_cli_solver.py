@@ -214,6 +214,8 @@ def test_the_net_fold_model_records_its_solver_and_keeps_older_stores_resumable(
     ).settings  # fmt: skip
     assert fixed["solver"].startswith("ImplicitStep(dt=2.0, newton_iterations=8")
     assert {k: v for k, v in fixed.items() if k != "solver"} == default
+    bdf2 = get_model("net-fold", **PAPER, t_end=60.0, solver="implicit-bdf2", dt=2.0).settings
+    assert bdf2["solver"].endswith("scheme='bdf2')") and "scheme" not in fixed["solver"]
     assert get_model("net-fold", **PAPER, solver="kvaerno5").settings["solver"] == ("Kvaerno5")
     with pytest.raises(ValueError, match="longer than the run"):
         get_model("net-fold", **PAPER, t_end=60.0, solver="implicit-step", dt=61.0)
@@ -268,17 +270,18 @@ def test_design_through_the_fixed_step_engine_records_it(tmp_path, capsys):
 
 
 @pytest.mark.slow  # a whole fold command: ~12 s on an idle 2-core machine
-def test_fold_with_the_fixed_step_engine_records_it(tmp_path, capsys):
+@pytest.mark.parametrize("engine", ["implicit-step", "implicit-bdf2"])
+def test_fold_with_the_fixed_step_engine_records_it(engine, tmp_path, capsys):
     """`origami-jax fold` of the corner cube (no contact, 40 µs) in steps of 1 µs: result.json
     names the engine, its step and Newton iterations, and the steps it took are those the step
     sets (20 sample intervals of 2 µs, two steps each)."""
     out = tmp_path / "fold"
-    flags = ["--solver", "implicit-step", "--dt", "1", "--newton-iterations", "4"]
+    flags = ["--solver", engine, "--dt", "1", "--newton-iterations", "4"]
     argv = ["fold", "corner_cube", "--no-contact", "--t1", "40", "--n-save", "21", *flags]
     argv += ["--no-fluid-inertia"]  # released at once: 40 µs is a run
     assert main([*argv, "--figures", "none", "--out", str(out)]) in (0, 1)
     result = json.loads((out / "result.json").read_text())
-    assert result["solver"] == "implicit-step"
+    assert result["solver"] == engine
     assert (result["dt_us"], result["newton_iterations"]) == (1.0, 4)
     assert result["stats"]["num_steps"] == 40
     assert 0 <= result["stats"]["newton_error"] < 1e-6
