@@ -23,9 +23,11 @@ Euler step. Second-order accurate and far less dissipative: an oscillation loses
 ``(ωh)³/2`` of its energy per radian of phase instead of Euler's ``ωh``, so ringing and impacts
 keep their energy as the adaptive solve's do. Like Euler it is A-stable and L-stable (stiff
 hinges, drag and the barrier cost no step size); unlike it, it is not monotone, so a step can
-overshoot slightly where Euler would stop short. IPC's own time integrators include it (Li et
-al. 2020, §7; polyfem's BDF integrators). Agitation takes the Euler scheme only (its
-fluctuation–dissipation balance is Euler's).
+overshoot slightly where Euler would stop short, and the energy can rise for a step or two after
+an impact (it is G-stable, a norm of two consecutive states falls, not the energy of one). The
+same substitution (a predicted state and a scaled step) is how PolyFEM's IPC time integrators
+(`ImplicitEuler`, `BDF`, `ImplicitNewmark`) share one incremental potential. Agitation takes the
+Euler scheme only (its fluctuation–dissipation balance is Euler's).
 
 **Newton.** At most `ImplicitStep.newton_iterations` Newton iterations from the predictor ``q_n + h
 v_n``, stopping once an update moves no coordinate more than 1e-10 rad. Their matrix
