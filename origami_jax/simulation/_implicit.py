@@ -24,7 +24,16 @@ Euler step. Second-order accurate and far less dissipative: an oscillation loses
 keep their energy as the adaptive solve's do. Like Euler it is A-stable and L-stable (stiff
 hinges, drag and the barrier cost no step size); unlike it, it is not monotone, so a step can
 overshoot slightly where Euler would stop short, and the energy can rise for a step or two after
-an impact (it is G-stable, a norm of two consecutive states falls, not the energy of one). The
+an impact (it is G-stable, a norm of two consecutive states falls, not the energy of one).
+
+**Impacts are inelastic in fixed steps.** A step long against an impact cannot follow the panel
+into the barrier and back: the L-stable schemes (both) damp that fast motion out. Two flaps
+launched at each other (0.5 µs steps, no drag, 8.3 energy units of kinetic energy): the resolved
+adaptive solve loses 0.52 at the impact (the contact's damping) and the flaps rebound; Euler
+loses 9.0 (all their motion: they stop dead); BDF2 loses 8.3 within the impact and gets 2.3 back
+over the next steps (5.7 net). Restarting BDF2 with an Euler step after each contact event was
+tried: it returns nothing, but makes the impact as inelastic as Euler's, and its verdicts on 200
+scattered cube nets agreed less with the adaptive engine's (194 against 197). The
 same substitution (a predicted state and a scaled step) is how PolyFEM's IPC time integrators
 (`ImplicitEuler`, `BDF`, `ImplicitNewmark`) share one incremental potential. Agitation takes the
 Euler scheme only (its fluctuation–dissipation balance is Euler's).
