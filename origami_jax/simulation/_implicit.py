@@ -30,7 +30,7 @@ an impact (it is G-stable, a norm of two consecutive states falls, not the energ
 into the barrier and back: the L-stable schemes (both) damp that fast motion out. Two flaps
 launched at each other (0.5 µs steps, no drag, 8.3 energy units of kinetic energy): the resolved
 adaptive solve loses 0.52 at the impact (the contact's damping) and the flaps rebound; Euler
-loses 9.0 (all their motion: they stop dead); BDF2 loses 8.3 within the impact and gets 2.3 back
+loses 9.0 (all their motion: they stop dead); BDF2 loses 8.3 within the impact and gets 2.6 back
 over the next steps (5.7 net). Restarting BDF2 with an Euler step after each contact event was
 tried: it returns nothing, but makes the impact as inelastic as Euler's, and its verdicts on 200
 scattered cube nets agreed less with the adaptive engine's (194 against 197). The
