@@ -92,7 +92,8 @@ the release ramp, up to 8 such segments), invalid (the simulation failed).
 
 --solver implicit-step --dt US folds in fixed implicit Euler steps (Newton iterations capped by
 the plates' collision detection: no panel steps through another however long the step), first-order
-accurate and damped; the adaptive default resolves every impact and the ringing. result.json
+accurate and damped; --solver implicit-bdf2 takes the same steps with the second-order BDF2 formula
+(far less damped); the adaptive default resolves every impact and the ringing. result.json
 records the solver (with the step and Newton iterations) and its stats the largest Newton update
 left at the end of a step (newton_error, rad: small against the motion when the steps converged)
 and the steps whose working set of contact pairs missed one (contacts_left_out: 0 expected).

@@ -34,7 +34,7 @@ Exit codes: 0 all designs succeeded, 1 some designs failed (marked in `result`) 
 
 --solver, --dt and --newton-iterations choose the net-fold model's solver (as its config's
 solver, dt and newton_iterations settings do; give them in one place): implicit-step folds every
-design in fixed implicit Euler steps of --dt µs, the same work for every member of a chunk. The
+design in fixed implicit Euler steps of --dt µs (implicit-bdf2: BDF2 steps, second order), the same work for every member of a chunk. The
 solver is part of the sweep's settings (sweep.json, sweep.nc's settings): --resume continues with
 the same one only.
 """

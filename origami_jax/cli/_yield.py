@@ -87,9 +87,9 @@ the start to --t-settle (8000 µs; OUT/settled/) and judged where it comes to re
 continues a folding until it settles; result.json's "continued" counts them. --t-settle 0 keeps
 the verdicts at --t-end.
 
---solver implicit-step --dt US folds every sample in fixed implicit Euler steps (a fixed count of
-Newton iterations capped by the plates' collision detection): every sample of a vmapped chunk does
-the same work, where the adaptive default (tsit5) steps until its slowest member is done; it takes
+--solver implicit-step --dt US folds every sample in fixed implicit Euler steps (implicit-bdf2:
+second-order BDF2 steps; a fixed count of Newton iterations capped by the plates' collision
+detection): every sample of a vmapped chunk does the same work, where the adaptive default (tsit5) steps until its slowest member is done; it takes
 no --rtol or --step-budget. The solver is recorded in result.json and the store; --resume continues
 with the same one only. Each step evaluates a working set of the contact pairs nearest at its start;
 result.json's samples_with_contacts_left_out counts the samples where a pair left out came within
