@@ -15,6 +15,7 @@ import origami_jax.simulation as sim
 from origami_jax.cli import main
 from origami_jax.cli._common import (
     DEFAULT_NEWTON_ITERATIONS,
+    FIXED_STEP_CHOICES,
     SOLVER_CHOICES,
     with_solver,
 )
@@ -62,6 +63,7 @@ def test_the_flags_name_the_librarys_solvers_and_defaults():
     """The command line spells the solvers and the Newton default without importing JAX: the same
     as the library's."""
     assert SOLVER_CHOICES == sim.SOLVER_NAMES
+    assert FIXED_STEP_CHOICES == tuple(sim.FIXED_STEP_SOLVERS)
     field = {f.name: f for f in dataclasses.fields(sim.ImplicitStep)}["newton_iterations"]
     assert DEFAULT_NEWTON_ITERATIONS == field.default
 

@@ -255,8 +255,8 @@ def add_solver_arguments(parser: argparse.ArgumentParser, default: str) -> None:
         type=float,
         default=None,
         metavar="US",
-        help="--solver implicit-step or implicit-bdf2: its largest step, µs, each interval between samples cut "
-        "into equal steps no longer (required: no step suits every net and question; 2.5 judged "
+        help="--solver implicit-step or implicit-bdf2: its largest step, µs, each interval between "
+        "samples cut into equal steps no longer (required: no step suits every net and question; 2.5 judged "
         "cube_net_01 as the adaptive solver does, in KOH and in air; shorter resolves ringing "
         "better)",
     )

@@ -31,7 +31,8 @@ _EPILOG = """\
 Times are in SI seconds on the command line; per-joint lists are comma-separated with '-' for a joint
 without a target. A single --target-overshoot value targets joint 1 (as the paper reports it).
 --solver implicit-step --dt US fits through fixed implicit Euler steps (implicit-bdf2: BDF2 steps;
---dt in µs, as for fold, yield and sweep): the fit's derivatives are then those of the discrete map; design.json records the solver.
+--dt in µs, as for fold, yield and sweep): the fit's derivatives are then those of the discrete
+map; design.json records the solver.
 
 example (the paper's Fig. 7 step response):
   origami-jax design --target-rise 37e-6,101e-6,38e-6 --target-overshoot 0.39 \\

@@ -20,8 +20,8 @@ step changes between sample intervals: `_bdf2_start`), the inertia and velocity 
 state extrapolated linearly to the step's end, and ``v_{n+1} = (q_{n+1} − q̂)/β``. Its first step
 (and a step more than 2.4 times its predecessor, where variable-step BDF2 loses stability) is an
 Euler step. Second-order accurate and far less dissipative: an oscillation loses about
-``(ωh)³/2`` of its energy per radian of phase instead of Euler's ``ωh``, so ringing and impacts
-keep their energy as the adaptive solve's do. Like Euler it is A-stable and L-stable (stiff
+``(ωh)³/2`` of its energy per radian of phase instead of Euler's ``ωh``, so ringing keeps its
+energy as in the adaptive solve (an impact does not: below). Like Euler it is A-stable and L-stable (stiff
 hinges, drag and the barrier cost no step size); unlike it, it is not monotone, so a step can
 overshoot slightly where Euler would stop short, and the energy can rise for a step or two after
 an impact (it is G-stable, a norm of two consecutive states falls, not the energy of one).
@@ -39,7 +39,7 @@ same substitution (a predicted state and a scaled step) is how PolyFEM's IPC tim
 Euler scheme only (its fluctuation–dissipation balance is Euler's).
 
 **Newton.** At most `ImplicitStep.newton_iterations` Newton iterations from the predictor ``q_n + h
-v_n``, stopping once an update moves no coordinate more than 1e-10 rad. Their matrix
+v_n`` (BDF2: ``q̂ + β v̂``), stopping once an update moves no coordinate more than 1e-10 rad. Their matrix
 (`ImplicitStep.jacobian`) is by default the Gauss–Newton one: the plate contact's barrier and
 damping by their pairs' gap gradients (`PlateContact.force_jacobians`, as IPC's Newton iterations
 use its barrier's Hessian), the rest of ``r`` (inertia, hinges, drag, inputs: a few coordinates) by
@@ -79,8 +79,8 @@ adaptive solvers hold the closure ``c(q) = 0`` inside `forward_dynamics`) enter 
 stiff penalty, ``r += w Jᵀ W c(q)`` (`LoopedPanels.whitened_closure_force`: each vertex's rows
 whitened, ``W_v = (J_v J_vᵀ + δ)⁻¹``, as the constrained dynamics do), ``w`` = `_LOOP_HOLD` times
 the mean diagonal of the step's contact-free Newton matrix at its start, and the cut creases get
-`LoopedPanels`' regularising inertia (`LoopedPanels.regularised_mass_matrix`). The loops then open by ~1/`_LOOP_HOLD` of a step's motion
-(as ``h²``). The flat state is a bifurcation the steps cannot resolve under a sudden release
+`LoopedPanels`' regularising inertia (`LoopedPanels.regularised_mass_matrix`). The loops then
+open by ~1/`_LOOP_HOLD` of a step's motion (as ``h²``). The flat state is a bifurcation the steps cannot resolve under a sudden release
 (`check_off_bifurcation`; a pattern's fold starts pre-folded: `start_bias`).
 
 **Gradients.** The derivative of each step is that of its root by the implicit function theorem,
