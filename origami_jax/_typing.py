@@ -3,10 +3,15 @@
 Shapes use these names: ``n`` nodes or joints, ``t`` time samples, ``b`` batch members.
 """
 
+from collections.abc import Sequence
+
 from jaxtyping import Array, ArrayLike, Bool, Float, Int
 
 Scalar = Float[Array, ""]
 ScalarLike = float | Float[ArrayLike, ""]
+# What the package's constructors take for per-hinge or per-parameter values: arrays, numbers and
+# lists of numbers (they go through `numpy.asarray`), not only JAX's array-likes.
+FloatsLike = ArrayLike | Sequence[float]
 Vector3 = Float[Array, "3"]
 Matrix3 = Float[Array, "3 3"]
 Twist = Float[Array, "6"]
@@ -17,6 +22,7 @@ __all__ = [
     "ArrayLike",
     "Bool",
     "Float",
+    "FloatsLike",
     "Int",
     "Matrix3",
     "Scalar",

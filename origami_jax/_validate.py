@@ -6,6 +6,8 @@ under `jit` or `vmap`) cannot be inspected, so the same condition is attached wi
 when the compiled function runs.
 """
 
+from collections.abc import Sequence
+
 import equinox as eqx
 import jax
 import jax.core  # noqa: F401  (explicit for the type checker; jax imports it anyway)
@@ -19,7 +21,7 @@ def is_traced(*values) -> bool:
     return any(isinstance(leaf, jax.core.Tracer) for leaf in jax.tree_util.tree_leaves(values))
 
 
-def as_float_array(value: ArrayLike, name: str) -> Array:
+def as_float_array(value: ArrayLike | Sequence[float], name: str) -> Array:
     """``jnp.asarray`` with a float dtype, rejecting complex, boolean and object input by name."""
     if is_traced(value):
         array = jnp.asarray(value)

@@ -315,6 +315,28 @@ def test_bad_hinge_parameters_are_refused_in_one_line(param, message, capsys):
 
 
 @pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["--param", "hinge_width=100", "--param", "hinge_width=150"], "given twice"),
+        (["--noise-seed", "5"], "--noise-seed seeds --agitation's random force"),
+        (["--flat-creases", "hinge"], "--flat-creases is for closed-loop patterns"),
+        (["--no-rigid-check"], "--no-rigid-check is for closed-loop patterns"),
+        (["--arc-layout", "drawn"], "it needs --hinges arc"),
+        (["--targets", "90,90,400,90,90"], "within [-180, 180]"),
+        (["--list"], "--list lists the shipped nets and takes no NET"),
+    ],
+)
+def test_options_that_would_do_nothing_are_refused_in_one_line(argv, message, capsys, tmp_path):
+    """An option that cannot act on this run (it belongs to closed loops, to arc hinges, to
+    agitation) is refused, not dropped without a word; so is the same --param twice."""
+    out = tmp_path / "out"
+    assert main(["fold", "cube_net_01", *argv, "--no-figures", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert message in err and len(err.strip().splitlines()) == 1 and "Traceback" not in err
+    assert not out.exists()
+
+
+@pytest.mark.parametrize(
     "argv, message",
     [
         (["--adhesion", "abc"], "--adhesion expects W[,RANGE[,LINE]]"),

@@ -726,3 +726,30 @@ def test_fold_interrupted_keeps_the_earlier_results_and_no_staging(tmp_path, cap
     assert _snapshot(tmp_path) == before
     assert not list(tmp_path.glob(f"{STAGING_PREFIX}*"))
     lock_folder(tmp_path, command="fold").close()  # released
+
+
+@pytest.mark.parametrize(
+    ("flags", "message"),
+    [
+        (["--improve-step", "0.3"], "--improve-step needs --improve STEPS"),
+        (["--release-ramp", "0", "--t-end", "2000", "--t-settle", "100"], "ends at or before"),
+    ],
+)
+def test_yield_refuses_options_that_would_do_nothing(flags, message, tmp_path, capsys, monkeypatch):
+    import origami_jax.cli._yield as yield_cli
+
+    monkeypatch.setattr(yield_cli, "_run", _no_compiling)
+    out = tmp_path / "y"
+    code = main(["yield", "cube_net_01", *flags, "--no-progress", "--out", str(out)])
+    assert code == 2
+    assert message in _one_line(capsys.readouterr().err)
+    assert not out.exists()
+
+
+def test_yield_resume_into_an_empty_folder_says_it_starts_afresh(tmp_path, capsys, monkeypatch):
+    import origami_jax.cli._yield as yield_cli
+
+    monkeypatch.setattr(yield_cli, "_run", lambda *a, **k: 0)
+    out = tmp_path / "y"
+    assert main(["yield", "cube_net_01", "--resume", "--no-progress", "--out", str(out)]) == 0
+    assert "nothing is stored in" in capsys.readouterr().out

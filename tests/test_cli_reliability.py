@@ -23,6 +23,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from origami_jax._folder_lock import lock_folder
 from origami_jax._limits import MAX_FLAPS
 from origami_jax.cli import _main, main
 from origami_jax.cli._common import (
@@ -97,6 +98,17 @@ def test_a_killed_runs_staging_folder_is_removed_by_the_next_run(tmp_path):
     assert not stale.exists()
 
 
+def _started_staging(argv, env, out: Path) -> subprocess.Popen:
+    """A command line run started in a process of its own, once it has staged its results folder
+    in `out` (at most 2 minutes)."""
+    process = subprocess.Popen(argv, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    deadline = time.monotonic() + 120
+    while not list(out.glob(f"{STAGING_PREFIX}*")) and time.monotonic() < deadline:
+        assert process.poll() is None, process.stderr.read() if process.stderr else ""
+        time.sleep(0.05)
+    return process
+
+
 def test_a_simulation_killed_midway_leaves_the_earlier_results_untouched(tmp_path):
     """The audit's case: a rerun into a folder with results, killed while it runs, used to leave a
     truncated trajectory beside the earlier metrics. Here the rerun (with --overwrite) is killed
@@ -121,16 +133,62 @@ def test_a_simulation_killed_midway_leaves_the_earlier_results_untouched(tmp_pat
         str(tmp_path),
         "--overwrite",
     ]
-    process = subprocess.Popen(argv, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-    deadline = time.monotonic() + 120
-    while not list(tmp_path.glob(f"{STAGING_PREFIX}*")) and time.monotonic() < deadline:
-        assert process.poll() is None, process.stderr.read() if process.stderr else ""
-        time.sleep(0.05)
+    process = _started_staging(argv, env, tmp_path)
     process.kill()
     process.communicate()
     # The folder's lock file (`.lock`, not a result) stays; the results are as they were.
     after = {p.name: p.read_bytes() for p in tmp_path.iterdir() if p.is_file()}
     assert {name: data for name, data in after.items() if name != ".lock"} == before
+
+
+def test_a_terminated_run_exits_143_removes_its_staging_and_the_folder_it_created(tmp_path):
+    """SIGTERM (`timeout`, a batch system's kill) is handled as Ctrl-C is: one line, nothing written,
+    and the `--out` folder the run created is gone again (it held only the lock)."""
+    out = tmp_path / "new"
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    argv = [sys.executable, "-m", "origami_jax", "simulate", "--flaps", "1", "--t1", "5"]
+    argv += ["--n-save", "11", "--no-figures", "--out", str(out)]
+    process = _started_staging(argv, env, out)
+    process.terminate()
+    _, err = process.communicate(timeout=60)
+    assert process.returncode == 143, err
+    assert err.decode().strip().splitlines() == [
+        "origami-jax simulate: terminated (SIGTERM); nothing was written to --out."
+    ]
+    assert not out.exists()
+
+
+def test_a_lost_interrupt_stops_the_commit(tmp_path):
+    """A Ctrl-C whose `KeyboardInterrupt` was raised in a garbage collector's callback is lost to
+    the run (Python prints and drops it); the signal is remembered, and the results it would have
+    committed are dropped instead."""
+    import signal
+
+    from origami_jax.cli import _interrupt
+
+    (tmp_path / "earlier.txt").write_text("earlier")
+    output = OutputFolder(tmp_path, command="demo", owns=("*.txt",), overwrite=True)
+    (output.dir / "a.txt").write_text("new")
+    _interrupt._received.append(signal.SIGINT)
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            output.commit()
+    finally:
+        _interrupt._received.clear()
+    assert sorted(p.name for p in tmp_path.iterdir()) == [".lock", "earlier.txt"]
+    lock_folder(tmp_path, command="demo").close()  # released
+
+
+def test_a_folder_the_run_created_is_removed_when_it_refuses_late(tmp_path, capsys):
+    """Bad input found after the output folder was opened (here `design`'s target) leaves no
+    folder behind that holds only the lock; a folder that existed before is kept."""
+    out = tmp_path / "new"
+    assert main(["design", "--target-rise", "-1", "--out", str(out)]) == 2
+    assert not out.exists()
+    out.mkdir()
+    assert main(["design", "--target-rise", "-1", "--out", str(out)]) == 2
+    assert out.is_dir()
+    capsys.readouterr()
 
 
 # One-line errors ------------------------------------------------------------------------------
@@ -354,3 +412,16 @@ def test_usage_errors_are_one_line(capsys):
         main(["simulate", "--band", "-1e-300"])  # argparse reads -1e-300 as an option
     assert excinfo.value.code == 2
     assert "--help" in _one_line(capsys.readouterr().err)
+
+
+def test_unfold_names_the_vertices_on_one_line(tmp_path, capsys):
+    """A vertex that does not exist is one line naming the first few vertices (the library's
+    message lists them in a table, a line each)."""
+    from origami_jax.fold import catalogue_path
+
+    out = tmp_path / "u"
+    path = str(catalogue_path("cube_net_01"))
+    assert main(["unfold", path, "--vertex-index", "9999", "--out", str(out)]) == 2
+    line = _one_line(capsys.readouterr().err)
+    assert "vertex_index 9999 does not exist" in line and line.count("; ") >= 3
+    assert line.endswith("more") and not out.exists()

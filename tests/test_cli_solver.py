@@ -195,6 +195,8 @@ def test_closed_loops_fold_on_the_fixed_steps_from_a_pre_fold(tmp_path, capsys):
     result = json.loads((out / "result.json").read_text())
     assert result["bias"] == sim.FIXED_STEP_PRE_FOLD and result["solver"] == "implicit-step"
     assert result["closure_drift"] < 1e-5
+    # Where the hinges aimed: the pattern's own angles, without --targets.
+    assert result["hinge_targets"] == pytest.approx(result["intended_angles"], abs=1e-12)
     # A yield's samples likewise, and its result.json records the pre-fold they started from.
     out = tmp_path / "y"
     flags = ["--solver", "implicit-step", "--dt", "2.5", "--samples", "1", "--no-progress"]

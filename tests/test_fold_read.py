@@ -260,6 +260,19 @@ def test_degenerate_face():
         fold_from_dict(data)
 
 
+@pytest.mark.parametrize("z", [0.0, 5.0])  # a flat pattern and a face of a 3D form
+def test_two_corners_at_one_point_are_named(z):
+    """Two vertices at the same place, both corners of a face: the message names them (it used to
+    say the polygon crosses itself, after a NumPy warning from the zero-length side)."""
+    data = {
+        "vertices_coords": [[0, 0, 0], [0, 0, 0], [1, 0, z], [1, 1, z], [0, 1, 0]],
+        "edges_vertices": [[0, 1], [1, 2], [2, 3], [3, 4], [4, 0]],
+        "faces_vertices": [[0, 1, 2, 3, 4]],
+    }
+    with pytest.raises(FoldFormatError, match=r"two corners at one point \(vertices 0 and 1\)"):
+        fold_from_dict(data)
+
+
 def test_missing_file_is_file_not_found(tmp_path):
     with pytest.raises(FileNotFoundError):
         read_fold(tmp_path / "nope.fold")

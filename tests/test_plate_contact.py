@@ -289,6 +289,57 @@ def test_force_is_minus_the_energy_gradient_and_damping_dissipates():
     assert float(np.dot(dissipative, v)) < 0
 
 
+def test_pick_gathers_what_its_one_hot_product_picks(monkeypatch):
+    """`pick`: the rows of an array and their adjoint (sums into rows), as a one-hot product and,
+    past `DENSE_PICK_LIMIT`, as a gather and a scatter-add: the same numbers, for host rows and
+    traced ones (a working set's)."""
+    from origami_jax.contact import _pick
+
+    rng = np.random.default_rng(0)
+    rows = rng.integers(0, 7, size=30)
+    flat, picked = jnp.asarray(rng.normal(size=(7, 3))), jnp.asarray(rng.normal(size=(30, 3)))
+
+    def both(rows):
+        return _pick.pick(rows, 7, flat), _pick.pick(rows, 7, picked, transpose=True)
+
+    dense = both(rows)
+    np.testing.assert_allclose(dense[0], np.asarray(flat)[rows], rtol=1e-15)
+    monkeypatch.setattr(_pick, "DENSE_PICK_LIMIT", 0)
+    for gathered in (both(rows), jax.jit(both)(jnp.asarray(rows))):
+        for a, b in zip(dense, gathered, strict=True):
+            np.testing.assert_allclose(b, a, rtol=1e-13, atol=1e-14)
+
+
+@pytest.mark.slow  # two compilations of the contact's Jacobians on a cube net: ~40 s
+def test_gathered_picks_give_the_one_hot_products_forces(monkeypatch):
+    """Past `DENSE_PICK_LIMIT` (a pattern of hundreds of panels, whose one-hot matrices would take
+    tens of GB) the contact gathers and scatters its pairs' rows: the same forces and Gauss–Newton
+    derivatives as the dense products (here forced on a cube net), to round-off."""
+    from origami_jax.contact import _pick
+
+    net = _cube_net()
+    system = net.system()
+    contact, mechanism = system.contact, system.mechanism
+    rng = np.random.default_rng(5)
+    q = jnp.asarray(net.intended_angles) * 0.995 + jnp.asarray(rng.uniform(-1e-3, 1e-3, 5))
+    v = jnp.asarray(rng.normal(size=5)) * 0.01
+
+    def evaluate():
+        # Traced afresh (not `_force`'s cached program): the pick is chosen while tracing.
+        jacobians = eqx.filter_jit(lambda m, q, v: contact.force_jacobians(m, q, v))(
+            mechanism, q, v
+        )
+        report = eqx.filter_jit(lambda m, q: contact.report(m, q))(mechanism, q)
+        return [np.asarray(x) for x in (*jacobians, report["min_gap"], report["touching"])]
+
+    dense = evaluate()
+    monkeypatch.setattr(_pick, "DENSE_PICK_LIMIT", 0)
+    gathered = evaluate()
+    assert np.abs(dense[0]).max() > 0 and np.abs(dense[1]).max() > 0
+    for a, b in zip(dense, gathered, strict=True):
+        np.testing.assert_allclose(b, a, rtol=1e-12, atol=1e-12 * max(np.abs(a).max(), 1.0))
+
+
 def test_report_gives_the_exact_overlap_of_plates_passed_through():
     """At the closed cube the plates meet at their rims (overlap at most half the film's thickness,
     where two perpendicular plates' rims meet); with one crease turned 10°–60° past or short of

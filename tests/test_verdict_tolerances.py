@@ -295,3 +295,23 @@ def test_the_margins_say_at_which_tolerances_a_state_folds(corner_cube):
         passes = float(outcome.angle_margin) < 1 and float(outcome.seam_margin) < 1
         assert (int(outcome.code) == folded) == passes
     assert float(outcome.seam_margin) == pytest.approx(1.745, abs=1e-3)
+
+
+def test_a_large_patterns_report_is_taken_in_batches_of_samples(monkeypatch):
+    """The verdict's per-sample contact report runs over the samples together (`vmap`) up to a
+    memory budget, in batches past it (a 500-panel strip's thousand samples at once needed 36 GB):
+    the same values either way."""
+    import jax.numpy as jnp
+
+    from origami_jax.simulation import _verdict
+
+    def report(q):
+        return {"min_gap": jnp.min(q) - 1.0, "touching": jnp.outer(q, q) > 0.5}
+
+    states = jnp.linspace(0.0, 2.0, 21)[:, None] * jnp.arange(1.0, 4.0)
+    together = _verdict._each_sample(report, states, size=1)
+    monkeypatch.setattr(_verdict, "_REPORT_ELEMENTS", 4)  # batches of 4 samples, one short
+    batched = _verdict._each_sample(report, states, size=1)
+    for key in together:
+        np.testing.assert_array_equal(np.asarray(batched[key]), np.asarray(together[key]))
+    assert _verdict._report_size(None) == 0

@@ -31,17 +31,20 @@ from typing import Any, NoReturn
 
 from .._cache import enable_compilation_cache
 from .._exported import enable_exported_programs
-from .._folder_lock import FolderBusyError, FolderLock, lock_folder
+from .._folder_lock import LOCK, FolderBusyError, FolderLock, lock_folder
 from .._limits import CONTACT_SAMPLING, MAX_CONTACT_SAMPLING
+from . import _interrupt as interrupt
 
 DEFAULT_OUT = Path("origami_out")
 
 # Exit codes of the CLI. 0 success; 1 the computation ran but its answer is negative or failed
-# (e.g. a vertex that stalls, a solver that failed); 2 bad usage or bad input; 130 interrupted.
+# (e.g. a vertex that stalls, a solver that failed); 2 bad usage or bad input; 130 interrupted
+# (Ctrl-C), 143 terminated (SIGTERM): the shell's 128 + the signal's number.
 EXIT_OK = 0
 EXIT_FAILED = 1
 EXIT_USAGE = 2
 EXIT_INTERRUPTED = 130
+EXIT_TERMINATED = 143
 
 STAGING_PREFIX = ".partial-"
 # Written by every run's commit: the command and the files it wrote (JSON), so that a later run of
@@ -137,6 +140,11 @@ def hinge_params(items: Sequence[str], *, flaps: bool = False) -> dict[str, list
             ) from None
         if not all(math.isfinite(v) for v in values):
             raise ValueError(f"--param {name}={value}: the value must be finite.")
+        if name in out:
+            raise ValueError(
+                f"--param {name} is given twice; give it once (NAME=V0,V1,... for one value per "
+                "hinge)."
+            )
         out[name] = values
     return out
 
@@ -434,7 +442,7 @@ def add_agitation_argument(parser: argparse.ArgumentParser, *, seed: bool = Fals
         parser.add_argument(
             "--noise-seed",
             type=int,
-            default=0,
+            default=None,
             metavar="N",
             help="seed of --agitation's random force (default 0; the same seed, the same path)",
         )
@@ -455,6 +463,8 @@ def dynamics_model(args: argparse.Namespace) -> dict:
             fail(f"--release-ramp must be a time >= 0 µs (0: at once), got {ramp:g}.")
         options["release_ramp"] = float(ramp) if ramp > 0 else None
     temperature = getattr(args, "agitation", None)
+    if temperature is None and getattr(args, "noise_seed", None) is not None:
+        fail("--noise-seed seeds --agitation's random force: give --agitation K too, or drop it.")
     if temperature is not None:
         if not (math.isfinite(temperature) and temperature > 0):
             fail(f"--agitation must be an effective temperature > 0 K, got {temperature:g}.")
@@ -475,7 +485,7 @@ def dynamics_model(args: argparse.Namespace) -> dict:
             )
         from ..system import Agitation
 
-        seed = getattr(args, "noise_seed", 0)
+        seed = getattr(args, "noise_seed", None) or 0
         if seed < 0:
             fail(f"--noise-seed must be a whole number >= 0, got {seed}.")
         options["agitation"] = Agitation(float(temperature), seed)
@@ -641,7 +651,10 @@ class OutputFolder:
         refuse_hint: str = _OVERWRITE_HINT,
         exclusive: bool = False,
     ):
+        # A folder this run creates is removed again when the run ends without results in it.
+        self._created = not Path(out).exists()
         self.out = check_out_folder(Path(out))
+        self.committed: list[Path] = []
         self.command = command
         self.owns = tuple(owns)
         self.overwrite = overwrite
@@ -684,13 +697,14 @@ class OutputFolder:
         except BaseException:
             self._release()
             raise
-        self.committed: list[Path] = []
         self.discarded = False
 
     def _release(self) -> None:
         if self._lock is not None:
             self._lock.close()
             self._lock = None
+        if self._created and not self.committed:
+            _remove_if_only_lock(self.out)
 
     def _other(self) -> dict | None:
         """The folder's marker when another command wrote the results there."""
@@ -726,10 +740,16 @@ class OutputFolder:
             return []
         try:
             return self._commit()
+        except BaseException:
+            shutil.rmtree(self.dir, ignore_errors=True)
+            self.discarded = True
+            raise
         finally:
             self._release()
 
     def _commit(self) -> list[Path]:
+        # A Ctrl-C whose exception was lost (raised in a garbage collector's callback): stop here.
+        interrupt.check()
         staged = sorted(p for p in self.dir.rglob("*") if p.is_file())
         finals = [self.final(p) for p in staged]
         if self.overwrite:
@@ -765,6 +785,17 @@ class OutputFolder:
             self.commit()
         else:
             self.discard()
+
+
+def _remove_if_only_lock(out: Path) -> None:
+    """Remove the folder `out` if it holds nothing but its lock file (a run that created it and
+    stopped before writing: bad input found late, an interrupt). Anything else there keeps it."""
+    try:
+        if {p.name for p in out.iterdir()} <= {LOCK}:
+            (out / LOCK).unlink(missing_ok=True)
+            out.rmdir()
+    except OSError:
+        pass
 
 
 def _read_marker(out: Path) -> dict | None:

@@ -145,7 +145,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "--n-save", type=int, default=501, help="samples per segment (default 501, at least 21)"
     )
     parser.add_argument(
-        "--targets", default=None, help="fold target per crease, degrees, comma-separated"
+        "--targets",
+        default=None,
+        help="fold target per crease, degrees, comma-separated: where the hinges aim (the verdict "
+        "still judges the pattern's own angles; result.json's hinge_targets records them)",
     )
     parser.add_argument(
         "--release", default=None, help="release time per crease, µs, comma-separated (default 0)"
@@ -191,7 +194,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument(
         "--flat-creases",
         choices=("panel", "hinge"),
-        default="panel",
+        default=None,
         help="closed loops: F edges (facet diagonals) join one rigid panel (default) or hinge",
     )
     parser.add_argument(
@@ -297,6 +300,8 @@ def run(args: argparse.Namespace) -> int:
     )
 
     if args.list:
+        if args.net is not None:
+            fail(f"--list lists the shipped nets and takes no NET; drop {args.net} or --list.")
         for name in catalogue_names():
             print(name)
         print("# families (origami-jax yield FAMILY estimates each member's yield):")
@@ -346,6 +351,8 @@ def run(args: argparse.Namespace) -> int:
     ):
         if values is not None and not all(math.isfinite(v) for v in values):
             fail(f"{flag} must be finite numbers, got {values}.")
+    if targets_deg is not None and not all(-180 <= v <= 180 for v in targets_deg):
+        fail(f"--targets are fold angles in degrees, each within [-180, 180]; got {targets_deg}.")
 
     import numpy as np
 
@@ -368,12 +375,23 @@ def run(args: argparse.Namespace) -> int:
             name=label,
             root=args.root,
             length_scale=args.length_scale,
-            flat_creases=args.flat_creases,
+            flat_creases=args.flat_creases or "panel",
         )
         loops = net.n_loops > 0
         check_has_creases(net, args.net)
         if args.bias and not loops:
             fail(f"--bias pre-folds closed-loop patterns; {args.net} is a net, which starts flat.")
+        for flag, given in (
+            ("--flat-creases", args.flat_creases is not None),
+            ("--no-rigid-check", args.no_rigid_check),
+        ):
+            if given and not loops:
+                fail(f"{flag} is for closed-loop patterns; {args.net} is a net: drop it.")
+        if args.arc_layout is not None and (args.hinges != "arc" or loops):
+            fail(
+                "--arc-layout lays out a net's bending-arc hinges: it needs --hinges arc and a net"
+                f"{'' if not loops else f' ({args.net} has closed loops)'}."
+            )
         m = net.n_creases
         design = _design(net, args.fluid, params)
         check_panels_thicker_than_film(net, design, args.net)
@@ -528,6 +546,7 @@ def _run(args, net, system, params, release, sampling, output, unfolded, *, choi
         t1=t_end,
         segments=segments,
         release_times=None if release is None else [float(x) for x in release],
+        hinge_targets=[float(x) for x in np.asarray(system.hinges.target)],
         stats={
             k: (int(v) if np.asarray(v).dtype.kind in "iu" else float(v))
             for k, v in trajectory.stats.items()

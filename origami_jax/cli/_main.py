@@ -1,7 +1,7 @@
 """Top-level argument parser; each subcommand lives in its own module with ``register(subparsers)``.
 
 `main` is the one place where errors become exit codes: a command's `CLIError` prints its one line;
-Ctrl-C prints one line and exits 130; any other exception prints one line naming the input and the
+Ctrl-C prints one line and exits 130, SIGTERM 143 (`_interrupt`: nothing is written either way); any other exception prints one line naming the input and the
 error (exit 2 for a `ValueError`, bad input found by the library; 1 otherwise), or its traceback
 with `--debug`.
 """
@@ -14,9 +14,11 @@ from collections.abc import Sequence
 
 from .._version import __version__
 from . import _design, _export, _fold, _paper, _simulate, _sweep, _unfold, _view, _yield
+from . import _interrupt as interrupt
 from ._common import (
     EXIT_FAILED,
     EXIT_INTERRUPTED,
+    EXIT_TERMINATED,
     EXIT_USAGE,
     CLIError,
     one_line,
@@ -79,6 +81,8 @@ def _input_of(args: argparse.Namespace, argv: Sequence[str]) -> str:
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line `argv` (default `sys.argv[1:]`, a process of its own: the console
     script, ``python -m origami_jax``); returns the exit code (module docstring)."""
+    if argv is None and threading.current_thread() is threading.main_thread():
+        interrupt.install()
     code = _run(argv)
     if argv is None and threading.current_thread() is threading.main_thread():
         # The command is done and has said so: a Ctrl-C from here on (the interpreter's shutdown)
@@ -101,6 +105,9 @@ def _run(argv: Sequence[str] | None) -> int:
         print_error(args.command, str(error))
         return error.code
     except KeyboardInterrupt:
+        if interrupt.received() == signal.SIGTERM:
+            print_error(args.command, "terminated (SIGTERM); nothing was written to --out.")
+            return EXIT_TERMINATED
         print_error(args.command, "interrupted (Ctrl-C); nothing was written to --out.")
         return EXIT_INTERRUPTED
     except Exception as error:

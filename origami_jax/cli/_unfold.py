@@ -3,6 +3,7 @@
 import argparse
 import io
 import math
+import re
 from pathlib import Path
 
 from ._common import EXIT_FAILED, EXIT_OK, OutputFolder, add_out_argument, fail, write_atomic
@@ -52,6 +53,26 @@ def catalogue_vertex(name: str):
         "open-chain": vertex.open_chain_vertex,
     }
     return makers[name]()
+
+
+# Vertices a one-line message names (of the table the library's message lists).
+_INLINE_VERTICES = 4
+
+
+def _with_table_inline(message: str) -> str:
+    """A message whose vertex table follows on its own lines (`format_vertex_table`) as one line:
+    the message, then the first few vertices separated by semicolons."""
+    head, _, table = message.partition("\n")
+    rows = [" ".join(row.split()) for row in table.splitlines() if row.strip()]
+    if not rows:
+        return message
+    beyond = 0  # the table's own last line when it was cut: "... and N more (...)"
+    if rows[-1].startswith("...") and (cut := re.search(r"and (\d+) more", rows[-1])):
+        beyond, rows = int(cut.group(1)), rows[:-1]
+    more = len(rows) - _INLINE_VERTICES + beyond
+    return f"{head} {'; '.join(rows[:_INLINE_VERTICES])}" + (
+        f"; ... and {more} more" if more > 0 else ""
+    )
 
 
 def load_target(target: str, vertex_index: int | None = None):
@@ -134,7 +155,7 @@ def run(args: argparse.Namespace) -> int:
         try:
             target = load_target(args.target, args.vertex_index)
         except (ValueError, OSError) as error:
-            fail(str(error))
+            fail(_with_table_inline(str(error)))
         result = vertex.unfold(
             target,
             energy=args.energy,

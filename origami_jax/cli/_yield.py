@@ -6,7 +6,8 @@ import math
 import time
 from pathlib import Path
 
-from .._limits import AFTER_RELEASE_US, default_t_end
+from .._folder_lock import LOCK
+from .._limits import AFTER_RELEASE_US, FOLD_SEGMENT, MAX_FOLD_SEGMENTS, default_t_end
 from ._common import (
     EXIT_OK,
     FIXED_STEP_CHOICES,
@@ -213,7 +214,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument(
         "--t-settle",
         type=float,
-        default=8000.0,
+        default=None,
         help="samples still moving at --t-end run again to this time after the release ramp, µs "
         "(default 8000, the longest folding `fold` continues to; 0: judge them at --t-end, "
         "unfinished)",
@@ -308,7 +309,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument(
         "--improve-step",
         type=float,
-        default=0.5,
+        default=None,
         help="--improve's largest move per step, in spread widths (default 0.5)",
     )
     add_figures_argument(
@@ -341,7 +342,16 @@ OWNS = (
 # What a family run writes at the top of --out (each net's store and summary in OUT/NET/).
 FAMILY_OWNS = ("family.json", "family.csv", "family.png")
 # Options of one net's estimate that a family does not take.
-_SINGLE_NET_ONLY = ("improve", "improve_parameters", "widths", "release", "etch_front")
+_SINGLE_NET_ONLY = (
+    "improve",
+    "improve_parameters",
+    "improve_step",
+    "widths",
+    "release",
+    "etch_front",
+)
+# --improve's largest move per step, in spread widths, unless --improve-step.
+_IMPROVE_STEP = 0.5
 
 
 def _scatter(args: argparse.Namespace):
@@ -408,8 +418,23 @@ def _run_settings(args: argparse.Namespace) -> dict:
         workers=args.workers,
         progress=not args.no_progress,
         step_budget=args.step_budget,
-        t_settle=args.t_settle or None,
+        t_settle=(MAX_FOLD_SEGMENTS * FOLD_SEGMENT if args.t_settle is None else args.t_settle)
+        or None,
     )
+
+
+def _check_settles_after_the_end(args, pattern) -> None:
+    """A one-line exit where --t-settle (after the release ramp) ends at or before the run's end:
+    no sample still moving would be run on (`RunOptions.t_settle`)."""
+    ramp = pattern.nominal_release_ramp(pattern.default_design(_fluid(args)))
+    t_end = default_t_end(ramp) if args.t_end is None else args.t_end
+    if args.t_settle + (ramp or 0.0) <= t_end:
+        after = f" after the release ramp ({ramp:g} µs)" if ramp else ""
+        fail(
+            f"--t-settle {args.t_settle:g} µs{after} ends at or before the run's end ({t_end:g} "
+            "µs): no sample would be run on; give a later --t-settle, or 0 to judge the samples "
+            "at --t-end."
+        )
 
 
 def _check_released_in_time(args, pattern, release, flag: str) -> None:
@@ -578,6 +603,11 @@ def _run_family(args: argparse.Namespace, members: list[str], sampling, choice: 
     return EXIT_OK
 
 
+def _holds_anything(out: Path) -> bool:
+    """Whether `out` holds anything but its lock (an earlier run's results or store)."""
+    return out.is_dir() and any(p.name != LOCK for p in out.iterdir())
+
+
 def _check_resumable(out: Path, factors: list[float], solver: dict) -> None:
     """`--resume` into `out`: its result.json, if any, is a yield estimate's that this run rewrites
     whole (not another command's; not a finished --improve ascent, which cannot be resumed; no
@@ -727,10 +757,16 @@ def _improve_parameters(args: argparse.Namespace, scatter) -> tuple[str, ...]:
     from ..fab_yield import PARAMETERS, check_ascent
 
     if args.improve is None:
-        if args.improve_parameters is not None:
-            fail("--improve-parameters needs --improve STEPS.")
+        for flag, value in (
+            ("--improve-parameters", args.improve_parameters),
+            ("--improve-step", args.improve_step),
+        ):
+            if value is not None:
+                fail(f"{flag} needs --improve STEPS.")
         return ()
     int_range(args.improve, "--improve", 1, 1000)
+    if args.improve_step is None:
+        args.improve_step = _IMPROVE_STEP
     positive(args.improve_step, "--improve-step", "spread widths")
     if args.resume:
         fail("--improve cannot resume an ascent; run it without --resume, into a new --out.")
@@ -766,7 +802,7 @@ def run(args: argparse.Namespace) -> int:
         fail(f"--seed must be >= 0, got {args.seed}.")
     if args.t_end is not None:
         positive(args.t_end, "--t-end", "µs")
-    if not (math.isfinite(args.t_settle) and args.t_settle >= 0):
+    if args.t_settle is not None and not (math.isfinite(args.t_settle) and args.t_settle >= 0):
         fail(f"--t-settle must be a time >= 0 µs (0: no settling run), got {args.t_settle:g}.")
     if args.rtol is not None:
         in_range(args.rtol, "--rtol", 0.0, 1.0)
@@ -852,6 +888,10 @@ def run(args: argparse.Namespace) -> int:
         _check_released_in_time(
             args, pattern, release, "--etch-front" if front is not None else "--release"
         )
+    if args.t_settle:
+        _check_settles_after_the_end(args, pattern)
+    if args.resume and not _holds_anything(Path(args.out)):
+        print(f"[yield] --resume: nothing is stored in {args.out} yet; starting the estimate.")
     # Held for the whole run (the estimates' sweep stores borrow its lock): another run into the
     # folder meanwhile is refused, and so is a folder holding results without --resume (a yield
     # never replaces results).

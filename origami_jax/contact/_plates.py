@@ -55,7 +55,7 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
-from jaxtyping import Array, ArrayLike, Float
+from jaxtyping import Array, ArrayLike, Float, Int
 
 from .._math import normalise
 from ..system import AbstractContact, AbstractMechanism
@@ -72,6 +72,7 @@ from ._barrier import (
     with_base_pose,
     with_default_contact,
 )
+from ._pick import dense_pick, one_hot_rows, pick
 from ._plate_geometry import plate_overlaps, plate_tables_for, plate_vertices
 from ._plate_tables import PlateTables
 from ._primitives import (
@@ -330,8 +331,7 @@ class PlateContact(AbstractContact):
         return plate_vertices(self.tables, poses)
 
     # The primitives' points are picked from the world vertices by constant one-hot matrices rather
-    # than by indexing: a gather's derivative is a scatter-add, which runs element by element on a
-    # CPU and does not vectorise over a batch; a small dense product does both.
+    # than by indexing where those are small (`_pick`'s module docstring says why).
 
     def _rows(self):
         """The vertex–face `(k, 3)` and edge–edge `(m, 6)` table rows evaluated: every one (host
@@ -348,8 +348,8 @@ class PlateContact(AbstractContact):
         a, i, b = self._rows()[0].T
         n, v = x.shape[:2]
         flat = x.reshape(n * v, 3)
-        point = _pick(a * v + i, n * v, flat)
-        polygon = _pick((b[:, None] * v + np.arange(v)).ravel(), n * v, flat)
+        point = pick(a * v + i, n * v, flat)
+        polygon = pick((b[:, None] * v + np.arange(v)).ravel(), n * v, flat)
         return point, polygon.reshape(a.shape[0], v, 3)
 
     def _edge_edge_points(self, x):
@@ -358,7 +358,7 @@ class PlateContact(AbstractContact):
         n, v = x.shape[:2]
         flat = x.reshape(n * v, 3)
         return tuple(
-            _pick(body * v + k, n * v, flat) for body, k in ((a, i0), (a, i1), (b, j0), (b, j1))
+            pick(body * v + k, n * v, flat) for body, k in ((a, i0), (a, i1), (b, j0), (b, j1))
         )
 
     def _half_sums(self, dtype):
@@ -407,7 +407,7 @@ class PlateContact(AbstractContact):
         last): the direction dotted with the first point's velocity less the second's."""
         a, b = self._pair_bodies()
         n = velocity.shape[0]
-        first, second = _pick(a, n, velocity), _pick(b, n, velocity)
+        first, second = pick(a, n, velocity), pick(b, n, velocity)
         speed_first = _point_velocity(_split6(first), pairs.on_first)
         speed_second = _point_velocity(_split6(second), pairs.on_second)
         return _vdot(pairs.direction, _sub(speed_first, speed_second))
@@ -423,7 +423,12 @@ class PlateContact(AbstractContact):
         u = pairs.direction
         wrench_first = jnp.stack([*u, *_vcross(pairs.on_first, u)], axis=-1)
         wrench_second = jnp.stack([*u, *_vcross(pairs.on_second, u)], axis=-1)
-        first, second = _one_hot(a, n, u[0].dtype), _one_hot(b, n, u[0].dtype)
+        if not dense_pick(a, n):
+            # A pattern too large for the one-hot products: each pair's two bodies' twists.
+            return jnp.einsum("kc,kcv->kv", wrench_first, unit_twists[a]) - jnp.einsum(
+                "kc,kcv->kv", wrench_second, unit_twists[b]
+            )
+        first, second = one_hot_rows(a, n, u[0].dtype), one_hot_rows(b, n, u[0].dtype)
         wrenches = (
             first[:, :, None] * wrench_first[:, None, :]
             - second[:, :, None] * wrench_second[:, None, :]
@@ -450,7 +455,7 @@ class PlateContact(AbstractContact):
             [*(-f for f in force), *(t - m for m, t in zip(moment_second, turn_b, strict=True))],
             axis=-1,
         )
-        return _pick(a, n, on_first, transpose=True) + _pick(b, n, on_second, transpose=True)
+        return pick(a, n, on_first, transpose=True) + pick(b, n, on_second, transpose=True)
 
     def _energy(self, x):
         gap, mollifier = self._gaps(x)
@@ -717,7 +722,7 @@ class PlateContact(AbstractContact):
 
     def engaged_points(
         self, mechanism: AbstractMechanism, q: Float[Array, " nq"]
-    ) -> tuple[Float[Array, "n n 3"], Float[Array, "n n"]]:
+    ) -> tuple[Float[Array, "n n 3"], Int[Array, "n n"]]:
         """Where the plates touch at ``q``, for drawing: for every ordered pair of bodies `(a, b)`
         (the base last) the mean world position of their engaged primitive pairs (``g < 1.1 ĝ``:
         the vertex of a vertex–face pair, the midpoint of an edge–edge pair's closest points),
@@ -750,19 +755,3 @@ def _point_velocity(twist, point):
 def _weighted_gram(rows, weights):
     """``Σ_k w_k g_k g_kᵀ`` `(nv, nv)` of rows `(k, nv)` and weights `(k,)` (``Gᵀ diag(w) G``)."""
     return jnp.sum(weights[:, None, None] * rows[:, :, None] * rows[:, None, :], axis=0)
-
-
-def _pick(rows: np.ndarray, size: int, flat: Array, *, transpose: bool = False) -> Array:
-    """``flat[rows]`` as the product of a constant one-hot matrix `(len(rows), size)` (host) with
-    `flat` `(size, c)`; with `transpose`, the sum of the rows of `flat` `(len(rows), c)` into
-    `size` rows (the adjoint: a scatter-add as a dense product)."""
-    one_hot = _one_hot(rows, size, flat.dtype)
-    return one_hot.T @ flat if transpose else one_hot @ flat
-
-
-def _one_hot(rows, size: int, dtype) -> Array:
-    """The one-hot matrix `(len(rows), size)` of `rows`: a constant built on the host for host
-    `rows`, a comparison for traced ones (a selection's)."""
-    if isinstance(rows, np.ndarray):
-        return jnp.asarray(np.eye(size)[rows], dtype)
-    return (rows[:, None] == jnp.arange(size)).astype(dtype)

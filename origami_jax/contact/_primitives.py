@@ -18,7 +18,7 @@ distance is positive (squared distances: no square root at zero).
 import jax
 import jax.numpy as jnp
 import numpy as np
-from jaxtyping import Array, Float
+from jaxtyping import Array, ArrayLike, Float
 
 
 def _dot(a, b):
@@ -94,13 +94,13 @@ def closest_on_segments(
 
 
 def segment_segment_sq(
-    p0: Float[Array, "*b 3"],
-    p1: Float[Array, "*b 3"],
-    q0: Float[Array, "*b 3"],
-    q1: Float[Array, "*b 3"],
+    p0: Float[ArrayLike, "*b 3"],
+    p1: Float[ArrayLike, "*b 3"],
+    q0: Float[ArrayLike, "*b 3"],
+    q1: Float[ArrayLike, "*b 3"],
     *,
     xp=jnp,
-) -> Float[Array, "*b"]:
+) -> Float[ArrayLike, "*b"]:
     """Squared distance between segments ``[p0, p1]`` and ``[q0, q1]`` (`closest_on_segments`;
     `xp` the array module)."""
     on_p, on_q = _closest(*map(_split, (p0, p1, q0, q1)), xp=xp)
@@ -119,19 +119,19 @@ def _normal(vertices, xp=jnp):
     return tuple(c / norm for c in total)
 
 
-def polygon_normal(vertices: Float[Array, "*b v 3"], *, xp=jnp) -> Float[Array, "*b 3"]:
+def polygon_normal(vertices: Float[ArrayLike, "*b v 3"], *, xp=jnp) -> Float[ArrayLike, "*b 3"]:
     """Unit normal of planar polygons (Newell's sum: right-handed with counter-clockwise vertices;
     repeated vertices, the padding of shorter polygons, add nothing; `xp` the array module)."""
     return xp.stack(_normal(_split(vertices), xp), axis=-1)
 
 
 def point_polygon_sq(
-    p: Float[Array, "*b 3"],
-    vertices: Float[Array, "*b v 3"],
-    normal: Float[Array, "*b 3"],
+    p: Float[ArrayLike, "*b 3"],
+    vertices: Float[ArrayLike, "*b v 3"],
+    normal: Float[ArrayLike, "*b 3"],
     *,
     xp=jnp,
-) -> Float[Array, "*b"]:
+) -> Float[ArrayLike, "*b"]:
     """Squared distance from points `p` to convex planar polygons (`vertices` counter-clockwise
     about `normal`, padded by repeating a vertex): the squared height over the plane where the
     point projects inside, else the squared distance to the nearest edge (`xp` the array
@@ -181,10 +181,10 @@ def closest_on_polygon(
 
 
 def overlap_depth(
-    a: Float[Array, "*b v 3"],
-    b: Float[Array, "*b w 3"],
-    thickness_a: Float[Array, "*b"] | float = 0.0,
-    thickness_b: Float[Array, "*b"] | float = 0.0,
+    a: Float[ArrayLike, "*b v 3"],
+    b: Float[ArrayLike, "*b w 3"],
+    thickness_a: Float[ArrayLike, "*b"] = 0.0,
+    thickness_b: Float[ArrayLike, "*b"] = 0.0,
 ) -> Float[Array, "*b"]:
     """How deep two convex plates overlap: the length of the shortest translation that separates
     them (0 when they are disjoint or only touch), length units.

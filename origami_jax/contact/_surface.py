@@ -74,6 +74,7 @@ from jaxtyping import Array, ArrayLike, Float
 from .._math import safe_norm
 from ..system import UnitSystem
 from ._barrier import check_known_values, smoothstep
+from ._pick import pick
 from ._plate_tables import PlateTables
 from ._primitives import point_polygon_sq, polygon_normal, segment_segment_sq
 from ._tables import _distance_to_segment, content_digest
@@ -406,8 +407,8 @@ def friction_wrenches(
     normal_force: Float[Array, " k"],
     point: Float[Array, "k 3"],
     normal: Float[Array, "k 3"],
-    body_a: np.ndarray,
-    body_b: np.ndarray,
+    body_a: np.ndarray | Array,
+    body_b: np.ndarray | Array,
     velocity: Float[Array, "n 6"],
 ) -> Float[Array, "n 6"]:
     """One world wrench ``(F, x × F)`` per body (the base last) of smoothed Coulomb friction at `k`
@@ -415,10 +416,7 @@ def friction_wrenches(
     and unit normals `normal` `(k, 3)` (world), the pairs' bodies `body_a`, `body_b` (host), and
     every body's spatial velocity at the origin `velocity` `(n, 6)`."""
     n = velocity.shape[0]
-    dtype = point.dtype
-    on_a = jnp.asarray(np.eye(n)[body_a], dtype)  # (k, n): one-hot, as `PlateContact._pick`
-    on_b = jnp.asarray(np.eye(n)[body_b], dtype)
-    va, vb = on_a @ velocity, on_b @ velocity
+    va, vb = pick(body_a, n, velocity), pick(body_b, n, velocity)
     relative = (va[:, :3] - vb[:, :3]) + jnp.cross(va[:, 3:] - vb[:, 3:], point)
     tangential = relative - jnp.sum(relative * normal, axis=-1, keepdims=True) * normal
     speed = safe_norm(tangential)
@@ -427,4 +425,4 @@ def friction_wrenches(
         * tangential
     )
     pair = jnp.concatenate([force, jnp.cross(point, force)], axis=-1)
-    return (on_a - on_b).T @ pair
+    return pick(body_a, n, pair, transpose=True) - pick(body_b, n, pair, transpose=True)

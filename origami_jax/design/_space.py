@@ -225,7 +225,7 @@ class ParameterSpace(eqx.Module):
             ]
         )
 
-    def apply_pattern(self, pattern, x: Float[Array, " p"]):
+    def apply_pattern(self, pattern, x: Float[ArrayLike, " p"] | Sequence[float]):
         """`pattern` with its free geometry (``"flap_length"``, …) replaced by `x` (shape `(p,)`;
         the values may be traced); `pattern` itself when no geometry is free."""
         geometry = {n: x[i] for i, n in enumerate(self.names) if n in _PATTERN}

@@ -181,7 +181,7 @@ class Targets(eqx.Module):
         return jnp.stack([self.weights[k][j] for k, j in self.rows]) if self.rows else jnp.zeros(0)
 
 
-def metric_values(metrics: ResponseMetrics) -> dict[str, Array]:
+def metric_values(metrics: ResponseMetrics) -> dict[str, Array | np.ndarray]:
     """Each target kind's metric `(n,)` (NumPy or JAX, as `metrics` holds them), in the target's
     unit (overshoot as a fraction)."""
     return {

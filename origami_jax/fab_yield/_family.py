@@ -220,7 +220,7 @@ def _settings(
 def family_yield(
     patterns,
     scatter: Scatter | Mapping[str, Any] | None = None,
-    n_samples: int = 100,
+    n_samples: "int | SampleUntil" = 100,
     seed: int = 0,
     *,
     fluid=KOH_SOLUTION,

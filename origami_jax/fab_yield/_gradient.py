@@ -85,7 +85,9 @@ def score(spread: Spread, z: np.ndarray, nominal: np.ndarray) -> np.ndarray:
     return ((z * z - 1) + z / w) / nominal
 
 
-def score_gradient(folded: np.ndarray, scores: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def score_gradient(
+    folded: np.ndarray, scores: np.ndarray
+) -> tuple[np.ndarray | np.floating, np.ndarray | np.floating]:
     """The score-function estimate of ``dY/dμ`` and its standard error from each sample's outcome
     `folded` `(n,)` (1 or 0) and scores `(n, ...)` (`score`), with the leave-one-out baseline."""
     f = np.asarray(folded, dtype=float)

@@ -36,7 +36,7 @@ import itertools
 import math
 import os
 from collections import deque
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -488,7 +488,7 @@ def _octahedron() -> FoldFile:
     )
 
 
-def _octahedron_net(number: int, cells: tuple[tuple[int, int, bool], ...]) -> FoldFile:
+def _octahedron_net(number: int, cells: Sequence[tuple[int, int, bool]]) -> FoldFile:
     return _net_fold(
         title=f"Octahedron net {number:02d} of 11",
         frame_title="crease pattern: eight equilateral triangles",

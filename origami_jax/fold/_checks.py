@@ -154,6 +154,14 @@ def _check_faces(frame: FoldFrame, where: str) -> None:
             "(all counter-clockwise, FOLD faces_vertices)"
         )
     coords = frame.coords3
+    with np.errstate(over="ignore", invalid="ignore"):
+        coincident = _first_coincident_corners(groups, coords)
+    if coincident is not None:
+        f, a, b = coincident
+        raise FoldFormatError(
+            f"{where}: faces_vertices[{f}] = {_short(list(faces[f]))} has two corners at one "
+            f"point (vertices {a} and {b}): give both corners one vertex, or move one apart"
+        )
     if not np.allclose(coords[:, 2], coords[0, 2] if len(coords) else 0.0):
         return  # a 3D folded state: orientation is checked by consistency above
     if "foldedForm" in (frame.frame_classes or ()):
@@ -176,6 +184,25 @@ def _check_faces(frame: FoldFrame, where: str) -> None:
             f"{where}: faces_vertices[{worst}] = {_short(list(face))} has zero area (its corners "
             "are on one line or at one point): fix its vertices_coords, or drop the face"
         )
+
+
+def _first_coincident_corners(groups, coords) -> tuple[int, int, int] | None:
+    """The first face (file order) with two successive corners, different vertices, at one point
+    (within `AREA_REL_TOL` of the face's size): ``(face, vertex, next vertex)``, or `None`."""
+    found = None
+    for index, ids in groups.values():
+        nxt = np.roll(ids, -1, axis=1)
+        points = coords[ids]  # (F_k, k, 3)
+        apart = np.linalg.norm(points - coords[nxt], axis=-1)
+        size = np.max(np.ptp(points, axis=1), axis=1)
+        bad = (ids != nxt) & ~(apart > AREA_REL_TOL * size[:, None])
+        rows = np.flatnonzero(np.any(bad, axis=1))
+        if len(rows):
+            row = rows[np.argmin(index[rows])]
+            corner = int(np.argmax(bad[row]))
+            candidate = (int(index[row]), int(ids[row, corner]), int(nxt[row, corner]))
+            found = candidate if found is None or candidate[0] < found[0] else found
+    return found
 
 
 def _first_bad_face(groups, coords) -> int | None:

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import dataclasses
 import os
+from collections.abc import Sequence
 from pathlib import Path
 from typing import NamedTuple
 
@@ -461,7 +462,7 @@ def vertex_fold_angles(directions: ArrayLike, *, closed: bool) -> np.ndarray:
 
 def fold_angles_from_coords(
     coords: ArrayLike,
-    faces: tuple[tuple[int, ...], ...] | list[list[int]],
+    faces: Sequence[Sequence[int]],
     edges: ArrayLike,
 ) -> np.ndarray:
     """Signed dihedral fold angles (radians) of every edge of a folded mesh, NaN on boundary edges.

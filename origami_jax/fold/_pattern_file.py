@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 
 from ._model import WRITTEN_SPEC, FoldFile, FoldFrame
@@ -9,7 +11,7 @@ from ._model import WRITTEN_SPEC, FoldFile, FoldFrame
 CREATOR = "origami_jax catalogue (python -m origami_jax.fold.catalogue._generate)"
 
 
-def edges_of(faces: list[tuple[int, ...]]) -> tuple[list[tuple[int, int]], dict]:
+def edges_of(faces: Sequence[Sequence[int]]) -> tuple[list[tuple[int, int]], dict]:
     """The edges of polygonal `faces` in first-seen order, and how many faces share each (keyed by
     the frozenset of its two vertices): 1 on the boundary, 2 inside."""
     count: dict[frozenset[int], int] = {}

@@ -26,7 +26,7 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
-from jaxtyping import ArrayLike, Float
+from jaxtyping import Array, ArrayLike, Float
 
 from .._limits import CONTACT_SAMPLING
 from .._validate import is_traced
@@ -673,7 +673,10 @@ def _with_branch(pattern: CreasePattern, report, trajectory, bias: float):
 
 
 def _contact_tables(
-    mechanism: LoopedPanels, thickness: float, sampling=CONTACT_SAMPLING, kind: str = "sampled"
+    mechanism: LoopedPanels,
+    thickness: float | Array,
+    sampling=CONTACT_SAMPLING,
+    kind: str = "sampled",
 ):
     """The contact geometry of a mechanism whose numbers are known, `(tables, plates)`: the model's
     tables (`PlateTables` for the `"plate"` model, else `ContactTables` for

@@ -141,7 +141,9 @@ def fillet_layout(
     return ArcLayout(radius, angles, lengths, trims, shifts, face_coords, hinge_points, seam_points)
 
 
-def _trim(polygon, point, inward, depth, size, *, face: int, crease: int) -> np.ndarray:
+def _trim(
+    polygon, point, inward, depth, size, *, face: int | np.integer, crease: int | np.integer
+) -> np.ndarray:
     """`polygon` `(k, 3)` with its corners on the line through `point` (perpendicular to `inward`,
     in the polygon's plane) moved `depth` into it: a corner whose both sides lie on the line along
     `inward`, one with a side off the line along that side."""

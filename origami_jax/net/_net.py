@@ -22,6 +22,7 @@ Lengths: the FOLD file's `frame_unit` is converted into the design's unit system
 
 import dataclasses
 import os
+from collections.abc import Sequence
 from typing import Any, ClassVar, final
 
 import equinox as eqx
@@ -284,7 +285,7 @@ class Net(AbstractPanelPattern):
         design: HingeDesign | None = None,
         *,
         targets: Float[ArrayLike, " m"] | None = None,
-        release_times: Float[ArrayLike, " m"] | None = None,
+        release_times: Float[ArrayLike, " m"] | Sequence[float] | None = None,
         contact: bool | str | None = None,
         drag: str | None = None,
         hinges: str | None = None,
@@ -502,7 +503,7 @@ class Net(AbstractPanelPattern):
 
         return self.host_cache.get(("tables", *key), tables)
 
-    def seam_gaps(self, angles: ArrayLike) -> np.ndarray:
+    def seam_gaps(self, angles: ArrayLike | Sequence[float]) -> np.ndarray:
         """Largest end-to-end gap of each seam with the creases at `angles` (rad), in design length
         units (host, rigid folding of the flat pattern).
 

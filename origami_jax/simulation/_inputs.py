@@ -11,7 +11,7 @@ All quantities are in the system's unit system (default `MICRO`: µm, µs, ng, t
 """
 
 import abc
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 
 import equinox as eqx
 import jax
@@ -88,7 +88,7 @@ class Step(AbstractInput):
 
     def __init__(
         self,
-        theta_des: Float[ArrayLike, " h"] | None = None,
+        theta_des: Float[ArrayLike, " h"] | Sequence[float] | None = None,
         *,
         ramp: Float[ArrayLike, ""] | None = None,
     ):
@@ -164,7 +164,7 @@ class EtchRamp(AbstractInput):
         self,
         etch_rate: Float[ArrayLike, ""],
         radius: Float[ArrayLike, "..."] | None = None,
-        theta_final: Float[ArrayLike, " h"] | None = None,
+        theta_final: Float[ArrayLike, " h"] | Sequence[float] | None = None,
     ):
         self.etch_rate = jnp.asarray(etch_rate, dtype=float)
         self.theta_final = None if theta_final is None else jnp.asarray(theta_final, dtype=float)

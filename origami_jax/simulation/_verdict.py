@@ -392,6 +392,32 @@ class FoldOutcome(eqx.Module):
     seam_margin: Float[Array, ""]
 
 
+# The verdict's contact report holds at most about this many float64 intermediates at once
+# (1 GB): a run's samples are judged together under `vmap` up to it, in batches past it.
+_REPORT_ELEMENTS = 1 << 27
+
+
+def _report_size(contact) -> int:
+    """About how many intermediates one state's contact report holds (`PlateContact.report`: every
+    primitive pair's gap, every pair of bodies' exact overlap over ``v²`` separating axes), an upper
+    estimate; 0 for contacts without plate tables."""
+    tables = getattr(contact, "tables", None)
+    if not hasattr(tables, "n_primitives") or not hasattr(tables, "body_pairs"):
+        return 0
+    v = tables.vertices.shape[1]
+    return 32 * (tables.n_primitives + len(tables.body_pairs) * v * v)
+
+
+def _each_sample(f, states, size: int):
+    """``vmap(f)(states)`` over the samples `(t, ...)`, in batches of samples whose intermediates
+    (`size` per sample) stay within `_REPORT_ELEMENTS` (`jax.lax.map`): a large pattern's report of
+    a thousand samples at once would need tens of GB."""
+    batch = _REPORT_ELEMENTS // max(size, 1)
+    if batch >= states.shape[0]:
+        return jax.vmap(f)(states)
+    return jax.lax.map(f, states, batch_size=max(batch, 1))
+
+
 def fold_outcome(
     system,
     trajectory: Trajectory,
@@ -399,7 +425,7 @@ def fold_outcome(
     intended_angles=None,
     seam_gaps: Callable | None = None,
     tolerances: VerdictTolerances | None = None,
-    angle_tolerance: float | None = None,
+    angle_tolerance: float | Array | None = None,
     seam_tolerance=None,
     panel_size: float | None = None,
 ) -> FoldOutcome:
@@ -427,7 +453,9 @@ def fold_outcome(
     contact = system.contact
     touching = None  # (t, n, n): some point of body a rests on the face of body b
     if contact is not None:
-        report = jax.vmap(lambda q: contact.report(system.mechanism, q))(q_safe)
+        report = _each_sample(
+            lambda q: contact.report(system.mechanism, q), q_safe, _report_size(contact)
+        )
         min_gap = jnp.min(jnp.where(finite, report["min_gap"], jnp.inf))
         penetration = jnp.max(jnp.where(finite, report["penetration"], 0.0))
         engaged = jnp.where(finite[-1], report["engaged"][-1], 0).astype(jnp.int32)

@@ -7,6 +7,7 @@ physical alternative (see the physics guide, "Fluids and drag").
 """
 
 import abc
+from collections.abc import Sequence
 
 import equinox as eqx
 import jax.numpy as jnp
@@ -42,7 +43,7 @@ class HingeDrag(AbstractDrag):
 
     coefficient: Float[Array, " h"]
 
-    def __init__(self, coefficient: Float[ArrayLike, " h"]):
+    def __init__(self, coefficient: Float[ArrayLike, " h"] | Sequence[float]):
         coefficient = check_finite(as_float_array(coefficient, "coefficient"), "coefficient")
         if coefficient.ndim != 1:
             raise ValueError(

@@ -16,6 +16,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
+from .._typing import FloatsLike
 from .._validate import as_float_array, check_finite, check_positive, is_traced
 from ._units import MICRO, SI, UnitSystem
 
@@ -297,19 +298,19 @@ class HingeDesign(eqx.Module):
     def __init__(
         self,
         *,
-        hinge_width: ArrayLike,
-        t_structural: ArrayLike,
-        t_hinge: ArrayLike,
-        misfit_strain: ArrayLike | None = None,
-        residual_stress: ArrayLike | None = None,
-        theta_final: ArrayLike = _LITERATURE_THETA_FINAL,
-        drag_coefficient: ArrayLike = _LITERATURE_DRAG_COEFFICIENT,
+        hinge_width: FloatsLike,
+        t_structural: FloatsLike,
+        t_hinge: FloatsLike,
+        misfit_strain: FloatsLike | None = None,
+        residual_stress: FloatsLike | None = None,
+        theta_final: FloatsLike = _LITERATURE_THETA_FINAL,
+        drag_coefficient: FloatsLike = _LITERATURE_DRAG_COEFFICIENT,
         structural: Material = SINX,
         hinge: Material = CR,
         fluid: Fluid = AIR,
-        k_scale: ArrayLike = 1.0,
-        b_scale: ArrayLike = 1.0,
-        added_mass_coefficient: ArrayLike = 1.0,
+        k_scale: FloatsLike = 1.0,
+        b_scale: FloatsLike = 1.0,
+        added_mass_coefficient: FloatsLike = 1.0,
         stiffness_model: str = "paper",  # str, not Literal: a wrong value gets the ValueError below
         drag_model: str = "paper",
         units: UnitSystem = MICRO,

@@ -7,6 +7,8 @@ the system and the release is an input torque ``K θ_target`` (a step) or a comp
 etch ramp; `origami_jax.simulation`'s inputs read these fields.
 """
 
+from collections.abc import Sequence
+
 import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
@@ -35,10 +37,10 @@ class Hinges(eqx.Module):
 
     def __init__(
         self,
-        stiffness: Float[ArrayLike, "*#h"],
-        target: Float[ArrayLike, " h"],
-        radius: Float[ArrayLike, "*#h"],
-        release_time: Float[ArrayLike, "*#h"] | None = None,
+        stiffness: Float[ArrayLike, "*#h"] | Sequence[float],
+        target: Float[ArrayLike, " h"] | Sequence[float],
+        radius: Float[ArrayLike, "*#h"] | Sequence[float],
+        release_time: Float[ArrayLike, "*#h"] | Sequence[float] | None = None,
     ):
         target = check_finite(as_float_array(target, "target"), "target")
         if target.ndim != 1 or target.shape[0] < 1:
