@@ -441,7 +441,8 @@ def _mirror(chain):
     return _base_rectangle(chain)
 
 
-@pytest.mark.parametrize("fluid", ["air", "koh"])
+# In air (20 s of the default run) with the slow cases: the bath's case runs the same code by default.
+@pytest.mark.parametrize("fluid", [pytest.param("air", marks=pytest.mark.slow), "koh"])
 def test_accordion_with_contact_stacks_without_penetration_or_energy_gain(fluid):
     system, trajectory = _accordion(fluid)
     assert bool(trajectory.succeeded)
