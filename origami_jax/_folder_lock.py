@@ -4,8 +4,10 @@
 The lock is an advisory `flock` on the folder's `.lock` file, held for as long as the writer runs,
 so that two runs into one folder cannot interleave their files (the second is refused with one
 line naming the first). The operating system releases it when the process ends, killed or not. The
-file names its holder (command, process id, host, start time) for the message; it is never removed
-(removing a lock file while another process opens it would let two processes hold two locks).
+file names its holder (command, process id, host, start time) for the message; it is not removed
+(removing a lock file while another process opens it would let two processes hold two locks),
+except by a command line run that created its folder and leaves it holding nothing else: it removes
+the lock file and the folder while it still holds the lock (`cli._common.OutputFolder`).
 
 A command that holds its folder for its whole run may lend the lock to the library calls it makes
 in the same process (`lend=True`: `yield` holds its folder and its estimates open their sweep store

@@ -179,6 +179,22 @@ def test_a_lost_interrupt_stops_the_commit(tmp_path):
     lock_folder(tmp_path, command="demo").close()  # released
 
 
+def test_a_sweep_or_yield_stopped_by_sigterm_exits_143():
+    """`sweep` and `yield` turn the interrupt into their own message (what chunks are kept); its
+    exit code says which signal stopped them."""
+    import signal
+
+    from origami_jax.cli import _interrupt
+    from origami_jax.cli._common import Interrupted
+
+    assert Interrupted("kept").code == 130
+    _interrupt._received.append(signal.SIGTERM)
+    try:
+        assert Interrupted("kept").code == 143
+    finally:
+        _interrupt._received.clear()
+
+
 def test_a_folder_the_run_created_is_removed_when_it_refuses_late(tmp_path, capsys):
     """Bad input found after the output folder was opened (here `design`'s target) leaves no
     folder behind that holds only the lock; a folder that existed before is kept."""

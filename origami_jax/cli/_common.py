@@ -22,6 +22,7 @@ import json
 import math
 import os
 import shutil
+import signal
 import sys
 import uuid
 import warnings
@@ -64,10 +65,11 @@ class CLIError(Exception):
 
 
 class Interrupted(CLIError):
-    """Ctrl-C, with a message saying what was kept (exit code 130)."""
+    """Ctrl-C, with a message saying what was kept (exit code 130; 143 when SIGTERM stopped it)."""
 
     def __init__(self, message: str = "interrupted"):
-        super().__init__(message, EXIT_INTERRUPTED)
+        terminated = interrupt.received() == signal.SIGTERM
+        super().__init__(message, EXIT_TERMINATED if terminated else EXIT_INTERRUPTED)
 
 
 def fail(message: str, code: int = EXIT_USAGE) -> NoReturn:
@@ -700,11 +702,13 @@ class OutputFolder:
         self.discarded = False
 
     def _release(self) -> None:
+        # Before the lock is let go: a run that opened the lock file meanwhile is refused as busy,
+        # rather than taking a lock on a file no longer in the folder.
+        if self._created and not self.committed:
+            _remove_if_only_lock(self.out)
         if self._lock is not None:
             self._lock.close()
             self._lock = None
-        if self._created and not self.committed:
-            _remove_if_only_lock(self.out)
 
     def _other(self) -> dict | None:
         """The folder's marker when another command wrote the results there."""
@@ -739,13 +743,12 @@ class OutputFolder:
         if self.discarded:
             return []
         try:
-            return self._commit()
+            finals = self._commit()
         except BaseException:
-            shutil.rmtree(self.dir, ignore_errors=True)
-            self.discarded = True
+            self.discard()
             raise
-        finally:
-            self._release()
+        self._release()
+        return finals
 
     def _commit(self) -> list[Path]:
         # A Ctrl-C whose exception was lost (raised in a garbage collector's callback): stop here.
@@ -787,11 +790,17 @@ class OutputFolder:
             self.discard()
 
 
+def holds_only_its_lock(out: Path) -> bool:
+    """Whether the folder `out` is missing or holds nothing but its lock file (no earlier run's
+    results or store)."""
+    return not out.is_dir() or {p.name for p in out.iterdir()} <= {LOCK}
+
+
 def _remove_if_only_lock(out: Path) -> None:
     """Remove the folder `out` if it holds nothing but its lock file (a run that created it and
     stopped before writing: bad input found late, an interrupt). Anything else there keeps it."""
     try:
-        if {p.name for p in out.iterdir()} <= {LOCK}:
+        if out.is_dir() and holds_only_its_lock(out):
             (out / LOCK).unlink(missing_ok=True)
             out.rmdir()
     except OSError:

@@ -388,9 +388,10 @@ def run(args: argparse.Namespace) -> int:
             if given and not loops:
                 fail(f"{flag} is for closed-loop patterns; {args.net} is a net: drop it.")
         if args.arc_layout is not None and (args.hinges != "arc" or loops):
+            looped = f" ({args.net} has closed loops)" if loops else ""
             fail(
                 "--arc-layout lays out a net's bending-arc hinges: it needs --hinges arc and a net"
-                f"{'' if not loops else f' ({args.net} has closed loops)'}."
+                f"{looped}."
             )
         m = net.n_creases
         design = _design(net, args.fluid, params)

@@ -4,7 +4,7 @@ Python raises `KeyboardInterrupt` wherever the main thread is when SIGINT arrive
 inside a garbage-collector callback (JAX frees device buffers from one) is only printed, "Exception
 ignored in ...", and lost: the run carried on and wrote its results. SIGTERM (`timeout`, a batch
 system's kill) ends the process at once by default, leaving its staging folder behind. `install`
-makes both signals raise `Interrupted` (a `KeyboardInterrupt`, so every clean-up path runs) and
+makes both signals raise `Signalled` (a `KeyboardInterrupt`, so every clean-up path runs) and
 remembers them; `check`, called before a run's results are moved into place, raises again when the
 first one was lost; the lost one's "Exception ignored" report is not printed. A second signal while
 the first one's exception unwinds the run (its staging folder being removed: `kill` and `timeout`
@@ -18,11 +18,11 @@ import signal
 import sys
 
 _received: list[int] = []
-# Whether an `Interrupted` is on its way up (not lost in a callback): later signals wait for it.
+# Whether a `Signalled` is on its way up (not lost in a callback): later signals wait for it.
 _raised = [False]
 
 
-class Interrupted(KeyboardInterrupt):
+class Signalled(KeyboardInterrupt):
     """A run stopped by a signal (`signum`: SIGINT or SIGTERM)."""
 
     def __init__(self, signum: int):
@@ -49,7 +49,7 @@ def _handler(signum, frame) -> None:
     _received.append(signum)
     if not _raised[0]:
         _raised[0] = True
-        raise Interrupted(signum)
+        raise Signalled(signum)
     if len(_received) >= 3:  # the clean-up hangs: stop as the signal itself would
         signal.signal(signum, signal.SIG_DFL)
         os.kill(os.getpid(), signum)
@@ -61,6 +61,6 @@ def received() -> int | None:
 
 
 def check() -> None:
-    """Raise `Interrupted` if a signal came, even one whose exception was lost."""
+    """Raise `Signalled` if a signal came, even one whose exception was lost."""
     if _received:
-        raise Interrupted(_received[-1])
+        raise Signalled(_received[-1])

@@ -1,9 +1,9 @@
 """Top-level argument parser; each subcommand lives in its own module with ``register(subparsers)``.
 
 `main` is the one place where errors become exit codes: a command's `CLIError` prints its one line;
-Ctrl-C prints one line and exits 130, SIGTERM 143 (`_interrupt`: nothing is written either way); any other exception prints one line naming the input and the
-error (exit 2 for a `ValueError`, bad input found by the library; 1 otherwise), or its traceback
-with `--debug`.
+Ctrl-C prints one line and exits 130, SIGTERM 143 (`_interrupt`: nothing is written either way);
+any other exception prints one line naming the input and the error (exit 2 for a `ValueError`, bad
+input found by the library; 1 otherwise), or its traceback with `--debug`.
 """
 
 import argparse

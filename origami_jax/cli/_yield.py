@@ -6,8 +6,7 @@ import math
 import time
 from pathlib import Path
 
-from .._folder_lock import LOCK
-from .._limits import AFTER_RELEASE_US, FOLD_SEGMENT, MAX_FOLD_SEGMENTS, default_t_end
+from .._limits import AFTER_RELEASE_US, default_t_end
 from ._common import (
     EXIT_OK,
     FIXED_STEP_CHOICES,
@@ -23,6 +22,7 @@ from ._common import (
     dumps_json,
     dynamics_model,
     fail,
+    holds_only_its_lock,
     in_range,
     int_range,
     out_path,
@@ -350,8 +350,6 @@ _SINGLE_NET_ONLY = (
     "release",
     "etch_front",
 )
-# --improve's largest move per step, in spread widths, unless --improve-step.
-_IMPROVE_STEP = 0.5
 
 
 def _scatter(args: argparse.Namespace):
@@ -418,8 +416,8 @@ def _run_settings(args: argparse.Namespace) -> dict:
         workers=args.workers,
         progress=not args.no_progress,
         step_budget=args.step_budget,
-        t_settle=(MAX_FOLD_SEGMENTS * FOLD_SEGMENT if args.t_settle is None else args.t_settle)
-        or None,
+        # Not given: `RunOptions`' own default (`SETTLE_TIME`); 0: no settling run.
+        **({} if args.t_settle is None else {"t_settle": args.t_settle or None}),
     )
 
 
@@ -603,11 +601,6 @@ def _run_family(args: argparse.Namespace, members: list[str], sampling, choice: 
     return EXIT_OK
 
 
-def _holds_anything(out: Path) -> bool:
-    """Whether `out` holds anything but its lock (an earlier run's results or store)."""
-    return out.is_dir() and any(p.name != LOCK for p in out.iterdir())
-
-
 def _check_resumable(out: Path, factors: list[float], solver: dict) -> None:
     """`--resume` into `out`: its result.json, if any, is a yield estimate's that this run rewrites
     whole (not another command's; not a finished --improve ascent, which cannot be resumed; no
@@ -754,7 +747,7 @@ def _improve_parameters(args: argparse.Namespace, scatter) -> tuple[str, ...]:
     --improve)."""
     import numpy as np
 
-    from ..fab_yield import PARAMETERS, check_ascent
+    from ..fab_yield import PARAMETERS, AscentSettings, check_ascent
 
     if args.improve is None:
         for flag, value in (
@@ -765,9 +758,8 @@ def _improve_parameters(args: argparse.Namespace, scatter) -> tuple[str, ...]:
                 fail(f"{flag} needs --improve STEPS.")
         return ()
     int_range(args.improve, "--improve", 1, 1000)
-    if args.improve_step is None:
-        args.improve_step = _IMPROVE_STEP
-    positive(args.improve_step, "--improve-step", "spread widths")
+    step = AscentSettings.step if args.improve_step is None else args.improve_step
+    positive(step, "--improve-step", "spread widths")
     if args.resume:
         fail("--improve cannot resume an ascent; run it without --resume, into a new --out.")
     if args.improve_parameters is None:
@@ -779,7 +771,7 @@ def _improve_parameters(args: argparse.Namespace, scatter) -> tuple[str, ...]:
     ones = {n: np.ones(1) for n in PARAMETERS}
     try:
         return check_ascent(
-            scatter, names, ones, steps=args.improve, step=args.improve_step, significance=2.0,
+            scatter, names, ones, steps=args.improve, step=step, significance=2.0,
             bounds=None,
         )[0]  # fmt: skip
     except ValueError as error:
@@ -890,7 +882,7 @@ def run(args: argparse.Namespace) -> int:
         )
     if args.t_settle:
         _check_settles_after_the_end(args, pattern)
-    if args.resume and not _holds_anything(Path(args.out)):
+    if args.resume and holds_only_its_lock(Path(args.out)):
         print(f"[yield] --resume: nothing is stored in {args.out} yet; starting the estimate.")
     # Held for the whole run (the estimates' sweep stores borrow its lock): another run into the
     # folder meanwhile is refused, and so is a folder holding results without --resume (a yield
@@ -994,7 +986,7 @@ def _run(
                 args.seed,
                 settings=AscentSettings(
                     steps=args.improve,
-                    step=args.improve_step,
+                    **({} if args.improve_step is None else {"step": args.improve_step}),
                     confirm_samples=args.samples,
                     confidence=args.confidence,
                     interval=args.interval,
