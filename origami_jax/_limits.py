@@ -38,6 +38,11 @@ def default_t_end(ramp: float | None, after: float = AFTER_RELEASE_US) -> float:
     return ramp + max(after, AFTER_RAMP_FRACTION * ramp)
 
 
+MAX_FIXED_STEPS = 500_000
+"""Most fixed steps of one command-line run of the implicit-step engine (`--t1` or the run's end
+over `--dt`), the adaptive fold's own step budget: past it a run would take hours (a cube net
+takes a few milliseconds a step), and `--t1 1e12 --dt 2.5` ran without end."""
+
 MAX_FOLD_SEGMENTS = 8
 """Most segments of such a folding (8,000 µs in the default units)."""
 

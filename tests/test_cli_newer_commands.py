@@ -470,6 +470,14 @@ def _flat_creases(data):
     ]
 
 
+def _nearly_flat_creases(data):
+    """Creases aimed at 1e-9°: hinges ~1e-9 µm long (a 1/angle stiffness) ran for minutes."""
+    data["edges_foldAngle"] = [
+        1e-9 if a in "MV" else angle
+        for a, angle in zip(data["edges_assignment"], data["edges_foldAngle"], strict=True)
+    ]
+
+
 def _one_face(data):
     data.update(
         vertices_coords=[[0, 0], [200, 0], [200, 200], [0, 200]],
@@ -495,10 +503,20 @@ def _collinear(data):
         (_first_face(lambda f: [f[0] + 0.0, *f[1:]]), ("fold",), "0.0 is not one (whole numbers"),
         (_first_face(lambda f: [*f[:2], f[1], *f[2:]]), ("fold",), "lists vertex"),
         (_flat_creases, ("fold", "yield"), "folds to 0°: a stressed hinge folds to a non-zero"),
+        (_nearly_flat_creases, ("fold", "yield"), "folds to 1e-09°, so its hinge would be"),
         (_one_face, ("fold", "yield"), "has no creases (one face): nothing folds"),
         (_collinear, ("fold",), "has zero area (its corners are on one line or at one point)"),
     ],
-    ids=["tiny", "huge", "float-index", "repeated-vertex", "zero-target", "one-face", "zero-area"],
+    ids=[
+        "tiny",
+        "huge",
+        "float-index",
+        "repeated-vertex",
+        "zero-target",
+        "tiny-target",
+        "one-face",
+        "zero-area",
+    ],
 )
 def test_bad_geometry_is_named_before_anything_compiles(
     change, commands, message, tmp_path, capsys

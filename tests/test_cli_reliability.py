@@ -282,6 +282,16 @@ def test_simulate_refuses_bad_numbers_in_one_line(flags, message, tmp_path, caps
         (["unfold", "open-chain", "--max-steps", "0"], "--max-steps must be at least 1"),
         (["export", "corner-cube", "--name", "../up"], "--name must be a plain file name"),
         (["view", "missing.fold"], "no such file"),
+        (["design", "--target-rise", "-1"], "--target-rise: -1 s is not a positive time"),
+        (["fold", "cubenet01"], "(did you mean cube_net_01?); origami-jax fold --list lists them."),
+        (["fold", "cube_net_01", "--param", "hinge_widht=3"], "(did you mean hinge_width?)"),
+        (["fold", "cube_net_01", "--adhesion", "-1"], "the work of adhesion W must be finite"),
+        (["fold", "cube_net_01", "--friction", "-1"], "the friction coefficient MU must be"),
+        (["fold", "cube_net_01", "--param", "theta_final=10"], "Give radians (degrees × π/180)."),
+        (
+            ["fold", "cube_net_01", "--no-contact", "--friction", "0.3"],
+            "they need the plate contact (--contact plate), not --no-contact.",
+        ),
     ],
 )
 def test_other_commands_refuse_bad_input_in_one_line(argv, message, tmp_path, capsys):
@@ -425,9 +435,25 @@ def test_fuzz_simulate_numeric_flags(case, capsys):
 
 def test_usage_errors_are_one_line(capsys):
     with pytest.raises(SystemExit) as excinfo:
-        main(["simulate", "--band", "-1e-300"])  # argparse reads -1e-300 as an option
+        main(["simulate", "--band"])
     assert excinfo.value.code == 2
     assert "--help" in _one_line(capsys.readouterr().err)
+
+
+def test_a_negative_value_reaches_its_own_check(tmp_path, capsys):
+    """argparse reads ``-1e-300`` and ``-5,0,0`` after a flag as unknown flags ("expected one
+    argument"): they are joined to their flag, so the value's own check names what is wrong."""
+    from origami_jax.cli._main import negative_lists_attached
+
+    assert negative_lists_attached(["fold", "x", "--release", "-5,0,0", "--t1", "-1e-3"]) == [
+        "fold", "x", "--release=-5,0,0", "--t1=-1e-3"
+    ]  # fmt: skip
+    assert negative_lists_attached(["fold", "--no-contact", "-x"]) == ["fold", "--no-contact", "-x"]
+    assert main(["simulate", "--band", "-1e-300", "--out", str(tmp_path / "s")]) == 2
+    assert "--band" in _one_line(capsys.readouterr().err)
+    out = str(tmp_path / "f")
+    assert main(["fold", "cube_net_01", "--release", "-5,0,0,0,0", "--out", out]) == 2
+    assert "release_time must be >= 0" in _one_line(capsys.readouterr().err)
 
 
 def test_unfold_names_the_vertices_on_one_line(tmp_path, capsys):

@@ -97,6 +97,7 @@ BAD = [
     (["--solver", "implicit-step", "--dt", "nan"], "--dt must be a positive finite number"),
     (["--solver", "implicit-step", "--dt", "5000"], "--dt 5000 µs is longer than the run"),
     (["--solver", "implicit-step", "--dt", "2", "--newton-iterations", "0"], "between 1 and"),
+    (["--solver", "implicit-step", "--dt", "1e-6"], "fixed steps, more than the 500,000"),
     (["--solver", "implicit-bdf2"], "--solver implicit-bdf2 needs --dt"),
     (["--solver", "implicit-bdf2", "--dt", "5000"], "--dt 5000 µs is longer than the run"),
 ]

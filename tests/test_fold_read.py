@@ -258,6 +258,11 @@ def test_degenerate_face():
     }
     with pytest.raises(FoldFormatError, match="has zero area"):
         fold_from_dict(data)
+    data["vertices_coords"] = [[0, 0], [1, 1], [1, 0], [0, 1]]  # a bow-tie: its lobes cancel
+    data["edges_vertices"] = [[0, 1], [1, 2], [2, 3], [3, 0]]
+    data["faces_vertices"] = [[0, 1, 2, 3]]
+    with pytest.raises(FoldFormatError, match=r"crosses itself \(its edges 0 and 2 cross\)"):
+        fold_from_dict(data)
 
 
 @pytest.mark.parametrize("z", [0.0, 5.0])  # a flat pattern and a face of a 3D form

@@ -75,6 +75,17 @@ def test_cli_reports_models_and_bad_configs(tmp_path, capsys):
     assert main(["sweep", str(bad), "--out", str(tmp_path / "o")]) == 2
     assert "unknown model" in capsys.readouterr().err
     assert main(["sweep"]) == 2
+    for text, message in (
+        ('model = "accordion"\n', "[model] must be a table (a [model] header and its keys), got"),
+        (
+            '[model]\nname = "accordion"\ninput = "step"\ntend = 5\n[parameters]\nk_scale = { values = [1] }\n',
+            "unknown setting 'tend' (did you mean t_end?); its settings are n_flaps,",
+        ),
+        ("[space]\n", f"bad config {bad}: unknown section(s) ['space']."),  # the file named once
+    ):
+        bad.write_text(text)
+        assert main(["sweep", str(bad), "--out", str(tmp_path / "o")]) == 2
+        assert message in capsys.readouterr().err
 
 
 @pytest.mark.slow  # a whole program of its own to compile; the default run stays under 10 min

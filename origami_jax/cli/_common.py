@@ -18,6 +18,7 @@ else into one line too, and `--debug` shows the traceback.
 from __future__ import annotations
 
 import argparse
+import difflib
 import json
 import math
 import os
@@ -33,7 +34,7 @@ from typing import Any, NoReturn
 from .._cache import enable_compilation_cache
 from .._exported import enable_exported_programs
 from .._folder_lock import LOCK, FolderBusyError, FolderLock, lock_folder
-from .._limits import CONTACT_SAMPLING, MAX_CONTACT_SAMPLING
+from .._limits import CONTACT_SAMPLING, MAX_CONTACT_SAMPLING, MAX_FIXED_STEPS
 from . import _interrupt as interrupt
 
 DEFAULT_OUT = Path("origami_out")
@@ -130,8 +131,11 @@ def hinge_params(items: Sequence[str], *, flaps: bool = False) -> dict[str, list
                 f"--param {name}=...); this command's panels are its pattern's own."
             )
         if name not in names:
+            near = difflib.get_close_matches(name, names, n=1)
             raise ValueError(
-                f"--param {name!r} is not a hinge parameter; give one of {capped(names, 20)}."
+                f"--param {name!r} is not a hinge parameter"
+                + (f" (did you mean {near[0]}?)" if near else "")
+                + f"; give one of {capped(names, 20)}."
             )
         try:
             values = [float(v) for v in value.split(",")]
@@ -305,6 +309,12 @@ def solver_choice(args: argparse.Namespace, t1: float, t1_flag: str) -> dict[str
         fail(
             f"--dt {args.dt:g} µs is longer than the run ({t1_flag}: {t1:g} µs): give a step a "
             "small fraction of it."
+        )
+    if t1 / args.dt > MAX_FIXED_STEPS:
+        fail(
+            f"--dt {args.dt:g} µs over the run ({t1_flag}: {t1:g} µs) is {t1 / args.dt:.3g} fixed "
+            f"steps, more than the {MAX_FIXED_STEPS:,} one run may take: give a longer --dt or a "
+            "shorter run."
         )
     iterations = (
         DEFAULT_NEWTON_ITERATIONS if args.newton_iterations is None else args.newton_iterations
@@ -881,6 +891,39 @@ def _one_line_warning(message, category, filename, lineno, line=None) -> str:
     return f"origami-jax: warning: {message}\n"
 
 
+# The library's messages name its Python API (keywords, classes, functions) where the command line
+# has flags: each phrase, as the library words it, and as the command line says it.
+COMMAND_LINE_WORDING = (
+    (", or pass require_targets=False", ""),
+    (
+        "give length_scale= (origami-jax fold --length-scale), the design's length units per FOLD "
+        "unit, e.g. 1.0 for µm.",
+        "give --length-scale, µm per FOLD unit (1 for a file drawn in µm).",
+    ),
+    (
+        ": origami_jax.fold.catalogue_names() lists them (on the command line: origami-jax fold "
+        "--list).",
+        "; origami-jax fold --list lists them.",
+    ),
+    ("(contact='plate' or True), not no contact", "(--contact plate), not --no-contact"),
+    ("Give radians (numpy.radians converts degrees).", "Give radians (degrees × π/180)."),
+    ("Adhesion.work", "the work of adhesion W"),
+    ("Adhesion.range", "the adhesion's RANGE"),
+    ("Adhesion.line", "the adhesion's LINE"),
+    ("Friction.coefficient", "the friction coefficient MU"),
+    ("Friction.slip", "the friction's SLIP"),
+)
+
+
+def command_line_wording(message: str) -> str:
+    """`message` with the library's Python names (`COMMAND_LINE_WORDING`) put as the command line's
+    flags."""
+    for library, command_line in COMMAND_LINE_WORDING:
+        message = message.replace(library, command_line)
+    return message
+
+
 def print_error(command: str | None, message: str) -> None:
+    """Print `message` as the command's one-line error (in the command line's wording)."""
     prefix = "origami-jax" + (f" {command}" if command else "")
-    print(f"{prefix}: {message}", file=sys.stderr)
+    print(f"{prefix}: {command_line_wording(message)}", file=sys.stderr)

@@ -401,7 +401,7 @@ def run(args: argparse.Namespace) -> int:
             if len(targets_deg) != m:
                 raise ValueError(f"--targets: {len(targets_deg)} values for {m} creases")
             targets = np.radians(targets_deg)
-        check_targets(net, targets, args.net)
+        check_targets(net, targets, args.net, design)
         if release is not None and len(release) != m:
             raise ValueError(f"--release: {len(release)} values for {m} creases")
         if front is not None:

@@ -7,6 +7,7 @@ input found by the library; 1 otherwise), or its traceback with `--debug`.
 """
 
 import argparse
+import re
 import signal
 import sys
 import threading
@@ -91,8 +92,26 @@ def main(argv: Sequence[str] | None = None) -> int:
     return code
 
 
+_NEGATIVE_VALUE = re.compile(r"^-(\d|\.\d)[\d.eE+-]*(,[\d.eE+-]*)*$")
+
+
+def negative_lists_attached(argv: list[str]) -> list[str]:
+    """`argv` with a negative number, or a comma list that starts with one, joined to the flag
+    before it (``--release -5,0,0`` as ``--release=-5,0,0``): argparse reads ``-5`` as a value but
+    ``-1e-300`` or such a list as an unknown flag ("expected one argument"), so the value's own
+    check never said what is wrong with it."""
+    out: list[str] = []
+    for token in argv:
+        previous = out[-1] if out else ""
+        if _NEGATIVE_VALUE.match(token) and previous.startswith("--") and "=" not in previous:
+            out[-1] = f"{previous}={token}"
+        else:
+            out.append(token)
+    return out
+
+
 def _run(argv: Sequence[str] | None) -> int:
-    argv = list(sys.argv[1:] if argv is None else argv)
+    argv = negative_lists_attached(list(sys.argv[1:] if argv is None else argv))
     parser = build_parser()
     args = parser.parse_args(argv)
     if args.command is None:

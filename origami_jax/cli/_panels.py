@@ -60,9 +60,13 @@ def check_panels_thicker_than_film(pattern, design, label: str) -> None:
         )
 
 
-def check_targets(net, targets, label: str) -> None:
-    """Refuse (one line) a crease aimed at 0 (flat): a stressed hinge's stiffness is set by the angle
-    it folds to, and a zero angle gave "stiffness contains NaN or inf"."""
+def check_targets(net, targets, label: str, design) -> None:
+    """Refuse (one line) a crease aimed at 0 (flat) or so close to it that its hinge would be
+    shorter than its film (`origami_jax.net.check_hinges_longer_than_film`): a stressed hinge's
+    stiffness grows as 1/angle, and a zero angle gave "stiffness contains NaN or inf", a 1e-9° one
+    a run of minutes."""
+    from ..net import check_hinges_longer_than_film
+
     targets = np.asarray(net.intended_angles if targets is None else targets, dtype=float)
     flat = np.flatnonzero(targets == 0)
     if len(flat):
@@ -73,3 +77,7 @@ def check_targets(net, targets, label: str) -> None:
             "non-zero angle; give its edges_foldAngle (or --targets), or assign it F (flat) to "
             "join its faces as one panel."
         )
+    try:
+        check_hinges_longer_than_film(design, targets, label, "its edges_foldAngle, or --targets")
+    except ValueError as error:
+        fail(str(error))

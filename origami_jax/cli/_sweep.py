@@ -113,7 +113,8 @@ def run(args: argparse.Namespace) -> int:
         # Resuming: a net-fold store of the old default seam tolerance keeps it.
         config = load_config(args.config, resume_from=Path(args.out) if args.resume else None)
     except (ValueError, OSError) as error:
-        fail(f"bad config {args.config}: {error}")
+        message = str(error).removeprefix(f"{args.config}: ")  # the file named once
+        fail(f"bad config {args.config}: {message}")
     config = _with_solver_flags(args, config)
     # The summary and plots describe the dataset: replaced together (the sweep itself decides,
     # through its manifest, that this run may write here). The folder is held for the whole run

@@ -512,8 +512,9 @@ def _run_family(args: argparse.Namespace, members: list[str], sampling, choice: 
         if pattern.n_loops > 0:
             fail(f"{name} is a crease pattern with closed loops: a family takes nets (trees).")
         check_has_creases(pattern, name)
-        check_panels_thicker_than_film(pattern, pattern.default_design(fluid), name)
-        check_targets(pattern, None, name)
+        nominal = pattern.default_design(fluid)
+        check_panels_thicker_than_film(pattern, nominal, name)
+        check_targets(pattern, None, name, nominal)
         process = _process(args.process, pattern.n_creases)
         try:
             pattern = pattern.with_model(
@@ -845,8 +846,9 @@ def run(args: argparse.Namespace) -> int:
     pattern = _load(args.net)
     loops = pattern.n_loops > 0
     check_has_creases(pattern, args.net)
-    check_panels_thicker_than_film(pattern, pattern.default_design(), args.net)
-    check_targets(pattern, None, args.net)
+    nominal = pattern.default_design()
+    check_panels_thicker_than_film(pattern, nominal, args.net)
+    check_targets(pattern, None, args.net, nominal)
     if not 0 <= args.bias < 1:
         fail(f"--bias must be a pre-fold angle in [0, 1) rad, got {args.bias}.")
     if args.bias and not loops:

@@ -32,6 +32,7 @@ them); a test checks that the shipped files are what it generates.
 
 from __future__ import annotations
 
+import difflib
 import itertools
 import math
 import os
@@ -89,6 +90,17 @@ def catalogue_names() -> tuple[str, ...]:
     return tuple(sorted(path.stem for path in CATALOGUE_DIR.glob("*.fold")))
 
 
+def _nearest_names(name: str, names: Sequence[str]) -> str:
+    """The catalogue names most like `name` (`difflib`'s ratio, the best ones only, at most
+    three, joined by "or"), or "" when none is close: "cube_net_1" is as near to cube_net_01 as
+    to cube_net_10 and cube_net_11."""
+    scores = {n: difflib.SequenceMatcher(None, name, n).ratio() for n in names}
+    best = max(scores.values(), default=0.0)
+    if best < 0.6:
+        return ""
+    return " or ".join(sorted(n for n, score in scores.items() if score == best)[:3])
+
+
 def catalogue_path(name: str) -> Path:
     """The path of the shipped net `name` (`"cube_net_03"`, with or without `.fold`).
 
@@ -97,7 +109,12 @@ def catalogue_path(name: str) -> Path:
     stem = name[:-5] if name.endswith(".fold") else name
     names = catalogue_names()
     if stem not in names:
-        raise ValueError(f"no catalogue net named {name!r}; the catalogue has: {', '.join(names)}")
+        near = _nearest_names(stem, names)
+        raise ValueError(
+            f"no catalogue net named {name!r}"
+            + (f" (did you mean {near}?)" if near else "")
+            + f"; the catalogue has: {', '.join(names)}"
+        )
     return CATALOGUE_DIR / f"{stem}.fold"
 
 
@@ -118,9 +135,11 @@ def source_and_label(source: str | os.PathLike, label: str | None = None) -> tup
             "fix the link or give the FOLD file itself."
         )
     if not path.is_file():
+        near = _nearest_names(str(source), catalogue_names())
         raise FileNotFoundError(
-            f"no FOLD file {os.fspath(source)!r}, and no shipped net of that name "
-            "(origami_jax.fold.catalogue_names() lists them; on the command line: "
+            f"no FOLD file {os.fspath(source)!r}, and no shipped net of that name"
+            + (f" (did you mean {near}?)" if near else "")
+            + ": origami_jax.fold.catalogue_names() lists them (on the command line: "
             "origami-jax fold --list)."
         )
     return path, label or path.stem

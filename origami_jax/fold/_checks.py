@@ -175,6 +175,12 @@ def _check_faces(frame: FoldFrame, where: str) -> None:
             np.sum(xy[:, 0] * np.roll(xy[:, 1], -1) - np.roll(xy[:, 0], -1) * xy[:, 1])
         )
         size = float(np.max(np.ptp(xy, axis=0))) ** 2
+        crossing = _first_crossing(xy[:, :2])
+        if crossing is not None:
+            raise FoldFormatError(
+                f"{where}: faces_vertices[{worst}] = {_short(list(face))} crosses itself (its "
+                f"edges {crossing[0]} and {crossing[1]} cross): list its vertices in order around it"
+            )
         if area < -AREA_REL_TOL * size:
             raise FoldFormatError(
                 f"{where}: faces_vertices[{worst}] = {_short(list(face))} is clockwise; FOLD faces "
@@ -184,6 +190,25 @@ def _check_faces(frame: FoldFrame, where: str) -> None:
             f"{where}: faces_vertices[{worst}] = {_short(list(face))} has zero area (its corners "
             "are on one line or at one point): fix its vertices_coords, or drop the face"
         )
+
+
+def _first_crossing(xy: np.ndarray) -> tuple[int, int] | None:
+    """The first two non-adjacent edges ``(i, j)`` of the polygon `xy` `(k, 2)` whose interiors
+    cross (each edge's ends strictly on both sides of the other's line), or `None`: a bow-tie
+    face, whose lobes' areas cancel."""
+    k = len(xy)
+
+    def side(a, b, c):
+        return (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+
+    for i in range(k):
+        for j in range(i + 2, k):
+            if i == 0 and j == k - 1:
+                continue
+            a, b, c, d = xy[i], xy[(i + 1) % k], xy[j], xy[(j + 1) % k]
+            if side(a, b, c) * side(a, b, d) < 0 and side(c, d, a) * side(c, d, b) < 0:
+                return i, j
+    return None
 
 
 def _first_coincident_corners(groups, coords) -> tuple[int, int, int] | None:

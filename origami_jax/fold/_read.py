@@ -228,7 +228,7 @@ def _without_parsed_arrays(data: Mapping[str, Any]) -> dict[str, Any]:
 
 def _reject_constant(name: str) -> None:
     raise FoldFormatError(
-        f"not valid JSON: {name} is not a JSON number (coordinates must be finite)"
+        f"not valid JSON: {name} is not a JSON number (coordinates and angles must be finite)"
     )
 
 

@@ -57,6 +57,7 @@ from ..net import (
     HostCache,
     Net,
     check_agitation_balanced,
+    check_hinges_longer_than_film,
     check_loader_arguments,
     check_per_crease,
     check_physics_options,
@@ -478,6 +479,7 @@ class CreasePattern(AbstractPanelPattern):
             raise ValueError(
                 f"targets must have one fold angle per crease ({m}), got shape {targets.shape}."
             )
+        check_hinges_longer_than_film(design, targets, self.name)
         mechanism = self.mechanism(design)
         per_crease = eqx.tree_at(lambda d: d.theta_final, design, jnp.abs(targets) + 0.0)
         stiffness = per_crease.stiffness(m)

@@ -44,6 +44,7 @@ from ._net import seam_gap_function as seam_gap_function
 from ._net import vertex_corners as vertex_corners
 from ._pattern import AbstractPanelPattern as AbstractPanelPattern
 from ._pattern import HostCache as HostCache
+from ._pattern import check_hinges_longer_than_film as check_hinges_longer_than_film
 from ._pattern import check_loader_arguments as check_loader_arguments
 from ._pattern import check_per_crease as check_per_crease
 from ._pattern import check_physics_options as check_physics_options

@@ -463,6 +463,38 @@ def check_per_crease(design: HingeDesign, m: int) -> None:
             )
 
 
+def check_hinges_longer_than_film(
+    design: HingeDesign, targets, name: str, aim: str = "targets= (rad)"
+) -> None:
+    """Refuse (one-line `ValueError`) a crease whose hinge would be shorter than its film.
+
+    Each crease's bilayer folds to its own target, so its hinge is ``ρ |θ|`` long (`radius`, the
+    design's length units) and its stiffness grows as ``1/|θ|``: a crease aimed at 0 has no hinge
+    (infinite stiffness), and one aimed at 1e-9° made the solver take millions of steps. A bending
+    strip is only a strip when it is longer than it is thick, so the smallest fold a design can
+    make is ``(t₁ + t₂)/ρ``. `targets` (rad, `(m,)`) and the design's fields are skipped when
+    traced; `aim` names where the caller's user sets a crease's angle."""
+    if is_traced(targets) or any(is_traced(leaf) for leaf in jax.tree_util.tree_leaves(design)):
+        return
+    with jax.ensure_compile_time_eval():
+        thickness = np.asarray(design.t_structural + design.t_hinge, dtype=float)
+        radius = np.asarray(design.radius(), dtype=float)
+    targets = np.asarray(targets, dtype=float)
+    thickness, radius = np.broadcast_arrays(thickness, radius, targets)[:2]
+    short = np.flatnonzero(radius * np.abs(targets) < thickness)
+    if not short.size:
+        return
+    j = int(short[0])
+    unit = design.units.length_symbol
+    smallest = np.degrees(thickness[j] / radius[j])
+    raise ValueError(
+        f"{name}: crease {j} folds to {np.degrees(targets[j]):.3g}°, so its hinge would be "
+        f"{radius[j] * abs(targets[j]):.3g} {unit} long, shorter than its film "
+        f"({thickness[j]:.3g} {unit} thick): this design folds a crease by at least "
+        f"{smallest:.3g}°: aim it further ({aim}), or mark it flat to join its faces as one panel."
+    )
+
+
 def warn_if_hinges_wider_than_creases(name: str, design: HingeDesign, lengths) -> None:
     """A `UserWarning` when a hinge of `design` (its `hinge_width`, scalar or one per crease, when
     not traced) is wider than its crease (`lengths`, `(m,)`, the design's length units). The

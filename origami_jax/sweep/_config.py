@@ -138,6 +138,16 @@ def load_config(path: str | Path, *, resume_from: str | Path | None = None) -> S
     unknown = set(raw) - {"model", "sweep", "parameters", "designs", "plots"}
     if unknown:
         raise ValueError(f"{path}: unknown section(s) {sorted(unknown)}.")
+    for section in ("model", "sweep", "parameters", "plots"):
+        if section in raw and not isinstance(raw[section], Mapping):
+            raise ValueError(
+                f"[{section}] must be a table (a [{section}] header and its keys), got "
+                f"{section} = {raw[section]!r}."
+            )
+    if "designs" in raw and not (
+        isinstance(raw["designs"], list) and all(isinstance(d, Mapping) for d in raw["designs"])
+    ):
+        raise ValueError("designs must be [[designs]] tables, one per design.")
     model = dict(raw.get("model", {}))
     name = _model_name(model)
     settings = {k: v for k, v in model.items() if k not in ("name", "input")}

@@ -16,6 +16,8 @@ a name becomes an object here (a pattern's catalogue name or file, `"net-fold"`'
 """
 
 import dataclasses
+import difflib
+import inspect
 from collections.abc import Callable, Mapping
 from typing import Any
 
@@ -264,7 +266,19 @@ def get_model(name: str, **options: Any) -> Kernel:
     """
     if name not in MODELS:
         raise ValueError(f"unknown model {name!r}; the sweep knows {sorted(MODELS)}.")
+    build = MODELS[name].build
+    accepted = inspect.signature(build).parameters
+    if not any(p.kind is inspect.Parameter.VAR_KEYWORD for p in accepted.values()):
+        known = [p for p in accepted if accepted[p].kind is not inspect.Parameter.VAR_POSITIONAL]
+        for key in options:
+            if key not in known:
+                near = difflib.get_close_matches(key, known, n=1)
+                raise ValueError(
+                    f"model {name!r}: unknown setting {key!r}"
+                    + (f" (did you mean {near[0]}?)" if near else "")
+                    + f"; its settings are {', '.join(known)}."
+                )
     try:
-        return MODELS[name].build(**options)
+        return build(**options)
     except TypeError as error:
         raise ValueError(f"model {name!r}: bad settings {sorted(options)}: {error}") from error

@@ -197,7 +197,9 @@ def _load_scene(path: Path, *, member: int | None = None, title: str | None = No
         try:
             return scene_from_fold(path, **kwargs)
         except FoldFormatError as error:
-            raise ValueError(f"{path}: {error}") from error
+            message = str(error)  # the reader names the file already, most of the time
+            named = message.startswith(f"{path}:")
+            raise ValueError(message if named else f"{path}: {message}") from error
     if suffix == ".nc":
         import xarray as xr
 
