@@ -38,6 +38,19 @@ def default_t_end(ramp: float | None, after: float = AFTER_RELEASE_US) -> float:
     return ramp + max(after, AFTER_RAMP_FRACTION * ramp)
 
 
+FOLD_MAX_STEPS = 500_000
+"""The step budget of the `fold` command's adaptive solve (each segment of it)."""
+
+EXPLICIT_STABILITY = 4.0
+"""An explicit solver's steps are at most this many ``1/ω_max`` long (``ω_max`` the stiffest
+hinge's rest frequency, `FoldingSystem.rest_frequencies`), however smooth the motion: Tsit5 is
+stable out to about 3.5 on the negative real axis and less on the imaginary one, so the steps this
+bound gives are a floor. `fold` refuses a run whose floor passes its step budget (the net ran 16
+minutes with `--t1 1e12` before any result) and says when it passes `SLOW_EXPLICIT_STEPS`."""
+
+SLOW_EXPLICIT_STEPS = 50_000
+"""The explicit steps past which `fold` says a run will be long and which solvers step further."""
+
 MAX_FIXED_STEPS = 500_000
 """Most fixed steps of one command-line run of the implicit-step engine (`--t1` or the run's end
 over `--dt`), the adaptive fold's own step budget: past it a run would take hours (a cube net

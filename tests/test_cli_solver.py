@@ -114,6 +114,26 @@ def test_fold_refuses_bad_solver_flags_in_one_line(flags, message, tmp_path, cap
     assert not out.exists()
 
 
+def test_fold_refuses_an_explicit_run_past_its_step_budget(tmp_path, capsys, monkeypatch):
+    """`--t1 1e12` ran 16 minutes: Tsit5's steps are at most ~4/ω_max long (the stiffest hinge's
+    rest frequency), so the floor of its steps is known up front; a long but possible run says
+    so in one line and runs."""
+    import origami_jax.cli._fold as fold_cli
+
+    monkeypatch.setattr(fold_cli, "_run", _no_compiling)
+    out = tmp_path / "f"
+    assert main(["fold", "corner_cube", "--t1", "1e12", "--release-ramp", "0", "--out", str(out)]) == 2  # fmt: skip
+    line = _one_line(capsys.readouterr().err)
+    assert "needs at least" in line and "explicit steps" in line and "--solver kvaerno5" in line
+    assert not out.exists()
+    flags = ["--t1", "1e8", "--release-ramp", "0", "--out", str(out)]
+    main(["fold", "corner_cube", *flags])
+    assert "[fold] note: the stiffest hinge rings with a" in capsys.readouterr().out
+    flags = ["--solver", "kvaerno5", "--t1", "1e12", "--release-ramp", "0", "--out", str(out)]
+    main(["fold", "corner_cube", *flags, "--overwrite"])
+    assert "explicit steps" not in capsys.readouterr().err  # implicit: no stability limit
+
+
 def test_fold_refuses_a_step_longer_than_its_t1(tmp_path, capsys, monkeypatch):
     import origami_jax.cli._fold as fold_cli
 

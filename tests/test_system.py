@@ -144,3 +144,23 @@ def test_bad_systems_are_refused():
         accordion_system(chain, 3)  # pyright: ignore[reportArgumentType]
     with pytest.raises(ValueError, match="n_flaps"):
         Accordion(0)
+
+
+def test_rest_frequencies_are_the_springs_against_the_inertia():
+    """Against scipy's generalized symmetric eigensolver on ``K = diag(k)`` (a point-hinge tree's
+    coordinates are its hinge angles) and ``M(0)``: agreement to 1e-10 relative (two routes to
+    the same eigenvalues in float64). A chain of one flap: ``ω = sqrt(k / M₀₀)``."""
+    import scipy.linalg
+
+    from origami_jax.net import load_net
+
+    system = load_net("cube_net_01").system()
+    q0, _ = system.mechanism.rest_state()
+    mass = np.asarray(system.mechanism.mass_matrix(q0))
+    expected = np.sqrt(scipy.linalg.eigh(np.diag(system.hinges.stiffness), mass, eigvals_only=True))
+    np.testing.assert_allclose(system.rest_frequencies(), expected, rtol=1e-10)
+    one = accordion_system(HingeDesign.literature(), n_flaps=1)
+    inertia = float(one.mechanism.mass_matrix(one.mechanism.rest_state()[0])[0, 0])
+    np.testing.assert_allclose(
+        one.rest_frequencies(), [np.sqrt(float(one.hinges.stiffness[0]) / inertia)], rtol=1e-12
+    )

@@ -11,7 +11,7 @@ import argparse
 import math
 from pathlib import Path
 
-from .._limits import FOLD_SEGMENT, MAX_FOLD_SEGMENTS, MAX_SAMPLES
+from .._limits import FOLD_MAX_STEPS, FOLD_SEGMENT, MAX_FOLD_SEGMENTS, MAX_SAMPLES
 from ._common import (
     EXIT_FAILED,
     EXIT_OK,
@@ -36,7 +36,12 @@ from ._common import (
     surface_model,
     with_solver,
 )
-from ._panels import check_has_creases, check_panels_thicker_than_film, check_targets
+from ._panels import (
+    check_explicit_steps,
+    check_has_creases,
+    check_panels_thicker_than_film,
+    check_targets,
+)
 
 # Every file `run` writes into --out (an earlier run's are refused without --overwrite).
 OWNS = (
@@ -426,6 +431,8 @@ def run(args: argparse.Namespace) -> int:
             )
         if args.bias:
             net.start_state(system, bias=args.bias)  # refused here, before the output folder
+        if choice is None or choice["solver"] == "tsit5":
+            check_explicit_steps(system, args.t1 or net.fold_segment(system), "--t1", loops)
     except FileNotFoundError as error:
         fail(str(error))  # it names the file
     except NotRigidlyFoldableError as error:
@@ -493,7 +500,7 @@ def _run(args, net, system, params, release, sampling, output, unfolded, *, choi
         sim.SolveOptions(
             saveat=sim.SaveAt(n=args.n_save),
             solver=solver,
-            max_steps=500_000,
+            max_steps=FOLD_MAX_STEPS,
             throw=False,
             progress_meter=_progress_meter(args.progress, m),
         ),

@@ -2,6 +2,7 @@
 
 import numpy as np
 
+from .._limits import EXPLICIT_STABILITY, FOLD_MAX_STEPS, SLOW_EXPLICIT_STEPS
 from ._common import fail
 
 # Widest panel, in film thicknesses: beyond it float64 cannot resolve the film (and the contact
@@ -81,3 +82,30 @@ def check_targets(net, targets, label: str, design) -> None:
         check_hinges_longer_than_film(design, targets, label, "its edges_foldAngle, or --targets")
     except ValueError as error:
         fail(str(error))
+
+
+def check_explicit_steps(system, span: float, flag: str, loops: bool) -> None:
+    """Refuse (one line) an explicit (Tsit5) run of `span` µs that cannot end within the fold's
+    step budget, and say when it will be long: its steps are no longer than a few periods of the
+    stiffest hinge (`EXPLICIT_STABILITY` over its rest frequency, `rest_frequencies`) however
+    still the panels are, so ``span ω_max / 4`` steps is a floor known before anything runs.
+    Closed loops (constrained coordinates) are not estimated."""
+    if loops:
+        return
+    fastest = float(system.rest_frequencies()[-1])
+    floor = span * fastest / EXPLICIT_STABILITY
+    period = 2 * np.pi / fastest if fastest > 0 else np.inf
+    if floor > FOLD_MAX_STEPS:
+        fail(
+            f"{flag} {span:g} µs needs at least {floor:.3g} explicit steps (the stiffest hinge "
+            f"rings with a {period:.3g} µs period), more than the {FOLD_MAX_STEPS:,} a fold may "
+            "take: give a shorter run, or --solver kvaerno5 (implicit: steps as long as the "
+            "motion allows)."
+        )
+    if floor > SLOW_EXPLICIT_STEPS:
+        print(
+            f"[fold] note: the stiffest hinge rings with a {period:.3g} µs period, so this run "
+            f"takes at least {floor:,.0f} explicit steps (minutes); --solver kvaerno5 steps as "
+            "long as the motion allows.",
+            flush=True,
+        )

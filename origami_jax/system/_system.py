@@ -16,9 +16,12 @@ batch of systems is a `vmap` away and `jax.grad` reaches every physical number.
 import abc
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, Float
 
+from .._exported import exported_jit
 from ._agitation import Agitation
 from ._drag import AbstractDrag
 from ._hinges import Hinges
@@ -116,6 +119,23 @@ class FoldingSystem(eqx.Module):
             q, v, self.generalized_force(q, v, tau), forward_mode_only=forward_mode_only
         )
 
+    def rest_frequencies(self) -> np.ndarray:
+        """The angular frequencies ``ω`` of the hinge springs against the mechanism's inertia at
+        its rest (flat) state, ascending (host NumPy, `(nv,)`, rad per time unit): the square roots
+        of the generalized eigenvalues of ``K = −∂(J_hᵀ(−K θ))/∂q`` and ``M(q₀)``, drag and contact
+        left out. Every mode of ``M s² + C s + K`` with such a spring has a root at least ``ω``
+        in size whatever its damping (the two roots multiply to ``ω²``), so an explicit solver
+        needs steps no longer than a few ``1/ω_max`` (its stability limit), even at rest: how long
+        a run must take, known before it starts. Needs concrete numbers and a mechanism whose
+        velocities are its coordinates' rates (`ValueError` otherwise)."""
+        mechanism = self.mechanism
+        if mechanism.n_coordinates != mechanism.n_velocities:
+            raise ValueError("rest_frequencies needs velocities that are the coordinates' rates.")
+        stiffness, mass = (np.asarray(a, dtype=float) for a in _rest_stiffness_and_mass(self))
+        inverse_root = np.linalg.inv(np.linalg.cholesky(mass))
+        reduced = inverse_root @ (0.5 * (stiffness + stiffness.T)) @ inverse_root.T
+        return np.sqrt(np.maximum(np.linalg.eigvalsh(reduced), 0.0))
+
     def energy(self, q: Float[Array, " nq"], v: Float[Array, " nv"]) -> Float[Array, ""]:
         """Kinetic + hinge spring (``½ Σ k θ²``) + gravity + contact energy (energy units).
 
@@ -131,3 +151,16 @@ class FoldingSystem(eqx.Module):
         if self.contact is not None:
             total = total + self.contact.potential(mechanism, q)
         return total
+
+
+@exported_jit("rest_stiffness_and_mass")
+def _rest_stiffness_and_mass(system: FoldingSystem) -> tuple[Array, Array]:
+    """The hinge springs' stiffness ``−∂(J_hᵀ(−K θ))/∂q`` and the mass matrix at the rest state,
+    `(nv, nv)` each (one compiled program, kept across runs like the contact's defaults)."""
+    mechanism = system.mechanism
+    q0, _ = mechanism.rest_state()
+
+    def spring(q):
+        return mechanism.hinge_force(q, -system.hinges.stiffness * mechanism.hinge_angles(q))
+
+    return -jax.jacfwd(spring)(q0), mechanism.mass_matrix(q0)
