@@ -340,6 +340,116 @@ def test_gathered_picks_give_the_one_hot_products_forces(monkeypatch):
         np.testing.assert_allclose(b, a, rtol=1e-12, atol=1e-12 * max(np.abs(a).max(), 1.0))
 
 
+def _strip_net(tmp_path, squares: int):
+    """A strip of `squares` 100 µm squares in a row, creases alternately valley and mountain at
+    170° (an accordion)."""
+    import json
+
+    coords = [[100.0 * (i // 2), 100.0 * (i % 2)] for i in range(2 * squares + 2)]
+    faces = [[2 * i, 2 * i + 2, 2 * i + 3, 2 * i + 1] for i in range(squares)]
+    edges, assignment, angle = [], [], []
+    for i in range(squares + 1):
+        edges.append([2 * i, 2 * i + 1])
+        inner = 0 < i < squares
+        assignment.append(("V" if i % 2 else "M") if inner else "B")
+        angle.append((170.0 if i % 2 else -170.0) if inner else 0.0)
+    for i in range(squares):
+        edges += [[2 * i, 2 * i + 2], [2 * i + 1, 2 * i + 3]]
+        assignment += ["B", "B"]
+        angle += [0.0, 0.0]
+    data = dict(
+        file_spec=1.2, frame_unit="um", vertices_coords=coords, faces_vertices=faces,
+        edges_vertices=edges, edges_assignment=assignment, edges_foldAngle=angle,
+    )  # fmt: skip
+    path = tmp_path / "strip.fold"
+    path.write_text(json.dumps(data))
+    return load_net(path)
+
+
+@functools.cache
+def _broad_phase_cases(tmp_path_factory_root):
+    """The strip of 16 squares (`_strip_net`) and two states of it, each with a step from it and a
+    velocity: curled gently (10° creases: neighbours only within reach) and folded into a stack
+    (179.9°: panels within reach of more than their neighbours, pairs engaged)."""
+    from pathlib import Path
+
+    net = _strip_net(Path(tmp_path_factory_root), 16)
+    system = net.system()
+    target = jnp.asarray(net.intended_angles)
+    rng = np.random.default_rng(2)
+    m = len(target)
+    cases = []
+    for fraction in (0.06, 1.058):
+        q0 = target * fraction
+        step = jnp.asarray(rng.uniform(-0.02, 0.02, m))
+        cases.append((q0, q0 + step, jnp.asarray(rng.normal(size=m) * 0.01)))
+    return system, cases
+
+
+def _broad_phase_check(tmp_path_factory, monkeypatch, parts, settings):
+    """`parts(contact, mechanism, q0, q1, v)` evaluated with the broad phase forced on 16 squares
+    under each of `settings` (module attributes of `_plates` to set) and with every pair: equal
+    to round-off (the same terms, fewer zeros added)."""
+    from origami_jax.contact import _plates
+
+    system, cases = _broad_phase_cases(str(tmp_path_factory.mktemp("strip")))
+    contact, mechanism = system.contact, system.mechanism
+    x = contact.vertices(mechanism, cases[1][0])
+    near = np.asarray(contact._near_bodies(x, x, contact.activation))
+    assert near.sum(axis=1).max() > 3 and float(jnp.min(contact._gaps(x)[0])) < contact.activation
+
+    def evaluate():
+        # Traced afresh for each setting: the broad phase is chosen while tracing.
+        run = jax.jit(lambda q0, q1, v: parts(contact, mechanism, q0, q1, v))
+        return [[np.asarray(y) for y in run(*case)] for case in cases]
+
+    results = []
+    for setting in settings:
+        for name, value in setting.items():
+            monkeypatch.setattr(_plates, name, value)
+        results.append(evaluate())
+    monkeypatch.setattr(_plates, "BROAD_PHASE_MIN_PAIRS", 1 << 62)
+    whole = evaluate()
+    assert np.abs(whole[1][0]).max() > 0  # the stack's panels push on each other
+    for result in results:
+        for narrowed, every in zip(result, whole, strict=True):
+            for a, b in zip(narrowed, every, strict=True):
+                scale = max(float(np.abs(b).max()), 1e-300)
+                np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-12 * scale)
+
+
+def test_the_broad_phase_changes_no_force(tmp_path_factory, monkeypatch):
+    """A pattern of many panels evaluates only the pairs whose bodies' boxes come within reach
+    (`PlateContact._broad`, forced here on 16 squares: the same code as past
+    `BROAD_PHASE_MIN_PAIRS`, at a fraction of the compile time): the same contact force as every
+    pair's, curled and stacked."""
+    _broad_phase_check(
+        tmp_path_factory,
+        monkeypatch,
+        lambda contact, mechanism, q0, q1, v: (contact.force(mechanism, q0, v),),
+        [{"BROAD_PHASE_MIN_PAIRS": 0}],
+    )
+
+
+@pytest.mark.slow  # six programs with and without the broad phase: ~1.5 min
+def test_the_broad_phase_changes_nothing_but_the_cost(tmp_path_factory, monkeypatch):
+    """The force, energy, time of impact and collision verdict with the broad phase equal the whole
+    contact's, in the rows kept and, with too few rows for the pairs within reach, through every
+    pair."""
+
+    def parts(contact, mechanism, q0, q1, v):
+        return (
+            contact.force(mechanism, q0, v),
+            contact.potential(mechanism, q0),
+            contact.time_of_impact(mechanism, q0, q1),
+            contact.crossed(mechanism, q0, q1),
+        )
+
+    kept = {"BROAD_PHASE_MIN_PAIRS": 0}
+    overflowing = kept | {"_BROAD_PAIRS_PER_BODY": 1, "_BROAD_BODY_PAIRS_PER_BODY": 1}
+    _broad_phase_check(tmp_path_factory, monkeypatch, parts, [kept, overflowing])
+
+
 def test_report_gives_the_exact_overlap_of_plates_passed_through():
     """At the closed cube the plates meet at their rims (overlap at most half the film's thickness,
     where two perpendicular plates' rims meet); with one crease turned 10°–60° past or short of
