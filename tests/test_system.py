@@ -164,3 +164,7 @@ def test_rest_frequencies_are_the_springs_against_the_inertia():
     np.testing.assert_allclose(
         one.rest_frequencies(), [np.sqrt(float(one.hinges.stiffness[0]) / inertia)], rtol=1e-12
     )
+    from origami_jax.loops import load_pattern
+
+    with pytest.raises(ValueError, match="positive definite at rest"):
+        load_pattern("miura_3x3").system().rest_frequencies()  # closed loops: constrained

@@ -432,7 +432,8 @@ def run(args: argparse.Namespace) -> int:
         if args.bias:
             net.start_state(system, bias=args.bias)  # refused here, before the output folder
         if choice is None or choice["solver"] == "tsit5":
-            check_explicit_steps(system, args.t1 or net.fold_segment(system), "--t1", loops)
+            span = args.t1 or net.fold_segment(system)
+            check_explicit_steps(system, span, "--t1" if args.t1 else "each segment", loops)
     except FileNotFoundError as error:
         fail(str(error))  # it names the file
     except NotRigidlyFoldableError as error:

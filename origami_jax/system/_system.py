@@ -127,12 +127,20 @@ class FoldingSystem(eqx.Module):
         in size whatever its damping (the two roots multiply to ``ω²``), so an explicit solver
         needs steps no longer than a few ``1/ω_max`` (its stability limit), even at rest: how long
         a run must take, known before it starts. Needs concrete numbers and a mechanism whose
-        velocities are its coordinates' rates (`ValueError` otherwise)."""
+        velocities are its coordinates' rates, free of constraints (`ValueError` otherwise: closed
+        loops' constraints raise the frequencies of the loops cut open, so these would not bound
+        theirs)."""
         mechanism = self.mechanism
         if mechanism.n_coordinates != mechanism.n_velocities:
             raise ValueError("rest_frequencies needs velocities that are the coordinates' rates.")
         stiffness, mass = (np.asarray(a, dtype=float) for a in _rest_stiffness_and_mass(self))
-        inverse_root = np.linalg.inv(np.linalg.cholesky(mass))
+        try:
+            inverse_root = np.linalg.inv(np.linalg.cholesky(mass))
+        except np.linalg.LinAlgError:
+            raise ValueError(
+                "rest_frequencies needs a mass matrix positive definite at rest (a mechanism free "
+                "of constraints; a pattern of closed loops is not)."
+            ) from None
         reduced = inverse_root @ (0.5 * (stiffness + stiffness.T)) @ inverse_root.T
         return np.sqrt(np.maximum(np.linalg.eigvalsh(reduced), 0.0))
 
