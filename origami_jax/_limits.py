@@ -41,6 +41,10 @@ def default_t_end(ramp: float | None, after: float = AFTER_RELEASE_US) -> float:
 FOLD_MAX_STEPS = 500_000
 """The step budget of the `fold` command's adaptive solve (each segment of it)."""
 
+KERNEL_MAX_STEPS = 200_000
+"""The step budget of each sample of the fold kernel (`origami_jax.net.FOLD_KERNEL_SOLVE`): a
+yield estimate's, a net sweep's."""
+
 EXPLICIT_STABILITY = 4.0
 """An explicit solver's steps are at most this many ``1/ω_max`` long (``ω_max`` the stiffest
 hinge's rest frequency, `FoldingSystem.rest_frequencies`), however smooth the motion: Tsit5 is

@@ -124,8 +124,10 @@ def test_fold_refuses_an_explicit_run_past_its_step_budget(tmp_path, capsys, mon
     out = tmp_path / "f"
     assert main(["fold", "corner_cube", "--t1", "1e12", "--release-ramp", "0", "--out", str(out)]) == 2  # fmt: skip
     line = _one_line(capsys.readouterr().err)
-    assert "needs at least" in line and "explicit steps" in line and "--solver kvaerno5" in line
+    assert "needs at least" in line and "explicit steps" in line and "implicit --solver" in line
     assert not out.exists()
+    code = main(["yield", "corner_cube", "--t-end", "1e12", "--release-ramp", "0", "--out", str(out)])  # fmt: skip
+    assert code == 2 and "more than the 200,000 a yield may take" in capsys.readouterr().err
     flags = ["--t1", "1e8", "--release-ramp", "0", "--out", str(out)]
     main(["fold", "corner_cube", *flags])
     assert "[fold] note: the stiffest hinge rings with a" in capsys.readouterr().out

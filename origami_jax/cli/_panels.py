@@ -84,30 +84,37 @@ def check_targets(net, targets, label: str, design) -> None:
         fail(str(error))
 
 
-def check_explicit_steps(system, span: float, flag: str, loops: bool) -> None:
-    """Refuse (one line) an explicit (Tsit5) run of `span` µs that cannot end within the fold's
-    step budget, and say when it will be long: its steps are at most `EXPLICIT_STABILITY` over
-    the stiffest hinge's rest frequency (`FoldingSystem.rest_frequencies`; about two thirds of its
-    period) however still the panels are, so ``span ω_max / 4`` steps is a floor known before
-    anything runs. `flag` names the span. Closed `loops` (constrained coordinates) are not
-    estimated."""
+def check_explicit_steps(
+    system,
+    span: float,
+    flag: str,
+    loops: bool,
+    budget: int = FOLD_MAX_STEPS,
+    command: str = "fold",
+) -> None:
+    """Refuse (one line) an explicit (Tsit5) run of `span` µs that cannot end within the step
+    `budget` (default the fold's), and say when it will be long: its steps are at most
+    `EXPLICIT_STABILITY` over the stiffest hinge's rest frequency (`FoldingSystem.rest_frequencies`;
+    about two thirds of its period) however still the panels are, so ``span ω_max / 4`` steps is a
+    floor known before anything runs. `flag` names the span, `command` the run. Closed `loops`
+    (constrained coordinates) are not estimated."""
     mechanism = system.mechanism
     if loops or mechanism.n_coordinates != mechanism.n_velocities:
         return
     fastest = float(system.rest_frequencies()[-1])
     floor = span * fastest / EXPLICIT_STABILITY
     period = 2 * np.pi / fastest if fastest > 0 else np.inf
-    if floor > FOLD_MAX_STEPS:
+    if floor > budget:
         fail(
             f"{flag} ({span:g} µs) needs at least {floor:.3g} explicit steps (the stiffest hinge "
-            f"rings with a {period:.3g} µs period), more than the {FOLD_MAX_STEPS:,} a fold may "
-            "take: give a shorter run, or --solver kvaerno5 (implicit: steps as long as the "
+            f"rings with a {period:.3g} µs period), more than the {budget:,} a {command} may "
+            "take: give a shorter run, or an implicit --solver (kvaerno5: steps as long as the "
             "motion allows)."
         )
     if floor > SLOW_EXPLICIT_STEPS:
         print(
-            f"[fold] note: the stiffest hinge rings with a {period:.3g} µs period, so this run "
-            f"takes at least {floor:,.0f} explicit steps (minutes); --solver kvaerno5 steps as "
-            "long as the motion allows.",
+            f"[{command}] note: the stiffest hinge rings with a {period:.3g} µs period, so this "
+            f"run takes at least {floor:,.0f} explicit steps (minutes); --solver kvaerno5 steps "
+            "as long as the motion allows.",
             flush=True,
         )

@@ -6,7 +6,7 @@ import math
 import time
 from pathlib import Path
 
-from .._limits import AFTER_RELEASE_US, default_t_end
+from .._limits import AFTER_RELEASE_US, KERNEL_MAX_STEPS, default_t_end
 from ._common import (
     EXIT_OK,
     FIXED_STEP_CHOICES,
@@ -33,7 +33,12 @@ from ._common import (
     with_solver,
     write_atomic,
 )
-from ._panels import check_has_creases, check_panels_thicker_than_film, check_targets
+from ._panels import (
+    check_explicit_steps,
+    check_has_creases,
+    check_panels_thicker_than_film,
+    check_targets,
+)
 from ._sweep import chunks_kept_on_interrupt, stored_sweep_errors
 
 HELP = "Estimate a net's yield under fabrication scatter (Monte Carlo, resumable)."
@@ -884,6 +889,9 @@ def run(args: argparse.Namespace) -> int:
         )
     if args.t_settle:
         _check_settles_after_the_end(args, pattern)
+    if args.t_end is not None and choice["solver"] == "tsit5":
+        nominal = pattern.system(pattern.default_design(_fluid(args)))
+        check_explicit_steps(nominal, args.t_end, "--t-end", loops, KERNEL_MAX_STEPS, "yield")
     if args.resume and holds_only_its_lock(Path(args.out)):
         print(f"[yield] --resume: nothing is stored in {args.out} yet; starting the estimate.")
     # Held for the whole run (the estimates' sweep stores borrow its lock): another run into the

@@ -28,6 +28,7 @@ from .._kernel import (
 )
 from .._limits import (
     CONTACT_SAMPLING,
+    KERNEL_MAX_STEPS,
     MAX_CONTACT_SAMPLING,
     MAX_SAMPLES,
     default_t_end,
@@ -60,7 +61,7 @@ NET_GLOBAL_PARAMETERS = {
     "b_scale": "1",
 }
 
-FOLD_KERNEL_SOLVE = SolveOptions(saveat=SaveAt(n=301), max_steps=200_000, throw=False)
+FOLD_KERNEL_SOLVE = SolveOptions(saveat=SaveAt(n=301), max_steps=KERNEL_MAX_STEPS, throw=False)
 """The fold kernel's solve unless given one: `t1=None`, run to `default_t_end` (1500 µs after a
 step release, the longer of that and a fifth of a release ramp past it), 301 samples, 200,000
 steps, the simulation's tolerances (change one with `FOLD_KERNEL_SOLVE.replace(t1=600.0)`)."""
