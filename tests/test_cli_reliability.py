@@ -238,6 +238,15 @@ def test_out_that_is_a_file_or_cannot_be_created_is_one_line(command, tmp_path, 
     assert a_file.read_text() == "not a folder"
 
 
+@pytest.mark.skipif(not os.path.isdir("/proc/self"), reason="needs Linux's /proc")
+def test_a_folder_that_takes_no_files_is_refused_before_the_work(capsys):
+    """/proc passes a permission check (for root) but takes no files: `view` found out only when
+    writing its page, naming a temporary file."""
+    assert main(["view", "cube_net_01", "--out", "/proc/page.html"]) == 2
+    line = _one_line(capsys.readouterr().err)
+    assert line.startswith("origami-jax view: cannot write into the output folder /proc:"), line
+
+
 @pytest.mark.parametrize(
     "flags, message",
     [

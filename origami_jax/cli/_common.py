@@ -25,6 +25,7 @@ import os
 import shutil
 import signal
 import sys
+import tempfile
 import uuid
 import warnings
 from collections.abc import Iterable, Mapping, Sequence
@@ -619,8 +620,13 @@ def check_out_folder(out: Path, flag: str = "--out") -> Path:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as error:
         fail(f"cannot create the output folder {out}: {error.strerror or error}.")
-    if not os.access(out, os.W_OK | os.X_OK):
-        fail(f"cannot write into the output folder {out}: permission denied.")
+    # A file created and removed: permissions alone pass a folder that takes no files (/proc,
+    # read-only mounts for root), which failed only after the work.
+    try:
+        with tempfile.TemporaryFile(dir=out):
+            pass
+    except OSError as error:
+        fail(f"cannot write into the output folder {out}: {error.strerror or error}.")
     return out
 
 
