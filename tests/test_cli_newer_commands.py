@@ -194,6 +194,13 @@ def test_yield_resume_refuses_to_drop_a_finished_ascent_or_widths(tmp_path, caps
     assert main([*YIELD, "--out", str(tmp_path / "widths"), "--resume", "--widths", "1"]) == 2
     assert "without --widths 0.5" in _one_line(capsys.readouterr().err)
     assert _snapshot(tmp_path / "widths") == before
+    seeded = {"yield": 0.5, "n_samples": 2, "seed": 3}
+    before = _results(tmp_path / "seeded", seeded)
+    assert main([*YIELD, "--out", str(tmp_path / "seeded"), "--resume", "--seed", "4"]) == 2
+    assert "with --seed 4: its estimate was drawn with --seed 3" in _one_line(
+        capsys.readouterr().err
+    )
+    assert _snapshot(tmp_path / "seeded") == before
 
 
 # 4. Vertices no edge or face uses: read without them; writing a long animation stays fast --------

@@ -607,11 +607,12 @@ def _run_family(args: argparse.Namespace, members: list[str], sampling, choice: 
     return EXIT_OK
 
 
-def _check_resumable(out: Path, factors: list[float], solver: dict) -> None:
+def _check_resumable(out: Path, factors: list[float], solver: dict, seed: int) -> None:
     """`--resume` into `out`: its result.json, if any, is a yield estimate's that this run rewrites
     whole (not another command's; not a finished --improve ascent, which cannot be resumed; no
-    --widths factor left out; the same `solver`, `solver_choice`'s record: the store refuses
-    another too, but a finished estimate is refused here, with the flags it was run with)."""
+    --widths factor left out; the same `solver`, `solver_choice`'s record, and the same `seed`:
+    the store refuses others too, but only as "the design space's values differ", so a finished
+    estimate is refused here, naming the flags it was run with)."""
     import json
 
     path = out / "result.json"
@@ -637,6 +638,11 @@ def _check_resumable(out: Path, factors: list[float], solver: dict) -> None:
             f"cannot resume {out} without --widths {','.join(f'{w:g}' for w in dropped)}: its "
             "result.json holds the yield at those widths, which this run would drop; give them "
             "in --widths."
+        )
+    if "seed" in stored and stored["seed"] != seed:
+        fail(
+            f"cannot resume {out} with --seed {seed}: its estimate was drawn with --seed "
+            f"{stored['seed']}; resume with that seed, or choose another --out."
         )
     stored_solver = {k: stored[k] for k in _SOLVER_KEYS if k in stored} or {"solver": "tsit5"}
     if stored_solver != solver:
@@ -925,7 +931,7 @@ def _run(
 
     out = output.out
     if args.resume:
-        _check_resumable(out, factors, choice)
+        _check_resumable(out, factors, choice, args.seed)
     design = pattern.default_design(_fluid(args))
     print(
         f"[yield] {args.net}: {_samples_said(args)}, seed {args.seed}, scatter "
