@@ -47,7 +47,8 @@ yield estimate's, a net sweep's."""
 
 EXPLICIT_STABILITY = 4.0
 """An explicit solver's steps are at most this many ``1/ω_max`` long (``ω_max`` the stiffest
-hinge's rest frequency, `FoldingSystem.rest_frequencies`), however smooth the motion: Tsit5 is
+hinge's rest frequency, `FoldingSystem.rest_frequencies`, or its lower bound
+`stiffest_rest_frequency_bound`), however smooth the motion: Tsit5 is
 stable out to about 3.5 on the negative real axis and less on the imaginary one, so the steps this
 bound gives are a floor. `fold` refuses a run whose floor passes its step budget (the net ran 16
 minutes with `--t1 1e12` before any result) and says when it passes `SLOW_EXPLICIT_STEPS`."""

@@ -164,6 +164,11 @@ def test_rest_frequencies_are_the_springs_against_the_inertia():
     np.testing.assert_allclose(
         one.rest_frequencies(), [np.sqrt(float(one.hinges.stiffness[0]) / inertia)], rtol=1e-12
     )
+    # The cheap bound: each coordinate's Rayleigh quotient, at most the largest eigenvalue.
+    bound = system.stiffest_rest_frequency_bound()
+    frequencies = system.rest_frequencies()
+    assert frequencies[-1] * 0.2 < bound <= frequencies[-1] * (1 + 1e-12)
+    np.testing.assert_allclose(one.stiffest_rest_frequency_bound(), one.rest_frequencies()[-1])
     from origami_jax.loops import load_pattern
 
     with pytest.raises(ValueError, match="positive definite at rest"):

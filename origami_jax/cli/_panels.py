@@ -94,26 +94,26 @@ def check_explicit_steps(
 ) -> None:
     """Refuse (one line) an explicit (Tsit5) run of `span` µs that cannot end within the step
     `budget` (default the fold's), and say when it will be long: its steps are at most
-    `EXPLICIT_STABILITY` over the stiffest hinge's rest frequency (`FoldingSystem.rest_frequencies`;
-    about two thirds of its period) however still the panels are, so ``span ω_max / 4`` steps is a
-    floor known before anything runs. `flag` names the span, `command` the run. Closed `loops`
+    `EXPLICIT_STABILITY` over the stiffest hinge's rest frequency (about two thirds of its
+    period; here its lower bound `FoldingSystem.stiffest_rest_frequency_bound`, which costs no
+    compilation where the contact's defaults ran) however still the panels are, so ``span ω / 4``
+    steps is a floor known before anything runs. `flag` names the span, `command` the run. Closed `loops`
     (constrained coordinates) are not estimated."""
-    mechanism = system.mechanism
-    if loops or mechanism.n_coordinates != mechanism.n_velocities:
+    if loops or not system.mechanism.coordinates_are_hinge_angles:
         return
-    fastest = float(system.rest_frequencies()[-1])
+    fastest = system.stiffest_rest_frequency_bound()
     floor = span * fastest / EXPLICIT_STABILITY
     period = 2 * np.pi / fastest if fastest > 0 else np.inf
     if floor > budget:
         fail(
             f"{flag} ({span:g} µs) needs at least {floor:.3g} explicit steps (the stiffest hinge "
-            f"rings with a {period:.3g} µs period), more than the {budget:,} a {command} may "
+            f"rings with a period of at most {period:.3g} µs), more than the {budget:,} a {command} may "
             "take: give a shorter run, or an implicit --solver (kvaerno5: steps as long as the "
             "motion allows)."
         )
     if floor > SLOW_EXPLICIT_STEPS:
         print(
-            f"[{command}] note: the stiffest hinge rings with a {period:.3g} µs period, so this "
+            f"[{command}] note: the stiffest hinge rings with a period of at most {period:.3g} µs, so this "
             f"run takes at least {floor:,.0f} explicit steps (minutes); --solver kvaerno5 steps "
             "as long as the motion allows.",
             flush=True,

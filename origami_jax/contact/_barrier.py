@@ -7,8 +7,8 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
-from .._exported import exported_jit
 from .._validate import is_traced
+from ..system import rest_inertia
 
 # The contact's damping ratio at half its activation gap (`with_default_damping`): enough to take a
 # landing's energy out over a few rebounds without holding panels apart.
@@ -124,22 +124,17 @@ def with_default_damping(contact, mechanism, damping_ratio: float):
     activation gap, ``m`` the lightest panel's mass (the smallest diagonal entry of ``M(0)`` over
     its squared lever arm, the largest panel's size), ``ζ`` = `damping_ratio`. Traceable."""
     contact_stiffness = contact.stiffness * _D2B_HALF / contact.activation**2
-    mass = jnp.min(_rest_inertia(mechanism)) / contact.tables.scale**2
+    mass = jnp.min(rest_inertia(mechanism)) / contact.tables.scale**2
     damping = 2 * damping_ratio * jnp.sqrt(contact_stiffness * mass)
     return eqx.tree_at(lambda c: c.damping, contact, damping.astype(contact.damping.dtype))
 
 
-# One compiled program each (op by op, every new shape would compile its own): the rest poses for
-# the host geometry, and the mass matrix's diagonal for the default damping. Under an outer trace
-# they are traced inline.
+# One compiled program (op by op, every new shape would compile its own): the rest poses for the
+# host geometry (the mass matrix's diagonal for the default damping is `rest_inertia`'s). Under an
+# outer trace it is traced inline.
 @eqx.filter_jit
 def _rest_poses(mechanism):
     return mechanism.body_poses(mechanism.rest_state()[0])
-
-
-@exported_jit("rest_inertia")
-def _rest_inertia(mechanism):
-    return jnp.diag(mechanism.mass_matrix(mechanism.rest_state()[0]))
 
 
 def check_known_values(label: str, values) -> None:

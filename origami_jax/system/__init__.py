@@ -42,6 +42,7 @@ from ._pattern import AbstractPattern as AbstractPattern
 from ._pattern import check_known_names as check_known_names
 from ._system import AbstractContact as AbstractContact
 from ._system import FoldingSystem as FoldingSystem
+from ._system import rest_inertia as rest_inertia
 from ._units import MICRO as MICRO
 from ._units import SI as SI
 from ._units import UnitSystem as UnitSystem

@@ -144,6 +144,24 @@ class FoldingSystem(eqx.Module):
         reduced = inverse_root @ (0.5 * (stiffness + stiffness.T)) @ inverse_root.T
         return np.sqrt(np.maximum(np.linalg.eigvalsh(reduced), 0.0))
 
+    def stiffest_rest_frequency_bound(self) -> float:
+        """A lower bound of the largest of `rest_frequencies`, ``max_i sqrt(k_i / M_ii)`` (rad per
+        time unit): each coordinate's Rayleigh quotient, for a mechanism whose coordinates are its
+        hinge angles (so the springs' stiffness is ``diag(k)``) and free of constraints (closed
+        loops' constraints lower the frequencies below it); from `rest_inertia`, the program the
+        contact's defaults already ran, so it costs no compilation where they did. An explicit
+        solver's steps are no longer than a few over it, as over the exact value.
+        **Raises:** `ValueError` for a mechanism whose coordinates are not its hinge angles."""
+        mechanism = self.mechanism
+        if not mechanism.coordinates_are_hinge_angles:
+            raise ValueError(
+                "stiffest_rest_frequency_bound needs coordinates that are the hinge angles; use "
+                "rest_frequencies."
+            )
+        inertia = np.asarray(rest_inertia(mechanism), dtype=float)
+        stiffness = np.broadcast_to(np.asarray(self.hinges.stiffness, dtype=float), inertia.shape)
+        return float(np.sqrt(np.max(stiffness / inertia)))
+
     def energy(self, q: Float[Array, " nq"], v: Float[Array, " nv"]) -> Float[Array, ""]:
         """Kinetic + hinge spring (``½ Σ k θ²``) + gravity + contact energy (energy units).
 
@@ -172,3 +190,11 @@ def _rest_stiffness_and_mass(system: FoldingSystem) -> tuple[Array, Array]:
         return mechanism.hinge_force(q, -system.hinges.stiffness * mechanism.hinge_angles(q))
 
     return -jax.jacfwd(spring)(q0), mechanism.mass_matrix(q0)
+
+
+@exported_jit("rest_inertia")
+def rest_inertia(mechanism: AbstractMechanism) -> Float[Array, " nv"]:
+    """The diagonal of `mechanism`'s mass matrix at its rest state, `(nv,)` (mass·length² per rad²
+    for hinge angles): one compiled program per mechanism, kept across runs (the contact's default
+    damping and `FoldingSystem.stiffest_rest_frequency_bound` read it)."""
+    return jnp.diag(mechanism.mass_matrix(mechanism.rest_state()[0]))
