@@ -528,6 +528,10 @@ def surface_model(args: argparse.Namespace, pattern: Any, design: Any) -> dict:
     if args.adhesion is not None:
         values = _surface_numbers(args.adhesion, "--adhesion", "W[,RANGE[,LINE]]", 3)
         work, line = values[0], (0.0 if values[2] is None else values[2])
+        try:  # W and LINE checked before the default range builds the pattern's system
+            Adhesion.from_si(design.units, work=work, range=1.0, line=line)
+        except ValueError as error:
+            fail(f"--adhesion {args.adhesion}: {one_line(str(error))}")
         if values[1] is not None:
             span = values[1] * 1e-6
         else:
