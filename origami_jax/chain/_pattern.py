@@ -49,8 +49,8 @@ class Accordion(AbstractPattern):
     hinges: str = "point"
     fluid: str | tuple[str, ...] = "paper"
     contact: bool = False
-    flap_length: float | None = None
-    flap_width: float | None = None
+    flap_length: float | Float[ArrayLike, ""] | None = None
+    flap_width: float | Float[ArrayLike, ""] | None = None
 
     def __post_init__(self):
         if not isinstance(self.n_flaps, int) or isinstance(self.n_flaps, bool) or self.n_flaps < 1:

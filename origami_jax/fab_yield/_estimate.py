@@ -440,7 +440,7 @@ def _stored_samples(out) -> int:
 def yield_estimate(
     pattern,
     scatter: Scatter | Mapping[str, Any] | None = None,
-    n_samples: int = 100,
+    n_samples: int | SampleUntil = 100,
     seed: int = 0,
     *,
     design=None,

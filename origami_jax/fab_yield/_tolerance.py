@@ -69,7 +69,7 @@ class ToleranceSensitivity:
         """The yield at those multiples of the tolerances (a fraction; broadcasts)."""
         return np.mean(self.folded_at(angle_factor, seam_factor), axis=-1)
 
-    def interval(self, folded: int) -> tuple[float, float]:
+    def interval(self, folded: int | np.integer) -> tuple[float, float]:
         return binomial_interval(int(folded), self.n_samples, self.confidence, self.method)
 
     def with_interval(self, confidence: float, method: str) -> "ToleranceSensitivity":

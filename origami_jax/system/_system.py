@@ -19,7 +19,7 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
-from jaxtyping import Array, Float
+from jaxtyping import Array, ArrayLike, Float
 
 from .._exported import exported_jit
 from ._agitation import Agitation
@@ -108,13 +108,15 @@ class FoldingSystem(eqx.Module):
 
     def accelerations(
         self,
-        q: Float[Array, " nq"],
-        v: Float[Array, " nv"],
-        tau: Float[Array, " h"],
+        q: Float[ArrayLike, " nq"],
+        v: Float[ArrayLike, " nv"],
+        tau: Float[ArrayLike, " h"],
         *,
         forward_mode_only: bool = False,
     ) -> Float[Array, " nv"]:
-        """``v̇`` under input torque ``τ`` (see `AbstractMechanism.forward_dynamics`)."""
+        """``v̇`` under input torque ``τ`` (see `AbstractMechanism.forward_dynamics`); NumPy
+        inputs are taken as JAX arrays."""
+        q, v, tau = jnp.asarray(q), jnp.asarray(v), jnp.asarray(tau)
         return self.mechanism.forward_dynamics(
             q, v, self.generalized_force(q, v, tau), forward_mode_only=forward_mode_only
         )
