@@ -49,8 +49,8 @@ class YieldGradient:
 
     parameter: str
     per: str
-    gradient: np.ndarray
-    standard_error: np.ndarray
+    gradient: np.ndarray | float
+    standard_error: np.ndarray | float
     unit: str
     n_samples: int
 
