@@ -545,7 +545,7 @@ def test_fold_cli_lists_and_refuses(tmp_path, capsys):
     code = main(["fold", "square_twist", "--no-figures", "--out", str(tmp_path / "twist")])
     assert code == 2 and "not rigidly foldable" in capsys.readouterr().err
     code = main(["fold", "origami_simulator_miura", "--no-figures", "--out", str(tmp_path / "os")])
-    assert code == 2 and "length_scale" in capsys.readouterr().err
+    assert code == 2 and "give --length-scale, µm per FOLD unit" in capsys.readouterr().err
     # A misspelt name: neither a file nor a shipped net, and the message says where the names are.
     code = main(["fold", "cube_net_1", "--no-figures", "--out", str(tmp_path / "typo")])
     err = capsys.readouterr().err

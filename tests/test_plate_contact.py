@@ -418,6 +418,7 @@ def _broad_phase_check(tmp_path_factory, monkeypatch, parts, settings):
                 np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-12 * scale)
 
 
+@pytest.mark.slow  # a strip's system and two force programs: ~25 s; no default net reaches it
 def test_the_broad_phase_changes_no_force(tmp_path_factory, monkeypatch):
     """A pattern of many panels evaluates only the pairs whose bodies' boxes come within reach
     (`PlateContact._broad`, forced here on 16 squares: the same code as past

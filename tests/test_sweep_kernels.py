@@ -15,7 +15,7 @@ def test_registry_lists_and_builds_models():
         get_model("no-such-model")
     with pytest.raises(ValueError, match="fluid"):
         get_model("accordion-step", fluid="water")
-    with pytest.raises(ValueError, match="bad settings"):
+    with pytest.raises(ValueError, match="unknown setting .tolerance.; its settings are n_flaps"):
         get_model("accordion-step", tolerance=1e-3)
 
 
