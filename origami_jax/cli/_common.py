@@ -18,7 +18,6 @@ else into one line too, and `--debug` shows the traceback.
 from __future__ import annotations
 
 import argparse
-import difflib
 import json
 import math
 import os
@@ -36,6 +35,7 @@ from .._cache import enable_compilation_cache
 from .._exported import enable_exported_programs
 from .._folder_lock import LOCK, FolderBusyError, FolderLock, lock_folder
 from .._limits import CONTACT_SAMPLING, MAX_CONTACT_SAMPLING, MAX_FIXED_STEPS
+from .._names import did_you_mean
 from . import _interrupt as interrupt
 
 DEFAULT_OUT = Path("origami_out")
@@ -132,11 +132,9 @@ def hinge_params(items: Sequence[str], *, flaps: bool = False) -> dict[str, list
                 f"--param {name}=...); this command's panels are its pattern's own."
             )
         if name not in names:
-            near = difflib.get_close_matches(name, names, n=1)
             raise ValueError(
-                f"--param {name!r} is not a hinge parameter"
-                + (f" (did you mean {near[0]}?)" if near else "")
-                + f"; give one of {capped(names, 20)}."
+                f"--param {name!r} is not a hinge parameter{did_you_mean(name, names)}; give one "
+                f"of {capped(names, 20)}."
             )
         try:
             values = [float(v) for v in value.split(",")]

@@ -16,7 +16,6 @@ a name becomes an object here (a pattern's catalogue name or file, `"net-fold"`'
 """
 
 import dataclasses
-import difflib
 import inspect
 from collections.abc import Callable, Mapping
 from typing import Any
@@ -27,6 +26,7 @@ import numpy as np
 
 from .._kernel import INVALID_INPUT, Kernel, check_setting
 from .._limits import AFTER_RELEASE_US, CONTACT_SAMPLING, MAX_SAMPLES
+from .._names import did_you_mean
 from ..chain import accordion_step
 from ..loops import load_pattern
 from ..net import FOLD_KERNEL_SOLVE, check_kernel_sampling, fold_kernel
@@ -272,11 +272,9 @@ def get_model(name: str, **options: Any) -> Kernel:
         known = [p for p in accepted if accepted[p].kind is not inspect.Parameter.VAR_POSITIONAL]
         for key in options:
             if key not in known:
-                near = difflib.get_close_matches(key, known, n=1)
                 raise ValueError(
-                    f"model {name!r}: unknown setting {key!r}"
-                    + (f" (did you mean {near[0]}?)" if near else "")
-                    + f"; its settings are {', '.join(known)}."
+                    f"model {name!r}: unknown setting {key!r}{did_you_mean(key, known)}; its "
+                    f"settings are {', '.join(known)}."
                 )
     try:
         return build(**options)
