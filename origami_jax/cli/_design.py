@@ -174,11 +174,17 @@ def run(args: argparse.Namespace) -> int:
         t90 = _floats(args.target_t90, "--target-t90")
     except ValueError as error:
         fail(str(error))
-    for values, flag in ((rise, "--target-rise"), (peak, "--target-peak"), (settling, "--target-settling"), (t90, "--target-t90")):  # fmt: skip
+    times = {
+        "--target-rise": rise,
+        "--target-peak": peak,
+        "--target-settling": settling,
+        "--target-t90": t90,
+    }
+    for flag, values in times.items():
         bad = [v for v in values or () if v <= 0]  # NaN ('-') is a joint without one
         if bad:
             fail(
-                f"{flag}: {bad[0]:g} s is not a positive time (seconds; '-' for a joint without one)."
+                f"{flag}: {bad[0]:g} s is not a positive time (seconds; '-': a joint without one)."
             )
     _check_numbers(args)
     lists = [v for v in (rise, peak, settling, final, t90) if v is not None]

@@ -97,8 +97,8 @@ def check_explicit_steps(
     `EXPLICIT_STABILITY` over the stiffest hinge's rest frequency (about two thirds of its
     period; here its lower bound `FoldingSystem.stiffest_rest_frequency_bound`, which costs no
     compilation where the contact's defaults ran) however still the panels are, so ``span ω / 4``
-    steps is a floor known before anything runs. `flag` names the span, `command` the run. Closed `loops`
-    (constrained coordinates) are not estimated."""
+    steps is a floor known before anything runs. `flag` names the span, `command` the run. Closed
+    `loops` (constrained coordinates) are not estimated."""
     if loops or not system.mechanism.coordinates_are_hinge_angles:
         return
     fastest = system.stiffest_rest_frequency_bound()
@@ -107,14 +107,14 @@ def check_explicit_steps(
     if floor > budget:
         fail(
             f"{flag} ({span:g} µs) needs at least {floor:.3g} explicit steps (the stiffest hinge "
-            f"rings with a period of at most {period:.3g} µs), more than the {budget:,} a {command} may "
-            "take: give a shorter run, or an implicit --solver (kvaerno5: steps as long as the "
-            "motion allows)."
+            f"rings with a period of at most {period:.3g} µs), more than the {budget:,} a "
+            f"{command} may take: give a shorter run, or an implicit --solver (kvaerno5: steps as "
+            "long as the motion allows)."
         )
     if floor > SLOW_EXPLICIT_STEPS:
         print(
-            f"[{command}] note: the stiffest hinge rings with a period of at most {period:.3g} µs, so this "
-            f"run takes at least {floor:,.0f} explicit steps (minutes); --solver kvaerno5 steps "
-            "as long as the motion allows.",
+            f"[{command}] note: the stiffest hinge rings with a period of at most {period:.3g} µs, "
+            f"so this run takes at least {floor:,.0f} explicit steps (minutes); --solver kvaerno5 "
+            "steps as long as the motion allows.",
             flush=True,
         )

@@ -895,9 +895,9 @@ def run(args: argparse.Namespace) -> int:
         )
     if args.t_settle:
         _check_settles_after_the_end(args, pattern)
-    if args.t_end is not None and choice["solver"] == "tsit5":
-        nominal = pattern.system(pattern.default_design(_fluid(args)))
-        check_explicit_steps(nominal, args.t_end, "--t-end", loops, KERNEL_MAX_STEPS, "yield")
+    if args.t_end is not None and choice["solver"] == "tsit5" and not loops:
+        system = pattern.system(pattern.default_design(_fluid(args)))
+        check_explicit_steps(system, args.t_end, "--t-end", loops, KERNEL_MAX_STEPS, "yield")
     if args.resume and holds_only_its_lock(Path(args.out)):
         print(f"[yield] --resume: nothing is stored in {args.out} yet; starting the estimate.")
     # Held for the whole run (the estimates' sweep stores borrow its lock): another run into the

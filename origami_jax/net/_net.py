@@ -377,9 +377,7 @@ class Net(AbstractPanelPattern):
             )
         check_per_crease(design, m)
         warn_if_hinges_wider_than_creases(self.name, design, lengths)
-        check_hinges_longer_than_film(
-            design, self.intended_angles if targets is None else targets, self.name
-        )
+        check_hinges_longer_than_film(design, targets, self.name)
         if not isinstance(arc_layout, ArcLayout) and arc_layout not in ("fillet", "drawn"):
             raise ValueError(
                 f"arc_layout must be 'fillet', 'drawn' or an ArcLayout, got {arc_layout!r}."

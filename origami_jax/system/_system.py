@@ -130,8 +130,7 @@ class FoldingSystem(eqx.Module):
         needs steps no longer than a few ``1/ω_max`` (its stability limit), even at rest: how long
         a run must take, known before it starts. Needs concrete numbers and a mechanism whose
         velocities are its coordinates' rates, free of constraints (`ValueError` otherwise: closed
-        loops' constraints raise the frequencies of the loops cut open, so these would not bound
-        theirs)."""
+        loops hold their hinge angles to each other, and their mass matrix in them is singular)."""
         mechanism = self.mechanism
         if mechanism.n_coordinates != mechanism.n_velocities:
             raise ValueError("rest_frequencies needs velocities that are the coordinates' rates.")
