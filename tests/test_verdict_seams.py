@@ -190,6 +190,9 @@ def test_a_second_verdict_on_the_same_net_compiles_nothing(cube):
     net, system = cube
     net.assess(system, held_trajectory(system, _angles(0.8)))
     compiled = _verdict._outcome_compiled.jitted._cached._cache_size()
+    # The derived seam tolerances too: each `assess` asks the net for a new `SeamGaps` (a plain
+    # object, static by identity), whose gap function is data to their program.
+    tolerance_programs = _verdict._derived_seam_tolerances.jitted._cached._cache_size()
     tolerances = sim.VerdictTolerances.from_degrees(2.0, 0.02)
     report = net.assess(system, held_trajectory(system, _angles(-0.8)), tolerances=tolerances)
     assert _verdict._outcome_compiled.jitted._cached._cache_size() == compiled
@@ -198,6 +201,7 @@ def test_a_second_verdict_on_the_same_net_compiles_nothing(cube):
     for n in (201, 401, 501, 1001):
         net.assess(system, held_trajectory(system, _angles(0.8), n=n))
     assert _verdict._outcome_compiled.jitted._cached._cache_size() == compiled
+    assert _verdict._derived_seam_tolerances.jitted._cached._cache_size() == tolerance_programs
     np.testing.assert_allclose(report.seam_gaps, net.seam_gaps(_angles(-0.8)), atol=1e-9)
     assert report.angle_tolerance == pytest.approx(np.radians(2.0))
 

@@ -180,7 +180,11 @@ def derived_seam_tolerances(
     root-sum-square of what each crease alone, off by the tolerance, opens (independent crease
     errors). ``2h + 1`` evaluations of the gaps; traceable."""
     intended = jnp.asarray(intended_angles, dtype=jnp.result_type(float))
-    return _derived_seam_tolerances(seam_gaps, intended, jnp.asarray(angle, intended.dtype))
+    # A `SeamGaps` is a plain object, static to the compiled program by its identity: its gap
+    # function (a net's, an `equinox.Module` whose numbers are arrays) is data, so the program
+    # compiled for one folding serves the next.
+    function = seam_gaps.function if isinstance(seam_gaps, SeamGaps) else seam_gaps
+    return _derived_seam_tolerances(function, intended, jnp.asarray(angle, intended.dtype))
 
 
 # One compiled program (op by op, the gaps' many small operations cost more than a verdict's run,
