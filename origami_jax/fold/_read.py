@@ -125,6 +125,8 @@ def _loads_fold(text: str) -> FoldFile:
             f"not valid JSON (line {error.lineno}, column {error.colno}: {error.msg}); "
             "a .fold file is a JSON object"
         ) from None
+    except FoldFormatError:  # a NaN or an infinity (`_reject_constant`): its own message
+        raise
     except ValueError as error:  # e.g. an integer with more digits than Python converts
         raise FoldFormatError(f"not valid JSON for FOLD ({str(error)[:200]})") from None
     return fold_from_dict(data)
