@@ -291,8 +291,8 @@ def test_force_is_minus_the_energy_gradient_and_damping_dissipates():
 
 def test_pick_gathers_what_its_one_hot_product_picks(monkeypatch):
     """`pick`: the rows of an array and their adjoint (sums into rows), as a one-hot product and,
-    past `DENSE_PICK_LIMIT`, as a gather and a scatter-add: the same numbers, for host rows and
-    traced ones (a working set's)."""
+    past `DENSE_PICK_LIMIT` or for traced rows (a working set's, always gathered), as a gather and
+    a scatter-add: the same numbers."""
     from origami_jax.contact import _pick
 
     rng = np.random.default_rng(0)
@@ -304,6 +304,7 @@ def test_pick_gathers_what_its_one_hot_product_picks(monkeypatch):
 
     dense = both(rows)
     np.testing.assert_allclose(dense[0], np.asarray(flat)[rows], rtol=1e-15)
+    assert _pick.dense_pick(rows, 7) and not _pick.dense_pick(jnp.asarray(rows), 7)
     monkeypatch.setattr(_pick, "DENSE_PICK_LIMIT", 0)
     for gathered in (both(rows), jax.jit(both)(jnp.asarray(rows))):
         for a, b in zip(dense, gathered, strict=True):

@@ -7,6 +7,11 @@ runs element by element on a CPU and does not vectorise over a batch, while a sm
 does both. The one-hot matrix has one entry per pair and per row picked from, so it grows as the
 square of a pattern's size (a 500-panel strip: 1e6 pairs × 2,000 vertices, 16 GB): past
 `DENSE_PICK_LIMIT` entries the same rows are gathered and scattered instead.
+
+Rows known only at run time (a working set's, the broad phase's) are always gathered: their
+one-hot matrix is not a constant but a comparison of every row with every index, built at each
+call, and on the 2-core CPU that costs more than the gather and the scatter-add together, alone
+and under `vmap` (2-36× at 7e3-7e6 entries; 25 ms of a 100-panel strip's 40 ms contact force).
 """
 
 import jax.numpy as jnp
@@ -18,8 +23,11 @@ DENSE_PICK_LIMIT = 1 << 22
 
 
 def dense_pick(rows: np.ndarray | Array, size: int) -> bool:
-    """Whether picking `rows` out of `size` rows uses a one-hot product (module docstring)."""
-    return int(np.shape(rows)[0]) * int(size) <= DENSE_PICK_LIMIT
+    """Whether picking `rows` out of `size` rows uses a one-hot product: host rows whose one-hot
+    matrix is small (module docstring)."""
+    if not isinstance(rows, np.ndarray):
+        return False
+    return int(rows.shape[0]) * int(size) <= DENSE_PICK_LIMIT
 
 
 def pick(rows: np.ndarray | Array, size: int, flat: Array, *, transpose: bool = False) -> Array:
@@ -36,7 +44,7 @@ def pick(rows: np.ndarray | Array, size: int, flat: Array, *, transpose: bool = 
 
 def one_hot_rows(rows: np.ndarray | Array, size: int, dtype) -> Array:
     """The one-hot matrix `(len(rows), size)` of `rows`: a constant built on the host for host
-    `rows`, a comparison for traced ones (a working set's)."""
+    `rows`, a comparison for traced ones."""
     if isinstance(rows, np.ndarray):
         return jnp.asarray(np.eye(size)[rows], dtype)
     return (rows[:, None] == jnp.arange(size)).astype(dtype)

@@ -113,7 +113,8 @@ _CCD_PAIRS = 32
 # The broad phase (`PlateContact._broad`): patterns with more primitive pairs than this evaluate
 # only the pairs whose bodies' bounding boxes come within reach. The catalogue's largest pattern
 # (a 2×2 waterbomb) has about 2,000; a strip of 40 squares (19,000) gains nothing from it (the
-# whole contact's one-hot products are fast), one of 100 (120,000) a force in a fifth of the time.
+# whole contact's one-hot products are fast), one of 100 (120,000) a force in 40 % of the time,
+# one of 200 in a quarter (`benchmarks/bench_broad_phase.py`).
 BROAD_PHASE_MIN_PAIRS = 1 << 16
 # Room the broad phase keeps per body, for primitive pairs of each kind and for body pairs (a
 # square among neighbours on every side meets each in ~24 primitive pairs); a state with more
