@@ -272,6 +272,34 @@ def test_the_fold_kernel_takes_the_solver_of_its_options():
         pattern.kernel(solve=FOLD_KERNEL_SOLVE.replace(solver="tsit5"))
 
 
+def test_a_pattern_loaded_again_gets_the_same_kernel():
+    """`fold_kernel` keeps one kernel per pattern contents and settings (the sweep engine traces
+    and compiles a kernel once per process, so a second yield of a net named again compiled its
+    kernel again, 25 s): the same net loaded again, with equal settings, gets the same object;
+    another physics option, tolerance, solver, target or net does not. The nominal release ramp
+    (a compiled program per pattern) is kept the same way."""
+    first = load_pattern("corner_cube").kernel(fluid="air")
+    assert load_pattern("corner_cube").kernel(fluid="air") is first
+    assert load_net("corner_cube").kernel(fluid="air") is first
+    others = [
+        load_pattern("corner_cube").with_model(contact="sampled").kernel(fluid="air"),
+        load_pattern("corner_cube").kernel(fluid="air", tolerances=VerdictTolerances(seam=0.02)),
+        load_pattern("corner_cube").kernel(
+            fluid="air", solve=FOLD_KERNEL_SOLVE.replace(solver=ImplicitStep(dt=2.0))
+        ),
+        load_pattern("corner_cube").kernel(fluid="air", targets=np.radians([80.0, 80.0])),
+        load_pattern("tetrahedron").kernel(fluid="air"),
+    ]
+    assert len({id(k) for k in [first, *others]}) == 1 + len(others)
+    net, again = load_net("corner_cube"), load_net("corner_cube")
+    assert net is not again and net.content_key() == again.content_key()
+    assert net.with_model(drag="none").content_key() != net.content_key()
+    renamed = load_net("corner_cube", name="renamed")
+    assert renamed.content_key() == net.content_key()  # the same systems, the same ramp
+    assert renamed.kernel(fluid="air") is not first  # whose settings record the name
+    assert renamed.kernel(fluid="air").settings["net"] == "renamed"
+
+
 @pytest.mark.slow  # two compiled folds of the corner cube (~40 s)
 def test_the_fold_kernel_with_the_fixed_step_engine_agrees_with_tsit5():
     """The corner cube's nominal fold through the kernel with `ImplicitStep(dt=2)` (750 steps of

@@ -290,9 +290,9 @@ def test_force_is_minus_the_energy_gradient_and_damping_dissipates():
 
 
 def test_pick_gathers_what_its_one_hot_product_picks(monkeypatch):
-    """`pick`: the rows of an array and their adjoint (sums into rows), as a one-hot product and,
-    past `DENSE_PICK_LIMIT` or for traced rows (a working set's, always gathered), as a gather and
-    a scatter-add: the same numbers."""
+    """`pick`: the rows of an array and their adjoint (sums into rows), as a one-hot product (host
+    rows within `DENSE_PICK_LIMIT`, 0 by default) and as a gather and a scatter-add (past it, and
+    traced rows always): the same numbers."""
     from origami_jax.contact import _pick
 
     rng = np.random.default_rng(0)
@@ -302,6 +302,7 @@ def test_pick_gathers_what_its_one_hot_product_picks(monkeypatch):
     def both(rows):
         return _pick.pick(rows, 7, flat), _pick.pick(rows, 7, picked, transpose=True)
 
+    monkeypatch.setattr(_pick, "DENSE_PICK_LIMIT", 1 << 22)
     dense = both(rows)
     np.testing.assert_allclose(dense[0], np.asarray(flat)[rows], rtol=1e-15)
     assert _pick.dense_pick(rows, 7) and not _pick.dense_pick(jnp.asarray(rows), 7)
@@ -313,9 +314,9 @@ def test_pick_gathers_what_its_one_hot_product_picks(monkeypatch):
 
 @pytest.mark.slow  # two compilations of the contact's Jacobians on a cube net: ~40 s
 def test_gathered_picks_give_the_one_hot_products_forces(monkeypatch):
-    """Past `DENSE_PICK_LIMIT` (a pattern of hundreds of panels, whose one-hot matrices would take
-    tens of GB) the contact gathers and scatters its pairs' rows: the same forces and Gauss–Newton
-    derivatives as the dense products (here forced on a cube net), to round-off."""
+    """The contact gathers and scatters its pairs' rows (`DENSE_PICK_LIMIT` 0, the default): the
+    same forces and Gauss–Newton derivatives as the dense one-hot products (forced here on a cube
+    net by a limit of 4M entries), to round-off."""
     from origami_jax.contact import _pick
 
     net = _cube_net()
@@ -333,6 +334,7 @@ def test_gathered_picks_give_the_one_hot_products_forces(monkeypatch):
         report = eqx.filter_jit(lambda m, q: contact.report(m, q))(mechanism, q)
         return [np.asarray(x) for x in (*jacobians, report["min_gap"], report["touching"])]
 
+    monkeypatch.setattr(_pick, "DENSE_PICK_LIMIT", 1 << 22)
     dense = evaluate()
     monkeypatch.setattr(_pick, "DENSE_PICK_LIMIT", 0)
     gathered = evaluate()

@@ -202,6 +202,29 @@ def test_a_second_verdict_on_the_same_net_compiles_nothing(cube):
         net.assess(system, held_trajectory(system, _angles(0.8), n=n))
     assert _verdict._outcome_compiled.jitted._cached._cache_size() == compiled
     assert _verdict._derived_seam_tolerances.jitted._cached._cache_size() == tolerance_programs
+    # `Net.outcome` (and `fold_outcome`) on a concrete run take the same program, the tolerances
+    # as its data: another run, another angle tolerance or seam fraction compile nothing.
+    net.outcome(system, held_trajectory(system, _angles(0.8)))
+    cases = [
+        (held_trajectory(system, _angles(past)), tolerances)
+        for past, tolerances in ((-0.8, FIXED), (0.5, sim.VerdictTolerances.from_degrees(4.0)))
+    ]
+    verdicts = [net.assess(system, run, tolerances=tolerances).verdict for run, tolerances in cases]
+    traces = []
+
+    def count(event, duration, **kwargs):
+        traces.append(event == "/jax/core/compile/jaxpr_trace_duration")
+
+    jax.monitoring.register_event_duration_secs_listener(count)
+    try:
+        for (run, tolerances), verdict in zip(cases, verdicts, strict=True):
+            outcome = net.outcome(system, run, tolerances=tolerances)
+            assert int(outcome.code) == sim.VERDICT_CODES[verdict]
+    finally:
+        jax.monitoring.unregister_event_duration_listener(count)
+    assert not any(traces)  # nothing traced again, let alone compiled
+    assert _verdict._outcome_compiled.jitted._cached._cache_size() == compiled
+    assert _verdict._derived_seam_tolerances.jitted._cached._cache_size() == tolerance_programs
     np.testing.assert_allclose(report.seam_gaps, net.seam_gaps(_angles(-0.8)), atol=1e-9)
     assert report.angle_tolerance == pytest.approx(np.radians(2.0))
 

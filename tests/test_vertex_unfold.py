@@ -147,6 +147,24 @@ def test_certificate_rechecked_independently(catalogue_results, name):
     )
 
 
+def test_paths_of_other_lengths_are_certified_by_one_program(catalogue_results):
+    """`certify_path` pads a path to a power of two of states (its last repeated): a run with
+    another count of steps compiles nothing again (every `unfold` took 0.7 s compiling its own),
+    and the certificate is the unpadded path's."""
+    from origami_jax.vertex import _unfold
+
+    result = catalogue_results["corner-cube"]
+    sectors = np.asarray(result.vertex.sector_angles)
+    whole = _unfold.certify_path(result.path, sectors, closed=True)
+    assert whole == result.certificate
+    compiled = None
+    for count in (3, 7, 9, 16):  # all padded to 16 states
+        part = _unfold.certify_path(result.path[:count], sectors, closed=True)
+        assert part.ok and part.n_states == count
+        compiled = compiled or _unfold._measure_path._cache_size()
+    assert _unfold._measure_path._cache_size() == compiled
+
+
 def test_result_reports_multipliers_and_creases(catalogue_results):
     result = catalogue_results["waterbomb"]
     assert result.multipliers.shape == (16,)

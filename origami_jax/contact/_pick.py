@@ -1,25 +1,24 @@
-"""Rows of an array picked by index tables, as dense products where they are small.
+"""Rows of an array picked by index tables: gathers and scatter-adds, or dense one-hot products.
 
 The plate contact picks each primitive pair's points and bodies from per-vertex and per-body arrays,
-and sums the pairs' wrenches back onto the bodies. For the nets it is made for (tens of bodies) a
-constant one-hot matrix times the array does both: a gather's derivative is a scatter-add, which
-runs element by element on a CPU and does not vectorise over a batch, while a small dense product
-does both. The one-hot matrix has one entry per pair and per row picked from, so it grows as the
-square of a pattern's size (a 500-panel strip: 1e6 pairs × 2,000 vertices, 16 GB): past
-`DENSE_PICK_LIMIT` entries the same rows are gathered and scattered instead.
-
-Rows known only at run time (a working set's, the broad phase's) are always gathered: their
-one-hot matrix is not a constant but a comparison of every row with every index, built at each
-call, and on the 2-core CPU that costs more than the gather and the scatter-add together, alone
-and under `vmap` (2-36× at 7e3-7e6 entries; 25 ms of a 100-panel strip's 40 ms contact force).
+and sums the pairs' wrenches back onto the bodies. Both can be a gather and a scatter-add, or a
+product with a one-hot matrix (constant for host rows, a comparison of every row with every index
+for traced ones). The one-hot products were chosen first, measured faster for tens of bodies under
+`vmap` with an earlier XLA; on jaxlib 0.10 (2-core CPU, 2026-12-06) the gathers win everywhere:
+one pick and its adjoint 3-10× faster alone and as fast or faster vmapped over 64 (constant
+one-hot, 28-101 rows picked from 64-4096), 2-36× for traced rows; a cube net's adaptive fold 1.9×
+and a vmapped batch 1.4× faster, a 100-panel strip's contact force 2.5×. `DENSE_PICK_LIMIT`
+(entries of a one-hot matrix, default 0: always gather) keeps the products for comparison; the
+one-hot matrix grows as the square of a pattern's size (a 500-panel strip: 1e6 pairs × 2,000
+vertices, 16 GB), and traced rows are gathered whatever the limit.
 """
 
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array
 
-# One-hot matrices up to this many entries (32 MB in float64); larger picks gather.
-DENSE_PICK_LIMIT = 1 << 22
+# One-hot products for host rows up to this many entries (1 << 22: 32 MB in float64); 0: gathers.
+DENSE_PICK_LIMIT = 0
 
 
 def dense_pick(rows: np.ndarray | Array, size: int) -> bool:

@@ -112,9 +112,8 @@ _CCD_SEPARATION = 0.5
 _CCD_PAIRS = 32
 # The broad phase (`PlateContact._broad`): patterns with more primitive pairs than this evaluate
 # only the pairs whose bodies' bounding boxes come within reach. The catalogue's largest pattern
-# (a 2×2 waterbomb) has about 2,000; a strip of 40 squares (19,000) gains nothing from it (the
-# whole contact's one-hot products are fast), one of 100 (120,000) a force in 40 % of the time,
-# one of 200 in a quarter (`benchmarks/bench_broad_phase.py`).
+# (a 2×2 waterbomb) has about 2,000; one of 100 squares (120,000) takes a force in 40 % of the
+# time, one of 200 in a quarter (`benchmarks/bench_broad_phase.py`).
 BROAD_PHASE_MIN_PAIRS = 1 << 16
 # Room the broad phase keeps per body, for primitive pairs of each kind and for body pairs (a
 # square among neighbours on every side meets each in ~24 primitive pairs); a state with more
@@ -346,8 +345,8 @@ class PlateContact(AbstractContact):
     def _world(self, poses):
         return plate_vertices(self.tables, poses)
 
-    # The primitives' points are picked from the world vertices by constant one-hot matrices rather
-    # than by indexing where those are small (`_pick`'s module docstring says why).
+    # The primitives' points are picked from the world vertices by gathers, their wrenches summed
+    # onto the bodies by scatter-adds (`_pick`'s module docstring: faster than one-hot products).
 
     def _rows(self):
         """The vertex–face `(k, 3)` and edge–edge `(m, 6)` table rows evaluated: every one (host
@@ -432,15 +431,15 @@ class PlateContact(AbstractContact):
         """``G = ∂g/∂q̇`` `(k, nv)`: each pair's gap rate per unit generalized velocity, from the
         bodies' unit twists `(n, 6, nv)` (the base last): each pair's unit wrenches on the bodies,
         ``(u, p × u)`` on its first body at its point ``p`` and the opposite on its second, `(k,
-        6n)`, times the twists `(6n, nv)` (one dense product: gathering every pair's bodies'
-        twists under `vmap` moves far more memory)."""
+        6n)`, times the twists `(6n, nv)`: each pair's two bodies' twists gathered, or one dense
+        product with one-hot matrices where `DENSE_PICK_LIMIT` allows it (`_pick`)."""
         a, b = self._pair_bodies()
         n, _, nv = unit_twists.shape
         u = pairs.direction
         wrench_first = jnp.stack([*u, *_vcross(pairs.on_first, u)], axis=-1)
         wrench_second = jnp.stack([*u, *_vcross(pairs.on_second, u)], axis=-1)
         if not dense_pick(a, n):
-            # A pattern too large for the one-hot products: each pair's two bodies' twists.
+            # Gathered (the default; `_pick`'s module docstring).
             return jnp.einsum("kc,kcv->kv", wrench_first, unit_twists[a]) - jnp.einsum(
                 "kc,kcv->kv", wrench_second, unit_twists[b]
             )

@@ -12,7 +12,6 @@ from typing import Any
 import jax
 import numpy as np
 
-from .._kernel import design_settings
 from .._limits import FOLD_SEGMENT, MAX_FOLD_SEGMENTS, MAX_SAMPLES
 from ..fold import FoldFormatError
 from ..loops import load_pattern
@@ -337,30 +336,11 @@ def _columns(values: Mapping[str, np.ndarray]) -> tuple[dict[str, np.ndarray], d
     return columns, units
 
 
-_KERNELS: dict[str, Any] = {}
-_KERNELS_KEPT = 4
-
-
 def _kernel(pattern, **options):
-    """The fold kernel of `pattern` for `options` (`origami_jax.net.fold_kernel`), the same object
-    for the same pattern object and options (the sweep engine then traces and compiles it once
-    per process; see `origami_jax.sweep.sweep`)."""
-    solve, tolerances = options["solve"], options["tolerances"]
-    described = {
-        **options,
-        "design": design_settings(options["design"]),
-        # The solver too (its settings in its repr): an estimate with another engine in the same
-        # process must not reuse this one's kernel.
-        "solve": [float(solve.t1), solve.saveat.n, float(solve.rtol), float(solve.atol)]
-        + [solve.max_steps, repr(solve.solver)],
-        "tolerances": tolerances.to_dict(),
-    }
-    key = (pattern, json.dumps(described, sort_keys=True, default=str))
-    if key not in _KERNELS:
-        _KERNELS[key] = pattern.kernel(**options)
-        while len(_KERNELS) > _KERNELS_KEPT:
-            _KERNELS.pop(next(iter(_KERNELS)))
-    return _KERNELS[key]
+    """The fold kernel of `pattern` for `options` (`origami_jax.net.fold_kernel`): the same object
+    for the same pattern contents and options, a net loaded again included (the sweep engine then
+    traces and compiles it once per process; see `origami_jax.sweep.sweep`)."""
+    return pattern.kernel(**options)
 
 
 def _stragglers_finished(dataset, kernel, columns, units, **sweep_options):

@@ -46,6 +46,7 @@ from ..simulation import (
     start_bias,
 )
 from ..system import AIR, KOH_SOLUTION, HingeDesign
+from ._content import value_key
 
 # Fields of `HingeDesign` a net sweep may vary for every crease at once (scalar parameter `name`) or
 # for one crease (`name[j]`); lengths in µm, the package's MICRO unit system.
@@ -186,8 +187,46 @@ def fold_kernel(
       them to ``l / ρ = θ_target ρ₀ / ρ`` (paper Eq. 7 with ``l = ρ θ``): the fold angle of a
       fabricated hinge whose film stress or thickness is off.
 
+    The same `Kernel` object for the same pattern (by its contents, `content_key`, and name: a
+    net loaded again is the same) and the same settings (by value): the sweep engine traces and compiles a
+    kernel once per process, so a second yield, sweep or fit of the net compiles nothing again.
+    The last `KERNELS_KEPT` are kept.
+
     **Raises:** `ValueError` before anything compiles for bad settings.
     """
+    settings = dict(
+        fluid=fluid, design=design, solve=solve, tolerances=tolerances, bias=bias,
+        targets=targets, hinge_lengths=hinge_lengths,
+    )  # fmt: skip
+    content = getattr(pattern, "content_key", None)
+    if content is None:  # a pattern without one: its own kernel, as built
+        return _fold_kernel(pattern, **settings)
+    # The name too: a kernel's settings record it (a store's, checked on resume).
+    key = (content(), pattern.name, value_key(settings))
+    if key not in _KERNELS:
+        _KERNELS[key] = _fold_kernel(pattern, **settings)
+        while len(_KERNELS) > KERNELS_KEPT:
+            _KERNELS.pop(next(iter(_KERNELS)))
+    return _KERNELS[key]
+
+
+_KERNELS: dict[tuple, Kernel] = {}
+KERNELS_KEPT = 4
+"""How many fold kernels `fold_kernel` keeps (each holds its compiled programs: hundreds of MB)."""
+
+
+def _fold_kernel(
+    pattern,
+    *,
+    fluid: str | None = None,
+    design: HingeDesign | None = None,
+    solve: SolveOptions | None = None,
+    tolerances: VerdictTolerances | None = None,
+    bias: float = 0.0,
+    targets: Any = None,
+    hinge_lengths: str = "ideal",
+) -> Kernel:
+    """`fold_kernel`, built."""
     solve = FOLD_KERNEL_SOLVE if solve is None else solve
     if not isinstance(solve, SolveOptions):
         raise ValueError(f"solve must be a SolveOptions, got {type(solve).__name__}.")

@@ -557,10 +557,11 @@ class Net(AbstractPanelPattern):
 
     def outcome(self, system: FoldingSystem, trajectory, **kwargs):
         """`assess`'s verdict as arrays, traceable (`origami_jax.simulation.fold_outcome`); called
-        on concrete arrays it runs as one compiled program per model structure and run length."""
+        on one concrete run it runs as one compiled program per model structure and power of two
+        of samples, whatever the run and the tolerances."""
         kwargs.setdefault("intended_angles", jnp.asarray(self.intended_angles))
         kwargs.setdefault("panel_size", self.panel_size(system))
-        return _outcome(system, trajectory, self.seam_gap_function(system), kwargs)
+        return fold_outcome(system, trajectory, seam_gaps=self.seam_gap_function(system), **kwargs)
 
     def to_fold(
         self, trajectory=None, *, angles=None, times=None, every: int = 1, extras=None,
@@ -747,13 +748,6 @@ def NetLayout(net: Net, **options) -> Net:  # noqa: N802 (the former layout clas
     and `sweep` rebuild, ``NetLayout(net, contact=False)(design)`` is ``net.system(design,
     contact=False)``. Kept for the former `NetLayout` class: a net is its own layout."""
     return net.with_model(**options)
-
-
-@eqx.filter_jit
-def _outcome(system, trajectory, seam_gaps, kwargs):
-    """`Net.outcome` in one program (op by op, a first verdict compiled ~230 operations: ~9 s);
-    under an outer trace it is traced inline."""
-    return fold_outcome(system, trajectory, seam_gaps=seam_gaps, **kwargs)
 
 
 def folding_animation(

@@ -30,6 +30,7 @@ from ..contact import Adhesion, Friction
 from ..fluid import CombinedDrag, fluid_loads, polygon_added_inertia
 from ..simulation import Step, fold_pattern, quasi_static_ramp
 from ..system import AbstractPattern, Agitation, HingeDesign, check_known_names
+from ._content import value_key
 from ._kernel import fold_kernel
 
 
@@ -229,17 +230,9 @@ class AbstractPanelPattern(AbstractPattern):
         design = self.default_design() if design is None else design
         if not any(self.fluid_inertia(design)):
             return None
-        # Kept per geometry, model and design (tracing and compiling the system costs seconds for
-        # each net), across the pattern objects that load the same net.
-        g = self.geometry
-        root = getattr(g, "tree", g).root  # a crease pattern's spanning tree holds its base
-        key = (
-            type(self).__name__, float(self.length_scale), root,
-            np.asarray(g.vertices_coords).tobytes(), repr(g.faces), np.asarray(g.targets).tobytes(),
-            repr(sorted((n, repr(getattr(self, n))) for n in self.MODEL)),
-            jax.tree_util.tree_structure(design),
-            *(np.asarray(leaf).tobytes() for leaf in jax.tree_util.tree_leaves(design)),
-        )  # fmt: skip
+        # Kept per pattern and design (tracing and compiling the system costs seconds for each
+        # net), across the pattern objects that load the same net.
+        key = (self.content_key(), value_key(design))
         if key not in _NOMINAL_RAMPS:
             about = self.oscillation_state()
             # Traced with equinox's checks as NaN, as the sweep that follows traces its kernel:
@@ -283,10 +276,36 @@ class AbstractPanelPattern(AbstractPattern):
         (`origami_jax.net.default_design`)."""
         return default_design(self, fluid)
 
+    def content_key(self) -> tuple:
+        """A hashable key of everything that decides this pattern's systems: its class, geometry
+        (vertices, faces, crease targets, base), length scale and every other field (physics
+        options, a drawn layout), not its name. Two loads of one net share it (a pattern compares
+        by identity); what is compiled per pattern (a sweep's fold kernel, the nominal release
+        ramp) is kept under it, so loading a net again compiles nothing again."""
+        g = self.geometry
+        root = getattr(g, "tree", g).root  # a crease pattern's spanning tree holds its base
+        others = (
+            value_key(getattr(self, f.name))
+            for f in dataclasses.fields(self)
+            if f.name not in _NOT_CONTENT
+        )
+        return (
+            type(self).__name__, float(self.length_scale), root,
+            np.asarray(g.vertices_coords).tobytes(), repr(g.faces), np.asarray(g.targets).tobytes(),
+            *others,
+        )  # fmt: skip
+
     def kernel(self, **settings):
         """The fold kernel of this pattern for `sweep` (`origami_jax.net.fold_kernel`, `settings`
         its keyword arguments)."""
         return fold_kernel(self, **settings)
+
+
+# A pattern's fields that `content_key` reads otherwise (the geometry), or that decide nothing
+# (its label; its host cache; the FOLD frame and crease edges, which come with the geometry).
+_NOT_CONTENT = frozenset(
+    {"geometry", "name", "length_scale", "host_cache", "key_frame", "crease_edge_ids"}
+)
 
 
 # Compiled (and so kept in the persistent cache): op by op, the frequency's fixed point costs

@@ -441,7 +441,41 @@ def fold_outcome(
     `seam_gaps` names the seams' bodies (its `bodies`, `(s, 2)`, numbered as the contact tables:
     the base last), its two bodies touching in the contact's `report` (`touching`, either way
     round), from the one contact evaluation per state that also gives `min_gap`, `engaged` and
-    `penetration`."""
+    `penetration`.
+
+    Called on one concrete run (outside any transformation) it runs as `assess` does, one
+    compiled program per model structure and power of two of samples, with the tolerances as its
+    data: judging another run of the model, or with other tolerances, compiles nothing."""
+    arguments = (system, trajectory, intended_angles, angle_tolerance, seam_tolerance, panel_size)
+    if not is_traced(*arguments) and np.ndim(trajectory.theta) == 2:
+        return _judged(
+            system, trajectory, intended_angles, seam_gaps, tolerances, angle_tolerance,
+            seam_tolerance, panel_size,
+        )[0]  # fmt: skip
+    return _traced_outcome(
+        system,
+        trajectory,
+        intended_angles=intended_angles,
+        seam_gaps=seam_gaps,
+        tolerances=tolerances,
+        angle_tolerance=angle_tolerance,
+        seam_tolerance=seam_tolerance,
+        panel_size=panel_size,
+    )
+
+
+def _traced_outcome(
+    system,
+    trajectory: Trajectory,
+    *,
+    intended_angles=None,
+    seam_gaps: Callable | None = None,
+    tolerances: VerdictTolerances | None = None,
+    angle_tolerance: float | Array | None = None,
+    seam_tolerance=None,
+    panel_size: float | None = None,
+) -> FoldOutcome:
+    """`fold_outcome`, traced inline (under a transformation, or in its compiled program)."""
     angle_tolerance, seam_tolerance = _tolerances(
         system, tolerances, angle_tolerance, seam_tolerance, panel_size, seam_gaps, intended_angles
     )
@@ -659,7 +693,7 @@ def _outcome_compiled(
     seam_gaps = None
     if function is not None:
         seam_gaps = function if bodies is None else SeamGaps(function, bodies)
-    return fold_outcome(
+    return _traced_outcome(
         system,
         trajectory,
         intended_angles=intended,
@@ -765,6 +799,59 @@ def _front_padded(trajectory: Trajectory) -> Trajectory:
     )
 
 
+def _judged(
+    system, trajectory, intended_angles, seam_gaps, tolerances, angle_tolerance, seam_tolerance,
+    panel_size,
+):  # fmt: skip
+    """`fold_outcome` of one concrete run through its compiled program (`_outcome_compiled`, the
+    run padded in front), and the angle tolerance, seam tolerance(s) and intended angles it was
+    judged with (host values)."""
+    angle_tolerance, seam_tolerance = _tolerances(
+        system, tolerances, angle_tolerance, seam_tolerance, panel_size, seam_gaps, intended_angles
+    )
+    seam_tolerance = np.asarray(seam_tolerance, dtype=float)
+    if seam_tolerance.ndim == 0:
+        seam_tolerance = float(seam_tolerance)
+    if trajectory.theta.ndim != 2:
+        raise ValueError(
+            "assess takes one trajectory; for a batch, use fold_outcome under jax.vmap (or the "
+            "sweep's verdict outputs)."
+        )
+    intended = np.asarray(
+        system.hinges.target if intended_angles is None else intended_angles, dtype=float
+    )
+    if intended.shape != trajectory.theta.shape[-1:]:
+        raise ValueError(
+            f"intended_angles must have shape {trajectory.theta.shape[-1:]}, got {intended.shape}."
+        )
+    bodies = getattr(seam_gaps, "bodies", None)
+    if seam_gaps is not None:
+        # One tolerance per seam whether derived or fixed: one compiled verdict serves both.
+        if bodies is not None:
+            n_seams = len(bodies)  # checked against the function's output when it is traced
+        else:
+            q0 = trajectory.theta[0] if trajectory.state is None else trajectory.state[0][0]
+            n_seams = jax.eval_shape(seam_gaps, q0).shape[-1]
+        judged_tolerance = np.broadcast_to(seam_tolerance, (n_seams,))
+    else:
+        judged_tolerance = seam_tolerance
+    # On one device: a run's arrays are committed to a device or not depending on how they were
+    # computed (the command line's exported solve returns committed ones), and each pattern of
+    # committed arguments would compile the verdict again.
+    arguments = on_one_device(
+        (
+            system,
+            _front_padded(trajectory),
+            intended,
+            getattr(seam_gaps, "function", seam_gaps),
+            None if bodies is None else tuple(map(tuple, np.asarray(bodies).tolist())),
+            jnp.asarray(angle_tolerance),
+            jnp.asarray(judged_tolerance),
+        )
+    )
+    return _outcome_compiled(*arguments), angle_tolerance, seam_tolerance, intended
+
+
 def assess(
     system,
     trajectory: Trajectory,
@@ -805,47 +892,11 @@ def assess(
     (at least 1024; the run is padded in front; the verdict is the unpadded run's), so that judging
     another run of the same model compiles nothing.
     """
-    angle_tolerance, seam_tolerance = _tolerances(
-        system, tolerances, angle_tolerance, seam_tolerance, panel_size, seam_gaps, intended_angles
-    )
-    seam_tolerance = np.asarray(seam_tolerance, dtype=float)
-    if seam_tolerance.ndim == 0:
-        seam_tolerance = float(seam_tolerance)
-    if trajectory.theta.ndim != 2:
-        raise ValueError(
-            "assess takes one trajectory; for a batch, use fold_outcome under jax.vmap (or the "
-            "sweep's verdict outputs)."
-        )
-    intended = np.asarray(
-        system.hinges.target if intended_angles is None else intended_angles, dtype=float
-    )
-    if intended.shape != trajectory.theta.shape[-1:]:
-        raise ValueError(
-            f"intended_angles must have shape {trajectory.theta.shape[-1:]}, got {intended.shape}."
-        )
-    bodies = getattr(seam_gaps, "bodies", None)
-    if seam_gaps is not None:
-        # One tolerance per seam whether derived or fixed: one compiled verdict serves both.
-        q0 = trajectory.theta[0] if trajectory.state is None else trajectory.state[0][0]
-        n_seams = jax.eval_shape(seam_gaps, q0).shape[-1]
-        judged_tolerance = np.broadcast_to(seam_tolerance, (n_seams,))
-    else:
-        judged_tolerance = seam_tolerance
-    # On one device: a run's arrays are committed to a device or not depending on how they were
-    # computed (the command line's exported solve returns committed ones), and each pattern of
-    # committed arguments would compile the verdict again.
-    arguments = on_one_device(
-        (
-            system,
-            _front_padded(trajectory),
-            intended,
-            getattr(seam_gaps, "function", seam_gaps),
-            None if bodies is None else tuple(map(tuple, np.asarray(bodies).tolist())),
-            jnp.asarray(angle_tolerance),
-            jnp.asarray(judged_tolerance),
-        )
-    )
-    outcome = jax.device_get(_outcome_compiled(*arguments))
+    outcome, angle_tolerance, seam_tolerance, intended = _judged(
+        system, trajectory, intended_angles, seam_gaps, tolerances, angle_tolerance,
+        seam_tolerance, panel_size,
+    )  # fmt: skip
+    outcome = jax.device_get(outcome)
     contact = system.contact
     if thickness is None and contact is not None:
         thickness = 2 * float(np.min(contact.half_thickness))

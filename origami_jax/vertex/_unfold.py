@@ -433,6 +433,11 @@ def _measure_path(path, sectors, closed):
 _multipliers = jax.jit(multipliers, static_argnums=(2, 3))
 
 
+def _padded(count: int) -> int:
+    """The smallest power of two at least `count` (and 16)."""
+    return max(16, 1 << max(count - 1, 0).bit_length())
+
+
 def certify_path(
     path: Float[Array, "k n 3"] | np.ndarray,
     sector_angles: Float[Array, " a"] | np.ndarray,
@@ -451,7 +456,14 @@ def certify_path(
     """
     path = jnp.asarray(path, jnp.float64)
     sectors = jnp.asarray(sector_angles, jnp.float64)
-    clear, cross, folds, residual = (np.asarray(a) for a in _measure_path(path, sectors, closed))
+    # Measured on the path padded to a power of two of states (its last repeated), so that paths
+    # of other lengths (every run's own count of steps) share one compiled program.
+    count = path.shape[0]
+    padded = np.concatenate(
+        [np.asarray(path), np.repeat(np.asarray(path)[-1:], _padded(count) - count, axis=0)]
+    )
+    measured = _measure_path(jnp.asarray(padded), sectors, closed)
+    clear, cross, folds, residual = (np.asarray(a)[:count] for a in measured)
     top = topology(path.shape[1], closed)
     if contact_pairs is None:
         contact_pairs = clear[0] < CONTACT_TOL if clear.shape[1] else np.zeros(0, bool)
