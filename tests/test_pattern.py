@@ -155,7 +155,13 @@ KERNEL_ATOL = 1e-9
     # The paper's dynamics in the bath (the default before the fluid's inertia): the recorded store.
     [
         ("corner_cube", {"added_mass": False, "viscous": False}, 0.0),
-        ("vertex_degree4", {"contact": False, "added_mass": False, "viscous": False}, 1e-3),
+        # A closed-loop pattern's kernel (8 s; `test_loops` builds one by default).
+        pytest.param(
+            "vertex_degree4",
+            {"contact": False, "added_mass": False, "viscous": False},
+            1e-3,
+            marks=pytest.mark.slow,
+        ),
     ],
 )
 def test_the_kernel_of_a_pattern_object_gives_the_recorded_numbers(name, model, bias):
