@@ -46,6 +46,29 @@ def test_arguments_are_checked():
         )
 
 
+def test_other_end_times_and_sample_counts_compile_nothing_again():
+    """Outside any transformation the fixed steps solve on samples padded to a power of two, their
+    count of steps per interval traced under the next power of two: another end time or sample
+    count within both reuses the compiled solve (each compiled again, 20-30 s on a net), with the
+    numbers of a solve compiled for its own count (under `jit`: static steps)."""
+    from origami_jax.simulation import _simulate
+
+    system = _two_flaps()
+
+    def options(n):
+        return sim.SolveOptions(saveat=sim.SaveAt(n=n), solver=sim.ImplicitStep(dt=0.5))
+
+    first = sim.simulate(system, sim.Step(), options(11), t1=20.0)  # 4 steps of 0.5 µs per sample
+    compiled = _simulate._implicit_solve_jit._cached._cache_size()
+    for t1, n in ((16.0, 11), (20.0, 13), (14.0, 9)):  # 3.2, 3.3 and 3.5 steps: 4 each
+        run = sim.simulate(system, sim.Step(), options(n), t1=t1)
+        assert run.theta.shape[0] == n and float(run.times[-1]) == t1
+        assert int(run.stats["num_steps"]) == 4 * (n - 1)
+    assert _simulate._implicit_solve_jit._cached._cache_size() == compiled
+    inside = jax.jit(lambda s: sim.simulate(s, sim.Step(), options(11), t1=20.0).theta)(system)
+    np.testing.assert_allclose(first.theta, inside, rtol=1e-12, atol=1e-12)
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("scheme, low, high", [("euler", 1.6, 2.5), ("bdf2", 3.2, 5.0)])
 def test_converges_at_its_order_to_the_adaptive_solve(scheme, low, high):

@@ -99,7 +99,7 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
-from jaxtyping import Array, Float
+from jaxtyping import Array, Float, Int
 
 from ..system import FoldingSystem
 from ._inputs import AbstractInput
@@ -596,11 +596,16 @@ def integrate(
     ts: Float[Array, " t"],
     q0: Float[Array, " n"],
     v0: Float[Array, " n"],
-    steps: int,
+    steps: int | Int[Array, ""],
+    cap: int | None = None,
 ) -> tuple[Array, Array, dict[str, Array], RESULTS]:
     """The states ``(q, v)`` at the sample times `ts` (each `(t, n)`), statistics and a result code:
     `steps` equal implicit steps (`_step`) between consecutive times of ``(t0, ts…)``; a sample at
-    the time of the last (``ts[0] = t0``, repeated times) repeats its state."""
+    the time of the last (``ts[0] = t0``, repeated times) repeats its state. `steps` is a static
+    count, or with `cap` (static, at least `steps`) a traced one: each interval then runs `cap`
+    iterations of which those past `steps` do nothing, so that runs taking other counts within the
+    cap share one compiled program (at the top level, where nothing is batched and a skipped
+    iteration costs nothing)."""
     starts = jnp.concatenate([jnp.reshape(t0, (1,)), ts[:-1]])
     bdf2 = solver.scheme == "bdf2"
 
@@ -633,7 +638,18 @@ def integrate(
             state = (q_next, v_next, error, left_out + (moves & out).astype(jnp.int32))
             return (state, previous), None
 
-        state, _ = jax.lax.scan(step, state, jnp.arange(steps, dtype=ts.dtype))
+        def steps_across(state):
+            if cap is None:
+                return jax.lax.scan(step, state, jnp.arange(steps, dtype=ts.dtype))[0]
+
+            def step_within(carry, j):
+                return jax.lax.cond(j < steps, step, lambda carry, j: (carry, None), carry, j)
+
+            return jax.lax.scan(step_within, state, jnp.arange(cap, dtype=ts.dtype))[0]
+
+        # An empty interval (a repeated sample time: `simulate`'s padding) takes no steps; under
+        # `vmap` with a batched `moves` both branches run, masked as before.
+        state = jax.lax.cond(moves, steps_across, lambda state: state, state)
         return state, state[0][:2]
 
     zero = jnp.zeros((), q0.dtype)
