@@ -17,6 +17,11 @@ def test_registry_lists_and_builds_models():
         get_model("accordion-step", fluid="water")
     with pytest.raises(ValueError, match="unknown setting .tolerance.; its settings are n_flaps"):
         get_model("accordion-step", tolerance=1e-3)
+    # The same kernel for the same settings (the sweep engine compiles a kernel once per object).
+    kernel = get_model("accordion-step", n_flaps=2, t_end=500.0)
+    assert get_model("accordion-step", t_end=500.0, n_flaps=2) is kernel
+    assert get_model("accordion-step", n_flaps=2, t_end=600.0) is not kernel
+    assert get_model("vertex-unfold", n_creases=6) is get_model("vertex-unfold", n_creases=6)
 
 
 def test_accordion_refuses_unknown_parameters_and_fluids_before_compiling():

@@ -17,6 +17,7 @@ a name becomes an object here (a pattern's catalogue name or file, `"net-fold"`'
 
 import dataclasses
 import inspect
+import json
 from collections.abc import Callable, Mapping
 from typing import Any
 
@@ -46,6 +47,9 @@ from ..vertex import unfold_kernel as descend
 class _Model:
     description: str
     build: Callable[..., Kernel]
+    # Whether `get_model` keeps the kernel per settings (plain values): not for a model that reads
+    # a file (a FOLD file may change between calls; `fold_kernel` keeps its own by the contents).
+    kept: bool = True
 
 
 VERTEX_PARAMETERS = {"n_creases": "", "closed": "", "seed": "", "p": ""}
@@ -250,6 +254,7 @@ MODELS: dict[str, _Model] = {
         "fold verdicts of a net or closed-loop crease pattern (FOLD) over hinge parameters and "
         "release times",
         net_fold,
+        kept=False,
     ),
 }
 
@@ -260,7 +265,10 @@ def available_models() -> dict[str, str]:
 
 
 def get_model(name: str, **options: Any) -> Kernel:
-    """Build the sweep `Kernel` of a named model with its `options` (settings).
+    """Build the sweep `Kernel` of a named model with its `options` (settings): the same object
+    for the same settings (the last four kept; `net-fold` through `origami_jax.net.fold_kernel`,
+    which keeps its kernels by the pattern's contents), so that sweeping the model again in one
+    process compiles nothing again.
 
     **Raises:** `ValueError` for an unknown model or option.
     """
@@ -276,7 +284,26 @@ def get_model(name: str, **options: Any) -> Kernel:
                     f"model {name!r}: unknown setting {key!r}{did_you_mean(key, known)}; its "
                     f"settings are {', '.join(known)}."
                 )
+    key = None
+    if MODELS[name].kept:
+        try:
+            key = (name, json.dumps(options, sort_keys=True, allow_nan=True))
+        except TypeError:  # settings that are not plain values: a kernel of their own
+            key = None
+    if key is not None and key in _KEPT:
+        return _KEPT[key]
     try:
-        return build(**options)
+        kernel = build(**options)
     except TypeError as error:
         raise ValueError(f"model {name!r}: bad settings {sorted(options)}: {error}") from error
+    if key is not None:
+        # The same object for the same settings: the sweep engine traces and compiles a kernel
+        # once per process (a new object compiled it again: 6 s for the accordion's step).
+        _KEPT[key] = kernel
+        while len(_KEPT) > _KEPT_COUNT:
+            _KEPT.pop(next(iter(_KEPT)))
+    return kernel
+
+
+_KEPT: dict[tuple[str, str], Kernel] = {}
+_KEPT_COUNT = 4
