@@ -200,11 +200,11 @@ def fold_kernel(
     )  # fmt: skip
     content = getattr(pattern, "content_key", None)
     if content is None:  # a pattern without one: its own kernel, as built
-        return _fold_kernel(pattern, **settings)
+        return _fold_kernel(pattern, settings)
     # The name too: a kernel's settings record it (a store's, checked on resume).
     key = (content(), pattern.name, value_key(settings))
     if key not in _KERNELS:
-        _KERNELS[key] = _fold_kernel(pattern, **settings)
+        _KERNELS[key] = _fold_kernel(pattern, settings)
         while len(_KERNELS) > KERNELS_KEPT:
             _KERNELS.pop(next(iter(_KERNELS)))
     return _KERNELS[key]
@@ -215,18 +215,11 @@ KERNELS_KEPT = 4
 """How many fold kernels `fold_kernel` keeps (each holds its compiled programs: hundreds of MB)."""
 
 
-def _fold_kernel(
-    pattern,
-    *,
-    fluid: str | None = None,
-    design: HingeDesign | None = None,
-    solve: SolveOptions | None = None,
-    tolerances: VerdictTolerances | None = None,
-    bias: float = 0.0,
-    targets: Any = None,
-    hinge_lengths: str = "ideal",
-) -> Kernel:
-    """`fold_kernel`, built."""
+def _fold_kernel(pattern, settings: dict[str, Any]) -> Kernel:
+    """`fold_kernel`, built from its `settings` (its keyword arguments)."""
+    fluid, design, solve = settings["fluid"], settings["design"], settings["solve"]
+    tolerances, bias, targets = settings["tolerances"], settings["bias"], settings["targets"]
+    hinge_lengths = settings["hinge_lengths"]
     solve = FOLD_KERNEL_SOLVE if solve is None else solve
     if not isinstance(solve, SolveOptions):
         raise ValueError(f"solve must be a SolveOptions, got {type(solve).__name__}.")

@@ -452,30 +452,6 @@ def fold_outcome(
             system, trajectory, intended_angles, seam_gaps, tolerances, angle_tolerance,
             seam_tolerance, panel_size,
         )[0]  # fmt: skip
-    return _traced_outcome(
-        system,
-        trajectory,
-        intended_angles=intended_angles,
-        seam_gaps=seam_gaps,
-        tolerances=tolerances,
-        angle_tolerance=angle_tolerance,
-        seam_tolerance=seam_tolerance,
-        panel_size=panel_size,
-    )
-
-
-def _traced_outcome(
-    system,
-    trajectory: Trajectory,
-    *,
-    intended_angles=None,
-    seam_gaps: Callable | None = None,
-    tolerances: VerdictTolerances | None = None,
-    angle_tolerance: float | Array | None = None,
-    seam_tolerance=None,
-    panel_size: float | None = None,
-) -> FoldOutcome:
-    """`fold_outcome`, traced inline (under a transformation, or in its compiled program)."""
     angle_tolerance, seam_tolerance = _tolerances(
         system, tolerances, angle_tolerance, seam_tolerance, panel_size, seam_gaps, intended_angles
     )
@@ -693,7 +669,7 @@ def _outcome_compiled(
     seam_gaps = None
     if function is not None:
         seam_gaps = function if bodies is None else SeamGaps(function, bodies)
-    return _traced_outcome(
+    return fold_outcome(
         system,
         trajectory,
         intended_angles=intended,
