@@ -63,6 +63,7 @@ def test_the_flaps_are_the_patterns():
         wide.with_geometry(hinge_width=3.0)
 
 
+@pytest.mark.slow  # three compiled solves of the accordion: ~17 s of the default suite
 def test_same_design_through_every_entry_point(tmp_path):
     """CLI `simulate`, `design`'s forward model and the sweep kernel build the same system from the
     same design, with θ_final free: their responses agree with a direct `simulate` to solver accuracy."""

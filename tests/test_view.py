@@ -396,6 +396,7 @@ def test_cli_view_fold_file(tmp_path, capsys):
     assert "4 panels, 4 hinges, 2 frames" in out
 
 
+@pytest.mark.slow  # a shipped pattern's system and view compiled: ~9 s
 def test_cli_view_previews_a_shipped_pattern(tmp_path, capsys, monkeypatch):
     # A catalogue name is not a file: the page goes to the working folder, named after it; the
     # last frame is the cube net folded to its intended 90° creases.

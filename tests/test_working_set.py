@@ -83,6 +83,7 @@ def test_a_working_set_keeps_the_least_gaps_and_every_force():
     assert bool(_selected((1, 1)).left_out_engaged(mechanism, q))
 
 
+@pytest.mark.slow  # a cube net's collision check compiled twice: ~10 s
 def test_the_collision_check_bounds_the_pairs_left_out():
     """From the engaged state, straight steps to random nearby states (some into contact): with a
     working set, the time of impact is at most every pair's (conservative), and with every engaged

@@ -581,6 +581,7 @@ def test_a_step_budget_runs_the_stragglers_again_and_gives_the_same_samples(tmp_
         ojy.yield_estimate(PATTERN, run=ojy.RunOptions(step_budget=200_000))
 
 
+@pytest.mark.slow  # the CLI estimate, its widths, sensitivity, gradient and figures: ~26 s
 def test_cli_writes_result_and_figure(tmp_path, capsys):
     from origami_jax.cli import main
 
