@@ -205,6 +205,7 @@ def _degree4_fixed_steps(dt: float):
     return sim.simulate(system, sim.Step(), fixed, t1=3000.0, theta0=start)
 
 
+@pytest.mark.slow  # the closed loop's fixed-step solve and the adaptive one compiled: ~26 s
 def test_fixed_steps_hold_the_vertex_closed_and_follow_the_adaptive_fold():
     """`ImplicitStep` on a closed loop: the degree-4 vertex folds on its branch with its loop held
     closed and its closed-form relation kept, along the adaptive solver's trajectory from the same
