@@ -106,6 +106,26 @@ def as_kernel(fn: Callable[..., Any] | Kernel) -> Kernel:
     return Kernel(fn=fn, name=f"{module}.{qualname}".lstrip("."))
 
 
+class KeptKernels:
+    """The last `size` kernels built, by a key of their pattern and settings: the sweep engine
+    traces and compiles a kernel once per `Kernel` object, so a builder that returns the object it
+    built before for the same settings compiles nothing again (each kernel holds its compiled
+    programs, hundreds of MB: few are kept)."""
+
+    def __init__(self, size: int = 4):
+        self.size = size
+        self._kernels: dict[Any, Kernel] = {}
+
+    def get(self, key, build: Callable[[], Kernel]) -> Kernel:
+        """The kernel kept under `key`, else `build()` kept under it (the oldest dropped)."""
+        if key not in self._kernels:
+            kernel = build()
+            self._kernels[key] = kernel
+            while len(self._kernels) > self.size:
+                self._kernels.pop(next(iter(self._kernels)))
+        return self._kernels[key]
+
+
 def check_setting(
     value: Any,
     name: str,

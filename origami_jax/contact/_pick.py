@@ -2,15 +2,15 @@
 
 The plate contact picks each primitive pair's points and bodies from per-vertex and per-body arrays,
 and sums the pairs' wrenches back onto the bodies. Both can be a gather and a scatter-add, or a
-product with a one-hot matrix (constant for host rows, a comparison of every row with every index
-for traced ones). The one-hot products were chosen first, measured faster for tens of bodies under
-`vmap` with an earlier XLA; on jaxlib 0.10 (2-core CPU, 2026-12-06) the gathers win everywhere:
-one pick and its adjoint 3-10× faster alone and as fast or faster vmapped over 64 (constant
-one-hot, 28-101 rows picked from 64-4096), 2-36× for traced rows; a cube net's adaptive fold 1.9×
-and a vmapped batch 1.4× faster, a 100-panel strip's contact force 2.5×. `DENSE_PICK_LIMIT`
-(entries of a one-hot matrix, default 0: always gather) keeps the products for comparison; the
-one-hot matrix grows as the square of a pattern's size (a 500-panel strip: 1e6 pairs × 2,000
-vertices, 16 GB), and traced rows are gathered whatever the limit.
+product with a constant one-hot matrix (host rows; traced rows took a comparison of every row with
+every index, built at each call). The one-hot products were chosen first, measured faster for tens
+of bodies under `vmap` with an earlier XLA; on jaxlib 0.10 (2-core CPU, 2026-12-06) the gathers
+win everywhere: one pick and its adjoint 3-10× faster alone and as fast or faster vmapped over 64
+(constant one-hot, 28-101 rows picked from 64-4096), 2-36× for traced rows; a cube net's adaptive
+fold 1.9× faster (a vmapped batch of 16 unchanged), a 100-panel strip's contact force 2.5×.
+`DENSE_PICK_LIMIT` (entries of a one-hot matrix, default 0: always gather) keeps the products for
+comparison; the one-hot matrix grows as the square of a pattern's size (a 500-panel strip: 1e6
+pairs × 2,000 vertices, 16 GB), and traced rows are gathered whatever the limit.
 """
 
 import jax.numpy as jnp
@@ -41,9 +41,7 @@ def pick(rows: np.ndarray | Array, size: int, flat: Array, *, transpose: bool = 
     return one_hot.T @ flat if transpose else one_hot @ flat
 
 
-def one_hot_rows(rows: np.ndarray | Array, size: int, dtype) -> Array:
-    """The one-hot matrix `(len(rows), size)` of `rows`: a constant built on the host for host
-    `rows`, a comparison for traced ones."""
-    if isinstance(rows, np.ndarray):
-        return jnp.asarray(np.eye(size)[rows], dtype)
-    return (rows[:, None] == jnp.arange(size)).astype(dtype)
+def one_hot_rows(rows: np.ndarray, size: int, dtype) -> Array:
+    """The one-hot matrix `(len(rows), size)` of host `rows`, a constant (`dense_pick` rows only:
+    traced rows are always gathered)."""
+    return jnp.asarray(np.eye(size)[rows], dtype)

@@ -336,13 +336,6 @@ def _columns(values: Mapping[str, np.ndarray]) -> tuple[dict[str, np.ndarray], d
     return columns, units
 
 
-def _kernel(pattern, **options):
-    """The fold kernel of `pattern` for `options` (`origami_jax.net.fold_kernel`): the same object
-    for the same pattern contents and options, a net loaded again included (the sweep engine then
-    traces and compiles it once per process; see `origami_jax.sweep.sweep`)."""
-    return pattern.kernel(**options)
-
-
 def _stragglers_finished(dataset, kernel, columns, units, **sweep_options):
     """`dataset` (a first pass under a step budget) with its samples that reached the budget run
     again by `kernel` (the full `max_steps`), all in one sweep; its `run_s` and `compile_s` then
@@ -387,7 +380,7 @@ def _unfinished_settled(dataset, pattern, options, columns, units, t_settle, **s
     if rows.size:
         n_long = min(int(round((n_save - 1) * t_settle / t_end)) + 1, MAX_SAMPLES)
         longer = solve.replace(t1=float(t_settle), saveat=SaveAt(n=n_long))
-        kernel = _kernel(pattern, **{**options, "solve": longer})
+        kernel = pattern.kernel(**{**options, "solve": longer})
         _run_again(dataset, rows, kernel, columns, units, **sweep_options)
     return dataset
 
@@ -618,9 +611,9 @@ def yield_estimate(
         bias=float(bias),
     )
     first_pass = max_steps if step_budget is None else int(step_budget)
-    kernel = _kernel(
-        pattern, **{**options, "solve": options["solve"].replace(max_steps=first_pass)}
-    )
+    # The same kernel object for the same pattern contents and options (`fold_kernel`): a second
+    # estimate of the net, loaded again or not, compiles nothing again.
+    kernel = pattern.kernel(**{**options, "solve": options["solve"].replace(max_steps=first_pass)})
 
     def samples(start: int, end: int, folder, chunk_size) -> tuple[Any, int]:
         """Samples `start` to `end` (of the one sequence of draws) simulated and judged, stored in
@@ -650,7 +643,7 @@ def yield_estimate(
 
         if step_budget is not None:
             dataset = _stragglers_finished(
-                dataset, _kernel(pattern, **options), columns, units, **later_pass("stragglers")
+                dataset, pattern.kernel(**options), columns, units, **later_pass("stragglers")
             )
             # The first pass's kernel settings say max_steps = the budget; the second's did not.
             dataset.attrs.update({"step_budget": int(step_budget), "max_steps": int(max_steps)})

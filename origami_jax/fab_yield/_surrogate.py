@@ -11,7 +11,7 @@ import numpy as np
 from ..net import FOLD_KERNEL_SOLVE
 from ..simulation import VerdictTolerances
 from ..system import KOH_SOLUTION
-from ._estimate import _GLOBAL, _kernel, _nominal, as_pattern
+from ._estimate import _GLOBAL, _nominal, as_pattern
 from ._order import front_release_times
 from ._scatter import Scatter, standard_draws
 
@@ -115,8 +115,7 @@ def soft_yield(
         raise ValueError(f"targets must be {m} angles (rad, one per crease).")
     nominal = _nominal(design, None if release_times is None else np.asarray(release_times), m)
     draws = {k: jnp.asarray(v) for k, v in standard_draws(seed, n_samples, m).items()}
-    kernel = _kernel(
-        the_net,
+    kernel = the_net.kernel(
         design=design,
         hinge_lengths="designed",
         solve=solve,

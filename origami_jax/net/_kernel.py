@@ -21,6 +21,7 @@ from jaxtyping import Array
 from .._kernel import (
     FLUIDS,
     INVALID_INPUT,
+    KeptKernels,
     Kernel,
     check_setting,
     design_settings,
@@ -188,9 +189,10 @@ def fold_kernel(
       fabricated hinge whose film stress or thickness is off.
 
     The same `Kernel` object for the same pattern (by its contents, `content_key`, and name: a
-    net loaded again is the same) and the same settings (by value): the sweep engine traces and compiles a
-    kernel once per process, so a second yield, sweep or fit of the net compiles nothing again.
-    The last `KERNELS_KEPT` are kept.
+    net loaded again is the same) and the same settings (by value): the sweep engine traces and
+    compiles a kernel once per process, so a second yield, sweep or fit of the net compiles
+    nothing again.
+    The last four are kept.
 
     **Raises:** `ValueError` before anything compiles for bad settings.
     """
@@ -203,16 +205,10 @@ def fold_kernel(
         return _fold_kernel(pattern, settings)
     # The name too: a kernel's settings record it (a store's, checked on resume).
     key = (content(), pattern.name, value_key(settings))
-    if key not in _KERNELS:
-        _KERNELS[key] = _fold_kernel(pattern, settings)
-        while len(_KERNELS) > KERNELS_KEPT:
-            _KERNELS.pop(next(iter(_KERNELS)))
-    return _KERNELS[key]
+    return _KEPT.get(key, lambda: _fold_kernel(pattern, settings))
 
 
-_KERNELS: dict[tuple, Kernel] = {}
-KERNELS_KEPT = 4
-"""How many fold kernels `fold_kernel` keeps (each holds its compiled programs: hundreds of MB)."""
+_KEPT = KeptKernels()
 
 
 def _fold_kernel(pattern, settings: dict[str, Any]) -> Kernel:

@@ -25,7 +25,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._kernel import INVALID_INPUT, Kernel, check_setting
+from .._kernel import INVALID_INPUT, KeptKernels, Kernel, check_setting
 from .._limits import AFTER_RELEASE_US, CONTACT_SAMPLING, MAX_SAMPLES
 from .._names import did_you_mean
 from ..chain import accordion_step
@@ -284,26 +284,21 @@ def get_model(name: str, **options: Any) -> Kernel:
                     f"model {name!r}: unknown setting {key!r}{did_you_mean(key, known)}; its "
                     f"settings are {', '.join(known)}."
                 )
-    key = None
-    if MODELS[name].kept:
+
+    def built() -> Kernel:
         try:
-            key = (name, json.dumps(options, sort_keys=True, allow_nan=True))
-        except TypeError:  # settings that are not plain values: a kernel of their own
-            key = None
-    if key is not None and key in _KEPT:
-        return _KEPT[key]
+            return build(**options)
+        except TypeError as error:
+            raise ValueError(f"model {name!r}: bad settings {sorted(options)}: {error}") from error
+
+    if not MODELS[name].kept:
+        return built()
     try:
-        kernel = build(**options)
-    except TypeError as error:
-        raise ValueError(f"model {name!r}: bad settings {sorted(options)}: {error}") from error
-    if key is not None:
-        # The same object for the same settings: the sweep engine traces and compiles a kernel
-        # once per process (a new object compiled it again: 6 s for the accordion's step).
-        _KEPT[key] = kernel
-        while len(_KEPT) > _KEPT_COUNT:
-            _KEPT.pop(next(iter(_KEPT)))
-    return kernel
+        settings = json.dumps(options, sort_keys=True)
+    except TypeError:  # settings that are not plain values: a kernel of their own
+        return built()
+    # The same object for the same settings (a new object compiled again: 6 s for the accordion).
+    return _KEPT.get((name, settings), built)
 
 
-_KEPT: dict[tuple[str, str], Kernel] = {}
-_KEPT_COUNT = 4
+_KEPT = KeptKernels()
