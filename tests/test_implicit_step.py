@@ -47,10 +47,10 @@ def test_arguments_are_checked():
 
 
 def test_other_end_times_and_sample_counts_compile_nothing_again():
-    """Outside any transformation the fixed steps solve on samples padded to a power of two, their
-    count of steps per interval traced under the next power of two: another end time or sample
-    count within both reuses the compiled solve (each compiled again, 20-30 s on a net), with the
-    numbers of a solve compiled for its own count (under `jit`: static steps)."""
+    """Outside any transformation the fixed steps solve on samples padded to a power of two:
+    another end time or sample count within it that takes the same steps per interval reuses the
+    compiled solve (each compiled again, 20-30 s on a net), with the numbers of a solve compiled
+    for its own count (under `jit`: nothing padded)."""
     from origami_jax.simulation import _simulate
 
     system = _two_flaps()

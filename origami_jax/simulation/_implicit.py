@@ -99,7 +99,7 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
-from jaxtyping import Array, Float, Int
+from jaxtyping import Array, Float
 
 from ..system import FoldingSystem
 from ._inputs import AbstractInput
@@ -596,16 +596,11 @@ def integrate(
     ts: Float[Array, " t"],
     q0: Float[Array, " n"],
     v0: Float[Array, " n"],
-    steps: int | Int[Array, ""],
-    cap: int | None = None,
+    steps: int,
 ) -> tuple[Array, Array, dict[str, Array], RESULTS]:
     """The states ``(q, v)`` at the sample times `ts` (each `(t, n)`), statistics and a result code:
     `steps` equal implicit steps (`_step`) between consecutive times of ``(t0, ts…)``; a sample at
-    the time of the last (``ts[0] = t0``, repeated times) repeats its state. `steps` is a static
-    count, or with `cap` (static, at least `steps`) a traced one: each interval then runs `cap`
-    iterations of which those past `steps` do nothing, so that runs taking other counts within the
-    cap share one compiled program (at the top level, where nothing is batched and a skipped
-    iteration costs nothing)."""
+    the time of the last (``ts[0] = t0``, repeated times) repeats its state."""
     starts = jnp.concatenate([jnp.reshape(t0, (1,)), ts[:-1]])
     bdf2 = solver.scheme == "bdf2"
 
@@ -639,13 +634,7 @@ def integrate(
             return (state, previous), None
 
         def steps_across(state):
-            if cap is None:
-                return jax.lax.scan(step, state, jnp.arange(steps, dtype=ts.dtype))[0]
-
-            def step_within(carry, j):
-                return jax.lax.cond(j < steps, step, lambda carry, j: (carry, None), carry, j)
-
-            return jax.lax.scan(step_within, state, jnp.arange(cap, dtype=ts.dtype))[0]
+            return jax.lax.scan(step, state, jnp.arange(steps, dtype=ts.dtype))[0]
 
         # An empty interval (a repeated sample time: `simulate`'s padding) takes no steps; under
         # `vmap` with a batched `moves` both branches run, masked as before.
