@@ -2,6 +2,7 @@
 fold kernel built from a pattern object gives the numbers the name-built kernel gave; the yield
 path reads its pattern once; the layers above the engines branch on no pattern type."""
 
+import dataclasses
 import json
 import re
 from pathlib import Path
@@ -300,6 +301,20 @@ def test_a_pattern_loaded_again_gets_the_same_kernel():
     net, again = load_net("corner_cube"), load_net("corner_cube")
     assert net is not again and net.content_key() == again.content_key()
     assert net.with_model(drag="none").content_key() != net.content_key()
+    # Fields that are plain dataclasses (a drawn layout) by their arrays' bytes: their
+    # representation rounds and elides long arrays, so two layouts could have shared a key.
+    from origami_jax.net._content import value_key
+
+    @dataclasses.dataclass(frozen=True)
+    class Layout:
+        shifts: np.ndarray
+
+    drawn = np.linspace(0.0, 1.0, 2000)
+    nudged = drawn.copy()
+    nudged[1500] += 1e-12
+    layouts = [Layout(x) for x in (drawn, nudged)]
+    assert repr(layouts[0]) == repr(layouts[1])
+    assert value_key(layouts[0]) != value_key(layouts[1])
     renamed = load_net("corner_cube", name="renamed")
     assert renamed.content_key() == net.content_key()  # the same systems, the same ramp
     assert renamed.kernel(fluid="air") is not first  # whose settings record the name
