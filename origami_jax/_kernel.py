@@ -69,6 +69,14 @@ class Kernel:
       costs spread widely and cannot be estimated ahead (adaptive solvers through contact): a
       vmapped chunk runs until its slowest member is done, and on a CPU a wider batch buys little,
       so small chunks computed side by side (`sweep`'s `workers`) finish sooner.
+    - `inputs`: values every design of a sweep takes (a dict of numbers, arrays, or pytrees of
+      them such as a whole `HingeDesign`), handed to `fn` as further entries of `params` and to
+      the compiled program as data, not constants: kernels of the same `fn` (by identity) whose
+      inputs differ in value, not in shape, share its traces and compiled programs (the sweep
+      engine keeps them per `fn`). For settings a user changes between sweeps of one model (the
+      verdict's tolerances, the nominal design) without compiling again. Record what they mean
+      in `settings` too (the engine stores `settings`, not `inputs`). Swept parameters may not
+      take their names.
     - `never_raises`: `True` for a kernel that turns every bad value into its result code itself
       (as the built-in ones do), so that no `equinox.error_if` inside it can fire. `sweep` then
       traces it with equinox's checks turned into NaN: the compiled program calls nothing back into
@@ -90,9 +98,10 @@ class Kernel:
     cost: Callable[..., Any] | None = None
     cpu_chunk_size: int | None = None
     never_raises: bool = False
+    inputs: Mapping[str, Any] = dataclasses.field(default_factory=dict)
 
     def __call__(self, params: Mapping[str, Any]) -> Any:
-        return self.fn(params)
+        return self.fn({**self.inputs, **params})
 
 
 def as_kernel(fn: Callable[..., Any] | Kernel) -> Kernel:
@@ -107,10 +116,10 @@ def as_kernel(fn: Callable[..., Any] | Kernel) -> Kernel:
 
 
 class KeptKernels:
-    """The last `size` kernels built, by a key of their pattern and settings: the sweep engine
-    traces and compiles a kernel once per `Kernel` object, so a builder that returns the object it
-    built before for the same settings compiles nothing again (each kernel holds its compiled
-    programs, hundreds of MB: few are kept)."""
+    """The last `size` kernels (or kernel programs) built, by a key of their pattern and settings:
+    the sweep engine traces and compiles a kernel once per program (its `fn`), so a builder that
+    returns what it built before for the same settings compiles nothing again (each program holds
+    its compiled calls, hundreds of MB: few are kept)."""
 
     def __init__(self, size: int = 4):
         self.size = size

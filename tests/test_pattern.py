@@ -7,7 +7,9 @@ import json
 import re
 from pathlib import Path
 
+import equinox as eqx
 import jax
+import jax.numpy as jnp
 import numpy as np
 import pytest
 
@@ -18,6 +20,7 @@ from origami_jax.net import FOLD_KERNEL_SOLVE, Net, NetLayout, load_net
 from origami_jax.simulation import ImplicitStep, SaveAt, VerdictTolerances
 from origami_jax.sweep import Table, get_model, sweep
 from origami_jax.system import (
+    AIR,
     KOH_SOLUTION,
     AbstractLayout,
     AbstractPattern,
@@ -288,6 +291,25 @@ def test_a_pattern_loaded_again_gets_the_same_kernel():
     first = load_pattern("corner_cube").kernel(fluid="air")
     assert load_pattern("corner_cube").kernel(fluid="air") is first
     assert load_net("corner_cube").kernel(fluid="air") is first
+    # Kernels that differ in a tolerance's or the nominal design's numbers share the traced
+    # program (they reach it as data, `Kernel.inputs`, so a yield at another tolerance compiles
+    # nothing again); a fixed seam fraction against a derived one does not.
+    pattern = load_pattern("corner_cube")
+    design = pattern.default_design(AIR)
+    sharing = [
+        pattern.kernel(fluid="air", tolerances=VerdictTolerances(angle=np.radians(5.0))),
+        pattern.kernel(design=eqx.tree_at(lambda d: d.k_scale, design, jnp.asarray(1.3))),
+        pattern.kernel(
+            design=eqx.tree_at(lambda d: d.b_scale, design, jnp.asarray(0.5)),
+            tolerances=VerdictTolerances(angle=0.02),
+        ),
+    ]
+    assert [k.fn is first.fn and k.settings != first.settings for k in sharing] == [True] * 3
+    assert sharing[0].inputs["angle_tolerance"] == np.radians(5.0)
+    assert float(sharing[2].inputs["design"].b_scale) == 0.5
+    seam = [VerdictTolerances(seam=s) for s in (0.02, 0.03)]
+    fixed = [pattern.kernel(fluid="air", tolerances=t) for t in seam]
+    assert fixed[0].fn is fixed[1].fn is not first.fn
     others = [
         load_pattern("corner_cube").with_model(contact="sampled").kernel(fluid="air"),
         load_pattern("corner_cube").kernel(fluid="air", tolerances=VerdictTolerances(seam=0.02)),

@@ -23,7 +23,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from origami_jax.sweep import Grid, Kernel, Samples, Table, sweep
+from origami_jax.sweep import Grid, Kernel, Samples, Table, TraceCache, sweep
 
 ROOT = Path(__file__).resolve().parents[1]
 # Sharded and unsharded runs compile different programs (different per-device batch sizes); XLA may
@@ -116,6 +116,44 @@ def test_sweep_matches_direct_vmap_and_marks_failures():
     np.testing.assert_allclose(
         ds["overshoot"].values[ok], np.exp(-np.pi * zeta / np.sqrt(1 - zeta**2)), rtol=1e-14
     )
+
+
+def test_kernels_of_one_program_with_other_inputs_compile_nothing_again():
+    """`Kernel.inputs` reach the program as data: a second kernel of the same `fn` with other
+    input values (a setting a user changes between sweeps) traces and compiles nothing, and its
+    results follow its own values (the damping ratio scaled by an input, against the oscillator
+    swept at the scaled ratio); another shape or dtype is another trace; a swept parameter may not take
+    an input's name."""
+    traces = []
+
+    def scaled(params):
+        traces.append(1)
+        return oscillator({**params, "zeta": params["zeta"] * params["scale"]})
+
+    space = Grid({"zeta": [0.1, 0.2, 0.3], "omega": [2.0]})
+    kernels = [
+        Kernel(scaled, name="scaled", output_dims={"crossings": ("level",)}, inputs={"scale": s})
+        for s in (1.0, 2.0)
+    ]
+    traces_kept = TraceCache()
+    first, second = (
+        sweep(k, space, chunk_size=2, progress=False, traces=traces_kept) for k in kernels
+    )
+    assert len(traces) == 1 and second.attrs["compile_s"] == 0.0
+    doubled = sweep(
+        KERNEL, Grid({"zeta": [0.2, 0.4, 0.6], "omega": [2.0]}), chunk_size=2, progress=False
+    )
+    for name in ("overshoot", "rise_time"):
+        np.testing.assert_allclose(second[name].values, doubled[name].values, rtol=1e-14)
+        assert not np.allclose(first[name].values, second[name].values)
+    direct = kernels[1]({"zeta": 0.1, "omega": 2.0})["overshoot"]  # a call takes them too
+    np.testing.assert_allclose(direct, doubled["overshoot"].values[0], rtol=1e-14)
+    whole = dataclasses.replace(kernels[0], inputs={"scale": 2})  # an integer: another dtype
+    before = len(traces)
+    sweep(whole, space, chunk_size=2, progress=False, traces=traces_kept)
+    assert len(traces) == before + 1
+    with pytest.raises(ValueError, match="fixed inputs"):
+        sweep(kernels[0], Grid({"zeta": [0.1], "omega": [2.0], "scale": [1.0]}), progress=False)
 
 
 def test_some_invalid_members_complete_and_are_marked_exactly():

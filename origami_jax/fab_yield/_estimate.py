@@ -611,8 +611,9 @@ def yield_estimate(
         bias=float(bias),
     )
     first_pass = max_steps if step_budget is None else int(step_budget)
-    # The same kernel object for the same pattern contents and options (`fold_kernel`): a second
-    # estimate of the net, loaded again or not, compiles nothing again.
+    # The same kernel program for the same pattern contents and options (`fold_kernel`): a second
+    # estimate of the net, loaded again or not, at other tolerances or another nominal design,
+    # compiles nothing again.
     kernel = pattern.kernel(**{**options, "solve": options["solve"].replace(max_steps=first_pass)})
 
     def samples(start: int, end: int, folder, chunk_size) -> tuple[Any, int]:

@@ -47,7 +47,7 @@ from ..simulation import (
     start_bias,
 )
 from ..system import AIR, KOH_SOLUTION, HingeDesign
-from ._content import value_key
+from ._content import structure_key, value_key
 
 # Fields of `HingeDesign` a net sweep may vary for every crease at once (scalar parameter `name`) or
 # for one crease (`name[j]`); lengths in µm, the package's MICRO unit system.
@@ -189,10 +189,14 @@ def fold_kernel(
       fabricated hinge whose film stress or thickness is off.
 
     The same `Kernel` object for the same pattern (by its contents, `content_key`, and name: a
-    net loaded again is the same) and the same settings (by value): the sweep engine traces and
-    compiles a kernel once per process, so a second yield, sweep or fit of the net compiles
-    nothing again.
-    The last four are kept.
+    net loaded again is the same) and the same settings (by value); and the same traced program
+    (`Kernel.fn`) for settings that differ only in the verdict's tolerance values, the numbers of
+    the nominal `design` (not its fluid or models) and its release ramp's length, which reach the
+    program as data (`Kernel.inputs`). The sweep engine traces and compiles a program once per
+    process, so a second yield, sweep or fit of the net, or one at another tolerance or nominal
+    design, compiles nothing again (a fixed seam fraction against a derived seam tolerance, or
+    arc hinges drawn for another nominal design, are another program). The last four of each
+    are kept.
 
     **Raises:** `ValueError` before anything compiles for bad settings.
     """
@@ -209,6 +213,10 @@ def fold_kernel(
 
 
 _KEPT = KeptKernels()
+# The kernels' traced programs (`Kernel.fn`), by the pattern's contents and what shapes the program
+# (not the verdict's tolerances, the nominal design's numbers or the release ramp's length, which
+# reach it as `Kernel.inputs`): kernels that differ only in those share their compiled programs.
+_PROGRAMS = KeptKernels()
 
 
 def _fold_kernel(pattern, settings: dict[str, Any]) -> Kernel:
@@ -294,7 +302,7 @@ def _fold_kernel(pattern, settings: dict[str, Any]) -> Kernel:
         parameters["noise_seed"] = "1"
     intended = jnp.asarray(pattern.intended_angles)
 
-    def design_of(params):
+    def design_of(params, base):
         invalid = jnp.zeros((), dtype=bool)
         values = {}
         for name in (*NET_PARAMETERS, *NET_GLOBAL_PARAMETERS):
@@ -327,16 +335,34 @@ def _fold_kernel(pattern, settings: dict[str, Any]) -> Kernel:
             raise ValueError(f"sweep every target[j] of the {m} creases, or none.")
         return jnp.stack([jnp.asarray(a, dtype=float) for a in swept])
 
-    release = Step(ramp=ramp)
     arcs_on_net = pattern.hinges == "arc" and not pattern.n_loops
     layout = {"layout_design": base} if arcs_on_net else {}
+    # Values the program takes as data (`Kernel.inputs`), so that another tolerance, nominal design
+    # or ramp compiles nothing again. Arc hinges on a net are drawn (lithography) for the nominal
+    # design on the host: there it stays a constant of the program.
+    inputs: dict[str, Any] = {"angle_tolerance": tolerances.angle}
+    if tolerances.seam is not None:
+        inputs["seam_tolerance"] = tolerances.seam
+    if ramp is not None:
+        inputs["release_ramp"] = ramp
+    if not arcs_on_net:
+        inputs["design"] = base
+    solve_options = SolveOptions(
+        saveat=SaveAt(n=n_save),
+        solver=solver,
+        rtol=rtol,
+        atol=atol,
+        max_steps=max_steps,
+        throw=False,
+    )
 
     def fn(params):
-        design, times, invalid = design_of(params)
+        nominal = params.get("design", base)
+        design, times, invalid = design_of(params, nominal)
         aim = aims_of(params)
         if hinge_lengths == "designed":
             aim = intended if aim is None else aim
-            aim = aim * design.curvature() / base.curvature()
+            aim = aim * design.curvature() / nominal.curvature()
         # The system of this member's design: its numbers are traced, so it is built in the trace.
         # Arc hinges on a net: laid out (lithography) for the nominal design, not each sample's.
         system = pattern.system(design, targets=aim, release_times=times, **layout)
@@ -346,22 +372,16 @@ def _fold_kernel(pattern, settings: dict[str, Any]) -> Kernel:
             invalid = invalid | ~((seed >= 0) & (seed < 2.0**31) & (seed == jnp.floor(seed)))
             seed = jnp.where(invalid, 0.0, seed)
             system = eqx.tree_at(lambda s: s.agitation.key, system, member_key(agitation, seed))
-        trajectory = simulate(
-            system,
-            release,
-            SolveOptions(
-                saveat=SaveAt(n=n_save),
-                solver=solver,
-                rtol=rtol,
-                atol=atol,
-                max_steps=max_steps,
-                throw=False,
-            ),
-            theta0=theta0,
-            t1=t_end,
-        )
+        release = Step(ramp=params.get("release_ramp"))
+        trajectory = simulate(system, release, solve_options, theta0=theta0, t1=t_end)
+        seam = params.get("seam_tolerance")
         outcome = pattern.outcome(
-            system, trajectory, intended_angles=intended, tolerances=tolerances
+            system,
+            trajectory,
+            intended_angles=intended,
+            angle_tolerance=params["angle_tolerance"],
+            # A fixed fraction of the largest panel (static: the contact tables' scale).
+            seam_tolerance=None if seam is None else seam * pattern.panel_size(system),
         )
         result = jnp.where(invalid, INVALID_INPUT, trajectory.result._value).astype(jnp.int32)
         failed = result != 0
@@ -397,9 +417,23 @@ def _fold_kernel(pattern, settings: dict[str, Any]) -> Kernel:
             ),
         }
 
+    content = getattr(pattern, "content_key", None)
+    if content is not None:
+        program = {
+            "solve": solve_options,
+            "t_end": t_end,
+            "bias": bias,
+            "aims": aims,
+            "hinge_lengths": hinge_lengths,
+            "inputs": structure_key(inputs),
+            "base": value_key(base) if arcs_on_net else None,
+        }
+        built = fn
+        fn = _PROGRAMS.get((content(), value_key(program)), lambda: built)
     resume = pattern.resume_settings()
     return Kernel(
         fn=fn,
+        inputs=inputs,
         never_raises=True,  # bad values come back as INVALID_INPUT
         name="net-fold",
         # The keys and values stores have recorded since before patterns were objects (a store

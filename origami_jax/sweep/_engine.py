@@ -155,10 +155,12 @@ def _compiled_bytes(compiled: Any) -> int | None:
 
 class TraceCache:
     """Output shapes and compiled calls of the most recent kernels, so that sweeps of the *same*
-    `Kernel` object (e.g. yield estimates of one net at several scatter widths) trace and compile it
-    once: tracing a contact simulation costs tens of seconds. Keyed by the kernel's identity (it is
-    held here, so its id cannot be reused) and the group's static values, input shapes and
-    sharding; the least recently used kernels are dropped beyond `size`.
+    kernel program (e.g. yield estimates of one net at several scatter widths, or at other verdict
+    tolerances, which reach the program as its `Kernel.inputs`) trace and compile it once: tracing
+    a contact simulation costs tens of seconds. Keyed by the kernel's program (its `fn`, by
+    identity: it is held here, so its id cannot be reused, and whether it raises) and the group's
+    static values, input shapes and sharding; the least recently used programs are dropped beyond
+    `size`.
 
     `sweep` keeps them in `TRACES`, the process's one cache, unless given another (`traces=`, e.g.
     a fresh `TraceCache()` that goes with the sweep); `TRACES.clear()` lets the kept programs go.
@@ -166,28 +168,35 @@ class TraceCache:
 
     def __init__(self, size: int = 4):
         self.size = size
-        self.entries: dict[int, tuple[Kernel, dict]] = {}
+        self.entries: dict[tuple[int, bool], tuple[Callable, dict]] = {}
 
     def __len__(self) -> int:
-        """The number of kernels kept."""
+        """The number of kernel programs kept."""
         return len(self.entries)
 
     def clear(self) -> None:
-        """Drop every kept kernel with its traces and compiled calls."""
+        """Drop every kept program with its traces and compiled calls."""
         self.entries.clear()
 
+    @staticmethod
+    def _program(kernel: Kernel) -> tuple[int, bool]:
+        # `never_raises` changes the trace (equinox's checks as NaN), so it is part of the program.
+        return id(kernel.fn), bool(kernel.never_raises)
+
     def get(self, kernel: Kernel, key: tuple) -> Any:
-        entry = self.entries.get(id(kernel))
-        if entry is None or entry[0] is not kernel:
+        program = self._program(kernel)
+        entry = self.entries.get(program)
+        if entry is None or entry[0] is not kernel.fn:
             return None
-        self.entries[id(kernel)] = self.entries.pop(id(kernel))  # most recently used last
+        self.entries[program] = self.entries.pop(program)  # most recently used last
         return entry[1].get(key)
 
     def put(self, kernel: Kernel, key: tuple, value: Any) -> None:
-        entry = self.entries.get(id(kernel))
-        if entry is None or entry[0] is not kernel:
-            entry = (kernel, {})
-            self.entries[id(kernel)] = entry
+        program = self._program(kernel)
+        entry = self.entries.get(program)
+        if entry is None or entry[0] is not kernel.fn:
+            entry = (kernel.fn, {})
+            self.entries[program] = entry
             while len(self.entries) > self.size:
                 self.entries.pop(next(iter(self.entries)))
         entry[1][key] = value
@@ -202,10 +211,30 @@ def _statics_key(static_values: Mapping[str, Any]) -> tuple:
     return tuple(sorted((k, repr(v)) for k, v in static_values.items()))
 
 
-def _signature(group: "_Group", inputs: Mapping[str, Any]) -> tuple:
-    """What a traced group depends on besides its kernel: static values, input shapes and dtypes."""
+def _signature(group: "_Group", inputs: Mapping[str, Any], fixed: Any) -> tuple:
+    """What a traced group depends on besides its kernel's program: static values, input shapes and
+    dtypes, and the structure, shapes and dtypes of the kernel's fixed `inputs`."""
     shapes = tuple(sorted((k, tuple(v.shape), str(v.dtype)) for k, v in inputs.items()))
-    return _statics_key(group.static_values), shapes
+    leaves, structure = jax.tree.flatten(fixed)
+    fixed_shapes = tuple((tuple(np.shape(x)), str(np.asarray(x).dtype)) for x in leaves)
+    return _statics_key(group.static_values), shapes, structure, fixed_shapes
+
+
+def _fixed_inputs(kernel: Kernel) -> dict[str, Any]:
+    """The kernel's fixed inputs (`Kernel.inputs`) as a pytree of host arrays (numbers in JAX's
+    canonical float or int type), checked against its parameters' names."""
+
+    def leaf(x: Any) -> np.ndarray:
+        x = np.asarray(x)
+        if x.dtype.kind in "fiu":
+            return _canonical(x)
+        if x.dtype.kind == "b":
+            return x
+        raise ValueError(
+            f"inputs of model {kernel.name!r} must be numbers or arrays of numbers, got {x.dtype}."
+        )
+
+    return jax.tree.map(leaf, dict(kernel.inputs))
 
 
 class _Group:
@@ -235,15 +264,17 @@ class _Plan:
     groups: list[_Group]
     layout: dict[str, tuple[tuple[str, ...], tuple[int, ...], str]]
     manifest: dict[str, Any]
+    fixed: dict[str, Any] = dataclasses.field(default_factory=dict)
 
     @property
     def n_designs(self) -> int:
         return self.space.size
 
     def member_fn(self, static_values: dict[str, Any]) -> Callable:
-        """The jitted kernel of one design of the group with `static_values`, outputs checked: one
-        function object per kernel and static values (kept in the plan's `traces`), so that JAX traces it
-        once for the shape probe and every chunk size reuses that trace."""
+        """The jitted kernel of one design of the group with `static_values`, `member(params,
+        fixed)` (`fixed`: the kernel's `inputs`), outputs checked: one function object per kernel
+        program and static values (kept in the plan's `traces`), so that JAX traces it once for
+        the shape probe and every chunk size reuses that trace."""
         kernel = self.kernel
         key = ("member", _statics_key(static_values))
         jitted = self.traces.get(kernel, key)
@@ -255,8 +286,8 @@ class _Plan:
     def _checked_member(self, static_values: dict[str, Any]) -> Callable:
         kernel = self.kernel
 
-        def member(params: dict[str, Any]) -> dict[str, Any]:
-            outputs = kernel.fn({**params, **static_values})
+        def member(params: dict[str, Any], fixed: dict[str, Any]) -> dict[str, Any]:
+            outputs = kernel.fn({**fixed, **params, **static_values})
             if not isinstance(outputs, Mapping):
                 raise ValueError(
                     f"model {kernel.name!r} must return a flat dict of arrays, got "
@@ -326,7 +357,8 @@ def sweep(
     - `on_chunk`: called as `on_chunk(done, total)` after each chunk is computed (and stored,
       unless held for a larger file).
     - `traces`: where the kernel's traces and compiled calls are kept for later sweeps of the same
-      `Kernel` object (a `TraceCache`); `None`: `TRACES`, the process's.
+      program (the same `Kernel.fn`, whatever its `inputs`' values; a `TraceCache`); `None`:
+      `TRACES`, the process's.
 
     **Returns:** an `xarray.Dataset` with dimension `design` (index coordinate `design`, the design's
     row in `space.columns()`), every parameter as a coordinate along `design` (attribute `units`),
@@ -427,6 +459,13 @@ def _plan(kernel: Kernel, space: AbstractDesignSpace, traces: TraceCache) -> _Pl
                 f"model {kernel.name!r} has no parameter(s) {unknown}; it accepts "
                 f"{sorted(kernel.parameters)}."
             )
+    fixed = _fixed_inputs(kernel)
+    taken = sorted(set(fixed) & set(space.names))
+    if taken:
+        raise ValueError(
+            f"model {kernel.name!r} takes {taken} as fixed inputs (the same for every design), "
+            "not as swept parameters; build the kernel with the value instead."
+        )
     columns = space.columns()
     for name in space.names:
         column = columns[name]
@@ -453,6 +492,7 @@ def _plan(kernel: Kernel, space: AbstractDesignSpace, traces: TraceCache) -> _Pl
         groups=_make_groups(columns, static_names, space.size),
         layout={},
         manifest={},
+        fixed=fixed,
     )
     example = {n: jnp.zeros((), encoded[n].dtype) for n in dynamic_names}
     for group in plan.groups:
@@ -461,12 +501,13 @@ def _plan(kernel: Kernel, space: AbstractDesignSpace, traces: TraceCache) -> _Pl
             for k, v in plan.prepared(group, group.indices[:1]).items()
         }
         inputs = {**example, **group.extra}
-        shapes = traces.get(kernel, ("shapes", _signature(group, inputs)))
+        signature = _signature(group, inputs, fixed)
+        shapes = traces.get(kernel, ("shapes", signature))
         if shapes is None:
             # Traced as the compiled kernel will be (checks included): its chunks reuse this trace.
             with checks_as_nan(kernel.never_raises):
-                shapes = jax.eval_shape(plan.member_fn(group.static_values), inputs)
-            traces.put(kernel, ("shapes", _signature(group, inputs)), shapes)
+                shapes = jax.eval_shape(plan.member_fn(group.static_values), inputs, fixed)
+            traces.put(kernel, ("shapes", signature), shapes)
         for name, shape in shapes.items():
             if not isinstance(shape, jax.ShapeDtypeStruct):
                 raise ValueError(f"output {name!r} of {kernel.name!r} is not an array.")
@@ -565,7 +606,8 @@ class _Compiler:
         self.seconds: list[float] = []
 
     def group(self, group: _Group, size: int) -> Callable:
-        """The compiled `(size,)`-batch kernel of `group` (kept per kernel object in the plan's `traces`)."""
+        """The compiled `(size,)`-batch kernel of `group` (kept per kernel program in the plan's
+        `traces`)."""
         plan, sharding = self.plan, self.sharding
         # The sharding is the jitted call's alone: on the arguments it would reach the member's
         # inputs under `vmap` too, and JAX would trace the member again instead of reusing the
@@ -573,22 +615,27 @@ class _Compiler:
         args = {n: jax.ShapeDtypeStruct((size,), plan.encoded[n].dtype) for n in plan.dynamic_names}
         for name, shape in group.extra.items():
             args[name] = jax.ShapeDtypeStruct((size, *shape.shape), shape.dtype)
-        key = ("compiled", _signature(group, args), sharding)
+        key = ("compiled", _signature(group, args, plan.fixed), sharding)
         compiled = plan.traces.get(plan.kernel, key)
         if compiled is not None:
             return compiled
         member = plan.member_fn(group.static_values)
         # A chunk of one design (the nets' kernel on a CPU) runs the member itself: batching its
         # traced program under `vmap` costs as much as tracing it again.
-        batched = _one_design(member) if size == 1 else jax.vmap(member)
+        batched = _one_design(member) if size == 1 else jax.vmap(member, in_axes=(0, None))
 
-        def sweep_chunk(params: dict[str, Any]) -> dict[str, Any]:  # names the compiled program
-            return batched(params)
+        def sweep_chunk(params: dict[str, Any], fixed: dict[str, Any]) -> dict[str, Any]:
+            return batched(params, fixed)  # (the name the compiled program goes by)
 
-        jitted = jax.jit(sweep_chunk, in_shardings=sharding, out_shardings=sharding)
+        jitted = jax.jit(
+            sweep_chunk,
+            in_shardings=(sharding, _replicated(sharding)),
+            out_shardings=sharding,
+        )
+        fixed = jax.tree.map(lambda x: jax.ShapeDtypeStruct(x.shape, x.dtype), plan.fixed)
         start = time.perf_counter()
         with checks_as_nan(plan.kernel.never_raises):
-            lowered = jitted.lower(args)
+            lowered = jitted.lower(args, fixed)
         compiled = lowered.compile()
         self.seconds.append(time.perf_counter() - start)
         plan.traces.put(plan.kernel, key, compiled)
@@ -603,24 +650,29 @@ class _Compiler:
         inputs.update(plan.prepared(group, todo))
         statics = group.static_values
 
-        def cost(params):
-            return jnp.asarray(estimate({**params, **statics}), dtype=float).reshape(())
+        def cost(params, fixed):
+            return jnp.asarray(estimate({**fixed, **params, **statics}), dtype=float).reshape(())
 
         start = time.perf_counter()
         with checks_as_nan(plan.kernel.never_raises):
-            lowered = jax.jit(jax.vmap(cost)).lower(inputs)
+            lowered = jax.jit(jax.vmap(cost, in_axes=(0, None))).lower(inputs, plan.fixed)
         compiled_cost = lowered.compile()
         self.seconds.append(time.perf_counter() - start)
-        costs = np.asarray(compiled_cost(inputs))
+        costs = np.asarray(compiled_cost(inputs, plan.fixed))
         return np.where(np.isfinite(costs), costs, np.inf)
+
+
+def _replicated(sharding: NamedSharding) -> NamedSharding:
+    """A whole copy on every device of `sharding`'s mesh (the kernel's fixed inputs)."""
+    return NamedSharding(sharding.mesh, P())
 
 
 def _one_design(member: Callable) -> Callable:
     """`member` over a batch of one design: the batch axis dropped on the way in, added back on
-    the way out."""
+    the way out (the fixed inputs as they are)."""
 
-    def batch_of_one(params: dict[str, Any]) -> dict[str, Any]:
-        outputs = member(jax.tree.map(lambda x: x[0], params))
+    def batch_of_one(params: dict[str, Any], fixed: dict[str, Any]) -> dict[str, Any]:
+        outputs = member(jax.tree.map(lambda x: x[0], params), fixed)
         return jax.tree.map(lambda x: x[None], outputs)
 
     return batch_of_one
@@ -705,13 +757,15 @@ def _run_chunks(
         dynamic_ncols=True,
     )
 
+    fixed = jax.device_put(plan.fixed, _replicated(sharding))
+
     def compute(group: _Group, indices: np.ndarray) -> dict[str, np.ndarray]:
         padded = np.concatenate([indices, np.full(size - len(indices), indices[-1])])
         inputs = {n: jax.device_put(plan.encoded[n][padded], sharding) for n in plan.dynamic_names}
         for name, value in plan.prepared(group, padded).items():
             inputs[name] = jax.device_put(value, sharding)
         assert group.compiled is not None
-        return jax.device_get(group.compiled(inputs))
+        return jax.device_get(group.compiled(inputs, fixed))
 
     in_memory: list[xr.Dataset] = []
     held: list[tuple[np.ndarray, dict[str, np.ndarray]]] = []
