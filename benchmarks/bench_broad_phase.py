@@ -6,7 +6,7 @@ creases alternately valley and mountain at 170°, the literature bilayer hinges 
 wide as its crease). Two states:
 curled (each crease at 6 % of its target: only neighbours within reach) and stacked (105.8 %: past
 the target, every panel pressed onto the ones around it in the stack, pairs engaged). Past
-`BROAD_PHASE_MIN_PAIRS` primitive pairs (a strip of ~75 squares) `PlateContact.force` boxes each
+`BROAD_PHASE_MIN_PAIRS` primitive pairs (a strip of ~53 squares) `PlateContact.force` boxes each
 body and evaluates only the primitive pairs of boxes within reach; the peer row evaluates every
 pair (the same terms and many exact zeros, the broad phase turned off for that trace). Both are
 checked equal (to 1e-12 of the largest force) before anything is timed.

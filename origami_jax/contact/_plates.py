@@ -113,8 +113,9 @@ _CCD_PAIRS = 32
 # The broad phase (`PlateContact._broad`): patterns with more primitive pairs than this evaluate
 # only the pairs whose bodies' bounding boxes come within reach. The catalogue's largest pattern
 # (a 2×2 waterbomb) has about 2,000; one of 100 squares (120,000) takes a force in 40 % of the
-# time, one of 200 in a quarter (`benchmarks/bench_broad_phase.py`).
-BROAD_PHASE_MIN_PAIRS = 1 << 16
+# time, one of 200 in a quarter (`benchmarks/bench_broad_phase.py`). With the pairs gathered, the
+# boxes break even at ~28,000 pairs (a strip of 50 squares) and save a third at 44,000 (62).
+BROAD_PHASE_MIN_PAIRS = 1 << 15
 # Room the broad phase keeps per body, for primitive pairs of each kind and for body pairs (a
 # square among neighbours on every side meets each in ~24 primitive pairs); a state with more
 # within reach evaluates every pair instead (the same result, at the full cost).
