@@ -123,7 +123,7 @@ def test_kernels_of_one_program_with_other_inputs_compile_nothing_again():
     input values (a setting a user changes between sweeps) traces and compiles nothing, and its
     results follow its own values (the damping ratio scaled by an input, against the oscillator
     swept at the scaled ratio); another shape or dtype is another trace; a swept parameter may not take
-    an input's name."""
+    an input's name, and inputs that are not numbers are refused before anything is traced."""
     traces = []
 
     def scaled(params):
@@ -154,6 +154,9 @@ def test_kernels_of_one_program_with_other_inputs_compile_nothing_again():
     assert len(traces) == before + 1
     with pytest.raises(ValueError, match="fixed inputs"):
         sweep(kernels[0], Grid({"zeta": [0.1], "omega": [2.0], "scale": [1.0]}), progress=False)
+    for bad, message in (({"scale": "two"}, "numbers or arrays"), ([2.0], "a mapping")):
+        with pytest.raises(ValueError, match=message):
+            sweep(dataclasses.replace(kernels[0], inputs=bad), space, progress=False)
 
 
 def test_some_invalid_members_complete_and_are_marked_exactly():

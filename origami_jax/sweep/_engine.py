@@ -234,6 +234,11 @@ def _fixed_inputs(kernel: Kernel) -> dict[str, Any]:
             f"inputs of model {kernel.name!r} must be numbers or arrays of numbers, got {x.dtype}."
         )
 
+    if not isinstance(kernel.inputs, Mapping):
+        raise ValueError(
+            f"inputs of model {kernel.name!r} must be a mapping of names to values, got "
+            f"{type(kernel.inputs).__name__}."
+        )
     return jax.tree.map(leaf, dict(kernel.inputs))
 
 
