@@ -480,10 +480,11 @@ def test_report_gives_the_exact_overlap_of_plates_passed_through():
 
 
 @functools.cache
-def _fold(case: str, model: str, engine: str = "adaptive"):
-    """The cube net folded 150 µs in air (`case`: aimed at its creases, 10° past them, or with no
-    drag) with contact `model`, by the adaptive default or (`engine="fixed"`) `ImplicitStep`."""
-    net = _cube_net()
+def _fold(case: str, model: str, engine: str = "adaptive", scale: float = SCALE):
+    """The cube net (`scale`: its length scale) folded 150 µs in air (`case`: aimed at its
+    creases, 10° past them, or with no drag) with contact `model`, by the adaptive default or
+    (`engine="fixed"`) `ImplicitStep`."""
+    net = _cube_net(scale)
     targets, drag = None, "panel"
     if case == "past":
         targets = np.asarray(net.intended_angles) + np.sign(net.intended_angles) * np.radians(10)
@@ -510,6 +511,38 @@ def test_cube_net_plates_never_pass_through(case):
     thickness = 2 * float(np.min(np.asarray(system.contact.half_thickness)))
     outcome = _cube_net().outcome(system, trajectory)
     assert float(outcome.penetration) < thickness
+
+
+def test_a_net_of_another_size_folds_with_the_programs_compiled_for_the_first():
+    """The panels' coordinates (outlines, plate tables) are data of the compiled programs, not
+    constants: the cube net at three times the size builds its system and folds in air with what
+    its fold at twice the size compiled (before, every program compiled again), no plates pass
+    through each other (the independent test), and its compiled contact energy is its own
+    geometry's: equal to the same energy evaluated op by op, and not the smaller net's. (Both
+    folds in this test: the suite may drop compiled programs between tests.)"""
+    small, _ = _fold("air", "plate", scale=2 * SCALE)
+    compiles = []
+
+    def listen(event, duration, **kwargs):
+        if event == "/jax/core/compile/backend_compile_duration":
+            compiles.append(duration)
+
+    jax.monitoring.register_event_duration_secs_listener(listen)
+    try:
+        system, trajectory = _fold("air", "plate", scale=3 * SCALE)
+    finally:
+        jax.monitoring.unregister_event_duration_listener(listen)
+    # At most a single operation or two on first use (a division skipped at scale 1, 0.04 s);
+    # the fold's own programs take 20-40 s to compile.
+    assert sum(compiles) < 1.0, compiles
+    assert bool(trajectory.succeeded), trajectory.result
+    assert through_at_samples(system, trajectory.theta) == []
+    closed = 0.995 * jnp.asarray(_cube_net().intended_angles)
+    energies = [float(_potential(s.contact, s.mechanism, closed)) for s in (small, system)]
+    with jax.disable_jit():
+        direct = float(system.contact.potential(system.mechanism, closed))
+    assert energies[1] == pytest.approx(direct, rel=1e-10) and energies[1] > 0
+    assert abs(energies[1] - energies[0]) > 1e-3 * energies[1]
 
 
 @pytest.mark.slow  # three folds by the fixed-step engine, ~40 s each

@@ -100,7 +100,7 @@ class PanelContact(AbstractContact):
     - `edge_width`: ``δ``, the width over which a face's rim is rounded (and `report`'s coverage
       ramp), length.
     - `half_thickness`: half of each body's thickness, the base last, `(n,)`, length.
-    - `plates` (static): the panels' exact polygons ([`origami_jax.contact.PlateTables`][]), from
+    - `plates`: the panels' exact polygons ([`origami_jax.contact.PlateTables`][]), from
       which `report` measures the penetration exactly (`None`: from the sample points' gaps).
 
     Build it with [`origami_jax.contact.PanelContact.for_system`][] (defaults from the hinges and
@@ -113,7 +113,7 @@ class PanelContact(AbstractContact):
     damping: Float[Array, ""]
     edge_width: Float[Array, ""]
     half_thickness: Float[Array, " n"]
-    plates: PlateTables | None = eqx.field(static=True, default=None)
+    plates: PlateTables | None = None
 
     @classmethod
     def from_mechanism(

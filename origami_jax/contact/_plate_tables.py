@@ -1,8 +1,9 @@
 """Host-side geometry of exact plate contact: every panel's polygon and the primitive pairs checked.
 
-Built once from a mechanism's flat-state geometry (`outlines`, `base_outline`, `hinge_layout`) and
-kept as static data of `PlateContact` (a content hash makes it hashable, so a compiled simulation
-is reused for the same geometry). The primitives are those of Incremental Potential Contact:
+Built once from a mechanism's flat-state geometry (`outlines`, `base_outline`, `hinge_layout`). In
+`PlateContact` the coordinates (`vertices`, `base_pose`, `scale`) are data of the compiled
+programs and the index tables are static (hashed by their contents): a compiled simulation is
+reused for the same panels at another size or another layout of the same topology. The primitives are those of Incremental Potential Contact:
 every vertex of a panel against every other panel's polygon (*vertex–face*), and every edge of a
 panel against every edge of every other panel (*edge–edge*).
 
@@ -15,6 +16,7 @@ two plates of thickness ``t`` meeting there would otherwise start ``t`` deep in 
 
 import dataclasses
 
+import jax
 import numpy as np
 
 from ._primitives import point_polygon_sq, polygon_normal, segment_segment_sq
@@ -23,8 +25,9 @@ from ._tables import _convex_hull, _distance_to_segment, content_digest, plane_f
 
 @dataclasses.dataclass(frozen=True, eq=False)
 class PlateTables:
-    """The static geometry of `PlateContact` (host NumPy arrays; body `n_bodies` is the fixed base
-    when there is one).
+    """The geometry of `PlateContact` (host NumPy arrays; body `n_bodies` is the fixed base when
+    there is one). A pytree: `vertices`, `base_pose` and `scale` are its leaves (traced in a
+    compiled program, so another size compiles nothing), the rest its static structure.
 
     **Fields:**
     - `n_bodies`: moving bodies; `has_base`: whether a fixed base takes part.
@@ -51,15 +54,39 @@ class PlateTables:
     digest: str = dataclasses.field(default="", repr=False)
 
     def __post_init__(self):
+        # A NumPy scalar (a float): a leaf that is the same object each time the tables flatten.
+        object.__setattr__(self, "scale", np.float64(self.scale))
+        object.__setattr__(self, "digest", self._content_digest())
+
+    def _content_digest(self) -> str:
         arrays = ("base_pose", "vertices", "vertex_face", "edge_edge", "joined")
-        scalars = (self.n_bodies, self.has_base, self.scale)
-        object.__setattr__(self, "digest", content_digest(self, arrays, scalars))
+        scalars = (self.n_bodies, self.has_base, float(self.scale))
+        return content_digest(self, arrays, scalars)
+
+    def _digest(self) -> str:
+        # Tables rebuilt from leaves (`_unflatten`) compute theirs when first compared.
+        if not self.digest:
+            object.__setattr__(self, "digest", self._content_digest())
+        return self.digest
 
     def __hash__(self) -> int:
-        return hash(self.digest)
+        return hash(self._digest())
 
     def __eq__(self, other) -> bool:
-        return isinstance(other, PlateTables) and other.digest == self.digest
+        return isinstance(other, PlateTables) and other._digest() == self._digest()
+
+    def _flatten(self):
+        return (self.vertices, self.base_pose, self.scale), _PlateIndex(self)
+
+    @classmethod
+    def _unflatten(cls, index: "_PlateIndex", leaves) -> "PlateTables":
+        # Not through `__init__`: the leaves may be traced, and the digest is the index's.
+        tables = object.__new__(cls)
+        vertices, base_pose, scale = leaves
+        fields = dict(index.fields, vertices=vertices, base_pose=base_pose, scale=scale)
+        for name, value in fields.items():
+            object.__setattr__(tables, name, value)
+        return tables
 
     @property
     def n_primitives(self) -> int:
@@ -71,6 +98,38 @@ class PlateTables:
         """`(p, 2)` every unordered pair of bodies ``a < b`` (for the overlap report)."""
         n = self.vertices.shape[0]
         return np.asarray([(a, b) for a in range(n) for b in range(a + 1, n)], dtype=np.int64)
+
+
+class _PlateIndex:
+    """`PlateTables`' static part (its pytree structure): the index tables and counts, compared by
+    their contents, not the coordinates."""
+
+    def __init__(self, tables: PlateTables):
+        self.fields = {
+            "n_bodies": tables.n_bodies,
+            "has_base": tables.has_base,
+            "vertex_face": tables.vertex_face,
+            "edge_edge": tables.edge_edge,
+            "joined": tables.joined,
+            "digest": "",
+        }
+        # Not the vertices' shape: a leaf (its shape is part of every compiled program's key), and
+        # a pytree partitioned by `equinox.partition` flattens with `None` in its place.
+        self._key = content_digest(
+            tables, ("vertex_face", "edge_edge", "joined"), (tables.n_bodies, tables.has_base)
+        )
+
+    def __hash__(self) -> int:
+        return hash(self._key)
+
+    def __eq__(self, other) -> bool:
+        return isinstance(other, _PlateIndex) and other._key == self._key
+
+    def __repr__(self) -> str:
+        return f"PlateIndex({self._key[:12]})"
+
+
+jax.tree_util.register_pytree_node(PlateTables, PlateTables._flatten, PlateTables._unflatten)
 
 
 def build_plate_tables(

@@ -187,7 +187,8 @@ class PlateContact(AbstractContact):
     detection (module docstring: the model).
 
     **Fields:**
-    - `tables` (static): the [`origami_jax.contact.PlateTables`][] geometry.
+    - `tables`: the [`origami_jax.contact.PlateTables`][] geometry (its coordinates are data, its
+      index tables static).
     - `stiffness`: ``κ``, energy units (µN·µm = pJ in `MICRO`).
     - `activation`: ``ĝ``, the gap at which contact switches on, length.
     - `damping`: ``c``, force·time/length, per primitive pair in contact.
@@ -203,7 +204,7 @@ class PlateContact(AbstractContact):
     panels) or `PlateContact.from_mechanism`.
     """
 
-    tables: PlateTables = eqx.field(static=True)
+    tables: PlateTables
     stiffness: Float[Array, ""]
     activation: Float[Array, ""]
     damping: Float[Array, ""]

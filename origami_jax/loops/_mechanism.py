@@ -38,7 +38,7 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
-from jaxtyping import Array, Float
+from jaxtyping import Array, ArrayLike, Float
 
 from ..net import PanelTree
 from ..system import AbstractMechanism, HingeLayout
@@ -72,24 +72,25 @@ class LoopedPanels(AbstractMechanism):
     **Fields:**
     - `tree`: the panels on a spanning tree of the faces, a `PanelTree` (hinges ``0 … m_T − 1``).
     - `cut_bodies` (static): for each cut crease, the two bodies it joins ``(a, b)`` (−1: the base);
-      `cut_ends` (static): its two end points in the flat state, world frame.
+      `cut_ends`: `(c, 2, 3)` their two end points in the flat state, world frame (host data).
     - `loop_index` (static): `(n_v, D)` crease indices around each interior vertex, counter-clockwise
       (``m`` pads); `loop_directions`: `(n_v, D, 3)` their outward unit directions in the flat state.
     - `rate`: Baumgarte rate ``ω`` (1/time); `whitening`: ``δ`` (dimensionless). `penalty` (static):
       ``ρ / mean(diag M_T)``; `iterations` (static): augmented-Lagrangian iterations.
-    - `loop_points` (static): the interior vertices' positions (flat state), for contact tables.
+    - `loop_points`: `(k, 3)` the interior vertices' positions (flat state), for contact tables
+      (host data: a pattern of another size compiles nothing).
     """
 
     tree: PanelTree
     cut_bodies: tuple[tuple[int, int], ...] = eqx.field(static=True)
-    cut_ends: tuple = eqx.field(static=True)
+    cut_ends: Float[ArrayLike, "c 2 3"]
     loop_index: tuple[tuple[int, ...], ...] = eqx.field(static=True)
     loop_directions: Float[Array, "n_v D 3"]
     rate: Float[Array, ""]
     whitening: Float[Array, ""] = eqx.field(default_factory=lambda: jnp.asarray(_WHITENING))
     penalty: float = eqx.field(static=True, default=1e4)
     iterations: int = eqx.field(static=True, default=4)
-    loop_points: tuple = eqx.field(static=True, default=())
+    loop_points: Float[ArrayLike, "k 3"] = eqx.field(default_factory=lambda: np.zeros((0, 3)))
 
     # ---- sizes ----
 

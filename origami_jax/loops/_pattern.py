@@ -358,20 +358,15 @@ class CreasePattern(AbstractPanelPattern):
                 a, b = b, a
             start = g.points[j] * self.length_scale
             cut_bodies.append((a, b))
-            cut_ends.append(
-                (
-                    tuple(start.tolist()),
-                    tuple((start + g.lengths[j] * self.length_scale * g.axes[j]).tolist()),
-                )
-            )
+            cut_ends.append((start, start + g.lengths[j] * self.length_scale * g.axes[j]))
         directions, index = self._padded()
-        points = tuple(
-            tuple((g.vertices_coords[v] * self.length_scale).tolist()) for v in g.loop_vertices
-        )
+        points = np.array(
+            [g.vertices_coords[v] * self.length_scale for v in g.loop_vertices], dtype=float
+        ).reshape(-1, 3)
         return LoopedPanels(
             tree=tree,
             cut_bodies=tuple(cut_bodies),
-            cut_ends=tuple(cut_ends),
+            cut_ends=np.array(cut_ends, dtype=float).reshape(-1, 2, 3),
             loop_index=tuple(tuple(int(i) for i in row) for row in index),
             loop_directions=jnp.asarray(directions),
             rate=jnp.asarray(rate, dtype=jnp.result_type(float)),

@@ -345,7 +345,25 @@ def with_fluid_loads(
     loads = _fluid_loads(*arguments)
     if loads.viscous is not None:
         drag_model = CombinedDrag((drag_model, loads.viscous))
-    return loads.mechanism, drag_model
+    return host_geometry_kept(loads.mechanism, mechanism), drag_model
+
+
+# A mechanism's drawing geometry: data of the compiled programs (another size compiles nothing),
+# read on the host (contact tables, plots).
+_HOST_GEOMETRY = ("panel_outlines", "base_polygon", "cut_ends", "loop_points")
+
+
+def host_geometry_kept(new, old):
+    """`new` (a mechanism a compiled program returned) with `old`'s drawing geometry (its panels'
+    outlines, base polygon, cut creases' ends, loop vertices): the program gives them back as its
+    outputs, device arrays or, under an outer trace, traced ones, where the host reads them."""
+    kept = dict(jax.tree_util.tree_flatten_with_path(old)[0])
+
+    def host(path, leaf):
+        named = any(getattr(key, "name", None) in _HOST_GEOMETRY for key in path)
+        return kept.get(path, leaf) if named else leaf
+
+    return jax.tree_util.tree_map_with_path(host, new)
 
 
 def check_surface_model(adhesion, friction) -> None:

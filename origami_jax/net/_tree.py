@@ -44,13 +44,13 @@ from ._topology import check_parents
 _IN_PLANE_TOLERANCE = 1e-6
 
 
-def _as_polygon_tuple(polygon, name: str) -> tuple[tuple[float, ...], ...]:
-    host = np.asarray(polygon, dtype=float)
+def _as_polygon(polygon, name: str) -> np.ndarray:
+    host = np.array(polygon, dtype=float)
     if host.ndim != 2 or host.shape[1] != 3 or host.shape[0] < 3:
         raise ValueError(f"{name} must be a polygon of shape (k, 3) with k ≥ 3, got {host.shape}.")
     if not np.all(np.isfinite(host)):
         raise ValueError(f"{name} contains NaN or inf.")
-    return tuple(tuple(float(x) for x in row) for row in host)
+    return host
 
 
 def forward_inputs(n: int, q, v, force) -> tuple[Array, Array, Array]:
@@ -79,8 +79,9 @@ class PanelTree(AbstractMechanism):
       its body frame about the body frame's origin, acting on body twists ordered ``(linear,
       angular)``, added to the rigid one (fluid added mass), `(n, 6, 6)`; or `None`. It has no weight.
     - `gravity`: `(3,)`, length/time²; zero by default.
-    - `panel_outlines`, `base_polygon` (static): the drawing geometry behind `outlines()` and
-      `base_outline()`, as tuples.
+    - `panel_outlines`, `base_polygon`: the drawing geometry behind `outlines()` and
+      `base_outline()` (a tuple of `(k_i, 3)` host arrays, and a `(k, 3)` one; data, so a tree
+      of another size compiles nothing).
 
     Bodies may be numbered in any order (the algorithms run in a topological order and permute
     back). Many states of one tree, as `(t, n)` rows or under `jax.vmap`, run in a layout with the
@@ -101,8 +102,8 @@ class PanelTree(AbstractMechanism):
     inertias: Float[Array, "n 3 3"]
     added_inertias: Float[Array, "n 6 6"] | None
     gravity: Float[Array, "3"]
-    panel_outlines: tuple | None = eqx.field(static=True)
-    base_polygon: tuple | None = eqx.field(static=True)
+    panel_outlines: tuple | None
+    base_polygon: Float[ArrayLike, "k 3"] | None
 
     def __init__(
         self,
@@ -183,10 +184,10 @@ class PanelTree(AbstractMechanism):
             if len(outlines) != n:
                 raise ValueError(f"outlines has {len(outlines)} polygons; {hint}")
             self.panel_outlines = tuple(
-                _as_polygon_tuple(o, f"outlines[{i}]") for i, o in enumerate(outlines)
+                _as_polygon(o, f"outlines[{i}]") for i, o in enumerate(outlines)
             )
         self.base_polygon = (
-            None if base_outline is None else _as_polygon_tuple(base_outline, "base_outline")
+            None if base_outline is None else _as_polygon(base_outline, "base_outline")
         )
 
     @classmethod
