@@ -69,14 +69,15 @@ class Kernel:
       costs spread widely and cannot be estimated ahead (adaptive solvers through contact): a
       vmapped chunk runs until its slowest member is done, and on a CPU a wider batch buys little,
       so small chunks computed side by side (`sweep`'s `workers`) finish sooner.
-    - `inputs`: values every design of a sweep takes (a dict of numbers, arrays, or pytrees of
-      them such as a whole `HingeDesign`), handed to `fn` as further entries of `params` and to
-      the compiled program as data, not constants: kernels of the same `fn` (by identity) whose
-      inputs differ in value, not in shape, share its traces and compiled programs (the sweep
-      engine keeps them per `fn`). For settings a user changes between sweeps of one model (the
-      verdict's tolerances, the nominal design) without compiling again. Record what they mean
-      in `settings` too (the engine stores `settings`, not `inputs`). Swept parameters may not
-      take their names.
+    - `program`, `inputs`: for settings a user changes between sweeps of one model (the verdict's
+      tolerances, the nominal design) without compiling again. `program` is the function `fn`
+      is made of, `fn(params) == program({**inputs, **params})`, and `inputs` the values every
+      design takes (a dict of numbers, arrays, or pytrees of them such as a whole `HingeDesign`).
+      The sweep engine runs `program` with `inputs` as data of the compiled program, not
+      constants: kernels of the same `program` (by identity) whose inputs differ in value, not in
+      shape, share its traces and compiled programs. Record what the inputs mean in `settings`
+      too (the engine stores `settings`, not `inputs`). Swept parameters may not take their
+      names. Default: no program (the engine runs `fn`), no inputs.
     - `never_raises`: `True` for a kernel that turns every bad value into its result code itself
       (as the built-in ones do), so that no `equinox.error_if` inside it can fire. `sweep` then
       traces it with equinox's checks turned into NaN: the compiled program calls nothing back into
@@ -98,10 +99,24 @@ class Kernel:
     cost: Callable[..., Any] | None = None
     cpu_chunk_size: int | None = None
     never_raises: bool = False
+    program: Callable[..., Any] | None = None
     inputs: Mapping[str, Any] = dataclasses.field(default_factory=dict)
 
+    def __post_init__(self):
+        if self.inputs and self.program is None:
+            raise ValueError(
+                f"model {self.name!r}: inputs go to a program (Kernel(program=..., inputs=...), "
+                "with fn(params) == program({**inputs, **params}))."
+            )
+
     def __call__(self, params: Mapping[str, Any]) -> Any:
-        return self.fn({**self.inputs, **params})
+        return self.fn(params)
+
+    @property
+    def traced(self) -> Callable[..., Any]:
+        """The function the sweep engine traces and compiles: `program` (its `inputs` as data),
+        else `fn`."""
+        return self.fn if self.program is None else self.program
 
 
 def as_kernel(fn: Callable[..., Any] | Kernel) -> Kernel:

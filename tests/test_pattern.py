@@ -304,12 +304,14 @@ def test_a_pattern_loaded_again_gets_the_same_kernel():
             tolerances=VerdictTolerances(angle=0.02),
         ),
     ]
-    assert [k.fn is first.fn and k.settings != first.settings for k in sharing] == [True] * 3
+    assert [k.program is first.program and k.settings != first.settings for k in sharing] == [
+        True
+    ] * 3
     assert sharing[0].inputs["angle_tolerance"] == np.radians(5.0)
     assert float(sharing[2].inputs["design"].b_scale) == 0.5
     seam = [VerdictTolerances(seam=s) for s in (0.02, 0.03)]
     fixed = [pattern.kernel(fluid="air", tolerances=t) for t in seam]
-    assert fixed[0].fn is fixed[1].fn is not first.fn
+    assert fixed[0].program is fixed[1].program is not first.program
     others = [
         load_pattern("corner_cube").with_model(contact="sampled").kernel(fluid="air"),
         load_pattern("corner_cube").kernel(fluid="air", tolerances=VerdictTolerances(seam=0.02)),

@@ -119,7 +119,7 @@ def test_sweep_matches_direct_vmap_and_marks_failures():
 
 
 def test_kernels_of_one_program_with_other_inputs_compile_nothing_again():
-    """`Kernel.inputs` reach the program as data: a second kernel of the same `fn` with other
+    """`Kernel.inputs` reach its `program` as data: a second kernel of the same program with other
     input values (a setting a user changes between sweeps) traces and compiles nothing, and its
     results follow its own values (the damping ratio scaled by an input, against the oscillator
     swept at the scaled ratio); another shape or dtype is another trace; a swept parameter may not take
@@ -131,8 +131,18 @@ def test_kernels_of_one_program_with_other_inputs_compile_nothing_again():
         return oscillator({**params, "zeta": params["zeta"] * params["scale"]})
 
     space = Grid({"zeta": [0.1, 0.2, 0.3], "omega": [2.0]})
+
+    def bound(scale):
+        return lambda params: scaled({**params, "scale": scale})
+
     kernels = [
-        Kernel(scaled, name="scaled", output_dims={"crossings": ("level",)}, inputs={"scale": s})
+        Kernel(
+            bound(s),
+            name="scaled",
+            output_dims={"crossings": ("level",)},
+            program=scaled,
+            inputs={"scale": s},
+        )
         for s in (1.0, 2.0)
     ]
     traces_kept = TraceCache()
@@ -157,6 +167,8 @@ def test_kernels_of_one_program_with_other_inputs_compile_nothing_again():
     for bad, message in (({"scale": "two"}, "numbers or arrays"), ([2.0], "a mapping")):
         with pytest.raises(ValueError, match=message):
             sweep(dataclasses.replace(kernels[0], inputs=bad), space, progress=False)
+    with pytest.raises(ValueError, match="inputs go to a program"):
+        Kernel(oscillator, name="no program", inputs={"scale": 2.0})
 
 
 def test_some_invalid_members_complete_and_are_marked_exactly():

@@ -158,7 +158,7 @@ def soft_yield(
             else:
                 params.update({f"{name}[{j}]": x[:, j] for j in range(m)})
         params.update({f"target[{j}]": jnp.full(n_samples, current["target"][j]) for j in range(m)})
-        out = jax.vmap(kernel)(params)
+        out = jax.vmap(kernel.fn)(params)
         margin = tol - jnp.abs(out["final_angle"] - jnp.asarray(intended))
         seam = (1.0 - out["seam_margin"]) * seam_angle
         score = jnp.prod(jax.nn.sigmoid(margin / tau), axis=-1) * jax.nn.sigmoid(seam / tau)

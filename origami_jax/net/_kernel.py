@@ -190,7 +190,7 @@ def fold_kernel(
 
     The same `Kernel` object for the same pattern (by its contents, `content_key`, and name: a
     net loaded again is the same) and the same settings (by value); and the same traced program
-    (`Kernel.fn`) for settings that differ only in the verdict's tolerance values, the numbers of
+    (`Kernel.program`) for settings that differ only in the verdict's tolerance values, the numbers of
     the nominal `design` (not its fluid or models) and its release ramp's length, which reach the
     program as data (`Kernel.inputs`). The sweep engine traces and compiles a program once per
     process, so a second yield, sweep or fit of the net, or one at another tolerance or nominal
@@ -213,7 +213,7 @@ def fold_kernel(
 
 
 _KEPT = KeptKernels()
-# The kernels' traced programs (`Kernel.fn`), by the pattern's contents and what shapes the program
+# The kernels' traced programs (`Kernel.program`), by the pattern's contents and what shapes the program
 # (not the verdict's tolerances, the nominal design's numbers or the release ramp's length, which
 # reach it as `Kernel.inputs`): kernels that differ only in those share their compiled programs.
 _PROGRAMS = KeptKernels()
@@ -418,8 +418,9 @@ def _fold_kernel(pattern, settings: dict[str, Any]) -> Kernel:
         }
 
     content = getattr(pattern, "content_key", None)
+    program = fn
     if content is not None:
-        program = {
+        structure = {
             "solve": solve_options,
             "t_end": t_end,
             "bias": bias,
@@ -428,11 +429,15 @@ def _fold_kernel(pattern, settings: dict[str, Any]) -> Kernel:
             "inputs": structure_key(inputs),
             "base": value_key(base) if arcs_on_net else None,
         }
-        built = fn
-        fn = _PROGRAMS.get((content(), value_key(program)), lambda: built)
+        program = _PROGRAMS.get((content(), value_key(structure)), lambda: fn)
+
+    def with_inputs(params):
+        return program({**inputs, **params})
+
     resume = pattern.resume_settings()
     return Kernel(
-        fn=fn,
+        fn=with_inputs,
+        program=program,
         inputs=inputs,
         never_raises=True,  # bad values come back as INVALID_INPUT
         name="net-fold",

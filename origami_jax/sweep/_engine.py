@@ -157,8 +157,9 @@ class TraceCache:
     """Output shapes and compiled calls of the most recent kernels, so that sweeps of the *same*
     kernel program (e.g. yield estimates of one net at several scatter widths, or at other verdict
     tolerances, which reach the program as its `Kernel.inputs`) trace and compile it once: tracing
-    a contact simulation costs tens of seconds. Keyed by the kernel's program (its `fn`, by
-    identity: it is held here, so its id cannot be reused, and whether it raises) and the group's
+    a contact simulation costs tens of seconds. Keyed by the kernel's program (`Kernel.traced`: its
+    `program`, else its `fn`, by identity: it is held here, so its id cannot be reused; and whether
+    it raises) and the group's
     static values, input shapes and sharding; the least recently used programs are dropped beyond
     `size`.
 
@@ -181,12 +182,12 @@ class TraceCache:
     @staticmethod
     def _program(kernel: Kernel) -> tuple[int, bool]:
         # `never_raises` changes the trace (equinox's checks as NaN), so it is part of the program.
-        return id(kernel.fn), bool(kernel.never_raises)
+        return id(kernel.traced), bool(kernel.never_raises)
 
     def get(self, kernel: Kernel, key: tuple) -> Any:
         program = self._program(kernel)
         entry = self.entries.get(program)
-        if entry is None or entry[0] is not kernel.fn:
+        if entry is None or entry[0] is not kernel.traced:
             return None
         self.entries[program] = self.entries.pop(program)  # most recently used last
         return entry[1].get(key)
@@ -194,8 +195,8 @@ class TraceCache:
     def put(self, kernel: Kernel, key: tuple, value: Any) -> None:
         program = self._program(kernel)
         entry = self.entries.get(program)
-        if entry is None or entry[0] is not kernel.fn:
-            entry = (kernel.fn, {})
+        if entry is None or entry[0] is not kernel.traced:
+            entry = (kernel.traced, {})
             self.entries[program] = entry
             while len(self.entries) > self.size:
                 self.entries.pop(next(iter(self.entries)))
@@ -292,7 +293,7 @@ class _Plan:
         kernel = self.kernel
 
         def member(params: dict[str, Any], fixed: dict[str, Any]) -> dict[str, Any]:
-            outputs = kernel.fn({**fixed, **params, **static_values})
+            outputs = kernel.traced({**fixed, **params, **static_values})
             if not isinstance(outputs, Mapping):
                 raise ValueError(
                     f"model {kernel.name!r} must return a flat dict of arrays, got "
@@ -362,7 +363,8 @@ def sweep(
     - `on_chunk`: called as `on_chunk(done, total)` after each chunk is computed (and stored,
       unless held for a larger file).
     - `traces`: where the kernel's traces and compiled calls are kept for later sweeps of the same
-      program (the same `Kernel.fn`, whatever its `inputs`' values; a `TraceCache`); `None`:
+      program (the same `Kernel.program`, whatever its `inputs`' values, else `Kernel.fn`; a
+      `TraceCache`); `None`:
       `TRACES`, the process's.
 
     **Returns:** an `xarray.Dataset` with dimension `design` (index coordinate `design`, the design's
