@@ -88,6 +88,16 @@ def test_a_folder_in_use_by_another_run_is_refused_by_every_command(argv, held_f
     assert _snapshot(held_folder) == before
 
 
+def test_a_fold_into_a_busy_folder_is_refused_before_the_net_is_read(held_folder, capsys):
+    """The fold command builds (and compiles) its system for seconds before it writes: a busy
+    --out is said first, before the net is even read (a name that is no net is not reached)."""
+    before = _snapshot(held_folder)
+    assert main(["fold", "no_such_net", "--out", str(held_folder)]) == 2
+    line = _one_line(capsys.readouterr().err)
+    assert "is in use by another fold run" in line and "no_such_net" not in line, line
+    assert _snapshot(held_folder) == before
+
+
 def test_the_sweep_refuses_a_folder_a_command_is_writing(held_folder, tmp_path, capsys):
     config = tmp_path / "sweep.toml"
     config.write_text('[model]\nname = "accordion-step"\n[parameters]\nk_scale = {values=[1.0]}\n')

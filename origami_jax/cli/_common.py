@@ -684,7 +684,7 @@ class OutputFolder:
         try:
             self._lock: FolderLock | None = lock_folder(self.out, command=command, lend=lend)
         except FolderBusyError as error:
-            fail(f"{error}".replace("another output folder", "another --out"))
+            fail(_busy_line(error))
         try:
             for stale in _stale_staging(self.out):
                 shutil.rmtree(stale, ignore_errors=True)
@@ -806,6 +806,25 @@ class OutputFolder:
             self.commit()
         else:
             self.discard()
+
+
+def _busy_line(error: FolderBusyError) -> str:
+    return f"{error}".replace("another output folder", "another --out")
+
+
+def refuse_busy_folder(out: Path, command: str) -> None:
+    """A one-line refusal when another run holds the folder `out`, for a command that works for
+    seconds before it opens its `OutputFolder` (a net's fold builds and compiles its system
+    first): said at once rather than after that work. Only a folder with a lock file is tried
+    (every holder has one), so nothing is written into `out` here."""
+    if not (Path(out) / LOCK).exists():
+        return
+    try:
+        lock_folder(Path(out), command=command).close()
+    except FolderBusyError as error:
+        fail(_busy_line(error))
+    except OSError:
+        return  # an unreadable folder: `OutputFolder` says what is wrong with it
 
 
 def holds_only_its_lock(out: Path) -> bool:

@@ -31,6 +31,7 @@ from ._common import (
     in_range,
     int_range,
     positive,
+    refuse_busy_folder,
     seam_tolerance_value,
     solver_choice,
     surface_model,
@@ -358,6 +359,7 @@ def run(args: argparse.Namespace) -> int:
             fail(f"{flag} must be finite numbers, got {values}.")
     if targets_deg is not None and not all(-180 <= v <= 180 for v in targets_deg):
         fail(f"--targets are fold angles in degrees, each within [-180, 180]; got {targets_deg}.")
+    refuse_busy_folder(Path(args.out), "fold")  # before the system's seconds of building
 
     import numpy as np
 
