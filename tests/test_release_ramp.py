@@ -6,6 +6,8 @@ positive time."""
 import math
 
 import diffrax
+import equinox as eqx
+import jax.numpy as jnp
 import pytest
 
 import origami_jax.simulation as sim
@@ -255,6 +257,15 @@ def test_design_releases_a_net_in_the_bath_as_its_fold_does():
     released = with_pattern_release(settings, koh)
     assert float(released.inputs.ramp) == net.nominal_release_ramp(koh) == 5900.0
     assert with_pattern_release(settings, net.default_design(AIR)).inputs is None
+    # Another design's ramp on the net loaded again, with a weakly typed number: the same
+    # compiled program (the pattern static by its contents, the numbers strongly typed; each
+    # traced it again, 2-3 s).
+    from origami_jax.net._pattern import _design_ramp
+
+    traced = _design_ramp._cached._cache_size()
+    other = eqx.tree_at(lambda d: d.b_scale, koh, jnp.asarray(1.5))
+    assert load_net("corner_cube").nominal_release_ramp(other) > 0
+    assert _design_ramp._cached._cache_size() == traced
     with pytest.raises(ValueError, match="ends within the pattern's release ramp"):
         with_pattern_release(ojd.SimulationSettings(600.0, layout=net), koh)
 

@@ -238,8 +238,13 @@ class AbstractPanelPattern(AbstractPattern):
             # Traced with equinox's checks as NaN, as the sweep that follows traces its kernel:
             # the system's inner programs traced here with callbacks would be reused there, and a
             # program that calls back is never stored (a warm yield compiled its kernel again).
+            # The pattern by its contents (a net loaded again shares the program), the design's
+            # numbers strongly typed (a weakly typed value would trace the program again).
+            strong = jax.tree.map(
+                lambda x: jnp.asarray(x, jnp.result_type(x)) if eqx.is_array(x) else x, design
+            )
             with checks_as_nan():
-                ramp = float(_design_ramp(self, design, about))
+                ramp = float(_design_ramp(_ByContent(self), strong, about))
             _NOMINAL_RAMPS[key] = rounded_up(ramp)
         return _NOMINAL_RAMPS[key]
 
@@ -404,9 +409,24 @@ _NOMINAL_RAMPS: dict = {}
 """`AbstractPanelPattern.nominal_release_ramp`'s values, by geometry, model and design."""
 
 
+class _ByContent:
+    """A pattern as a static argument of a compiled program, compared by its contents
+    (`content_key`), not its identity."""
+
+    def __init__(self, pattern):
+        self.pattern = pattern
+        self.key = pattern.content_key()
+
+    def __eq__(self, other) -> bool:
+        return isinstance(other, _ByContent) and other.key == self.key
+
+    def __hash__(self) -> int:
+        return hash(self.key)
+
+
 @eqx.filter_jit
-def _design_ramp(pattern, design, about):
-    return quasi_static_ramp(pattern.system(design), about=about)
+def _design_ramp(pattern: _ByContent, design, about):
+    return quasi_static_ramp(pattern.pattern.system(design), about=about)
 
 
 def rounded_up(time: float) -> float:
