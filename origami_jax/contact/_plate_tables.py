@@ -76,16 +76,25 @@ class PlateTables:
         return isinstance(other, PlateTables) and other._digest() == self._digest()
 
     def _flatten(self):
-        return (self.vertices, self.base_pose, self.scale), _PlateIndex(self)
+        # The index is hashed once per tables (every jitted call flattens its arguments, and a
+        # pattern of many panels has megabytes of index tables), and kept by the tables rebuilt
+        # from it.
+        index = self.__dict__.get("_index")
+        if index is None:
+            index = _PlateIndex(self)
+            object.__setattr__(self, "_index", index)
+        return (self.vertices, self.base_pose, self.scale), index
 
     @classmethod
     def _unflatten(cls, index: "_PlateIndex", leaves) -> "PlateTables":
-        # Not through `__init__`: the leaves may be traced, and the digest is the index's.
+        # Not through `__init__`: the leaves may be traced; the digest of the whole is computed
+        # when first compared (`_digest`).
         tables = object.__new__(cls)
         vertices, base_pose, scale = leaves
         fields = dict(index.fields, vertices=vertices, base_pose=base_pose, scale=scale)
         for name, value in fields.items():
             object.__setattr__(tables, name, value)
+        object.__setattr__(tables, "_index", index)
         return tables
 
     @property
