@@ -14,6 +14,7 @@ from collections.abc import Callable, Mapping
 from typing import Any
 
 import equinox as eqx
+import jax
 import numpy as np
 
 # Result code for a design whose parameters are outside the model's domain (non-positive or
@@ -130,17 +131,26 @@ def as_kernel(fn: Callable[..., Any] | Kernel) -> Kernel:
     return Kernel(fn=fn, name=f"{module}.{qualname}".lstrip("."))
 
 
+def structure_key(value) -> tuple:
+    """A hashable key of `value`'s shape, not its numbers: its tree structure (static fields
+    included) and each leaf's shape and dtype. Two values with one structure key pass through the
+    same traced program as data (a kernel's `inputs`)."""
+    leaves, structure = jax.tree_util.tree_flatten(value)
+    dtypes = (x.dtype if hasattr(x, "dtype") else np.asarray(x).dtype for x in leaves)
+    return structure, tuple((np.shape(x), str(d)) for x, d in zip(leaves, dtypes, strict=True))
+
+
 class KeptKernels:
-    """The last `size` kernels (or kernel programs) built, by a key of their pattern and settings:
-    the sweep engine traces and compiles a kernel once per program (its `fn`), so a builder that
+    """The last `size` kernels or kernel programs built, by a key of their pattern and settings:
+    the sweep engine traces and compiles once per program (`Kernel.traced`), so a builder that
     returns what it built before for the same settings compiles nothing again (each program holds
     its compiled calls, hundreds of MB: few are kept)."""
 
     def __init__(self, size: int = 4):
         self.size = size
-        self._kernels: dict[Any, Kernel] = {}
+        self._kernels: dict[Any, Any] = {}
 
-    def get(self, key, build: Callable[[], Kernel]) -> Kernel:
+    def get(self, key, build: Callable[[], Any]) -> Any:
         """The kernel kept under `key`, else `build()` kept under it (the oldest dropped)."""
         if key not in self._kernels:
             kernel = build()

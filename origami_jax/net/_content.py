@@ -24,11 +24,3 @@ def _leaf_key(leaf):
         fields = dataclasses.fields(leaf)
         return (type(leaf).__qualname__, *(value_key(getattr(leaf, f.name)) for f in fields))
     return repr(leaf)
-
-
-def structure_key(value) -> tuple:
-    """A hashable key of `value`'s shape, not its numbers: its tree structure (static fields
-    included) and each leaf's shape and dtype. Two values with one structure key pass through the
-    same traced program as data."""
-    leaves, structure = jax.tree_util.tree_flatten(value)
-    return (str(structure), *((np.shape(x), str(np.asarray(x).dtype)) for x in leaves))

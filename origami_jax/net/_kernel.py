@@ -26,6 +26,7 @@ from .._kernel import (
     check_setting,
     design_settings,
     replace_fields,
+    structure_key,
 )
 from .._limits import (
     CONTACT_SAMPLING,
@@ -47,7 +48,7 @@ from ..simulation import (
     start_bias,
 )
 from ..system import AIR, KOH_SOLUTION, HingeDesign
-from ._content import structure_key, value_key
+from ._content import value_key
 
 # Fields of `HingeDesign` a net sweep may vary for every crease at once (scalar parameter `name`) or
 # for one crease (`name[j]`); lengths in µm, the package's MICRO unit system.
@@ -190,9 +191,9 @@ def fold_kernel(
 
     The same `Kernel` object for the same pattern (by its contents, `content_key`, and name: a
     net loaded again is the same) and the same settings (by value); and the same traced program
-    (`Kernel.program`) for settings that differ only in the verdict's tolerance values, the numbers of
-    the nominal `design` (not its fluid or models) and its release ramp's length, which reach the
-    program as data (`Kernel.inputs`). The sweep engine traces and compiles a program once per
+    (`Kernel.program`) for settings that differ only in the verdict's tolerance values, the
+    numbers of the nominal `design` (not its fluid or models) and its release ramp's length, which
+    reach the program as data (`Kernel.inputs`). The sweep engine traces and compiles a program once per
     process, so a second yield, sweep or fit of the net, or one at another tolerance or nominal
     design, compiles nothing again (a fixed seam fraction against a derived seam tolerance, or
     arc hinges drawn for another nominal design, are another program). The last four of each
@@ -204,23 +205,25 @@ def fold_kernel(
         fluid=fluid, design=design, solve=solve, tolerances=tolerances, bias=bias,
         targets=targets, hinge_lengths=hinge_lengths,
     )  # fmt: skip
-    content = getattr(pattern, "content_key", None)
-    if content is None:  # a pattern without one: its own kernel, as built
-        return _fold_kernel(pattern, settings)
+    content_key = getattr(pattern, "content_key", None)
+    if content_key is None:  # a pattern without one: its own kernel, as built
+        return _fold_kernel(pattern, settings, None)
+    content = content_key()
     # The name too: a kernel's settings record it (a store's, checked on resume).
-    key = (content(), pattern.name, value_key(settings))
-    return _KEPT.get(key, lambda: _fold_kernel(pattern, settings))
+    key = (content, pattern.name, value_key(settings))
+    return _KEPT.get(key, lambda: _fold_kernel(pattern, settings, content))
 
 
 _KEPT = KeptKernels()
-# The kernels' traced programs (`Kernel.program`), by the pattern's contents and what shapes the program
-# (not the verdict's tolerances, the nominal design's numbers or the release ramp's length, which
-# reach it as `Kernel.inputs`): kernels that differ only in those share their compiled programs.
+# The kernels' traced programs (`Kernel.program`), by the pattern's contents and what shapes the
+# program (not the verdict's tolerances, the nominal design's numbers or the release ramp's length,
+# which reach it as `Kernel.inputs`): kernels that differ only in those share compiled programs.
 _PROGRAMS = KeptKernels()
 
 
-def _fold_kernel(pattern, settings: dict[str, Any]) -> Kernel:
-    """`fold_kernel`, built from its `settings` (its keyword arguments)."""
+def _fold_kernel(pattern, settings: dict[str, Any], content) -> Kernel:
+    """`fold_kernel`, built from its `settings` (its keyword arguments); `content`, the pattern's
+    `content_key()` (`None`: a pattern without one, whose program is not shared)."""
     fluid, design, solve = settings["fluid"], settings["design"], settings["solve"]
     tolerances, bias, targets = settings["tolerances"], settings["bias"], settings["targets"]
     hinge_lengths = settings["hinge_lengths"]
@@ -417,7 +420,6 @@ def _fold_kernel(pattern, settings: dict[str, Any]) -> Kernel:
             ),
         }
 
-    content = getattr(pattern, "content_key", None)
     program = fn
     if content is not None:
         structure = {
@@ -426,10 +428,10 @@ def _fold_kernel(pattern, settings: dict[str, Any]) -> Kernel:
             "bias": bias,
             "aims": aims,
             "hinge_lengths": hinge_lengths,
-            "inputs": structure_key(inputs),
             "base": value_key(base) if arcs_on_net else None,
         }
-        program = _PROGRAMS.get((content(), value_key(structure)), lambda: fn)
+        key = (content, value_key(structure), structure_key(inputs))
+        program = _PROGRAMS.get(key, lambda: fn)
 
     def with_inputs(params):
         return program({**inputs, **params})

@@ -61,7 +61,7 @@ import xarray as xr
 from jax.sharding import Mesh, NamedSharding
 from jax.sharding import PartitionSpec as P
 
-from .._kernel import Kernel, as_kernel
+from .._kernel import Kernel, as_kernel, structure_key
 from .._runtime_errors import checks_as_nan
 from ._space import AbstractDesignSpace
 from ._store import RESULT, Store, SweepBusyError, gather, logger
@@ -159,9 +159,8 @@ class TraceCache:
     tolerances, which reach the program as its `Kernel.inputs`) trace and compile it once: tracing
     a contact simulation costs tens of seconds. Keyed by the kernel's program (`Kernel.traced`: its
     `program`, else its `fn`, by identity: it is held here, so its id cannot be reused; and whether
-    it raises) and the group's
-    static values, input shapes and sharding; the least recently used programs are dropped beyond
-    `size`.
+    it raises) and the group's static values, input shapes and sharding; the least recently used
+    programs are dropped beyond `size`.
 
     `sweep` keeps them in `TRACES`, the process's one cache, unless given another (`traces=`, e.g.
     a fresh `TraceCache()` that goes with the sweep); `TRACES.clear()` lets the kept programs go.
@@ -216,14 +215,12 @@ def _signature(group: "_Group", inputs: Mapping[str, Any], fixed: Any) -> tuple:
     """What a traced group depends on besides its kernel's program: static values, input shapes and
     dtypes, and the structure, shapes and dtypes of the kernel's fixed `inputs`."""
     shapes = tuple(sorted((k, tuple(v.shape), str(v.dtype)) for k, v in inputs.items()))
-    leaves, structure = jax.tree.flatten(fixed)
-    fixed_shapes = tuple((tuple(np.shape(x)), str(np.asarray(x).dtype)) for x in leaves)
-    return _statics_key(group.static_values), shapes, structure, fixed_shapes
+    return _statics_key(group.static_values), shapes, structure_key(fixed)
 
 
 def _fixed_inputs(kernel: Kernel) -> dict[str, Any]:
     """The kernel's fixed inputs (`Kernel.inputs`) as a pytree of host arrays (numbers in JAX's
-    canonical float or int type), checked against its parameters' names."""
+    canonical float or int type; anything else refused)."""
 
     def leaf(x: Any) -> np.ndarray:
         x = np.asarray(x)
@@ -364,8 +361,7 @@ def sweep(
       unless held for a larger file).
     - `traces`: where the kernel's traces and compiled calls are kept for later sweeps of the same
       program (the same `Kernel.program`, whatever its `inputs`' values, else `Kernel.fn`; a
-      `TraceCache`); `None`:
-      `TRACES`, the process's.
+      `TraceCache`); `None`: `TRACES`, the process's.
 
     **Returns:** an `xarray.Dataset` with dimension `design` (index coordinate `design`, the design's
     row in `space.columns()`), every parameter as a coordinate along `design` (attribute `units`),
