@@ -35,6 +35,8 @@ class FluidLoads(NamedTuple):
     - `frequency`: ``ω_b`` per panel (rad/time), `(b,)`.
     - `reynolds`: ``Re_b`` per panel, `(b,)` (NaN for an inviscid fluid).
     - `gamma`: ``(Re Γ_b, Im Γ_b)`` per panel, each `(b,)` (``(1, 0)`` for an inviscid fluid).
+    - `added`: the added inertias given to `mechanism`, body frames `(b, 6, 6)` (`None` without
+      added mass): `mechanism.with_added_inertias(added)` is `mechanism` from the one given.
     """
 
     mechanism: AbstractMechanism
@@ -42,6 +44,7 @@ class FluidLoads(NamedTuple):
     frequency: Array
     reynolds: Array
     gamma: tuple[Array, Array]
+    added: Array | None = None
 
 
 def with_added_inertias(mechanism: AbstractMechanism, added) -> AbstractMechanism:
@@ -115,6 +118,7 @@ def fluid_loads(
         return jnp.sqrt(stiffness / (own + real * fluid))
 
     real = jnp.ones(n, dtype)
+    added = None
     if added_mass:
         # A loop, not unrolled: each pass evaluates Sader's function (Bessel functions of a complex
         # argument); eight copies made a cube net's program half again as large (325 against
@@ -122,7 +126,8 @@ def fluid_loads(
         real = jax.lax.fori_loop(
             0, FREQUENCY_PASSES, lambda _, real: gamma_at(frequency_of(real))[0], real
         )
-        mechanism = with_added_inertias(mechanism, (scale * real)[:, None, None] * unit_added)
+        added = (scale * real)[:, None, None] * unit_added
+        mechanism = with_added_inertias(mechanism, added)
     frequency = frequency_of(real)
     _, imag, reynolds = gamma_at(frequency)
     drag = None
@@ -131,4 +136,4 @@ def fluid_loads(
         drag = ViscousDrag(damping)
     if not added_mass:
         real = gamma_at(frequency)[0]  # reported, not applied
-    return FluidLoads(mechanism, drag, frequency, reynolds, (real, imag))
+    return FluidLoads(mechanism, drag, frequency, reynolds, (real, imag), added)

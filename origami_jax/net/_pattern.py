@@ -320,10 +320,13 @@ _NOT_CONTENT = frozenset(
 def _fluid_loads(mechanism, unit_added, chord, stiffness, targets, numbers, parts):
     density, viscosity, coefficient = numbers
     added_mass, viscous = parts
-    return fluid_loads(
+    loads = fluid_loads(
         mechanism, unit_added, chord, stiffness, targets, density=density, viscosity=viscosity,
         coefficient=coefficient, added_mass=added_mass, viscous=viscous,
     )  # fmt: skip
+    # Not the mechanism: given back as the program's outputs, its host geometry (outlines) would
+    # come back as device arrays, or traced ones under an outer trace, where the host reads them.
+    return loads._replace(mechanism=None)
 
 
 def with_fluid_loads(
@@ -350,25 +353,9 @@ def with_fluid_loads(
     loads = _fluid_loads(*arguments)
     if loads.viscous is not None:
         drag_model = CombinedDrag((drag_model, loads.viscous))
-    return host_geometry_kept(loads.mechanism, mechanism), drag_model
-
-
-# A mechanism's drawing geometry: data of the compiled programs (another size compiles nothing),
-# read on the host (contact tables, plots).
-_HOST_GEOMETRY = ("panel_outlines", "base_polygon", "cut_ends", "loop_points")
-
-
-def host_geometry_kept(new, old):
-    """`new` (a mechanism a compiled program returned) with `old`'s drawing geometry (its panels'
-    outlines, base polygon, cut creases' ends, loop vertices): the program gives them back as its
-    outputs, device arrays or, under an outer trace, traced ones, where the host reads them."""
-    kept = dict(jax.tree_util.tree_flatten_with_path(old)[0])
-
-    def host(path, leaf):
-        named = any(getattr(key, "name", None) in _HOST_GEOMETRY for key in path)
-        return kept.get(path, leaf) if named else leaf
-
-    return jax.tree_util.tree_map_with_path(host, new)
+    if loads.added is not None:
+        mechanism = mechanism.with_added_inertias(loads.added)
+    return mechanism, drag_model
 
 
 def check_surface_model(adhesion, friction) -> None:
