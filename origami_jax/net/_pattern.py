@@ -244,7 +244,7 @@ class AbstractPanelPattern(AbstractPattern):
                 lambda x: jnp.asarray(x, jnp.result_type(x)) if eqx.is_array(x) else x, design
             )
             with checks_as_nan():
-                ramp = float(_design_ramp(_ByContent(self), strong, about))
+                ramp = float(_design_ramp(_ByContent(self, key[0]), strong, about))
             _NOMINAL_RAMPS[key] = rounded_up(ramp)
         return _NOMINAL_RAMPS[key]
 
@@ -400,9 +400,9 @@ class _ByContent:
     """A pattern as a static argument of a compiled program, compared by its contents
     (`content_key`), not its identity."""
 
-    def __init__(self, pattern):
+    def __init__(self, pattern, key):
         self.pattern = pattern
-        self.key = pattern.content_key()
+        self.key = key  # its `content_key()`
 
     def __eq__(self, other) -> bool:
         return isinstance(other, _ByContent) and other.key == self.key
