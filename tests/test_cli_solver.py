@@ -260,7 +260,7 @@ def test_yield_resume_refuses_another_solver(tmp_path, capsys):
     flags = ["--solver", "implicit-step", "--dt", "2.5"]
     assert main([*base, "--resume", *flags]) == 2
     line = _one_line(capsys.readouterr().err)
-    assert "with --solver implicit-step --dt 2.5 --newton-iterations 6" in line, line
+    assert "with --solver implicit-step --dt 2.5 --newton-iterations 10" in line, line
     assert "was run with --solver tsit5" in line, line
     stored = {"yield": 0.5, "n_samples": 2, "solver": "implicit-step", "dt_us": 2.5}
     (folder / "result.json").write_text(json.dumps({**stored, "newton_iterations": 6}))
@@ -293,7 +293,7 @@ def test_design_through_the_fixed_step_engine_records_it(tmp_path, capsys):
     flags = ["--solver", "implicit-step", "--dt", "0.5", "--starts", "1", "--max-steps", "2"]
     assert main(["design", "--target-rise", "37e-6", *flags, "--out", str(out)]) in (0, 1)
     result = json.loads((out / "design.json").read_text())
-    assert result["solver"] == {"solver": "implicit-step", "dt_us": 0.5, "newton_iterations": 6}
+    assert result["solver"] == {"solver": "implicit-step", "dt_us": 0.5, "newton_iterations": 10}
 
 
 @pytest.mark.slow  # a whole fold command: ~12 s on an idle 2-core machine

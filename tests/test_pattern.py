@@ -152,6 +152,12 @@ REFERENCE = {
 }  # fmt: skip
 # The same equations, solver and program: round-off of a vmapped batch (µm, rad).
 KERNEL_ATOL = 1e-9
+# The closed-loop pattern's adaptive solve (its constraint projection at every step) moves by more
+# when the arithmetic's order changes: 4.5e-9 rad after the contact's gathers and the geometry as
+# data (2026-12-06), a hundredth of what its rtol of 1e-7 allows, and one accepted step more of
+# 180 (a change of the physics moves them by orders more).
+LOOPS_KERNEL_ATOL = 1e-8
+LOOPS_STEPS_RTOL = 0.01
 
 
 @pytest.mark.parametrize(
@@ -187,7 +193,11 @@ def test_the_kernel_of_a_pattern_object_gives_the_recorded_numbers(name, model, 
     for output, expected in reference.items():
         if output == "settings":
             continue
-        np.testing.assert_allclose(swept[output].values, expected, atol=KERNEL_ATOL, rtol=0)
+        atol, rtol = KERNEL_ATOL, 0.0
+        if pattern.n_loops:
+            atol = LOOPS_KERNEL_ATOL
+            rtol = LOOPS_STEPS_RTOL if output == "num_steps" else 0.0
+        np.testing.assert_allclose(swept[output].values, expected, atol=atol, rtol=rtol)
 
 
 # ---- names stop at the door --------------------------------------------------------------------
@@ -277,7 +287,7 @@ def test_the_fold_kernel_takes_the_solver_of_its_options():
     pattern = load_pattern("corner_cube")
     assert "solver" not in pattern.kernel(solve=FOLD_KERNEL_SOLVE).settings
     engine = pattern.kernel(solve=FOLD_KERNEL_SOLVE.replace(solver=ImplicitStep(dt=2.0)))
-    assert engine.settings["solver"].startswith("ImplicitStep(dt=2.0, newton_iterations=6")
+    assert engine.settings["solver"].startswith("ImplicitStep(dt=2.0, newton_iterations=10")
     with pytest.raises(ValueError, match="diffrax solver or an ImplicitStep"):
         pattern.kernel(solve=FOLD_KERNEL_SOLVE.replace(solver="tsit5"))
 

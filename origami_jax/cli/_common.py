@@ -245,7 +245,7 @@ SOLVER_CHOICES = ("tsit5", "kvaerno5", "implicit-step", "implicit-bdf2")
 line imports no JAX)."""
 FIXED_STEP_CHOICES = ("implicit-step", "implicit-bdf2")
 """The fixed-step engines of `SOLVER_CHOICES` (`origami_jax.simulation.FIXED_STEP_SOLVERS`)."""
-DEFAULT_NEWTON_ITERATIONS = 6
+DEFAULT_NEWTON_ITERATIONS = 10
 """`--newton-iterations`' default: `ImplicitStep`'s."""
 
 

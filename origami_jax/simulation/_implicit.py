@@ -39,7 +39,9 @@ same substitution (a predicted state and a scaled step) is how PolyFEM's IPC tim
 Euler scheme only (its fluctuation–dissipation balance is Euler's).
 
 **Newton.** At most `ImplicitStep.newton_iterations` Newton iterations from the predictor ``q_n + h
-v_n`` (BDF2: ``q̂ + β v̂``), stopping once an update moves no coordinate more than 1e-10 rad. Their matrix
+v_n`` (BDF2: ``q̂ + β v̂``), stopping once the next update would move no coordinate more than 1e-10
+rad (the matrix of that last update is the one the step's error takes, so a converged step builds
+one matrix per update taken, plus one) or the last one moved none that far. Their matrix
 (`ImplicitStep.jacobian`) is by default the Gauss–Newton one: the plate contact's barrier and
 damping by their pairs' gap gradients (`PlateContact.force_jacobians`, as IPC's Newton iterations
 use its barrier's Hessian), the rest of ``r`` (inertia, hinges, drag, inputs: a few coordinates) by
@@ -135,7 +137,11 @@ class ImplicitStep(eqx.Module):
     **Fields** (all static: they fix the compiled program):
     - `dt`: the largest step, time units (MICRO: µs). The steps divide every interval between
       sample times into equal parts no longer than `dt`.
-    - `newton_iterations`: Newton iterations per step (default 6).
+    - `newton_iterations`: Newton iterations per step (default 10; 6 until 2026-12-06: with 6,
+      steps of a closing octahedron net ended with their residual only ~40× down and Newton
+      updates of up to 3.6 rad left, and a cube net's largest was 8e-4 rad; with 10, 9e-3 and
+      5e-6 rad, at the same cost for one fold, since the extra iterations run only where a step
+      needs them).
     - `halvings`: trial step lengths per Newton iteration, each half the last (default 10, down
       to 2⁻⁹ of the longest). A Newton direction taken where a contact pair is just beyond the
       activation gap does not see the barrier it runs into: on the octahedron nets such steps
@@ -144,8 +150,9 @@ class ImplicitStep(eqx.Module):
       at the first acceptable one, so the later ones cost only where they are needed.
     - `max_update`: the largest change of any coordinate in one Newton update, rad (default 0.1).
     - `ccd_pieces`: chords of a Newton update's path checked for collisions (default 4).
-    - `early_exit`: stop the Newton iterations once an update moves no coordinate more than
-      1e-10 rad, and each line search at its first acceptable trial (default `True`; `False`
+    - `early_exit`: stop the Newton iterations once the next update would move no coordinate
+      more than 1e-10 rad (that update is not taken: the state is converged) or the last one
+      moved none that far, and each line search at its first acceptable trial (default `True`; `False`
       runs every count in full, the same work for every step and member). Under `vmap` the
       batch iterates until its slowest member has converged, at most the counts above; a
       vmapped batch of 16 cube nets ran 2.6× faster than with the full counts, on the same roots
@@ -184,7 +191,7 @@ class ImplicitStep(eqx.Module):
     """
 
     dt: float = eqx.field(static=True)
-    newton_iterations: int = eqx.field(static=True, default=6)
+    newton_iterations: int = eqx.field(static=True, default=10)
     halvings: int = eqx.field(static=True, default=10)
     max_update: float = eqx.field(static=True, default=0.1)
     ccd_pieces: int = eqx.field(static=True, default=4)
@@ -536,11 +543,17 @@ def _step(
         m = r @ r
         return jnp.where(jnp.isfinite(m), m, jnp.inf)
 
-    def newton(q):
+    def direction(q):
+        """The Newton update at `q` (zero where not finite), ``|r|²`` and the largest coordinate
+        of the update as solved (NaN where not finite: the step's `newton_error`)."""
         jac, r = newton_matrix(q)
-        dq = -jnp.linalg.solve(jac, r)
-        dq = jnp.where(jnp.all(jnp.isfinite(dq)), dq, 0.0)
-        m0 = r @ r
+        solved = jnp.linalg.solve(jac, r)
+        dq = jnp.where(jnp.all(jnp.isfinite(solved)), -solved, 0.0)
+        return dq, r @ r, jnp.max(jnp.abs(solved))
+
+    def line_search(q, dq, m0):
+        """`q` moved along `dq` by the first trial length with Armijo's decrease (else the one of
+        least merit below `m0`, else none), and how far it moved (largest coordinate)."""
 
         def trial(carry):
             j, alpha, first, best, best_m = carry
@@ -566,18 +579,30 @@ def _step(
     drift = s_q_hat + s_beta * s_v_hat - s_q
     q = s_q + largest_step(s_q, drift) * drift
     if solver.early_exit:
-
+        # Each iteration moves along the last direction and computes the next one at the new
+        # state; they stop once that next update is within `_CONVERGED` (it is not taken: the
+        # state is converged, and the matrix it took is the one the step's error needs) or the
+        # last move was (the line search found no decrease, or the collision cap stops it).
         def iterate(carry):
-            i, q, _ = carry
-            q, moved = newton(q)
-            return i + 1, q, moved
+            i, q, dq, m0, _, _ = carry
+            q, moved = line_search(q, dq, m0)
+            return i + 1, q, *direction(q), moved
 
-        iterating = lambda c: (c[0] < solver.newton_iterations) & (c[2] > _CONVERGED)  # noqa: E731
-        _, q, _ = jax.lax.while_loop(iterating, iterate, (0, q, jnp.full((), jnp.inf, q.dtype)))
+        def iterating(carry):
+            i, _, dq, _, _, moved = carry
+            going = (jnp.max(jnp.abs(dq)) > _CONVERGED) & (moved > _CONVERGED)
+            return (i < solver.newton_iterations) & going
+
+        start = (0, q, *direction(q), jnp.full((), jnp.inf, q.dtype))
+        _, q, _, _, error, _ = jax.lax.while_loop(iterating, iterate, start)
     else:
-        q = jax.lax.fori_loop(0, solver.newton_iterations, lambda _, q: newton(q)[0], q)
-    jac, r = newton_matrix(q)
-    error = jnp.max(jnp.abs(jnp.linalg.solve(jac, r)))
+
+        def iterate(_, q):
+            dq, m0, _ = direction(q)
+            return line_search(q, dq, m0)[0]
+
+        q = jax.lax.fori_loop(0, solver.newton_iterations, iterate, q)
+        error = direction(q)[2]
     left_out = jnp.zeros((), bool)
     if counts is not None:
         left_out = s_system.contact.left_out_engaged(s_system.mechanism, q)

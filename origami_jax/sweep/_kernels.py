@@ -175,7 +175,7 @@ def net_fold(*, net: str = "cube_net_01", **settings: Any) -> Kernel:
       simulation's), `max_steps` (200,000); `solver` (`"tsit5"`, the default, `"kvaerno5"` or
       `"implicit-step"`, `"implicit-bdf2"`: `origami_jax.simulation.named_solver`) with, for the
       last two, `dt` (µs, its fixed step; required, at most `t_end`) and `newton_iterations`
-      (default 6);
+      (default 10);
     - the verdict's: `angle_tolerance_deg` (3) and `seam_tolerance` (default `"derived"`: each
       seam's from the angle tolerance and the geometry, `origami_jax.simulation.VerdictTolerances`;
       or a fraction of the largest panel's size, e.g. 0.01, the default before). Resuming a store
