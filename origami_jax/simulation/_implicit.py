@@ -48,7 +48,8 @@ use its barrier's Hessian), the rest of ``r`` (inertia, hinges, drag, inputs: a 
 forward-mode differentiation; or the exact Jacobian of all of ``r`` (`_jacobian`). Each update is
 capped, as in IPC, by the contact's continuous collision detection: the largest step moves no
 coordinate more than `ImplicitStep.max_update` and is ``0.9`` of the fraction of the path that
-stays clear, checked on a few chords of it (`PlateContact.time_of_impact`; models without it, such
+stays clear, checked chord after chord, each moving no coordinate more than ``max_update /
+ccd_pieces`` (`PlateContact.time_of_impact`; models without it, such
 as the sampled `PanelContact`, are capped in size only), then up to `ImplicitStep.halvings`
 halvings look for a decrease of ``|r|²`` (the first with Armijo's decrease, else the best, else no
 move). Every member of a `vmap`ped batch takes the same steps, and its iterations are bounded by
@@ -149,7 +150,10 @@ class ImplicitStep(eqx.Module):
       not move, leaving 2–5 rad of Newton update; with 10, 3e-2. With `early_exit` the trials stop
       at the first acceptable one, so the later ones cost only where they are needed.
     - `max_update`: the largest change of any coordinate in one Newton update, rad (default 0.1).
-    - `ccd_pieces`: chords of a Newton update's path checked for collisions (default 4).
+    - `ccd_pieces`: chords of the longest Newton update's path checked for collisions (default
+      4); a shorter update takes as few chords as keep each no longer in any coordinate than
+      ``max_update / ccd_pieces`` (one for most: a converging step's updates are small), checked
+      one after another until one is hit (without `early_exit`: every `ccd_pieces` chords).
     - `early_exit`: stop the Newton iterations once the next update would move no coordinate
       more than 1e-10 rad (that update is not taken: the state is converged) or the last one
       moved none that far, and each line search at its first acceptable trial (default `True`; `False`
@@ -523,19 +527,42 @@ def _step(
 
     def largest_step(q, dq):
         """The line search's longest trial: no coordinate moving more than `max_update`, and 0.9 of
-        the time of impact where a pair would meet, checked on `ccd_pieces` chords of the path."""
+        the time of impact where a pair would meet, checked on chords of the path, each moving no
+        coordinate more than ``max_update / ccd_pieces`` (at most `ccd_pieces` of them; one for
+        the short updates of a converging step), one after another until one is hit."""
         longest = jnp.max(jnp.abs(dq))
         alpha = jnp.where(longest > solver.max_update, solver.max_update / longest, 1.0)
         if not capped:
             return alpha
         pieces = solver.ccd_pieces
-        ends = q + (alpha * jnp.arange(pieces + 1, dtype=q.dtype) / pieces)[:, None] * dq
-        toi = jax.vmap(
-            lambda a, b: s_system.contact.time_of_impact(s_system.mechanism, a, b)  # type: ignore[union-attr]
-        )(ends[:-1], ends[1:])
-        hit = toi < 1
-        first = jnp.argmax(hit)
-        clear = jnp.where(jnp.any(hit), (first + toi[first]) / pieces, 1.0)
+        contact = s_system.contact
+        if not solver.early_exit:  # the same work every time: every chord, side by side
+            ends = q + (alpha * jnp.arange(pieces + 1, dtype=q.dtype) / pieces)[:, None] * dq
+            toi = jax.vmap(
+                lambda a, b: contact.time_of_impact(s_system.mechanism, a, b)  # type: ignore[union-attr]
+            )(ends[:-1], ends[1:])
+            hit = toi < 1
+            first = jnp.argmax(hit)
+            clear = jnp.where(jnp.any(hit), (first + toi[first]) / pieces, 1.0)
+            return alpha * jnp.where(clear >= 1, 1.0, _TOI_FRACTION * clear)
+        # Chords no longer (in any coordinate) than the longest update's `ccd_pieces` chords:
+        # the same bound on how far a rotating vertex departs from its chord.
+        reach = alpha * longest / (solver.max_update / pieces)
+        count = jnp.clip(jnp.ceil(reach), 1, pieces).astype(jnp.int32)
+        chord = alpha * dq / count
+
+        def clear_so_far(carry):
+            j, toi = carry
+            return (j < count) & (toi >= 1)
+
+        def next_chord(carry):
+            j, _ = carry
+            start = q + j.astype(q.dtype) * chord
+            toi = contact.time_of_impact(s_system.mechanism, start, start + chord)  # type: ignore[union-attr]
+            return j + 1, toi
+
+        j, toi = jax.lax.while_loop(clear_so_far, next_chord, (0, jnp.ones((), q.dtype)))
+        clear = jnp.where(toi < 1, (j - 1 + toi) / count, 1.0)
         return alpha * jnp.where(clear >= 1, 1.0, _TOI_FRACTION * clear)
 
     def merit(q):
