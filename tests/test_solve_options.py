@@ -25,6 +25,10 @@ PACKAGE = Path(origami_jax.__file__).parent
 REFERENCE_ATOL = 1e-12
 """Final angles and rates against the numbers of the loose-keyword `simulate` (the code before
 `SolveOptions`), run on the same machine: equal to round-off."""
+IMPLICIT_REFERENCE_ATOL = 1e-8
+"""The fixed-step engine's: its Newton iterations stop at an update below 1e-10 rad, and since
+2026-12-06 they no longer take that last update (the matrix it needs serves the convergence test):
+each of the 600 steps' roots moves within that, the final angles by 3e-9 rad."""
 
 # `simulate(accordion_system(HingeDesign.literature(units=MICRO), 3), Step(), t1=300.0, ...)` on
 # the code before `SolveOptions` (commit 8f20fdb), keyword arguments as named: final θ (rad), final θ̇
@@ -212,8 +216,9 @@ def test_results_equal_those_of_the_loose_keywords(accordion, case):
     settings, theta, theta_dot, steps, shape = REFERENCE[case]
     trajectory = sim.simulate(accordion, sim.Step(), sim.SolveOptions(**settings), t1=300.0)
     assert trajectory.theta.shape == shape
-    np.testing.assert_allclose(trajectory.theta[-1], theta, rtol=0, atol=REFERENCE_ATOL)
-    np.testing.assert_allclose(trajectory.theta_dot[-1], theta_dot, rtol=0, atol=REFERENCE_ATOL)
+    atol = IMPLICIT_REFERENCE_ATOL if case == "ImplicitStep" else REFERENCE_ATOL
+    np.testing.assert_allclose(trajectory.theta[-1], theta, rtol=0, atol=atol)
+    np.testing.assert_allclose(trajectory.theta_dot[-1], theta_dot, rtol=0, atol=atol)
     if steps is not None:
         assert int(trajectory.stats["num_steps"]) == steps
 
