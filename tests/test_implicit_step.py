@@ -126,6 +126,19 @@ def _step_energy(system, trajectory):
     return jax.vmap(system.energy)(q, v) - q @ (k * target)
 
 
+def _launched_flaps(solver, n_save: int):
+    """The corner cube at half scale without drag, its two flaps launched at each other from 0.98
+    of their closed angles (0.02 rad/µs each), folded by `solver` to 60 µs with `n_save` samples:
+    ``(net, system, trajectory)``."""
+    net = load_net("corner_cube", length_scale=SCALE)
+    system = net.system(drag="hinge")
+    system = eqx.tree_at(lambda s: s.drag, system, HingeDrag(jnp.zeros(system.n_hinges)))
+    closed = jnp.asarray(net.intended_angles)
+    options = sim.SolveOptions(saveat=sim.SaveAt(n=n_save), solver=solver)
+    trajectory = sim.simulate(system, sim.Step(), options, t1=60.0, theta0=closed * 0.98, theta_dot0=jnp.asarray([0.02, 0.02]))  # fmt: skip
+    return net, system, trajectory
+
+
 @pytest.mark.slow  # the plate contact's Jacobian: ~40 s to compile
 @pytest.mark.parametrize("dt, n_save, iterations", [(0.5, 61, 6), (4.0, 16, 20)])
 def test_launched_flaps_stop_on_each_other_without_gaining_energy(dt, n_save, iterations):
@@ -135,12 +148,8 @@ def test_launched_flaps_stop_on_each_other_without_gaining_energy(dt, n_save, it
     sample; with steps of 0.5 µs and of 4 µs (the flaps close their last 0.03 rad in ~1.5 µs).
     The 4 µs steps need more Newton iterations than the default: with 6, the step after the
     impact ends unconverged against the barrier and the energy rose by 0.2 % of that in play."""
-    net = load_net("corner_cube", length_scale=SCALE)
-    system = net.system(drag="hinge")
-    system = eqx.tree_at(lambda s: s.drag, system, HingeDrag(jnp.zeros(system.n_hinges)))
-    closed = jnp.asarray(net.intended_angles)
     solver = sim.ImplicitStep(dt=dt, newton_iterations=iterations)
-    trajectory = sim.simulate(system, sim.Step(), sim.SolveOptions(saveat=sim.SaveAt(n=n_save), solver=solver), t1=60.0, theta0=closed * 0.98, theta_dot0=jnp.asarray([0.02, 0.02]))  # fmt: skip
+    net, system, trajectory = _launched_flaps(solver, n_save)
     assert bool(trajectory.succeeded)
     energy = np.asarray(_step_energy(system, trajectory))
     assert np.max(np.diff(energy)) <= 1e-6 * np.max(np.abs(energy))
@@ -162,12 +171,8 @@ def test_bdf2_flaps_meet_without_passing_and_give_back_less_than_the_impact_took
     nothing and keeps the flaps at rest; the resolved adaptive solve loses only 0.52 at the
     impact and the flaps rebound). The bound, half of what
     the impact took, guards against a scheme that would hand the impact's loss back."""
-    net = load_net("corner_cube", length_scale=SCALE)
-    system = net.system(drag="hinge")
-    system = eqx.tree_at(lambda s: s.drag, system, HingeDrag(jnp.zeros(system.n_hinges)))
-    closed = jnp.asarray(net.intended_angles)
     solver = sim.ImplicitStep(dt=0.5, newton_iterations=20, scheme="bdf2")
-    trajectory = sim.simulate(system, sim.Step(), sim.SolveOptions(saveat=sim.SaveAt(n=61), solver=solver), t1=60.0, theta0=closed * 0.98, theta_dot0=jnp.asarray([0.02, 0.02]))  # fmt: skip
+    _, system, trajectory = _launched_flaps(solver, 61)
     assert bool(trajectory.succeeded) and float(trajectory.stats["newton_error"]) < 1e-9
     energy = np.asarray(_step_energy(system, trajectory))
     taken = energy[0] - np.min(energy)
@@ -239,3 +244,16 @@ def test_early_exit_gives_the_fixed_count_result():
     ]
     np.testing.assert_allclose(runs[1].theta, runs[0].theta, rtol=0, atol=1e-9)
     assert float(runs[1].stats["newton_error"]) < 1e-9
+
+
+@pytest.mark.slow  # two plate-contact folds to compile: ~30 s
+def test_early_exit_meets_contact_as_the_fixed_counts_do():
+    """The launched flaps of the corner cube (they meet under the plate contact): `early_exit`'s
+    collision check (as many chords as an update needs, one after another) and the fixed counts'
+    (every `ccd_pieces` chords side by side) cap the updates alike, and the two runs land on the
+    same states to the Newton iterations' convergence (1e-10 rad per step, 120 steps)."""
+    _, system, fixed = _launched_flaps(sim.ImplicitStep(dt=0.5, early_exit=False), 31)
+    _, _, early = _launched_flaps(sim.ImplicitStep(dt=0.5), 31)
+    report = jax.vmap(lambda q: system.contact.report(system.mechanism, q))(early.theta)
+    assert int(jnp.max(report["engaged"])) > 0  # they did meet
+    np.testing.assert_allclose(early.theta, fixed.theta, rtol=0, atol=1e-8)

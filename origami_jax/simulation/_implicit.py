@@ -535,34 +535,34 @@ def _step(
         if not capped:
             return alpha
         pieces = solver.ccd_pieces
-        contact = s_system.contact
-        if not solver.early_exit:  # the same work every time: every chord, side by side
+
+        def impact(a, b):
+            return s_system.contact.time_of_impact(s_system.mechanism, a, b)  # type: ignore[union-attr]
+
+        if solver.early_exit:
+            # Chords no longer (in any coordinate) than the longest update's `ccd_pieces` chords:
+            # the same bound on how far a rotating vertex departs from its chord.
+            reach = alpha * longest / (solver.max_update / pieces)
+            count = jnp.clip(jnp.ceil(reach), 1, pieces).astype(jnp.int32)
+            chord = alpha * dq / count
+
+            def clear_so_far(carry):
+                j, toi = carry
+                return (j < count) & (toi >= 1)
+
+            def next_chord(carry):
+                j, _ = carry
+                start = q + j.astype(q.dtype) * chord
+                return j + 1, impact(start, start + chord)
+
+            j, toi = jax.lax.while_loop(clear_so_far, next_chord, (0, jnp.ones((), q.dtype)))
+            clear = jnp.where(toi < 1, (j - 1 + toi) / count, 1.0)
+        else:  # the same work every time: every chord, side by side
             ends = q + (alpha * jnp.arange(pieces + 1, dtype=q.dtype) / pieces)[:, None] * dq
-            toi = jax.vmap(
-                lambda a, b: contact.time_of_impact(s_system.mechanism, a, b)  # type: ignore[union-attr]
-            )(ends[:-1], ends[1:])
+            toi = jax.vmap(impact)(ends[:-1], ends[1:])
             hit = toi < 1
             first = jnp.argmax(hit)
             clear = jnp.where(jnp.any(hit), (first + toi[first]) / pieces, 1.0)
-            return alpha * jnp.where(clear >= 1, 1.0, _TOI_FRACTION * clear)
-        # Chords no longer (in any coordinate) than the longest update's `ccd_pieces` chords:
-        # the same bound on how far a rotating vertex departs from its chord.
-        reach = alpha * longest / (solver.max_update / pieces)
-        count = jnp.clip(jnp.ceil(reach), 1, pieces).astype(jnp.int32)
-        chord = alpha * dq / count
-
-        def clear_so_far(carry):
-            j, toi = carry
-            return (j < count) & (toi >= 1)
-
-        def next_chord(carry):
-            j, _ = carry
-            start = q + j.astype(q.dtype) * chord
-            toi = contact.time_of_impact(s_system.mechanism, start, start + chord)  # type: ignore[union-attr]
-            return j + 1, toi
-
-        j, toi = jax.lax.while_loop(clear_so_far, next_chord, (0, jnp.ones((), q.dtype)))
-        clear = jnp.where(toi < 1, (j - 1 + toi) / count, 1.0)
         return alpha * jnp.where(clear >= 1, 1.0, _TOI_FRACTION * clear)
 
     def merit(q):
