@@ -52,3 +52,25 @@ def test_module_entry_point_runs():
     )
     assert result.returncode == 0, result.stderr
     assert __version__ in result.stdout
+
+
+def test_a_command_ends_its_process_with_its_output_whole_and_its_exit_code():
+    """`main` ends a process of its own at once (`os._exit`, skipping the interpreter's
+    teardown of the compiled programs): what the command printed to a pipe still arrives whole,
+    and its exit code is the command's (0 for a listing, 2 for a net that does not exist)."""
+    listing = subprocess.run(
+        [sys.executable, "-m", "origami_jax", "fold", "--list"],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert listing.returncode == 0, listing.stderr
+    assert listing.stdout.rstrip().splitlines()[-1].startswith("octahedron_nets: ")
+    missing = subprocess.run(
+        [sys.executable, "-m", "origami_jax", "fold", "no_such_net"],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert missing.returncode == 2
+    assert "no shipped net of that name" in missing.stderr
