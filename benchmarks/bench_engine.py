@@ -11,8 +11,13 @@ iterations, halvings and collision chords: 600 steps), beside the adaptive defau
 - one step, compiled, from the fold's state at 300 µs (mid-fold, before the panels meet: a
   step's work is fixed but for the collision check's loop), ms per step;
 - one fold, warm, ours fixed steps against ours adaptive (compile apart, in `compile_s`);
-- the batch: nets/s of the fixed steps (`jax.vmap`) against MuJoCo over the same nets on every
-  core, and of the adaptive engine over the same nets;
+- the batch: nets/s of the fixed steps against MuJoCo over the same nets on every core, and of
+  the adaptive engine over the same nets. Ours on every core as `origami_jax.sweep` computes a
+  batch on a CPU: the batch in chunks (`jax.vmap` within a chunk), one chunk per core at a time,
+  each compiled call from its own thread (XLA computes a small vmapped solve on about one core).
+  Chunks of `FIXED_CHUNK` nets for the fixed steps, of one net for the adaptive engine (the net
+  kernels' `cpu_chunk_size`: its step counts spread under contact, and a chunk steps until its
+  slowest member is done);
 - the batch end to end: ours from tracing and compiling the batched fold to its first answer
   against MuJoCo from building its models to its first rollout (one cold call each);
 - a crease pattern with closed loops (`LOOPS_PATTERN`, the Miura 3×3: its loops held by the fixed
@@ -25,6 +30,7 @@ Run: ``python -m benchmarks --only engine`` (``--quick``: a batch of 4, one repe
 ``ENGINE_BATCH``), or ``python -m benchmarks.bench_engine [--quick] [--batch N] [--json PATH]``.
 """
 
+import concurrent.futures
 import functools
 import os
 import time
@@ -48,6 +54,10 @@ DT = 2.5  # µs: the fixed step the docs use for cube nets
 T1 = bench_net.T1
 N_SAVE = bench_net.N_SAVE
 CONTACT_STATE_US = 300.0  # the per-step row's state: mid-fold
+# Nets per compiled call of the fixed steps' batch: on 2 cores chunks of 4 gave 0.10-0.11 s per
+# net, of 1 0.13, of 16 0.11, one call over 16 on one thread 0.22 (benchmarks/history.md, "The
+# batch on every core").
+FIXED_CHUNK = 4
 # The closed-loop row: a Miura sheet, long enough to fold in the paper's dynamics.
 LOOPS_PATTERN = "miura_3x3"
 LOOPS_T1 = 3000.0
@@ -79,6 +89,25 @@ def _compiled(fn, *args):
     start = time.perf_counter()
     compiled = jax.jit(fn).lower(*args).compile()
     return compiled, time.perf_counter() - start
+
+
+def _on_every_core(member, args, chunk: int, workers: int):
+    """`member` over the batch `args` (arrays with the batch first) as `origami_jax.sweep` runs a
+    batch on a CPU: `jax.vmap(member)` compiled for `chunk` members (the batch divisible by it),
+    the chunks computed `workers` at a time, each call from its own thread (XLA releases the GIL
+    while it computes). Returns ``(run, compile_s)``, `run()` the batch's outputs in order."""
+    batch = args[0].shape[0]
+    if batch % chunk:
+        raise ValueError(f"a batch of {batch} does not split into chunks of {chunk}")
+    chunks = [tuple(a[i : i + chunk] for a in args) for i in range(0, batch, chunk)]
+    compiled, compile_s = _compiled(jax.vmap(member), *chunks[0])
+    pool = concurrent.futures.ThreadPoolExecutor(max_workers=workers)
+
+    def run():
+        parts = pool.map(lambda part: jax.block_until_ready(compiled(*part)), chunks)
+        return jax.tree.map(lambda *xs: np.concatenate(xs), *parts)
+
+    return run, compile_s
 
 
 def run(quick: bool, batch: int | None = None) -> list[Result]:
@@ -210,16 +239,20 @@ def run(quick: bool, batch: int | None = None) -> list[Result]:
     per_net = {}
     compile_s = {}
     first_call = {}
+    # Ours and MuJoCo at their best: one thread per core of the machine (2 on the CI-sized CPU).
+    threads = os.cpu_count() or 2
+    chunks = {"fixed": min(FIXED_CHUNK, batch), "adaptive": 1}
+    workers = threads
+    if jax.default_backend() != "cpu":  # an accelerator computes the whole batch in one call
+        chunks, workers = {"fixed": batch, "adaptive": batch}, 1
     for name, member in (("fixed", fixed_member), ("adaptive", adaptive_member)):
-        _progress(f"compiling a batch of {batch}, {name}")
-        batched, compile_s[name] = _compiled(jax.vmap(member), *args)
+        _progress(f"compiling a batch of {batch} in chunks of {chunks[name]}, {name}")
+        batched, compile_s[name] = _on_every_core(member, args, chunks[name], workers)
         start = time.perf_counter()
-        finals = np.asarray(batched(*args))
+        finals = np.asarray(batched())
         first_call[name] = time.perf_counter() - start
         bench_net._check(f"ours (batch, {name})", net, finals, targets)
-        per_net[name] = time_calls(lambda b=batched: b(*args), repeats=repeats, warmup=0)
-    # MuJoCo at its best: one thread per core of the machine (2 on the CI-sized CPU).
-    threads = os.cpu_count() or 2
+        per_net[name] = time_calls(batched, repeats=repeats, warmup=0)
     _progress(f"MuJoCo over the batch of {batch} on {threads} threads")
     start = time.perf_counter()
     dt_mj, nstep = bench_net.mujoco_step(system)
@@ -234,7 +267,8 @@ def run(quick: bool, batch: int | None = None) -> list[Result]:
         rows.append(
             Result(
                 name=f"{bench_net.NET} (plate contact) with scattered hinges, nets/s: ours "
-                f"{label} vmap over {batch} vs MuJoCo over the same {batch} on {threads} threads",
+                f"{label} over {batch} in chunks of {chunks[name]} on {workers} threads vs MuJoCo "
+                f"over the same {batch} on {threads} threads",
                 ours=timing,
                 peer_name=f"MuJoCo rollout over {batch} models (C), {threads} threads",
                 peer=mujoco,
@@ -246,6 +280,8 @@ def run(quick: bool, batch: int | None = None) -> list[Result]:
                 ),
                 extra={
                     "batch": batch,
+                    "chunk": chunks[name],
+                    "threads": workers,
                     "ours_nets_per_s": batch / timing.median,
                     "mujoco_nets_per_s": batch / mujoco.median,
                 },
@@ -259,8 +295,8 @@ def run(quick: bool, batch: int | None = None) -> list[Result]:
         rows.append(
             Result(
                 name=f"{bench_net.NET} (plate contact) with scattered hinges, end to end (compile "
-                f"included): ours {label} vmap over {batch} vs MuJoCo over the same {batch} on "
-                f"{threads} threads",
+                f"included): ours {label} over {batch} in chunks of {chunks[name]} on {workers} "
+                f"threads vs MuJoCo over the same {batch} on {threads} threads",
                 ours=Timing.once(total),
                 peer_name=f"MuJoCo: {batch} models built, one rollout (C), {threads} threads",
                 peer=Timing.once(mujoco_first),
