@@ -387,7 +387,9 @@ def check_physics_options(pattern) -> None:
     check_agitation(pattern.agitation)
 
 
-@eqx.filter_jit
+# Its traced program comes from disk where the command line keeps them (`exported_jit`): tracing
+# the system's mass and stiffness cost a warm `origami-jax fold` ~0.2 s.
+@exported_jit("release_ramp")
 def _quasi_static_ramp(system, about):
     return quasi_static_ramp(system, about=about)
 
