@@ -20,6 +20,10 @@ explicit phase, or a named solver's whole solve), the program a warm command wou
 most of its own time tracing, and through `exported_jit` for the smaller programs a command runs
 once each (a net's fluid loads, the verdict, its seam tolerances, the contact's defaults and the
 points where panels touch).
+
+`remembered` keeps a value a command builds on the host the same way (pickled, under a key of its
+inputs' values and the same versions, source and flags): a net's folding system, whose build is
+seconds of host geometry and small programs that a warm command would otherwise repeat.
 """
 
 from __future__ import annotations
@@ -119,16 +123,29 @@ def _cached_properties(cls: type) -> frozenset[str]:
     )
 
 
-def _key(name: str, dynamic_leaves, static) -> str | None:
-    """The entry's key (hex), or `None` when `static` holds code the key cannot vouch for."""
+def _vouched_digest(name: str, obj):
+    """A running SHA-256 of the versions, source and flags, `name` and `obj` pickled, or `None`
+    when `obj` holds code the key cannot vouch for."""
     buffer = io.BytesIO()
+    pickler = _KeyPickler(buffer, protocol=pickle.HIGHEST_PROTOCOL)
+    # No memo: a value pickles alike whichever of its parts are one object (a field name a
+    # module built in this process shares with its class, but one read back from disk does not).
+    pickler.fast = True
     try:
-        _KeyPickler(buffer, protocol=pickle.HIGHEST_PROTOCOL).dump(static)
-    except (_Unvouched, pickle.PicklingError, TypeError, AttributeError):
-        return None
+        pickler.dump(obj)
+    except (_Unvouched, pickle.PicklingError, TypeError, AttributeError, ValueError):
+        return None  # ValueError: a cycle, which pickling without a memo cannot follow
     digest = hashlib.sha256(_environment() + _flags())
     digest.update(name.encode())
     digest.update(buffer.getvalue())
+    return digest
+
+
+def _key(name: str, dynamic_leaves, static) -> str | None:
+    """The entry's key (hex), or `None` when `static` holds code the key cannot vouch for."""
+    digest = _vouched_digest(name, static)
+    if digest is None:
+        return None
     # Shapes and dtypes only: the export traces on `ShapeDtypeStruct`s, which carry no weak type,
     # so a leaf's weak type (a scalar a fresh trace returns weakly typed and an exported program
     # strongly: a solve's step counts) does not change the program and must not change its key.
@@ -180,6 +197,7 @@ def exported_call(name: str, fn, jitted, *args) -> Any:
     """
     import equinox as eqx
     import jax
+    import numpy as np
 
     # Raised runtime errors call back into Python, which no exported program can: don't try.
     if _FOLDER is None or name in _REFUSED or on_error() not in ("nan", "off"):
@@ -230,14 +248,47 @@ def exported_call(name: str, fn, jitted, *args) -> Any:
         except OSError:  # an unwritable folder costs the next process a trace, not this result
             pass
     try:
-        arrays = iter(program.call(*leaves))
+        outputs = program.call(*leaves)
     except Exception:  # an entry this process cannot run (it should not happen): trace as usual
         _REFUSED.add(name)
         return jitted(*args)
+    # An exported program's outputs are committed to its device, and a committed argument is
+    # compiled into every program it reaches (its sharding annotated): the same values built by
+    # `jitted`, or read back from disk (`remembered`), are not, and would make those programs
+    # compile again under another key. Uncommitted copies (a few kB; waits for the results,
+    # which the caller reads next).
+    arrays = iter(jax.device_put(np.asarray(x)) for x in outputs)
     out_leaves = [
         constants[i] if i in constants else next(arrays) for i in range(out_tree.num_leaves)
     ]
     return jax.tree.unflatten(out_tree, out_leaves)
+
+
+def remembered(name: str, build, *inputs) -> Any:
+    """`build()`, or the value an earlier process built under the same key, read from disk where
+    `enable_exported_programs` keeps the programs (off: `build()`).
+
+    **Arguments:** `name`: what is kept (part of the key); `build`: makes the value, a
+    deterministic function of `inputs` that pickles (one that does not is built each time);
+    `inputs`: everything that decides it, pickled for the key (arrays by their contents), and
+    refused like `exported_call`'s static parts where they hold code the key cannot vouch for
+    (then `build()` is called and nothing is kept).
+    """
+    digest = None if _FOLDER is None else _vouched_digest(name, inputs)
+    if _FOLDER is None or digest is None:
+        return build()
+    path = _FOLDER / f"{name}-{digest.hexdigest()[:32]}.pkl"
+    if path.exists():
+        try:
+            return pickle.loads(path.read_bytes())
+        except Exception:  # a damaged or foreign entry: build again and replace it
+            pass
+    value = build()
+    try:
+        _write_atomically(path, pickle.dumps(value, protocol=pickle.HIGHEST_PROTOCOL))
+    except (OSError, pickle.PicklingError, TypeError, AttributeError):
+        pass  # an unwritable folder or a value that does not pickle costs the next process a build
+    return value
 
 
 def exported_jit(name: str):

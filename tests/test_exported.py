@@ -156,3 +156,95 @@ def test_the_key_ignores_what_a_cached_property_filled_in_since():
     assert _exported._key("p", leaves, (fresh,)) == before
     other = load_net("cube_net_01").contact_tables()
     assert _exported._key("p", leaves, (other,)) != before
+
+
+def test_the_key_does_not_depend_on_which_parts_are_one_object():
+    # A system read back from disk (`remembered`) holds its field names as strings of its own
+    # where a built one shares them with its classes: a pickle that memoises objects told the two
+    # apart, and every program the read-back system reached compiled again under another key.
+    import pickle
+
+    import equinox as eqx
+
+    from origami_jax.net import load_net
+
+    static = eqx.partition(load_net("corner_cube").system(), eqx.is_array)[1]
+    again = pickle.loads(pickle.dumps(static))
+    leaves = [jnp.zeros(3)]
+    assert _exported._key("p", leaves, (static,)) == _exported._key("p", leaves, (again,))
+
+
+def _twice(x):
+    return 2.0 * x
+
+
+def test_an_exported_program_gives_uncommitted_arrays(tmp_path, monkeypatch):
+    # Committed outputs would be compiled into every program they reach as sharded arguments, a
+    # program of its own beside the one the same values get when built by `jit` or read back.
+    monkeypatch.setattr(_exported, "_FOLDER", tmp_path)
+    monkeypatch.setattr(equinox._errors, "EQX_ON_ERROR", "nan")
+    x = jnp.arange(3.0)
+    for _ in range(2):  # exported, then read back
+        out = _exported.exported_call("twice", _twice, jax.jit(_twice), x)
+        assert not out.committed
+        assert jnp.array_equal(out, 2.0 * x)
+    assert len(list(tmp_path.glob("twice-*.bin"))) == 1
+
+
+def test_a_remembered_value_is_built_once_per_key(tmp_path, monkeypatch):
+    import numpy as np
+
+    built = []
+
+    def build():
+        built.append(1)
+        return {"x": np.arange(3.0) * len(built)}
+
+    monkeypatch.setattr(_exported, "_FOLDER", None)  # off: built every time
+    _exported.remembered("v", build, np.arange(2.0))
+    _exported.remembered("v", build, np.arange(2.0))
+    assert len(built) == 2
+    monkeypatch.setattr(_exported, "_FOLDER", tmp_path)
+    first = _exported.remembered("v", build, np.arange(2.0), "s")
+    again = _exported.remembered("v", build, np.arange(2.0), "s")
+    assert len(built) == 3 and np.array_equal(first["x"], again["x"])
+    _exported.remembered("v", build, np.arange(2.0) + 1.0, "s")  # other values, another key
+    assert len(built) == 4
+    for _ in range(2):  # code the key cannot vouch for: built each time, nothing kept
+        _exported.remembered("v", build, _torque)
+    assert len(built) == 6
+    for path in tmp_path.glob("v-*.pkl"):  # a damaged entry is built again and replaced
+        path.write_bytes(b"not a pickle")
+    assert np.array_equal(
+        _exported.remembered("v", build, np.arange(2.0), "s")["x"], 7 * np.arange(3.0)
+    )
+    assert len(list(tmp_path.glob("v-*.pkl"))) == 2
+
+
+def test_a_kept_system_is_the_one_built_and_brings_its_tables(tmp_path, monkeypatch):
+    import equinox as eqx
+    import numpy as np
+
+    from origami_jax.net import load_net
+    from origami_jax.system import KOH_SOLUTION
+
+    monkeypatch.setattr(_exported, "_FOLDER", tmp_path)
+    net = load_net("corner_cube")
+    design = net.default_design(KOH_SOLUTION)
+    built = net.kept_system(design, release_times=[0.0, 5.0])
+    assert len(list(tmp_path.glob("system-*.pkl"))) == 1
+    fresh = load_net("corner_cube")  # another object, its host cache empty
+    assert not any(key[0] == "tables" for key, _ in fresh.host_cache.items())
+    read = fresh.kept_system(design, release_times=[0.0, 5.0])
+    leaves = [jnp.zeros(1)]
+    parts = [eqx.partition(s, eqx.is_array) for s in (built, read)]
+    assert _exported._key("s", leaves, (parts[0][1],)) == _exported._key(
+        "s", leaves, (parts[1][1],)
+    )
+    for a, b in zip(jax.tree.leaves(parts[0][0]), jax.tree.leaves(parts[1][0]), strict=True):
+        assert np.array_equal(np.asarray(a), np.asarray(b))
+    assert any(key[0] == "tables" for key, _ in fresh.host_cache.items())
+    # Another release, another system; arc hinges (layouts kept by identity) are never kept.
+    fresh.kept_system(design, release_times=[0.0, 0.0])
+    net.with_model(hinges="arc").kept_system(design)
+    assert len(list(tmp_path.glob("system-*.pkl"))) == 2

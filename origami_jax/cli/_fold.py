@@ -424,7 +424,7 @@ def run(args: argparse.Namespace) -> int:
         layout = {"arc_layout": args.arc_layout} if args.hinges == "arc" and not loops else {}
         net = net.with_model(**model)
         net = net.with_model(**surface_model(args, net, design), **dynamics_model(args))
-        system = net.system(design, targets=targets, release_times=release, **layout)
+        system = net.kept_system(design, targets=targets, release_times=release, **layout)
         ramp = net.release_ramp_for(system)
         if args.t1 is not None and ramp is not None and args.t1 <= ramp:
             raise ValueError(

@@ -22,7 +22,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._exported import exported_jit
+from .._exported import exported_jit, remembered
 from .._limits import FOLD_SEGMENT, MAX_FOLD_SEGMENTS, default_t_end
 from .._runtime_errors import checks_as_nan
 from .._validate import is_traced
@@ -59,6 +59,10 @@ class HostCache:
     def values(self) -> list:
         """Every value kept (a list: the cache may grow while it is read)."""
         return list(self._values.values())
+
+    def items(self) -> list:
+        """Every `(key, value)` kept (a list, as `values`)."""
+        return list(self._values.items())
 
     def __contains__(self, key: Hashable) -> bool:
         return key in self._values
@@ -219,6 +223,30 @@ class AbstractPanelPattern(AbstractPattern):
         if not system.mechanism.carries_added_inertia:
             return None
         return quasi_static_release(system, self.oscillation_state())
+
+    def kept_system(self, design: HingeDesign, **options):
+        """`system(design, **options)`, read from disk where the command line keeps its traced
+        programs when an earlier process built it (`origami_jax._exported.remembered`: under
+        this pattern's contents, `design` and `options` by value, this package's source and the
+        libraries' versions; outside the command line, `system`): a warm `origami-jax fold`
+        skips the host geometry and small programs of the build. What the build keeps in the
+        `host_cache` (the plate tables) comes back with it. Built each time for a pattern with
+        closed loops or bending-arc hinges, whose host-side layouts are kept by identity, not by
+        value."""
+        if getattr(self, "n_loops", 0) or self.hinges != "point":
+            return self.system(design, **options)
+
+        def build():
+            before = {key for key, _ in self.host_cache.items()}
+            system = self.system(design, **options)
+            added = {key: value for key, value in self.host_cache.items() if key not in before}
+            return system, added
+
+        inputs = (type(self).__name__, self.content_key(), design, options)
+        system, added = remembered("system", build, *inputs)
+        for key, value in added.items():
+            self.host_cache.get(key, lambda value=value: value)
+        return system
 
     def nominal_release_ramp(self, design: HingeDesign | None = None) -> float | None:
         """`release_ramp_for` the system of `design` (default `default_design()`): the one ramp a
