@@ -197,7 +197,6 @@ def exported_call(name: str, fn, jitted, *args) -> Any:
     """
     import equinox as eqx
     import jax
-    import numpy as np
 
     # Raised runtime errors call back into Python, which no exported program can: don't try.
     if _FOLDER is None or name in _REFUSED or on_error() not in ("nan", "off"):
@@ -257,11 +256,22 @@ def exported_call(name: str, fn, jitted, *args) -> Any:
     # `jitted`, or read back from disk (`remembered`), are not, and would make those programs
     # compile again under another key. Uncommitted copies (a few kB; waits for the results,
     # which the caller reads next).
-    arrays = iter(jax.device_put(np.asarray(x)) for x in outputs)
+    arrays = iter(_uncommitted(x) for x in outputs)
     out_leaves = [
         constants[i] if i in constants else next(arrays) for i in range(out_tree.num_leaves)
     ]
     return jax.tree.unflatten(out_tree, out_leaves)
+
+
+def _uncommitted(x):
+    """An uncommitted copy of the array `x` (itself where it has no host copy: a typed PRNG key)."""
+    import jax
+    import numpy as np
+
+    try:
+        return jax.device_put(np.asarray(x))
+    except TypeError:
+        return x
 
 
 def remembered(name: str, build, *inputs) -> Any:
