@@ -229,6 +229,24 @@ def test_t1_in_the_options_gives_the_same_run(accordion):
     np.testing.assert_array_equal(keyword.theta, inside.theta)
 
 
+@pytest.mark.parametrize("solver", [diffrax.Tsit5(), sim.ImplicitStep(dt=0.5)])
+def test_a_solve_without_accelerations_gives_the_same_samples(flap, solver):
+    # `SaveAt(accelerations=False)` drops the right-hand side at the samples (a net's fold and the
+    # sweeps' fold kernel read angles and rates only): everything else is the same run.
+    def run(accelerations):
+        saveat = sim.SaveAt(ts=np.linspace(0.0, 30.0, 7), accelerations=accelerations)
+        return sim.simulate(
+            flap, sim.Step(), sim.SolveOptions(solver=solver, saveat=saveat), t1=30.0
+        )
+
+    full, lean = run(True), run(False)
+    for name in ("times", "theta", "theta_dot", "tau"):
+        np.testing.assert_array_equal(getattr(lean, name), getattr(full, name), err_msg=name)
+    assert np.all(np.isfinite(full.theta_ddot)) and np.all(np.isnan(lean.theta_ddot))
+    with pytest.raises(ValueError, match="accelerations"):
+        sim.response_metrics(lean)
+
+
 # ---- no public function over 12 parameters ------------------------------------------------------
 
 MAX_PARAMETERS = 12

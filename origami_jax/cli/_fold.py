@@ -501,7 +501,8 @@ def _run(args, net, system, params, release, sampling, output, unfolded, *, choi
     # is not its hinge angles: one segment).
     options = with_solver(
         sim.SolveOptions(
-            saveat=sim.SaveAt(n=args.n_save),
+            # The verdict, files and figures read angles and rates: no accelerations to compile.
+            saveat=sim.SaveAt(n=args.n_save, accelerations=False),
             solver=solver,
             max_steps=FOLD_MAX_STEPS,
             throw=False,

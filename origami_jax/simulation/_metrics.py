@@ -222,8 +222,15 @@ def response_metrics(
 
     **Raises:** `ValueError` when a joint's target is 0 (the metrics are fractions of it); under
     `jit` or `vmap`, where the target is traced, the same check runs in the compiled program.
+    `ValueError` for a trajectory solved without its accelerations (`SaveAt(accelerations=False)`).
     """
     message = "response_metrics: a joint's target is 0; the metrics are fractions of the target."
+    accelerations = trajectory.theta_ddot
+    if not is_traced(accelerations) and np.all(np.isnan(np.asarray(accelerations))):
+        raise ValueError(
+            "response_metrics needs the trajectory's accelerations, which this solve did not "
+            "compute: simulate with SaveAt(accelerations=True) (the default)."
+        )
     if is_traced(trajectory.target):
         return _metrics(trajectory, band, low, high, graze_tol, settle_fraction, message)
     if np.any(np.asarray(trajectory.target) == 0):

@@ -51,6 +51,10 @@ class SaveAt(eqx.Module):
     - `n` (static): the number of evenly spaced samples when `ts` is `None` (at least 2; default
       `DEFAULT_N_SAVE`).
     - `dense` (static): keep diffrax's dense output (`Trajectory.evaluate`; default `False`).
+    - `accelerations` (static): compute `Trajectory.theta_ddot` at the samples from the equations
+      of motion (default `True`). `False` leaves it NaN, and the solve's program one right-hand
+      side smaller (with contact, the larger part of a model's program): for callers that read
+      angles, rates and torques only (a net's fold and its verdict, a sweep's fold kernel).
 
     Metrics refine crossings between samples with cubic Hermite interpolation of ``(θ, θ̇)``, so keep
     several samples per oscillation period.
@@ -59,6 +63,7 @@ class SaveAt(eqx.Module):
     ts: Float[ArrayLike, " t"] | None = eqx.field(default=None, converter=_as_value)
     n: int = eqx.field(static=True, default=DEFAULT_N_SAVE)
     dense: bool = eqx.field(static=True, default=False)
+    accelerations: bool = eqx.field(static=True, default=True)
 
     def __check_init__(self):
         if self.ts is None and (

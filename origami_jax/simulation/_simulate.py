@@ -24,7 +24,7 @@ from ..system import FoldingSystem, HingeDrag
 from ._guard import AbstractWrappedController, ContactGuard
 from ._implicit import ImplicitStep, check_off_bifurcation, integrate, steps_per_interval
 from ._inputs import AbstractInput
-from ._options import DEFAULT_ATOL, DEFAULT_RTOL, SolveOptions
+from ._options import DEFAULT_ATOL, DEFAULT_RTOL, SaveAt, SolveOptions
 from ._results import RESULTS, promote
 from ._switching import TURNED_STIFF, StiffnessSwitching
 
@@ -150,6 +150,7 @@ class _Integration(eqx.Module):
     dense: bool = eqx.field(static=True)
     throw: bool = eqx.field(static=True)
     land_on_samples: bool = eqx.field(static=True)
+    accelerations: bool = eqx.field(static=True)
 
 
 def on_one_device(tree):
@@ -172,9 +173,10 @@ def on_one_device(tree):
     return jax.tree.map(commit, tree)
 
 
-def _samples(system: FoldingSystem, inputs: AbstractInput, times, q, v):
-    """Hinge angles, rates and accelerations and the input torque at the samples; rows past a failure
-    are inf (and their NaN gradients kept out)."""
+def _samples(system: FoldingSystem, inputs: AbstractInput, times, q, v, accelerations: bool):
+    """Hinge angles, rates and accelerations (NaN unless `accelerations`: `SaveAt.accelerations`)
+    and the input torque at the samples; rows past a failure are inf (and their NaN gradients kept
+    out)."""
     ok = jnp.all(jnp.isfinite(q), axis=-1, keepdims=True) & jnp.all(
         jnp.isfinite(v), axis=-1, keepdims=True
     )
@@ -192,6 +194,9 @@ def _samples(system: FoldingSystem, inputs: AbstractInput, times, q, v):
     tau = jax.vmap(lambda t, th, thd: inputs.torque(t, th, thd, system))(
         times, theta_safe, theta_dot_safe
     )
+    if not accelerations:
+        theta_ddot = jnp.full_like(theta_dot_safe, jnp.nan)
+        return theta, theta_dot, jnp.where(ok, theta_ddot, jnp.inf), jnp.where(ok, tau, jnp.inf)
     if system.contact is None:
         force = jax.vmap(system.generalized_force)(q_safe, v_safe, tau)
         # All samples in one call: a mechanism's rows path (the chain's runs on scalars with its
@@ -303,8 +308,10 @@ def _checked_result(solution_result, q, v, saved, how: _Integration):
     return result, q
 
 
-def _trajectory(system, inputs, times, q, v, stats, result, solution) -> Trajectory:
-    theta, theta_dot, theta_ddot, tau = _samples(system, inputs, times, q, v)
+def _trajectory(
+    system, inputs, times, q, v, stats, result, solution, accelerations: bool
+) -> Trajectory:
+    theta, theta_dot, theta_ddot, tau = _samples(system, inputs, times, q, v, accelerations)
     target = inputs.target(system)
     target = theta[-1] if target is None else jnp.asarray(target, dtype=theta.dtype)
     return Trajectory(
@@ -368,7 +375,8 @@ def _solve(system: FoldingSystem, inputs: AbstractInput, span, y0, ts, how: _Int
         _, switch = cast(tuple, solution.solver_state)  # saved: SaveAt(solver_state=True) above
         stats["switch_time"] = switch.switch_time
     times = cast(Array, solution.ts)
-    return _trajectory(system, inputs, times, q, v, stats, result, solution if how.dense else None)
+    solution = solution if how.dense else None
+    return _trajectory(system, inputs, times, q, v, stats, result, solution, how.accelerations)
 
 
 class _RecordNext(AbstractWrappedController):
@@ -449,7 +457,8 @@ def _solve_until_stiff(
         controller_state=inner,
         made_jump=solution.made_jump,
     )
-    return _trajectory(system, inputs, times, q, v, stats, result, None), handover
+    trajectory = _trajectory(system, inputs, times, q, v, stats, result, None, how.accelerations)
+    return trajectory, handover
 
 
 def _solve_from_switch(
@@ -482,7 +491,8 @@ def _solve_from_switch(
     q, v = cast(tuple[Array, Array], solution.ys)
     result, q = _checked_result(solution.result, q, v, jnp.ones(q.shape[:1], dtype=bool), how)
     stats = _stats(solution)
-    return _trajectory(system, inputs, cast(Array, solution.ts), q, v, stats, result, None)
+    times = cast(Array, solution.ts)
+    return _trajectory(system, inputs, times, q, v, stats, result, None, how.accelerations)
 
 
 @eqx.filter_jit
@@ -596,9 +606,11 @@ def _first_samples(trajectory: Trajectory, n: int) -> Trajectory:
     return trajectory
 
 
-def _implicit_solve(system, inputs, solver, t0, ts, q0, v0, steps: int) -> Trajectory:
+def _implicit_solve(
+    system, inputs, solver, t0, ts, q0, v0, steps: int, accelerations: bool
+) -> Trajectory:
     q, v, stats, result = integrate(system, inputs, solver, t0, ts, q0, v0, steps)
-    return _trajectory(system, inputs, ts, q, v, stats, result, None)
+    return _trajectory(system, inputs, ts, q, v, stats, result, None, accelerations)
 
 
 _implicit_solve_jit = eqx.filter_jit(_implicit_solve)
@@ -625,7 +637,7 @@ def _host_times(t0, t1, ts, n_save: int) -> tuple[np.ndarray, np.ndarray]:
     return np.asarray(start), times
 
 
-def _simulate_implicit(system, inputs, solver, times, q0, v0, *, dense: bool, throw: bool):
+def _simulate_implicit(system, inputs, solver, times, q0, v0, *, saveat: SaveAt, throw: bool):
     """`simulate` with the fixed-step engine ([`origami_jax.simulation.ImplicitStep`][]): the step
     count between samples is fixed on the host from `times` ``(t0, ts)`` (host arrays), part of
     the compiled solve; called outside any transformation, the sample count is padded as the
@@ -637,16 +649,19 @@ def _simulate_implicit(system, inputs, solver, times, q0, v0, *, dense: bool, th
             "ImplicitStep needs a mechanism whose velocities are its coordinates' rates (chains and "
             "panel trees); use the adaptive solvers for this one."
         )
-    if dense:
+    if saveat.dense:
         raise ValueError(
             "ImplicitStep has no dense output; ask for samples (SaveAt(n=...) or SaveAt(ts=...))."
         )
+    accelerations = saveat.accelerations
     t0, ts = times
     steps = steps_per_interval(solver, t0, ts)
     top_level = not is_traced(system, inputs, q0, v0)
     n_samples = ts.shape[0]
     if not top_level:  # the caller's program, compiled for its own samples and steps
-        trajectory = _implicit_solve_jit(system, inputs, solver, t0, ts, q0, v0, steps)
+        trajectory = _implicit_solve_jit(
+            system, inputs, solver, t0, ts, q0, v0, steps, accelerations
+        )
     else:
         check_off_bifurcation(system, inputs, t0, q0, v0)
         # As the adaptive solve's samples, padded to a power of two (the padding's intervals are
@@ -655,7 +670,9 @@ def _simulate_implicit(system, inputs, solver, times, q0, v0, *, dense: bool, th
         # conditional around each step, ran a cube net's fold 1.5× slower and compiled 10 s
         # longer: the count stays static.)
         ts = np.concatenate([ts, np.full(padded_sample_count(n_samples) - n_samples, ts[-1])])
-        trajectory = _implicit_solve_jit(system, inputs, solver, t0, ts, q0, v0, steps)
+        trajectory = _implicit_solve_jit(
+            system, inputs, solver, t0, ts, q0, v0, steps, accelerations
+        )
         trajectory = _first_samples(trajectory, n_samples)
     if throw:
         if top_level:
@@ -926,7 +943,7 @@ def simulate(
         solver = _agitated_solver(system, solver, q0)
     if isinstance(solver, ImplicitStep):
         times = _host_times(*span_given, ts, n_save)
-        return _simulate_implicit(system, inputs, solver, times, q0, v0, dense=dense, throw=throw)
+        return _simulate_implicit(system, inputs, solver, times, q0, v0, saveat=saveat, throw=throw)
     ts = jnp.linspace(t0, t1, n_save) if ts is None else _checked_times(ts, t0, t1)
     n_samples = ts.shape[0]
     # Called outside any transformation, the solve runs on sample times padded to a size bucket, so
@@ -960,6 +977,7 @@ def simulate(
         # compilation cache can keep it (`origami_jax._runtime_errors`).
         throw=throw and not pad,
         land_on_samples=options.land_on_samples,
+        accelerations=saveat.accelerations,
     )
     lazy = (
         pad
