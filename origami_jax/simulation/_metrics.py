@@ -226,7 +226,9 @@ def response_metrics(
     """
     message = "response_metrics: a joint's target is 0; the metrics are fractions of the target."
     accelerations = trajectory.theta_ddot
-    if not is_traced(accelerations) and np.all(np.isnan(np.asarray(accelerations))):
+    if not is_traced(accelerations, trajectory.theta) and _left_out(
+        np.asarray(accelerations), np.asarray(trajectory.theta)
+    ):
         raise ValueError(
             "response_metrics needs the trajectory's accelerations, which this solve did not "
             "compute: simulate with SaveAt(accelerations=True) (the default)."
@@ -238,6 +240,13 @@ def response_metrics(
     # Checked here, the compiled program has no runtime check: no callback into Python, so the
     # compilation cache can keep it between processes.
     return _metrics(trajectory, band, low, high, graze_tol, settle_fraction, None)
+
+
+def _left_out(accelerations: np.ndarray, theta: np.ndarray) -> bool:
+    """Whether a trajectory's accelerations were not computed (`SaveAt(accelerations=False)`): NaN
+    at every sample where the solve succeeded (its rows past a failure are inf either way)."""
+    solved = np.isfinite(theta)
+    return bool(np.any(solved)) and bool(np.all(np.isnan(accelerations[solved])))
 
 
 @eqx.filter_jit
