@@ -173,6 +173,10 @@ def polygon_added_inertia(outline: ArrayLike, density: Float[ArrayLike, ""] = 1.
             lever = np.array([1.0, mid, -x])
             moments += weight * half * np.pi * (a**2 * np.outer(lever, lever))
             moments[1, 1] += weight * half * np.pi * a**4 / 8
+    if isinstance(density, int | float):  # on the host: no program compiled per operation
+        embedded = np.zeros((6, 6))
+        embedded[2:5, 2:5] = density * moments
+        return jnp.asarray(embedded)
     return _embed(jnp.asarray(density) * jnp.asarray(moments))
 
 
