@@ -133,8 +133,8 @@ def _vouched_digest(name: str, obj):
     pickler.fast = True
     try:
         pickler.dump(obj)
-    except (_Unvouched, pickle.PicklingError, TypeError, AttributeError, ValueError):
-        return None  # ValueError: a cycle, which pickling without a memo cannot follow
+    except Exception:  # unvouched code, a value that does not pickle, a cycle (no memo)
+        return None
     digest = hashlib.sha256(_environment() + _flags())
     digest.update(name.encode())
     digest.update(buffer.getvalue())
@@ -296,8 +296,8 @@ def remembered(name: str, build, *inputs) -> Any:
     value = build()
     try:
         _write_atomically(path, pickle.dumps(value, protocol=pickle.HIGHEST_PROTOCOL))
-    except (OSError, pickle.PicklingError, TypeError, AttributeError):
-        pass  # an unwritable folder or a value that does not pickle costs the next process a build
+    except Exception:  # an unwritable folder, a value that does not pickle: the next process builds
+        pass
     return value
 
 

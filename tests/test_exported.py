@@ -8,6 +8,7 @@ hold, and JAX keeps the traces it made here for the rest of the test session.
 
 import dataclasses
 import os
+import threading
 
 import diffrax
 import equinox._errors
@@ -219,6 +220,14 @@ def test_a_remembered_value_is_built_once_per_key(tmp_path, monkeypatch):
         _exported.remembered("v", build, np.arange(2.0), "s")["x"], 7 * np.arange(3.0)
     )
     assert len(list(tmp_path.glob("v-*.pkl"))) == 2
+    locks = []  # a value that does not pickle: built each time, nothing kept, no error
+
+    def lock():
+        locks.append(threading.Lock())
+        return locks[-1]
+
+    assert _exported.remembered("w", lock, 1.0) is not _exported.remembered("w", lock, 1.0)
+    assert len(locks) == 2 and not list(tmp_path.glob("w-*"))
 
 
 def test_a_kept_system_is_the_one_built_and_brings_its_tables(tmp_path, monkeypatch):
