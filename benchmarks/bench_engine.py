@@ -15,7 +15,8 @@ iterations, halvings and collision chords: 600 steps), beside the adaptive defau
   the adaptive engine over the same nets. Ours on every core as `origami_jax.sweep` computes a
   batch on a CPU: the batch in chunks (`jax.vmap` within a chunk), one chunk per core at a time,
   each compiled call from its own thread (XLA computes a small vmapped solve on about one core).
-  Chunks of `FIXED_CHUNK` nets for the fixed steps, of one net for the adaptive engine (the net
+  Chunks of `FIXED_CHUNK` nets for the fixed steps (or of its largest divisor that divides the
+  batch), of one net for the adaptive engine (the net
   kernels' `cpu_chunk_size`: its step counts spread under contact, and a chunk steps until its
   slowest member is done);
 - the batch end to end: ours from tracing and compiling the batched fold to its first answer
@@ -32,6 +33,7 @@ Run: ``python -m benchmarks --only engine`` (``--quick``: a batch of 4, one repe
 
 import concurrent.futures
 import functools
+import math
 import os
 import time
 
@@ -241,7 +243,8 @@ def run(quick: bool, batch: int | None = None) -> list[Result]:
     first_call = {}
     # Ours and MuJoCo at their best: one thread per core of the machine (2 on the CI-sized CPU).
     threads = os.cpu_count() or 2
-    chunks = {"fixed": min(FIXED_CHUNK, batch), "adaptive": 1}
+    # Chunks of FIXED_CHUNK nets, or of its largest divisor that divides the batch (10 nets: 2).
+    chunks = {"fixed": math.gcd(batch, FIXED_CHUNK), "adaptive": 1}
     workers = threads
     if jax.default_backend() != "cpu":  # an accelerator computes the whole batch in one call
         chunks, workers = {"fixed": batch, "adaptive": batch}, 1
