@@ -16,9 +16,8 @@ iterations, halvings and collision chords: 600 steps), beside the adaptive defau
   batch on a CPU: the batch in chunks (`jax.vmap` within a chunk), one chunk per core at a time,
   each compiled call from its own thread (XLA computes a small vmapped solve on about one core).
   Chunks of `FIXED_CHUNK` nets for the fixed steps (or of its largest divisor that divides the
-  batch), of one net for the adaptive engine (the net
-  kernels' `cpu_chunk_size`: its step counts spread under contact, and a chunk steps until its
-  slowest member is done);
+  batch), of one net for the adaptive engine (the net kernels' `cpu_chunk_size`: its step counts
+  spread under contact, and a chunk steps until its slowest member is done);
 - the batch end to end: ours from tracing and compiling the batched fold to its first answer
   against MuJoCo from building its models to its first rollout (one cold call each);
 - a crease pattern with closed loops (`LOOPS_PATTERN`, the Miura 3×3: its loops held by the fixed
