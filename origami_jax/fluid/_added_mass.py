@@ -115,11 +115,14 @@ def reynolds_number(
     )
 
 
+# Where ``(v_z, ω_x, ω_y)`` sit among a body twist's ``(v_x, v_y, v_z, ω_x, ω_y, ω_z)``.
+_OUT_OF_PLANE = slice(2, 5)
+
+
 def _embed(block: Array) -> Array:
     """A 3×3 form on ``(v_z, ω_x, ω_y)`` as the 6×6 on ``(v_x, v_y, v_z, ω_x, ω_y, ω_z)``."""
-    index = jnp.array([2, 3, 4])
     out = jnp.zeros(block.shape[:-2] + (6, 6), block.dtype)
-    return out.at[..., index[:, None], index[None, :]].set(block)
+    return out.at[..., _OUT_OF_PLANE, _OUT_OF_PLANE].set(block)
 
 
 def rectangle_added_inertia(
@@ -175,7 +178,7 @@ def polygon_added_inertia(outline: ArrayLike, density: Float[ArrayLike, ""] = 1.
             moments[1, 1] += weight * half * np.pi * a**4 / 8
     if isinstance(density, int | float):  # on the host: no program compiled per operation
         embedded = np.zeros((6, 6))
-        embedded[2:5, 2:5] = density * moments
+        embedded[_OUT_OF_PLANE, _OUT_OF_PLANE] = density * moments
         return jnp.asarray(embedded)
     return _embed(jnp.asarray(density) * jnp.asarray(moments))
 

@@ -194,15 +194,23 @@ def _samples(system: FoldingSystem, inputs: AbstractInput, times, q, v, accelera
     tau = jax.vmap(lambda t, th, thd: inputs.torque(t, th, thd, system))(
         times, theta_safe, theta_dot_safe
     )
-    if not accelerations:
+    if accelerations:
+        theta_ddot = _hinge_accelerations(system, q_safe, v_safe, tau)
+    else:
         theta_ddot = jnp.full_like(theta_dot_safe, jnp.nan)
-        return theta, theta_dot, jnp.where(ok, theta_ddot, jnp.inf), jnp.where(ok, tau, jnp.inf)
+    return theta, theta_dot, jnp.where(ok, theta_ddot, jnp.inf), jnp.where(ok, tau, jnp.inf)
+
+
+def _hinge_accelerations(system: FoldingSystem, q, v, tau):
+    """The hinges' accelerations at the samples `(q, v)` (finite) under their input torques `tau`,
+    from the equations of motion."""
+    mechanism = system.mechanism
     if system.contact is None:
-        force = jax.vmap(system.generalized_force)(q_safe, v_safe, tau)
+        force = jax.vmap(system.generalized_force)(q, v, tau)
         # All samples in one call: a mechanism's rows path (the chain's runs on scalars with its
         # custom JVP outside the vmap over samples; its array path was ~7x slower per sample, a
         # third of a vmapped sweep's time).
-        acceleration = mechanism.forward_dynamics(q_safe, v_safe, force)
+        acceleration = mechanism.forward_dynamics(q, v, force)
     else:
         # With contact the force is most of the program: vmapped over the samples it compiled a
         # second, batched copy of it, which took XLA longer than the whole solve (7 s against
@@ -213,15 +221,13 @@ def _samples(system: FoldingSystem, inputs: AbstractInput, times, q, v, accelera
             q, v, torque = state
             return mechanism.forward_dynamics(q, v, system.generalized_force(q, v, torque))
 
-        acceleration = jax.lax.map(one_sample, (q_safe, v_safe, tau))
+        acceleration = jax.lax.map(one_sample, (q, v, tau))
     if mechanism.coordinates_are_hinge_angles:
-        theta_ddot = acceleration
-    else:
-        # θ̈ = d/dt θ̇(q, v) along (q̇, v̇) = (v, v̇).
-        theta_ddot = jax.vmap(lambda q, v, a: jax.jvp(mechanism.hinge_rates, (q, v), (v, a))[1])(
-            q_safe, v_safe, acceleration
-        )
-    return theta, theta_dot, jnp.where(ok, theta_ddot, jnp.inf), jnp.where(ok, tau, jnp.inf)
+        return acceleration
+    # θ̈ = d/dt θ̇(q, v) along (q̇, v̇) = (v, v̇).
+    return jax.vmap(lambda q, v, a: jax.jvp(mechanism.hinge_rates, (q, v), (v, a))[1])(
+        q, v, acceleration
+    )
 
 
 def _diffusion(t, y, args):
