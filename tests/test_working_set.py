@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 import origami_jax.simulation as sim
+from origami_jax.contact._plates import _computed_where
 from origami_jax.net import load_net
 from origami_jax.simulation._implicit import _pair_counts
 
@@ -81,6 +82,93 @@ def test_a_working_set_keeps_the_least_gaps_and_every_force():
     assert not bool(working.left_out_engaged(mechanism, q))
     # Too few kept: engaged pairs are left out, and it is said.
     assert bool(_selected((1, 1)).left_out_engaged(mechanism, q))
+
+
+def test_computed_where_computes_only_for_the_members_that_need_it():
+    """The conditional behind the shortcuts below: each member of a vmapped batch gets its own
+    value (computed where it needs it, its own `otherwise` elsewhere), and a batch where no member
+    needs it computes nothing (a callback in the computation counts its runs)."""
+    runs = []
+
+    def doubled(x):
+        jax.debug.callback(lambda: runs.append(1))
+        return 2 * x
+
+    @jax.jit
+    @jax.vmap
+    def where(needed, x):
+        return _computed_where(needed, lambda: doubled(x), -x)
+
+    x = jnp.asarray([1.0, 2.0, 3.0])
+    np.testing.assert_array_equal(where(jnp.asarray([True, False, True]), x), [2.0, -2.0, 6.0])
+    assert len(runs) == 1
+    runs.clear()
+    np.testing.assert_array_equal(where(jnp.zeros(3, bool), x), -x)
+    assert runs == []
+
+
+@functools.cache
+def _far_state():
+    """The engaged state's system, halfway folded: every non-adjacent pair far apart."""
+    system, q, v = _engaged_state()
+    return system, 0.5 * q, v
+
+
+def test_far_from_contact_no_pair_is_evaluated_and_the_results_are_every_pairs():
+    """Half folded (the least gap ~15× the activation gap): the working set chosen there says every
+    pair is apart at a nearby state, where its force and derivatives are exactly zero as every
+    pair's, and its collision check is every pair's (clear). Vmapped with a member in contact, each
+    member gets its own values (the engaged one every pair's, as unbatched)."""
+    system, q, v = _far_state()
+    contact, mechanism = system.contact, system.mechanism
+    counts = _pair_counts(contact, sim.ImplicitStep(dt=1.0))
+    select = eqx.filter_jit(lambda c, m, q: c.select_pairs(m, q, counts))
+    working = select(contact, mechanism, q)
+    assert float(working.selection.least) > 10 * float(contact.activation)
+    nearby = q + 1e-3
+    assert bool(working._apart(contact.vertices(mechanism, nearby)))
+    full, kept = _forces(contact, mechanism, nearby, v), _forces(working, mechanism, nearby, v)
+    for a, b in zip(full, kept, strict=True):
+        np.testing.assert_array_equal(a, 0.0)
+        np.testing.assert_array_equal(b, 0.0)
+    assert float(working.time_of_impact(mechanism, q, nearby)) == 1.0
+    assert float(contact.time_of_impact(mechanism, q, nearby)) == 1.0
+    # A batch of the far state and the engaged one, each with its own working set.
+    _, engaged, _ = _engaged_state()
+    near = select(contact, mechanism, engaged)
+    assert not bool(near._apart(contact.vertices(mechanism, engaged)))
+    both = jax.tree.map(lambda a, b: jnp.stack([a, b]), working, near)
+    batched = eqx.filter_jit(eqx.filter_vmap(lambda c, q: c.force_jacobians(mechanism, q, v)))(
+        both, jnp.stack([nearby, engaged])
+    )
+    alone = _forces(near, mechanism, engaged, v)
+    for part, single in zip(batched, alone, strict=True):
+        np.testing.assert_array_equal(part[0], 0.0)
+        np.testing.assert_allclose(
+            part[1], single, rtol=1e-12, atol=1e-12 * float(np.abs(single).max())
+        )
+    assert np.abs(alone[1]).max() > 0
+
+
+def test_a_working_set_is_kept_while_it_has_room():
+    """`select_pairs_again` keeps the previous working set while the vertices drift by less than a
+    quarter of its least gap's margin over the activation gap, and chooses again beyond."""
+    system, q, _ = _far_state()
+    contact, mechanism = system.contact, system.mechanism
+    counts = _pair_counts(contact, sim.ImplicitStep(dt=1.0))
+    again = eqx.filter_jit(lambda c, m, q, previous: c.select_pairs_again(m, q, counts, previous))
+    first = again(contact, mechanism, q, None).selection
+    np.testing.assert_array_equal(first.at, contact.vertices(mechanism, q))
+    margin = float(first.least) - 1.01 * float(contact.activation)
+    for shift, kept in ((1e-4, True), (0.4, False)):
+        moved = q + shift
+        drift = float(
+            np.max(np.linalg.norm(contact.vertices(mechanism, moved) - first.at, axis=-1))
+        )
+        assert (4 * drift < margin) == kept
+        chosen = again(contact, mechanism, moved, first).selection
+        where = first.at if kept else contact.vertices(mechanism, moved)
+        np.testing.assert_array_equal(chosen.at, where)
 
 
 @pytest.mark.slow  # a cube net's collision check compiled twice: ~10 s

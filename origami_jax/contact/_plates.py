@@ -57,6 +57,7 @@ a damping ratio of the contact's stiffness at ``g = ĝ/2`` and the lightest pane
 import dataclasses
 
 import equinox as eqx
+import equinox.internal as eqxi
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -108,6 +109,10 @@ from ._surface import (
 _PARALLEL = 1e-3
 # The guard's impact distance ξ, as a fraction of the two plates' half-thicknesses added.
 _CCD_SEPARATION = 0.5
+# A working set's pairs are surely apart (`PlateContact._apart`) while its least gap, less twice
+# the vertices' largest displacement, exceeds the activation gap by this factor (a margin for the
+# rounding of the gaps).
+_APART = 1.01
 # Pairs of each kind whose time of impact the collision check iterates (`earliest_impact`).
 _CCD_PAIRS = 32
 # The broad phase (`PlateContact._broad`): patterns with more primitive pairs than this evaluate
@@ -174,12 +179,16 @@ class PairSelection(eqx.Module):
     of the vertex–face and edge–edge tables kept, `(k,)` and `(m,)` integer indices; `cut`, the
     smallest gap (length) of the pairs left out (``inf`` where none is); `at`, the world vertices
     `(n, v, 3)` at which the gaps were taken (the collision check bounds the left-out pairs from
-    there)."""
+    there); `least`, the smallest gap of every pair there, kept or left out (`None`: not known).
+    Where no vertex has moved far enough from `at` for the `least` gap to close to the activation
+    gap, the contact's force and derivatives are zero and its collision check clear without
+    evaluating a pair (`PlateContact._apart`)."""
 
     vertex_face: Array
     edge_edge: Array
     cut: Array
     at: Array
+    least: Array | None = None
 
 
 class PlateContact(AbstractContact):
@@ -504,7 +513,9 @@ class PlateContact(AbstractContact):
 
     def force(self, mechanism, q, v):
         if not self._has_broad_phase():
-            return self._force(mechanism, q, v)[0]
+            return self._unless_apart(
+                mechanism, q, lambda: self._force(mechanism, q, v)[0], jnp.zeros_like(v)
+            )
         x = self.vertices(mechanism, q)
         return self._broad(
             x, x, self.activation, lambda contact: contact._force(mechanism, q, v)[0]
@@ -589,6 +600,16 @@ class PlateContact(AbstractContact):
     def force_jacobians(
         self, mechanism: AbstractMechanism, q: Float[Array, " nq"], v: Float[Array, " nv"]
     ) -> tuple[Float[Array, " nv"], Float[Array, "nv nq"], Float[Array, "nv nv"]]:
+        zeros = (
+            jnp.zeros_like(v),
+            jnp.zeros(v.shape + q.shape, v.dtype),
+            jnp.zeros(v.shape + v.shape, v.dtype),
+        )
+        return self._unless_apart(
+            mechanism, q, lambda: self._force_jacobians(mechanism, q, v), zeros
+        )
+
+    def _force_jacobians(self, mechanism, q, v):
         """The force at ``(q, v)`` with Gauss–Newton approximations of its derivatives
         ``(f, ∂f/∂q, ∂f/∂v)`` (what an implicit step's Newton iterations need).
 
@@ -616,6 +637,28 @@ class PlateContact(AbstractContact):
         d_dv = -_weighted_gram(gradient, self.damping * ramp)
         return force, d_dq, d_dv
 
+    def _apart(self, x):
+        """Whether every primitive pair is surely beyond the activation gap at world vertices `x`
+        (boolean scalar), from the `selection`'s least gap: a gap (a distance between two plates'
+        primitives less their half-thicknesses) shrinks no more than its two primitives move, and
+        no point of a plate moves further than its farthest vertex, so by at most twice the largest
+        vertex displacement from where it was taken. `None` where that cannot tell: no selection
+        that knows its least gap, or adhesion, whose range is its own."""
+        selection = self.selection
+        if selection is None or selection.least is None or self.adhesion is not None:
+            return None
+        drift = jnp.max(jnp.linalg.norm(x - selection.at, axis=-1))
+        return selection.least - 2 * drift > _APART * self.activation
+
+    def _unless_apart(self, mechanism, q, evaluate, zero):
+        """`evaluate()` (the force, or the force and its derivatives), or `zero` where every pair
+        is surely beyond the activation gap at ``q`` (`_apart`), where the barrier, its damping and
+        friction are exactly zero, without evaluating a pair (`_computed_where`)."""
+        apart = self._apart(self.vertices(mechanism, q)) if self.selection is not None else None
+        if apart is None:
+            return evaluate()
+        return _computed_where(~apart, evaluate, zero)
+
     # ---- a working set of pairs ----
 
     def select_pairs(
@@ -632,6 +675,7 @@ class PlateContact(AbstractContact):
         gap, x = self._every_gap(mechanism, q)
         n_vf = len(self.tables.vertex_face)
         cut = jnp.full((), jnp.inf, x.dtype)
+        least = jnp.min(gap, initial=jnp.inf)
         kept = []
         for part, count in ((gap[:n_vf], counts[0]), (gap[n_vf:], counts[1])):
             size = part.shape[0]
@@ -645,7 +689,34 @@ class PlateContact(AbstractContact):
             if size > count:
                 cut = jnp.minimum(cut, -smallest[count])
             kept.append(index[:count])
-        return dataclasses.replace(self, selection=PairSelection(*kept, cut, x))
+        return dataclasses.replace(self, selection=PairSelection(*kept, cut, x, least))
+
+    def select_pairs_again(
+        self,
+        mechanism: AbstractMechanism,
+        q: Float[Array, " nq"],
+        counts: tuple[int, int],
+        previous: PairSelection | None,
+    ) -> "PlateContact":
+        """This contact evaluating the working set `previous` (chosen by `select_pairs` with the
+        same `counts` at an earlier state) while it still has room at ``q``, else a working set
+        chosen again at ``q`` (`previous` `None`: chosen at ``q``). Room: the vertices have drifted
+        from where `previous` was chosen by less than a quarter of its least gap's margin over the
+        activation gap, so every pair is still beyond it by half that margin (`_apart`) and choosing
+        again would evaluate no force either. A kept working set bounds every pair as a fresh one
+        does (its gaps, cut and least gap as taken, less the drift since), so the collision check
+        stays conservative; it spares each step of a fold's free flight every pair's gap and their
+        sorting."""
+        if previous is None:
+            return self.select_pairs(mechanism, q, counts)
+        drift = jnp.max(jnp.linalg.norm(self.vertices(mechanism, q) - previous.at, axis=-1))
+        margin = previous.least - _APART * self.activation
+        selection = _computed_where(
+            4 * drift >= margin,
+            lambda: self.select_pairs(mechanism, q, counts).selection,
+            previous,
+        )
+        return dataclasses.replace(self, selection=selection)
 
     def _every_gap(self, mechanism, q):
         """Every primitive pair's gap at ``q`` whatever the `selection` (vertex–face pairs first,
@@ -659,16 +730,20 @@ class PlateContact(AbstractContact):
         ``q`` (a force the selection missed; boolean scalar, `False` without a selection)."""
         if self.selection is None:
             return jnp.zeros((), bool)
-        gap, _ = self._every_gap(mechanism, q)
-        n_vf = len(self.tables.vertex_face)
-        kept = (
-            jnp.zeros(gap.shape, bool)
-            .at[self.selection.vertex_face]
-            .set(True)
-            .at[n_vf + self.selection.edge_edge]
-            .set(True)
-        )
-        return jnp.any(~kept & (gap < self.activation))
+
+        def engaged():
+            gap, _ = self._every_gap(mechanism, q)
+            n_vf = len(self.tables.vertex_face)
+            kept = (
+                jnp.zeros(gap.shape, bool)
+                .at[self.selection.vertex_face]
+                .set(True)
+                .at[n_vf + self.selection.edge_edge]
+                .set(True)
+            )
+            return jnp.any(~kept & (gap < self.activation))
+
+        return self._unless_apart(mechanism, q, engaged, jnp.zeros((), bool))
 
     # ---- continuous collision detection (the step guard) ----
 
@@ -693,17 +768,32 @@ class PlateContact(AbstractContact):
         bound for the others), ``inf`` where none comes within ``ξ``; pairs already closer than
         ``ξ`` at `x0` are not counted (the barrier pushes them apart; a step cannot be refused for
         them). With a `selection`, the pairs left out are bounded together (`_left_out_impact`)."""
-        groups = self._ccd_groups(x0, x1)
-        earliest = jnp.full((), jnp.inf, x0.dtype)
-        if groups:
-            earliest = earliest_impact(groups, limit=_CCD_PAIRS)
         if self.selection is None:
-            return earliest
-        return jnp.minimum(earliest, self._left_out_impact(x0, x1))
+            return self._iterated_impact(x0, x1)
+        never = jnp.full((), jnp.inf, x0.dtype)
+        if self.selection.least is None:
+            return jnp.minimum(self._iterated_impact(x0, x1), self._left_out_impact(x0, x1))
+        # Every pair bounded as the left-out ones are (from the least gap) clears the whole path:
+        # the iterated pairs would find no impact either (each stops at the same fraction of its
+        # own clearance, at least this one), so none is evaluated.
+        clear = self._left_out_impact(x0, x1, gap=self.selection.least) > 1
+        return _computed_where(
+            ~clear,
+            lambda: jnp.minimum(self._iterated_impact(x0, x1), self._left_out_impact(x0, x1)),
+            never,
+        )
 
-    def _left_out_impact(self, x0, x1, conservative: float = 0.1):
+    def _iterated_impact(self, x0, x1):
+        """`earliest_impact` of the pairs evaluated, ``inf`` where there are none."""
+        groups = self._ccd_groups(x0, x1)
+        if not groups:
+            return jnp.full((), jnp.inf, x0.dtype)
+        return earliest_impact(groups, limit=_CCD_PAIRS)
+
+    def _left_out_impact(self, x0, x1, conservative: float = 0.1, gap=None):
         """A lower bound of the time of impact of every pair left out of the `selection`, on the
-        straight path from world vertices `x0` to `x1` (``inf`` where none can come within ``ξ``).
+        straight path from world vertices `x0` to `x1` (``inf`` where none can come within ``ξ``);
+        with `gap` (the selection's `least`), of every pair.
 
         Each left-out pair's distance less its ``ξ`` was at least ``cut + (1 − ½)·(t_a + t_b)/2 ≥
         cut + ½ t_min`` where the selection was made (`selection.at`); a distance changes no more
@@ -716,7 +806,8 @@ class PlateContact(AbstractContact):
         half = jnp.min(self.half_thickness).astype(x0.dtype)
         drift = jnp.max(jnp.linalg.norm(x0 - selection.at, axis=-1))
         move = jnp.max(jnp.linalg.norm(x1 - x0, axis=-1))
-        clearance = selection.cut + 2 * (1 - _CCD_SEPARATION) * half - 2 * drift
+        cut = selection.cut if gap is None else gap
+        clearance = cut + 2 * (1 - _CCD_SEPARATION) * half - 2 * drift
         bound = (
             (1 - conservative) * jnp.maximum(clearance, 0.0) / jnp.where(move > 0, 2 * move, 1.0)
         )
@@ -819,6 +910,20 @@ class PlateContact(AbstractContact):
         count = jnp.zeros((n, n), x.dtype).at[a, b].add(near)
         total = jnp.zeros((n, n, 3), x.dtype).at[a, b].add(near[:, None] * where)
         return total / jnp.maximum(count, 1)[..., None], count.astype(jnp.int32)
+
+
+def _computed_where(needed, compute, otherwise):
+    """`compute()` where the boolean scalar `needed` holds, else `otherwise` (of the same
+    structure), computing it only when needed: a conditional whose branch index stays unbatched
+    under `vmap` (`unvmap_any`: some member needs it), where a `lax.cond` of a batched index would
+    compute both branches for every member. Each member's value is its own either way (the members
+    that do not need it keep `otherwise` in both branches). Not a loop of one pass: XLA hoists a
+    loop's body that does not depend on its carry, and computes it whatever the condition."""
+
+    def computed():
+        return jax.tree.map(lambda a, b: jnp.where(needed, a, b), compute(), otherwise)
+
+    return jax.lax.cond(eqxi.unvmap_any(needed), computed, lambda: otherwise)
 
 
 def _compact(flags: Array, size: int) -> tuple[Array, Array]:

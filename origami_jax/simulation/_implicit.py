@@ -63,7 +63,12 @@ update of any step (rad; small against the motion when the steps converged).
 (`ImplicitStep.active_pairs`, `PlateContact.select_pairs`), not every pair of the pattern: a pair
 beyond the activation gap has no force, so the step is the same while no pair left out comes
 within it (counted in `Trajectory.stats["contacts_left_out"]`); the collision check bounds the
-left-out pairs from their least gap, so none passes through a plate either way.
+left-out pairs from their least gap, so none passes through a plate either way. The working set
+is carried from step to step while the vertices stay well within its least gap's margin
+(`PlateContact.select_pairs_again`), and where that least gap shows every pair beyond the
+activation gap, or clear of an update's whole path, the contact's force and collision check are
+exactly zero and clear without evaluating a pair: a fold's free flight costs what it costs without
+contact, with the same steps.
 
 **Agitation.** An agitated system (`FoldingSystem(agitation=...)`, Langevin forcing in balance with
 the drag's viscous part) receives a random impulse ``L(q_n) √h ξ_n`` in each step, ``ξ_n`` standard
@@ -501,12 +506,15 @@ def _step(
     v_n,
     noise,
     history=None,
+    selection=None,
 ):
     """One step from ``(q_n, v_n)`` to ``t_next = t_n + h``: ``(q, v, newton_error,
-    left_out)``, `left_out` whether a contact pair outside the step's working set came within the
-    activation gap (`ImplicitStep.active_pairs`). `noise`: the step's standard normal draws of an
+    left_out, selection)``, `left_out` whether a contact pair outside the step's working set came
+    within the activation gap (`ImplicitStep.active_pairs`), `selection` the working set the step
+    used (a `PairSelection`; `None` without one). `noise`: the step's standard normal draws of an
     agitated system (`step_noise`), else `None`. `history`: BDF2's previous state and step ratio
-    (`_bdf2_start`), `None` for implicit Euler."""
+    (`_bdf2_start`), `None` for implicit Euler. `selection`: the previous step's working set,
+    kept while it still has room (`PlateContact.select_pairs_again`), else chosen at ``q_n``."""
     contact = system.contact
     capped = hasattr(contact, "time_of_impact")
     # The iterations run without derivatives; `_root` carries them (IFT).
@@ -515,8 +523,11 @@ def _step(
     )
     counts = _pair_counts(contact, solver)
     if counts is not None:
-        working = s_system.contact.select_pairs(s_system.mechanism, s_q, counts)
+        working = s_system.contact.select_pairs_again(
+            s_system.mechanism, s_q, counts, jax.lax.stop_gradient(selection)
+        )
         s_system = eqx.tree_at(lambda s: s.contact, s_system, working)
+        selection = working.selection
     # The scheme's (h, q_n, v_n): implicit Euler's, or BDF2's (β, q̂, v̂) (`_bdf2_start`).
     s_beta, s_q_hat, s_v_hat, mass, bias, hold = _start_terms(
         s_system, s_inputs, t_next, s_h, s_q, s_v, noise, s_history
@@ -570,37 +581,48 @@ def _step(
         m = r @ r
         return jnp.where(jnp.isfinite(m), m, jnp.inf)
 
-    def direction(q):
-        """The Newton update at `q` (zero where not finite), ``|r|²`` and the largest coordinate
-        of the update as solved (NaN where not finite: the step's `newton_error`)."""
+    def linearised(q):
+        """The Newton matrix and residual at `q`, and ``|r|²``."""
         jac, r = newton_matrix(q)
+        return jac, r, r @ r
+
+    def direction(jac, r):
+        """The Newton update from `(jac, r)` (zero where not finite) and the largest coordinate of
+        the update as solved (NaN where not finite: the step's `newton_error`)."""
         solved = jnp.linalg.solve(jac, r)
         dq = jnp.where(jnp.all(jnp.isfinite(solved)), -solved, 0.0)
-        return dq, r @ r, jnp.max(jnp.abs(solved))
+        return dq, jnp.max(jnp.abs(solved))
 
-    def line_search(q, dq, m0):
+    def line_search(q, dq, at_q):
         """`q` moved along `dq` by the first trial length with Armijo's decrease (else the one of
-        least merit below `m0`, else none), and how far it moved (largest coordinate)."""
+        least merit below ``|r(q)|²``, else none), the linearisation there (`linearised`; `at_q`
+        is the one at `q`) and how far it moved (largest coordinate). Each trial linearises the
+        residual rather than only evaluating it: the trial taken is where the next Newton update
+        starts, so its matrix is not computed twice (most steps take their first trial)."""
+        m0 = at_q[2]
 
         def trial(carry):
-            j, alpha, first, best, best_m = carry
-            m = merit(q + alpha * dq)
+            j, alpha, first, best, best_m, kept = carry
+            evaluated = linearised(q + alpha * dq)
+            m = evaluated[2]
+            m = jnp.where(jnp.isfinite(m), m, jnp.inf)
             armijo = (m <= (1 - 2 * _ARMIJO * alpha) * m0) & jnp.isnan(first)
             first = jnp.where(armijo, alpha, first)
             better = m < best_m
             best = jnp.where(better, alpha, best)
-            return j + 1, 0.5 * alpha, first, best, jnp.minimum(m, best_m)
+            # The trial taken: the first with Armijo's decrease (the search stops there), else
+            # the best so far.
+            kept = jax.tree.map(
+                lambda new, old: jnp.where(armijo | better, new, old), evaluated, kept
+            )
+            return j + 1, 0.5 * alpha, first, best, jnp.minimum(m, best_m), kept
 
-        longest = largest_step(q, dq)
-        if solver.early_exit:
-            zero = jnp.zeros((), q.dtype)
-            start = (0, longest, jnp.full((), jnp.nan, q.dtype), zero, m0)
-            searching = lambda c: (c[0] < solver.halvings) & jnp.isnan(c[2])  # noqa: E731
-            _, _, first, best, _ = jax.lax.while_loop(searching, trial, start)
-            alpha = jnp.where(jnp.isnan(first), best, first)
-        else:
-            alpha = _all_trials(merit, q, dq, longest, m0, solver.halvings)
-        return q + alpha * dq, jnp.max(jnp.abs(alpha * dq))
+        zero = jnp.zeros((), q.dtype)
+        start = (0, largest_step(q, dq), jnp.full((), jnp.nan, q.dtype), zero, m0, at_q)
+        searching = lambda c: (c[0] < solver.halvings) & jnp.isnan(c[2])  # noqa: E731
+        _, _, first, best, _, kept = jax.lax.while_loop(searching, trial, start)
+        alpha = jnp.where(jnp.isnan(first), best, first)
+        return q + alpha * dq, kept, jnp.max(jnp.abs(alpha * dq))
 
     # The predictor, capped like an update (q_n is clear of contact).
     drift = s_q_hat + s_beta * s_v_hat - s_q
@@ -611,33 +633,41 @@ def _step(
         # state is converged, and the matrix it took is the one the step's error needs) or the
         # last move was (the line search found no decrease, or the collision cap stops it).
         def iterate(carry):
-            i, q, dq, m0, _, _ = carry
-            q, moved = line_search(q, dq, m0)
-            return i + 1, q, *direction(q), moved
+            i, q, dq, _, at_q, _ = carry
+            q, at_q, moved = line_search(q, dq, at_q)
+            return i + 1, q, *direction(*at_q[:2]), at_q, moved
 
         def iterating(carry):
             i, _, dq, _, _, moved = carry
             going = (jnp.max(jnp.abs(dq)) > _CONVERGED) & (moved > _CONVERGED)
             return (i < solver.newton_iterations) & going
 
-        start = (0, q, *direction(q), jnp.full((), jnp.inf, q.dtype))
-        _, q, _, _, error, _ = jax.lax.while_loop(iterating, iterate, start)
+        at_q = linearised(q)
+        start = (0, q, *direction(*at_q[:2]), at_q, jnp.full((), jnp.inf, q.dtype))
+        _, q, _, error, _, _ = jax.lax.while_loop(iterating, iterate, start)
     else:
 
         def iterate(_, q):
-            dq, m0, _ = direction(q)
-            return line_search(q, dq, m0)[0]
+            jac, r, m0 = linearised(q)
+            dq, _ = direction(jac, r)
+            alpha = _all_trials(merit, q, dq, largest_step(q, dq), m0, solver.halvings)
+            return q + alpha * dq
 
         q = jax.lax.fori_loop(0, solver.newton_iterations, iterate, q)
-        error = direction(q)[2]
+        error = direction(*linearised(q)[:2])[1]
     left_out = jnp.zeros((), bool)
     if counts is not None:
         left_out = s_system.contact.left_out_engaged(s_system.mechanism, q)
     q = _root(jax.lax.stop_gradient(q), system, inputs, t_next, h, q_n, v_n, noise, history)
     if history is None:
-        return q, (q - q_n) / h, jax.lax.stop_gradient(error), left_out
+        return q, (q - q_n) / h, jax.lax.stop_gradient(error), left_out, selection
     beta, q_hat, _, _, _ = _bdf2_start(h, q_n, v_n, history)
-    return q, (q - q_hat) / beta, jax.lax.stop_gradient(error), left_out
+    return q, (q - q_hat) / beta, jax.lax.stop_gradient(error), left_out, selection
+
+
+def _where(condition, new, old):
+    """`new` where `condition`, else `old`, leaf by leaf (`None` stays `None`)."""
+    return jax.tree.map(lambda a, b: jnp.where(condition, a, b), new, old)
 
 
 def integrate(
@@ -663,7 +693,7 @@ def integrate(
         h = jnp.where(moves, length / steps, 1.0)
 
         def step(carry, j):
-            (q, v, error, left_out), previous = carry
+            (q, v, error, left_out), previous, selection = carry
             noise = step_noise(system, index * steps + j.astype(jnp.int32), q.shape[0])
             history = None
             if bdf2:
@@ -672,18 +702,17 @@ def integrate(
                 # No previous step, or a jump of the step BDF2 is unstable for: an Euler step.
                 usable = (h_prev > 0) & (ratio <= _BDF2_LARGEST_RATIO)
                 history = (q_prev, v_prev, jnp.where(usable, ratio, 0.0))
-            q_next, v_next, e, out = _step(
-                system, inputs, solver, t_start + (j + 1) * h, h, q, v, noise, history
+            q_next, v_next, e, out, used = _step(
+                system, inputs, solver, t_start + (j + 1) * h, h, q, v, noise, history, selection
             )
             q_next = jnp.where(moves, q_next, q)
             v_next = jnp.where(moves, v_next, v)
             if bdf2:
-                previous = jax.tree.map(
-                    lambda now, before: jnp.where(moves, now, before), (q, v, h), previous
-                )
+                previous = _where(moves, (q, v, h), previous)
+            selection = _where(moves, used, selection)
             error = jnp.maximum(error, jnp.where(moves, e, 0.0))
             state = (q_next, v_next, error, left_out + (moves & out).astype(jnp.int32))
-            return (state, previous), None
+            return (state, previous, selection), None
 
         def steps_across(state):
             return jax.lax.scan(step, state, jnp.arange(steps, dtype=ts.dtype))[0]
@@ -696,9 +725,16 @@ def integrate(
     zero = jnp.zeros((), q0.dtype)
     # BDF2's previous state and step (none yet: its first step is an Euler step).
     previous = (q0, v0, zero) if bdf2 else None
-    start = ((q0, v0, zero, jnp.zeros((), jnp.int32)), previous)
+    # The contact's working set, carried from step to step while it has room
+    # (`PlateContact.select_pairs_again`).
+    counts = _pair_counts(system.contact, solver)
+    selection = None
+    if counts is not None:
+        s_system, s_q = _without_derivatives((system, q0))
+        selection = s_system.contact.select_pairs(s_system.mechanism, s_q, counts).selection
+    start = ((q0, v0, zero, jnp.zeros((), jnp.int32)), previous, selection)
     indices = jnp.arange(ts.shape[0], dtype=jnp.int32)
-    ((_, _, error, left_out), _), (q, v) = jax.lax.scan(interval, start, (starts, ts, indices))
+    ((_, _, error, left_out), _, _), (q, v) = jax.lax.scan(interval, start, (starts, ts, indices))
     count = jnp.sum(ts > starts).astype(jnp.int32) * steps
     finite = jnp.all(jnp.isfinite(q)) & jnp.all(jnp.isfinite(v))
     result = RESULTS.where(finite, RESULTS.successful, RESULTS.nonfinite_state)
