@@ -43,7 +43,10 @@ def _corner_cube():
 
 def test_folding_on_in_fixed_steps_is_one_run_continued():
     """One flap in KOH folded on in segments of 100 µs (`fold_until_settled`, steps of 5 µs: one
-    per sample interval) against one run over the span they took."""
+    per sample interval) against one run over the span they took: the same steps, to the Newton
+    iterations' convergence (each segment's first step predicts without the last step's
+    acceleration, so its iterations start elsewhere and stop within 1e-10 rad of the same root;
+    the roots agreed to 1e-12 before the predictor extrapolated it)."""
     system = accordion_system(HingeDesign.literature(fluid=KOH_SOLUTION), 1)
     options = sim.SolveOptions(saveat=sim.SaveAt(n=21), solver=sim.ImplicitStep(dt=5.0))
     calls = []
@@ -63,12 +66,12 @@ def test_folding_on_in_fixed_steps_is_one_run_continued():
         t1=100.0 * segments,
     )  # fmt: skip
     np.testing.assert_allclose(trajectory.times, whole.times, rtol=0, atol=1e-9)
-    np.testing.assert_allclose(trajectory.theta, whole.theta, rtol=0, atol=1e-12)
-    np.testing.assert_allclose(trajectory.theta_dot, whole.theta_dot, rtol=0, atol=1e-12)
-    # The joined run's Newton error is the largest of its segments': the whole run's.
-    assert float(trajectory.stats["newton_error"]) == pytest.approx(
-        float(whole.stats["newton_error"]), rel=1e-6, abs=1e-15
-    )
+    np.testing.assert_allclose(trajectory.theta, whole.theta, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(trajectory.theta_dot, whole.theta_dot, rtol=0, atol=1e-9)
+    # The joined run's Newton error is the largest of its segments': every step converged, as in
+    # the whole run (the largest update left below the iterations' test, 1e-10 rad, in each).
+    for run in (trajectory, whole):
+        assert 0 < float(run.stats["newton_error"]) <= 1e-10
 
 
 @pytest.mark.slow  # the net's fixed-step solve and verdict compile: ~15 s

@@ -127,6 +127,9 @@ def test_far_from_contact_no_pair_is_evaluated_and_the_results_are_every_pairs()
     assert float(working.selection.least) > 10 * float(contact.activation)
     nearby = q + 1e-3
     assert bool(working._apart(contact.vertices(mechanism, nearby)))
+    # What the fixed steps' predictor asks (free flight: it extrapolates the acceleration).
+    assert bool(working.surely_apart(mechanism, nearby))
+    assert bool(contact.surely_apart(mechanism, nearby))  # every pair's gap
     full, kept = _forces(contact, mechanism, nearby, v), _forces(working, mechanism, nearby, v)
     for a, b in zip(full, kept, strict=True):
         np.testing.assert_array_equal(a, 0.0)
@@ -137,6 +140,7 @@ def test_far_from_contact_no_pair_is_evaluated_and_the_results_are_every_pairs()
     _, engaged, _ = _engaged_state()
     near = select(contact, mechanism, engaged)
     assert not bool(near._apart(contact.vertices(mechanism, engaged)))
+    assert not bool(near.surely_apart(mechanism, engaged))
     both = jax.tree.map(lambda a, b: jnp.stack([a, b]), working, near)
     batched = eqx.filter_jit(eqx.filter_vmap(lambda c, q: c.force_jacobians(mechanism, q, v)))(
         both, jnp.stack([nearby, engaged])

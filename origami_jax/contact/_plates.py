@@ -650,6 +650,17 @@ class PlateContact(AbstractContact):
         drift = jnp.max(jnp.linalg.norm(x - selection.at, axis=-1))
         return selection.least - 2 * drift > _APART * self.activation
 
+    def surely_apart(self, mechanism: AbstractMechanism, q: Float[Array, " nq"]) -> Array | None:
+        """Whether every primitive pair is surely beyond the activation gap at ``q``, where the
+        contact has no force (boolean scalar): from a working set's least gap (`_apart`), or
+        without one from every pair's gap; `None` with adhesion (whose range is its own)."""
+        if self.adhesion is not None:
+            return None
+        if self.selection is None:
+            gap, _ = self._every_gap(mechanism, q)
+            return jnp.min(gap, initial=jnp.inf) > _APART * self.activation
+        return self._apart(self.vertices(mechanism, q))
+
     def _unless_apart(self, mechanism, q, evaluate, zero):
         """`evaluate()` (the force, or the force and its derivatives), or `zero` where every pair
         is surely beyond the activation gap at ``q`` (`_apart`), where the barrier, its damping and

@@ -39,7 +39,9 @@ same substitution (a predicted state and a scaled step) is how PolyFEM's IPC tim
 Euler scheme only (its fluctuation–dissipation balance is Euler's).
 
 **Newton.** At most `ImplicitStep.newton_iterations` Newton iterations from the predictor ``q_n + h
-v_n`` (BDF2: ``q̂ + β v̂``), stopping once the next update would move no coordinate more than 1e-10
+v_n + h² a_n`` (BDF2: ``q̂ + β v̂``), ``a_n`` the last step's change of velocity over its length
+where no contact acts for sure (free flight: the step's root is then nearer by a factor of ``h``
+and takes one Newton update fewer; at a contact, where the velocity jumps, ``a_n = 0``), stopping once the next update would move no coordinate more than 1e-10
 rad (the matrix of that last update is the one the step's error takes, so a converged step builds
 one matrix per update taken, plus one) or the last one moved none that far. Their matrix
 (`ImplicitStep.jacobian`) is by default the Gauss–Newton one: the plate contact's barrier and
@@ -507,6 +509,7 @@ def _step(
     noise,
     history=None,
     selection=None,
+    acceleration=None,
 ):
     """One step from ``(q_n, v_n)`` to ``t_next = t_n + h``: ``(q, v, newton_error,
     left_out, selection)``, `left_out` whether a contact pair outside the step's working set came
@@ -514,7 +517,9 @@ def _step(
     used (a `PairSelection`; `None` without one). `noise`: the step's standard normal draws of an
     agitated system (`step_noise`), else `None`. `history`: BDF2's previous state and step ratio
     (`_bdf2_start`), `None` for implicit Euler. `selection`: the previous step's working set,
-    kept while it still has room (`PlateContact.select_pairs_again`), else chosen at ``q_n``."""
+    kept while it still has room (`PlateContact.select_pairs_again`), else chosen at ``q_n``.
+    `acceleration`: implicit Euler's predictor's acceleration (the last step's change of
+    velocity over its length), used in free flight only (`_in_free_flight`); `None`: none."""
     contact = system.contact
     capped = hasattr(contact, "time_of_impact")
     # The iterations run without derivatives; `_root` carries them (IFT).
@@ -626,6 +631,12 @@ def _step(
 
     # The predictor, capped like an update (q_n is clear of contact).
     drift = s_q_hat + s_beta * s_v_hat - s_q
+    if acceleration is not None:
+        free = _in_free_flight(s_system, s_q)
+        if free is not None:
+            drift = drift + jnp.where(free, s_beta * s_beta, 0.0) * jax.lax.stop_gradient(
+                acceleration
+            )
     q = s_q + largest_step(s_q, drift) * drift
     if solver.early_exit:
         # Each iteration moves along the last direction and computes the next one at the new
@@ -665,6 +676,17 @@ def _step(
     return q, (q - q_hat) / beta, jax.lax.stop_gradient(error), left_out, selection
 
 
+def _in_free_flight(system: FoldingSystem, q):
+    """Whether no contact acts at ``q`` for sure: `True` without contact, the working set's word
+    (`PlateContact.surely_apart`) with one, `None` where the contact cannot tell."""
+    contact = system.contact
+    if contact is None:
+        return jnp.ones((), bool)
+    if not hasattr(contact, "surely_apart"):
+        return None
+    return contact.surely_apart(system.mechanism, q)
+
+
 def _where(condition, new, old):
     """`new` where `condition`, else `old`, leaf by leaf (`None` stays `None`)."""
     return jax.tree.map(lambda a, b: jnp.where(condition, a, b), new, old)
@@ -693,7 +715,7 @@ def integrate(
         h = jnp.where(moves, length / steps, 1.0)
 
         def step(carry, j):
-            (q, v, error, left_out), previous, selection = carry
+            (q, v, error, left_out), previous, selection, acceleration = carry
             noise = step_noise(system, index * steps + j.astype(jnp.int32), q.shape[0])
             history = None
             if bdf2:
@@ -703,16 +725,29 @@ def integrate(
                 usable = (h_prev > 0) & (ratio <= _BDF2_LARGEST_RATIO)
                 history = (q_prev, v_prev, jnp.where(usable, ratio, 0.0))
             q_next, v_next, e, out, used = _step(
-                system, inputs, solver, t_start + (j + 1) * h, h, q, v, noise, history, selection
+                system,
+                inputs,
+                solver,
+                t_start + (j + 1) * h,
+                h,
+                q,
+                v,
+                noise,
+                history,
+                selection,
+                acceleration,
             )
             q_next = jnp.where(moves, q_next, q)
             v_next = jnp.where(moves, v_next, v)
             if bdf2:
                 previous = _where(moves, (q, v, h), previous)
             selection = _where(moves, used, selection)
+            if not bdf2:  # Euler's predictor's (`_step`)
+                change = jax.lax.stop_gradient((v_next - v) / h)
+                acceleration = _where(moves, change, acceleration)
             error = jnp.maximum(error, jnp.where(moves, e, 0.0))
             state = (q_next, v_next, error, left_out + (moves & out).astype(jnp.int32))
-            return (state, previous, selection), None
+            return (state, previous, selection, acceleration), None
 
         def steps_across(state):
             return jax.lax.scan(step, state, jnp.arange(steps, dtype=ts.dtype))[0]
@@ -732,9 +767,13 @@ def integrate(
     if counts is not None:
         s_system, s_q = _without_derivatives((system, q0))
         selection = s_system.contact.select_pairs(s_system.mechanism, s_q, counts).selection
-    start = ((q0, v0, zero, jnp.zeros((), jnp.int32)), previous, selection)
+    # Implicit Euler's predictor's acceleration: none before the first step.
+    acceleration = None if bdf2 else jnp.zeros_like(v0)
+    start = ((q0, v0, zero, jnp.zeros((), jnp.int32)), previous, selection, acceleration)
     indices = jnp.arange(ts.shape[0], dtype=jnp.int32)
-    ((_, _, error, left_out), _, _), (q, v) = jax.lax.scan(interval, start, (starts, ts, indices))
+    ((_, _, error, left_out), _, _, _), (q, v) = jax.lax.scan(
+        interval, start, (starts, ts, indices)
+    )
     count = jnp.sum(ts > starts).astype(jnp.int32) * steps
     finite = jnp.all(jnp.isfinite(q)) & jnp.all(jnp.isfinite(v))
     result = RESULTS.where(finite, RESULTS.successful, RESULTS.nonfinite_state)
