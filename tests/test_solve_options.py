@@ -25,10 +25,12 @@ PACKAGE = Path(origami_jax.__file__).parent
 REFERENCE_ATOL = 1e-12
 """Final angles and rates against the numbers of the loose-keyword `simulate` (the code before
 `SolveOptions`), run on the same machine: equal to round-off."""
-IMPLICIT_REFERENCE_ATOL = 1e-8
+IMPLICIT_REFERENCE_ATOL = 1e-7
 """The fixed-step engine's: its Newton iterations stop at an update below 1e-10 rad, and since
 2026-12-06 they no longer take that last update (the matrix it needs serves the convergence test):
-each of the 600 steps' roots moves within that, the final angles by 3e-9 rad."""
+each of the 600 steps' roots moves within that, the final angles by 3e-9 rad; since 2026-12-07 the
+predictor of a step without contact extrapolates the last step's acceleration, so the iterations
+start elsewhere and stop elsewhere within that test: the final angles by 2.8e-8 rad."""
 
 # `simulate(accordion_system(HingeDesign.literature(units=MICRO), 3), Step(), t1=300.0, ...)` on
 # the code before `SolveOptions` (commit 8f20fdb), keyword arguments as named: final θ (rad), final θ̇
