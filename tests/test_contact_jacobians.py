@@ -176,3 +176,32 @@ def test_gauss_newton_and_exact_newton_matrices_fold_a_cube_net_alike():
         assert float(trajectory.stats["newton_error"]) < 2e-3
     assert np.abs(runs["gauss-newton"][-1] - runs["exact"][-1]).max() < 1e-3
     assert np.abs(runs["gauss-newton"] - runs["exact"]).max() < 0.02
+
+
+@pytest.mark.parametrize("kind", ["net", "closed loops"])
+def test_unit_twists_are_the_wrench_maps_transpose(kind):
+    """The contact's twists per unit generalized velocity, read off the mechanism's wrench map
+    (`_unit_twists`, no second evaluation of the kinematics), equal forward-mode differentiation of
+    the bodies' twists, for a net's tree and for a crease pattern's loops (whose cut creases move
+    no body), to round-off."""
+    from origami_jax.contact._plates import _unit_twists
+    from origami_jax.loops import load_pattern
+
+    if kind == "net":
+        mechanism = load_net("cube_net_01", length_scale=SCALE).system().mechanism
+    else:
+        mechanism = load_pattern("miura_3x3").system().mechanism
+    rng = np.random.default_rng(5)
+    q = jnp.asarray(rng.uniform(-0.5, 0.5, mechanism.n_hinges))
+    v = jnp.asarray(rng.normal(size=mechanism.n_hinges))
+
+    @jax.jit
+    def both(q, v):
+        _, twists, wrench_force = mechanism.body_motion(q, v)
+        by_map = _unit_twists(wrench_force, twists.shape[0], v.dtype)
+        return by_map, jax.jacfwd(lambda v: mechanism.spatial_velocities(q, v))(v)
+
+    by_map, differentiated = both(q, v)
+    assert by_map.shape == differentiated.shape
+    scale = float(np.abs(differentiated).max())
+    np.testing.assert_allclose(by_map, differentiated, rtol=0, atol=1e-13 * scale)

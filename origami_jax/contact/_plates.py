@@ -513,8 +513,12 @@ class PlateContact(AbstractContact):
 
     def force(self, mechanism, q, v):
         if not self._has_broad_phase():
-            return self._unless_apart(
-                mechanism, q, lambda: self._force(mechanism, q, v)[0], jnp.zeros_like(v)
+            return self._moving_unless_apart(
+                mechanism,
+                q,
+                v,
+                lambda motion: self._force(mechanism, q, v, motion)[0],
+                jnp.zeros_like(v),
             )
         x = self.vertices(mechanism, q)
         return self._broad(
@@ -562,10 +566,11 @@ class PlateContact(AbstractContact):
         narrow = dataclasses.replace(self, selection=PairSelection(*kept, inf, x0))
         return jax.lax.cond(overflow, lambda: evaluate(self), lambda: evaluate(narrow))
 
-    def _force(self, mechanism, q, v):
+    def _force(self, mechanism, q, v, motion=None):
         """The generalized force at ``(q, v)`` and what `force_jacobians` builds on: the pairs
-        (`_Pairs`), their rates, the bodies' world twists and the mechanism's wrench map."""
-        poses, velocity, wrench_force = mechanism.body_motion(q, v)
+        (`_Pairs`), their rates, the bodies' world twists and the mechanism's wrench map.
+        `motion`: the mechanism's `body_motion(q, v)` where the caller has it."""
+        poses, velocity, wrench_force = mechanism.body_motion(q, v) if motion is None else motion
         poses = self._frames(poses)
         velocity = self._with_base_twist(velocity)
         x = self._world(poses)
@@ -605,11 +610,11 @@ class PlateContact(AbstractContact):
             jnp.zeros(v.shape + q.shape, v.dtype),
             jnp.zeros(v.shape + v.shape, v.dtype),
         )
-        return self._unless_apart(
-            mechanism, q, lambda: self._force_jacobians(mechanism, q, v), zeros
+        return self._moving_unless_apart(
+            mechanism, q, v, lambda motion: self._force_jacobians(mechanism, q, v, motion), zeros
         )
 
-    def _force_jacobians(self, mechanism, q, v):
+    def _force_jacobians(self, mechanism, q, v, motion=None):
         """The force at ``(q, v)`` with Gauss–Newton approximations of its derivatives
         ``(f, ∂f/∂q, ∂f/∂v)`` (what an implicit step's Newton iterations need).
 
@@ -621,9 +626,13 @@ class PlateContact(AbstractContact):
         near contact), the mollifier's and adhesion's and friction's own derivatives. Symmetric and
         positive semi-definite in the barrier's part. Exact values of ``f``; only the Newton
         directions use the approximations, so a converged step is the same root."""
-        force, pairs, rate, _ = self._force(mechanism, q, v)
-        # The bodies' twists per unit generalized velocity, `(n, 6, nv)` (the base's zero).
-        unit_twists = jax.jacfwd(lambda v: mechanism.spatial_velocities(q, v))(v)
+        if motion is None:
+            motion = mechanism.body_motion(q, v)
+        force, pairs, rate, _ = self._force(mechanism, q, v, motion)
+        # The bodies' twists per unit generalized velocity, `(n, 6, nv)` (the base's zero): the
+        # wrench map's transpose (a unit wrench's generalized force is the twist per unit
+        # velocity it pairs with), without evaluating the kinematics again.
+        unit_twists = _unit_twists(motion[2], motion[1].shape[0], v.dtype)
         if self.tables.has_base:
             unit_twists = jnp.concatenate([unit_twists, jnp.zeros_like(unit_twists[:1])], axis=0)
         gradient = self._gap_gradient(pairs, unit_twists)
@@ -660,6 +669,18 @@ class PlateContact(AbstractContact):
             gap, _ = self._every_gap(mechanism, q)
             return jnp.min(gap, initial=jnp.inf) > _APART * self.activation
         return self._apart(self.vertices(mechanism, q))
+
+    def _moving_unless_apart(self, mechanism, q, v, evaluate, zero):
+        """`evaluate(motion)` with the mechanism's `body_motion(q, v)`, or `zero` where every pair is
+        surely beyond the activation gap at ``q`` (`_unless_apart`); the kinematics evaluated once
+        for both."""
+        if self.selection is None:
+            return evaluate(None)
+        motion = mechanism.body_motion(q, v)
+        apart = self._apart(self._world(self._frames(motion[0])))
+        if apart is None:
+            return evaluate(motion)
+        return _computed_where(~apart, lambda: evaluate(motion), zero)
 
     def _unless_apart(self, mechanism, q, evaluate, zero):
         """`evaluate()` (the force, or the force and its derivatives), or `zero` where every pair
@@ -935,6 +956,14 @@ def _computed_where(needed, compute, otherwise):
         return jax.tree.map(lambda a, b: jnp.where(needed, a, b), compute(), otherwise)
 
     return jax.lax.cond(eqxi.unvmap_any(needed), computed, lambda: otherwise)
+
+
+def _unit_twists(wrench_force, n: int, dtype) -> Array:
+    """The world twists of `n` bodies per unit generalized velocity, `(n, 6, nv)`, from the wrench
+    map `wrench_force` (world wrenches `(n, 6)` to generalized forces `(nv,)`): its transpose,
+    since the power of a wrench ``W_b`` on twists ``V_b = J_b q̇`` is ``(Σ_b J_bᵀ W_b) · q̇``."""
+    basis = jnp.eye(6 * n, dtype=dtype).reshape(6 * n, n, 6)
+    return jax.vmap(wrench_force)(basis).reshape(n, 6, -1)
 
 
 def _compact(flags: Array, size: int) -> tuple[Array, Array]:
