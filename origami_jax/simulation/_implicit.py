@@ -319,8 +319,13 @@ def _start_terms(system: FoldingSystem, inputs: AbstractInput, t_next, h, q_n, v
     loops = hasattr(mechanism, "closure")
     # A crease pattern's cut creases carry no inertia of their own: regularised as the
     # constrained dynamics do (`LoopedPanels.regularised_mass_matrix`).
-    mass = mechanism.regularised_mass_matrix(q_at) if loops else mechanism.mass_matrix(q_at)
-    bias = mechanism.bias_force(q_at, v_at)
+    if loops:
+        mass = mechanism.regularised_mass_matrix(q_at)
+        bias = mechanism.bias_force(q_at, v_at)
+    elif hasattr(mechanism, "mass_matrix_and_bias"):  # one evaluation of the kinematics for both
+        mass, bias = mechanism.mass_matrix_and_bias(q_at, v_at)
+    else:
+        mass, bias = mechanism.mass_matrix(q_at), mechanism.bias_force(q_at, v_at)
     if noise is not None:
         bias = bias - _impulse(system, h, q_n, noise) / h
     hold = _loop_hold(system, inputs, t_next, h, q_n, v_n, mass, bias) if loops else None
