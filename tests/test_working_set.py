@@ -246,3 +246,28 @@ def test_an_octahedron_net_folds_with_its_newton_iterations_converging():
     assert net.assess(system, trajectory).verdict == "folded"
     assert float(trajectory.stats["newton_error"]) < 0.1
     assert int(trajectory.stats["contacts_left_out"]) == 0
+
+
+def test_the_next_working_set_is_chosen_where_a_step_ends_and_says_what_was_left_out():
+    """`next_working_set` at a step's end: near contact, the working set `select_pairs` chooses
+    there and whether the step's own set left an engaged pair out (`left_out_engaged`); far from
+    contact, the step's own set kept, nothing left out."""
+    system, q, _ = _engaged_state()
+    contact, mechanism = system.contact, system.mechanism
+    counts = _pair_counts(contact, sim.ImplicitStep(dt=1.0))
+    following = eqx.filter_jit(lambda c, m, q, counts: c.next_working_set(m, q, counts))
+    # A working set of one pair of each kind, chosen at this state: engaged pairs left out.
+    few = _selected((1, 1))
+    chosen, left_out = following(few, mechanism, q, (1, 1))
+    assert bool(left_out) and bool(few.left_out_engaged(mechanism, q))
+    for a, b in zip(jax.tree.leaves(chosen), jax.tree.leaves(few.selection), strict=True):
+        np.testing.assert_array_equal(a, b)  # chosen again at the same state: the same
+    _, left_out = following(_selected(counts), mechanism, q, counts)
+    assert not bool(left_out)
+    far_system, far, _ = _far_state()
+    working = eqx.filter_jit(lambda c, m, q: c.select_pairs(m, q, counts))(
+        far_system.contact, mechanism, far
+    )
+    kept, left_out = following(working, mechanism, far + 1e-4, counts)
+    np.testing.assert_array_equal(kept.at, working.selection.at)
+    assert not bool(left_out)

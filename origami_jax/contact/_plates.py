@@ -705,6 +705,10 @@ class PlateContact(AbstractContact):
         (`ImplicitStep.active_pairs`): its Newton iterations then cost in proportion to the pairs
         kept, not to every pair of the pattern."""
         gap, x = self._every_gap(mechanism, q)
+        return dataclasses.replace(self, selection=self._selection_from(gap, x, counts))
+
+    def _selection_from(self, gap, x, counts) -> PairSelection:
+        """The working set of `select_pairs` from every pair's gap `gap` at world vertices `x`."""
         n_vf = len(self.tables.vertex_face)
         cut = jnp.full((), jnp.inf, x.dtype)
         least = jnp.min(gap, initial=jnp.inf)
@@ -721,7 +725,7 @@ class PlateContact(AbstractContact):
             if size > count:
                 cut = jnp.minimum(cut, -smallest[count])
             kept.append(index[:count])
-        return dataclasses.replace(self, selection=PairSelection(*kept, cut, x, least))
+        return PairSelection(*kept, cut, x, least)
 
     def select_pairs_again(
         self,
@@ -750,6 +754,36 @@ class PlateContact(AbstractContact):
         )
         return dataclasses.replace(self, selection=selection)
 
+    def next_working_set(
+        self, mechanism: AbstractMechanism, q: Float[Array, " nq"], counts: tuple[int, int]
+    ) -> tuple[PairSelection, Array]:
+        """At the end ``q`` of a step taken on this contact's working set (its `selection`): the
+        next step's (`select_pairs_again` at ``q``) and whether a pair this one left out is within
+        the activation gap at ``q`` (`left_out_engaged`), from one evaluation of every pair's gap
+        where either needs it (a working set kept for its room leaves every pair apart)."""
+        previous = self.selection
+        drift = jnp.max(jnp.linalg.norm(self.vertices(mechanism, q) - previous.at, axis=-1))
+        margin = previous.least - _APART * self.activation
+
+        def chosen_again():
+            gap, x = self._every_gap(mechanism, q)
+            return self._selection_from(gap, x, counts), self._left_out_within(gap)
+
+        return _computed_where(4 * drift >= margin, chosen_again, (previous, jnp.zeros((), bool)))
+
+    def _left_out_within(self, gap) -> Array:
+        """Whether a pair left out of the `selection` has its gap (of every pair's, `gap`) within
+        the activation gap."""
+        n_vf = len(self.tables.vertex_face)
+        kept = (
+            jnp.zeros(gap.shape, bool)
+            .at[self.selection.vertex_face]
+            .set(True)
+            .at[n_vf + self.selection.edge_edge]
+            .set(True)
+        )
+        return jnp.any(~kept & (gap < self.activation))
+
     def _every_gap(self, mechanism, q):
         """Every primitive pair's gap at ``q`` whatever the `selection` (vertex–face pairs first,
         as the tables), and the world vertices."""
@@ -764,16 +798,7 @@ class PlateContact(AbstractContact):
             return jnp.zeros((), bool)
 
         def engaged():
-            gap, _ = self._every_gap(mechanism, q)
-            n_vf = len(self.tables.vertex_face)
-            kept = (
-                jnp.zeros(gap.shape, bool)
-                .at[self.selection.vertex_face]
-                .set(True)
-                .at[n_vf + self.selection.edge_edge]
-                .set(True)
-            )
-            return jnp.any(~kept & (gap < self.activation))
+            return self._left_out_within(self._every_gap(mechanism, q)[0])
 
         return self._unless_apart(mechanism, q, engaged, jnp.zeros((), bool))
 

@@ -102,6 +102,7 @@ iterations converged, and away from the onset of contact, where the barrier swit
 map is only once differentiable.
 """
 
+import dataclasses
 import functools
 import math
 
@@ -518,11 +519,12 @@ def _step(
 ):
     """One step from ``(q_n, v_n)`` to ``t_next = t_n + h``: ``(q, v, newton_error,
     left_out, selection)``, `left_out` whether a contact pair outside the step's working set came
-    within the activation gap (`ImplicitStep.active_pairs`), `selection` the working set the step
-    used (a `PairSelection`; `None` without one). `noise`: the step's standard normal draws of an
-    agitated system (`step_noise`), else `None`. `history`: BDF2's previous state and step ratio
-    (`_bdf2_start`), `None` for implicit Euler. `selection`: the previous step's working set,
-    kept while it still has room (`PlateContact.select_pairs_again`), else chosen at ``q_n``.
+    within the activation gap (`ImplicitStep.active_pairs`), `selection` the next step's working
+    set (a `PairSelection`, chosen where this step ends: `PlateContact.next_working_set`; `None`
+    without one). `noise`: the step's standard normal draws of an agitated system
+    (`step_noise`), else `None`. `history`: BDF2's previous state and step ratio (`_bdf2_start`),
+    `None` for implicit Euler. `selection`: this step's working set, as the previous step
+    returned it (`None`: chosen at ``q_n``).
     `acceleration`: implicit Euler's predictor's acceleration (the last step's change of
     velocity over its length), used in free flight only (`_in_free_flight`); `None`: none."""
     contact = system.contact
@@ -533,11 +535,13 @@ def _step(
     )
     counts = _pair_counts(contact, solver)
     if counts is not None:
-        working = s_system.contact.select_pairs_again(
-            s_system.mechanism, s_q, counts, jax.lax.stop_gradient(selection)
-        )
+        if selection is None:
+            working = s_system.contact.select_pairs(s_system.mechanism, s_q, counts)
+        else:
+            working = dataclasses.replace(
+                s_system.contact, selection=jax.lax.stop_gradient(selection)
+            )
         s_system = eqx.tree_at(lambda s: s.contact, s_system, working)
-        selection = working.selection
     # The scheme's (h, q_n, v_n): implicit Euler's, or BDF2's (β, q̂, v̂) (`_bdf2_start`).
     s_beta, s_q_hat, s_v_hat, mass, bias, hold = _start_terms(
         s_system, s_inputs, t_next, s_h, s_q, s_v, noise, s_history
@@ -673,7 +677,8 @@ def _step(
         error = direction(*linearised(q)[:2])[1]
     left_out = jnp.zeros((), bool)
     if counts is not None:
-        left_out = s_system.contact.left_out_engaged(s_system.mechanism, q)
+        # The next step's working set, chosen where this one ends (its start).
+        selection, left_out = s_system.contact.next_working_set(s_system.mechanism, q, counts)
     q = _root(jax.lax.stop_gradient(q), system, inputs, t_next, h, q_n, v_n, noise, history)
     if history is None:
         return q, (q - q_n) / h, jax.lax.stop_gradient(error), left_out, selection
