@@ -745,14 +745,20 @@ class PlateContact(AbstractContact):
         sorting."""
         if previous is None:
             return self.select_pairs(mechanism, q, counts)
-        drift = jnp.max(jnp.linalg.norm(self.vertices(mechanism, q) - previous.at, axis=-1))
-        margin = previous.least - _APART * self.activation
+        kept = dataclasses.replace(self, selection=previous)
         selection = _computed_where(
-            4 * drift >= margin,
+            ~kept._has_room(mechanism, q),
             lambda: self.select_pairs(mechanism, q, counts).selection,
             previous,
         )
         return dataclasses.replace(self, selection=selection)
+
+    def _has_room(self, mechanism, q) -> Array:
+        """Whether the vertices at ``q`` have drifted from where the `selection` was chosen by less
+        than a quarter of its least gap's margin over the activation gap (`select_pairs_again`)."""
+        selection = self.selection
+        drift = jnp.max(jnp.linalg.norm(self.vertices(mechanism, q) - selection.at, axis=-1))
+        return 4 * drift < selection.least - _APART * self.activation
 
     def next_working_set(
         self, mechanism: AbstractMechanism, q: Float[Array, " nq"], counts: tuple[int, int]
@@ -761,15 +767,14 @@ class PlateContact(AbstractContact):
         next step's (`select_pairs_again` at ``q``) and whether a pair this one left out is within
         the activation gap at ``q`` (`left_out_engaged`), from one evaluation of every pair's gap
         where either needs it (a working set kept for its room leaves every pair apart)."""
-        previous = self.selection
-        drift = jnp.max(jnp.linalg.norm(self.vertices(mechanism, q) - previous.at, axis=-1))
-        margin = previous.least - _APART * self.activation
 
         def chosen_again():
             gap, x = self._every_gap(mechanism, q)
             return self._selection_from(gap, x, counts), self._left_out_within(gap)
 
-        return _computed_where(4 * drift >= margin, chosen_again, (previous, jnp.zeros((), bool)))
+        return _computed_where(
+            ~self._has_room(mechanism, q), chosen_again, (self.selection, jnp.zeros((), bool))
+        )
 
     def _left_out_within(self, gap) -> Array:
         """Whether a pair left out of the `selection` has its gap (of every pair's, `gap`) within
