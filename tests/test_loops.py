@@ -254,8 +254,13 @@ def test_fixed_steps_on_a_loop_converge_at_first_order():
 def test_fixed_step_gradients_on_a_loop_match_central_differences():
     """The derivative of the fixed steps' fold through the closure penalty (the implicit function
     theorem at each step) against central differences: the vertex's angles at 200 µs with respect
-    to a scale of every hinge's stiffness (measured 1e-8 relative; checked at 1e-6, the
-    differences' own error with Newton updates left below 1e-10 rad and a step of 1e-5)."""
+    to a scale of every hinge's stiffness. The implicit function theorem differentiates the
+    discrete map's exact roots, the differences the computed ones, which stop within the Newton
+    test (1e-10 rad per step): the differences' own error, up to 1e-10 / 1e-5 rad over a step of
+    1e-5, ~2e-4 relative here. Measured 1e-8 relative while free steps took two Newton updates
+    (the second converging quadratically far below the test), 1.8e-6 since the predictor
+    extrapolates and they take one (central differences at steps 1e-5, 1e-4 and a Richardson
+    extrapolation at 1e-3 all agree on it: the computed map's own derivative); checked at 1e-5."""
     pattern, system = _degree4()
     start, _ = _degree4_pre_folded()
     fixed = sim.SolveOptions(saveat=sim.SaveAt(n=11), solver=sim.ImplicitStep(dt=1.0))
@@ -268,7 +273,7 @@ def test_fixed_step_gradients_on_a_loop_match_central_differences():
     exact = jax.jacfwd(final)(1.0)
     step = 1e-5
     central = (final(1 + step) - final(1 - step)) / (2 * step)
-    assert float(jnp.max(jnp.abs(exact - central))) < 1e-6 * float(jnp.max(jnp.abs(central)))
+    assert float(jnp.max(jnp.abs(exact - central))) < 1e-5 * float(jnp.max(jnp.abs(central)))
 
 
 def test_degree4_vertex_swings_through_flat_on_its_branch():
