@@ -155,13 +155,14 @@ def test_far_from_contact_no_pair_is_evaluated_and_the_results_are_every_pairs()
 
 
 def test_a_working_set_is_kept_while_it_has_room():
-    """`select_pairs_again` keeps the previous working set while the vertices drift by less than a
+    """`next_working_set` keeps the previous working set while the vertices drift by less than a
     quarter of its least gap's margin over the activation gap, and chooses again beyond."""
     system, q, _ = _far_state()
     contact, mechanism = system.contact, system.mechanism
     counts = _pair_counts(contact, sim.ImplicitStep(dt=1.0))
-    again = eqx.filter_jit(lambda c, m, q, previous: c.select_pairs_again(m, q, counts, previous))
-    first = again(contact, mechanism, q, None).selection
+    working = eqx.filter_jit(lambda c, m, q: c.select_pairs(m, q, counts))(contact, mechanism, q)
+    again = eqx.filter_jit(lambda c, m, q: c.next_working_set(m, q, counts)[0])
+    first = working.selection
     np.testing.assert_array_equal(first.at, contact.vertices(mechanism, q))
     margin = float(first.least) - 1.01 * float(contact.activation)
     for shift, kept in ((1e-4, True), (0.4, False)):
@@ -170,7 +171,7 @@ def test_a_working_set_is_kept_while_it_has_room():
             np.max(np.linalg.norm(contact.vertices(mechanism, moved) - first.at, axis=-1))
         )
         assert (4 * drift < margin) == kept
-        chosen = again(contact, mechanism, moved, first).selection
+        chosen = again(working, mechanism, moved)
         where = first.at if kept else contact.vertices(mechanism, moved)
         np.testing.assert_array_equal(chosen.at, where)
 

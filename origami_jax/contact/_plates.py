@@ -513,7 +513,7 @@ class PlateContact(AbstractContact):
 
     def force(self, mechanism, q, v):
         if not self._has_broad_phase():
-            return self._moving_unless_apart(
+            return self._unless_apart(
                 mechanism,
                 q,
                 v,
@@ -610,7 +610,7 @@ class PlateContact(AbstractContact):
             jnp.zeros(v.shape + q.shape, v.dtype),
             jnp.zeros(v.shape + v.shape, v.dtype),
         )
-        return self._moving_unless_apart(
+        return self._unless_apart(
             mechanism, q, v, lambda motion: self._force_jacobians(mechanism, q, v, motion), zeros
         )
 
@@ -670,10 +670,12 @@ class PlateContact(AbstractContact):
             return jnp.min(gap, initial=jnp.inf) > _APART * self.activation
         return self._apart(self.vertices(mechanism, q))
 
-    def _moving_unless_apart(self, mechanism, q, v, evaluate, zero):
-        """`evaluate(motion)` with the mechanism's `body_motion(q, v)`, or `zero` where every pair is
-        surely beyond the activation gap at ``q`` (`_unless_apart`); the kinematics evaluated once
-        for both."""
+    def _unless_apart(self, mechanism, q, v, evaluate, zero):
+        """`evaluate(motion)` (the force, or the force and its derivatives) with the mechanism's
+        `body_motion(q, v)` (`None` without a working set), or `zero` where every pair is surely
+        beyond the activation gap at ``q`` (`_apart`), where the barrier, its damping and friction
+        are exactly zero, without evaluating a pair (`_computed_where`). The kinematics are
+        evaluated once for both."""
         if self.selection is None:
             return evaluate(None)
         motion = mechanism.body_motion(q, v)
@@ -681,15 +683,6 @@ class PlateContact(AbstractContact):
         if apart is None:
             return evaluate(motion)
         return _computed_where(~apart, lambda: evaluate(motion), zero)
-
-    def _unless_apart(self, mechanism, q, evaluate, zero):
-        """`evaluate()` (the force, or the force and its derivatives), or `zero` where every pair
-        is surely beyond the activation gap at ``q`` (`_apart`), where the barrier, its damping and
-        friction are exactly zero, without evaluating a pair (`_computed_where`)."""
-        apart = self._apart(self.vertices(mechanism, q)) if self.selection is not None else None
-        if apart is None:
-            return evaluate()
-        return _computed_where(~apart, evaluate, zero)
 
     # ---- a working set of pairs ----
 
@@ -727,35 +720,11 @@ class PlateContact(AbstractContact):
             kept.append(index[:count])
         return PairSelection(*kept, cut, x, least)
 
-    def select_pairs_again(
-        self,
-        mechanism: AbstractMechanism,
-        q: Float[Array, " nq"],
-        counts: tuple[int, int],
-        previous: PairSelection | None,
-    ) -> "PlateContact":
-        """This contact evaluating the working set `previous` (chosen by `select_pairs` with the
-        same `counts` at an earlier state) while it still has room at ``q``, else a working set
-        chosen again at ``q`` (`previous` `None`: chosen at ``q``). Room: the vertices have drifted
-        from where `previous` was chosen by less than a quarter of its least gap's margin over the
-        activation gap, so every pair is still beyond it by half that margin (`_apart`) and choosing
-        again would evaluate no force either. A kept working set bounds every pair as a fresh one
-        does (its gaps, cut and least gap as taken, less the drift since), so the collision check
-        stays conservative; it spares each step of a fold's free flight every pair's gap and their
-        sorting."""
-        if previous is None:
-            return self.select_pairs(mechanism, q, counts)
-        kept = dataclasses.replace(self, selection=previous)
-        selection = _computed_where(
-            ~kept._has_room(mechanism, q),
-            lambda: self.select_pairs(mechanism, q, counts).selection,
-            previous,
-        )
-        return dataclasses.replace(self, selection=selection)
-
     def _has_room(self, mechanism, q) -> Array:
-        """Whether the vertices at ``q`` have drifted from where the `selection` was chosen by less
-        than a quarter of its least gap's margin over the activation gap (`select_pairs_again`)."""
+        """Whether the `selection` still has room at ``q``: the vertices have drifted from where it
+        was chosen by less than a quarter of its least gap's margin over the activation gap, so
+        every pair is still beyond that gap by half the margin (`_apart`) and choosing again would
+        evaluate no force either."""
         selection = self.selection
         drift = jnp.max(jnp.linalg.norm(self.vertices(mechanism, q) - selection.at, axis=-1))
         return 4 * drift < selection.least - _APART * self.activation
@@ -763,10 +732,15 @@ class PlateContact(AbstractContact):
     def next_working_set(
         self, mechanism: AbstractMechanism, q: Float[Array, " nq"], counts: tuple[int, int]
     ) -> tuple[PairSelection, Array]:
-        """At the end ``q`` of a step taken on this contact's working set (its `selection`): the
-        next step's (`select_pairs_again` at ``q``) and whether a pair this one left out is within
-        the activation gap at ``q`` (`left_out_engaged`), from one evaluation of every pair's gap
-        where either needs it (a working set kept for its room leaves every pair apart)."""
+        """At the end ``q`` of a step taken on this contact's working set (its `selection`,
+        chosen by `select_pairs` with these `counts`): the next step's working set, this one while
+        it has room at ``q`` (`_has_room`), else one chosen again at ``q``; and whether a pair this
+        one left out is within the activation gap at ``q`` (`left_out_engaged`), from one
+        evaluation of every pair's gap where either needs it (a working set kept for its room
+        leaves every pair apart). A kept working set bounds every pair as a fresh one does (its
+        gaps, cut and least gap as taken, less the drift since), so the collision check stays
+        conservative; it spares each step of a fold's free flight every pair's gap and their
+        sorting."""
 
         def chosen_again():
             gap, x = self._every_gap(mechanism, q)
@@ -801,11 +775,7 @@ class PlateContact(AbstractContact):
         ``q`` (a force the selection missed; boolean scalar, `False` without a selection)."""
         if self.selection is None:
             return jnp.zeros((), bool)
-
-        def engaged():
-            return self._left_out_within(self._every_gap(mechanism, q)[0])
-
-        return self._unless_apart(mechanism, q, engaged, jnp.zeros((), bool))
+        return self._left_out_within(self._every_gap(mechanism, q)[0])
 
     # ---- continuous collision detection (the step guard) ----
 

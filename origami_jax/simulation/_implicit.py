@@ -41,8 +41,8 @@ Euler scheme only (its fluctuation–dissipation balance is Euler's).
 **Newton.** At most `ImplicitStep.newton_iterations` Newton iterations from the predictor ``q_n + h
 v_n + h² a_n`` (BDF2: ``q̂ + β v̂``), ``a_n`` the last step's change of velocity over its length
 where no contact acts for sure (free flight: the step's root is then nearer by a factor of ``h``
-and takes one Newton update fewer; at a contact, where the velocity jumps, ``a_n = 0``), stopping once the next update would move no coordinate more than 1e-10
-rad (the matrix of that last update is the one the step's error takes, so a converged step builds
+and takes one Newton update fewer; at a contact, where the velocity jumps, ``a_n = 0``), stopping
+once the next update would move no coordinate more than 1e-10 rad (the matrix of that last update is the one the step's error takes, so a converged step builds
 one matrix per update taken, plus one) or the last one moved none that far. Their matrix
 (`ImplicitStep.jacobian`) is by default the Gauss–Newton one: the plate contact's barrier and
 damping by their pairs' gap gradients (`PlateContact.force_jacobians`, as IPC's Newton iterations
@@ -67,7 +67,7 @@ beyond the activation gap has no force, so the step is the same while no pair le
 within it (counted in `Trajectory.stats["contacts_left_out"]`); the collision check bounds the
 left-out pairs from their least gap, so none passes through a plate either way. The working set
 is carried from step to step while the vertices stay well within its least gap's margin
-(`PlateContact.select_pairs_again`), and where that least gap shows every pair beyond the
+(`PlateContact.next_working_set`), and where that least gap shows every pair beyond the
 activation gap, or clear of an update's whole path, the contact's force and collision check are
 exactly zero and clear without evaluating a pair: a fold's free flight costs what it costs without
 contact, with the same steps.
@@ -771,7 +771,7 @@ def integrate(
     # BDF2's previous state and step (none yet: its first step is an Euler step).
     previous = (q0, v0, zero) if bdf2 else None
     # The contact's working set, carried from step to step while it has room
-    # (`PlateContact.select_pairs_again`).
+    # (`PlateContact.next_working_set`).
     counts = _pair_counts(system.contact, solver)
     selection = None
     if counts is not None:
