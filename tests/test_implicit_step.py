@@ -18,6 +18,7 @@ import pytest
 import origami_jax.simulation as sim
 from origami_jax.chain import accordion_system
 from origami_jax.net import load_net
+from origami_jax.simulation._implicit import integrate
 from origami_jax.system import AIR, KOH_SOLUTION, HingeDesign, HingeDrag
 
 SCALE = 0.5  # the catalogue's nets at half scale: 100 µm panels
@@ -244,6 +245,52 @@ def test_early_exit_gives_the_fixed_count_result():
     ]
     np.testing.assert_allclose(runs[1].theta, runs[0].theta, rtol=0, atol=1e-9)
     assert float(runs[1].stats["newton_error"]) < 1e-9
+
+
+def _one_step(system, solver, t0, q0, v0):
+    """One step of `solver` from ``(q0, v0)`` at `t0`: the state and its Newton error."""
+    q, _, stats, _ = integrate(system, sim.Step(), solver, t0, jnp.reshape(t0 + solver.dt, (1,)), q0, v0, 1)  # fmt: skip
+    return q[-1], stats["newton_error"]
+
+
+def _converged_within_its_test(system, t0, states, dt=0.5):
+    """Each of `states` `(q, v)` stepped with the default early exit and with 30 fixed Newton
+    iterations (the root to rounding): the early exit's state is that root to its convergence test
+    (1e-10 rad), whether it stopped on a small update or took its last update on the error the
+    rate of convergence left it (reported as the step's Newton error, itself below the test)."""
+    early = eqx.filter_jit(_one_step)
+    exact = sim.ImplicitStep(dt=dt, newton_iterations=30, early_exit=False)
+    for q0, v0 in states:
+        q, error = early(system, sim.ImplicitStep(dt=dt), t0, q0, v0)
+        root, _ = early(system, exact, t0, q0, v0)
+        assert float(error) <= 1e-10
+        assert float(jnp.max(jnp.abs(q - root))) <= 1e-10, (q - root, error)
+
+
+@pytest.mark.parametrize("dt", [0.5, 8.0])
+def test_early_exit_ends_within_its_test_of_the_root(dt):
+    """Without contact (the exact Jacobian: quadratic convergence, the last update taken once the
+    next would be ``θ²`` as long) at three states of the accordion's fold in air, with short steps
+    and with long ones (more updates to converge)."""
+    system = _two_flaps(AIR)
+    run = sim.simulate(
+        system, sim.Step(), sim.SolveOptions(saveat=sim.SaveAt(n=4), solver=sim.ImplicitStep(dt=0.5)), t1=30.0
+    )  # fmt: skip
+    states = zip(run.theta[1:], run.theta_dot[1:], strict=True)
+    _converged_within_its_test(system, 0.0, states, dt)
+
+
+@pytest.mark.slow  # the plate contact's Jacobian: ~40 s to compile
+def test_early_exit_ends_within_its_test_of_the_root_at_a_contact():
+    """At the corner cube's flaps pressed together (the Gauss–Newton matrix: linear convergence,
+    the last update taken once the next would be ``θ/(1 − θ)`` of it), from every sample of the
+    launched flaps where a pair is engaged."""
+    _, system, trajectory = _launched_flaps(sim.ImplicitStep(dt=0.5), 31)
+    report = jax.vmap(lambda q: system.contact.report(system.mechanism, q))(trajectory.theta)
+    engaged = np.nonzero(np.asarray(report["engaged"]) > 0)[0]
+    assert len(engaged) > 5
+    states = [(trajectory.theta[k], trajectory.theta_dot[k]) for k in engaged[::3]]
+    _converged_within_its_test(system, 0.0, states)
 
 
 @pytest.mark.slow  # two plate-contact folds to compile: ~30 s

@@ -42,8 +42,12 @@ Euler scheme only (its fluctuation–dissipation balance is Euler's).
 v_n + h² a_n`` (BDF2: ``q̂ + β v̂``), ``a_n`` the last step's change of velocity over its length
 where no contact acts for sure (free flight: the step's root is then nearer by a factor of ``h``
 and takes one Newton update fewer; at a contact, where the velocity jumps, ``a_n = 0``), stopping
-once the next update would move no coordinate more than 1e-10 rad (the matrix of that last update is the one the step's error takes, so a converged step builds
-one matrix per update taken, plus one) or the last one moved none that far. Their matrix
+once the next update would move no coordinate more than 1e-10 rad (not taken), or once the error
+that update would leave, estimated from the rate of contraction ``θ`` of the last two updates, is
+within it (taken, capped like any update, as Hairer and Wanner stop the Newton iterations of implicit Runge–Kutta methods:
+``θ/(1 − θ)`` of the update where the Gauss–Newton matrix converges linearly at a contact,
+``θ²/(1 − θ)`` where the matrix is the exact Jacobian and convergence quadratic; one matrix fewer
+per step, the root the same to the test), or once the last one moved none that far. Their matrix
 (`ImplicitStep.jacobian`) is by default the Gauss–Newton one: the plate contact's barrier and
 damping by their pairs' gap gradients (`PlateContact.force_jacobians`, as IPC's Newton iterations
 use its barrier's Hessian), the rest of ``r`` (inertia, hinges, drag, inputs: a few coordinates) by
@@ -59,7 +63,8 @@ the same counts: a member that converged waits at most those few iterations for 
 for more steps (`early_exit=False` fixes every count: the same work always, at a measured 2–3× the
 cost on a cube net). The price of bounded work is that a step whose Newton iterations did not
 converge is not refused: `Trajectory.stats["newton_error"]` reports the largest remaining Newton
-update of any step (rad; small against the motion when the steps converged).
+update of any step, or the error estimated left where the last update was taken on that estimate
+(rad; small against the motion when the steps converged).
 
 **Working set.** Each step evaluates the plate contact's pairs of least gap at its start
 (`ImplicitStep.active_pairs`, `PlateContact.select_pairs`), not every pair of the pattern: a pair
@@ -103,7 +108,6 @@ map is only once differentiable.
 """
 
 import dataclasses
-import functools
 import math
 
 import equinox as eqx
@@ -467,7 +471,11 @@ def _newton_matrix(system, inputs, solver, t_next, h, q_n, v_n, mass, bias, hold
         return _residual(system, inputs, t_next, h, q_n, v_n, mass, bias, hold, q)
 
     if not _gauss_newton_applies(system, solver):
-        return functools.partial(_jacobian, residual), residual
+
+        def exact_matrix(q):
+            return *_jacobian(residual, q), jnp.ones((), bool)
+
+        return exact_matrix, residual
     bare = _without_contact(system)
 
     def bare_residual(q):
@@ -477,7 +485,10 @@ def _newton_matrix(system, inputs, solver, t_next, h, q_n, v_n, mass, bias, hold
     def matrix(q):
         jac, r = jax.jacfwd(bare_residual, has_aux=True)(q)
         force, d_dq, d_dv = system.contact.force_jacobians(system.mechanism, q, (q - q_n) / h)
-        return jac - h * h * d_dq - h * d_dv, r - h * h * force
+        # Exact where the contact does not act (its force and derivatives zero: every pair beyond
+        # the activation gap, where the barrier vanishes with its derivatives).
+        exact = ~(jnp.any(force != 0) | jnp.any(d_dq != 0) | jnp.any(d_dv != 0))
+        return jac - h * h * d_dq - h * d_dv, r - h * h * force, exact
 
     return matrix, residual
 
@@ -596,9 +607,10 @@ def _step(
         return jnp.where(jnp.isfinite(m), m, jnp.inf)
 
     def linearised(q):
-        """The Newton matrix and residual at `q`, and ``|r|²``."""
-        jac, r = newton_matrix(q)
-        return jac, r, r @ r
+        """The Newton matrix and residual at `q`, ``|r|²``, and whether the matrix is the exact
+        Jacobian there (`_newton_matrix`)."""
+        jac, r, exact = newton_matrix(q)
+        return jac, r, r @ r, exact
 
     def direction(jac, r):
         """The Newton update from `(jac, r)` (zero where not finite) and the largest coordinate of
@@ -607,12 +619,13 @@ def _step(
         dq = jnp.where(jnp.all(jnp.isfinite(solved)), -solved, 0.0)
         return dq, jnp.max(jnp.abs(solved))
 
-    def line_search(q, dq, at_q):
+    def line_search(q, dq, at_q, final=False):
         """`q` moved along `dq` by the first trial length with Armijo's decrease (else the one of
         least merit below ``|r(q)|²``, else none), the linearisation there (`linearised`; `at_q`
         is the one at `q`) and how far it moved (largest coordinate). Each trial linearises the
         residual rather than only evaluating it: the trial taken is where the next Newton update
-        starts, so its matrix is not computed twice (most steps take their first trial)."""
+        starts, so its matrix is not computed twice (most steps take their first trial). `final`:
+        the longest trial taken without evaluating it (the linearisation returned is `at_q`'s)."""
         m0 = at_q[2]
 
         def trial(carry):
@@ -632,11 +645,12 @@ def _step(
             return j + 1, 0.5 * alpha, first, best, jnp.minimum(m, best_m), kept
 
         zero = jnp.zeros((), q.dtype)
-        start = (0, largest_step(q, dq), jnp.full((), jnp.nan, q.dtype), zero, m0, at_q)
-        searching = lambda c: (c[0] < solver.halvings) & jnp.isnan(c[2])  # noqa: E731
+        longest = largest_step(q, dq)
+        start = (0, longest, jnp.full((), jnp.nan, q.dtype), zero, m0, at_q)
+        searching = lambda c: (c[0] < solver.halvings) & jnp.isnan(c[2]) & ~final  # noqa: E731
         _, _, first, best, _, kept = jax.lax.while_loop(searching, trial, start)
-        alpha = jnp.where(jnp.isnan(first), best, first)
-        return q + alpha * dq, kept, jnp.max(jnp.abs(alpha * dq))
+        alpha = jnp.where(final, longest, jnp.where(jnp.isnan(first), best, first))
+        return q + alpha * dq, kept, jnp.max(jnp.abs(alpha * dq)), alpha
 
     # The predictor, capped like an update (q_n is clear of contact).
     drift = s_q_hat + s_beta * s_v_hat - s_q
@@ -649,17 +663,25 @@ def _step(
     q = s_q + largest_step(s_q, drift) * drift
     if solver.early_exit:
         # Each iteration moves along the last direction and computes the next one at the new
-        # state; they stop once that next update is within `_CONVERGED` (it is not taken: the
-        # state is converged, and the matrix it took is the one the step's error needs) or the
-        # last move was (the line search found no decrease, or the collision cap stops it).
+        # state. They stop once that next update is within `_CONVERGED` (not taken: the state is
+        # converged) or the last move was (the line search found no decrease, or the collision
+        # cap stops it). Where the error the next update would leave, estimated from the rate
+        # of convergence (`_error_after`), is within it, the last iteration takes that update
+        # without evaluating the residual there (one linearisation fewer per step), capped by the
+        # collision check like any update (its length is then the error, else the estimate).
         def iterate(carry):
-            i, q, dq, _, at_q, _ = carry
-            q, at_q, moved = line_search(q, dq, at_q)
-            return i + 1, q, *direction(*at_q[:2]), at_q, moved
+            i, q, dq, size, at_q, moved = carry
+            estimate = _error_after(size, moved, at_q[3])
+            final = estimate <= _CONVERGED
+            q, at_q, moved, alpha = line_search(q, dq, at_q, final)
+            new_dq, new_size = direction(*at_q[:2])
+            dq = jnp.where(final, dq, new_dq)
+            size = jnp.where(final, jnp.where(alpha < 1, size, estimate), new_size)
+            return i + 1, q, dq, size, at_q, jnp.where(final, 0.0, moved)
 
         def iterating(carry):
-            i, _, dq, _, _, moved = carry
-            going = (jnp.max(jnp.abs(dq)) > _CONVERGED) & (moved > _CONVERGED)
+            i, _, _, size, _, moved = carry
+            going = (size > _CONVERGED) & (moved > _CONVERGED)
             return (i < solver.newton_iterations) & going
 
         at_q = linearised(q)
@@ -668,7 +690,7 @@ def _step(
     else:
 
         def iterate(_, q):
-            jac, r, m0 = linearised(q)
+            jac, r, m0, _ = linearised(q)
             dq, _ = direction(jac, r)
             alpha = _all_trials(merit, q, dq, largest_step(q, dq), m0, solver.halvings)
             return q + alpha * dq
@@ -684,6 +706,20 @@ def _step(
         return q, (q - q_n) / h, jax.lax.stop_gradient(error), left_out, selection
     beta, q_hat, _, _, _ = _bdf2_start(h, q_n, v_n, history)
     return q, (q - q_hat) / beta, jax.lax.stop_gradient(error), left_out, selection
+
+
+def _error_after(size, moved, exact):
+    """The Newton error left after taking an update of largest coordinate `size` that followed a
+    move of `moved` (rad; ``inf`` where no move came before): from the rate of contraction ``θ =
+    size / moved``, ``θ size / (1 − θ)`` for the linear convergence of the Gauss–Newton matrix at a
+    contact (as Hairer and Wanner's stopping test for the Newton iterations of implicit
+    Runge–Kutta methods), ``θ² size / (1 − θ)`` for the quadratic convergence of a matrix that is
+    the exact Jacobian (`exact`: the next update ``≈ C size²`` with ``C = size / moved²``). ``inf``
+    (no estimate) without a previous move or where ``θ ≥ 1/2``."""
+    theta = size / moved
+    rate = jnp.where(exact, theta * theta, theta)
+    known = jnp.isfinite(moved) & (theta < 0.5)
+    return jnp.where(known, rate * size / (1 - jnp.where(known, theta, 0.0)), jnp.inf)
 
 
 def _in_free_flight(system: FoldingSystem, q):
