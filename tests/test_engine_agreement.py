@@ -61,8 +61,8 @@ def test_the_two_engines_agree_on_which_nets_fold(estimates, fixed):
     "the first 200, 197 (Euler 193; 182 of 200 of seed 5, 2026-12-05); the rest are jammed against "
     "misfolded (BDF2 at 1.25 µs: 195 of 200 alike). Not the reference's own scatter: the adaptive "
     "solve at 100x tighter tolerances (rtol 1e-9) judged 199 of the 200 as the default does, BDF2 "
-    "196 as it does (2026-12-07): the fixed steps' own error, likeliest their inelastic impacts "
-    "where the adaptive solve rebounds (not checked sample by sample)",
+    "196 as it does (2026-12-07): the fixed steps' own, walls that lock edge on edge in fixed "
+    "steps and slide past each other in the adaptive solve, or the reverse (docs/guides/yield.md)",
 )
 def test_every_verdict_of_the_two_engines_agrees(estimates):
     """Every verdict (folded, jammed, misfolded, unfinished) alike on at least 99 % of the samples,
