@@ -51,7 +51,13 @@ per step, the root the same to the test), or once the last one moved none that f
 (`ImplicitStep.jacobian`) is by default the Gauss–Newton one: the plate contact's barrier and
 damping by their pairs' gap gradients (`PlateContact.force_jacobians`, as IPC's Newton iterations
 use its barrier's Hessian), the rest of ``r`` (inertia, hinges, drag, inputs: a few coordinates) by
-forward-mode differentiation; or the exact Jacobian of all of ``r`` (`_jacobian`). Each update is
+forward-mode differentiation; or the exact Jacobian of all of ``r`` (`_jacobian`). With the
+Gauss–Newton matrix, a step whose predictor's first update is shorter than 1e-3 rad in every
+member of a batch holds that rest from the predictor through its iterations (simplified Newton,
+as implicit Runge–Kutta codes reuse their Jacobian: the drag's forward derivative is the larger
+part of a linearisation; the root is the same, the contraction then linear); a step with a longer
+first update (a hinge released from rest, an impact) differentiates it at every iterate, since
+the drag's derivative, in proportion to each point's speed, changes there by its own size. Each update is
 capped, as in IPC, by the contact's continuous collision detection: the largest step moves no
 coordinate more than `ImplicitStep.max_update` and is ``0.9`` of the fraction of the path that
 stays clear, checked chord after chord, each moving no coordinate more than ``max_update /
@@ -111,6 +117,7 @@ import dataclasses
 import math
 
 import equinox as eqx
+import equinox.internal as eqxi
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -125,6 +132,9 @@ _TOI_FRACTION = 0.9
 # `early_exit`: Newton iterations stop once an update moves no coordinate more than this, or the
 # error the next one leaves (`_error_after`) is within it, rad.
 _CONVERGED = 1e-10
+# `early_exit` with the Gauss–Newton matrix: where every first update of a step is shorter than
+# this (rad), the matrix's contact-free part is held from the predictor for the step's iterations.
+_HOLD_BELOW = 1e-3
 # Armijo's sufficient decrease of |r|² along the Newton direction (slope −2|r|²).
 _ARMIJO = 1e-4
 _JACOBIANS = ("gauss-newton", "exact")
@@ -466,17 +476,21 @@ def _gauss_newton_applies(system: FoldingSystem, solver: ImplicitStep) -> bool:
 
 
 def _newton_matrix(system, inputs, solver, t_next, h, q_n, v_n, mass, bias, hold):
-    """``q ↦ (J, r(q))``: the residual and the Newton iterations' matrix (`ImplicitStep.jacobian`).
-    With the Gauss–Newton contact, everything but the contact is differentiated (`jax.jacfwd`:
-    hinges, drag and inputs cost little) and the contact gives its own force and derivatives."""
+    """``(q, held) ↦ (J, r(q), exact, J₀)``, and the residual: the Newton iterations' matrix
+    (`ImplicitStep.jacobian`), whether it is the exact Jacobian of ``r`` at `q`, and its part
+    without the contact ``J₀``. With the Gauss–Newton contact, everything but the contact is
+    differentiated (`jax.jacfwd`: inertia, hinges, drag and inputs), or that part's `held` matrix
+    from an earlier iterate is taken instead, and the contact gives its own force and
+    derivatives; otherwise everything is differentiated (`held` is ignored)."""
 
     def residual(q):
         return _residual(system, inputs, t_next, h, q_n, v_n, mass, bias, hold, q)
 
     if not _gauss_newton_applies(system, solver):
 
-        def exact_matrix(q):
-            return *_jacobian(residual, q), jnp.ones((), bool)
+        def exact_matrix(q, held=None):
+            jac, r = _jacobian(residual, q)
+            return jac, r, jnp.ones((), bool), jac
 
         return exact_matrix, residual
     bare = _without_contact(system)
@@ -485,13 +499,16 @@ def _newton_matrix(system, inputs, solver, t_next, h, q_n, v_n, mass, bias, hold
         r = _residual(bare, inputs, t_next, h, q_n, v_n, mass, bias, hold, q)
         return r, r
 
-    def matrix(q):
-        jac, r = jax.jacfwd(bare_residual, has_aux=True)(q)
+    def matrix(q, held=None):
+        if held is None:
+            jac, r = jax.jacfwd(bare_residual, has_aux=True)(q)
+        else:  # the contact-free part's Jacobian from an earlier iterate (`_step`)
+            jac, r = held, bare_residual(q)[0]
         force, d_dq, d_dv = system.contact.force_jacobians(system.mechanism, q, (q - q_n) / h)
         # Exact where the contact does not act (its force and derivatives zero: every pair beyond
-        # the activation gap, where the barrier vanishes with its derivatives).
-        exact = ~(jnp.any(force != 0) | jnp.any(d_dq != 0) | jnp.any(d_dv != 0))
-        return jac - h * h * d_dq - h * d_dv, r - h * h * force, exact
+        # the activation gap, where the barrier vanishes with its derivatives) and nothing is held.
+        exact = ~(jnp.any(force != 0) | jnp.any(d_dq != 0) | jnp.any(d_dv != 0)) & (held is None)
+        return jac - h * h * d_dq - h * d_dv, r - h * h * force, exact, jac
 
     return matrix, residual
 
@@ -609,11 +626,11 @@ def _step(
         m = r @ r
         return jnp.where(jnp.isfinite(m), m, jnp.inf)
 
-    def linearised(q):
-        """The Newton matrix and residual at `q`, ``|r|²``, and whether the matrix is the exact
-        Jacobian there (`_newton_matrix`)."""
-        jac, r, exact = newton_matrix(q)
-        return jac, r, r @ r, exact
+    def linearised(q, held=None):
+        """The Newton matrix and residual at `q`, ``|r|²``, whether the matrix is the exact
+        Jacobian there, and its contact-free part (`_newton_matrix`; `held`: that part held)."""
+        jac, r, exact, bare = newton_matrix(q, held)
+        return jac, r, r @ r, exact, bare
 
     def direction(jac, r):
         """The Newton update from `(jac, r)` (zero where not finite) and the largest coordinate of
@@ -622,18 +639,19 @@ def _step(
         dq = jnp.where(jnp.all(jnp.isfinite(solved)), -solved, 0.0)
         return dq, jnp.max(jnp.abs(solved))
 
-    def line_search(q, dq, at_q, final=False):
+    def line_search(q, dq, at_q, final=False, held=None):
         """`q` moved along `dq` by the first trial length with Armijo's decrease (else the one of
         least merit below ``|r(q)|²``, else none), the linearisation there (`linearised`; `at_q`
         is the one at `q`) and how far it moved (largest coordinate). Each trial linearises the
         residual rather than only evaluating it: the trial taken is where the next Newton update
         starts, so its matrix is not computed twice (most steps take their first trial). `final`:
-        the longest trial taken without evaluating it (the linearisation returned is `at_q`'s)."""
+        the longest trial taken without evaluating it (the linearisation returned is `at_q`'s).
+        `held`: the matrix's contact-free part held (`linearised`)."""
         m0 = at_q[2]
 
         def trial(carry):
             j, alpha, first, best, best_m, kept = carry
-            evaluated = linearised(q + alpha * dq)
+            evaluated = linearised(q + alpha * dq, held)
             m = evaluated[2]
             m = jnp.where(jnp.isfinite(m), m, jnp.inf)
             armijo = (m <= (1 - 2 * _ARMIJO * alpha) * m0) & jnp.isnan(first)
@@ -672,11 +690,11 @@ def _step(
         # of convergence (`_error_after`), is within it, the last iteration takes that update
         # without evaluating the residual there (one linearisation fewer per step), capped by the
         # collision check like any update (its length is then the error, else the estimate).
-        def iterate(carry):
+        def iterate(carry, held=None):
             i, q, dq, size, at_q, moved = carry
             estimate = _error_after(size, moved, at_q[3])
             final = estimate <= _CONVERGED
-            q, at_q, moved, alpha = line_search(q, dq, at_q, final)
+            q, at_q, moved, alpha = line_search(q, dq, at_q, final, held)
             new_dq, new_size = direction(*at_q[:2])
             dq = jnp.where(final, dq, new_dq)
             size = jnp.where(final, jnp.where(alpha < 1, size, estimate), new_size)
@@ -689,11 +707,27 @@ def _step(
 
         at_q = linearised(q)
         start = (0, q, *direction(*at_q[:2]), at_q, jnp.full((), jnp.inf, q.dtype))
-        _, q, _, error, _, _ = jax.lax.while_loop(iterating, iterate, start)
+
+        def afresh():
+            return jax.lax.while_loop(iterating, iterate, start)
+
+        if _gauss_newton_applies(s_system, solver):
+            # Where every member's first update is short, the iterates stay near the predictor:
+            # the matrix's contact-free part is held from there (Newton's simplified iterations;
+            # the root is the same, the convergence linear). Not where a hinge is released from
+            # rest or a panel is stopped, whose updates move far, and whose drag's derivative (in
+            # proportion to each point's speed) changes by its own size.
+            def held():
+                return jax.lax.while_loop(iterating, lambda c: iterate(c, at_q[4]), start)
+
+            short = eqxi.unvmap_all(start[3] < _HOLD_BELOW)
+            _, q, _, error, _, _ = jax.lax.cond(short, held, afresh)
+        else:
+            _, q, _, error, _, _ = afresh()
     else:
 
         def iterate(_, q):
-            jac, r, m0, _ = linearised(q)
+            jac, r, m0, _, _ = linearised(q)
             dq, _ = direction(jac, r)
             alpha = _all_trials(merit, q, dq, largest_step(q, dq), m0, solver.halvings)
             return q + alpha * dq
