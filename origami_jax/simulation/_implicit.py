@@ -44,10 +44,11 @@ where no contact acts for sure (free flight: the step's root is then nearer by a
 and takes one Newton update fewer; at a contact, where the velocity jumps, ``a_n = 0``), stopping
 once the next update would move no coordinate more than 1e-10 rad (not taken), or once the error
 that update would leave, estimated from the rate of contraction ``θ`` of the last two updates, is
-within it (taken, capped like any update, as Hairer and Wanner stop the Newton iterations of implicit Runge–Kutta methods:
-``θ/(1 − θ)`` of the update where the Gauss–Newton matrix converges linearly at a contact,
-``θ²/(1 − θ)`` where the matrix is the exact Jacobian and convergence quadratic; one matrix fewer
-per step, the root the same to the test), or once the last one moved none that far. Their matrix
+within it (taken, capped like any update, as Hairer and Wanner stop the Newton iterations of
+implicit Runge–Kutta methods: ``θ/(1 − θ)`` of the update where the Gauss–Newton matrix converges
+linearly at a contact, ``θ²/(1 − θ)`` where the matrix is the exact Jacobian and convergence
+quadratic; one matrix fewer per step, the root the same to the test), or once the last one moved
+none that far. Their matrix
 (`ImplicitStep.jacobian`) is by default the Gauss–Newton one: the plate contact's barrier and
 damping by their pairs' gap gradients (`PlateContact.force_jacobians`, as IPC's Newton iterations
 use its barrier's Hessian), the rest of ``r`` (inertia, hinges, drag, inputs: a few coordinates) by
@@ -57,10 +58,10 @@ member of a batch holds that rest from the predictor through its iterations (sim
 as implicit Runge–Kutta codes reuse their Jacobian: the drag's forward derivative is the larger
 part of a linearisation; the root is the same, the contraction then linear); a step with a longer
 first update (a hinge released from rest, an impact) differentiates it at every iterate, since
-the drag's derivative, in proportion to each point's speed, changes there by its own size. Each update is
-capped, as in IPC, by the contact's continuous collision detection: the largest step moves no
-coordinate more than `ImplicitStep.max_update` and is ``0.9`` of the fraction of the path that
-stays clear, checked chord after chord, each moving no coordinate more than ``max_update /
+the drag's derivative, in proportion to each point's speed, changes there by its own size. Each
+update is capped, as in IPC, by the contact's continuous collision detection: the largest step
+moves no coordinate more than `ImplicitStep.max_update` and is ``0.9`` of the fraction of the path
+that stays clear, checked chord after chord, each moving no coordinate more than ``max_update /
 ccd_pieces`` (`PlateContact.time_of_impact`; models without it, such
 as the sampled `PanelContact`, are capped in size only), then up to `ImplicitStep.halvings`
 halvings look for a decrease of ``|r|²`` (the first with Armijo's decrease, else the best, else no
