@@ -482,7 +482,8 @@ def _newton_matrix(system, inputs, solver, t_next, h, q_n, v_n, mass, bias, hold
     without the contact ``J₀``. With the Gauss–Newton contact, everything but the contact is
     differentiated (`jax.jacfwd`: inertia, hinges, drag and inputs), or that part's `held` matrix
     from an earlier iterate is taken instead, and the contact gives its own force and
-    derivatives; otherwise everything is differentiated (`held` is ignored)."""
+    derivatives; otherwise everything is differentiated, and ``J₀`` is `None` (nothing to
+    hold)."""
 
     def residual(q):
         return _residual(system, inputs, t_next, h, q_n, v_n, mass, bias, hold, q)
@@ -491,7 +492,7 @@ def _newton_matrix(system, inputs, solver, t_next, h, q_n, v_n, mass, bias, hold
 
         def exact_matrix(q, held=None):
             jac, r = _jacobian(residual, q)
-            return jac, r, jnp.ones((), bool), jac
+            return jac, r, jnp.ones((), bool), None
 
         return exact_matrix, residual
     bare = _without_contact(system)
@@ -712,19 +713,20 @@ def _step(
         def afresh():
             return jax.lax.while_loop(iterating, iterate, start)
 
-        if _gauss_newton_applies(s_system, solver):
+        contact_free = at_q[4]  # `None` where the matrix has no such part (`_newton_matrix`)
+        if contact_free is None:
+            _, q, _, error, _, _ = afresh()
+        else:
             # Where every member's first update is short, the iterates stay near the predictor:
             # the matrix's contact-free part is held from there (Newton's simplified iterations;
             # the root is the same, the convergence linear). Not where a hinge is released from
             # rest or a panel is stopped, whose updates move far, and whose drag's derivative (in
             # proportion to each point's speed) changes by its own size.
             def held():
-                return jax.lax.while_loop(iterating, lambda c: iterate(c, at_q[4]), start)
+                return jax.lax.while_loop(iterating, lambda c: iterate(c, contact_free), start)
 
             short = eqxi.unvmap_all(start[3] < _HOLD_BELOW)
             _, q, _, error, _, _ = jax.lax.cond(short, held, afresh)
-        else:
-            _, q, _, error, _, _ = afresh()
     else:
 
         def iterate(_, q):
