@@ -283,8 +283,9 @@ def test_early_exit_ends_within_its_test_of_the_root(dt):
 @pytest.mark.slow  # the plate contact's Jacobian: ~40 s to compile
 def test_early_exit_ends_within_its_test_of_the_root_at_a_contact():
     """At the corner cube's flaps pressed together (the Gauss–Newton matrix: linear convergence,
-    the last update taken once the next would be ``θ/(1 − θ)`` of it), from every sample of the
-    launched flaps where a pair is engaged."""
+    the last update taken once the next would be ``θ/(1 − θ)`` of it; its contact-free part held
+    where the first update is short), from every third sample of the launched flaps where a pair
+    is engaged."""
     _, system, trajectory = _launched_flaps(sim.ImplicitStep(dt=0.5), 31)
     report = jax.vmap(lambda q: system.contact.report(system.mechanism, q))(trajectory.theta)
     engaged = np.nonzero(np.asarray(report["engaged"]) > 0)[0]
