@@ -5,8 +5,17 @@ still traces and lowers every program before it can look one up: for the simulat
 most of a warm command's own time. `exported_call` keeps the traced program itself, exported with
 `jax.export` (StableHLO), under a key of everything that decides it: the arguments' static parts and
 array shapes, the versions of JAX and of the libraries traced through, this package's source, and
-the configuration flags that change a trace. A later process with the same key deserialises the
-program and runs it (its compilation then comes from the compilation cache).
+the configuration flags that change a trace. Beside it, the program compiled (``.xla``, under
+that key and the machine's: its instruction set, the backend's version and devices, XLA's
+flags): a later process with the same key loads the executable and runs it, neither tracing,
+lowering nor compiling. Lowering even a deserialised program to look it up in the compilation
+cache cost a warm fold a tenth of its time. Where no executable is kept (another machine), the
+exported program is compiled again and kept.
+
+The executables are compiled here, outside JAX's compilation cache: one that cache reads back
+serialises without its machine code (XLA keeps none once loaded), and would fail when run. A
+compilation the cache served anyway is not kept (`_persistent_cache_hits`), and a kept one that
+fails when run is removed, the call traced as usual.
 
 A wrong hit would silently run another program, so the key refuses what it cannot vouch for: any
 function or class from outside the libraries whose versions or source it records (a user's torque
@@ -36,6 +45,7 @@ import os
 import pickle
 import sys
 import tempfile
+import zlib
 from pathlib import Path
 from typing import Any
 
@@ -43,6 +53,14 @@ from ._runtime_errors import on_error
 
 _FOLDER: Path | None = None
 _REFUSED: set[str] = set()  # programs found not exportable in this process (a callback, ...)
+_LOADED: dict[Path, tuple] = {}  # compiled programs this process has read or built, by file
+_OWN_KEY = {"xla_embed_ir_in_executable": False}  # XLA's default, set: see `_compiled_here`
+
+QUICK_COMPILE = {"xla_cpu_use_fusion_emitters": False}
+"""Compiler options for a program a command runs once (a net's fluid loads, its verdict): XLA's
+loop emitters instead of its MLIR fusion emitters compile these programs in about 60 % of the
+time, and their code, slower per step, runs once. The numbers agreed to the last bit in every
+comparison made (a cube net's fold: its verdict, seams and contact report)."""
 
 # Code the key vouches for: this package by its source, the others by their versions.
 _LIBRARIES = ("jax", "jaxlib", "equinox", "diffrax", "optimistix", "lineax", "jaxtyping", "numpy")
@@ -170,9 +188,10 @@ class _RecordPickler(pickle.Pickler):
         return NotImplemented
 
 
-def _record(blob: bytes, structure) -> bytes:
+def _record(*parts) -> bytes:
+    """`parts` pickled, tree definitions with equinox's sentinel (`_RecordPickler`)."""
     buffer = io.BytesIO()
-    _RecordPickler(buffer, protocol=pickle.HIGHEST_PROTOCOL).dump((blob, structure))
+    _RecordPickler(buffer, protocol=pickle.HIGHEST_PROTOCOL).dump(parts)
     return buffer.getvalue()
 
 
@@ -187,13 +206,14 @@ def _write_atomically(path: Path, data: bytes) -> None:
         raise
 
 
-def exported_call(name: str, fn, jitted, *args) -> Any:
+def exported_call(name: str, fn, jitted, *args, options: dict | None = None) -> Any:
     """`jitted(*args)`, through a program exported to disk when `enable_exported_programs` is on
     and the arguments' static parts can be vouched for (module docstring).
 
     **Arguments:** `name`: the program's name (part of the key); `fn`: the plain function (traced
     for the export); `jitted`: its `equinox.filter_jit` version (the fallback); `args`: its
-    arguments (pytrees of arrays and static values).
+    arguments (pytrees of arrays and static values); `options`: XLA compiler options for the kept
+    executable (`QUICK_COMPILE` for a program run once; default none).
     """
     import equinox as eqx
     import jax
@@ -207,60 +227,206 @@ def exported_call(name: str, fn, jitted, *args) -> Any:
     if key is None:
         return jitted(*args)
     path = _FOLDER / f"{name}-{key[:32]}.bin"
-    program = None
-    if path.exists():
-        try:
-            blob, (out_tree, constants) = pickle.loads(path.read_bytes())
-            program = jax.export.deserialize(blob)
-        except Exception:  # a damaged or foreign entry: trace again and replace it
-            program = None
-    if program is None:
-        captured = {}
-
-        def flat(*flat_leaves):
-            dynamic_args = jax.tree.unflatten(in_tree, flat_leaves)
-            out = fn(*eqx.combine(dynamic_args, static))
-            # The output's structure by its tree definition (static fields are its auxiliary
-            # data); pickled modules do not come back whole (equinox's enumerations).
-            out_leaves, out_tree = jax.tree.flatten(out)
-            # Leaves that are Python constants (a flag diffrax keeps as a bool) ride in the record.
-            constants = {}
-            for i, leaf in enumerate(out_leaves):
-                if not eqx.is_array(leaf):
-                    if not isinstance(leaf, (bool, int, float, complex, str)):
-                        raise TypeError(f"an output leaf is a {type(leaf).__name__}")
-                    constants[i] = leaf
-            captured["structure"] = (out_tree, constants)
-            return [leaf for i, leaf in enumerate(out_leaves) if i not in constants]
-
-        shapes = [jax.ShapeDtypeStruct(leaf.shape, leaf.dtype) for leaf in leaves]
-        try:
-            program = jax.export.export(jax.jit(flat))(*shapes)
-            blob = program.serialize()
-            record = _record(blob, captured["structure"])
-        except Exception:  # host callbacks, unpicklable outputs, no serialiser: trace as usual
+    options = options or {}
+    compiled_path = _FOLDER / f"{name}-{_machine_key(key, options)}.xla"
+    loaded = _LOADED.get(compiled_path) or _read_compiled(compiled_path)
+    if loaded is None:
+        program, structure = _read_or_export(path, fn, in_tree, static, leaves)
+        if program is None:
             _REFUSED.add(name)
             return jitted(*args)
-        out_tree, constants = captured["structure"]
+        hits = _persistent_cache_hits()
         try:
-            _write_atomically(path, record)
-        except OSError:  # an unwritable folder costs the next process a trace, not this result
-            pass
+            compiled = _compiled_here(program, leaves, options)
+        except Exception:  # an entry this process cannot run (it should not happen)
+            _REFUSED.add(name)
+            return jitted(*args)
+        # An executable read back from JAX's compilation cache serialises without its machine
+        # code (`_compiled_here` keeps out of that cache; this guards it): kept only where
+        # compiled here.
+        if _persistent_cache_hits() == hits:
+            _write_compiled(compiled_path, compiled, structure)
+        loaded = compiled, structure
+    _LOADED[compiled_path] = loaded
+    compiled, (out_tree, constants) = loaded
     try:
-        outputs = program.call(*leaves)
+        # An exported program's outputs are committed to its device, and a committed argument
+        # is compiled into every program it reaches (its sharding annotated): the same values
+        # built by `jitted`, or read back from disk (`remembered`), are not, and would make
+        # those programs compile again under another key. Uncommitted copies (a few kB; waits
+        # for the results, which the caller reads next, so that a kept executable that cannot
+        # run fails here).
+        arrays = iter([_uncommitted(x) for x in compiled(*leaves)])
     except Exception:  # an entry this process cannot run (it should not happen): trace as usual
+        _LOADED.pop(compiled_path, None)
+        compiled_path.unlink(missing_ok=True)
         _REFUSED.add(name)
         return jitted(*args)
-    # An exported program's outputs are committed to its device, and a committed argument is
-    # compiled into every program it reaches (its sharding annotated): the same values built by
-    # `jitted`, or read back from disk (`remembered`), are not, and would make those programs
-    # compile again under another key. Uncommitted copies (a few kB; waits for the results,
-    # which the caller reads next).
-    arrays = iter(_uncommitted(x) for x in outputs)
     out_leaves = [
         constants[i] if i in constants else next(arrays) for i in range(out_tree.num_leaves)
     ]
     return jax.tree.unflatten(out_tree, out_leaves)
+
+
+def _read_or_export(path: Path, fn, in_tree, static, leaves):
+    """The exported program under `path` and its output structure, read back or traced (and kept);
+    `(None, None)` where the function cannot be exported (host callbacks, unpicklable outputs)."""
+    import equinox as eqx
+    import jax
+
+    if path.exists():
+        try:
+            blob, structure = pickle.loads(path.read_bytes())
+            return jax.export.deserialize(blob), structure
+        except Exception:  # a damaged or foreign entry: trace again and replace it
+            pass
+    captured = {}
+
+    def flat(*flat_leaves):
+        dynamic_args = jax.tree.unflatten(in_tree, flat_leaves)
+        out = fn(*eqx.combine(dynamic_args, static))
+        # The output's structure by its tree definition (static fields are its auxiliary data);
+        # pickled modules do not come back whole (equinox's enumerations).
+        out_leaves, out_tree = jax.tree.flatten(out)
+        # Leaves that are Python constants (a flag diffrax keeps as a bool) ride in the record.
+        constants = {}
+        for i, leaf in enumerate(out_leaves):
+            if not eqx.is_array(leaf):
+                if not isinstance(leaf, (bool, int, float, complex, str)):
+                    raise TypeError(f"an output leaf is a {type(leaf).__name__}")
+                constants[i] = leaf
+        captured["structure"] = (out_tree, constants)
+        return [leaf for i, leaf in enumerate(out_leaves) if i not in constants]
+
+    shapes = [jax.ShapeDtypeStruct(leaf.shape, leaf.dtype) for leaf in leaves]
+    try:
+        program = jax.export.export(jax.jit(flat))(*shapes)
+        record = _record(program.serialize(), captured["structure"])
+    except Exception:  # host callbacks, unpicklable outputs, no serialiser: trace as usual
+        return None, None
+    try:
+        _write_atomically(path, record)
+    except OSError:  # an unwritable folder costs the next process a trace, not this result
+        pass
+    return program, captured["structure"]
+
+
+def _compiled_here(program, leaves, options: dict):
+    """`program` compiled by XLA in this process for `leaves` with the compiler `options`: neither
+    read from JAX's persistent compilation cache nor written to it (the kept executable is the one
+    copy; an executable that cache reads back cannot be kept, as it serialises without its
+    machine code). An explicit default option gives the compilation a key of its own, apart from
+    entries an earlier version wrote there; the cache's threshold, raised for this call, keeps it
+    out. Options this XLA does not know are dropped (compiled with its defaults)."""
+    import jax
+
+    lowered = jax.jit(program.call).lower(*leaves)
+    threshold = jax.config.jax_persistent_cache_min_compile_time_secs
+    jax.config.update("jax_persistent_cache_min_compile_time_secs", float("inf"))
+    try:
+        try:
+            return lowered.compile(compiler_options={**_OWN_KEY, **options})
+        except Exception:
+            if not options:
+                raise
+            return lowered.compile(compiler_options=_OWN_KEY)
+    finally:
+        jax.config.update("jax_persistent_cache_min_compile_time_secs", threshold)
+
+
+_CACHE_HIT_EVENT = "/jax/compilation_cache/cache_hits"
+_cache_hits = [0]
+
+
+def _count_cache_hit(event: str, **_) -> None:
+    if event == _CACHE_HIT_EVENT:
+        _cache_hits[0] += 1
+
+
+@functools.cache
+def _listen_for_cache_hits() -> None:
+    import jax
+
+    jax.monitoring.register_event_listener(_count_cache_hit)
+
+
+def _persistent_cache_hits() -> int:
+    """How many programs this process has read from JAX's persistent compilation cache."""
+    _listen_for_cache_hits()
+    return _cache_hits[0]
+
+
+@functools.cache
+def _machine() -> bytes:
+    """What a compiled program is built for, besides its source: the processor's instruction set
+    extensions (an executable built for others may not run here), the backend's version, its
+    devices and XLA's flags."""
+    import platform
+
+    import jax
+
+    features = platform.processor()
+    try:
+        with open("/proc/cpuinfo") as cpuinfo:
+            features = next((line for line in cpuinfo if line.startswith("flags")), features)
+    except OSError:
+        pass
+    device = jax.devices()[0]
+    parts = (
+        platform.machine(),
+        features,
+        device.client.platform_version,
+        device.device_kind,
+        str(jax.device_count()),
+        os.environ.get("XLA_FLAGS", ""),
+    )
+    return "\n".join(parts).encode()
+
+
+def _machine_key(key: str, options: dict) -> str:
+    """The compiled program's key: the traced program's, the compiler options and the machine's
+    (`_machine`)."""
+    digest = hashlib.sha256(key.encode() + _machine())
+    digest.update(repr(sorted(options.items())).encode())
+    return digest.hexdigest()[:32]
+
+
+def _read_compiled(path: Path):
+    """The compiled program kept under `path` and its output structure, or `None` (none kept, or
+    damaged: compiled again and replaced)."""
+    if not path.exists():
+        return None
+    import jax
+    from jax._src.lax import linalg
+    from jax.experimental import serialize_executable
+
+    try:
+        executable, n_in, n_out, structure = pickle.loads(zlib.decompress(path.read_bytes()))
+        # Programs solving linear systems on the CPU call LAPACK through handlers that JAX sets
+        # up while lowering one; a program read back was never lowered in this process.
+        linalg.initialize_lapack()
+        in_tree = jax.tree.structure(((0,) * n_in, {}))
+        out_tree = jax.tree.structure([0] * n_out)
+        device = jax.devices()[0]
+        compiled = serialize_executable.deserialize_and_load(
+            executable, in_tree, out_tree, device.client, [device]
+        )
+    except Exception:
+        return None
+    return compiled, structure
+
+
+def _write_compiled(path: Path, compiled, structure) -> None:
+    """Keep `compiled` (a `jax.stages.Compiled` of a flat function) under `path`; a program that
+    does not serialise, or an unwritable folder, costs the next process its compilation only."""
+    from jax.experimental import serialize_executable
+
+    try:
+        executable, in_tree, out_tree = serialize_executable.serialize(compiled)
+        record = _record(executable, in_tree.num_leaves, out_tree.num_leaves, structure)
+        _write_atomically(path, zlib.compress(record))  # machine code: an eighth of its size
+    except Exception:
+        pass
 
 
 def _uncommitted(x):
@@ -304,8 +470,9 @@ def remembered(name: str, build, *inputs) -> Any:
 def exported_jit(name: str):
     """A decorator: the function `equinox.filter_jit`-compiled, and called outside any trace through
     `exported_call` under `name` (its traced program read from disk where the command line keeps
-    them); inside a trace (`jit`, `vmap`, `grad`) it is the compiled function, traced inline. The
-    compiled function is the decorated one's `jitted` attribute."""
+    them, compiled with `QUICK_COMPILE`: a command runs such a program once); inside a trace
+    (`jit`, `vmap`, `grad`) it is the compiled function, traced inline. The compiled function is
+    the decorated one's `jitted` attribute."""
     import equinox as eqx
     import jax
 
@@ -316,7 +483,7 @@ def exported_jit(name: str):
         def call(*args):
             if any(isinstance(leaf, jax.core.Tracer) for leaf in jax.tree.leaves(args)):
                 return jitted(*args)
-            return exported_call(name, fn, jitted, *args)
+            return exported_call(name, fn, jitted, *args, options=QUICK_COMPILE)
 
         call.jitted = jitted
         return call

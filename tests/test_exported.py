@@ -81,7 +81,7 @@ def _process(folder) -> dict:
     return run_python(_RUN, env, str(folder))
 
 
-@pytest.mark.slow  # three Python processes, each exporting or loading two solves: ~40 s
+@pytest.mark.slow  # four Python processes, each exporting or loading two solves: ~50 s
 def test_a_later_process_runs_the_exported_solve_without_tracing_it(tmp_path):
     """The default solver's explicit phase (`solve_until_stiff`), a named solver's whole solve
     (`solve`: the command line's Tsit5) and a net's fluid loads alike."""
@@ -94,6 +94,8 @@ def test_a_later_process_runs_the_exported_solve_without_tracing_it(tmp_path):
         assert run["ours"] == run["plain"] and run["succeeded"], name
     files = sorted((tmp_path / "exported").glob("*.bin"))
     assert len(files) == 3
+    executables = sorted((tmp_path / "exported").glob("*.xla"))  # each compiled, kept beside
+    assert len(executables) == 3
 
     later = _process(tmp_path)  # loads the programs: no trace of the solves, the same samples
     fluid = later.pop("fluid_loads")
@@ -103,12 +105,21 @@ def test_a_later_process_runs_the_exported_solve_without_tracing_it(tmp_path):
         assert run["ours"] == run["plain"] == first[name]["plain"], name
         assert run["steps"][0] == run["steps"][1], name
     assert sorted((tmp_path / "exported").glob("*.bin")) == files
+    assert sorted((tmp_path / "exported").glob("*.xla")) == executables
 
+    # A damaged program without its executable is traced again and replaced; a damaged
+    # executable is compiled again from its program (no trace) and replaced.
+    executable = next((tmp_path / "exported").glob("solve_until_stiff-*.xla"))
+    executable.unlink()
     damaged = next((tmp_path / "exported").glob("solve_until_stiff-*.bin"))
-    damaged.write_bytes(b"not a program")  # a damaged entry is traced again and replaced
+    damaged.write_bytes(b"not a program")
     repaired = _process(tmp_path)["solve_until_stiff"]
     assert repaired["traced"] == 1 and repaired["ours"] == first["solve_until_stiff"]["plain"]
-    assert damaged.read_bytes() != b"not a program"
+    assert damaged.read_bytes() != b"not a program" and executable.exists()
+    executable.write_bytes(b"not an executable")
+    recompiled = _process(tmp_path)["solve_until_stiff"]
+    assert recompiled["traced"] == 0 and recompiled["ours"] == first["solve_until_stiff"]["plain"]
+    assert executable.read_bytes() != b"not an executable"
 
 
 def _torque(t, theta, theta_dot):  # a user's function: its code is not part of any key
@@ -190,6 +201,94 @@ def test_an_exported_program_gives_uncommitted_arrays(tmp_path, monkeypatch):
         assert not out.committed
         assert jnp.array_equal(out, 2.0 * x)
     assert len(list(tmp_path.glob("twice-*.bin"))) == 1
+
+
+def _mixed(x):  # transcendental functions, a reduction, a root: code the emitters may differ on
+    return jnp.sum(jnp.exp(-x) * jnp.arctan2(x, 1.0 + x**2)) + jnp.sqrt(1.0 + jnp.cos(x) ** 2)
+
+
+def _kept(tmp_path, suffix):
+    return sorted(tmp_path.glob(f"*.{suffix}"))
+
+
+def test_a_kept_executable_runs_without_the_program_and_is_replaced_when_it_cannot(
+    tmp_path, monkeypatch
+):
+    monkeypatch.setattr(_exported, "_FOLDER", tmp_path)
+    monkeypatch.setattr(_exported, "_LOADED", {})
+    monkeypatch.setattr(_exported, "_REFUSED", set())
+    monkeypatch.setattr(equinox._errors, "EQX_ON_ERROR", "nan")
+    x = jnp.linspace(-2.0, 3.0, 7)
+    plain = jax.jit(_mixed)(x)
+    call = _exported.exported_call
+    # A program a command runs once, compiled for its compile time: the same bits as `jit`'s.
+    assert jnp.array_equal(
+        call("mixed", _mixed, jax.jit(_mixed), x, options=_exported.QUICK_COMPILE), plain
+    )
+    assert len(_kept(tmp_path, "bin")) == 1 and len(_kept(tmp_path, "xla")) == 1
+    assert jnp.array_equal(call("mixed", _mixed, jax.jit(_mixed), x), plain)  # default options
+    assert len(_kept(tmp_path, "bin")) == 1 and len(_kept(tmp_path, "xla")) == 2
+
+    exported = []  # a later process (nothing loaded yet) runs the kept executable alone
+    read_or_export = _exported._read_or_export
+    monkeypatch.setattr(
+        _exported, "_read_or_export", lambda *a: exported.append(1) or read_or_export(*a)
+    )
+    monkeypatch.setattr(_exported, "_LOADED", {})
+    out = call("mixed", _mixed, jax.jit(_mixed), x, options=_exported.QUICK_COMPILE)
+    assert jnp.array_equal(out, plain) and not out.committed and not exported
+
+    for path in _kept(tmp_path, "xla"):  # damaged: compiled again from the program, replaced
+        path.write_bytes(b"not an executable")
+    monkeypatch.setattr(_exported, "_LOADED", {})
+    assert jnp.array_equal(call("mixed", _mixed, jax.jit(_mixed), x), plain) and exported
+    assert sum(p.read_bytes() != b"not an executable" for p in _kept(tmp_path, "xla")) == 1
+
+    class Failing:  # an executable that loads but cannot run: removed, the call traced as usual
+        def __call__(self, *args):
+            raise RuntimeError("NOT_FOUND: Function fusion.3 not found")
+
+    monkeypatch.setattr(_exported, "_LOADED", {})
+    monkeypatch.setattr(_exported, "_read_compiled", lambda path: (Failing(), (None, {})))
+    assert jnp.array_equal(call("mixed", _mixed, jax.jit(_mixed), x), plain)
+    assert len(_kept(tmp_path, "xla")) == 1 and "mixed" in _exported._REFUSED
+
+
+def test_a_compilation_the_persistent_cache_served_is_not_kept(tmp_path, monkeypatch):
+    # Such an executable serialises without its machine code: kept, it would fail when run.
+    monkeypatch.setattr(_exported, "_FOLDER", tmp_path)
+    monkeypatch.setattr(_exported, "_LOADED", {})
+    monkeypatch.setattr(_exported, "_REFUSED", set())
+    monkeypatch.setattr(equinox._errors, "EQX_ON_ERROR", "nan")
+    hits = iter(range(100))
+    monkeypatch.setattr(_exported, "_persistent_cache_hits", lambda: next(hits))
+    x = jnp.arange(3.0)
+    assert jnp.array_equal(_exported.exported_call("twice", _twice, jax.jit(_twice), x), 2.0 * x)
+    assert len(_kept(tmp_path, "bin")) == 1 and not _kept(tmp_path, "xla")
+
+
+_CACHE_HITS = """
+    import sys
+    import jax
+    import jax.numpy as jnp
+    from origami_jax import _exported
+    jax.config.update("jax_compilation_cache_dir", sys.argv[1])
+    jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
+    f = jax.jit(lambda x: jnp.sin(x) * 3.0)
+    before = _exported._persistent_cache_hits()
+    f.lower(jnp.ones(5)).compile()
+    compiled = _exported._persistent_cache_hits()
+    jax.clear_caches()  # the same programs again: read from the persistent cache
+    f.lower(jnp.ones(5)).compile()
+    print([before, compiled, _exported._persistent_cache_hits()])
+"""
+
+
+def test_jax_reports_the_persistent_cache_hits_the_guard_counts(tmp_path):
+    # The guard above listens for JAX's monitoring event by name: this JAX must still send it.
+    env = {k: v for k, v in os.environ.items() if k != "JAX_COMPILATION_CACHE_DIR"}
+    before, compiled, read = run_python(_CACHE_HITS, env, str(tmp_path))
+    assert before == compiled and read > compiled  # (the eager `ones` are read back too)
 
 
 def test_a_remembered_value_is_built_once_per_key(tmp_path, monkeypatch):
