@@ -50,6 +50,28 @@ def test_figures_and_animation(tmp_path):
     np.testing.assert_allclose(corners[:, :, 1].max(), 600.0, atol=1e-3)
 
 
+def test_the_frames_and_the_animation_share_one_poses_program(tmp_path, monkeypatch):
+    # Their frame counts (6 and 24 in the fold command) are padded to one shape: one program to
+    # compile and to load per command, and the poses those of the unpadded states, to the bit.
+    import equinox._errors
+    import jax
+
+    from origami_jax import _exported
+
+    monkeypatch.setattr(_exported, "_FOLDER", tmp_path)
+    monkeypatch.setattr(_exported, "_LOADED", {})
+    monkeypatch.setattr(equinox._errors, "EQX_ON_ERROR", "nan")
+    monkeypatch.setattr(chain_plots, "_BATCHED_POSES", None)
+    chain = accordion(3)
+    states = np.asarray(_fake_trajectory(24).theta)
+    for n in (1, 6, 24):
+        poses = chain_plots._batched_poses(chain, states[:n])
+        expected = jax.jit(jax.vmap(chain.body_poses))(jnp.asarray(states[:n]))
+        assert poses.shape == expected.shape
+        np.testing.assert_array_equal(poses, np.asarray(expected))
+    assert len(list(tmp_path.glob("batched_poses-*.bin"))) == 1
+
+
 def test_cli_simulate_writes_trajectory_and_metrics(tmp_path, capsys):
     code = main(
         [
