@@ -43,6 +43,7 @@ import hashlib
 import io
 import os
 import pickle
+import re
 import sys
 import tempfile
 import zlib
@@ -55,6 +56,7 @@ _FOLDER: Path | None = None
 _REFUSED: set[str] = set()  # programs found not exportable in this process (a callback, ...)
 _LOADED: dict[Path, tuple] = {}  # compiled programs this process has read or built, by file
 _OWN_KEY = {"xla_embed_ir_in_executable": False}  # XLA's default, set: see `_compiled_here`
+_LAPACK_CALL = re.compile(r"custom_call\s*@lapack")  # a call, not a name in the locations
 
 QUICK_COMPILE = {"xla_cpu_use_fusion_emitters": False}
 """Compiler options for a program a command runs once (a net's fluid loads, its verdict): XLA's
@@ -245,7 +247,7 @@ def exported_call(name: str, fn, jitted, *args, options: dict | None = None) -> 
         # code (`_compiled_here` keeps out of that cache; this guards it): kept only where
         # compiled here.
         if _persistent_cache_hits() == hits:
-            _write_compiled(compiled_path, compiled, structure)
+            _write_compiled(compiled_path, compiled, structure, program)
         loaded = compiled, structure
     _LOADED[compiled_path] = loaded
     compiled, (out_tree, constants) = loaded
@@ -401,10 +403,13 @@ def _read_compiled(path: Path):
     from jax.experimental import serialize_executable
 
     try:
-        executable, n_in, n_out, structure = pickle.loads(zlib.decompress(path.read_bytes()))
+        record = pickle.loads(zlib.decompress(path.read_bytes()))
+        executable, n_in, n_out, structure, uses_lapack = record
         # Programs solving linear systems on the CPU call LAPACK through handlers that JAX sets
-        # up while lowering one; a program read back was never lowered in this process.
-        linalg.initialize_lapack()
+        # up while lowering one; a program read back was never lowered in this process. Only
+        # those: setting them up imports SciPy's BLAS (0.15-0.2 s of a warm command).
+        if uses_lapack:
+            linalg.initialize_lapack()
         in_tree = jax.tree.structure(((0,) * n_in, {}))
         out_tree = jax.tree.structure([0] * n_out)
         device = jax.devices()[0]
@@ -416,14 +421,17 @@ def _read_compiled(path: Path):
     return compiled, structure
 
 
-def _write_compiled(path: Path, compiled, structure) -> None:
-    """Keep `compiled` (a `jax.stages.Compiled` of a flat function) under `path`; a program that
-    does not serialise, or an unwritable folder, costs the next process its compilation only."""
+def _write_compiled(path: Path, compiled, structure, program) -> None:
+    """Keep `compiled` (a `jax.stages.Compiled` of a flat function, compiled from the exported
+    `program`) under `path`, with whether it calls LAPACK; a program that does not serialise, or
+    an unwritable folder, costs the next process its compilation only."""
     from jax.experimental import serialize_executable
 
     try:
         executable, in_tree, out_tree = serialize_executable.serialize(compiled)
-        record = _record(executable, in_tree.num_leaves, out_tree.num_leaves, structure)
+        uses_lapack = _LAPACK_CALL.search(program.mlir_module()) is not None
+        n_in, n_out = in_tree.num_leaves, out_tree.num_leaves
+        record = _record(executable, n_in, n_out, structure, uses_lapack)
         _write_atomically(path, zlib.compress(record))  # machine code: an eighth of its size
     except Exception:
         pass

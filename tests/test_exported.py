@@ -254,6 +254,49 @@ def test_a_kept_executable_runs_without_the_program_and_is_replaced_when_it_cann
     assert len(_kept(tmp_path, "xla")) == 1 and "mixed" in _exported._REFUSED
 
 
+def _smallest_eigenvalue(x):  # LAPACK on the CPU (`syevd`)
+    return jnp.linalg.eigvalsh(jnp.outer(x, x) + jnp.eye(x.shape[0]))[0]
+
+
+def test_lapack_is_set_up_only_for_a_kept_executable_that_calls_it(tmp_path, monkeypatch):
+    # Setting it up imports SciPy's BLAS: a warm command whose programs call no LAPACK skips it.
+    # (This test's own name holds the word: the programs' locations must not count.)
+    from jax._src.lax import linalg
+
+    monkeypatch.setattr(_exported, "_FOLDER", tmp_path)
+    monkeypatch.setattr(_exported, "_REFUSED", set())
+    monkeypatch.setattr(equinox._errors, "EQX_ON_ERROR", "nan")
+    x = jnp.arange(3.0)
+    expected = {"twice": 2.0 * x, "eigen": jax.jit(_smallest_eigenvalue)(x)}
+    functions = {"twice": _twice, "eigen": _smallest_eigenvalue}
+    for name, fn in functions.items():  # compiled and kept
+        _exported.exported_call(name, fn, jax.jit(fn), x)
+    set_up = []
+    initialize = linalg.initialize_lapack
+    monkeypatch.setattr(linalg, "initialize_lapack", lambda: set_up.append(1) or initialize())
+    for name, fn in functions.items():  # a later process: read back
+        monkeypatch.setattr(_exported, "_LOADED", {})
+        out = _exported.exported_call(name, fn, jax.jit(fn), x)
+        assert jnp.allclose(out, expected[name]) and len(set_up) == (name == "eigen"), name
+
+
+def test_a_release_ramp_is_kept_as_a_value(tmp_path, monkeypatch):
+    # A warm fold neither loads nor runs the ramp's program (nor sets up the LAPACK it calls).
+    from origami_jax.net import _pattern, load_net
+    from origami_jax.system import KOH_SOLUTION
+
+    monkeypatch.setattr(_exported, "_FOLDER", None)  # off: the program each time
+    net = load_net("corner_cube")
+    system = net.system(net.default_design(KOH_SOLUTION))
+    plain = _pattern.quasi_static_release(system)
+    runs = []
+    ramp = _pattern._quasi_static_ramp
+    monkeypatch.setattr(_pattern, "_quasi_static_ramp", lambda *a: runs.append(1) or ramp(*a))
+    monkeypatch.setattr(_exported, "_FOLDER", tmp_path)
+    assert [_pattern.quasi_static_release(system) for _ in range(3)] == [plain] * 3
+    assert len(runs) == 1 and len(list(tmp_path.glob("release_ramp_value-*.pkl"))) == 1
+
+
 def test_a_compilation_the_persistent_cache_served_is_not_kept(tmp_path, monkeypatch):
     # Such an executable serialises without its machine code: kept, it would fail when run.
     monkeypatch.setattr(_exported, "_FOLDER", tmp_path)

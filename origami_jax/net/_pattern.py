@@ -457,10 +457,15 @@ def quasi_static_release(system, about=None) -> float:
     about=about)` (three periods of its hinges' slowest mode about flat, or about the state and
     in the motions `about` gives: `AbstractPanelPattern.oscillation_state`) rounded up to two
     significant figures, so that the release recorded with a run reads as a number a person
-    would choose (40 ms for a 200 µm cube net in KOH)."""
-    with checks_as_nan():  # as `nominal_release_ramp`: keeps the solve that follows storable
-        ramp = float(_quasi_static_ramp(system, about))
-    return rounded_up(ramp)
+    would choose (40 ms for a 200 µm cube net in KOH). Where the command line keeps its
+    programs, the value itself is kept (`remembered`, under the system's and `about`'s values): a
+    warm command neither loads nor runs the ramp's program, nor sets up the LAPACK it calls."""
+
+    def ramp() -> float:
+        with checks_as_nan():  # as `nominal_release_ramp`: keeps the solve that follows storable
+            return rounded_up(float(_quasi_static_ramp(system, about)))
+
+    return remembered("release_ramp_value", ramp, system, about)
 
 
 def check_release_ramp(release_ramp) -> None:
