@@ -513,7 +513,7 @@ def test_animation_of_a_folding(tmp_path):
 def test_animation_frames_follow_the_motion():
     import numpy as np
 
-    from origami_jax.plotting.chain import _frame_indices
+    from origami_jax.plotting.frames import _frame_indices
 
     class Samples:
         # Moves in the first tenth of the time, then rests.
@@ -533,7 +533,7 @@ def test_animation_frames_follow_the_motion():
 def test_batched_frame_geometry_is_the_mechanisms_own():
     import numpy as np
 
-    from origami_jax.plotting.chain import _polygon_frames
+    from origami_jax.plotting.frames import _polygon_frames
 
     mechanism = accordion_system(HingeDesign.literature(), 2).mechanism
     states = np.array([[0.0, 0.0], [1.0, -2.0], [3.0, -3.0]])

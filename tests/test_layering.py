@@ -124,6 +124,7 @@ FUNCTION_IMPORTS: dict[str, tuple[int, str]] = {
     "cli/_design.py": (3, _CLI),
     "cli/_export.py": (4, _CLI),
     "cli/_fold.py": (11, _CLI),
+    "cli/_painter.py": (2, _CLI),
     "cli/_panels.py": (1, _CLI),
     "cli/_paper_calibration.py": (2, _CLI),
     "cli/_paper_dynamics.py": (7, _CLI),

@@ -57,15 +57,16 @@ def test_the_frames_and_the_animation_share_one_poses_program(tmp_path, monkeypa
     import jax
 
     from origami_jax import _exported
+    from origami_jax.plotting import frames as _frames
 
     monkeypatch.setattr(_exported, "_FOLDER", tmp_path)
     monkeypatch.setattr(_exported, "_LOADED", {})
     monkeypatch.setattr(equinox._errors, "EQX_ON_ERROR", "nan")
-    monkeypatch.setattr(chain_plots, "_BATCHED_POSES", None)
+    monkeypatch.setattr(_frames, "_BATCHED_POSES", None)
     chain = accordion(3)
     states = np.asarray(_fake_trajectory(24).theta)
     for n in (1, 6, 24):
-        poses = chain_plots._batched_poses(chain, states[:n])
+        poses = _frames._batched_poses(chain, states[:n])
         expected = jax.jit(jax.vmap(chain.body_poses))(jnp.asarray(states[:n]))
         assert poses.shape == expected.shape
         np.testing.assert_array_equal(poses, np.asarray(expected))

@@ -646,12 +646,13 @@ def test_fold_result_file_carries_verdict_and_contacts(corner_cube, tmp_path):
 def test_fold_figures_name_the_verdict_and_the_time_to_fold(corner_cube, tmp_path, monkeypatch):
     """`origami-jax fold`'s figures: the angle plot is titled with the verdict, its lines are the
     creases and a folded run marks its time to fold; the frame strip's titles give times without an
-    exponent. The command lists what it wrote from the names `_figures` returns."""
+    exponent. The command lists what it wrote from the names its figures' `paint` returns."""
     import dataclasses
 
     import matplotlib.pyplot as plt
 
-    from origami_jax.cli._fold import _figures
+    from origami_jax.cli._fold import _figure_job
+    from origami_jax.cli._painter import paint
     from origami_jax.simulation import FoldReport, FoldVerdict
 
     net, system = corner_cube
@@ -685,7 +686,8 @@ def test_fold_figures_name_the_verdict_and_the_time_to_fold(corner_cube, tmp_pat
     for report in (folded, jammed):
         out = tmp_path / str(report.verdict)
         out.mkdir()
-        written = _figures(system, trajectory, report, out, "corner_cube", None, animation=False)
+        job = _figure_job(system, trajectory, report, out, "corner_cube", None, animation=False)
+        written = paint(job)
         assert written == ["angles.png", "frames.png"]
         assert all((out / name).stat().st_size > 1000 for name in written)
         angles = saved[str(out / "angles.png")].axes[0]

@@ -37,6 +37,7 @@ from ._common import (
     surface_model,
     with_solver,
 )
+from ._painter import FoldFigures, Painter
 from ._panels import (
     check_explicit_steps,
     check_has_creases,
@@ -445,18 +446,22 @@ def run(args: argparse.Namespace) -> int:
         fail(text if text.startswith(f"{args.net}:") else f"{args.net}: {text}")
 
     output = OutputFolder(Path(args.out), command="fold", owns=OWNS, overwrite=args.overwrite)
-    with output:
+    # The figures' worker starts now, importing matplotlib while the net folds (`_painter`).
+    with output, Painter(enabled=args.figures != "none") as painter:
         code = _run(
             args, net, system, params, release, sampling, output, unfolded,
-            choice=choice, design=design,
+            choice=choice, design=design, painter=painter,
         )  # fmt: skip
     return code
 
 
-def _run(args, net, system, params, release, sampling, output, unfolded, *, choice, design) -> int:
+def _run(
+    args, net, system, params, release, sampling, output, unfolded, *, choice, design, painter
+) -> int:
     """Fold, assess and write into the staging folder of `output`; returns the exit code.
     `unfolded`: the file held a folded form, read as the crease pattern it unfolds to; `choice`:
-    `--solver` and its settings (`solver_choice`); `design`, the one `system` was built with."""
+    `--solver` and its settings (`solver_choice`); `design`, the one `system` was built with;
+    `painter`, the `Painter` that draws the figures while the other files are written."""
     import diffrax
     import numpy as np
 
@@ -527,6 +532,12 @@ def _run(args, net, system, params, release, sampling, output, unfolded, *, choi
         options=options,
     )
     t_end = float(trajectory.times[-1])
+    if args.figures != "none" and bool(trajectory.succeeded):
+        # Show the fold itself rather than the long rest after it.
+        t_max = None if report.time_to_fold is None else min(2.0 * report.time_to_fold, t_end)
+        animation = args.figures == "all"
+        job = _figure_job(system, trajectory, report, out, net.name, t_max, animation=animation)
+        painter.send(job)  # drawn while the files below are written
     if segments == MAX_FOLD_SEGMENTS and report.verdict == "unfinished":
         print(
             f"[fold] still moving at {t_end:g} µs, the end of the automatic extension: give a "
@@ -587,12 +598,7 @@ def _run(args, net, system, params, release, sampling, output, unfolded, *, choi
     animation = net.to_fold(trajectory, every=every, extras=extras, key_extra=key_extra)
     write_fold(out / "trajectory.fold", animation)
     print(report.summary())
-    written = ["result.json", "trajectory.csv", "trajectory.fold"]
-    if args.figures != "none" and bool(trajectory.succeeded):
-        # Show the fold itself rather than the long rest after it.
-        t_max = None if report.time_to_fold is None else min(2.0 * report.time_to_fold, t_end)
-        animation = args.figures == "all"
-        written += _figures(system, trajectory, report, out, net.name, t_max, animation=animation)
+    written = ["result.json", "trajectory.csv", "trajectory.fold", *painter.finish()]
     print(f"wrote {output.out}: {', '.join(written)}")
     return EXIT_OK if report.verdict == "folded" else EXIT_FAILED
 
@@ -618,36 +624,26 @@ def numbering(net) -> dict[str, list]:
     )
 
 
-def _figures(
-    system, trajectory, report, out: Path, name: str, t_max: float | None, *, animation: bool = True
-) -> list[str]:
-    """Draws the angle plot (titled with the verdict, the time to fold marked), a strip of 3D
-    frames and (with `animation`) a GIF into `out`; returns the names of the files written."""
-    import matplotlib.pyplot as plt
+def _figure_job(system, trajectory, report, out: Path, name: str, t_max, *, animation: bool):
+    """The fold's figures as a `FoldFigures` job (`_painter`): the angle plot titled with the
+    verdict (the time to fold marked), a strip of 3D frames and (with `animation`) a GIF, as plain
+    arrays; the frames' panel outlines are computed here (JAX), the drawing needs matplotlib only."""
+    import numpy as np
 
-    from origami_jax.plotting import chain as plots
+    from origami_jax.plotting.frames import frame_set
 
-    fig = plots.plot_joint_angles(
-        trajectory, None, title=f"{name}: {report.verdict}", name="crease", number_from=0
+    frames = frame_set(system, trajectory, 6, t_max, by_motion=True)
+    gif = frame_set(system, trajectory, 24, t_max, by_motion=True) if animation else None
+    return FoldFigures(
+        out=out,
+        title=f"{name}: {report.verdict}",
+        times=np.asarray(trajectory.times),
+        theta=np.asarray(trajectory.theta),
+        target=np.asarray(trajectory.target),
+        time_to_fold=report.time_to_fold,
+        frames=frames,
+        animation=gif,
     )
-    if report.time_to_fold is not None:
-        fig.axes[0].axvline(report.time_to_fold, color="k", lw=0.8, ls="--")
-        fig.axes[0].annotate(
-            f" folded at {report.time_to_fold:.4g} µs",
-            (report.time_to_fold, 0.02),
-            xycoords=("data", "axes fraction"),
-            fontsize=8,
-        )
-    fig.savefig(out / "angles.png", dpi=120)
-    plt.close(fig)
-    fig = plots.folding_frames(
-        system, trajectory, out / "frames.png", n_frames=6, t_max=t_max, by_motion=True
-    )
-    plt.close(fig)
-    if not animation:
-        return ["angles.png", "frames.png"]
-    plots.animate_folding(system, trajectory, out / "animation.gif", t_max=t_max)
-    return ["angles.png", "frames.png", "animation.gif"]
 
 
 def _view_annotations(net, system, trajectory, report, every: int) -> tuple[list[dict], dict]:

@@ -10,8 +10,14 @@ import matplotlib.pyplot as plt
 import numpy as np
 from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
-from .._exported import exported_jit
 from ._gif import save_gif
+from .frames import (
+    FrameSet,
+    _mechanism,
+    _polygon_frames,
+    _polygons,
+    frame_set,
+)
 
 _COLOURS = plt.rcParams["axes.prop_cycle"].by_key()["color"]
 
@@ -108,57 +114,6 @@ def _time_text(t: float) -> str:
     return f"{t:.4g}" if abs(t) < 1e4 else f"{t:.0f}"
 
 
-def _mechanism(obj):
-    """The mechanism of a `FoldingSystem`, or the mechanism itself."""
-    return getattr(obj, "mechanism", obj)
-
-
-def _poses_of(mechanism, states):
-    import jax
-
-    return jax.vmap(mechanism.body_poses)(states)
-
-
-def _batched_poses(mechanism, states):
-    # Compiled, and in a command read from disk as a traced program (`exported_jit`): tracing and
-    # lowering it took a warm `origami-jax fold` ~0.9 s per frame count. The states are padded to
-    # a multiple of `_POSE_BUCKET` rows, so that the frames strip and the animation (6 and 24
-    # frames) share one program: one compilation (~0.5 s) and one load fewer per command.
-    global _BATCHED_POSES
-    if _BATCHED_POSES is None:
-        _BATCHED_POSES = exported_jit("batched_poses")(_poses_of)
-    n = len(states)
-    padding = -n % _POSE_BUCKET
-    padded = (
-        np.concatenate([states, np.repeat(states[-1:], padding, axis=0)]) if padding else states
-    )
-    return np.asarray(_BATCHED_POSES(mechanism, padded))[:n]
-
-
-_BATCHED_POSES = None
-_POSE_BUCKET = 32
-
-
-def _polygon_frames(mechanism, states) -> list[list[np.ndarray]]:
-    """Every panel's world-frame outline (the fixed base first, if any) at each row of `states`.
-
-    The body poses of all frames come from one compiled, `vmap`ped program (one compilation per
-    mechanism structure and frame count, kept by the persistent compilation cache), instead of one
-    pass of eager JAX operations per frame (~75 ms each on 2 cores)."""
-    poses = np.asarray(_batched_poses(mechanism, np.asarray(states, dtype=float)))
-    outlines = [np.asarray(o) for o in mechanism.outlines()]
-    base = mechanism.base_outline()
-    frames = []
-    for frame in poses:
-        polygons = [o @ p[:3, :3].T + p[:3, 3] for o, p in zip(outlines, frame, strict=True)]
-        frames.append(polygons if base is None else [np.asarray(base), *polygons])
-    return frames
-
-
-def _polygons(mechanism, q) -> list[np.ndarray]:
-    return _polygon_frames(mechanism, np.asarray(q)[None])[0]
-
-
 def _limits_of(frames) -> tuple[np.ndarray, float]:
     points = np.concatenate([np.concatenate(polygons) for polygons in frames])
     centre = 0.5 * (points.max(0) + points.min(0))
@@ -170,16 +125,15 @@ def _limits(mechanism, states) -> tuple[np.ndarray, float]:
     return _limits_of(_polygon_frames(mechanism, states))
 
 
-def _colours(mechanism, n_polygons: int) -> list:
-    has_base = mechanism.base_outline() is not None
+def _colours(has_base: bool, n_polygons: int) -> list:
     colours = [_COLOURS[i % len(_COLOURS)] for i in range(n_polygons - has_base)]
     return ["0.8", *colours] if has_base else colours
 
 
-def _draw_polygons(ax, mechanism, polygons, centre, half, alpha: float = 0.8, axes: bool = True):
+def _draw_polygons(ax, has_base, polygons, centre, half, alpha: float = 0.8, axes: bool = True):
     collection = Poly3DCollection(
         polygons,
-        facecolors=_colours(mechanism, len(polygons)),
+        facecolors=_colours(has_base, len(polygons)),
         edgecolors="k",
         linewidths=0.5,
         alpha=alpha,
@@ -205,35 +159,7 @@ def draw_state(system, q, *, ax, centre=None, half=None, alpha: float = 0.8):
     polygons = _polygons(mechanism, q)
     if centre is None:
         centre, half = _limits_of([polygons])
-    _draw_polygons(ax, mechanism, polygons, centre, half, alpha)
-
-
-def _states(trajectory, indices) -> np.ndarray:
-    q = trajectory.theta if trajectory.state is None else trajectory.state[0]
-    return np.asarray(q)[indices]
-
-
-def _frame_indices(
-    trajectory, n_frames: int, t_max: float | None, *, by_motion: bool = False
-) -> np.ndarray:
-    """Sample indices of `n_frames` frames up to `t_max`: evenly spread in time, or with
-    `by_motion` evenly spread in an equal blend of time and of the distance travelled in
-    coordinates (frames crowd where the panels move fast, fewer where they rest), both ends kept."""
-    times = np.asarray(trajectory.times)
-    last = len(times) - 1 if t_max is None else int(np.searchsorted(times, t_max))
-    last = min(last, len(times) - 1)
-    if not by_motion or last < 2:
-        return np.unique(np.linspace(0, last, n_frames).round().astype(int))
-    q = _states(trajectory, np.arange(last + 1))
-    q = np.where(np.isfinite(q), q, 0.0)
-    travelled = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(q, axis=0), axis=1))])
-    elapsed = times[: last + 1] - times[0]
-    progress = 0.5 * elapsed / max(elapsed[-1], 1e-300)
-    progress = progress + 0.5 * (travelled / travelled[-1] if travelled[-1] > 0 else progress * 2)
-    wanted = np.linspace(0.0, progress[-1], n_frames)
-    indices = np.searchsorted(progress, wanted).clip(0, last)
-    indices[0], indices[-1] = 0, last
-    return np.unique(indices)
+    _draw_polygons(ax, mechanism.base_outline() is not None, polygons, centre, half, alpha)
 
 
 def folding_frames(
@@ -257,20 +183,25 @@ def folding_frames(
 
     **Returns:** the `Figure`.
     """
-    mechanism = _mechanism(system)
-    indices = _frame_indices(trajectory, n_frames, t_max, by_motion=by_motion)
-    frames = _polygon_frames(mechanism, _states(trajectory, indices))
-    centre, half = _limits_of(frames)
-    fig = plt.figure(figsize=(2.6 * len(indices), 3.0))
+    frames = frame_set(system, trajectory, n_frames, t_max, by_motion=by_motion)
+    return draw_frames(frames, path, time_scale=time_scale, time_unit=time_unit)
+
+
+def draw_frames(
+    frames: FrameSet, path: str | Path | None = None, *, time_scale=1.0, time_unit="µs"
+):
+    """`folding_frames` of a `FrameSet` (matplotlib only); saved as PNG when `path` is given.
+    **Returns:** the `Figure`."""
+    centre, half = _limits_of(frames.polygons)
+    n = len(frames.polygons)
+    fig = plt.figure(figsize=(2.6 * n, 3.0))
     # Fixed margins: a constrained layout measures every 3D axis' ticks and labels to place them,
     # most of the strip's drawing time, for the same even row of frames.
     fig.subplots_adjust(left=0.03, right=0.96, bottom=0.03, top=0.92, wspace=0.3)
-    for i, (index, polygons) in enumerate(zip(indices, frames, strict=True)):
-        ax = fig.add_subplot(1, len(indices), i + 1, projection="3d")
-        _draw_polygons(ax, mechanism, polygons, centre, half)
-        ax.set_title(
-            f"t = {_time_text(float(trajectory.times[index]) * time_scale)} {time_unit}", fontsize=9
-        )
+    for i, (time, polygons) in enumerate(zip(frames.times, frames.polygons, strict=True)):
+        ax = fig.add_subplot(1, n, i + 1, projection="3d")
+        _draw_polygons(ax, frames.has_base, polygons, centre, half)
+        ax.set_title(f"t = {_time_text(float(time) * time_scale)} {time_unit}", fontsize=9)
         ax.view_init(elev=20, azim=-30)
         ax.tick_params(labelsize=6)
     if path is not None:
@@ -305,23 +236,37 @@ def animate_folding(
 
     **Returns:** the path written.
     """
-    mechanism = _mechanism(system)
-    indices = _frame_indices(trajectory, n_frames, t_max, by_motion=True)
-    frames = _polygon_frames(mechanism, _states(trajectory, indices))
-    centre, half = _limits_of(frames)
+    frames = frame_set(system, trajectory, n_frames, t_max, by_motion=True)
+    return draw_animation(
+        frames, path, fps=fps, time_scale=time_scale, time_unit=time_unit, size=size, dpi=dpi,
+        axes=axes,
+    )  # fmt: skip
+
+
+def draw_animation(
+    frames: FrameSet,
+    path: str | Path,
+    *,
+    fps: int = 12,
+    time_scale: float = 1.0,
+    time_unit: str = "µs",
+    size: float = 4.0,
+    dpi: int = 90,
+    axes: bool = False,
+) -> Path:
+    """`animate_folding` of a `FrameSet` (matplotlib and Pillow only). **Returns:** the path."""
+    centre, half = _limits_of(frames.polygons)
     fig = plt.figure(figsize=(size, size), dpi=dpi)
     ax = fig.add_subplot(projection="3d")
-    collection = _draw_polygons(ax, mechanism, frames[0], centre, half, axes=axes)
+    collection = _draw_polygons(ax, frames.has_base, frames.polygons[0], centre, half, axes=axes)
     ax.view_init(elev=20, azim=-30)
     title = ax.set_title("")
 
     def draw(k):
-        collection.set_verts(frames[k])
-        title.set_text(
-            f"t = {_time_text(float(trajectory.times[indices[k]]) * time_scale)} {time_unit}"
-        )
+        collection.set_verts(frames.polygons[k])
+        title.set_text(f"t = {_time_text(float(frames.times[k]) * time_scale)} {time_unit}")
 
     try:
-        return save_gif(fig, draw, len(frames), path, fps=fps, hold_last_s=1.0)
+        return save_gif(fig, draw, len(frames.polygons), path, fps=fps, hold_last_s=1.0)
     finally:
         plt.close(fig)
