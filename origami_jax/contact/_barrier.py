@@ -7,6 +7,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
+from .._exported import exported_jit
 from .._validate import is_traced
 from ..system import rest_inertia
 
@@ -131,8 +132,9 @@ def with_default_damping(contact, mechanism, damping_ratio: float):
 
 # One compiled program (op by op, every new shape would compile its own): the rest poses for the
 # host geometry (the mass matrix's diagonal for the default damping is `rest_inertia`'s). Under an
-# outer trace it is traced inline.
-@eqx.filter_jit
+# outer trace it is traced inline; in a command, its program and executable are kept on disk and
+# quickly compiled (`exported_jit`: it runs once).
+@exported_jit("rest_poses")
 def _rest_poses(mechanism):
     return mechanism.body_poses(mechanism.rest_state()[0])
 
