@@ -535,8 +535,8 @@ def _run(
     if args.figures != "none" and bool(trajectory.succeeded):
         # Show the fold itself rather than the long rest after it.
         t_max = None if report.time_to_fold is None else min(2.0 * report.time_to_fold, t_end)
-        animation = args.figures == "all"
-        job = _figure_job(system, trajectory, report, out, net.name, t_max, animation=animation)
+        gif = args.figures == "all"
+        job = _figure_job(system, trajectory, report, out, net.name, t_max, animation=gif)
         painter.send(job)  # drawn while the files below are written
     if segments == MAX_FOLD_SEGMENTS and report.verdict == "unfinished":
         print(

@@ -4,7 +4,7 @@ Importing matplotlib (~0.3 s) and drawing a fold's angle plot, frames strip and 
 a fifth of a warm `origami-jax fold`. A `Painter` starts a second Python process as the fold
 begins: it imports matplotlib while the command loads and runs its programs, then waits for a
 `FoldFigures` job, plain arrays the command computed (the sample angles, each frame's panel
-outlines: `origami_jax.plotting.chain.frame_set`), and draws it while the command writes its
+outlines: `origami_jax.plotting.frames.frame_set`), and draws it while the command writes its
 result, trajectory and FOLD frames. The same `paint` draws in the command's own process where
 the second one cannot start, fails, or is not wanted (`Painter(enabled=False)`): the figures are
 the same either way.
@@ -111,8 +111,7 @@ class Painter:
                 if process.returncode == 0:
                     return json.loads(out.decode().strip().splitlines()[-1])
             except (subprocess.TimeoutExpired, ValueError, IndexError):
-                self._process = process
-                self._stop()
+                _end(process)
         return paint(job)
 
     def close(self) -> None:
@@ -123,13 +122,17 @@ class Painter:
 
     def _stop(self) -> None:
         process, self._process = self._process, None
-        if process is None:
-            return
-        if process.poll() is None:
-            process.kill()
-        for stream in (process.stdin, process.stdout):
-            _close(stream)
-        process.wait()
+        if process is not None:
+            _end(process)
+
+
+def _end(process: subprocess.Popen) -> None:
+    """Kill the worker `process` if it still runs, close its pipes and reap it."""
+    if process.poll() is None:
+        process.kill()
+    for stream in (process.stdin, process.stdout):
+        _close(stream)
+    process.wait()
 
 
 def _close(stream) -> None:
@@ -145,7 +148,7 @@ def _start_worker() -> subprocess.Popen | None:
     """A Python process running `serve`, with this package importable as here; `None` where it
     cannot start."""
     root = str(Path(__file__).resolve().parents[2])
-    env = dict(os.environ, MPLBACKEND="Agg")
+    env = dict(os.environ)  # (`serve` chooses matplotlib's Agg backend itself)
     env["PYTHONPATH"] = os.pathsep.join(filter(None, [root, env.get("PYTHONPATH")]))
     try:
         return subprocess.Popen(

@@ -14,7 +14,6 @@ from ._gif import save_gif
 from .frames import (
     FrameSet,
     _mechanism,
-    _polygon_frames,
     _polygons,
     frame_set,
 )
@@ -119,10 +118,6 @@ def _limits_of(frames) -> tuple[np.ndarray, float]:
     centre = 0.5 * (points.max(0) + points.min(0))
     half = 0.55 * float(np.max(points.max(0) - points.min(0)))
     return centre, half
-
-
-def _limits(mechanism, states) -> tuple[np.ndarray, float]:
-    return _limits_of(_polygon_frames(mechanism, states))
 
 
 def _colours(has_base: bool, n_polygons: int) -> list:

@@ -44,9 +44,9 @@ def _polygon_frames(mechanism, states) -> list[list[np.ndarray]]:
     """Every panel's world-frame outline (the fixed base first, if any) at each row of `states`.
 
     The body poses of all frames come from one compiled, `vmap`ped program (one compilation per
-    mechanism structure and frame count, kept by the persistent compilation cache), instead of one
-    pass of eager JAX operations per frame (~75 ms each on 2 cores)."""
-    poses = np.asarray(_batched_poses(mechanism, np.asarray(states, dtype=float)))
+    mechanism structure and multiple of `_POSE_BUCKET` frames, kept by the persistent compilation
+    cache), instead of one pass of eager JAX operations per frame (~75 ms each on 2 cores)."""
+    poses = _batched_poses(mechanism, np.asarray(states, dtype=float))
     outlines = [np.asarray(o) for o in mechanism.outlines()]
     base = mechanism.base_outline()
     frames = []
