@@ -23,7 +23,9 @@ function, say) makes `exported_call` trace as usual. Programs that call back int
 meters, `equinox.error_if` unless ``EQX_ON_ERROR=nan``) cannot be exported and are traced as usual.
 
 Off unless `enable_exported_programs` was called: the command line does it, in the compilation
-cache's folder (``exported/``); library users keep plain `jit` semantics. Used for the solve
+cache's folder (``exported/``). A program given compiler options (`QUICK_COMPILE`) is compiled with
+them whether or not it is kept, in memory where it is not (the library, or runtime errors that
+raise): the numbers do not depend on which. Used for the solve
 (`origami_jax.simulation.simulate` called outside any transformation: the default solver's
 explicit phase, or a named solver's whole solve), the program a warm command would otherwise spend
 most of its own time tracing, and through `exported_jit` for the smaller programs a command runs
@@ -58,11 +60,18 @@ _LOADED: dict[Path, tuple] = {}  # compiled programs this process has read or bu
 _OWN_KEY = {"xla_embed_ir_in_executable": False}  # XLA's default, set: see `_compiled_here`
 _LAPACK_CALL = re.compile(r"custom_call\s*@lapack")  # a call, not a name in the locations
 
-QUICK_COMPILE = {"xla_cpu_use_fusion_emitters": False}
-"""Compiler options for a program a command runs once (a net's fluid loads, its verdict): XLA's
-loop emitters instead of its MLIR fusion emitters compile these programs in about 60 % of the
-time, and their code, slower per step, runs once. The numbers agreed to the last bit in every
-comparison made (a cube net's fold: its verdict, seams and contact report)."""
+QUICK_COMPILE = {"xla_cpu_use_fusion_emitters": False, "xla_backend_optimization_level": 0}
+"""Compiler options for a program run once per command (a net's fluid loads, its verdict, the
+points where its panels touch): XLA's loop emitters instead of its MLIR fusion emitters, and no
+LLVM optimisation. These programs compile in about half the time (a cube net's eight: 6.0 s
+against 3.1 s on two cores), and their code, slower per step, runs once (a warm fold no slower).
+Both change the numbers in their last bits, so `exported_jit` compiles with them wherever it
+compiles (a command's kept executable, a library call outside any trace): the command line and
+the library give the same bits. Inside a trace the program is inlined, compiled with the
+enclosing one."""
+
+_IN_MEMORY: dict[tuple, tuple] = {}  # programs compiled with options outside a command, by key
+_IN_MEMORY_LIMIT = 64  # the oldest is dropped past this many (a process folding many patterns)
 
 # Code the key vouches for: this package by its source, the others by their versions.
 _LIBRARIES = ("jax", "jaxlib", "equinox", "diffrax", "optimistix", "lineax", "jaxtyping", "numpy")
@@ -210,24 +219,29 @@ def _write_atomically(path: Path, data: bytes) -> None:
 
 def exported_call(name: str, fn, jitted, *args, options: dict | None = None) -> Any:
     """`jitted(*args)`, through a program exported to disk when `enable_exported_programs` is on
-    and the arguments' static parts can be vouched for (module docstring).
+    and the arguments' static parts can be vouched for (module docstring); with `options` and
+    nothing kept on disk, compiled with them in memory (`_compiled_in_memory`), so that the
+    numbers are the kept executable's.
 
     **Arguments:** `name`: the program's name (part of the key); `fn`: the plain function (traced
     for the export); `jitted`: its `equinox.filter_jit` version (the fallback); `args`: its
-    arguments (pytrees of arrays and static values); `options`: XLA compiler options for the kept
-    executable (`QUICK_COMPILE` for a program run once; default none).
+    arguments (pytrees of arrays and static values); `options`: XLA compiler options
+    (`QUICK_COMPILE` for a program run once; default none: `jitted`'s).
     """
     import equinox as eqx
     import jax
 
-    # Raised runtime errors call back into Python, which no exported program can: don't try.
-    if _FOLDER is None or name in _REFUSED or on_error() not in ("nan", "off"):
+    # Raised runtime errors call back into Python, which no exported program can.
+    exporting = _FOLDER is not None and name not in _REFUSED and on_error() in ("nan", "off")
+    if not (exporting or options):
         return jitted(*args)
     dynamic, static = eqx.partition(args, eqx.is_array)
     leaves, in_tree = jax.tree.flatten(dynamic)
     key = _key(name, leaves, (in_tree, static))
     if key is None:
         return jitted(*args)
+    if not exporting:
+        return _compiled_in_memory(key, fn, in_tree, static, leaves, options)
     path = _FOLDER / f"{name}-{key[:32]}.bin"
     options = options or {}
     compiled_path = _FOLDER / f"{name}-{_machine_key(key, options)}.xla"
@@ -236,13 +250,13 @@ def exported_call(name: str, fn, jitted, *args, options: dict | None = None) -> 
         program, structure = _read_or_export(path, fn, in_tree, static, leaves)
         if program is None:
             _REFUSED.add(name)
-            return jitted(*args)
+            return exported_call(name, fn, jitted, *args, options=options)
         hits = _persistent_cache_hits()
         try:
             compiled = _compiled_here(program, leaves, options)
         except Exception:  # an entry this process cannot run (it should not happen)
             _REFUSED.add(name)
-            return jitted(*args)
+            return exported_call(name, fn, jitted, *args, options=options)
         # An executable read back from JAX's compilation cache serialises without its machine
         # code (`_compiled_here` keeps out of that cache; this guards it): kept only where
         # compiled here.
@@ -250,30 +264,87 @@ def exported_call(name: str, fn, jitted, *args, options: dict | None = None) -> 
             _write_compiled(compiled_path, compiled, structure, program)
         loaded = compiled, structure
     _LOADED[compiled_path] = loaded
-    compiled, (out_tree, constants) = loaded
     try:
-        # An exported program's outputs are committed to its device, and a committed argument
-        # is compiled into every program it reaches (its sharding annotated): the same values
-        # built by `jitted`, or read back from disk (`remembered`), are not, and would make
-        # those programs compile again under another key. Uncommitted copies (a few kB; waits
-        # for the results, which the caller reads next, so that a kept executable that cannot
-        # run fails here).
-        arrays = iter([_uncommitted(x) for x in compiled(*leaves)])
+        return _run(*loaded, leaves)
     except Exception:  # an entry this process cannot run (it should not happen): trace as usual
         _LOADED.pop(compiled_path, None)
         compiled_path.unlink(missing_ok=True)
         _REFUSED.add(name)
-        return jitted(*args)
+        return exported_call(name, fn, jitted, *args, options=options)
+
+
+def _run(compiled, structure, leaves):
+    """The outputs of `compiled` (a flat program, `_flat_function`) on `leaves`, in the output
+    structure `structure` it recorded."""
+    import jax
+
+    out_tree, constants = structure
+    # An exported program's outputs are committed to its device, and a committed argument is
+    # compiled into every program it reaches (its sharding annotated): the same values built by
+    # `jitted`, or read back from disk (`remembered`), are not, and would make those programs
+    # compile again under another key. Uncommitted copies (a few kB; waits for the results,
+    # which the caller reads next, so that a kept executable that cannot run fails here).
+    arrays = iter([_uncommitted(x) for x in compiled(*leaves)])
     out_leaves = [
         constants[i] if i in constants else next(arrays) for i in range(out_tree.num_leaves)
     ]
     return jax.tree.unflatten(out_tree, out_leaves)
 
 
+def _compiled_in_memory(key: str, fn, in_tree, static, leaves, options: dict):
+    """`fn` on the arguments (`leaves` in `in_tree`, with `static`) through a program compiled
+    with `options`, kept in this process under `key`: what a command's kept executable computes,
+    for a call with nothing kept on disk (the library, or runtime errors that raise)."""
+    import jax
+
+    memo = (key, tuple(sorted(options.items())))
+    entry = _IN_MEMORY.pop(memo, None)
+    if entry is None:
+        flat, structure = _flat_function(fn, in_tree, static)
+        shapes = [jax.ShapeDtypeStruct(leaf.shape, leaf.dtype) for leaf in leaves]
+        lowered = jax.jit(flat).lower(*shapes)
+        try:
+            compiled = lowered.compile(compiler_options=options)
+        except Exception:  # options this XLA does not know: its defaults
+            compiled = lowered.compile()
+        entry = compiled, structure
+    _IN_MEMORY[memo] = entry  # the most recent last
+    while len(_IN_MEMORY) > _IN_MEMORY_LIMIT:
+        del _IN_MEMORY[next(iter(_IN_MEMORY))]
+    compiled, structure = entry
+    return _run(compiled, structure, leaves)
+
+
+def _flat_function(fn, in_tree, static):
+    """`fn` as a function of its arguments' array leaves returning a list of its output's array
+    leaves, and its output structure `(out_tree, constants)` (filled in when it is traced; leaves
+    that are Python constants, such as a flag diffrax keeps as a bool, ride in `constants`)."""
+    import equinox as eqx
+    import jax
+
+    structure = [None, {}]
+
+    def flat(*flat_leaves):
+        dynamic_args = jax.tree.unflatten(in_tree, flat_leaves)
+        out = fn(*eqx.combine(dynamic_args, static))
+        # The output's structure by its tree definition (static fields are its auxiliary data);
+        # pickled modules do not come back whole (equinox's enumerations).
+        out_leaves, out_tree = jax.tree.flatten(out)
+        constants = structure[1]
+        for i, leaf in enumerate(out_leaves):
+            if not eqx.is_array(leaf):
+                if not isinstance(leaf, (bool, int, float, complex, str)):
+                    raise TypeError(f"an output leaf is a {type(leaf).__name__}")
+                constants[i] = leaf
+        structure[0] = out_tree
+        return [leaf for i, leaf in enumerate(out_leaves) if i not in constants]
+
+    return flat, structure
+
+
 def _read_or_export(path: Path, fn, in_tree, static, leaves):
     """The exported program under `path` and its output structure, read back or traced (and kept);
     `(None, None)` where the function cannot be exported (host callbacks, unpicklable outputs)."""
-    import equinox as eqx
     import jax
 
     if path.exists():
@@ -282,35 +353,19 @@ def _read_or_export(path: Path, fn, in_tree, static, leaves):
             return jax.export.deserialize(blob), structure
         except Exception:  # a damaged or foreign entry: trace again and replace it
             pass
-    captured = {}
-
-    def flat(*flat_leaves):
-        dynamic_args = jax.tree.unflatten(in_tree, flat_leaves)
-        out = fn(*eqx.combine(dynamic_args, static))
-        # The output's structure by its tree definition (static fields are its auxiliary data);
-        # pickled modules do not come back whole (equinox's enumerations).
-        out_leaves, out_tree = jax.tree.flatten(out)
-        # Leaves that are Python constants (a flag diffrax keeps as a bool) ride in the record.
-        constants = {}
-        for i, leaf in enumerate(out_leaves):
-            if not eqx.is_array(leaf):
-                if not isinstance(leaf, (bool, int, float, complex, str)):
-                    raise TypeError(f"an output leaf is a {type(leaf).__name__}")
-                constants[i] = leaf
-        captured["structure"] = (out_tree, constants)
-        return [leaf for i, leaf in enumerate(out_leaves) if i not in constants]
-
+    flat, structure = _flat_function(fn, in_tree, static)
     shapes = [jax.ShapeDtypeStruct(leaf.shape, leaf.dtype) for leaf in leaves]
     try:
         program = jax.export.export(jax.jit(flat))(*shapes)
-        record = _record(program.serialize(), captured["structure"])
+        structure = tuple(structure)
+        record = _record(program.serialize(), structure)
     except Exception:  # host callbacks, unpicklable outputs, no serialiser: trace as usual
         return None, None
     try:
         _write_atomically(path, record)
     except OSError:  # an unwritable folder costs the next process a trace, not this result
         pass
-    return program, captured["structure"]
+    return program, structure
 
 
 def _compiled_here(program, leaves, options: dict):
@@ -476,11 +531,11 @@ def remembered(name: str, build, *inputs) -> Any:
 
 
 def exported_jit(name: str):
-    """A decorator: the function `equinox.filter_jit`-compiled, and called outside any trace through
-    `exported_call` under `name` (its traced program read from disk where the command line keeps
-    them, compiled with `QUICK_COMPILE`: a command runs such a program once); inside a trace
-    (`jit`, `vmap`, `grad`) it is the compiled function, traced inline. The compiled function is
-    the decorated one's `jitted` attribute."""
+    """A decorator: the function compiled with `QUICK_COMPILE` (a program run once per command),
+    called outside any trace through `exported_call` under `name` (its traced program read from
+    disk where the command line keeps them, else compiled in memory; with arguments the key cannot
+    vouch for, `equinox.filter_jit`'s compilation); inside a trace (`jit`, `vmap`, `grad`) it is
+    the `equinox.filter_jit` function, traced inline, the decorated one's `jitted` attribute."""
     import equinox as eqx
     import jax
 

@@ -254,6 +254,72 @@ def test_a_kept_executable_runs_without_the_program_and_is_replaced_when_it_cann
     assert len(_kept(tmp_path, "xla")) == 1 and "mixed" in _exported._REFUSED
 
 
+def test_a_program_given_options_compiles_with_them_kept_or_not(tmp_path, monkeypatch):
+    # The command line keeps the executable; the library (no folder), or raised runtime errors
+    # (which no exported program can hold), compile it in memory with the same options: the
+    # same bits either way, whatever the options do to them.
+    options_seen = []
+    compile_ = jax.stages.Lowered.compile
+
+    def spy(self, compiler_options=None):
+        options_seen.append(compiler_options)
+        return compile_(self, compiler_options=compiler_options)
+
+    monkeypatch.setattr(jax.stages.Lowered, "compile", spy)
+    monkeypatch.setattr(_exported, "_IN_MEMORY", {})
+    monkeypatch.setattr(_exported, "_LOADED", {})
+    monkeypatch.setattr(_exported, "_REFUSED", set())
+    traced = []
+
+    def mixed(x):
+        traced.append(1)
+        return _mixed(x)
+
+    x = jnp.linspace(-2.0, 3.0, 7)
+    quick = _exported.QUICK_COMPILE
+    call = _exported.exported_call
+    monkeypatch.setattr(_exported, "_FOLDER", None)
+    library = [call("mixed", mixed, jax.jit(mixed), x, options=quick) for _ in range(2)]
+    assert len(traced) == 1 and options_seen == [quick]  # compiled once, with the options
+    assert len(_exported._IN_MEMORY) == 1
+    assert not library[0].committed and jnp.array_equal(library[0], library[1])
+
+    monkeypatch.setattr(_exported, "_FOLDER", tmp_path)
+    monkeypatch.setattr(equinox._errors, "EQX_ON_ERROR", "nan")
+    kept = call("mixed", mixed, jax.jit(mixed), x, options=quick)
+    assert options_seen[-1] == {**_exported._OWN_KEY, **quick} and _kept(tmp_path, "xla")
+    assert jnp.array_equal(kept, library[0])
+
+    # Runtime errors raised (as in the library's calls above): its program compiled in memory.
+    monkeypatch.setattr(equinox._errors, "EQX_ON_ERROR", "raise")
+    raised = call("mixed", mixed, jax.jit(mixed), x, options=quick)
+    assert len(options_seen) == 2 and len(_exported._IN_MEMORY) == 1
+    assert jnp.array_equal(raised, library[0]) and len(_kept(tmp_path, "xla")) == 1
+
+    # Without options the call is `jitted`'s, kept or not (the solve: its own defaults).
+    monkeypatch.setattr(_exported, "_FOLDER", None)
+    before = len(options_seen)
+    assert jnp.array_equal(call("twice", _twice, jax.jit(_twice), x), 2.0 * x)
+    assert len(_exported._IN_MEMORY) == 1 and all(o is None for o in options_seen[before:])
+
+
+def test_the_programs_kept_in_memory_are_bounded(monkeypatch):
+    monkeypatch.setattr(_exported, "_IN_MEMORY", {})
+    monkeypatch.setattr(_exported, "_FOLDER", None)
+    monkeypatch.setattr(_exported, "_IN_MEMORY_LIMIT", 2)
+    traced = []
+
+    def twice(x):
+        traced.append(x.shape)
+        return _twice(x)
+
+    for n in (1, 2, 1, 3, 2):  # the third reuses the first; the fourth drops the second
+        x = jnp.ones(n)
+        out = _exported.exported_call("twice", twice, jax.jit(twice), x, options={"a": 1})
+        assert jnp.array_equal(out, 2.0 * x)
+    assert traced == [(1,), (2,), (3,), (2,)] and len(_exported._IN_MEMORY) == 2
+
+
 def _smallest_eigenvalue(x):  # LAPACK on the CPU (`syevd`)
     return jnp.linalg.eigvalsh(jnp.outer(x, x) + jnp.eye(x.shape[0]))[0]
 
