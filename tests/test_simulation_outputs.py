@@ -52,7 +52,8 @@ def test_figures_and_animation(tmp_path):
 
 def test_the_frames_and_the_animation_share_one_poses_program(tmp_path, monkeypatch):
     # Their frame counts (6 and 24 in the fold command) are padded to one shape: one program to
-    # compile and to load per command, and the poses those of the unpadded states, to the bit.
+    # compile and to load per command, and the poses those of the unpadded states, to the bit
+    # (compiled alike: a program run once, `QUICK_COMPILE`).
     import equinox._errors
     import jax
 
@@ -67,7 +68,9 @@ def test_the_frames_and_the_animation_share_one_poses_program(tmp_path, monkeypa
     states = np.asarray(_fake_trajectory(24).theta)
     for n in (1, 6, 24):
         poses = _frames._batched_poses(chain, states[:n])
-        expected = jax.jit(jax.vmap(chain.body_poses))(jnp.asarray(states[:n]))
+        unpadded = jnp.asarray(states[:n])
+        quick = jax.jit(jax.vmap(chain.body_poses)).lower(unpadded).compile(_exported.QUICK_COMPILE)
+        expected = quick(unpadded)
         assert poses.shape == expected.shape
         np.testing.assert_array_equal(poses, np.asarray(expected))
     assert len(list(tmp_path.glob("batched_poses-*.bin"))) == 1
