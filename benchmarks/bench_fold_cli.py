@@ -16,8 +16,8 @@ Cold runs use a fresh cache folder (`ORIGAMI_JAX_CACHE`), warm runs the folder t
 filled. No peer: no other tool folds a net with plate contact from a FOLD file in one command;
 the rows record the targets' figures.
 
-Run: `python -m benchmarks --only fold_cli [--quick]` (the quick run: one warm run each; about
-3-5 minutes on 2 cores).
+Run: `python -m benchmarks --only fold_cli [--quick]` (three cold runs, each with an empty cache
+folder, and three warm runs of each case, about 5 minutes on 2 cores; the quick run: one of each).
 """
 
 import os
@@ -51,24 +51,27 @@ def _fold_wall(argv: list[str], env: dict[str, str]) -> float:
     return elapsed
 
 
-def fold_times(warm_runs: int) -> dict[str, dict[str, list[float]]]:
-    """Wall seconds of a cold run and `warm_runs` warm runs of each case, each a new process."""
+def fold_times(cold_runs: int, warm_runs: int) -> dict[str, dict[str, list[float]]]:
+    """Wall seconds of `cold_runs` cold runs (each with a cache folder of its own) and `warm_runs`
+    warm runs (with the last cold run's folder) of each case, each a new process."""
     env = {k: v for k, v in os.environ.items() if k != "JAX_COMPILATION_CACHE_DIR"}
     env["PYTHONPATH"] = str(ROOT)
     times: dict[str, dict[str, list[float]]] = {}
     with tempfile.TemporaryDirectory(prefix="bench_fold_cli_") as tmp:
         for case, flags in CASES.items():
-            env["ORIGAMI_JAX_CACHE"] = str(Path(tmp) / f"cache-{len(times)}")
             argv = [sys.executable, "-m", "origami_jax", "fold", "cube_net_01", *flags]
             argv += ["--overwrite", "--out", str(Path(tmp) / "out")]
-            cold = [_fold_wall(argv, env)]
+            cold = []
+            for run_index in range(cold_runs):
+                env["ORIGAMI_JAX_CACHE"] = str(Path(tmp) / f"cache-{len(times)}-{run_index}")
+                cold.append(_fold_wall(argv, env))
             warm = [_fold_wall(argv, env) for _ in range(warm_runs)]
             times[case] = {"cold": cold, "warm": warm}
     return times
 
 
 def run(quick: bool) -> list[Result]:
-    times = fold_times(warm_runs=1 if quick else 3)
+    times = fold_times(cold_runs=1 if quick else 3, warm_runs=1 if quick else 3)
     rows = []
     for case, runs in times.items():
         target = TARGETS_S["air"] if case == "air" else None

@@ -292,10 +292,17 @@ def additive_ccd_groups(
 
     A pair whose first advance already passes the end of the step (clear over the whole step by the
     bound) gets ``inf`` without iterating; when every pair is clear the loop does not run."""
+    return _additive_ccd(groups, None, conservative, max_iterations)
+
+
+def _additive_ccd(groups, known, conservative: float, max_iterations: int):
+    """`additive_ccd_groups`, given for each group what its caller computed already (`known`: per
+    group its pairs' clearances at the start `(k,)` and `_relative_moves`; `None`: computed
+    here)."""
     shapes, reaches, points_all, moves_all, separations = [], [], [], [], []
-    for _, start, motion, separation in groups:
+    for g, (_, start, motion, separation) in enumerate(groups):
         points = [x.reshape(x.shape[0], -1, 3) for x in start]
-        moves, reach = _relative_moves(motion)
+        moves, reach = _relative_moves(motion) if known is None else known[g][1:]
         reaches.append(reach)
         shapes.append([x.shape for x in start])
         points_all.append(points)
@@ -316,7 +323,10 @@ def additive_ccd_groups(
             gaps.append(distance_sq(*positions))
         return _clearance(jnp.concatenate(gaps), separation)
 
-    first = clearance(jnp.zeros_like(separation))
+    if known is None:
+        first = clearance(jnp.zeros_like(separation))
+    else:
+        first = jnp.concatenate([clear for clear, _, _ in known])
     target = conservative * first
     moving = reach > 0
     already = first <= 0
@@ -366,10 +376,10 @@ def earliest_impact(
     group are undecided by their first advance. Iterating a few pairs rather than every one is
     what keeps the check cheap under `vmap`, where the loop runs until the slowest member's pairs
     are done."""
-    subgroups, rest = [], []
+    subgroups, known, rest = [], [], []
     for distance_sq, start, motion, separation in groups:
         k = separation.shape[0]
-        _, reach = _relative_moves(motion)
+        moves, reach = _relative_moves(motion)
         first = _clearance(distance_sq(*start), separation)
         advance = (1 - conservative) * jnp.maximum(first, 0.0) / jnp.where(reach > 0, reach, 1.0)
         undecided = (reach > 0) & (first > 0) & (advance <= 1.0)
@@ -387,7 +397,9 @@ def earliest_impact(
                 separation[index],
             )
         )
-    toi = additive_ccd_groups(subgroups, conservative=conservative, max_iterations=max_iterations)
+        # The chosen pairs' clearances and moves, computed above: not again in the loop's setup.
+        known.append((first[index], [m[index] for m in moves], reach[index]))
+    toi = _additive_ccd(subgroups, known, conservative, max_iterations)
     earliest = jnp.min(jnp.where(toi > 0, toi, jnp.inf), initial=jnp.inf)
     for bound in rest:
         earliest = jnp.minimum(earliest, bound)
