@@ -58,7 +58,10 @@ _FOLDER: Path | None = None
 _REFUSED: set[str] = set()  # programs found not exportable in this process (a callback, ...)
 _LOADED: dict[Path, tuple] = {}  # compiled programs this process has read or built, by file
 _OWN_KEY = {"xla_embed_ir_in_executable": False}  # XLA's default, set: see `_compiled_here`
-_LAPACK_CALL = re.compile(r"custom_call\s*@lapack")  # a call, not a name in the locations
+# A LAPACK routine's name as a custom call's target in the program's bytecode (`lapack_dsyevd_ffi`;
+# read from the bytes, not the module's text, which costs a print of the whole module), not a
+# function name in the locations (a test of "lapack_is…").
+_LAPACK_CALL = re.compile(rb"lapack_[sdcz][a-z0-9]*(?:_ffi)?\b")
 
 QUICK_COMPILE = {"xla_cpu_use_fusion_emitters": False, "xla_backend_optimization_level": 0}
 """Compiler options for a program run once per command (a net's fluid loads, its verdict, the
@@ -484,7 +487,7 @@ def _write_compiled(path: Path, compiled, structure, program) -> None:
 
     try:
         executable, in_tree, out_tree = serialize_executable.serialize(compiled)
-        uses_lapack = _LAPACK_CALL.search(program.mlir_module()) is not None
+        uses_lapack = _LAPACK_CALL.search(program.mlir_module_serialized) is not None
         n_in, n_out = in_tree.num_leaves, out_tree.num_leaves
         record = _record(executable, n_in, n_out, structure, uses_lapack)
         _write_atomically(path, zlib.compress(record))  # machine code: an eighth of its size
