@@ -63,11 +63,17 @@ _OWN_KEY = {"xla_embed_ir_in_executable": False}  # XLA's default, set: see `_co
 # function name in the locations (a test of "lapack_is…").
 _LAPACK_CALL = re.compile(rb"lapack_[sdcz][a-z0-9]*(?:_ffi)?\b")
 
-QUICK_COMPILE = {"xla_cpu_use_fusion_emitters": False, "xla_backend_optimization_level": 0}
+QUICK_COMPILE = {
+    "xla_cpu_use_fusion_emitters": False,
+    "xla_backend_optimization_level": 0,
+    "xla_cpu_parallel_codegen_split_count": 1,
+}
 """Compiler options for a program run once per command (a net's fluid loads, its verdict, the
-points where its panels touch): XLA's loop emitters instead of its MLIR fusion emitters, and no
-LLVM optimisation. These programs compile in about half the time (a cube net's eight: 6.0 s
-against 3.1 s on two cores), and their code, slower per step, runs once (a warm fold no slower).
+points where its panels touch): XLA's loop emitters instead of its MLIR fusion emitters, no LLVM
+optimisation, and the program's code generated as one module rather than split for parallel
+compilation (whose overhead outweighs it on programs this small). These programs compile in about
+a third of the time (a cube net's eight: 6.0 s against 2.1 s on two cores), and their code, slower
+per step, runs once (a warm fold no slower).
 Both change the numbers in their last bits, so `exported_jit` compiles with them wherever it
 compiles (a command's kept executable, a library call outside any trace): the command line and
 the library give the same bits. Inside a trace the program is inlined, compiled with the
