@@ -386,18 +386,7 @@ def _compiled_here(program, leaves, options: dict):
     out. Options this XLA does not know are dropped (compiled with its defaults)."""
     import jax
 
-    lowered = jax.jit(program.call).lower(*leaves)
-    threshold = jax.config.jax_persistent_cache_min_compile_time_secs
-    jax.config.update("jax_persistent_cache_min_compile_time_secs", float("inf"))
-    try:
-        try:
-            return lowered.compile(compiler_options={**_OWN_KEY, **options})
-        except Exception:
-            if not options:
-                raise
-            return lowered.compile(compiler_options=_OWN_KEY)
-    finally:
-        jax.config.update("jax_persistent_cache_min_compile_time_secs", threshold)
+    return _compiled_outside_cache(jax.jit(program.call).lower(*leaves), options)
 
 
 _CACHE_HIT_EVENT = "/jax/compilation_cache/cache_hits"
@@ -510,6 +499,117 @@ def _uncommitted(x):
         return jax.device_put(np.asarray(x))
     except TypeError:
         return x
+
+
+def kept_compiled(name: str, identity, lower) -> Any:
+    """`lower().compile()` (`lower` returns a `jax.stages.Lowered` for one device), kept on disk
+    where `enable_exported_programs` keeps the programs: a later process with the same `identity`
+    reads the executable back without tracing, lowering or compiling.
+
+    **Arguments:** `name`: what is kept (part of the key); `identity`: everything that decides the
+    program besides this package's source, the libraries' versions, the configuration flags and
+    the machine (its function's inputs, static settings and argument shapes), pickled for the key
+    and refused like `exported_call`'s static parts where it holds code the key cannot vouch for
+    (then compiled as usual, nothing kept); `lower`: makes the lowering (traces the program).
+
+    **Returns:** a callable like the compiled program (its calls, `memory_analysis`), which, should
+    a kept executable fail when run, removes it and compiles the program again.
+    """
+    digest = None if _FOLDER is None else _vouched_digest(name, identity)
+    if digest is None:
+        return lower().compile()
+    path = _FOLDER / f"{name}-{_machine_key(digest.hexdigest(), {})}.xla"
+    compiled = _LOADED.get(path) or _read_compiled_call(path)
+    if compiled is None:
+        lowered = lower()
+        hits = _persistent_cache_hits()
+        compiled = _compiled_outside_cache(lowered, {})
+        if _persistent_cache_hits() == hits:  # see `exported_call`
+            _write_compiled_call(path, compiled)
+    _LOADED[path] = compiled
+    return _KeptCall(compiled, path, lower)
+
+
+class _KeptCall:
+    """A compiled program read from (or written to) disk by `kept_compiled`; one that fails when
+    run is removed and replaced by a fresh compilation, once, for every thread calling it."""
+
+    def __init__(self, compiled, path: Path, lower):
+        import threading
+
+        self._compiled, self._path, self._lower = compiled, path, lower
+        self._lock = threading.Lock()
+        self._replaced = False
+
+    def __call__(self, *args):
+        compiled = self._compiled
+        try:
+            return compiled(*args)
+        except Exception:  # a kept executable this process cannot run (it should not happen)
+            if self._replaced:
+                raise
+        with self._lock:
+            if self._compiled is compiled:
+                _LOADED.pop(self._path, None)
+                self._path.unlink(missing_ok=True)
+                self._compiled = self._lower().compile()
+                self._replaced = True
+        return self._compiled(*args)
+
+    def memory_analysis(self):
+        return self._compiled.memory_analysis()
+
+
+def _compiled_outside_cache(lowered, options: dict):
+    """`lowered` compiled with `options` (those this XLA does not know dropped), neither read from
+    JAX's persistent compilation cache nor written to it (`_compiled_here` says why)."""
+    import jax
+
+    threshold = jax.config.jax_persistent_cache_min_compile_time_secs
+    jax.config.update("jax_persistent_cache_min_compile_time_secs", float("inf"))
+    try:
+        try:
+            return lowered.compile(compiler_options={**_OWN_KEY, **options})
+        except Exception:
+            if not options:
+                raise
+            return lowered.compile(compiler_options=_OWN_KEY)
+    finally:
+        jax.config.update("jax_persistent_cache_min_compile_time_secs", threshold)
+
+
+def _write_compiled_call(path: Path, compiled) -> None:
+    """Keep `compiled` (a `jax.stages.Compiled` on one device) under `path` with its argument and
+    output tree definitions; one that does not serialise, or an unwritable folder, costs the next
+    process its compilation only."""
+    from jax.experimental import serialize_executable
+
+    try:
+        executable, in_tree, out_tree = serialize_executable.serialize(compiled)
+        _write_atomically(path, zlib.compress(_record(executable, in_tree, out_tree)))
+    except Exception:
+        pass
+
+
+def _read_compiled_call(path: Path):
+    """The compiled program `_write_compiled_call` kept under `path`, or `None` (none kept, or
+    damaged: compiled again and replaced). Programs calling LAPACK set up its handlers first."""
+    if not path.exists():
+        return None
+    import jax
+    from jax._src.lax import linalg
+    from jax.experimental import serialize_executable
+
+    try:
+        executable, in_tree, out_tree = pickle.loads(zlib.decompress(path.read_bytes()))
+        if _LAPACK_CALL.search(executable):
+            linalg.initialize_lapack()
+        device = jax.devices()[0]
+        return serialize_executable.deserialize_and_load(
+            executable, in_tree, out_tree, device.client, [device]
+        )
+    except Exception:
+        return None
 
 
 def remembered(name: str, build, *inputs) -> Any:

@@ -79,6 +79,13 @@ class Kernel:
       shape, share its traces and compiled programs. Record what the inputs mean in `settings`
       too (the engine stores `settings`, not `inputs`). Swept parameters may not take their
       names. Default: no program (the engine runs `fn`), no inputs.
+    - `program_key`: a value that decides `program` whole (what it is made of and everything it
+      closes over, by value: a pattern, its solver's options), for a program built by this
+      package. Where the command line keeps its programs on disk, `sweep` keeps the kernel's
+      compiled chunks and output shapes under it (with this package's source, the libraries'
+      versions and the machine), so that a later process neither traces nor compiles them; a key
+      holding code from outside this package and its libraries is refused (traced as usual).
+      Default `None`: traced and compiled in every process (JAX's compilation cache aside).
     - `never_raises`: `True` for a kernel that turns every bad value into its result code itself
       (as the built-in ones do), so that no `equinox.error_if` inside it can fire. `sweep` then
       traces it with equinox's checks turned into NaN: the compiled program calls nothing back into
@@ -102,6 +109,7 @@ class Kernel:
     never_raises: bool = False
     program: Callable[..., Any] | None = None
     inputs: Mapping[str, Any] = dataclasses.field(default_factory=dict)
+    program_key: Any = None
 
     def __post_init__(self):
         if self.inputs and self.program is None:

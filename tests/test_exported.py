@@ -320,6 +320,40 @@ def test_the_programs_kept_in_memory_are_bounded(monkeypatch):
     assert traced == [(1,), (2,), (3,), (2,)] and len(_exported._IN_MEMORY) == 2
 
 
+def test_a_kept_compilation_is_read_back_and_replaced_when_it_cannot_run(tmp_path, monkeypatch):
+    # `kept_compiled`: a lowering's executable kept under an identity; a later process reads it
+    # back without lowering; what the key cannot vouch for is compiled as usual and not kept.
+    monkeypatch.setattr(_exported, "_FOLDER", tmp_path)
+    monkeypatch.setattr(_exported, "_LOADED", {})
+    x = jnp.linspace(-2.0, 3.0, 7)
+    lowered = []
+
+    def lower():
+        lowered.append(1)
+        return jax.jit(_mixed).lower(x)
+
+    plain = jax.jit(_mixed)(x)
+    kept = _exported.kept_compiled("mixed", ("mixed", 7), lower)
+    assert jnp.array_equal(kept(x), plain) and len(_kept(tmp_path, "xla")) == 1
+    monkeypatch.setattr(_exported, "_LOADED", {})  # a later process
+    again = _exported.kept_compiled("mixed", ("mixed", 7), lower)
+    assert jnp.array_equal(again(x), plain) and len(lowered) == 1
+    assert again.memory_analysis() is not None
+
+    class Failing:  # an executable that loads but cannot run: removed, compiled again, once
+        def __call__(self, *args):
+            raise RuntimeError("NOT_FOUND: Function fusion.3 not found")
+
+    monkeypatch.setattr(_exported, "_LOADED", {})
+    monkeypatch.setattr(_exported, "_read_compiled_call", lambda path: Failing())
+    failing = _exported.kept_compiled("mixed", ("mixed", 7), lower)
+    assert jnp.array_equal(failing(x), plain) and jnp.array_equal(failing(x), plain)
+    assert len(lowered) == 2 and not _kept(tmp_path, "xla")
+
+    unvouched = _exported.kept_compiled("mixed", ("mixed", _torque), lower)  # a user's function
+    assert jnp.array_equal(unvouched(x), plain) and len(lowered) == 3 and not _kept(tmp_path, "xla")
+
+
 def _smallest_eigenvalue(x):  # LAPACK on the CPU (`syevd`)
     return jnp.linalg.eigvalsh(jnp.outer(x, x) + jnp.eye(x.shape[0]))[0]
 

@@ -171,6 +171,44 @@ def test_kernels_of_one_program_with_other_inputs_compile_nothing_again():
         Kernel(oscillator, name="no program", inputs={"scale": 2.0})
 
 
+def test_a_kernel_with_a_program_key_is_kept_compiled_for_a_later_process(tmp_path, monkeypatch):
+    """Where the command line keeps its programs, a kernel with a `program_key` has its chunks'
+    executable and its output shapes kept: a later process (nothing in memory) neither traces nor
+    compiles it, and gets the same numbers; without the key nothing is kept."""
+    from origami_jax import _exported
+
+    monkeypatch.setattr(_exported, "_FOLDER", tmp_path)
+    monkeypatch.setattr(_exported, "_LOADED", {})
+    traces = []
+
+    def scaled(params):
+        traces.append(1)
+        return oscillator({**params, "zeta": params["zeta"] * params["scale"]})
+
+    def kernel(key):
+        return Kernel(
+            lambda params: scaled({**params, "scale": 2.0}),
+            name="scaled",
+            output_dims={"crossings": ("level",)},
+            program=scaled,
+            inputs={"scale": 2.0},
+            program_key=key,
+        )
+
+    space = Grid({"zeta": [0.1, 0.2, 0.3], "omega": [2.0]})
+    first = sweep(kernel(("scaled", 1)), space, chunk_size=2, progress=False, traces=TraceCache())
+    assert len(traces) == 1
+    assert len(list(tmp_path.glob("sweep_chunk-*.xla"))) == 1
+    assert len(list(tmp_path.glob("sweep_shapes-*.pkl"))) == 1
+    monkeypatch.setattr(_exported, "_LOADED", {})  # a later process
+    later = sweep(kernel(("scaled", 1)), space, chunk_size=2, progress=False, traces=TraceCache())
+    assert len(traces) == 1  # read back: not traced
+    for name in ("overshoot", "rise_time", "crossings"):
+        np.testing.assert_array_equal(later[name].values, first[name].values)
+    sweep(kernel(None), space, chunk_size=2, progress=False, traces=TraceCache())
+    assert len(traces) == 2 and len(list(tmp_path.glob("sweep_chunk-*.xla"))) == 1
+
+
 def test_some_invalid_members_complete_and_are_marked_exactly():
     zeta = [0.3, -1.0, 0.5, 0.1, 2.0, 0.3, 0.0]
     omega = [1.0, 1.0, -3.0, 2.0, 1.0, 0.0, 1.0]

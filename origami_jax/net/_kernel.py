@@ -421,7 +421,7 @@ def _fold_kernel(pattern, settings: dict[str, Any], content) -> Kernel:
             ),
         }
 
-    program = fn
+    program, program_key = fn, None
     if content is not None:
         structure = {
             "solve": solve_options,
@@ -433,6 +433,15 @@ def _fold_kernel(pattern, settings: dict[str, Any], content) -> Kernel:
         }
         key = (content, value_key(structure), structure_key(inputs))
         program = _PROGRAMS.get(key, lambda: fn)
+        # Across processes: the pattern by its contents (as `kept_system` keeps its systems), the
+        # solve's options as objects (the key refuses a solver whose code it cannot vouch for).
+        program_key = (
+            "net-fold",
+            type(pattern).__name__,
+            content,
+            structure,
+            structure_key(inputs),
+        )
 
     def with_inputs(params):
         return program({**inputs, **params})
@@ -442,6 +451,7 @@ def _fold_kernel(pattern, settings: dict[str, Any], content) -> Kernel:
         fn=with_inputs,
         program=program,
         inputs=inputs,
+        program_key=program_key,
         never_raises=True,  # bad values come back as INVALID_INPUT
         name="net-fold",
         # The keys and values stores have recorded since before patterns were objects (a store

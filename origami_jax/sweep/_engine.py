@@ -61,6 +61,7 @@ import xarray as xr
 from jax.sharding import Mesh, NamedSharding
 from jax.sharding import PartitionSpec as P
 
+from .._exported import kept_compiled, remembered
 from .._kernel import Kernel, as_kernel, structure_key
 from .._runtime_errors import checks_as_nan
 from ._space import AbstractDesignSpace
@@ -507,9 +508,7 @@ def _plan(kernel: Kernel, space: AbstractDesignSpace, traces: TraceCache) -> _Pl
         signature = _signature(group, inputs, fixed)
         shapes = traces.get(kernel, ("shapes", signature))
         if shapes is None:
-            # Traced as the compiled kernel will be (checks included): its chunks reuse this trace.
-            with checks_as_nan(kernel.never_raises):
-                shapes = jax.eval_shape(plan.member_fn(group.static_values), inputs, fixed)
+            shapes = _output_shapes(plan, group, inputs, signature)
             traces.put(kernel, ("shapes", signature), shapes)
         for name, shape in shapes.items():
             if not isinstance(shape, jax.ShapeDtypeStruct):
@@ -525,6 +524,39 @@ def _plan(kernel: Kernel, space: AbstractDesignSpace, traces: TraceCache) -> _Pl
         "outputs": {n: [list(d), dt] for n, (d, _, dt) in plan.layout.items()},
     }
     return plan
+
+
+def _output_shapes(plan: _Plan, group: _Group, inputs: dict[str, Any], signature: tuple) -> dict:
+    """The shapes of one design's outputs in `group` (`jax.ShapeDtypeStruct`s by name): traced as
+    the compiled kernel will be (checks included: its chunks reuse this trace), or, for a kernel
+    with a `program_key`, read from where the command line keeps its programs."""
+    kernel = plan.kernel
+
+    def traced():
+        with checks_as_nan(kernel.never_raises):
+            shapes = jax.eval_shape(plan.member_fn(group.static_values), inputs, plan.fixed)
+        if not isinstance(shapes, Mapping):  # refused with its message below
+            return shapes
+        return {
+            name: (tuple(v.shape), str(v.dtype)) if isinstance(v, jax.ShapeDtypeStruct) else v
+            for name, v in shapes.items()
+        }
+
+    if kernel.program_key is None:
+        shapes = traced()
+    else:
+        shapes = remembered("sweep_shapes", traced, _identity(kernel, signature))
+    if not isinstance(shapes, Mapping):
+        return shapes
+    return {
+        name: jax.ShapeDtypeStruct(*v) if isinstance(v, tuple) else v for name, v in shapes.items()
+    }
+
+
+def _identity(kernel: Kernel, signature: tuple, *more) -> tuple:
+    """What decides a compiled program of `kernel` with a `program_key` (`Kernel.program_key`)
+    for a group's `signature` (`_signature`), as the key of what is kept of it on disk."""
+    return (kernel.program_key, bool(kernel.never_raises), signature, *more)
 
 
 def _encode(
@@ -636,10 +668,19 @@ class _Compiler:
             out_shardings=sharding,
         )
         fixed = jax.tree.map(lambda x: jax.ShapeDtypeStruct(x.shape, x.dtype), plan.fixed)
+
+        def lower():
+            with checks_as_nan(plan.kernel.never_raises):
+                return jitted.lower(args, fixed)
+
         start = time.perf_counter()
-        with checks_as_nan(plan.kernel.never_raises):
-            lowered = jitted.lower(args, fixed)
-        compiled = lowered.compile()
+        devices = sharding.mesh.devices.size
+        if plan.kernel.program_key is None or devices != 1:
+            compiled = lower().compile()
+        else:  # one device: kept compiled where the command line keeps its programs
+            platform = sharding.mesh.devices.flat[0].platform
+            identity = _identity(plan.kernel, _signature(group, args, plan.fixed), platform)
+            compiled = kept_compiled("sweep_chunk", identity, lower)
         self.seconds.append(time.perf_counter() - start)
         plan.traces.put(plan.kernel, key, compiled)
         return compiled
