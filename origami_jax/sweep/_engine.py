@@ -510,9 +510,6 @@ def _plan(kernel: Kernel, space: AbstractDesignSpace, traces: TraceCache) -> _Pl
         if shapes is None:
             shapes = _output_shapes(plan, group, inputs, signature)
             traces.put(kernel, ("shapes", signature), shapes)
-        for name, shape in shapes.items():
-            if not isinstance(shape, jax.ShapeDtypeStruct):
-                raise ValueError(f"output {name!r} of {kernel.name!r} is not an array.")
         group.shapes = shapes
     plan.layout = _output_layout(kernel, plan.groups)
     plan.manifest = {
@@ -532,25 +529,16 @@ def _output_shapes(plan: _Plan, group: _Group, inputs: dict[str, Any], signature
     with a `program_key`, read from where the command line keeps its programs."""
     kernel = plan.kernel
 
-    def traced():
+    def traced():  # {name: (shape, dtype)}: what `remembered` keeps
         with checks_as_nan(kernel.never_raises):
             shapes = jax.eval_shape(plan.member_fn(group.static_values), inputs, plan.fixed)
-        if not isinstance(shapes, Mapping):  # refused with its message below
-            return shapes
-        return {
-            name: (tuple(v.shape), str(v.dtype)) if isinstance(v, jax.ShapeDtypeStruct) else v
-            for name, v in shapes.items()
-        }
+        return {name: (tuple(v.shape), str(v.dtype)) for name, v in shapes.items()}
 
     if kernel.program_key is None:
         shapes = traced()
     else:
         shapes = remembered("sweep_shapes", traced, _identity(kernel, signature))
-    if not isinstance(shapes, Mapping):
-        return shapes
-    return {
-        name: jax.ShapeDtypeStruct(*v) if isinstance(v, tuple) else v for name, v in shapes.items()
-    }
+    return {name: jax.ShapeDtypeStruct(*v) for name, v in shapes.items()}
 
 
 def _identity(kernel: Kernel, signature: tuple, *more) -> tuple:
