@@ -70,6 +70,8 @@ class Kernel:
       costs spread widely and cannot be estimated ahead (adaptive solvers through contact): a
       vmapped chunk runs until its slowest member is done, and on a CPU a wider batch buys little,
       so small chunks computed side by side (`sweep`'s `workers`) finish sooner.
+    - `cpu_workers`: at most this many chunks computed at once on a CPU when its caller gives no
+      `workers` (`None`: one per core). For a kernel whose compiled chunks cannot run side by side.
     - `program`, `inputs`: for settings a user changes between sweeps of one model (the verdict's
       tolerances, the nominal design) without compiling again. `program` is the function `fn`
       is made of, `fn(params) == program({**inputs, **params})`, and `inputs` the values every
@@ -106,6 +108,7 @@ class Kernel:
     prepare: Callable[..., Mapping[str, Any]] | None = None
     cost: Callable[..., Any] | None = None
     cpu_chunk_size: int | None = None
+    cpu_workers: int | None = None
     never_raises: bool = False
     program: Callable[..., Any] | None = None
     inputs: Mapping[str, Any] = dataclasses.field(default_factory=dict)

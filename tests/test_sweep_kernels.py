@@ -109,3 +109,28 @@ def test_accordion_cost_is_the_fastest_natural_frequency_times_the_run_length():
     )
     assert base == pytest.approx(100.0 * omega, rel=1e-10)
     assert np.isinf(float(kernel.cost({"hinge_width": jnp.asarray(-1.0)})))  # invalid: last
+
+
+def test_vertex_chunks_are_computed_one_at_a_time_and_a_sweep_of_them_finishes():
+    # Two chunks of the vertex program computed at once on one CPU hung in XLA (jaxlib 0.10.2),
+    # every time for 250 vertices of one size: its kernel asks for one at a time
+    # (`Kernel.cpu_workers`), which a caller's `workers` overrides. In a fresh process, with a
+    # deadline: a hang fails the test instead of the suite.
+    import os
+
+    from .helpers import run_python
+
+    kernel = get_model("vertex-unfold")
+    assert kernel.cpu_workers == 1
+    done = run_python(
+        """
+        import json, jax
+        jax.config.update("jax_enable_x64", True)
+        from origami_jax.sweep import Grid, get_model, sweep
+        space = Grid({"n_creases": [4], "seed": [float(s) for s in range(250)]})
+        data = sweep(get_model("vertex-unfold"), space, progress=False)
+        print(json.dumps({"workers": int(data.attrs["workers"]), "n": int(data.sizes["design"])}))
+        """,
+        {k: v for k, v in os.environ.items() if k != "JAX_COMPILATION_CACHE_DIR"},
+    )
+    assert done == {"workers": 1, "n": 250}

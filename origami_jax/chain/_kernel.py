@@ -199,23 +199,26 @@ def accordion_step(
         }
 
     joint = ("joint",)
+    # Every value `fn` and `cost` close over, by value (the rest is this package's source).
+    settings = {
+        "n_flaps": n_flaps,
+        "fluid": fluid,
+        "t_end_us": t_end,
+        "n_save": n_save,
+        "rtol": rtol,
+        "atol": atol,
+        "max_steps": max_steps,
+        "stiffness_model": stiffness_model,
+        "drag_model": drag_model,
+        "solver": solver,
+        "defaults": defaults,
+    }
     return Kernel(
         fn=fn,
         never_raises=True,  # bad values come back as INVALID_INPUT
         name="accordion-step",
-        settings={
-            "n_flaps": n_flaps,
-            "fluid": fluid,
-            "t_end_us": t_end,
-            "n_save": n_save,
-            "rtol": rtol,
-            "atol": atol,
-            "max_steps": max_steps,
-            "stiffness_model": stiffness_model,
-            "drag_model": drag_model,
-            "solver": solver,
-            "defaults": defaults,
-        },
+        settings=settings,
+        program_key=("accordion-step", settings),
         parameters=ACCORDION_PARAMETERS,
         static=("n_flaps",),
         output_units={

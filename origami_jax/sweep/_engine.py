@@ -386,7 +386,11 @@ def sweep(
     devices = list(devices) if devices is not None else jax.local_devices()
     if not devices:
         raise ValueError("no devices to run on.")
-    workers = _default_workers(devices) if workers is None else int(workers)
+    if workers is None:
+        workers = _default_workers(devices)
+        if kernel.cpu_workers is not None and devices[0].platform == "cpu":
+            workers = min(workers, kernel.cpu_workers)
+    workers = int(workers)
     if out is None and jax.process_count() > 1:
         raise ValueError(
             "a sweep over several processes needs `out`, a folder every process can write to: "
@@ -685,10 +689,17 @@ class _Compiler:
         def cost(params, fixed):
             return jnp.asarray(estimate({**fixed, **params, **statics}), dtype=float).reshape(())
 
+        def lower():
+            with checks_as_nan(plan.kernel.never_raises):
+                return jax.jit(jax.vmap(cost, in_axes=(0, None))).lower(inputs, plan.fixed)
+
         start = time.perf_counter()
-        with checks_as_nan(plan.kernel.never_raises):
-            lowered = jax.jit(jax.vmap(cost, in_axes=(0, None))).lower(inputs, plan.fixed)
-        compiled_cost = lowered.compile()
+        if plan.kernel.program_key is None:
+            compiled_cost = lower().compile()
+        else:  # on the default device: kept compiled where the command line keeps its programs
+            signature = _signature(group, inputs, plan.fixed)
+            identity = _identity(plan.kernel, signature, "cost", jax.default_backend())
+            compiled_cost = kept_compiled("sweep_cost", identity, lower)
         self.seconds.append(time.perf_counter() - start)
         costs = np.asarray(compiled_cost(inputs, plan.fixed))
         return np.where(np.isfinite(costs), costs, np.inf)

@@ -135,20 +135,27 @@ def vertex_unfold(
             "result": result.astype(jnp.int32),
         }
 
+    # Every value `fn` closes over, by value (the rest is this package's source).
+    recorded = {
+        "n_creases": n_creases,
+        "closed": closed,
+        "energy": energy,
+        "p": p_default,
+        "max_steps": max_steps,
+        "max_fold_deg": max_fold_deg,
+        "descent": {f: getattr(settings, f) for f in settings.__dataclass_fields__},
+        "generator": "origami_jax.vertex.random_vertex(jax.random.key(seed), ...)",
+    }
     return Kernel(
         fn=fn,
         never_raises=True,  # bad values come back as INVALID_INPUT
         name="vertex-unfold",
-        settings={
-            "n_creases": n_creases,
-            "closed": closed,
-            "energy": energy,
-            "p": p_default,
-            "max_steps": max_steps,
-            "max_fold_deg": max_fold_deg,
-            "descent": {f: getattr(settings, f) for f in settings.__dataclass_fields__},
-            "generator": "origami_jax.vertex.random_vertex(jax.random.key(seed), ...)",
-        },
+        settings=recorded,
+        program_key=("vertex-unfold", recorded),
+        # Two chunks of this program computed at once on one CPU hung in XLA (jaxlib 0.10.2:
+        # both threads waiting for their results, no thread computing; 250 vertices of one size in
+        # chunks of 8 or 32, every time; 120 in chunks of 15 finished): one at a time.
+        cpu_workers=1,
         parameters=VERTEX_PARAMETERS,
         static=("n_creases", "closed"),
         output_units={"min_clearance": "rad", "max_abs_fold": "rad"},
