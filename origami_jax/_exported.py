@@ -56,11 +56,10 @@ from ._runtime_errors import on_error
 
 _FOLDER: Path | None = None
 _REFUSED: set[str] = set()  # programs found not exportable in this process (a callback, ...)
-_LOADED: dict[Path, tuple] = {}  # compiled programs this process has read or built, by file
+_LOADED: dict[Path, tuple] = {}  # (compiled, extra) this process has read or built, by file
 _OWN_KEY = {"xla_embed_ir_in_executable": False}  # XLA's default, set: see `_compiled_here`
-# A LAPACK routine's name as a custom call's target in the program's bytecode (`lapack_dsyevd_ffi`;
-# read from the bytes, not the module's text, which costs a print of the whole module), not a
-# function name in the locations (a test of "lapack_is…").
+# A LAPACK routine's name as a custom call's target in a serialised executable (`lapack_dsyevd_ffi`,
+# in the program it holds), not a function name in its locations (a test of "lapack_is…").
 _LAPACK_CALL = re.compile(rb"lapack_[sdcz][a-z0-9]*(?:_ffi)?\b")
 
 QUICK_COMPILE = {
@@ -270,7 +269,7 @@ def exported_call(name: str, fn, jitted, *args, options: dict | None = None) -> 
         # code (`_compiled_here` keeps out of that cache; this guards it): kept only where
         # compiled here.
         if _persistent_cache_hits() == hits:
-            _write_compiled(compiled_path, compiled, structure, program)
+            _write_compiled(compiled_path, compiled, structure)
         loaded = compiled, structure
     _LOADED[compiled_path] = loaded
     try:
@@ -311,12 +310,7 @@ def _compiled_in_memory(key: str, fn, in_tree, static, leaves, options: dict):
     if entry is None:
         flat, structure = _flat_function(fn, in_tree, static)
         shapes = [jax.ShapeDtypeStruct(leaf.shape, leaf.dtype) for leaf in leaves]
-        lowered = jax.jit(flat).lower(*shapes)
-        try:
-            compiled = lowered.compile(compiler_options=options)
-        except Exception:  # options this XLA does not know: its defaults
-            compiled = lowered.compile()
-        entry = compiled, structure
+        entry = _compiled_with(jax.jit(flat).lower(*shapes), options), structure
     _IN_MEMORY[memo] = entry  # the most recent last
     while len(_IN_MEMORY) > _IN_MEMORY_LIMIT:
         del _IN_MEMORY[next(iter(_IN_MEMORY))]
@@ -447,8 +441,8 @@ def _machine_key(key: str, options: dict) -> str:
 
 
 def _read_compiled(path: Path):
-    """The compiled program kept under `path` and its output structure, or `None` (none kept, or
-    damaged: compiled again and replaced)."""
+    """The compiled program `_write_compiled` kept under `path` and what was kept with it, or
+    `None` (none kept, or damaged: compiled again and replaced)."""
     if not path.exists():
         return None
     import jax
@@ -457,34 +451,32 @@ def _read_compiled(path: Path):
 
     try:
         record = pickle.loads(zlib.decompress(path.read_bytes()))
-        executable, n_in, n_out, structure, uses_lapack = record
+        executable, in_tree, out_tree, uses_lapack, extra = record
         # Programs solving linear systems on the CPU call LAPACK through handlers that JAX sets
         # up while lowering one; a program read back was never lowered in this process. Only
         # those: setting them up imports SciPy's BLAS (0.15-0.2 s of a warm command).
         if uses_lapack:
             linalg.initialize_lapack()
-        in_tree = jax.tree.structure(((0,) * n_in, {}))
-        out_tree = jax.tree.structure([0] * n_out)
         device = jax.devices()[0]
         compiled = serialize_executable.deserialize_and_load(
             executable, in_tree, out_tree, device.client, [device]
         )
     except Exception:
         return None
-    return compiled, structure
+    return compiled, extra
 
 
-def _write_compiled(path: Path, compiled, structure, program) -> None:
-    """Keep `compiled` (a `jax.stages.Compiled` of a flat function, compiled from the exported
-    `program`) under `path`, with whether it calls LAPACK; a program that does not serialise, or
+def _write_compiled(path: Path, compiled, extra=None) -> None:
+    """Keep `compiled` (a `jax.stages.Compiled` on one device) under `path`, with its argument and
+    output tree definitions, whether it calls LAPACK (a custom call's target in its executable)
+    and `extra` (an exported program's output structure); a program that does not serialise, or
     an unwritable folder, costs the next process its compilation only."""
     from jax.experimental import serialize_executable
 
     try:
         executable, in_tree, out_tree = serialize_executable.serialize(compiled)
-        uses_lapack = _LAPACK_CALL.search(program.mlir_module_serialized) is not None
-        n_in, n_out = in_tree.num_leaves, out_tree.num_leaves
-        record = _record(executable, n_in, n_out, structure, uses_lapack)
+        uses_lapack = _LAPACK_CALL.search(executable) is not None
+        record = _record(executable, in_tree, out_tree, uses_lapack, extra)
         _write_atomically(path, zlib.compress(record))  # machine code: an eighth of its size
     except Exception:
         pass
@@ -519,15 +511,15 @@ def kept_compiled(name: str, identity, lower) -> Any:
     if digest is None:
         return lower().compile()
     path = _FOLDER / f"{name}-{_machine_key(digest.hexdigest(), {})}.xla"
-    compiled = _LOADED.get(path) or _read_compiled_call(path)
-    if compiled is None:
+    loaded = _LOADED.get(path) or _read_compiled(path)
+    if loaded is None:
         lowered = lower()
         hits = _persistent_cache_hits()
-        compiled = _compiled_outside_cache(lowered, {})
+        loaded = _compiled_outside_cache(lowered, {}), None
         if _persistent_cache_hits() == hits:  # see `exported_call`
-            _write_compiled_call(path, compiled)
-    _LOADED[path] = compiled
-    return _KeptCall(compiled, path, lower)
+            _write_compiled(path, loaded[0])
+    _LOADED[path] = loaded
+    return _KeptCall(loaded[0], path, lower)
 
 
 class _KeptCall:
@@ -568,48 +560,20 @@ def _compiled_outside_cache(lowered, options: dict):
     threshold = jax.config.jax_persistent_cache_min_compile_time_secs
     jax.config.update("jax_persistent_cache_min_compile_time_secs", float("inf"))
     try:
-        try:
-            return lowered.compile(compiler_options={**_OWN_KEY, **options})
-        except Exception:
-            if not options:
-                raise
-            return lowered.compile(compiler_options=_OWN_KEY)
+        return _compiled_with(lowered, options, base=_OWN_KEY)
     finally:
         jax.config.update("jax_persistent_cache_min_compile_time_secs", threshold)
 
 
-def _write_compiled_call(path: Path, compiled) -> None:
-    """Keep `compiled` (a `jax.stages.Compiled` on one device) under `path` with its argument and
-    output tree definitions; one that does not serialise, or an unwritable folder, costs the next
-    process its compilation only."""
-    from jax.experimental import serialize_executable
-
+def _compiled_with(lowered, options: dict, base: dict | None = None):
+    """`lowered` compiled with the compiler options `base` and `options`, or, where this XLA does not
+    know one of `options`, with `base` alone (its defaults)."""
     try:
-        executable, in_tree, out_tree = serialize_executable.serialize(compiled)
-        _write_atomically(path, zlib.compress(_record(executable, in_tree, out_tree)))
+        return lowered.compile(compiler_options={**(base or {}), **options})
     except Exception:
-        pass
-
-
-def _read_compiled_call(path: Path):
-    """The compiled program `_write_compiled_call` kept under `path`, or `None` (none kept, or
-    damaged: compiled again and replaced). Programs calling LAPACK set up its handlers first."""
-    if not path.exists():
-        return None
-    import jax
-    from jax._src.lax import linalg
-    from jax.experimental import serialize_executable
-
-    try:
-        executable, in_tree, out_tree = pickle.loads(zlib.decompress(path.read_bytes()))
-        if _LAPACK_CALL.search(executable):
-            linalg.initialize_lapack()
-        device = jax.devices()[0]
-        return serialize_executable.deserialize_and_load(
-            executable, in_tree, out_tree, device.client, [device]
-        )
-    except Exception:
-        return None
+        if not options:
+            raise
+        return lowered.compile(compiler_options=base)
 
 
 def remembered(name: str, build, *inputs) -> Any:

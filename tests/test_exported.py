@@ -345,7 +345,7 @@ def test_a_kept_compilation_is_read_back_and_replaced_when_it_cannot_run(tmp_pat
             raise RuntimeError("NOT_FOUND: Function fusion.3 not found")
 
     monkeypatch.setattr(_exported, "_LOADED", {})
-    monkeypatch.setattr(_exported, "_read_compiled_call", lambda path: Failing())
+    monkeypatch.setattr(_exported, "_read_compiled", lambda path: (Failing(), None))
     failing = _exported.kept_compiled("mixed", ("mixed", 7), lower)
     assert jnp.array_equal(failing(x), plain) and jnp.array_equal(failing(x), plain)
     assert len(lowered) == 2 and not _kept(tmp_path, "xla")
