@@ -17,7 +17,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
-from .._exported import exported_call
+from .._exported import SOLVE_COMPILE, exported_call
 from .._runtime_errors import checks_as_nan
 from .._validate import check_finite, is_traced
 from ..system import FoldingSystem, HingeDrag
@@ -537,6 +537,7 @@ def _solve_lazily(system: FoldingSystem, inputs: AbstractInput, span, y0, ts, ho
             y0,
             ts,
             how,
+            options=SOLVE_COMPILE,
         )
     if not bool(start.turned) or not float(start.t) < float(span[1]):
         return explicit
@@ -1009,7 +1010,7 @@ def simulate(
     elif pad:
         # A top-level call with a named solver (the command line's Tsit5): its traced program
         # from disk where it was exported before, as the default solver's explicit phase.
-        solve = functools.partial(exported_call, "solve", _solve, _solve_jit)
+        solve = functools.partial(exported_call, "solve", _solve, _solve_jit, options=SOLVE_COMPILE)
     else:
         solve = _solve_jit
     try:
