@@ -259,7 +259,7 @@ def exported_call(name: str, fn, jitted, *args, options: dict | None = None) -> 
     if key is None:
         return jitted(*args)
     if not exporting:
-        return _compiled_in_memory(key, fn, in_tree, static, leaves, options)
+        return _compiled_in_memory(name, key, fn, in_tree, static, leaves, options)
     path = _FOLDER / f"{name}-{key[:32]}.bin"
     options = options or {}
     compiled_path = _FOLDER / f"{name}-{_machine_key(key, options)}.xla"
@@ -309,13 +309,14 @@ def _run(compiled, structure, leaves):
     return jax.tree.unflatten(out_tree, out_leaves)
 
 
-def _compiled_in_memory(key: str, fn, in_tree, static, leaves, options: dict):
+def _compiled_in_memory(name: str, key: str, fn, in_tree, static, leaves, options: dict):
     """`fn` on the arguments (`leaves` in `in_tree`, with `static`) through a program compiled
-    with `options`, kept in this process under `key`: what a command's kept executable computes,
-    for a call with nothing kept on disk (the library, or runtime errors that raise)."""
+    with `options`, kept in this process under `(name, key, options)`: what a command's kept
+    executable computes, for a call with nothing kept on disk (the library, or runtime errors
+    that raise)."""
     import jax
 
-    memo = (key, tuple(sorted(options.items())))
+    memo = (name, key, tuple(sorted(options.items())))
     entry = _IN_MEMORY.pop(memo, None)
     if entry is None:
         flat, structure = _flat_function(fn, in_tree, static)
