@@ -49,6 +49,7 @@ import re
 import sys
 import tempfile
 import zlib
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -321,7 +322,7 @@ def _compiled_in_memory(name: str, key: str, fn, in_tree, static, leaves, option
     if entry is None:
         flat, structure = _flat_function(fn, in_tree, static)
         shapes = [jax.ShapeDtypeStruct(leaf.shape, leaf.dtype) for leaf in leaves]
-        entry = _compiled_with(jax.jit(flat).lower(*shapes), options), structure
+        entry = compiled_with(jax.jit(flat).lower(*shapes), options), structure
     _IN_MEMORY[memo] = entry  # the most recent last
     while len(_IN_MEMORY) > _IN_MEMORY_LIMIT:
         del _IN_MEMORY[next(iter(_IN_MEMORY))]
@@ -504,43 +505,46 @@ def _uncommitted(x):
         return x
 
 
-def kept_compiled(name: str, identity, lower) -> Any:
-    """`lower().compile()` (`lower` returns a `jax.stages.Lowered` for one device), kept on disk
-    where `enable_exported_programs` keeps the programs: a later process with the same `identity`
-    reads the executable back without tracing, lowering or compiling.
+def kept_compiled(name: str, identity, lower, options: Mapping[str, Any] | None = None) -> Any:
+    """`lower().compile()` (`lower` returns a `jax.stages.Lowered` for one device), with the compiler
+    options `options` (`compiled_with`), kept on disk where `enable_exported_programs` keeps the
+    programs: a later process with the same `identity` and options reads the executable back
+    without tracing, lowering or compiling.
 
     **Arguments:** `name`: what is kept (part of the key); `identity`: everything that decides the
     program besides this package's source, the libraries' versions, the configuration flags and
     the machine (its function's inputs, static settings and argument shapes), pickled for the key
     and refused like `exported_call`'s static parts where it holds code the key cannot vouch for
-    (then compiled as usual, nothing kept); `lower`: makes the lowering (traces the program).
+    (then compiled as usual, nothing kept); `lower`: makes the lowering (traces the program);
+    `options`: XLA compiler options (default none: XLA's defaults).
 
     **Returns:** a callable like the compiled program (its calls, `memory_analysis`), which, should
     a kept executable fail when run, removes it and compiles the program again.
     """
+    options = dict(options or {})
     digest = None if _FOLDER is None else _vouched_digest(name, identity)
     if digest is None:
-        return lower().compile()
-    path = _FOLDER / f"{name}-{_machine_key(digest.hexdigest(), {})}.xla"
+        return compiled_with(lower(), options)
+    path = _FOLDER / f"{name}-{_machine_key(digest.hexdigest(), options)}.xla"
     loaded = _LOADED.get(path) or _read_compiled(path)
     if loaded is None:
         lowered = lower()
         hits = _persistent_cache_hits()
-        loaded = _compiled_outside_cache(lowered, {}), None
+        loaded = _compiled_outside_cache(lowered, options), None
         if _persistent_cache_hits() == hits:  # see `exported_call`
             _write_compiled(path, loaded[0])
     _LOADED[path] = loaded
-    return _KeptCall(loaded[0], path, lower)
+    return _KeptCall(loaded[0], path, lambda: compiled_with(lower(), options))
 
 
 class _KeptCall:
     """A compiled program read from (or written to) disk by `kept_compiled`; one that fails when
     run is removed and replaced by a fresh compilation, once, for every thread calling it."""
 
-    def __init__(self, compiled, path: Path, lower):
+    def __init__(self, compiled, path: Path, compile_again):
         import threading
 
-        self._compiled, self._path, self._lower = compiled, path, lower
+        self._compiled, self._path, self._compile_again = compiled, path, compile_again
         self._lock = threading.Lock()
         self._replaced = False
 
@@ -555,7 +559,7 @@ class _KeptCall:
             if self._compiled is compiled:
                 _LOADED.pop(self._path, None)
                 self._path.unlink(missing_ok=True)
-                self._compiled = self._lower().compile()
+                self._compiled = self._compile_again()
                 self._replaced = True
         return self._compiled(*args)
 
@@ -571,14 +575,15 @@ def _compiled_outside_cache(lowered, options: dict):
     threshold = jax.config.jax_persistent_cache_min_compile_time_secs
     jax.config.update("jax_persistent_cache_min_compile_time_secs", float("inf"))
     try:
-        return _compiled_with(lowered, options, base=_OWN_KEY)
+        return compiled_with(lowered, options, base=_OWN_KEY)
     finally:
         jax.config.update("jax_persistent_cache_min_compile_time_secs", threshold)
 
 
-def _compiled_with(lowered, options: dict, base: dict | None = None):
-    """`lowered` compiled with the compiler options `base` and `options`, or, where this XLA does not
-    know one of `options`, with `base` alone (its defaults)."""
+def compiled_with(lowered, options: Mapping[str, Any] | None, base: dict | None = None):
+    """`lowered` (a `jax.stages.Lowered`) compiled with the compiler options `base` and `options`,
+    or, where this XLA does not know one of `options`, with `base` alone (its defaults)."""
+    options = dict(options or {})
     try:
         return lowered.compile(compiler_options={**(base or {}), **options})
     except Exception:

@@ -88,6 +88,9 @@ class Kernel:
       versions and the machine), so that a later process neither traces nor compiles them; a key
       holding code from outside this package and its libraries is refused (traced as usual).
       Default `None`: traced and compiled in every process (JAX's compilation cache aside).
+    - `compiler_options`: XLA compiler options for the kernel's compiled chunks (default `None`:
+      XLA's). The net fold kernel with an adaptive solver gives `SOLVE_COMPILE` (XLA's loop
+      emitters): its chunk of a cube net compiles in about 60 % of the time and runs as fast.
     - `never_raises`: `True` for a kernel that turns every bad value into its result code itself
       (as the built-in ones do), so that no `equinox.error_if` inside it can fire. `sweep` then
       traces it with equinox's checks turned into NaN: the compiled program calls nothing back into
@@ -113,6 +116,7 @@ class Kernel:
     program: Callable[..., Any] | None = None
     inputs: Mapping[str, Any] = dataclasses.field(default_factory=dict)
     program_key: Any = None
+    compiler_options: Mapping[str, Any] | None = None
 
     def __post_init__(self):
         if self.inputs and self.program is None:

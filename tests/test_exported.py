@@ -353,6 +353,24 @@ def test_a_kept_compilation_is_read_back_and_replaced_when_it_cannot_run(tmp_pat
     unvouched = _exported.kept_compiled("mixed", ("mixed", _torque), lower)  # a user's function
     assert jnp.array_equal(unvouched(x), plain) and len(lowered) == 3 and not _kept(tmp_path, "xla")
 
+    # Compiler options are part of the key: the loop emitters' executable is kept apart, compiled
+    # with its options (the same values to round-off).
+    monkeypatch.undo()  # the failing reader above
+    monkeypatch.setattr(_exported, "_FOLDER", tmp_path)
+    monkeypatch.setattr(_exported, "_LOADED", {})
+    seen = []
+    real = _exported.compiled_with
+
+    def compiled_with(lowered, options, base=None):
+        seen.append(dict(options or {}))
+        return real(lowered, options, base)
+
+    monkeypatch.setattr(_exported, "compiled_with", compiled_with)
+    files = set(_kept(tmp_path, "xla"))
+    quick = _exported.kept_compiled("mixed", ("mixed", 7), lower, _exported.SOLVE_COMPILE)
+    assert jnp.allclose(quick(x), plain, rtol=1e-14, atol=0)
+    assert seen == [_exported.SOLVE_COMPILE] and len(set(_kept(tmp_path, "xla")) - files) == 1
+
 
 def _smallest_eigenvalue(x):  # LAPACK on the CPU (`syevd`)
     return jnp.linalg.eigvalsh(jnp.outer(x, x) + jnp.eye(x.shape[0]))[0]

@@ -61,7 +61,7 @@ import xarray as xr
 from jax.sharding import Mesh, NamedSharding
 from jax.sharding import PartitionSpec as P
 
-from .._exported import kept_compiled, remembered
+from .._exported import compiled_with, kept_compiled, remembered
 from .._kernel import Kernel, as_kernel, structure_key
 from .._runtime_errors import checks_as_nan
 from ._space import AbstractDesignSpace
@@ -667,12 +667,13 @@ class _Compiler:
 
         start = time.perf_counter()
         devices = sharding.mesh.devices.size
+        options = plan.kernel.compiler_options
         if plan.kernel.program_key is None or devices != 1:
-            compiled = lower().compile()
+            compiled = compiled_with(lower(), options)
         else:  # one device: kept compiled where the command line keeps its programs
             platform = sharding.mesh.devices.flat[0].platform
             identity = _identity(plan.kernel, _signature(group, args, plan.fixed), platform)
-            compiled = kept_compiled("sweep_chunk", identity, lower)
+            compiled = kept_compiled("sweep_chunk", identity, lower, options)
         self.seconds.append(time.perf_counter() - start)
         plan.traces.put(plan.kernel, key, compiled)
         return compiled
