@@ -89,8 +89,9 @@ class Kernel:
       holding code from outside this package and its libraries is refused (traced as usual).
       Default `None`: traced and compiled in every process (JAX's compilation cache aside).
     - `compiler_options`: XLA compiler options for the kernel's compiled chunks (default `None`:
-      XLA's). The net fold kernel with an adaptive solver gives `SOLVE_COMPILE` (XLA's loop
-      emitters): its chunk of a cube net compiles in about 60 % of the time and runs as fast.
+      XLA's). The accordion's kernel and the net fold kernel with an adaptive solver give
+      `SOLVE_COMPILE` (XLA's loop emitters): a chunk of cube nets compiles in about 60 % of the
+      time and runs as fast, the accordion's in 70–90 %.
     - `never_raises`: `True` for a kernel that turns every bad value into its result code itself
       (as the built-in ones do), so that no `equinox.error_if` inside it can fire. `sweep` then
       traces it with equinox's checks turned into NaN: the compiled program calls nothing back into
