@@ -542,7 +542,18 @@ def _solve_lazily(system: FoldingSystem, inputs: AbstractInput, span, y0, ts, ho
     if not bool(start.turned) or not float(start.t) < float(span[1]):
         return explicit
     with checks_as_nan():
-        implicit = _solve_from_switch_jit(system, inputs, span[1], ts, how, start)
+        implicit = exported_call(
+            "solve_from_switch",
+            _solve_from_switch,
+            _solve_from_switch_jit,
+            system,
+            inputs,
+            span[1],
+            ts,
+            how,
+            start,
+            options=SOLVE_COMPILE,
+        )
     return _stitched(explicit, implicit, ts, start.t)
 
 
