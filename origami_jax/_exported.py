@@ -81,9 +81,10 @@ enclosing one."""
 
 SOLVE_COMPILE = {"xla_cpu_use_fusion_emitters": False}
 """Compiler options for a top-level adaptive solve (`simulate` called outside any transformation
-with a diffrax solver: a command's fold, a script's first result): XLA's loop emitters instead of
-its MLIR fusion emitters, LLVM's optimisation kept. A cube net's fold (plate contact, Tsit5)
-compiles in about two thirds of the time (8.8 s against 12.8 s, 7.4 against 10.9 on two loaded
+with a diffrax solver: a command's fold, a script's first result, both phases of the default
+solver) and for the sweep kernels that run one (`Kernel.compiler_options`): XLA's loop emitters
+instead of its MLIR fusion emitters, LLVM's optimisation kept. A cube net's fold (plate contact,
+Tsit5) compiles in about two thirds of the time (8.8 s against 12.8 s, 7.4 against 10.9 on two loaded
 cores) and runs within a few per cent as fast (0–7 %, measured interleaved). The fixed-step engine
 (`ImplicitStep`) keeps XLA's defaults: its programs compiled no sooner with these and ran 7–10 %
 slower. Like `QUICK_COMPILE`, applied wherever the solve compiles at the top level, the command
