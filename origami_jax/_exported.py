@@ -83,9 +83,9 @@ SOLVE_COMPILE = {"xla_cpu_use_fusion_emitters": False}
 """Compiler options for a top-level adaptive solve (`simulate` called outside any transformation
 with a diffrax solver: a command's fold, a script's first result, both phases of the default
 solver) and for the sweep kernels that run one (`Kernel.compiler_options`): XLA's loop emitters
-instead of its MLIR fusion emitters, LLVM's optimisation kept. A cube net's fold (plate contact,
-Tsit5) compiles in about two thirds of the time (8.8 s against 12.8 s, 7.4 against 10.9 on two loaded
-cores) and runs within a few per cent as fast (0–7 %, measured interleaved). The fixed-step engine
+instead of its MLIR fusion emitters, LLVM's optimisation kept. A cube net's fold (plate
+contact, Tsit5) compiles in about two thirds of the time (8.8 s against 12.8 s, 7.4 against 10.9
+on two loaded cores) and runs within a few per cent as fast (0–7 %, measured interleaved). The fixed-step engine
 (`ImplicitStep`) keeps XLA's defaults: its programs compiled no sooner with these and ran 7–10 %
 slower. Like `QUICK_COMPILE`, applied wherever the solve compiles at the top level, the command
 line's kept executable and the library's call alike, so both give the same bits."""
@@ -507,8 +507,8 @@ def _uncommitted(x):
 
 
 def kept_compiled(name: str, identity, lower, options: Mapping[str, Any] | None = None) -> Any:
-    """`lower().compile()` (`lower` returns a `jax.stages.Lowered` for one device), with the compiler
-    options `options` (`compiled_with`), kept on disk where `enable_exported_programs` keeps the
+    """`lower().compile()` (`lower` returns a `jax.stages.Lowered` for one device), with the
+    compiler options `options` (`compiled_with`), kept on disk where `enable_exported_programs` keeps the
     programs: a later process with the same `identity` and options reads the executable back
     without tracing, lowering or compiling.
 
