@@ -85,10 +85,11 @@ with a diffrax solver: a command's fold, a script's first result, both phases of
 solver) and for the sweep kernels that run one (`Kernel.compiler_options`): XLA's loop emitters
 instead of its MLIR fusion emitters, LLVM's optimisation kept. A cube net's fold (plate
 contact, Tsit5) compiles in about two thirds of the time (8.8 s against 12.8 s, 7.4 against 10.9
-on two loaded cores) and runs within a few per cent as fast (0–7 %, measured interleaved). The fixed-step engine
-(`ImplicitStep`) keeps XLA's defaults: its programs compiled no sooner with these and ran 7–10 %
-slower. Like `QUICK_COMPILE`, applied wherever the solve compiles at the top level, the command
-line's kept executable and the library's call alike, so both give the same bits."""
+on two loaded cores) and runs within a few per cent as fast (0–7 %, measured interleaved). The
+fixed-step engine (`ImplicitStep`) keeps XLA's defaults: its programs compiled no sooner with
+these and ran 7–10 % slower. Like `QUICK_COMPILE`, applied wherever the solve compiles at the top
+level, the command line's kept executable and the library's call alike, so both give the same
+bits."""
 
 _IN_MEMORY: dict[tuple, tuple] = {}  # programs compiled with options outside a command, by key
 _IN_MEMORY_LIMIT = 64  # the oldest is dropped past this many (a process folding many patterns)
