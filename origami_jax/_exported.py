@@ -509,9 +509,9 @@ def _uncommitted(x):
 
 def kept_compiled(name: str, identity, lower, options: Mapping[str, Any] | None = None) -> Any:
     """`lower().compile()` (`lower` returns a `jax.stages.Lowered` for one device), with the
-    compiler options `options` (`compiled_with`), kept on disk where `enable_exported_programs` keeps the
-    programs: a later process with the same `identity` and options reads the executable back
-    without tracing, lowering or compiling.
+    compiler options `options` (`compiled_with`), kept on disk where `enable_exported_programs`
+    keeps the programs: a later process with the same `identity` and options reads the executable
+    back without tracing, lowering or compiling.
 
     **Arguments:** `name`: what is kept (part of the key); `identity`: everything that decides the
     program besides this package's source, the libraries' versions, the configuration flags and
