@@ -356,6 +356,9 @@ def _flat_function(fn, in_tree, static):
         structure[0] = out_tree
         return [leaf for i, leaf in enumerate(out_leaves) if i not in constants]
 
+    # Named after `fn`: the program's name in JAX's compilation cache (`jit__solve-...`), its
+    # logs and profiles.
+    flat.__name__ = flat.__qualname__ = getattr(fn, "__name__", "flat")
     return flat, structure
 
 
