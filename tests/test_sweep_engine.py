@@ -150,6 +150,12 @@ def test_kernels_of_one_program_with_other_inputs_compile_nothing_again():
         sweep(k, space, chunk_size=2, progress=False, traces=traces_kept) for k in kernels
     )
     assert len(traces) == 1 and second.attrs["compile_s"] == 0.0
+    # Other compiler options: the same trace, compiled again (the numbers the same here).
+    loops = dataclasses.replace(kernels[1], compiler_options={"xla_cpu_use_fusion_emitters": False})
+    looped = sweep(loops, space, chunk_size=2, progress=False, traces=traces_kept)
+    assert len(traces) == 1 and looped.attrs["compile_s"] > 0.0
+    for name in ("overshoot", "rise_time"):
+        np.testing.assert_allclose(looped[name].values, second[name].values, rtol=1e-14)
     doubled = sweep(
         KERNEL, Grid({"zeta": [0.2, 0.4, 0.6], "omega": [2.0]}), chunk_size=2, progress=False
     )

@@ -642,7 +642,10 @@ class _Compiler:
         args = {n: jax.ShapeDtypeStruct((size,), plan.encoded[n].dtype) for n in plan.dynamic_names}
         for name, shape in group.extra.items():
             args[name] = jax.ShapeDtypeStruct((size, *shape.shape), shape.dtype)
-        key = ("compiled", _signature(group, args, plan.fixed), sharding)
+        options = plan.kernel.compiler_options
+        # Kernels of one program share its compilations, those compiled with the same options.
+        chosen = tuple(sorted((options or {}).items()))
+        key = ("compiled", _signature(group, args, plan.fixed), sharding, chosen)
         compiled = plan.traces.get(plan.kernel, key)
         if compiled is not None:
             return compiled
@@ -667,7 +670,6 @@ class _Compiler:
 
         start = time.perf_counter()
         devices = sharding.mesh.devices.size
-        options = plan.kernel.compiler_options
         if plan.kernel.program_key is None or devices != 1:
             compiled = compiled_with(lower(), options)
         else:  # one device: kept compiled where the command line keeps its programs
