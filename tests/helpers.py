@@ -92,3 +92,13 @@ def stepped_energy_balance(system, trajectory):
     balance = np.asarray(energy)[::2] + lost
     scale = float(np.sum(system.hinges.stiffness * system.hinges.target**2))
     return balance, lost, scale, rates
+
+
+def solve_programs(name: str, jitted) -> int:
+    """How many programs of a top-level solve are compiled: those compiled in memory under `name`
+    (`origami_jax._exported.exported_call`, with its compiler options) and those of `jitted`, its
+    `jax.jit` (where the key cannot vouch for the solve's static parts)."""
+    from origami_jax import _exported
+
+    in_memory = sum(1 for memo in _exported._IN_MEMORY if memo[0] == name)
+    return jitted._cached._cache_size() + in_memory

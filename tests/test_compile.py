@@ -24,7 +24,7 @@ from origami_jax._cache import CACHE_ENV, _requested, default_cache_dir
 from origami_jax.chain import accordion_system
 from origami_jax.system import HingeDesign
 
-from .helpers import run_python
+from .helpers import run_python, solve_programs
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -288,11 +288,9 @@ class _Compilations:
     def _solves():
         # A top-level solve compiles in memory with `SOLVE_COMPILE` (`_compiled_in_memory`), or
         # through `_solve_jit` where its static parts hold code the key cannot vouch for.
-        from origami_jax import _exported
         from origami_jax.simulation._simulate import _solve_jit
 
-        in_memory = sum(1 for memo in _exported._IN_MEMORY if memo[0] == "solve")
-        return _solve_jit._cached._cache_size() + in_memory
+        return solve_programs("solve", _solve_jit)
 
     def during(self, call):
         before = self._solves()

@@ -12,10 +12,11 @@ import numpy as np
 import pytest
 
 import origami_jax.simulation as sim
-from origami_jax import _exported
 from origami_jax.chain import accordion_system
 from origami_jax.simulation._switching import _tsit5_stiffness
 from origami_jax.system import HingeDesign
+
+from .helpers import solve_programs
 
 T1 = 10.0
 RTOL, ATOL = 1e-8, 1e-10
@@ -160,8 +161,7 @@ def test_top_level_simulate_compiles_the_implicit_phase_only_when_a_run_turns_st
     single = _simulate._solve_jit._cached._cache_size()
 
     def implicit_programs():  # compiled in memory with `SOLVE_COMPILE`, or by `jit` where unvouched
-        in_memory = sum(1 for memo in _exported._IN_MEMORY if memo[0] == "solve_from_switch")
-        return _simulate._solve_from_switch_jit._cached._cache_size() + in_memory
+        return solve_programs("solve_from_switch", _simulate._solve_from_switch_jit)
 
     implicit = implicit_programs()
     run = lambda r: sim.simulate(
