@@ -92,6 +92,10 @@ class Kernel:
       XLA's). The accordion's kernel and the net fold kernel with an adaptive solver give
       `SOLVE_COMPILE` (XLA's loop emitters): a chunk of cube nets compiles in about 60 % of the
       time and runs as fast, the accordion's in 70–90 %.
+    - `replay`: optional, one design's simulation kept whole, `replay(params) -> (system,
+      trajectory)` (the same `params` as `fn`, `inputs` included): what `fn` reduces to its
+      outputs, for a look at one design of a sweep (`origami_jax.fab_yield.YieldEstimate.
+      sample_fold`). Default `None`: the kernel has none.
     - `never_raises`: `True` for a kernel that turns every bad value into its result code itself
       (as the built-in ones do), so that no `equinox.error_if` inside it can fire. `sweep` then
       traces it with equinox's checks turned into NaN: the compiled program calls nothing back into
@@ -118,6 +122,7 @@ class Kernel:
     inputs: Mapping[str, Any] = dataclasses.field(default_factory=dict)
     program_key: Any = None
     compiler_options: Mapping[str, Any] | None = None
+    replay: Callable[..., Any] | None = None
 
     def __post_init__(self):
         if self.inputs and self.program is None:

@@ -21,7 +21,7 @@ from scipy import stats
 import origami_jax.fab_yield as ojy
 from origami_jax.fab_yield._scatter import _resolved
 from origami_jax.net import FOLD_KERNEL_SOLVE, load_net
-from origami_jax.simulation import SaveAt, VerdictTolerances
+from origami_jax.simulation import FoldVerdict, SaveAt, VerdictTolerances
 from origami_jax.system import KOH_SOLUTION, HingeDesign
 
 NET = "corner_cube"
@@ -459,6 +459,57 @@ def test_fabricated_hinges_fold_to_the_timoshenko_ratio():
     off = np.any(np.abs(final - 90.0) > 3.0, axis=1)
     assert not np.any(ds["folded"].values[off])
     assert sum(estimate.counts.values()) == 8
+
+
+def test_a_sample_folds_again_alone_with_its_whole_trajectory():
+    """`sample_fold` folds one sample of an estimate again on its own: its system carries the
+    sample's drawn films (each hinge aimed at 90° κ(drawn) / κ(nominal), the Timoshenko ratio
+    written out here), its trajectory runs the estimate's solve to its end, and it comes to rest
+    where the stored sample did (the same simulation compiled alone, not in a chunk: the adaptive
+    solve's tolerance apart) with the stored verdict."""
+    estimate = _estimate("default", 8)
+    ds = estimate.dataset
+    design = HingeDesign.literature(fluid=KOH_SOLUTION)
+    e1, e2 = float(design.structural.biaxial_modulus), float(design.hinge.biaxial_modulus)
+    kappa0 = _timoshenko_curvature(
+        e1, float(design.t_structural), e2, float(design.t_hinge), float(design.misfit_strain)
+    )
+    for index in (1, -1):
+        sample = estimate.sample_fold(index)
+        row = index % 8
+        kappa = _timoshenko_curvature(
+            e1,
+            estimate.samples("t_structural")[row],
+            e2,
+            estimate.samples("t_hinge")[row],
+            estimate.samples("misfit_strain")[row],
+        )
+        np.testing.assert_allclose(sample.system.hinges.target, np.pi / 2 * kappa / kappa0)
+        times = np.asarray(sample.trajectory.times)
+        assert times.shape == (SOLVE.saveat.n,) and times[-1] == pytest.approx(T_END)
+        np.testing.assert_allclose(
+            sample.trajectory.theta[-1], ds["final_angle"].values[row], atol=1e-4
+        )
+        stored = list(FoldVerdict)[int(ds["verdict"].values[row])]
+        assert sample.verdict == str(stored) and sample.report.verdict == stored
+    for bad in (8, -9, 1.0, True):
+        with pytest.raises(ValueError, match=r"index must be a sample number in \[0, 8\)"):
+            estimate.sample_fold(bad)
+
+
+@pytest.mark.slow
+def test_a_sample_run_on_to_settle_is_folded_again_to_where_it_settled():
+    # As in the settling test above: every sample is still moving at 200 µs and run on to 600.
+    short = SOLVE.replace(t1=T_END / 3, saveat=SaveAt(n=(SOLVE.saveat.n - 1) // 3 + 1))
+    run = dataclasses.replace(RUN["run"], t_settle=T_END)
+    settled = ojy.yield_estimate(PATTERN, ojy.Scatter.none(), 2, 1, solve=short, run=run)
+    sample = settled.sample_fold(0)
+    times = np.asarray(sample.trajectory.times)
+    assert times.shape == (SOLVE.saveat.n,) and times[-1] == pytest.approx(T_END)
+    assert sample.verdict == "folded" and sample.report.verdict == FoldVerdict.FOLDED
+    np.testing.assert_allclose(
+        sample.trajectory.theta[-1], settled.dataset["final_angle"].values[0], atol=1e-4
+    )
 
 
 class _Stop(Exception):

@@ -88,6 +88,7 @@ from ._estimate import SETTLE_TIME as SETTLE_TIME
 from ._estimate import YIELD_RTOL as YIELD_RTOL
 from ._estimate import YIELD_SOLVE as YIELD_SOLVE
 from ._estimate import RunOptions as RunOptions
+from ._estimate import SampleFold as SampleFold
 from ._estimate import YieldEstimate as YieldEstimate
 from ._estimate import stored_run_tolerances as stored_run_tolerances
 from ._estimate import yield_estimate as yield_estimate

@@ -7,8 +7,9 @@ import os
 import warnings
 from collections.abc import Callable, Mapping
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
+import equinox as eqx
 import jax
 import numpy as np
 
@@ -66,6 +67,8 @@ class YieldEstimate:
       and together) from the samples' stored margins, nothing simulated again
       (`ToleranceSensitivity`; only folded against not folded moves); `None` for a resumed run
       whose older samples were stored without margins.
+    - `replay`: what `sample_fold` folds a sample again with (the pattern and the estimate's
+      options); `None` for an estimate assembled otherwise.
     """
 
     fraction: float
@@ -83,6 +86,7 @@ class YieldEstimate:
     )
     nominal: dict[str, np.ndarray] | None = None
     tolerance_sensitivity: ToleranceSensitivity | None = None
+    replay: "SampleReplay | None" = dataclasses.field(default=None, repr=False, compare=False)
 
     def samples(self, name: str) -> np.ndarray:
         """The drawn values of a parameter of `PARAMETERS`: `(n_samples, n_creases)` for a per-crease
@@ -97,6 +101,33 @@ class YieldEstimate:
             if str(c).startswith(f"{name}[")
         )
         return np.stack([self.dataset[c].values for _, c in columns], axis=1)
+
+    def sample_fold(self, index: int) -> "SampleFold":
+        """Sample `index` (0-based, a row of `dataset`) folded again on its own, its whole trajectory
+        kept: why it jammed or misfolded, to plot (`origami_jax.plotting`), view or export
+        (`Net.to_fold`). The same drawn parameters, model, solve and tolerances as the estimate; a
+        sample the estimate ran on to `RunOptions.t_settle` is run on here too. Compiles the one
+        sample's simulation (seconds to a minute; a second sample compiles nothing again).
+
+        Alone, not in a vmapped chunk, the simulation's last bits may differ from the stored
+        sample's, and the verdict with them where a crease or seam lies at its tolerance:
+        `SampleFold.verdict` is the stored one, `report.verdict` the new run's.
+
+        **Raises:** `ValueError` for an index outside the samples, or an estimate without a
+        `replay` (assembled otherwise than by `yield_estimate`)."""
+        if self.replay is None:
+            raise ValueError(
+                "this estimate cannot fold its samples again (no replay: it was not made by "
+                "yield_estimate); run yield_estimate with the same pattern and options."
+            )
+        n = int(self.dataset.sizes[AXIS])
+        if (
+            isinstance(index, bool)
+            or not isinstance(index, int | np.integer)
+            or not (-n <= index < n)
+        ):
+            raise ValueError(f"index must be a sample number in [0, {n}), got {index!r}.")
+        return self.replay(self.dataset, int(index) % n)
 
     def with_interval(self, confidence: float = 0.95, method: str = "wilson") -> "YieldEstimate":
         """This estimate with its interval at another `confidence` or by another `method`
@@ -365,11 +396,9 @@ def _run_again(dataset, rows, kernel, columns, units, **sweep_options) -> None:
 def _unfinished_settled(dataset, pattern, options, columns, units, t_settle, **sweep_options):
     """`dataset` with its samples judged `unfinished` because their panels still moved at the end
     (a successful solve whose time ran out) run again from the start to `t_settle`, all in one
-    sweep, with the same spacing of saved samples (so the verdict's tail and drift judge the same
-    time resolution). Its attributes say how many there were (`continued`) and to when
+    sweep (`_settling`). Its attributes say how many there were (`continued`) and to when
     (`t_settle_us`); `run_s` and `compile_s` include that pass."""
     solve = options["solve"]
-    t_end, n_save = solve.number("t1"), solve.saveat.n
     dataset = dataset.copy(deep=True)
     dataset.attrs["t_settle_us"] = float(t_settle)
     moving = (np.asarray(dataset["verdict"].values) == VERDICT_CODES[FoldVerdict.UNFINISHED]) & (
@@ -378,11 +407,74 @@ def _unfinished_settled(dataset, pattern, options, columns, units, t_settle, **s
     rows = np.flatnonzero(moving)
     dataset.attrs["continued"] = int(rows.size)
     if rows.size:
-        n_long = min(int(round((n_save - 1) * t_settle / t_end)) + 1, MAX_SAMPLES)
-        longer = solve.replace(t1=float(t_settle), saveat=SaveAt(n=n_long))
-        kernel = pattern.kernel(**{**options, "solve": longer})
+        kernel = pattern.kernel(**{**options, "solve": _settling(solve, t_settle)})
         _run_again(dataset, rows, kernel, columns, units, **sweep_options)
     return dataset
+
+
+def _settling(solve: SolveOptions, t_settle: float) -> SolveOptions:
+    """`solve` run on to `t_settle`, with the same spacing of saved samples (so the verdict's tail
+    and drift judge the same time resolution)."""
+    t_end, n_save = solve.number("t1"), solve.saveat.n
+    n_long = min(int(round((n_save - 1) * t_settle / t_end)) + 1, MAX_SAMPLES)
+    return solve.replace(t1=float(t_settle), saveat=SaveAt(n=n_long))
+
+
+class SampleFold(NamedTuple):
+    """One sample of a yield estimate folded again (`YieldEstimate.sample_fold`): its `system` (a
+    `FoldingSystem` with the sample's drawn hinges), its `trajectory` (the whole run, to the
+    estimate's end or, where it was run on, to `t_settle`), the `report` on it (the verdict and its
+    reasons, `origami_jax.simulation.FoldReport`) and the `verdict` the estimate stored."""
+
+    system: Any
+    trajectory: Any
+    report: Any
+    verdict: str
+
+
+class SampleReplay:
+    """What `YieldEstimate.sample_fold` folds a sample with: the `pattern`, the estimate's kernel
+    `options` (`origami_jax.net.fold_kernel`'s) and `t_settle` (µs, `None`: not run on). Keeps the
+    compiled simulation of each of its kernels (the run to the end, and on to `t_settle`)."""
+
+    def __init__(self, pattern, options: Mapping[str, Any], t_settle: float | None):
+        self.pattern, self.options, self.t_settle = pattern, dict(options), t_settle
+        self._compiled: dict[float, Callable] = {}
+
+    def __call__(self, dataset, index: int) -> SampleFold:
+        codes = list(FoldVerdict)
+        stored = str(codes[int(dataset["verdict"].values[index])])
+        solve = self.options["solve"]
+        system, trajectory = self._run(solve, dataset, index)
+        report = self._report(system, trajectory)
+        t_end = solve.number("t1")
+        if (
+            report.verdict == FoldVerdict.UNFINISHED
+            and bool(trajectory.succeeded)
+            and self.t_settle is not None
+            and self.t_settle > t_end
+        ):
+            longer = _settling(solve, self.t_settle)
+            system, trajectory = self._run(longer, dataset, index)
+            report = self._report(system, trajectory)
+        return SampleFold(system, trajectory, report, stored)
+
+    def _run(self, solve: SolveOptions, dataset, index: int):
+        kernel = self.pattern.kernel(**{**self.options, "solve": solve})
+        params = {
+            name: jax.numpy.asarray(float(dataset[name].values[index]))
+            for name in kernel.parameters
+            if name in dataset.coords
+        }
+        t1 = solve.number("t1")
+        if t1 not in self._compiled:
+            self._compiled[t1] = eqx.filter_jit(kernel.replay)
+        return self._compiled[t1](params)
+
+    def _report(self, system, trajectory):
+        return self.pattern.assess(
+            system, trajectory, tolerances=self.options["tolerances"], bias=self.options["bias"]
+        )
 
 
 def stored_run_tolerances(out) -> VerdictTolerances | None:
@@ -712,6 +804,7 @@ def yield_estimate(
         tolerances=tolerances.to_dict(),
         nominal={k: np.array(v) for k, v in nominal.items()},
         tolerance_sensitivity=sensitivity,
+        replay=SampleReplay(pattern, options, t_settle),
     )
 
 

@@ -361,7 +361,9 @@ def _fold_kernel(pattern, settings: dict[str, Any], content) -> Kernel:
         throw=False,
     )
 
-    def fn(params):
+    def run(params):
+        """The member's system, its simulated trajectory, and whether its parameters are invalid
+        (then a harmless stand-in design was simulated)."""
         nominal = params.get("design", base)
         design, times, invalid = design_of(params, nominal)
         aim = aims_of(params)
@@ -379,6 +381,10 @@ def _fold_kernel(pattern, settings: dict[str, Any], content) -> Kernel:
             system = eqx.tree_at(lambda s: s.agitation.key, system, member_key(agitation, seed))
         release = Step(ramp=params.get("release_ramp"))
         trajectory = simulate(system, release, solve_options, theta0=theta0, t1=t_end)
+        return system, trajectory, invalid
+
+    def fn(params):
+        system, trajectory, invalid = run(params)
         seam = params.get("seam_tolerance")
         outcome = pattern.outcome(
             system,
@@ -447,6 +453,9 @@ def _fold_kernel(pattern, settings: dict[str, Any], content) -> Kernel:
     def with_inputs(params):
         return program({**inputs, **params})
 
+    def replay(params):
+        return run({**inputs, **params})[:2]
+
     resume = pattern.resume_settings()
     return Kernel(
         fn=with_inputs,
@@ -457,6 +466,7 @@ def _fold_kernel(pattern, settings: dict[str, Any], content) -> Kernel:
         # An adaptive solve's chunk compiles in about 60 % of the time with XLA's loop emitters
         # and runs as fast; the fixed-step engine's compiles no sooner and runs slower with them.
         compiler_options=None if isinstance(solver, ImplicitStep) else SOLVE_COMPILE,
+        replay=replay,
         name="net-fold",
         # The keys and values stores have recorded since before patterns were objects (a store
         # written then still resumes): the pattern by name, optional settings only when not
