@@ -677,7 +677,26 @@ def test_cli_writes_result_and_figure(tmp_path, capsys):
     assert "yield" in captured.out
     assert main(argv) == 2  # the same folder again: refused before compiling, in one line
     assert "--resume" in capsys.readouterr().err
+    # A sample folded again on its own, its whole folding kept (resumed: nothing else simulated).
+    assert main([*argv, "--resume", "--sample", "1"]) == 0
+    assert "[yield] sample 1: " in capsys.readouterr().out
+    stored = xr.load_dataset(out / "sweep.nc")
+    folder = out / "samples" / "sample-1"
+    again = json.loads((folder / "result.json").read_text())
+    verdict = str(list(FoldVerdict)[int(stored["verdict"].values[1])])
+    assert again["stored_verdict"] == verdict and again["verdict"] == verdict
+    assert again["drawn"]["misfit_strain[0]"] == float(stored["misfit_strain[0]"].values[1])
+    times = np.loadtxt(folder / "trajectory.csv", delimiter=",", skiprows=1)[:, 0]
+    assert times.shape == (SOLVE.saveat.n,) and times[-1] == pytest.approx(T_END)
+    for name in ("trajectory.fold", "angles.png", "frames.png"):
+        assert (folder / name).stat().st_size > 1000, name
+    assert json.loads((out / "result.json").read_text())["samples_folded_again"] == [
+        {"sample": 1, "verdict": verdict, "stored_verdict": verdict}
+    ]
     bad = [*argv[:-2], "--out", str(tmp_path / "bad")]
+    for sample in ("4", "-1", "x"):
+        assert main([*bad, "--sample", sample]) == 2
+        assert "--sample expects" in capsys.readouterr().err
     assert main([*bad, "--seam-tolerance", "1.5"]) == 2
     assert "--seam-tolerance must lie strictly between 0 and 1" in capsys.readouterr().err
     config.write_text("[misfit_strain]\nwidth = -1\n")
@@ -708,6 +727,27 @@ def test_cli_writes_result_and_figure(tmp_path, capsys):
     assert "use --solver implicit-step" in capsys.readouterr().err
     assert main([*bad, "--agitation", "-1", "--solver", "implicit-step", "--dt", "2.5"]) == 2
     assert "--agitation must be an effective temperature > 0 K" in capsys.readouterr().err
+
+
+def test_bad_sample_numbers_are_refused_before_compiling(tmp_path, capsys):
+    from origami_jax.cli import main
+
+    one = ["yield", NET, "--samples", "4", "--out", str(tmp_path / "o"), "--no-progress"]
+    for sample, message in (
+        ("4", "--sample expects sample numbers from 0 to 3 (at most 4 samples), got '4'"),
+        ("-1", "from 0 to 3"),
+        ("1,x", "--sample expects comma-separated sample numbers (from 0)"),
+        (",", "from 0 to 3"),
+    ):
+        assert main([*one, f"--sample={sample}"]) == 2
+        assert message in capsys.readouterr().err
+    # With --precision the count is not known ahead: numbers up to --max-samples are taken.
+    assert main([*one, "--precision", "0.2", "--max-samples", "8", "--sample", "8"]) == 2
+    assert "from 0 to 7" in capsys.readouterr().err
+    family = ["yield", "cube_nets", "--out", str(tmp_path / "f"), "--sample", "1"]
+    assert main(family) == 2
+    assert "--sample takes one net, not a family" in capsys.readouterr().err
+    assert not (tmp_path / "o").exists() and not (tmp_path / "f").exists()
 
 
 def test_yield_takes_the_figures_flags_fold_takes():

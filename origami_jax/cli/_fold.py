@@ -466,7 +466,6 @@ def _run(
     import numpy as np
 
     import origami_jax.simulation as sim
-    from origami_jax.fold import write_fold
     from origami_jax.net import model_settings
 
     out = output.dir
@@ -533,10 +532,7 @@ def _run(
     )
     t_end = float(trajectory.times[-1])
     if args.figures != "none" and bool(trajectory.succeeded):
-        # Show the fold itself rather than the long rest after it.
-        t_max = None if report.time_to_fold is None else min(2.0 * report.time_to_fold, t_end)
-        gif = args.figures == "all"
-        job = _figure_job(system, trajectory, report, out, net.name, t_max, animation=gif)
+        job = figure_job(system, trajectory, report, out, net.name, animation=args.figures == "all")
         painter.send(job)  # drawn while the files below are written
     if segments == MAX_FOLD_SEGMENTS and report.verdict == "unfinished":
         print(
@@ -582,9 +578,25 @@ def _run(
         for k, v in result["stats"].items()
     }
     (out / "result.json").write_text(dumps_json(result))
+    write_folding(out, net, system, trajectory, report)
+    print(report.summary())
+    written = ["result.json", "trajectory.csv", "trajectory.fold", *painter.finish()]
+    print(f"wrote {output.out}: {', '.join(written)}")
+    return EXIT_OK if report.verdict == "folded" else EXIT_FAILED
+
+
+def write_folding(out: Path, net, system, trajectory, report) -> list[str]:
+    """A folding's files in `out`: `trajectory.csv` (time in µs, each crease's angle in rad, every
+    saved sample) and `trajectory.fold` (the net's FOLD animation, about 200 frames, annotated for
+    `origami-jax view`: the verdict, the creases off target, where panels touch). Returns their
+    names."""
+    import numpy as np
+
+    from origami_jax.fold import write_fold
+
     times = np.asarray(trajectory.times)
     theta = np.asarray(trajectory.theta)
-    header = "time [us]," + ",".join(f"theta_{j} [rad]" for j in range(m))
+    header = "time [us]," + ",".join(f"theta_{j} [rad]" for j in range(theta.shape[-1]))
     np.savetxt(
         out / "trajectory.csv",
         np.column_stack([times, theta]),
@@ -597,10 +609,15 @@ def _run(
     extras, key_extra = _view_annotations(net, system, trajectory, report, every)
     animation = net.to_fold(trajectory, every=every, extras=extras, key_extra=key_extra)
     write_fold(out / "trajectory.fold", animation)
-    print(report.summary())
-    written = ["result.json", "trajectory.csv", "trajectory.fold", *painter.finish()]
-    print(f"wrote {output.out}: {', '.join(written)}")
-    return EXIT_OK if report.verdict == "folded" else EXIT_FAILED
+    return ["trajectory.csv", "trajectory.fold"]
+
+
+def figure_job(system, trajectory, report, out: Path, name: str, *, animation: bool = False):
+    """The figures of a folding (`_figure_job`), showing the fold itself rather than the long rest
+    after it: to twice its time to fold where it folded."""
+    t_end = float(trajectory.times[-1])
+    t_max = None if report.time_to_fold is None else min(2.0 * report.time_to_fold, t_end)
+    return _figure_job(system, trajectory, report, out, name, t_max, animation=animation)
 
 
 def _arc_layout_name(args, net) -> str:

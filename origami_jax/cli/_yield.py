@@ -33,6 +33,8 @@ from ._common import (
     with_solver,
     write_atomic,
 )
+from ._fold import figure_job, write_folding
+from ._painter import paint
 from ._panels import (
     check_explicit_steps,
     check_has_creases,
@@ -144,6 +146,14 @@ than folded, in 3D, next to the intended shape), and the samples as a sweep stor
 without a --widths factor it was run with); a folder holding an estimate is never overwritten, and
 one holding another command's results is refused. A nominal release at or after --t-end is refused
 (no sample could fold).
+
+--sample 3,7 then folds samples 3 and 7 (numbered from 0, as in sweep.nc) again on their own, with
+their drawn hinges, model, solve and tolerances, and keeps each whole folding in
+OUT/samples/sample-I/: result.json (the verdict on it, its reason and numbers, the stored verdict
+and the sample's drawn parameters), trajectory.csv, trajectory.fold (origami-jax view shows it) and,
+unless --figures none, angles.png and frames.png. With --resume on a finished estimate nothing
+else is simulated again. Alone, not beside other samples, a sample's last bits may differ, and
+with them its verdict where a crease or seam lies at its tolerance: result.json gives both.
 
 A family (NET cube_nets, octahedron_nets or NET1,NET2,...) estimates each net's yield into
 OUT/NET/ (its samples, and its summary OUT/NET/estimate.json once finished), every net from the
@@ -292,6 +302,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="compiled calls at once (default: one per CPU core on a CPU, else 1)",
     )
     parser.add_argument("--resume", action="store_true", help="continue the estimate in --out")
+    parser.add_argument(
+        "--sample",
+        default=None,
+        metavar="I[,J...]",
+        help="then fold these samples (numbered from 0) again on their own, their whole folding "
+        "kept: OUT/samples/sample-I/ (with --resume, of a stored estimate)",
+    )
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     parser.add_argument(
         "--widths",
@@ -356,6 +373,7 @@ _SINGLE_NET_ONLY = (
     "widths",
     "release",
     "etch_front",
+    "sample",
 )
 
 
@@ -690,6 +708,65 @@ def _numbers(text: str | None, flag: str) -> list[float] | None:
     return values
 
 
+def _sample_numbers(text: str | None, most: int) -> list[int] | None:
+    """--sample's comma-separated sample numbers (from 0, below `most`), or `None`."""
+    if text is None:
+        return None
+    try:
+        numbers = [int(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        fail(f"--sample expects comma-separated sample numbers (from 0), got {text!r}.")
+    if not numbers or any(not 0 <= n < most for n in numbers):
+        fail(
+            f"--sample expects sample numbers from 0 to {most - 1} (at most {most} samples), "
+            f"got {text!r}."
+        )
+    return sorted(set(numbers))
+
+
+def _folded_again(estimate, pattern, numbers: list[int], folder: Path, figures: bool) -> list:
+    """Samples `numbers` of `estimate` folded again on their own (`YieldEstimate.sample_fold`), each
+    folding's files in `folder/samples/sample-I/` (`write_folding`, and its figures); their
+    verdicts, as folded again and as stored."""
+    import numpy as np
+
+    done = []
+    for index in numbers:
+        if index >= estimate.n_samples:  # --precision stopped before it: nothing to fold
+            n = estimate.n_samples
+            print(f"[yield] --sample {index}: the estimate has {n} samples (0 to {n - 1}); skipped")
+            continue
+        print(f"[yield] folding sample {index} again on its own ...", flush=True)
+        sample = estimate.sample_fold(index)
+        out = folder / "samples" / f"sample-{index}"
+        out.mkdir(parents=True, exist_ok=True)
+        coords = estimate.dataset.coords
+        axis = estimate.dataset["verdict"].dims  # one entry per sample
+        drawn = {
+            str(name): float(coords[name].values[index])
+            for name in coords
+            if coords[name].dims == axis and (str(name),) != axis
+        }
+        record = {
+            "sample": index,
+            "stored_verdict": sample.verdict,
+            **sample.report.to_dict(),
+            "drawn": drawn,
+            "hinge_targets_deg": [float(x) for x in np.degrees(sample.system.hinges.target)],
+            "t_end_us": float(sample.trajectory.times[-1]),
+        }
+        write_atomic(out / "result.json", dumps_json(record))
+        write_folding(out, pattern, sample.system, sample.trajectory, sample.report)
+        if figures and bool(sample.trajectory.succeeded):
+            name = f"{pattern.name} sample {index}"
+            paint(figure_job(sample.system, sample.trajectory, sample.report, out, name))
+        again = str(sample.report.verdict)
+        also = "" if again == sample.verdict else f" (stored: {sample.verdict})"
+        print(f"[yield] sample {index}: {again}{also}: {sample.report.reason}", flush=True)
+        done.append({"sample": index, "verdict": again, "stored_verdict": sample.verdict})
+    return done
+
+
 def _process(entries: list[str], n_creases: int) -> dict | None:
     """The --process nominal values, checked against the pattern's crease count before anything
     compiles (None without --process)."""
@@ -820,6 +897,9 @@ def run(args: argparse.Namespace) -> int:
         )
     if args.workers is not None:
         int_range(args.workers, "--workers", 1, 4096)
+    args.sample = _sample_numbers(
+        args.sample, args.samples if args.precision is None else _most_samples(args)
+    )
     choice = solver_choice(args, args.t_end or AFTER_RELEASE_US, "--t-end") or {"solver": "tsit5"}
     if choice["solver"] in FIXED_STEP_CHOICES:
         for flag, value in (("--rtol", args.rtol), ("--step-budget", args.step_budget)):
@@ -1045,6 +1125,10 @@ def _run(
         ]
     if ascent is not None:
         result["improve"] = ascent.to_dict()
+    if args.sample:
+        result["samples_folded_again"] = _folded_again(
+            estimate, pattern, args.sample, output.dir, args.figures != "none"
+        )
     # Staged in output.dir: moved into --out, with the figures, when `run`'s `with output` ends.
     write_atomic(output.dir / "result.json", dumps_json(result))
     if args.figures != "none":
