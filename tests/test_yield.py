@@ -737,7 +737,7 @@ def test_bad_sample_numbers_are_refused_before_compiling(tmp_path, capsys):
         ("4", "--sample expects sample numbers from 0 to 3 (at most 4 samples), got '4'"),
         ("-1", "from 0 to 3"),
         ("1,x", "--sample expects comma-separated sample numbers (from 0)"),
-        (",", "from 0 to 3"),
+        (",", "--sample expects comma-separated finite sample numbers (from 0)"),
     ):
         assert main([*one, f"--sample={sample}"]) == 2
         assert message in capsys.readouterr().err

@@ -695,28 +695,25 @@ def _seam_tolerance(args: argparse.Namespace, stored) -> float | None:
     return None
 
 
-def _numbers(text: str | None, flag: str) -> list[float] | None:
-    """Comma-separated finite numbers, or None."""
+def _numbers(text: str | None, flag: str, parse=float, what: str = "numbers") -> list | None:
+    """Comma-separated finite numbers (`parse`d: `float`, or `int` for whole numbers), or None."""
     if text is None:
         return None
     try:
-        values = [float(v) for v in text.split(",") if v.strip()]
+        values = [parse(v) for v in text.split(",") if v.strip()]
     except ValueError:
-        fail(f"{flag} expects comma-separated numbers, got {text!r}.")
+        fail(f"{flag} expects comma-separated {what}, got {text!r}.")
     if not values or not all(math.isfinite(v) for v in values):
-        fail(f"{flag} expects comma-separated finite numbers, got {text!r}.")
+        fail(f"{flag} expects comma-separated finite {what}, got {text!r}.")
     return values
 
 
 def _sample_numbers(text: str | None, most: int) -> list[int] | None:
     """--sample's comma-separated sample numbers (from 0, below `most`), or `None`."""
-    if text is None:
+    numbers = _numbers(text, "--sample", int, "sample numbers (from 0)")
+    if numbers is None:
         return None
-    try:
-        numbers = [int(v) for v in text.split(",") if v.strip()]
-    except ValueError:
-        fail(f"--sample expects comma-separated sample numbers (from 0), got {text!r}.")
-    if not numbers or any(not 0 <= n < most for n in numbers):
+    if any(not 0 <= n < most for n in numbers):
         fail(
             f"--sample expects sample numbers from 0 to {most - 1} (at most {most} samples), "
             f"got {text!r}."
