@@ -624,23 +624,42 @@ def remembered(name: str, build, *inputs) -> Any:
     return value
 
 
-def exported_jit(name: str):
+def exported_jit(name: str, *, by_value: bool = False):
     """A decorator: the function compiled with `QUICK_COMPILE` (a program run once per command),
     called outside any trace through `exported_call` under `name` (its traced program read from
     disk where the command line keeps them, else compiled in memory; with arguments the key cannot
     vouch for, `equinox.filter_jit`'s compilation); inside a trace (`jit`, `vmap`, `grad`) it is
-    the `equinox.filter_jit` function, traced inline, the decorated one's `jitted` attribute."""
+    the `equinox.filter_jit` function, traced inline, the decorated one's `jitted` attribute.
+
+    `by_value`: where the command line keeps its programs, a call's value is kept too, under its
+    arguments' values (`remembered`), and a later process given the same arguments reads it
+    instead of loading and running the program (loading a kept executable costs about 0.1-0.3 s
+    on two cores, rebuilding its HLO module). For programs of a pattern and its design, which a
+    command reruns alike whatever its run (a net's masses at rest, its seams' tolerances); the
+    value is the program's own, the same bits."""
     import equinox as eqx
     import jax
+    import numpy as np
 
     def decorate(fn):
         jitted = eqx.filter_jit(fn)
+
+        def computed(*args):
+            return exported_call(name, fn, jitted, *args, options=QUICK_COMPILE)
+
+        def kept(*args):
+            def build():  # kept on the host: read back, it is put on no device
+                return jax.tree.map(np.asarray, computed(*args))
+
+            return jax.tree.map(jax.numpy.asarray, remembered(name, build, *args))
 
         @functools.wraps(fn)
         def call(*args):
             if any(isinstance(leaf, jax.core.Tracer) for leaf in jax.tree.leaves(args)):
                 return jitted(*args)
-            return exported_call(name, fn, jitted, *args, options=QUICK_COMPILE)
+            if by_value and _FOLDER is not None:
+                return kept(*args)
+            return computed(*args)
 
         call.jitted = jitted
         return call

@@ -415,6 +415,44 @@ def test_a_release_ramp_is_kept_as_a_value(tmp_path, monkeypatch):
     assert len(runs) == 1 and len(list(tmp_path.glob("release_ramp_value-*.pkl"))) == 1
 
 
+def test_a_program_kept_by_value_is_neither_loaded_nor_run_for_the_same_arguments(
+    tmp_path, monkeypatch
+):
+    # `exported_jit(by_value=True)` (a net's masses at rest, its seams' tolerances): where the
+    # command keeps its programs, a later process with the same arguments reads the value (the
+    # program's own bits); other values run the program; under a trace it is inlined.
+    import numpy as np
+
+    def halves(x):
+        return {"half": x / 2.0, "sum": jnp.sum(x)}
+
+    kept = _exported.exported_jit("halves_by_value", by_value=True)(halves)
+    x = jnp.linspace(0.1, 1.7, 5)
+    monkeypatch.setattr(_exported, "_FOLDER", None)  # off: the program each time
+    plain = kept(x)
+    monkeypatch.setattr(_exported, "_FOLDER", tmp_path)
+    monkeypatch.setattr(_exported, "_LOADED", {})
+    first = kept(x)
+    assert len(list(tmp_path.glob("halves_by_value-*.pkl"))) == 1
+    monkeypatch.setattr(_exported, "_LOADED", {})  # a later process: nothing loaded yet
+    monkeypatch.setattr(_exported, "_IN_MEMORY", {})
+    called = []
+    call = _exported.exported_call
+    monkeypatch.setattr(
+        _exported, "exported_call", lambda *a, **k: called.append(a[0]) or call(*a, **k)
+    )
+    again = kept(x)
+    assert called == []  # the program neither loaded, compiled nor run
+    for value in (first, again):
+        assert isinstance(value["half"], jax.Array) and not value["half"].committed
+        assert np.array_equal(value["half"], plain["half"]) and value["sum"] == plain["sum"]
+    other = kept(x + 1.0)  # another value: the program again
+    assert called == ["halves_by_value"] and jnp.allclose(other["half"], (x + 1.0) / 2.0)
+    assert len(list(tmp_path.glob("halves_by_value-*.pkl"))) == 2
+    inlined = jax.jit(lambda y: kept(y)["sum"])(x)  # under a trace: inlined, nothing kept
+    assert inlined == plain["sum"] and len(list(tmp_path.glob("halves_by_value-*.pkl"))) == 2
+
+
 def test_a_compilation_the_persistent_cache_served_is_not_kept(tmp_path, monkeypatch):
     # Such an executable serialises without its machine code: kept, it would fail when run.
     monkeypatch.setattr(_exported, "_FOLDER", tmp_path)

@@ -189,7 +189,7 @@ def derived_seam_tolerances(
 
 # One compiled program (op by op, the gaps' many small operations cost more than a verdict's run,
 # and every verdict of a fold asks again); under an outer trace it is traced inline.
-@exported_jit("seam_tolerances")
+@exported_jit("seam_tolerances", by_value=True)
 def _derived_seam_tolerances(seam_gaps, intended, angle):
     steps = angle * jnp.eye(intended.shape[0], dtype=intended.dtype)
     base = seam_gaps(intended)

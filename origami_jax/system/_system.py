@@ -193,7 +193,7 @@ def _rest_stiffness_and_mass(system: FoldingSystem) -> tuple[Array, Array]:
     return -jax.jacfwd(spring)(q0), mechanism.mass_matrix(q0)
 
 
-@exported_jit("rest_inertia")
+@exported_jit("rest_inertia", by_value=True)
 def rest_inertia(mechanism: AbstractMechanism) -> Float[Array, " nv"]:
     """The diagonal of `mechanism`'s mass matrix at its rest state, `(nv,)` (mass·length² per rad²
     for hinge angles): one compiled program per mechanism, kept across runs (the contact's default
