@@ -58,6 +58,9 @@ from ._runtime_errors import on_error
 _FOLDER: Path | None = None
 _REFUSED: set[str] = set()  # programs found not exportable in this process (a callback, ...)
 _LOADED: dict[Path, tuple] = {}  # (compiled, extra) this process has read or built, by file
+_READING: dict[Path, Any] = {}  # executables being read in the background (`prefetch`), by file
+_USED: dict[Path, None] = {}  # executables this process ran, in order (`note_programs_used`)
+_ANCHOR: list[Path] = []  # remembered values that start a command's work (`prefetch_after`)
 _OWN_KEY = {"xla_embed_ir_in_executable": False}  # XLA's default, set: see `_compiled_here`
 # A LAPACK routine's name as a custom call's target in a serialised executable (`lapack_dsyevd_ffi`,
 # in the program it holds), not a function name in its locations (a test of "lapack_is…").
@@ -266,7 +269,7 @@ def exported_call(name: str, fn, jitted, *args, options: dict | None = None) -> 
     path = _FOLDER / f"{name}-{key[:32]}.bin"
     options = options or {}
     compiled_path = _FOLDER / f"{name}-{_machine_key(key, options)}.xla"
-    loaded = _LOADED.get(compiled_path) or _read_compiled(compiled_path)
+    loaded = _loaded(compiled_path)
     if loaded is None:
         program, structure = _read_or_export(path, fn, in_tree, static, leaves)
         if program is None:
@@ -457,6 +460,68 @@ def _machine_key(key: str, options: dict) -> str:
     return digest.hexdigest()[:32]
 
 
+def _loaded(path: Path):
+    """The executable kept under `path` as `_read_compiled` gives it: already in this process,
+    being read in the background (`prefetch`: waited for), or read now. Noted as used."""
+    _USED.setdefault(path)
+    if path in _LOADED:
+        return _LOADED[path]
+    reading = _READING.pop(path, None)
+    if reading is not None:
+        try:
+            return reading.result()
+        except Exception:  # read here instead
+            pass
+    return _read_compiled(path)
+
+
+def prefetch(paths) -> None:
+    """Start reading the kept executables `paths` on a background thread, in order (XLA rebuilds
+    each one's HLO module as it loads it, 0.1-1.5 s apiece on two cores, without holding Python's
+    lock): a command that knows what it will run loads it while it builds, solves and judges.
+    Those already read or being read are skipped."""
+    import concurrent.futures
+
+    global _READER
+    todo = [p for p in paths if p not in _LOADED and p not in _READING and p.exists()]
+    if not todo:
+        return
+    if _READER is None:
+        _READER = concurrent.futures.ThreadPoolExecutor(1, thread_name_prefix="origami-prefetch")
+    for path in todo:
+        _READING[path] = _READER.submit(_read_compiled, path)
+
+
+_READER = None
+
+
+def _uses_path(anchor: Path) -> Path:
+    return anchor.with_suffix(".uses")
+
+
+def note_programs_used() -> None:
+    """Record, beside the value this process last `remembered` with `prefetch_after` (a command's
+    system), the kept executables it has run, in order, so that a later process reading that
+    value back prefetches them (`prefetch`). Off where no such value was remembered or nothing
+    is kept."""
+    if _FOLDER is None or not _ANCHOR:
+        return
+    names = [p.name for p in _USED]
+    try:
+        _write_atomically(_uses_path(_ANCHOR[-1]), "\n".join(names).encode())
+    except OSError:
+        pass
+
+
+def _prefetch_noted(anchor: Path) -> None:
+    """`prefetch` the executables noted beside the remembered value `anchor`."""
+    try:
+        names = _uses_path(anchor).read_text().split()
+    except OSError:
+        return
+    prefetch([_FOLDER / name for name in names if name.endswith(".xla") and "/" not in name])
+
+
 def _read_compiled(path: Path):
     """The compiled program `_write_compiled` kept under `path` and what was kept with it, or
     `None` (none kept, or damaged: compiled again and replaced)."""
@@ -531,7 +596,7 @@ def kept_compiled(name: str, identity, lower, options: Mapping[str, Any] | None 
     if digest is None:
         return compiled_with(lower(), options)
     path = _FOLDER / f"{name}-{_machine_key(digest.hexdigest(), options)}.xla"
-    loaded = _LOADED.get(path) or _read_compiled(path)
+    loaded = _loaded(path)
     if loaded is None:
         lowered = lower()
         hits = _persistent_cache_hits()
@@ -597,9 +662,13 @@ def compiled_with(lowered, options: Mapping[str, Any] | None, base: dict | None 
         return lowered.compile(compiler_options=base)
 
 
-def remembered(name: str, build, *inputs) -> Any:
+def remembered(name: str, build, *inputs, prefetch_after: bool = False) -> Any:
     """`build()`, or the value an earlier process built under the same key, read from disk where
     `enable_exported_programs` keeps the programs (off: `build()`).
+
+    `prefetch_after`: the value starts a command's work (its system): the kept executables a
+    process runs after it are noted beside it (`note_programs_used`), and a later process that
+    reads it back starts reading them at once, in the background (`prefetch`).
 
     **Arguments:** `name`: what is kept (part of the key); `build`: makes the value, a
     deterministic function of `inputs` that pickles (one that does not is built each time);
@@ -611,11 +680,17 @@ def remembered(name: str, build, *inputs) -> Any:
     if _FOLDER is None or digest is None:
         return build()
     path = _FOLDER / f"{name}-{digest.hexdigest()[:32]}.pkl"
+    if prefetch_after:
+        _ANCHOR.append(path)
     if path.exists():
         try:
-            return pickle.loads(path.read_bytes())
+            value = pickle.loads(path.read_bytes())
         except Exception:  # a damaged or foreign entry: build again and replace it
             pass
+        else:
+            if prefetch_after:
+                _prefetch_noted(path)
+            return value
     value = build()
     try:
         _write_atomically(path, pickle.dumps(value, protocol=pickle.HIGHEST_PROTOCOL))

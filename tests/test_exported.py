@@ -254,6 +254,48 @@ def test_a_kept_executable_runs_without_the_program_and_is_replaced_when_it_cann
     assert len(_kept(tmp_path, "xla")) == 1 and "mixed" in _exported._REFUSED
 
 
+def test_a_remembered_system_brings_the_executables_its_last_run_used(tmp_path, monkeypatch):
+    # `remembered(..., prefetch_after=True)` (a command's system): the executables a process ran
+    # after it are noted beside it; a later process reading it back reads them on a background
+    # thread while it goes on, and runs them without reading them again.
+    for name, value in (("_FOLDER", tmp_path), ("_LOADED", {}), ("_READING", {})):
+        monkeypatch.setattr(_exported, name, value)
+    monkeypatch.setattr(_exported, "_USED", {})
+    monkeypatch.setattr(_exported, "_ANCHOR", [])
+    monkeypatch.setattr(equinox._errors, "EQX_ON_ERROR", "nan")
+    x = jnp.linspace(-2.0, 3.0, 7)
+    plain = jax.jit(_mixed)(x)
+
+    def run():
+        system = _exported.remembered("system", lambda: {"n": 7}, 7, prefetch_after=True)
+        out = _exported.exported_call("mixed", _mixed, jax.jit(_mixed), x)
+        return system, out
+
+    assert run()[0] == {"n": 7}
+    _exported.note_programs_used()
+    [uses] = tmp_path.glob("system-*.uses")
+    assert uses.read_text().split() == [p.name for p in _kept(tmp_path, "xla")]
+
+    threads = []  # a later process: the kept executable read on the prefetch thread, once
+    read_compiled = _exported._read_compiled
+    monkeypatch.setattr(
+        _exported,
+        "_read_compiled",
+        lambda path: threads.append(threading.current_thread().name) or read_compiled(path),
+    )
+    for name, value in (("_LOADED", {}), ("_READING", {}), ("_USED", {}), ("_ANCHOR", [])):
+        monkeypatch.setattr(_exported, name, value)
+    system, out = run()
+    assert system == {"n": 7} and jnp.array_equal(out, plain) and not out.committed
+    assert len(threads) == 1 and threads[0].startswith("origami-prefetch")
+    assert not _exported._READING  # taken by the call that ran it
+    # Off where nothing is kept, and where no value started the work.
+    monkeypatch.setattr(_exported, "_ANCHOR", [])
+    uses.unlink()
+    _exported.note_programs_used()
+    assert not list(tmp_path.glob("*.uses"))
+
+
 def test_a_program_given_options_compiles_with_them_kept_or_not(tmp_path, monkeypatch):
     # The command line keeps the executable; the library (no folder), or raised runtime errors
     # (which no exported program can hold), compile it in memory with the same options: the

@@ -11,6 +11,7 @@ import argparse
 import math
 from pathlib import Path
 
+from .._exported import note_programs_used
 from .._limits import FOLD_MAX_STEPS, FOLD_SEGMENT, MAX_FOLD_SEGMENTS, MAX_SAMPLES
 from ._common import (
     EXIT_FAILED,
@@ -579,6 +580,8 @@ def _run(
     }
     (out / "result.json").write_text(dumps_json(result))
     write_folding(out, net, system, trajectory, report)
+    # The next fold of this system reads these executables while it starts (`prefetch`).
+    note_programs_used()
     print(report.summary())
     written = ["result.json", "trajectory.csv", "trajectory.fold", *painter.finish()]
     print(f"wrote {output.out}: {', '.join(written)}")

@@ -243,7 +243,7 @@ class AbstractPanelPattern(AbstractPattern):
             return system, added
 
         inputs = (type(self).__name__, self.content_key(), design, options)
-        system, added = remembered("system", build, *inputs)
+        system, added = remembered("system", build, *inputs, prefetch_after=True)
         for key, value in added.items():
             self.host_cache.get(key, lambda value=value: value)
         return system
