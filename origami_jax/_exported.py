@@ -501,7 +501,7 @@ def _uses_path(anchor: Path) -> Path:
 
 def note_programs_used() -> None:
     """Record, beside the value this process last `remembered` with `prefetch_after` (a command's
-    system), the kept executables it has run, in order, so that a later process reading that
+    system), the kept executables it has run since, in order, so that a later process reading that
     value back prefetches them (`prefetch`). Off where no such value was remembered or nothing
     is kept."""
     if _FOLDER is None or not _ANCHOR:
@@ -680,8 +680,9 @@ def remembered(name: str, build, *inputs, prefetch_after: bool = False) -> Any:
     if _FOLDER is None or digest is None:
         return build()
     path = _FOLDER / f"{name}-{digest.hexdigest()[:32]}.pkl"
-    if prefetch_after:
+    if prefetch_after:  # what runs from here on is what this value's next reader will need
         _ANCHOR.append(path)
+        _USED.clear()
     if path.exists():
         try:
             value = pickle.loads(path.read_bytes())

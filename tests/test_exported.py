@@ -271,10 +271,12 @@ def test_a_remembered_system_brings_the_executables_its_last_run_used(tmp_path, 
         out = _exported.exported_call("mixed", _mixed, jax.jit(_mixed), x)
         return system, out
 
+    before = jnp.arange(3.0)  # run before the system: not what its next reader needs
+    _exported.exported_call("twice", _twice, jax.jit(_twice), before)
     assert run()[0] == {"n": 7}
     _exported.note_programs_used()
     [uses] = tmp_path.glob("system-*.uses")
-    assert uses.read_text().split() == [p.name for p in _kept(tmp_path, "xla")]
+    assert uses.read_text().split() == [p.name for p in tmp_path.glob("mixed-*.xla")]
 
     threads = []  # a later process: the kept executable read on the prefetch thread, once
     read_compiled = _exported._read_compiled
