@@ -61,6 +61,7 @@ _LOADED: dict[Path, tuple] = {}  # (compiled, extra) this process has read or bu
 _READING: dict[Path, Any] = {}  # executables being read in the background (`prefetch`), by file
 _USED: dict[Path, None] = {}  # executables this process ran, in order (`note_programs_used`)
 _ANCHOR: list[Path] = []  # remembered values that start a command's work (`prefetch_after`)
+_HINT: list[Path] = []  # the command line's own note of what it ran (`prefetch_for_command`)
 _OWN_KEY = {"xla_embed_ir_in_executable": False}  # XLA's default, set: see `_compiled_here`
 # A LAPACK routine's name as a custom call's target in a serialised executable (`lapack_dsyevd_ffi`,
 # in the program it holds), not a function name in its locations (a test of "lapack_is…").
@@ -506,17 +507,36 @@ def note_programs_used() -> None:
     is kept."""
     if _FOLDER is None or not _ANCHOR:
         return
-    names = [p.name for p in _USED]
-    try:
-        _write_atomically(_uses_path(_ANCHOR[-1]), "\n".join(names).encode())
-    except OSError:
-        pass
+    names = "\n".join(p.name for p in _USED).encode()
+    for path in (_uses_path(_ANCHOR[-1]), *_HINT[-1:]):
+        try:
+            _write_atomically(path, names)
+        except OSError:
+            pass
+
+
+def prefetch_for_command(argv) -> None:
+    """`prefetch` what the last run of the same command line (`argv`, every word) ran, as
+    `note_programs_used` noted it: called as soon as JAX is imported, before the command builds
+    anything, so that a rerun reads its executables while it imports and sets up. A hint only (a
+    command line whose inputs changed since names executables it may not run: read for nothing,
+    in the background). Off where nothing is kept."""
+    if _FOLDER is None:
+        return
+    digest = hashlib.sha256("\0".join(map(str, argv)).encode() + _environment()).hexdigest()
+    _HINT.append(_FOLDER / f"command-{digest[:32]}.uses")
+    _prefetch_listed(_HINT[-1])
 
 
 def _prefetch_noted(anchor: Path) -> None:
     """`prefetch` the executables noted beside the remembered value `anchor`."""
+    _prefetch_listed(_uses_path(anchor))
+
+
+def _prefetch_listed(path: Path) -> None:
+    """`prefetch` the executables a `.uses` file at `path` lists (file names in `_FOLDER`)."""
     try:
-        names = _uses_path(anchor).read_text().split()
+        names = path.read_text().split()
     except OSError:
         return
     prefetch([_FOLDER / name for name in names if name.endswith(".xla") and "/" not in name])

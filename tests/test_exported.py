@@ -262,9 +262,12 @@ def test_a_remembered_system_brings_the_executables_its_last_run_used(tmp_path, 
         monkeypatch.setattr(_exported, name, value)
     monkeypatch.setattr(_exported, "_USED", {})
     monkeypatch.setattr(_exported, "_ANCHOR", [])
+    monkeypatch.setattr(_exported, "_HINT", [])
     monkeypatch.setattr(equinox._errors, "EQX_ON_ERROR", "nan")
     x = jnp.linspace(-2.0, 3.0, 7)
     plain = jax.jit(_mixed)(x)
+    _exported.prefetch_for_command(["fold", "net"])  # nothing noted yet: nothing read
+    assert not _exported._READING
 
     def run():
         system = _exported.remembered("system", lambda: {"n": 7}, 7, prefetch_after=True)
@@ -277,6 +280,8 @@ def test_a_remembered_system_brings_the_executables_its_last_run_used(tmp_path, 
     _exported.note_programs_used()
     [uses] = tmp_path.glob("system-*.uses")
     assert uses.read_text().split() == [p.name for p in tmp_path.glob("mixed-*.xla")]
+    [command] = tmp_path.glob("command-*.uses")  # the command line's own note, the same
+    assert command.read_text() == uses.read_text()
 
     threads = []  # a later process: the kept executable read on the prefetch thread, once
     read_compiled = _exported._read_compiled
@@ -291,11 +296,19 @@ def test_a_remembered_system_brings_the_executables_its_last_run_used(tmp_path, 
     assert system == {"n": 7} and jnp.array_equal(out, plain) and not out.committed
     assert len(threads) == 1 and threads[0].startswith("origami-prefetch")
     assert not _exported._READING  # taken by the call that ran it
+    # The same command line again: read ahead as soon as it starts, before any system is read.
+    for name, value in (("_LOADED", {}), ("_READING", {}), ("_USED", {}), ("_ANCHOR", [])):
+        monkeypatch.setattr(_exported, name, value)
+    _exported.prefetch_for_command(["fold", "net"])
+    [reading] = _exported._READING.values()
+    reading.result()
+    assert len(threads) == 2 and threads[1].startswith("origami-prefetch")
+    assert jnp.array_equal(run()[1], plain) and len(threads) == 2
     # Off where nothing is kept, and where no value started the work.
     monkeypatch.setattr(_exported, "_ANCHOR", [])
     uses.unlink()
     _exported.note_programs_used()
-    assert not list(tmp_path.glob("*.uses"))
+    assert not list(tmp_path.glob("system-*.uses"))
 
 
 def test_a_program_given_options_compiles_with_them_kept_or_not(tmp_path, monkeypatch):

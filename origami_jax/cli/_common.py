@@ -32,7 +32,7 @@ from pathlib import Path
 from typing import Any, NoReturn
 
 from .._cache import enable_compilation_cache
-from .._exported import enable_exported_programs
+from .._exported import enable_exported_programs, prefetch_for_command
 from .._folder_lock import LOCK, FolderBusyError, FolderLock, lock_folder
 from .._limits import CONTACT_SAMPLING, MAX_CONTACT_SAMPLING, MAX_FIXED_STEPS
 from .._names import did_you_mean
@@ -881,7 +881,7 @@ def prepare_out(out: Path) -> Path:
 NAN_ON_ERROR_COMMANDS = frozenset({"simulate", "fold"})
 
 
-def setup_runtime(command: str | None = None) -> None:
+def setup_runtime(command: str | None = None, argv: Sequence[str] | None = None) -> None:
     """Configure JAX for command-line runs: float64 on, the persistent compilation cache on (see
     `origami_jax.enable_compilation_cache`; `ORIGAMI_JAX_CACHE=0` turns it off), matplotlib
     without a screen; for `NAN_ON_ERROR_COMMANDS`, `EQX_ON_ERROR=nan` unless set (it is read when
@@ -889,7 +889,9 @@ def setup_runtime(command: str | None = None) -> None:
 
     The library itself never flips global JAX configuration; the CLI does, because its results are
     written to files and must be reproducible to the digits it prints, and because each command is
-    a new process that would otherwise compile everything again.
+    a new process that would otherwise compile everything again. With the command line's words
+    `argv`, the executables its last run ran start loading in the background at once
+    (`prefetch_for_command`).
     """
     os.environ.setdefault("MPLBACKEND", "Agg")
     if command in NAN_ON_ERROR_COMMANDS and "equinox" not in sys.modules:
@@ -910,6 +912,8 @@ def setup_runtime(command: str | None = None) -> None:
         if folder is not None:
             # The traced solve as well, so that a warm run neither traces nor compiles it.
             enable_exported_programs(folder / "exported")
+            if argv is not None:
+                prefetch_for_command([command, *argv])
     except (ValueError, OSError) as error:  # an unwritable cache folder costs time, not the run
         print(f"origami-jax: warning: {error}", file=sys.stderr)
 

@@ -133,7 +133,7 @@ def _run(argv: Sequence[str] | None) -> int:
         parser.print_help(sys.stderr)
         return EXIT_USAGE
     try:
-        setup_runtime(args.command)  # imports JAX: seconds in which a Ctrl-C may come too
+        setup_runtime(args.command, argv)  # imports JAX: seconds in which a Ctrl-C may come too
         return int(args.func(args))
     except CLIError as error:
         print_error(args.command, str(error))
