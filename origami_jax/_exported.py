@@ -60,8 +60,9 @@ _REFUSED: set[str] = set()  # programs found not exportable in this process (a c
 _LOADED: dict[Path, tuple] = {}  # (compiled, extra) this process has read or built, by file
 _READING: dict[Path, Any] = {}  # executables being read in the background (`prefetch`), by file
 _USED: dict[Path, None] = {}  # executables this process ran, in order (`note_programs_used`)
-_ANCHOR: list[Path] = []  # remembered values that start a command's work (`prefetch_after`)
-_HINT: list[Path] = []  # the command line's own note of what it ran (`prefetch_for_command`)
+_ANCHOR: Path | None = None  # the value that started a command's work (`prefetch_after`)
+_HINT: Path | None = None  # the command line's own note of what it ran (`prefetch_for_command`)
+_READER = None  # the executor of `prefetch`'s background thread, made at its first use
 _OWN_KEY = {"xla_embed_ir_in_executable": False}  # XLA's default, set: see `_compiled_here`
 # A LAPACK routine's name as a custom call's target in a serialised executable (`lapack_dsyevd_ffi`,
 # in the program it holds), not a function name in its locations (a test of "lapack_is…").
@@ -493,9 +494,6 @@ def prefetch(paths) -> None:
         _READING[path] = _READER.submit(_read_compiled, path)
 
 
-_READER = None
-
-
 def _uses_path(anchor: Path) -> Path:
     return anchor.with_suffix(".uses")
 
@@ -505,10 +503,10 @@ def note_programs_used() -> None:
     system), the kept executables it has run since, in order, so that a later process reading that
     value back prefetches them (`prefetch`). Off where no such value was remembered or nothing
     is kept."""
-    if _FOLDER is None or not _ANCHOR:
+    if _FOLDER is None or _ANCHOR is None:
         return
     names = "\n".join(p.name for p in _USED).encode()
-    for path in (_uses_path(_ANCHOR[-1]), *_HINT[-1:]):
+    for path in filter(None, (_uses_path(_ANCHOR), _HINT)):
         try:
             _write_atomically(path, names)
         except OSError:
@@ -521,16 +519,12 @@ def prefetch_for_command(argv) -> None:
     anything, so that a rerun reads its executables while it imports and sets up. A hint only (a
     command line whose inputs changed since names executables it may not run: read for nothing,
     in the background). Off where nothing is kept."""
+    global _HINT
     if _FOLDER is None:
         return
     digest = hashlib.sha256("\0".join(map(str, argv)).encode() + _environment()).hexdigest()
-    _HINT.append(_FOLDER / f"command-{digest[:32]}.uses")
-    _prefetch_listed(_HINT[-1])
-
-
-def _prefetch_noted(anchor: Path) -> None:
-    """`prefetch` the executables noted beside the remembered value `anchor`."""
-    _prefetch_listed(_uses_path(anchor))
+    _HINT = _FOLDER / f"command-{digest[:32]}.uses"
+    _prefetch_listed(_HINT)
 
 
 def _prefetch_listed(path: Path) -> None:
@@ -696,12 +690,13 @@ def remembered(name: str, build, *inputs, prefetch_after: bool = False) -> Any:
     refused like `exported_call`'s static parts where they hold code the key cannot vouch for
     (then `build()` is called and nothing is kept).
     """
+    global _ANCHOR
     digest = None if _FOLDER is None else _vouched_digest(name, inputs)
     if _FOLDER is None or digest is None:
         return build()
     path = _FOLDER / f"{name}-{digest.hexdigest()[:32]}.pkl"
     if prefetch_after:  # what runs from here on is what this value's next reader will need
-        _ANCHOR.append(path)
+        _ANCHOR = path
         _USED.clear()
     if path.exists():
         try:
@@ -710,7 +705,7 @@ def remembered(name: str, build, *inputs, prefetch_after: bool = False) -> Any:
             pass
         else:
             if prefetch_after:
-                _prefetch_noted(path)
+                _prefetch_listed(_uses_path(path))
             return value
     value = build()
     try:

@@ -261,8 +261,8 @@ def test_a_remembered_system_brings_the_executables_its_last_run_used(tmp_path, 
     for name, value in (("_FOLDER", tmp_path), ("_LOADED", {}), ("_READING", {})):
         monkeypatch.setattr(_exported, name, value)
     monkeypatch.setattr(_exported, "_USED", {})
-    monkeypatch.setattr(_exported, "_ANCHOR", [])
-    monkeypatch.setattr(_exported, "_HINT", [])
+    monkeypatch.setattr(_exported, "_ANCHOR", None)
+    monkeypatch.setattr(_exported, "_HINT", None)
     monkeypatch.setattr(equinox._errors, "EQX_ON_ERROR", "nan")
     x = jnp.linspace(-2.0, 3.0, 7)
     plain = jax.jit(_mixed)(x)
@@ -290,14 +290,14 @@ def test_a_remembered_system_brings_the_executables_its_last_run_used(tmp_path, 
         "_read_compiled",
         lambda path: threads.append(threading.current_thread().name) or read_compiled(path),
     )
-    for name, value in (("_LOADED", {}), ("_READING", {}), ("_USED", {}), ("_ANCHOR", [])):
+    for name, value in (("_LOADED", {}), ("_READING", {}), ("_USED", {}), ("_ANCHOR", None)):
         monkeypatch.setattr(_exported, name, value)
     system, out = run()
     assert system == {"n": 7} and jnp.array_equal(out, plain) and not out.committed
     assert len(threads) == 1 and threads[0].startswith("origami-prefetch")
     assert not _exported._READING  # taken by the call that ran it
     # The same command line again: read ahead as soon as it starts, before any system is read.
-    for name, value in (("_LOADED", {}), ("_READING", {}), ("_USED", {}), ("_ANCHOR", [])):
+    for name, value in (("_LOADED", {}), ("_READING", {}), ("_USED", {}), ("_ANCHOR", None)):
         monkeypatch.setattr(_exported, name, value)
     _exported.prefetch_for_command(["fold", "net"])
     [reading] = _exported._READING.values()
@@ -305,7 +305,7 @@ def test_a_remembered_system_brings_the_executables_its_last_run_used(tmp_path, 
     assert len(threads) == 2 and threads[1].startswith("origami-prefetch")
     assert jnp.array_equal(run()[1], plain) and len(threads) == 2
     # Off where nothing is kept, and where no value started the work.
-    monkeypatch.setattr(_exported, "_ANCHOR", [])
+    monkeypatch.setattr(_exported, "_ANCHOR", None)
     uses.unlink()
     _exported.note_programs_used()
     assert not list(tmp_path.glob("system-*.uses"))

@@ -913,7 +913,7 @@ def setup_runtime(command: str | None = None, argv: Sequence[str] | None = None)
             # The traced solve as well, so that a warm run neither traces nor compiles it.
             enable_exported_programs(folder / "exported")
             if argv is not None:
-                prefetch_for_command([command, *argv])
+                prefetch_for_command(argv)
     except (ValueError, OSError) as error:  # an unwritable cache folder costs time, not the run
         print(f"origami-jax: warning: {error}", file=sys.stderr)
 
