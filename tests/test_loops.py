@@ -416,6 +416,24 @@ def test_the_wrong_branch_is_misfolded():
     assert "--bias 0.05" in report.summary()
 
 
+def test_a_crease_left_flat_is_another_branch():
+    """A crease the pattern folds that never leaves flat is off the pattern's branch too (a vertex
+    of degree six takes such branches from flat): named in the reason and the summary, with the
+    hint to start pre-folded. The vertex's folding with its crease 1 held at 0 throughout."""
+    pattern, system = _degree4()
+    trajectory = _degree4_from_flat()
+    held = eqx.tree_at(lambda t: t.theta, trajectory, trajectory.theta.at[:, 1].set(0.0))
+    report = pattern.assess(system, held)
+    assert report.verdict == "misfolded", report.summary()
+    assert report.stayed_flat == (1,) and report.wrong_creases == ()
+    assert report.reason == "took another folding branch: crease(s) 1 stayed flat"
+    summary = report.summary()
+    assert "branch: not the pattern's, crease(s) 1 stayed flat (started flat, where" in summary
+    assert "--bias 0.05" in summary
+    # The vertex's own folding: every crease left flat on the pattern's branch.
+    assert pattern.assess(system, trajectory).stayed_flat == ()
+
+
 # --- single vertex: the charge-energy path as dynamics ----------------------------------------
 
 

@@ -17,7 +17,9 @@ class LoopFoldReport(AbstractFoldReport):
 
     - `branch`: which way each crease went (+1 valley, −1 mountain, 0 flat), taken when it first got
       `BRANCH_ANGLE` from flat (the choice made leaving the flat state), `(m,)`;
-      `intended_branch`: the pattern's; `wrong_creases`: the creases that went the other way.
+      `intended_branch`: the pattern's; `wrong_creases`: the creases that went the other way;
+      `stayed_flat`: the creases the pattern folds that never left flat (another branch too: at a
+      vertex of degree six or more some branches leave creases flat).
     - `final_branch`: the same at the end of the run.
     - `bias`: the start's pre-fold (rad; 0: started flat, the inputs alone chose).
     - `closure_drift`: the largest closure residual of any loop over the run (rad): how far the
@@ -30,6 +32,7 @@ class LoopFoldReport(AbstractFoldReport):
     final_branch: np.ndarray
     bias: float
     closure_drift: float
+    stayed_flat: tuple[int, ...] = ()
 
     @classmethod
     def from_report(cls, pattern, report: FoldReport, trajectory, bias: float) -> "LoopFoldReport":
@@ -51,14 +54,11 @@ class LoopFoldReport(AbstractFoldReport):
             for j in np.flatnonzero((branch != 0) & (intended_branch != 0))
             if branch[j] != intended_branch[j]
         )
+        flat = tuple(int(j) for j in np.flatnonzero((branch == 0) & (intended_branch != 0)))
         drift = pattern.closure_residual(theta)
         fields = {f.name: getattr(report, f.name) for f in dataclasses.fields(AbstractFoldReport)}
-        if report.verdict == FoldVerdict.MISFOLDED and wrong:
-            creases = ", ".join(str(j) for j in wrong[:8]) + (" ..." if len(wrong) > 8 else "")
-            fields["reason"] = (
-                f"took another folding branch: crease(s) {creases} went the other way "
-                "(mountain for valley or back)"
-            )
+        if report.verdict == FoldVerdict.MISFOLDED and (wrong or flat):
+            fields["reason"] = "took another folding branch: " + _off_branch(wrong, flat)
         return cls(
             **fields,
             branch=branch,
@@ -67,12 +67,13 @@ class LoopFoldReport(AbstractFoldReport):
             final_branch=final_branch,
             bias=float(bias),
             closure_drift=float(np.max(drift)) if drift.size else 0.0,
+            stayed_flat=flat,
         )
 
     def summary(self) -> str:
         lines = [super().summary()]
         start = "flat" if self.bias == 0 else f"pre-folded by {self.bias:.3g} rad"
-        if self.wrong_creases:
+        if self.wrong_creases or self.stayed_flat:
             # From flat every branch is open and the hinges' torques alone choose; a die is never
             # exactly flat, and a small pre-fold along the hinges' branch is how to say so.
             hint = (
@@ -81,11 +82,26 @@ class LoopFoldReport(AbstractFoldReport):
                 if self.bias == 0
                 else ""
             )
-            lines.append(
-                f"branch: {len(self.wrong_creases)} crease(s) went the other way from the "
-                f"pattern's (started {start}{hint})"
-            )
+            off = _off_branch(self.wrong_creases, self.stayed_flat)
+            lines.append(f"branch: not the pattern's, {off} (started {start}{hint})")
         else:
             lines.append(f"branch: the pattern's (started {start})")
         lines.append(f"closure drift: {self.closure_drift:.2e} rad")
         return "\n".join(lines)
+
+
+def _creases(numbers) -> str:
+    return ", ".join(str(j) for j in numbers[:8]) + (" ..." if len(numbers) > 8 else "")
+
+
+def _off_branch(wrong, flat) -> str:
+    """How a folding left the pattern's branch, in words: the creases that went the other way
+    (`wrong`) and those that never left flat (`flat`)."""
+    parts = []
+    if wrong:
+        parts.append(
+            f"crease(s) {_creases(wrong)} went the other way (mountain for valley or back)"
+        )
+    if flat:
+        parts.append(f"crease(s) {_creases(flat)} stayed flat")
+    return "; ".join(parts)
