@@ -501,12 +501,14 @@ def _uses_path(anchor: Path) -> Path:
 def note_programs_used() -> None:
     """Record, beside the value this process last `remembered` with `prefetch_after` (a command's
     system), the kept executables it has run since, in order, so that a later process reading that
-    value back prefetches them (`prefetch`). Off where no such value was remembered or nothing
-    is kept."""
-    if _FOLDER is None or _ANCHOR is None:
+    value back prefetches them (`prefetch`); and the same under the command line's words where
+    `prefetch_for_command` was called (without such a value: every executable the process ran).
+    Off where neither applies or nothing is kept."""
+    if _FOLDER is None or (_ANCHOR is None and _HINT is None):
         return
     names = "\n".join(p.name for p in _USED).encode()
-    for path in filter(None, (_uses_path(_ANCHOR), _HINT)):
+    beside = None if _ANCHOR is None else _uses_path(_ANCHOR)
+    for path in filter(None, (beside, _HINT)):
         try:
             _write_atomically(path, names)
         except OSError:
@@ -518,13 +520,29 @@ def prefetch_for_command(argv) -> None:
     `note_programs_used` noted it: called as soon as JAX is imported, before the command builds
     anything, so that a rerun reads its executables while it imports and sets up. A hint only (a
     command line whose inputs changed since names executables it may not run: read for nothing,
-    in the background). Off where nothing is kept."""
+    in the background). The output folder (`--out`) is not part of the command line's key: it
+    decides where results go, not what runs (a yield or sweep is rerun into a new folder). Off
+    where nothing is kept."""
     global _HINT
     if _FOLDER is None:
         return
-    digest = hashlib.sha256("\0".join(map(str, argv)).encode() + _environment()).hexdigest()
+    words = _without_output_folder(list(map(str, argv)))
+    digest = hashlib.sha256("\0".join(words).encode() + _environment()).hexdigest()
     _HINT = _FOLDER / f"command-{digest[:32]}.uses"
     _prefetch_listed(_HINT)
+
+
+def _without_output_folder(words: list[str]) -> list[str]:
+    """A command line's words without its ``--out FOLDER`` (or ``--out=FOLDER``)."""
+    kept, skip = [], False
+    for word in words:
+        if skip:
+            skip = False
+        elif word == "--out":
+            skip = True
+        elif not word.startswith("--out="):
+            kept.append(word)
+    return kept
 
 
 def _prefetch_listed(path: Path) -> None:

@@ -309,6 +309,24 @@ def test_a_remembered_system_brings_the_executables_its_last_run_used(tmp_path, 
     uses.unlink()
     _exported.note_programs_used()
     assert not list(tmp_path.glob("system-*.uses"))
+    # A command that remembers no such value (a yield, a sweep): its own note lists every kept
+    # executable it ran, under its words less the output folder, so that a rerun into another
+    # folder (a yield never replaces one) reads them ahead.
+    for name, value in (("_LOADED", {}), ("_READING", {}), ("_USED", {}), ("_HINT", None)):
+        monkeypatch.setattr(_exported, name, value)
+    _exported.prefetch_for_command(["yield", "net", "--out", "first"])
+    assert not _exported._READING  # nothing noted under these words yet
+    _exported.exported_call("mixed", _mixed, jax.jit(_mixed), x)
+    _exported.note_programs_used()
+    hint = _exported._HINT
+    assert hint.read_text().split() == [p.name for p in tmp_path.glob("mixed-*.xla")]
+    for name, value in (("_LOADED", {}), ("_READING", {}), ("_USED", {}), ("_HINT", None)):
+        monkeypatch.setattr(_exported, name, value)
+    _exported.prefetch_for_command(["yield", "net", "--out=second"])
+    assert _exported._HINT == hint
+    [reading] = _exported._READING.values()
+    reading.result()
+    assert threads[-1].startswith("origami-prefetch")
 
 
 def test_a_program_given_options_compiles_with_them_kept_or_not(tmp_path, monkeypatch):

@@ -48,6 +48,31 @@ def test_the_release_ramp_is_the_patterns_input_everywhere():
     assert fold_kernel(paper).settings["t_end_us"] == 1500.0
 
 
+def test_the_nominal_ramp_is_kept_across_processes(tmp_path, monkeypatch):
+    """Where the command line keeps its programs, the nominal design's ramp is kept as a value: a
+    later process (a warm yield or sweep) neither traces nor runs its program."""
+    from origami_jax import _exported
+    from origami_jax.net import _pattern
+    from origami_jax.system import KOH_SOLUTION
+
+    net = load_net("cube_net_01")
+    koh = net.default_design(KOH_SOLUTION)
+    monkeypatch.setattr(_exported, "_FOLDER", tmp_path)
+    monkeypatch.setattr(_pattern, "_NOMINAL_RAMPS", {})
+    assert net.nominal_release_ramp(koh) == 40_000.0
+    assert len(list(tmp_path.glob("nominal_release_ramp-*.pkl"))) == 1
+
+    def untraced(*args):
+        raise AssertionError("the kept ramp's program was traced again")
+
+    monkeypatch.setattr(_pattern, "_NOMINAL_RAMPS", {})  # a new process
+    monkeypatch.setattr(_pattern, "_design_ramp", untraced)
+    assert net.nominal_release_ramp(koh) == 40_000.0
+    other = eqx.tree_at(lambda d: d.hinge_width, koh, jnp.asarray(150.0))
+    with pytest.raises(AssertionError, match="traced again"):  # another design: not read back
+        net.nominal_release_ramp(other)
+
+
 def test_the_automatic_ramp_is_the_quasi_static_one_rounded_up():
     from origami_jax.net._pattern import quasi_static_release, rounded_up
     from origami_jax.system import KOH_SOLUTION

@@ -6,6 +6,7 @@ import dataclasses
 import time
 from pathlib import Path
 
+from .._exported import note_programs_used
 from ._common import (
     EXIT_FAILED,
     EXIT_OK,
@@ -181,6 +182,8 @@ def _run(args: argparse.Namespace, config, output: OutputFolder) -> int:
             progress=not args.no_progress,
         )
     elapsed = time.perf_counter() - start
+    # A rerun of this command line reads the sweep's executables while it starts (`prefetch`).
+    note_programs_used()
     n, failed = dataset.attrs["n_designs"], dataset.attrs["n_failed"]
     lines = [
         f"model: {config.kernel.name}",

@@ -6,6 +6,7 @@ import math
 import time
 from pathlib import Path
 
+from .._exported import note_programs_used
 from .._limits import AFTER_RELEASE_US, KERNEL_MAX_STEPS, default_t_end
 from ._common import (
     EXIT_OK,
@@ -1067,6 +1068,8 @@ def _run(
         at_width[factor] = estimate_at(
             scatter.scaled(factor), out / "widths" / f"x{factor:g}", estimate.n_samples
         )
+    # A rerun of this command line reads the estimate's executables while it starts (`prefetch`).
+    note_programs_used()
     ascent = None
     if improve:
         from ..fab_yield import AscentSettings, yield_ascent

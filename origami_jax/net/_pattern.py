@@ -259,7 +259,9 @@ class AbstractPanelPattern(AbstractPattern):
         if not any(self.fluid_inertia(design)):
             return None
         # Kept per pattern and design (tracing and compiling the system costs seconds for each
-        # net), across the pattern objects that load the same net.
+        # net), across the pattern objects that load the same net; where the command line keeps
+        # its programs, across processes too (`remembered`: a warm yield or sweep neither traces
+        # nor runs the ramp's program, 2-3 s of tracing on a 2-core machine).
         key = (self.content_key(), value_key(design))
         if key not in _NOMINAL_RAMPS:
             about = self.oscillation_state()
@@ -271,9 +273,13 @@ class AbstractPanelPattern(AbstractPattern):
             strong = jax.tree.map(
                 lambda x: jnp.asarray(x, jnp.result_type(x)) if eqx.is_array(x) else x, design
             )
-            with checks_as_nan():
-                ramp = float(_design_ramp(_ByContent(self, key[0]), strong, about))
-            _NOMINAL_RAMPS[key] = rounded_up(ramp)
+
+            def ramp() -> float:
+                with checks_as_nan():
+                    return rounded_up(float(_design_ramp(_ByContent(self, key[0]), strong, about)))
+
+            inputs = (type(self).__name__, key[0], strong, about)
+            _NOMINAL_RAMPS[key] = remembered("nominal_release_ramp", ramp, *inputs)
         return _NOMINAL_RAMPS[key]
 
     def release_input(self, system=None) -> Step:
