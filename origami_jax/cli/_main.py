@@ -54,7 +54,8 @@ def build_parser() -> argparse.ArgumentParser:
         epilog=(
             "Results: every command writes into --out as one unit (moved into place when the run "
             "ends) and refuses a folder that holds results of an earlier run unless --overwrite is "
-            "given. Exit codes: 0 success, 1 the computation failed or its answer is negative, "
+            "given (yield and sweep never replace results: --resume continues the run stored "
+            "there). Exit codes: 0 success, 1 the computation failed or its answer is negative, "
             "2 bad input, 130 interrupted."
         ),
         formatter_class=argparse.RawDescriptionHelpFormatter,
