@@ -90,6 +90,18 @@ def test_the_physics_model_travels_with_the_pattern():
     assert Accordion(3).with_model(contact=True) == Accordion(3, contact=True)
     with pytest.raises(ValueError, match="unknown option"):
         net.with_model(check_rigid=False)
+    # A bad value is refused when the pattern is made, not when its first system is built.
+    for pattern in (net, load_pattern("vertex_degree4")):
+        for option, message in (
+            ({"drag": "plate"}, "drag must be one of 'panel', 'hinge', got 'plate'"),
+            ({"hinges": "bent"}, "hinges must be one of 'point', 'arc', got 'bent'"),
+            ({"contact": "exact"}, "contact must be True, False or one of 'plate', 'sampled'"),
+            ({"added_mass": "yes"}, "added_mass must be None .* True or False, got 'yes'"),
+            ({"viscous": 1}, "viscous must be None .* True or False, got 1"),
+        ):
+            with pytest.raises(ValueError, match=message):
+                pattern.with_model(**option)
+    assert net.with_model(added_mass=np.bool_(False), drag="hinge").drag == "hinge"
 
 
 def test_the_accordion_folds_as_a_pattern():

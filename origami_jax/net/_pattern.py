@@ -26,7 +26,7 @@ from .._exported import exported_jit, remembered
 from .._limits import FOLD_SEGMENT, MAX_FOLD_SEGMENTS, default_t_end
 from .._runtime_errors import checks_as_nan
 from .._validate import is_traced
-from ..contact import Adhesion, Friction
+from ..contact import Adhesion, Friction, contact_kind
 from ..fluid import CombinedDrag, fluid_loads, polygon_added_inertia
 from ..simulation import Step, fold_pattern, quasi_static_ramp
 from ..system import AbstractPattern, Agitation, HingeDesign, check_known_names
@@ -413,9 +413,29 @@ def check_agitation(agitation) -> None:
         )
 
 
+# A pattern's physics options that name a choice, and the choices (`check_physics_options`).
+_CHOICES = {"drag": ("panel", "hinge"), "hinges": ("point", "arc")}
+
+
 def check_physics_options(pattern) -> None:
-    """One-line errors for a pattern's physics options that are objects or times (`adhesion`,
-    `friction`, `release_ramp`, `agitation`), when it is made (`with_model`)."""
+    """One-line errors for a pattern's physics options when it is made (`with_model`), not when
+    its first system is built: the contact model's name (`contact_kind`), the drag's and hinges'
+    (`_CHOICES`), the fluid's switches (`added_mass`, `viscous`: `None`, `True` or `False`), and
+    the options that are objects or times (`adhesion`, `friction`, `release_ramp`,
+    `agitation`)."""
+    contact_kind(pattern.contact)
+    for name, choices in _CHOICES.items():
+        value = getattr(pattern, name)
+        if not (isinstance(value, str) and value in choices):
+            raise ValueError(
+                f"{name} must be one of {', '.join(map(repr, choices))}, got {value!r}."
+            )
+    for name in ("added_mass", "viscous"):
+        value = getattr(pattern, name)
+        if value is not None and not isinstance(value, bool | np.bool_):
+            raise ValueError(
+                f"{name} must be None (on in a liquid, off in a gas), True or False, got {value!r}."
+            )
     check_surface_model(pattern.adhesion, pattern.friction)
     check_release_ramp(pattern.release_ramp)
     check_agitation(pattern.agitation)
