@@ -760,7 +760,8 @@ def exported_jit(name: str, *, by_value: bool = False):
             def build():  # kept on the host: read back, it is put on no device
                 return jax.tree.map(np.asarray, computed(*args))
 
-            return jax.tree.map(jax.numpy.asarray, remembered(name, build, *args))
+            # Put on the device, not converted (`jnp.asarray` compiles a program per shape).
+            return jax.device_put(remembered(name, build, *args))
 
         @functools.wraps(fn)
         def call(*args):

@@ -2,6 +2,7 @@
 
 import json
 
+import equinox as eqx
 import jax.numpy as jnp
 import matplotlib.pyplot as plt
 import numpy as np
@@ -110,3 +111,34 @@ def test_cli_simulate_writes_trajectory_and_metrics(tmp_path, capsys):
 def test_cli_simulate_rejects_bad_params(tmp_path, capsys):
     assert main(["simulate", "--param", "nonsense", "--out", str(tmp_path)]) == 2
     assert main(["simulate", "--param", "no_such_field=1", "--out", str(tmp_path)]) == 2
+
+
+def test_host_side_reads_compile_nothing(caplog):
+    """What a command does on the host with a finished run compiles no program: `jnp.asarray` and
+    `==` on device arrays compile one per new shape in each process (~20 ms each, most of a warm
+    command's eager work), where `jax.device_put` and NumPy compile none."""
+    import logging
+
+    import jax
+
+    from origami_jax.simulation import RESULTS
+
+    n = 7  # a shape nothing else in the suite uses
+    trajectory = sim.Trajectory(
+        times=jnp.linspace(0.0, 1.0, n),
+        theta=jnp.zeros((n, 3)),
+        theta_dot=jnp.zeros((n, 3)),
+        theta_ddot=jnp.zeros((n, 3)),
+        tau=jnp.zeros((n, 3)),
+        target=jnp.zeros(3),
+        stats={},
+        result=RESULTS.successful,
+    )
+    with jax.log_compiles(True), caplog.at_level(logging.WARNING):
+        caplog.clear()
+        succeeded = trajectory.succeeded
+        step = sim.Step(ramp=40_000.0 + n)
+    assert bool(np.all(succeeded)) and float(step.ramp) == 40_007.0
+    assert not [r for r in caplog.records if "Compiling" in r.getMessage()]
+    failed = eqx.tree_at(lambda t: t.result, trajectory, RESULTS.nonfinite_state)
+    assert not bool(failed.succeeded)

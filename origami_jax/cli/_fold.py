@@ -531,7 +531,7 @@ def _run(
         on_continue=still_moving,
         options=options,
     )
-    t_end = float(trajectory.times[-1])
+    t_end = float(np.asarray(trajectory.times)[-1])
     if args.figures != "none" and bool(trajectory.succeeded):
         job = figure_job(system, trajectory, report, out, net.name, animation=args.figures == "all")
         painter.send(job)  # drawn while the files below are written

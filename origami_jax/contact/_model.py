@@ -511,7 +511,7 @@ def contact_points(
     contact = getattr(system, "contact", None)
     if contact is None or not hasattr(contact, "engaged_points"):
         return np.zeros(0, np.int64), np.zeros((0, 3)), np.zeros((0, 2), np.int64)
-    q = jnp.asarray(q)
+    q = jax.device_put(np.asarray(q))  # put, not converted: `jnp.asarray` compiles per shape
     points, count = _engaged_over_states(contact, system.mechanism, q)
     points, count = np.asarray(points), np.asarray(count)
     count = np.where(np.all(np.isfinite(np.asarray(q)), axis=1)[:, None, None], count, 0)

@@ -542,7 +542,8 @@ def hinges_within_creases(design: HingeDesign, lengths) -> HingeDesign:
     width = np.asarray(design.hinge_width, dtype=float)
     if not np.any(width > lengths):
         return design
-    return eqx.tree_at(lambda d: d.hinge_width, design, jnp.asarray(np.minimum(width, lengths)))
+    narrowed = jax.device_put(np.minimum(width, lengths))  # put: `jnp.asarray` compiles per shape
+    return eqx.tree_at(lambda d: d.hinge_width, design, narrowed)
 
 
 def default_design(pattern, fluid=None) -> HingeDesign:

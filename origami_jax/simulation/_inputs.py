@@ -101,7 +101,10 @@ class Step(AbstractInput):
                         f"Step.ramp must be a positive finite time (time units, e.g. µs), got "
                         f"{ramp!r}; leave it out (None) for the paper's step."
                     )
-            ramp = jnp.asarray(ramp, dtype=float)
+                # Put, not converted: `jnp.asarray` compiles a program per new shape and dtype.
+                ramp = jax.device_put(value.astype(jnp.result_type(float)))
+            else:
+                ramp = jnp.asarray(ramp, dtype=float)
         self.ramp = ramp
 
     def __check_init__(self):

@@ -100,7 +100,11 @@ class Trajectory(eqx.Module):
     @property
     def succeeded(self) -> jax.Array:
         """True where the solve succeeded (boolean array; batched trajectories give one per member)."""
-        return jnp.asarray(self.result._value == RESULTS.successful._value)
+        value = self.result._value
+        if is_traced(value):
+            return jnp.asarray(value == RESULTS.successful._value)
+        # On the host: `==` on a device array compiles a program in each new process.
+        return jax.device_put(np.asarray(value) == int(RESULTS.successful._value))
 
     def evaluate(self, t: Float[ArrayLike, ""]) -> tuple[Float[Array, " n"], Float[Array, " n"]]:
         """Dense output: `(θ(t), θ̇(t))` anywhere in the solved interval (needs

@@ -821,8 +821,10 @@ def _judged(
             intended,
             getattr(seam_gaps, "function", seam_gaps),
             None if bodies is None else tuple(map(tuple, np.asarray(bodies).tolist())),
-            jnp.asarray(angle_tolerance),
-            jnp.asarray(judged_tolerance),
+            # Put, not converted: `jnp.asarray` compiles a program per new shape (the same
+            # weak or strong type either way, so the same kept verdict program).
+            jax.device_put(angle_tolerance),
+            jax.device_put(judged_tolerance),
         )
     )
     return _outcome_compiled(*arguments), angle_tolerance, seam_tolerance, intended
@@ -875,7 +877,7 @@ def assess(
     outcome = jax.device_get(outcome)
     contact = system.contact
     if thickness is None and contact is not None:
-        thickness = 2 * float(np.min(contact.half_thickness))
+        thickness = 2 * float(np.min(np.asarray(contact.half_thickness)))
     theta = np.asarray(trajectory.theta)
     final = theta[-1]
     errors = final - intended

@@ -237,7 +237,7 @@ def _check_fold_angle(theta_final: Array) -> None:
     a fit, are bounded by the fit)."""
     if is_traced(theta_final):
         return
-    largest = float(jnp.max(theta_final))
+    largest = float(np.max(np.asarray(theta_final)))
     if largest > math.pi * (1 + 1e-6):  # π rounded to float32 is a little above π
         raise ValueError(
             f"theta_final is a fold angle in radians, at most π (180°, the flap folded flat onto "
