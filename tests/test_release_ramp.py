@@ -269,10 +269,15 @@ def test_the_yield_command_records_the_samples_physics():
     assert record["adhesion"]["work"] == 0.01 and record["friction"]["coefficient"] == 0.3
 
 
-def test_design_releases_a_net_in_the_bath_as_its_fold_does():
+def test_design_releases_a_net_in_the_bath_as_its_fold_does(monkeypatch):
     # The fit's candidates share the nominal design's release, as a sweep's members do; a run that
     # ends within it is refused before anything compiles.
     import origami_jax.design as ojd
+    from origami_jax import _exported
+
+    # In this process alone: a command line run earlier in it keeps values on disk, where the
+    # nominal ramp would be read back rather than traced (`test_the_nominal_ramp_is_kept_...`).
+    monkeypatch.setattr(_exported, "_FOLDER", None)
     from origami_jax.design._design import with_pattern_release
     from origami_jax.system import AIR, KOH_SOLUTION
 
