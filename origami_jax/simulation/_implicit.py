@@ -86,8 +86,11 @@ contact, with the same steps.
 
 **Agitation.** An agitated system (`FoldingSystem(agitation=...)`, Langevin forcing in balance with
 the drag's viscous part) receives a random impulse ``L(q_n) √h ξ_n`` in each step, ``ξ_n`` standard
-normal drawn from the agitation's key folded with the step's number (the same path for the same
-seed and step, whatever the batch), ``L Lᵀ = 2 k_B T D(q_n)`` (`Agitation.noise_matrix`): implicit
+normal drawn from the agitation's key folded with the step's number (the same draws for the same
+seed and step, whatever the batch; the states reproduce bitwise where the member is computed alone
+or in the same chunk: in a `vmap`ped chunk its Newton iterations run until the slowest member's
+have converged, which moves its last bits, and the noise amplifies them like any chaotic
+folding), ``L Lᵀ = 2 k_B T D(q_n)`` (`Agitation.noise_matrix`): implicit
 Euler for the drift with an Euler–Maruyama increment, ``M (v_{n+1} − v_n) = h F + L √h ξ_n``. Its
 stationary distribution is Boltzmann's to first order in ``h``: a harmonic hinge's ``⟨k θ²⟩``
 comes out ``k_B T (1 + O(ω₀ h))`` (implicit Euler's numerical damping takes energy from the noise;
