@@ -618,7 +618,9 @@ def write_folding(out: Path, net, system, trajectory, report) -> list[str]:
 def figure_job(system, trajectory, report, out: Path, name: str, *, animation: bool = False):
     """The figures of a folding (`_figure_job`), showing the fold itself rather than the long rest
     after it: to twice its time to fold where it folded."""
-    t_end = float(trajectory.times[-1])
+    import numpy as np
+
+    t_end = float(np.asarray(trajectory.times)[-1])  # on the host: indexing a device array compiles
     t_max = None if report.time_to_fold is None else min(2.0 * report.time_to_fold, t_end)
     return _figure_job(system, trajectory, report, out, name, t_max, animation=animation)
 

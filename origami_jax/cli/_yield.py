@@ -751,7 +751,7 @@ def _folded_again(estimate, pattern, numbers: list[int], folder: Path, figures: 
             **sample.report.to_dict(),
             "drawn": drawn,
             "hinge_targets_deg": [float(x) for x in np.degrees(sample.system.hinges.target)],
-            "t_end_us": float(sample.trajectory.times[-1]),
+            "t_end_us": float(np.asarray(sample.trajectory.times)[-1]),
         }
         write_atomic(out / "result.json", dumps_json(record))
         write_folding(out, pattern, sample.system, sample.trajectory, sample.report)
