@@ -13,7 +13,9 @@ exit (imports, the system's build, compilation or its loading, the fold, the ver
   segments until it settles, up to its 8000 µs cap), with its figures.
 
 Cold runs use a fresh cache folder (`ORIGAMI_JAX_CACHE`), warm runs the folder the cold run
-filled. No peer: no other tool folds a net with plate contact from a FOLD file in one command;
+filled. Both run with the package's Python bytecode compiled, as `pip install` leaves it and as
+Python keeps it after a first import (a shell with `PYTHONDONTWRITEBYTECODE` set, as some
+containers have, would otherwise compile every module from source in every run: ~0.7 s). No peer: no other tool folds a net with plate contact from a FOLD file in one command;
 the rows record the targets' figures.
 
 Run: `python -m benchmarks --only fold_cli [--quick]` (three cold runs, each with an empty cache
@@ -54,8 +56,12 @@ def _fold_wall(argv: list[str], env: dict[str, str]) -> float:
 def fold_times(cold_runs: int, warm_runs: int) -> dict[str, dict[str, list[float]]]:
     """Wall seconds of `cold_runs` cold runs (each with a cache folder of its own) and `warm_runs`
     warm runs (with the last cold run's folder) of each case, each a new process."""
-    env = {k: v for k, v in os.environ.items() if k != "JAX_COMPILATION_CACHE_DIR"}
+    unset = ("JAX_COMPILATION_CACHE_DIR", "PYTHONDONTWRITEBYTECODE")
+    env = {k: v for k, v in os.environ.items() if k not in unset}
     env["PYTHONPATH"] = str(ROOT)
+    # The bytecode a user's installation has (see the module's docstring).
+    compileall = [sys.executable, "-m", "compileall", "-q", str(ROOT / "origami_jax")]
+    subprocess.run(compileall, check=True, capture_output=True, env=env)
     times: dict[str, dict[str, list[float]]] = {}
     with tempfile.TemporaryDirectory(prefix="bench_fold_cli_") as tmp:
         for case, flags in CASES.items():

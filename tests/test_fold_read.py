@@ -6,6 +6,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from origami_jax import _exported
 from origami_jax.fold import (
     FoldFile,
     FoldFormatError,
@@ -298,6 +299,33 @@ def test_schema_is_shipped_and_checks_types():
     assert validate_schema(json.loads((DATA / "degree4.fold").read_text())) is True
     with pytest.raises(FoldFormatError, match="does not match the FOLD schema at edges_length"):
         validate_schema({"edges_length": [-1]})
+
+
+def test_a_file_found_valid_is_not_validated_again(tmp_path, monkeypatch):
+    # Where a command keeps its programs, a FOLD file's schema check is kept with its contents:
+    # a later read of the same file skips it; other contents, and invalid ones, are checked.
+    pytest.importorskip("jsonschema")
+    monkeypatch.setattr(_exported, "_FOLDER", tmp_path)
+    checked = []
+    real = schema_module.validate_schema
+    monkeypatch.setattr(
+        schema_module, "validate_schema", lambda data: checked.append(data) or real(data)
+    )
+    text = (DATA / "degree4.fold").read_text()
+    assert loads_fold(text).key_frame.n_edges == 12
+    assert loads_fold(text).key_frame.n_edges == 12
+    assert len(checked) == 1
+    other = json.loads(text) | {"file_title": "another title"}
+    loads_fold(json.dumps(other))
+    assert len(checked) == 2
+    invalid = json.dumps(json.loads(text) | {"file_author": 5})
+    for _ in range(2):
+        with pytest.raises(FoldFormatError, match="FOLD schema at file_author"):
+            loads_fold(invalid)
+    assert len(checked) == 4
+    monkeypatch.setattr(_exported, "_FOLDER", None)  # nothing kept: checked every time
+    loads_fold(text)
+    assert len(checked) == 5
 
 
 def test_reader_works_without_jsonschema(monkeypatch):

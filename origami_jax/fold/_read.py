@@ -37,7 +37,7 @@ from ._model import (
     FoldFrame,
 )
 from ._pattern_file import edges_of
-from ._schema import validate_schema as _validate
+from ._schema import validate_schema_once
 
 # Legacy (FOLD 1.0) names, read and rewritten under their 1.1+ names.
 _LEGACY = {"edges_foldAngles": "edges_foldAngle", "edges_lengths": "edges_length"}
@@ -176,7 +176,7 @@ def fold_from_dict(data: Any, *, validate_schema: bool = True) -> FoldFile:
         # After our own parsing, whose messages are more specific; the schema is a second net for
         # what the parsers do not cover (the mesh arrays they checked are left out: module docstring).
 
-        _validate(_without_parsed_arrays(original))
+        validate_schema_once(_without_parsed_arrays(original))
     return fold
 
 

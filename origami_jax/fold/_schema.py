@@ -8,10 +8,12 @@ from __future__ import annotations
 
 import functools
 import importlib.resources
+import importlib.util
 import itertools
 import json
 from typing import Any, cast
 
+from .._exported import remembered
 from ._errors import FoldFormatError
 
 SCHEMA_FILE = "fold_schema.json"
@@ -33,6 +35,29 @@ def has_jsonschema() -> bool:
         import jsonschema  # noqa: F401
     except ImportError:
         return False
+    return True
+
+
+def validate_schema_once(data: Any) -> None:
+    """`validate_schema(data)`, unless a process of the same package found the same `data` valid
+    (kept beside the compiled programs where a command keeps them: `remembered`). A command
+    reading a FOLD file it read before then neither imports `jsonschema` (~0.3 s) nor validates.
+    Invalid data raises every time; nothing is kept where nothing was checked (no `jsonschema`)."""
+    if importlib.util.find_spec("jsonschema") is None:
+        return
+    try:
+        remembered("fold_schema_valid", lambda: _checked(data), data)
+    except _Unchecked:
+        pass
+
+
+class _Unchecked(Exception):
+    """`validate_schema` could not check (`jsonschema` found but not importable): keep nothing."""
+
+
+def _checked(data: Any) -> bool:
+    if not validate_schema(data):
+        raise _Unchecked
     return True
 
 

@@ -21,7 +21,7 @@ from ._checks import check_fold
 from ._errors import FoldFormatError
 from ._model import WRITTEN_SPEC, FoldFile, FoldFrame
 from ._read import _without_parsed_arrays
-from ._schema import validate_schema
+from ._schema import validate_schema_once
 
 REQUIRED_KEYS = ("vertices_coords", "edges_vertices", "edges_assignment", "faces_vertices")
 CREATOR = "origami_jax"
@@ -66,7 +66,7 @@ def dumps_fold(fold: FoldFile) -> str:
     # the rest. Validating whole arrays against it took minutes on a file of many vertices (each
     # frame of an animation repeats them), where reading it takes a second.
 
-    validate_schema(_without_parsed_arrays(data))
+    validate_schema_once(_without_parsed_arrays(data))
     return _format(data, 0) + "\n"
 
 
