@@ -13,16 +13,14 @@ exit (imports, the system's build, compilation or its loading, the fold, the ver
   segments until it settles, up to its 8000 µs cap), with its figures.
 
 Cold runs use a fresh cache folder (`ORIGAMI_JAX_CACHE`), warm runs the folder the cold run
-filled. Both run with the package's Python bytecode compiled, as `pip install` leaves it and as
-Python keeps it after a first import (a shell with `PYTHONDONTWRITEBYTECODE` set, as some
-containers have, would otherwise compile every module from source in every run: ~0.7 s). No peer: no other tool folds a net with plate contact from a FOLD file in one command;
+filled. Both run with the package's Python bytecode compiled, as an installation has it
+(`bench_compile.command_env`). No peer: no other tool folds a net with plate contact from a FOLD file in one command;
 the rows record the targets' figures.
 
 Run: `python -m benchmarks --only fold_cli [--quick]` (three cold runs, each with an empty cache
 folder, and three warm runs of each case, about 5 minutes on 2 cores; the quick run: one of each).
 """
 
-import os
 import subprocess
 import sys
 import tempfile
@@ -30,7 +28,7 @@ import time
 from pathlib import Path
 
 from ._harness import Result, Timing
-from .bench_compile import ROOT
+from .bench_compile import ROOT, command_env
 
 TARGETS_S = {"warm": 3.0, "cold": 15.0, "air": 30.0}
 """The contact issue's targets (s, 2-core machine): warm and cold in the bath; in air."""
@@ -56,12 +54,7 @@ def _fold_wall(argv: list[str], env: dict[str, str]) -> float:
 def fold_times(cold_runs: int, warm_runs: int) -> dict[str, dict[str, list[float]]]:
     """Wall seconds of `cold_runs` cold runs (each with a cache folder of its own) and `warm_runs`
     warm runs (with the last cold run's folder) of each case, each a new process."""
-    unset = ("JAX_COMPILATION_CACHE_DIR", "PYTHONDONTWRITEBYTECODE")
-    env = {k: v for k, v in os.environ.items() if k not in unset}
-    env["PYTHONPATH"] = str(ROOT)
-    # The bytecode a user's installation has (see the module's docstring).
-    compileall = [sys.executable, "-m", "compileall", "-q", str(ROOT / "origami_jax")]
-    subprocess.run(compileall, check=True, capture_output=True, env=env)
+    env = command_env()
     times: dict[str, dict[str, list[float]]] = {}
     with tempfile.TemporaryDirectory(prefix="bench_fold_cli_") as tmp:
         for case, flags in CASES.items():
