@@ -319,7 +319,7 @@ def test_bad_hinge_parameters_are_refused_in_one_line(param, message, capsys):
     [
         (["--param", "hinge_width=100", "--param", "hinge_width=150"], "given twice"),
         (["--noise-seed", "5"], "--noise-seed seeds --agitation's random force"),
-        (["--flat-creases", "hinge"], "--flat-creases is for closed-loop patterns"),
+        (["--flat-creases", "hinge"], "--flat-creases hinge is for closed-loop patterns"),
         (["--no-rigid-check"], "--no-rigid-check is for closed-loop patterns"),
         (["--arc-layout", "drawn"], "it needs --hinges arc"),
         (["--targets", "90,90,400,90,90"], "within [-180, 180]"),

@@ -140,6 +140,40 @@ def test_a_closed_cube_is_cut_into_a_net_and_folds_back(outward, tmp_path):
     assert np.max(net.seam_gaps(net.intended_angles)) < 1e-9 * 200.0
 
 
+def _triangulated(frame: FoldFrame) -> FoldFrame:
+    """`frame` with every quadrilateral face split by a diagonal, as a mesh exporter writes it."""
+    faces = []
+    for a, b, c, d in frame.faces_vertices:
+        faces += [(a, b, c), (a, c, d)]
+    return frame.replace(faces_vertices=tuple(faces))
+
+
+def test_a_triangulated_cube_is_cut_between_its_faces_and_folds_as_six_panels(tmp_path):
+    # A closed mesh of triangles: the two triangles of each square are coplanar, their diagonal
+    # flat (F). The sheet keeps every diagonal (the tree crosses flat sides first), so its cuts
+    # are the quadrilateral cube's, and the net read from it is the six squares' (F joins).
+    with pytest.warns(UserWarning, match="cut along 7"):
+        quads = unfold_folded_form(_closed_cube(True))
+    with pytest.warns(UserWarning, match="cut along 7"):
+        triangles = unfold_folded_form(_triangulated(_closed_cube(True)))
+    assignment = np.asarray(triangles.edges_assignment)
+    assert (assignment == "F").sum() == 6 and (assignment == "M").sum() == 5
+
+    def cut_corners(flat):
+        boundary = np.asarray(flat.edges_vertices)[np.asarray(flat.edges_assignment) == "B"]
+        coords = np.asarray(flat.vertices_coords)
+        return sorted(tuple(sorted(map(tuple, np.round(coords[e], 6).tolist()))) for e in boundary)
+
+    assert cut_corners(triangles) == cut_corners(quads)
+    path = tmp_path / "cube_mesh.fold"
+    path.write_text(json.dumps({"file_spec": 1.2, **_triangulated(_closed_cube(True)).to_dict()}))
+    with pytest.warns(UserWarning, match="cut along 7"):
+        net = load_pattern(path)
+    assert net.n_creases == 5 and net.geometry.n_faces == 6
+    np.testing.assert_allclose(net.intended_angles, -np.pi / 2, atol=1e-12)
+    assert np.max(net.seam_gaps(net.intended_angles)) < 1e-9 * 200.0
+
+
 def test_a_polyhedron_is_unfolded_from_a_face_whose_net_lies_flat(monkeypatch):
     # The hull of 87 random points (25 vertices, 46 triangles, written to 0.01 µm): its
     # breadth-first net from its largest face overlaps itself, as do those of other roots; the

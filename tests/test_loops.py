@@ -148,6 +148,34 @@ def test_origami_simulator_export_loads_as_is():
     assert hinged.geometry.n_faces == 8 and hinged.n_creases == 8
 
 
+def test_a_net_with_its_faces_triangulated_is_the_net_of_its_panels():
+    # A net whose squares are split by flat (F) diagonals (as a triangulating exporter writes
+    # it) is read as the net of its squares: F joins its two faces into one rigid panel, for a
+    # net as for a closed-loop pattern (it was a hinge aimed at 0°, which no stressed hinge is).
+    data = json.loads(catalogue_path("cube_net_01").read_text())
+    faces, edges = [], data["edges_vertices"]
+    for a, b, c, d in data["faces_vertices"]:
+        faces += [[a, b, c], [a, c, d]]
+        edges = [*edges, [a, c]]
+    n = len(data["faces_vertices"])
+    data.update(
+        faces_vertices=faces,
+        edges_vertices=edges,
+        edges_assignment=[*data["edges_assignment"], *"F" * n],
+        edges_foldAngle=[*data["edges_foldAngle"], *[0] * n],
+    )
+    net = load_pattern(loads_fold(json.dumps(data)))
+    square = load_pattern("cube_net_01")
+    assert isinstance(net, Net) and net.n_creases == square.n_creases == 5
+    assert net.geometry.n_faces == 6 and "F" not in net.key_frame.edges_assignment
+    np.testing.assert_allclose(sorted(net.intended_angles), sorted(square.intended_angles))
+    np.testing.assert_allclose(net.geometry.face_areas, square.geometry.face_areas)
+    assert np.max(net.seam_gaps(net.intended_angles)) < 1e-9 * 200.0
+    # Read with every F edge a hinge, it is the net of triangles (which a fold refuses).
+    hinged = load_pattern(loads_fold(json.dumps(data)), flat_creases="hinge")
+    assert hinged.geometry.n_faces == 12 and hinged.n_creases == 11
+
+
 def test_closure_jacobian_is_the_derivative_of_the_closure():
     pattern, system = _degree4()
     mechanism = system.mechanism

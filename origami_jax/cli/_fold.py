@@ -203,7 +203,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "--flat-creases",
         choices=("panel", "hinge"),
         default=None,
-        help="closed loops: F edges (facet diagonals) join one rigid panel (default) or hinge",
+        help="F edges (facet diagonals) join their faces into one rigid panel (default) or, "
+        "closed loops only, hinge",
     )
     parser.add_argument(
         "--no-rigid-check",
@@ -390,12 +391,14 @@ def run(args: argparse.Namespace) -> int:
         check_has_creases(net, args.net)
         if args.bias and not loops:
             fail(f"--bias pre-folds closed-loop patterns; {args.net} is a net, which starts flat.")
-        for flag, given in (
-            ("--flat-creases", args.flat_creases is not None),
-            ("--no-rigid-check", args.no_rigid_check),
-        ):
-            if given and not loops:
-                fail(f"{flag} is for closed-loop patterns; {args.net} is a net: drop it.")
+        if args.no_rigid_check and not loops:
+            fail(f"--no-rigid-check is for closed-loop patterns; {args.net} is a net: drop it.")
+        if args.flat_creases == "hinge" and not loops:
+            fail(
+                f"--flat-creases hinge is for closed-loop patterns; {args.net} is a net, whose "
+                "flat (F) edges would be hinges aimed at 0°, which a stressed hinge is not: drop "
+                "it (F edges join their faces into one panel)."
+            )
         if args.arc_layout is not None and (args.hinges != "arc" or loops):
             looped = f" ({args.net} has closed loops)" if loops else ""
             fail(

@@ -10,9 +10,9 @@ A crease that the tree does not use closes a loop of faces. Where its two faces'
 (a vertex surrounded by creases, as in a Miura-ori) it is a crease of a closed loop; where they do
 not (the edges of a closed polyhedron, which no flat sheet can keep joined) the sheet is cut there:
 it becomes two boundary edges, a seam that the folding closes. For a polyhedron the cut depends on
-the tree (breadth first from the root face), so `unfold_folded_form` returns one of its nets: the
-first, from the largest face down, whose faces do not overlap in the plane (a net is cut from one
-sheet).
+the tree (breadth first from the root face, across coplanar faces first, so that a triangulated
+face stays one piece), so `unfold_folded_form` returns one of its nets: the first, from the
+largest face down, whose faces do not overlap in the plane (a net is cut from one sheet).
 """
 
 from __future__ import annotations
@@ -160,10 +160,16 @@ def unfold_folded_form(frame: FoldFrame, *, root: int | None = None) -> FoldFram
         side = frozenset((u, v))
         return len(sides[side]) == 2 and assignment.get(side, "U") in CREASES
 
+    angles = fold_angles_from_coords(coords, faces, _side_array(faces))
+    flat_sides = {
+        frozenset(side)
+        for side, angle in zip(_face_side_list(faces), angles, strict=True)
+        if _crease_kind(assignment.get(frozenset(side), "U"), float(angle))[0] == "F"
+    }
     triangles = [_triangles(xy, f) for f, xy in enumerate(local)]
     first_overlap = None
     for tried in roots:
-        flat = _layout(faces, local, sides, crease, tried)
+        flat = _layout(faces, local, sides, crease, tried, flat_sides)
         overlaps = _overlapping_faces(flat, triangles, size)
         if not overlaps:
             break
@@ -181,30 +187,51 @@ def unfold_folded_form(frame: FoldFrame, *, root: int | None = None) -> FoldFram
             f"{len(roots)} largest faces (from face {first}: faces {f} and {g}): a net is cut "
             "from one sheet; assign C to the creases to cut in the file"
         )
-    angles = fold_angles_from_coords(coords, faces, _side_array(faces))
     return _flat_frame(frame, faces, flat, sides, assignment, angles, size, tried)
 
 
-def _layout(faces, local, sides, crease, root: int) -> list[np.ndarray]:
+def _layout(faces, local, sides, crease, root: int, flat_sides=frozenset()) -> list[np.ndarray]:
     """Each face's flat corners `(k, 2)`, breadth first from `root`: each face placed by the rigid
     map (rotation, translation) of its own plane that puts the side it shares with its parent onto
-    the parent's flat side."""
+    the parent's flat side. A face placed brings the faces joined to it across `flat_sides`
+    (coplanar faces: a triangulated face's diagonals) with it before the search goes on across
+    folds, so the faces of one flat panel stay joined in the sheet and the cuts of a closed form
+    fall between panels, never inside one. Without flat sides, the plain breadth-first tree."""
     flat: list[np.ndarray | None] = [None] * len(faces)
-    flat[root] = local[root] - local[root][0]
-    queue = collections.deque([root])
+    queue: collections.deque[int] = collections.deque()
+
+    def place(f: int, p: int | None, k: int) -> None:
+        """`f` across side `k` of its placed parent `p` (the root where `p` is `None`), then the
+        faces joined to it across flat sides, breadth first."""
+        if p is None:
+            flat[f] = local[f] - local[f][0]
+        else:
+            u, v = _face_sides(faces[p])[k]
+            a, b = flat[p][k], flat[p][(k + 1) % len(faces[p])]  # type: ignore[index]
+            flat[f] = _rigid_onto(local[f], faces[f].index(u), faces[f].index(v), a, b)
+        queue.append(f)
+        panel = collections.deque([f])
+        while panel:
+            h = panel.popleft()
+            for j, (u, v) in enumerate(_face_sides(faces[h])):
+                if frozenset((u, v)) not in flat_sides or not crease(u, v):
+                    continue
+                g = next(x for x in sides[frozenset((u, v))] if x != h)
+                if flat[g] is None:
+                    a, b = flat[h][j], flat[h][(j + 1) % len(faces[h])]  # type: ignore[index]
+                    flat[g] = _rigid_onto(local[g], faces[g].index(u), faces[g].index(v), a, b)
+                    queue.append(g)
+                    panel.append(g)
+
+    place(root, None, 0)
     while queue:
         f = queue.popleft()
-        face = faces[f]
-        for k, (u, v) in enumerate(_face_sides(face)):
+        for k, (u, v) in enumerate(_face_sides(faces[f])):
             if not crease(u, v):
                 continue
             g = next(h for h in sides[frozenset((u, v))] if h != f)
-            if flat[g] is not None:
-                continue
-            a, b = flat[f][k], flat[f][(k + 1) % len(face)]
-            i, j = faces[g].index(u), faces[g].index(v)
-            flat[g] = _rigid_onto(local[g], i, j, a, b)
-            queue.append(g)
+            if flat[g] is None:
+                place(g, f, k)
     missing = [f for f, xy in enumerate(flat) if xy is None]
     if missing:
         raise FoldFormatError(
