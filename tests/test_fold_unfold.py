@@ -165,6 +165,20 @@ def test_a_triangulated_cube_is_cut_between_its_faces_and_folds_as_six_panels(tm
         return sorted(tuple(sorted(map(tuple, np.round(coords[e], 6).tolist()))) for e in boundary)
 
     assert cut_corners(triangles) == cut_corners(quads)
+    # Turned and written to six significant digits, the diagonals' dihedrals are round-off
+    # (up to ~2e-6 rad here), not folds: still flat.
+    c, s = np.cos(0.7), np.sin(0.7)
+    turn = np.array([[1, 0, 0], [0, c, -s], [0, s, c]]) @ np.array(
+        [[c, -s, 0], [s, c, 0], [0, 0, 1]]
+    )
+    rounded = np.vectorize(lambda x: float(f"{x:.6g}"))(_closed_cube(True).coords3 @ turn.T)
+    with pytest.warns(UserWarning, match="cut along 7"):
+        turned = unfold_folded_form(
+            _triangulated(_closed_cube(True)).replace(vertices_coords=rounded)
+        )
+    assignment = np.asarray(turned.edges_assignment)
+    assert (assignment == "F").sum() == 6 and (assignment == "M").sum() == 5
+    np.testing.assert_allclose(turned.edges_fold_angle_deg[assignment == "M"], -90.0, atol=1e-3)
     path = tmp_path / "cube_mesh.fold"
     path.write_text(json.dumps({"file_spec": 1.2, **_triangulated(_closed_cube(True)).to_dict()}))
     with pytest.warns(UserWarning, match="cut along 7"):

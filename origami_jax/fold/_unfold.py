@@ -33,6 +33,11 @@ from ._polygons import overlapping_pairs, signed_area, triangulate
 MERGE_REL_TOL = 1e-4
 # A face whose corners leave its plane by more than this (relative to the model) is not a panel.
 FACE_PLANAR_REL_TOL = 1e-4
+# Two faces whose dihedral angle is within this of flat (rad, 0.06°) are coplanar (an `F` edge,
+# unless the file says M or V): a form written to a few digits (`MERGE_REL_TOL`) gives a
+# triangulated face's diagonals dihedrals of ~1e-6 (six digits) to ~1e-4 rad (four), and no
+# stressed hinge folds so little (its arc, ρθ, would be shorter than its film).
+FLAT_ANGLE = 1e-3
 # Roots tried, largest face first, for a net of a polyhedron whose faces do not overlap: each try
 # is a breadth-first layout and an overlap test, milliseconds for hundreds of faces.
 ROOTS_TRIED = 32
@@ -114,8 +119,8 @@ def unfold_folded_form(frame: FoldFrame, *, root: int | None = None) -> FoldFram
     **Returns:** a `FoldFrame` in the plane ``z = 0``, in the form's `frame_unit`: vertices (one per
     flat position, in the form's order; a vertex where the sheet is cut becomes several, the others
     numbered after the form's), every face side as an edge, `edges_foldAngle` (degrees) from the
-    form's dihedral angles, assignments `M`/`V` by sign (`F` within 1e-6 rad of flat unless the
-    file says `M` or `V`; folded flat, the file's `M` or `V`, else `V`), `B` on the boundary and
+    form's dihedral angles, assignments `M`/`V` by sign (`F`, at 0°, within `FLAT_ANGLE` of flat
+    unless the file says `M` or `V`; folded flat, the file's `M` or `V`, else `V`), `B` on the boundary and
     where the sheet is cut apart, `C` for a shared side the file assigns `B` or `C`,
     `frame_classes` `creasePattern`, and `origami_jax:unfolded_from` ``"foldedForm"``. A form
     that closes on itself (a polyhedron) is cut along the creases the tree leaves, with a
@@ -350,12 +355,14 @@ def _crease_kind(given: str, angle: float) -> tuple[str, float]:
     """The flat pattern's assignment of a crease the form folds by `angle` (rad) and the file
     assigns `given` (checked by `_oriented`), and its fold angle: folded flat (±180°, where the
     dihedral's sign is round-off) it takes the sign of the given `M` or `V`, valley for `U`."""
-    flat = abs(angle) < 1e-6
+    flat = abs(angle) < FLAT_ANGLE
     if abs(angle) > np.pi - 1e-6:
         return ("M", -np.pi) if given == "M" else ("V", np.pi)
     if given in ("M", "V"):
         return given, angle
-    return ("F" if flat else ("V" if angle > 0 else "M")), angle
+    if flat:
+        return "F", 0.0
+    return ("V" if angle > 0 else "M"), angle
 
 
 def _oriented(coords, faces, assignment) -> list[tuple[int, ...]]:
