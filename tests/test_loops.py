@@ -30,7 +30,7 @@ from origami_jax.loops import (
     compare_unfolding,
     load_pattern,
 )
-from origami_jax.net import Net
+from origami_jax.net import Net, load_net
 from origami_jax.system import AIR, KOH_SOLUTION, HingeDesign
 
 from .helpers import stepped_energy_balance
@@ -171,9 +171,16 @@ def test_a_net_with_its_faces_triangulated_is_the_net_of_its_panels():
     np.testing.assert_allclose(sorted(net.intended_angles), sorted(square.intended_angles))
     np.testing.assert_allclose(net.geometry.face_areas, square.geometry.face_areas)
     assert np.max(net.seam_gaps(net.intended_angles)) < 1e-9 * 200.0
+    # The library's net loader reads it alike; a root is a face of the file (triangle 7: the
+    # second triangle of square 3).
+    direct = load_net(loads_fold(json.dumps(data)), root=7)
+    assert direct.n_creases == 5 and direct.geometry.n_faces == 6 and direct.geometry.root == 3
+    assert load_pattern(loads_fold(json.dumps(data)), root=7).geometry.root == 3
     # Read with every F edge a hinge, it is the net of triangles (which a fold refuses).
     hinged = load_pattern(loads_fold(json.dumps(data)), flat_creases="hinge")
     assert hinged.geometry.n_faces == 12 and hinged.n_creases == 11
+    with pytest.raises(ValueError, match=r"crease \d+ folds to 0°.*flat_creases='hinge'"):
+        hinged.system(HingeDesign.literature(hinge_width=150.0))
 
 
 def test_closure_jacobian_is_the_derivative_of_the_closure():

@@ -156,7 +156,7 @@ def loop_geometry(
     """The rigid panels, tree, cut creases and vertex loops of a flat FOLD crease pattern.
 
     **Arguments:** `fold_or_path`: a `FoldFile` or `.fold` path; `root`: the face that stays put
-    (default the largest, as for nets; an index into the faces *after* merging facets);
+    (default the largest, as for nets; a face of the file: merged facets, the face it is part of);
     `frame`: which frame (it must be flat, in any plane); `flat_creases`: `"panel"` (merge faces
     joined by `F` edges into one rigid panel, default) or `"hinge"`; `require_targets`: raise for a
     crease without a target.
@@ -194,10 +194,13 @@ def loop_geometry(
     faces = [tuple(int(v) for v in f) for f in faces]
     _check_manifold(edges, assignment, faces, where)
     if flat_creases == "panel":
-        faces, keep = _merge_facets(edges, assignment, faces, where)
+        n_faces = len(faces)
+        faces, keep, face_of = _merge_facets(edges, assignment, faces, where)
         edges = [edges[e] for e in keep]
         assignment = [assignment[e] for e in keep]
         angles_deg = angles_deg[keep]
+        if root is not None and 0 <= root < n_faces:
+            root = face_of[root]  # the file's face, counted among the merged ones
 
     # Faces on either side of every edge; crease pairs; the spanning tree (breadth first, as nets).
     sides = _edge_sides(edges, faces)
@@ -390,7 +393,8 @@ def _check_manifold(edges, assignment, faces, where: str) -> None:
 
 
 def _merge_facets(edges, assignment, faces, where: str):
-    """Faces joined by `F` edges merged into one polygon each; returns the faces and the edges kept."""
+    """Faces joined by `F` edges merged into one polygon each; returns the faces, the edges kept
+    and each original face's merged face."""
     parent = list(range(len(faces)))
 
     def find(x: int) -> int:
@@ -407,7 +411,7 @@ def _merge_facets(edges, assignment, faces, where: str):
             parent[find(f)] = find(g)
             internal.add(e)
     if not internal:
-        return faces, list(range(len(edges)))
+        return faces, list(range(len(edges))), list(range(len(faces)))
     groups: dict[int, list[int]] = {}
     for f in range(len(faces)):
         groups.setdefault(find(f), []).append(f)
@@ -443,7 +447,73 @@ def _merge_facets(edges, assignment, faces, where: str):
             )
         merged.append(tuple(loop))
     keep = [e for e in range(len(edges)) if e not in internal]
-    return merged, keep
+    face_of = [0] * len(faces)
+    for index, members in enumerate(sorted(groups.values())):
+        for f in members:
+            face_of[f] = index
+    return merged, keep, face_of
+
+
+def flat_faces_merged(fold: FoldFile) -> FoldFile:
+    """`fold`, or where flat (`F`) edges join faces of its flat key frame (a triangulated export's
+    facet diagonals), a file of that frame alone with each group of joined faces one face
+    (counter-clockwise, one simple polygon: the rigid panel a flat crease leaves) and those edges
+    dropped (the other edges renumbered in order; per-edge and per-face properties the model does
+    not know are dropped, as are the other frames). Faces are listed in the order of their first
+    face in `fold` (`merged_face_of` maps a face of `fold` to its merged face).
+
+    **Raises:** `FoldFormatError` (one line) where joined faces do not make one simple polygon or
+    enclose a hole, or an edge borders more than two faces."""
+    found = _flat_merge(fold)
+    if found is None:
+        return fold
+    key, faces, keep, _ = found
+    angles = key.edges_fold_angle_deg
+    frame = key.replace(
+        edges_vertices=np.asarray(key.edges_vertices)[keep].reshape(-1, 2),
+        edges_assignment=tuple(key.edges_assignment[e] for e in keep),  # type: ignore[index]
+        edges_fold_angle_deg=None if angles is None else np.asarray(angles)[keep],
+        faces_vertices=tuple(faces),
+        extra={k: v for k, v in key.extra.items() if not k.startswith(("edges_", "faces_"))},
+    )
+    return FoldFile(frames=(frame,), file_spec=fold.file_spec, file_metadata=fold.file_metadata)
+
+
+def merged_face_of(fold: FoldFile, face: int) -> int:
+    """The face of `flat_faces_merged(fold)` that face `face` of `fold`'s key frame is part of
+    (`face` itself where nothing merges); `FoldFormatError` for a face the frame does not have."""
+    found = _flat_merge(fold)
+    n = len(fold.key_frame.faces_vertices or ()) if found is None else len(found[3])
+    if not 0 <= face < n and (found is not None or fold.key_frame.faces_vertices is not None):
+        raise FoldFormatError(f"root face {face} does not exist: the file has {n} faces")
+    return face if found is None else found[3][face]
+
+
+def _flat_merge(fold: FoldFile):
+    """`(key frame, merged faces, edges kept, face_of)` of `_merge_facets` on `fold`'s key frame,
+    or `None` where no `F` edge joins two of its faces (or the frame has no faces or is not
+    flat)."""
+    key = fold.key_frame
+    if key.edges_vertices is None or key.edges_assignment is None:
+        return None
+    if "F" not in key.edges_assignment or key.vertices_coords is None:
+        return None
+    edges = [tuple(int(v) for v in e) for e in np.asarray(key.edges_vertices).tolist()]
+    faces = key.faces_vertices
+    if faces is None:
+        coords = key.coords3
+        plane = paper_plane(coords, None)
+        if plane is None:
+            return None
+        xy = (coords - coords[0]) @ plane.T
+        faces = planar_faces(np.column_stack([xy, np.zeros(len(xy))]), np.asarray(edges))
+    faces = [tuple(int(v) for v in f) for f in faces]
+    assignment = list(key.edges_assignment)
+    _check_manifold(edges, assignment, faces, "key frame")
+    merged, keep, face_of = _merge_facets(edges, assignment, faces, "key frame")
+    if len(keep) == len(edges):
+        return None
+    return key, merged, keep, face_of
 
 
 def _select_seams(tree: NetGeometry, keep: list[int]) -> Seams:

@@ -745,8 +745,8 @@ def load_pattern(
     Simulator's export, needs it); `units` (default `MICRO`); `name`; `flat_creases`: `"panel"`
     (faces joined by flat `F` edges, the facet diagonals of a triangulated export, are one rigid
     panel, in a net as in a closed-loop pattern: the net is then read from the merged faces, its
-    edges renumbered and `root` counting the merged faces; default) or `"hinge"` (every `F` edge
-    is a crease with a 0° target).
+    edges renumbered, `root` still a face of the file; default) or `"hinge"` (every `F` edge is a
+    crease with a 0° target).
 
     **Raises:** `FoldFormatError` for a file that is neither (loops round holes, non-manifold
     edges, ...); `ValueError` for a unitless file without `length_scale`.
@@ -766,31 +766,19 @@ def load_pattern(
         unfolded, precision = _closed_targets(unfolded, geometry, label)
         geometry = loop_geometry(unfolded, root=root, flat_creases=flat_creases)
     fold = unfolded
-    if geometry.n_loops == 0 and flat_creases == "hinge":
-        return load_net(fold, root=root, length_scale=length_scale, units=units, name=label)
     if geometry.n_loops == 0:
-        # A net whose flat (F) edges joined facets (a triangulated export, a folded form's
-        # coplanar faces): the net of the merged panels, as the closed-loop engine reads them.
-        merged = _facets_merged(fold, geometry)
         try:
-            return load_net(merged, root=root, length_scale=length_scale, units=units, name=label)
+            return load_net(
+                fold, root=root, length_scale=length_scale, units=units, name=label,
+                flat_creases=flat_creases,
+            )  # fmt: skip
         except FoldFormatError:
-            pass  # facets merged make it a net of panels without loops: fold it as one
+            if flat_creases == "hinge":
+                raise
+            # facets merged make it a net of panels without loops: fold it as one
     if length_scale is None:
         length_scale = length_scale_from_unit(geometry.unit, units.metre_per_length)
     return CreasePattern(geometry, label or "pattern", float(length_scale), precision)
-
-
-def _facets_merged(fold: FoldFile, geometry) -> FoldFile:
-    """`fold`, or where `loop_geometry` merged facets joined by flat (`F`) edges (its `frame` has
-    fewer edges than `fold`'s key frame: those edges dropped), the file of that merged frame alone
-    (its edges renumbered; `root` then counts the merged faces, as `loop_geometry`'s does)."""
-    key = fold.key_frame
-    if key.edges_vertices is None or len(geometry.frame.edges_vertices) == len(key.edges_vertices):
-        return fold
-    return FoldFile(
-        frames=(geometry.frame,), file_spec=fold.file_spec, file_metadata=fold.file_metadata
-    )
 
 
 def _closed_targets(fold: FoldFile, geometry, label) -> tuple[FoldFile, float]:

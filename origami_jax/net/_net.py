@@ -48,8 +48,10 @@ from ..fold import (
     FoldFile,
     FoldFrame,
     NetGeometry,
+    flat_faces_merged,
     flat_fold,
     length_scale_from_unit,
+    merged_face_of,
     net_geometry,
     read_fold,
     source_and_label,
@@ -689,14 +691,20 @@ def load_net(
     length_scale: float | None = None,
     units=None,
     name: str | None = None,
+    flat_creases: str = "panel",
 ) -> Net:
     """Read a net: a catalogue name (`origami_jax.fold.catalogue_names()`, e.g. ``"cube_net_01"``), a
     `.fold` path, a `FoldFile` or a `NetGeometry`.
 
     **Arguments:** `root`: the fixed face (default: the largest); `length_scale`: design length units
     per FOLD length unit (default from the file's `frame_unit` and `units`, `MICRO` by default);
-    `name`: a label (default the catalogue name or file stem). A folded form (a file without its
-    flat frame) is read as the net it unfolds to (`origami_jax.fold.unfold_folded_form`).
+    `name`: a label (default the catalogue name or file stem); `flat_creases`: `"panel"` (faces
+    joined by flat `F` edges, a triangulated export's facet diagonals, are one rigid panel,
+    `origami_jax.fold.flat_faces_merged`: the net, its key frame and outputs are the merged
+    faces', its edges renumbered; `root` still a face of the file; default) or `"hinge"` (every
+    `F` edge a crease aimed at 0°, which no stressed hinge folds: `Net.system` refuses it). A
+    folded form (a file without its flat frame) is read as the net it unfolds to
+    (`origami_jax.fold.unfold_folded_form`).
 
     A file drawn with its hinge strips (faces marked by the FOLD face property
     ``faces_origami_jax:hinge``: docs, "FOLD files in and out") is read as the panels joined by
@@ -710,6 +718,8 @@ def load_net(
     `ValueError` for a unitless file without `length_scale`.
     """
     check_loader_arguments(root, length_scale)
+    if flat_creases not in ("panel", "hinge"):
+        raise ValueError(f"flat_creases must be 'panel' or 'hinge', got {flat_creases!r}.")
     units = MICRO if units is None else units
     label = name
     key = None
@@ -726,6 +736,9 @@ def load_net(
         if drawing is not None:
             fold, root = FoldFile(frames=(drawing.key_frame,)), drawing.geometry.root
         fold = flat_fold(fold, root=root)
+        if flat_creases == "panel":
+            root = None if root is None else merged_face_of(fold, root)
+            fold = flat_faces_merged(fold)
         geometry = net_geometry(fold, root=root)
         key = fold.frame(0)
         if key.faces_vertices is None:

@@ -597,7 +597,8 @@ def check_hinges_longer_than_film(
         f"{name}: crease {j} folds to {np.degrees(targets[j]):.3g}°, so its hinge would be "
         f"{radius[j] * abs(targets[j]):.3g} {unit} long, shorter than its film "
         f"({thickness[j]:.3g} {unit} thick): this design folds a crease by at least "
-        f"{smallest:.3g}°: aim it further ({aim}), or mark it flat to join its faces as one panel."
+        f"{smallest:.3g}°: aim it further ({aim}), or mark it flat (F) to join its faces as one "
+        "panel (read without flat_creases='hinge')."
     )
 
 
