@@ -483,10 +483,12 @@ def merged_face_of(fold: FoldFile, face: int) -> int:
     """The face of `flat_faces_merged(fold)` that face `face` of `fold`'s key frame is part of
     (`face` itself where nothing merges); `FoldFormatError` for a face the frame does not have."""
     found = _flat_merge(fold)
-    n = len(fold.key_frame.faces_vertices or ()) if found is None else len(found[3])
-    if not 0 <= face < n and (found is not None or fold.key_frame.faces_vertices is not None):
-        raise FoldFormatError(f"root face {face} does not exist: the file has {n} faces")
-    return face if found is None else found[3][face]
+    if found is None:
+        return face
+    face_of = found[3]
+    if not 0 <= face < len(face_of):
+        raise FoldFormatError(f"root face {face} does not exist: the file has {len(face_of)} faces")
+    return face_of[face]
 
 
 def _flat_merge(fold: FoldFile):

@@ -120,8 +120,8 @@ def unfold_folded_form(frame: FoldFrame, *, root: int | None = None) -> FoldFram
     flat position, in the form's order; a vertex where the sheet is cut becomes several, the others
     numbered after the form's), every face side as an edge, `edges_foldAngle` (degrees) from the
     form's dihedral angles, assignments `M`/`V` by sign (`F`, at 0°, within `FLAT_ANGLE` of flat
-    unless the file says `M` or `V`; folded flat, the file's `M` or `V`, else `V`), `B` on the boundary and
-    where the sheet is cut apart, `C` for a shared side the file assigns `B` or `C`,
+    unless the file says `M` or `V`; folded flat, the file's `M` or `V`, else `V`), `B` on the
+    boundary and where the sheet is cut apart, `C` for a shared side the file assigns `B` or `C`,
     `frame_classes` `creasePattern`, and `origami_jax:unfolded_from` ``"foldedForm"``. A form
     that closes on itself (a polyhedron) is cut along the creases the tree leaves, with a
     `UserWarning` naming them.
