@@ -147,6 +147,8 @@ ERRORS = {
     "join_edge.fold": "'J' (join edge)",
     "missing_edges.fold": "missing key edges_vertices",
     "clockwise_face.fold": "is clockwise",
+    # Every face clockwise (a y-down drawing): one message for the whole file, not face by face.
+    "clockwise_faces_all.fold": "every face is listed clockwise seen from +z",
     "spec_2.fold": "unsupported FOLD spec version file_spec = 2",
     "sign_mismatch.fold": "assigned 'M' but edges_foldAngle[4] = 90",
     "vertex_out_of_range.fold": "refers to a vertex that does not exist",

@@ -182,6 +182,12 @@ def _check_faces(frame: FoldFrame, where: str) -> None:
                 f"edges {crossing[0]} and {crossing[1]} cross): list its vertices in order around it"
             )
         if area < -AREA_REL_TOL * size:
+            if len(faces) > 1 and _all_clockwise(groups, coords):
+                raise FoldFormatError(
+                    f"{where}: every face is listed clockwise seen from +z (as a drawing whose y "
+                    "axis points down, SVG's, lists them); FOLD faces are listed counter-clockwise: "
+                    "reverse every face's vertex order"
+                )
             raise FoldFormatError(
                 f"{where}: faces_vertices[{worst}] = {_short(list(face))} is clockwise; FOLD faces "
                 "are listed counter-clockwise seen from +z: reverse its vertex order"
@@ -230,19 +236,34 @@ def _first_coincident_corners(groups, coords) -> tuple[int, int, int] | None:
     return found
 
 
+def _signed_areas(ids, coords) -> tuple[np.ndarray, np.ndarray]:
+    """The signed areas in the xy plane of the faces `ids` `(F_k, k)` (counter-clockwise
+    positive; the shoelace formula on coordinates relative to each face's first vertex, without
+    cancellation) and the squares of their extents."""
+    xy = coords[ids, :2]  # (F_k, k, 2)
+    rel = xy - xy[:, :1, :]
+    area = 0.5 * np.sum(
+        rel[:, :, 0] * np.roll(rel[:, :, 1], -1, axis=1)
+        - np.roll(rel[:, :, 0], -1, axis=1) * rel[:, :, 1],
+        axis=1,
+    )
+    return area, np.max(np.ptp(xy, axis=1), axis=1) ** 2
+
+
+def _all_clockwise(groups, coords) -> bool:
+    """Whether every face is clockwise in the xy plane."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        return all(
+            bool(np.all(area < -AREA_REL_TOL * size))
+            for area, size in (_signed_areas(ids, coords) for _, ids in groups.values())
+        )
+
+
 def _first_bad_face(groups, coords) -> int | None:
     """Index of the first face (file order) that is clockwise or degenerate in the xy plane."""
     worst = None
     for index, ids in groups.values():
-        xy = coords[ids, :2]  # (F_k, k, 2)
-        # Shoelace formula on coordinates relative to each face's first vertex (no cancellation).
-        rel = xy - xy[:, :1, :]
-        area = 0.5 * np.sum(
-            rel[:, :, 0] * np.roll(rel[:, :, 1], -1, axis=1)
-            - np.roll(rel[:, :, 0], -1, axis=1) * rel[:, :, 1],
-            axis=1,
-        )
-        size = np.max(np.ptp(xy, axis=1), axis=1) ** 2
+        area, size = _signed_areas(ids, coords)
         bad = np.flatnonzero(~(area > AREA_REL_TOL * size))
         if len(bad):
             first = int(index[bad].min())
