@@ -44,6 +44,7 @@ from ._panels import (
     check_has_creases,
     check_panels_thicker_than_film,
     check_targets,
+    warn_if_films_too_thick_to_close,
 )
 
 # Every file `run` writes into --out (an earlier run's are refused without --overwrite).
@@ -414,6 +415,8 @@ def run(args: argparse.Namespace) -> int:
                 raise ValueError(f"--targets: {len(targets_deg)} values for {m} creases")
             targets = np.radians(targets_deg)
         check_targets(net, targets, args.net, design)
+        if args.hinges != "arc" and not loops:
+            warn_if_films_too_thick_to_close(net, design, args.net, args.tolerance)
         if release is not None and len(release) != m:
             raise ValueError(f"--release: {len(release)} values for {m} creases")
         if front is not None:

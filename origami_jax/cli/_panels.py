@@ -1,5 +1,7 @@
 """Checks of a pattern's panels that `fold` and `yield` make before anything compiles."""
 
+import sys
+
 import numpy as np
 
 from .._limits import EXPLICIT_STABILITY, FOLD_MAX_STEPS, SLOW_EXPLICIT_STEPS
@@ -58,6 +60,28 @@ def check_panels_thicker_than_film(pattern, design, label: str) -> None:
             f"{MAX_WIDTH_IN_THICKNESSES:g} times the panels' film ({thickness:.3g} µm): float64 "
             "cannot resolve the film against it; rescale the pattern (its frame_unit, or "
             "--length-scale for a unitless file)."
+        )
+
+
+def warn_if_films_too_thick_to_close(pattern, design, label: str, tolerance_deg: float) -> None:
+    """Warn (one line, standard error) where the panels' film is so thick against the smallest
+    panel that point creases cannot close the pattern's seams within the crease tolerance: a point
+    crease turns its panels about their mid-surfaces, so walls that meet stop short by about
+    ``t / L`` (the film's thickness over the panel's size, ``L`` twice its width, `face_widths`:
+    a square's side); the run then ends "jammed" for a reason worth knowing first."""
+    if not len(pattern.geometry.target_seams):
+        return
+    thickness = float(np.max(np.asarray(design.t_structural, dtype=float)))
+    size = 2.0 * float(np.min(face_widths(pattern.geometry, pattern.length_scale)))
+    short = np.degrees(thickness / size)
+    if short > tolerance_deg:
+        print(
+            f"origami-jax: warning: {label}: the panels' film ({thickness:.3g} µm) is "
+            f"{100 * thickness / size:.2g} % of the smallest panel ({size:.3g} µm): point creases, "
+            f"turning the panels about their mid-surfaces, close its seams only to within "
+            f"~{short:.2g}°, more than the {tolerance_deg:g}° tolerance, so expect 'jammed' "
+            "(physics guide: Plates thick against their panels).",
+            file=sys.stderr,
         )
 
 

@@ -41,6 +41,7 @@ from ._panels import (
     check_has_creases,
     check_panels_thicker_than_film,
     check_targets,
+    warn_if_films_too_thick_to_close,
 )
 from ._sweep import chunks_kept_on_interrupt, stored_sweep_errors
 
@@ -940,6 +941,8 @@ def run(args: argparse.Namespace) -> int:
     nominal = pattern.default_design()
     check_panels_thicker_than_film(pattern, nominal, args.net)
     check_targets(pattern, None, args.net, nominal)
+    if not loops:  # the yield's nets hinge at point creases
+        warn_if_films_too_thick_to_close(pattern, nominal, args.net, args.angle_tolerance)
     if not 0 <= args.bias < 1:
         fail(f"--bias must be a pre-fold angle in [0, 1) rad, got {args.bias}.")
     if args.bias and not loops:
