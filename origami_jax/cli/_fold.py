@@ -452,6 +452,14 @@ def run(args: argparse.Namespace) -> int:
         text = str(error)  # a file's own errors start with its path already
         fail(text if text.startswith(f"{args.net}:") else f"{args.net}: {text}")
 
+    drawn = len(fold.key_frame.faces_vertices or ())
+    strips = getattr(net, "drawn_layout", None) is not None  # a file's hinge strips are no panels
+    if drawn > net.geometry.n_faces and not strips:
+        print(
+            f"[fold] {net.name}: the file's {drawn} faces joined across flat (F) edges into "
+            f"{net.geometry.n_faces} panels (the outputs describe the panels)",
+            flush=True,
+        )
     output = OutputFolder(Path(args.out), command="fold", owns=OWNS, overwrite=args.overwrite)
     # The figures' worker starts now, importing matplotlib while the net folds (`_painter`).
     with output, Painter(enabled=args.figures != "none") as painter:
