@@ -542,6 +542,7 @@ def _run_family(args: argparse.Namespace, members: list[str], sampling, choice: 
         nominal = pattern.default_design(fluid)
         check_panels_thicker_than_film(pattern, nominal, name)
         check_targets(pattern, None, name, nominal)
+        warn_if_films_too_thick_to_close(pattern, nominal, name, args.angle_tolerance)
         process = _process(args.process, pattern.n_creases)
         try:
             pattern = pattern.with_model(
