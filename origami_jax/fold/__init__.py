@@ -44,7 +44,6 @@ from ._geometry import vertex_fold_angles as vertex_fold_angles
 from ._loop_geometry import LoopGeometry as LoopGeometry
 from ._loop_geometry import flat_faces_merged as flat_faces_merged
 from ._loop_geometry import loop_geometry as loop_geometry
-from ._loop_geometry import merged_face_of as merged_face_of
 from ._model import FRAME_UNITS_M as FRAME_UNITS_M
 from ._model import FoldFile as FoldFile
 from ._model import FoldFrame as FoldFrame

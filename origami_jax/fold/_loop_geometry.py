@@ -187,19 +187,14 @@ def loop_geometry(
     normal = np.cross(plane[0], plane[1])
     edges = [tuple(int(v) for v in e) for e in resolved.edges_vertices.tolist()]
     angles_deg = np.asarray(fold.fold_angles_deg(frame), dtype=float)
-    faces = resolved.faces_vertices
-    if faces is None:
-        xy = (coords - coords[0]) @ plane.T
-        faces = planar_faces(np.column_stack([xy, np.zeros(len(xy))]), np.asarray(edges))
-    faces = [tuple(int(v) for v in f) for f in faces]
+    faces = _frame_faces(resolved, coords, plane, edges)
     _check_manifold(edges, assignment, faces, where)
     if flat_creases == "panel":
-        n_faces = len(faces)
         faces, keep, face_of = _merge_facets(edges, assignment, faces, where)
         edges = [edges[e] for e in keep]
         assignment = [assignment[e] for e in keep]
         angles_deg = angles_deg[keep]
-        if root is not None and 0 <= root < n_faces:
+        if root is not None and 0 <= root < len(face_of):
             root = face_of[root]  # the file's face, counted among the merged ones
 
     # Faces on either side of every edge; crease pairs; the spanning tree (breadth first, as nets).
@@ -454,68 +449,57 @@ def _merge_facets(edges, assignment, faces, where: str):
     return merged, keep, face_of
 
 
-def flat_faces_merged(fold: FoldFile) -> FoldFile:
+def flat_faces_merged(fold: FoldFile, root: int | None = None) -> tuple[FoldFile, int | None]:
     """`fold`, or where flat (`F`) edges join faces of its flat key frame (a triangulated export's
     facet diagonals), a file of that frame alone with each group of joined faces one face
-    (counter-clockwise, one simple polygon: the rigid panel a flat crease leaves) and those edges
-    dropped (the other edges renumbered in order; per-edge and per-face properties the model does
-    not know are dropped, as are the other frames). Faces are listed in the order of their first
-    face in `fold` (`merged_face_of` maps a face of `fold` to its merged face).
+    (counter-clockwise, one simple polygon: the rigid panel a flat crease leaves; listed in the
+    order of their first face in `fold`) and those edges dropped (the other edges renumbered in
+    order; per-edge and per-face properties the model does not know are dropped, as are the other
+    frames); and `root`, a face of `fold`'s key frame, as the face of the returned file it is part
+    of (`None` stays `None`).
 
     **Raises:** `FoldFormatError` (one line) where joined faces do not make one simple polygon or
-    enclose a hole, or an edge borders more than two faces."""
-    found = _flat_merge(fold)
-    if found is None:
-        return fold
-    key, faces, keep, _ = found
-    angles = key.edges_fold_angle_deg
-    frame = key.replace(
-        edges_vertices=np.asarray(key.edges_vertices)[keep].reshape(-1, 2),
-        edges_assignment=tuple(key.edges_assignment[e] for e in keep),  # type: ignore[index]
-        edges_fold_angle_deg=None if angles is None else np.asarray(angles)[keep],
-        faces_vertices=tuple(faces),
-        extra={k: v for k, v in key.extra.items() if not k.startswith(("edges_", "faces_"))},
-    )
-    return FoldFile(frames=(frame,), file_spec=fold.file_spec, file_metadata=fold.file_metadata)
-
-
-def merged_face_of(fold: FoldFile, face: int) -> int:
-    """The face of `flat_faces_merged(fold)` that face `face` of `fold`'s key frame is part of
-    (`face` itself where nothing merges); `FoldFormatError` for a face the frame does not have."""
-    found = _flat_merge(fold)
-    if found is None:
-        return face
-    face_of = found[3]
-    if not 0 <= face < len(face_of):
-        raise FoldFormatError(f"root face {face} does not exist: the file has {len(face_of)} faces")
-    return face_of[face]
-
-
-def _flat_merge(fold: FoldFile):
-    """`(key frame, merged faces, edges kept, face_of)` of `_merge_facets` on `fold`'s key frame,
-    or `None` where no `F` edge joins two of its faces (or the frame has no faces or is not
-    flat)."""
+    enclose a hole, an edge borders more than two faces, or `root` is not a face of the file."""
     key = fold.key_frame
-    if key.edges_vertices is None or key.edges_assignment is None:
-        return None
-    if "F" not in key.edges_assignment or key.vertices_coords is None:
-        return None
+    if key.vertices_coords is None or key.edges_vertices is None or key.edges_assignment is None:
+        return fold, root
+    if "F" not in key.edges_assignment:
+        return fold, root
+    coords = key.coords3
+    plane = paper_plane(coords, key.faces_vertices)
+    if plane is None:  # not flat: nothing to merge here (a folded form is unfolded first)
+        return fold, root
     edges = [tuple(int(v) for v in e) for e in np.asarray(key.edges_vertices).tolist()]
-    faces = key.faces_vertices
-    if faces is None:
-        coords = key.coords3
-        plane = paper_plane(coords, None)
-        if plane is None:
-            return None
-        xy = (coords - coords[0]) @ plane.T
-        faces = planar_faces(np.column_stack([xy, np.zeros(len(xy))]), np.asarray(edges))
-    faces = [tuple(int(v) for v in f) for f in faces]
+    faces = _frame_faces(key, coords, plane, edges)
     assignment = list(key.edges_assignment)
     _check_manifold(edges, assignment, faces, "key frame")
     merged, keep, face_of = _merge_facets(edges, assignment, faces, "key frame")
     if len(keep) == len(edges):
-        return None
-    return key, merged, keep, face_of
+        return fold, root
+    if root is not None and not 0 <= root < len(faces):
+        raise FoldFormatError(f"root face {root} does not exist: the file has {len(faces)} faces")
+    angles = key.edges_fold_angle_deg
+    frame = key.replace(
+        edges_vertices=np.asarray(key.edges_vertices)[keep].reshape(-1, 2),
+        edges_assignment=tuple(assignment[e] for e in keep),
+        edges_fold_angle_deg=None if angles is None else np.asarray(angles)[keep],
+        faces_vertices=tuple(merged),
+        extra={k: v for k, v in key.extra.items() if not k.startswith(("edges_", "faces_"))},
+    )
+    merged_fold = FoldFile(
+        frames=(frame,), file_spec=fold.file_spec, file_metadata=fold.file_metadata
+    )
+    return merged_fold, None if root is None else face_of[root]
+
+
+def _frame_faces(frame: FoldFrame, coords, plane, edges) -> list[tuple[int, ...]]:
+    """`frame`'s faces as vertex tuples, traced from its planar edge graph where it lists none
+    (`coords` `(V, 3)`, `plane` `(2, 3)` the paper's, `edges` the vertex pairs)."""
+    faces = frame.faces_vertices
+    if faces is None:
+        xy = (coords - coords[0]) @ plane.T
+        faces = planar_faces(np.column_stack([xy, np.zeros(len(xy))]), np.asarray(edges))
+    return [tuple(int(v) for v in f) for f in faces]
 
 
 def _select_seams(tree: NetGeometry, keep: list[int]) -> Seams:

@@ -205,38 +205,41 @@ def _layout(faces, local, sides, crease, root: int, flat_sides=frozenset()) -> l
     flat: list[np.ndarray | None] = [None] * len(faces)
     queue: collections.deque[int] = collections.deque()
 
-    def place(f: int, p: int | None, k: int) -> None:
-        """`f` across side `k` of its placed parent `p` (the root where `p` is `None`), then the
-        faces joined to it across flat sides, breadth first."""
-        if p is None:
-            flat[f] = local[f] - local[f][0]
-        else:
-            u, v = _face_sides(faces[p])[k]
-            a, b = flat[p][k], flat[p][(k + 1) % len(faces[p])]  # type: ignore[index]
-            flat[f] = _rigid_onto(local[f], faces[f].index(u), faces[f].index(v), a, b)
+    def unplaced(f: int, flat_only: bool):
+        """`(side index, face)` across each crease of placed face `f` to a face not yet placed
+        (across its flat sides only where `flat_only`), checked as the caller goes on."""
+        for k, (u, v) in enumerate(_face_sides(faces[f])):
+            side = frozenset((u, v))
+            if crease(u, v) and (not flat_only or side in flat_sides):
+                g = next(h for h in sides[side] if h != f)
+                if flat[g] is None:
+                    yield k, g
+
+    def put(g: int, f: int, k: int) -> None:
+        """Face `g` placed across side `k` of placed face `f`."""
+        u, v = _face_sides(faces[f])[k]
+        a, b = flat[f][k], flat[f][(k + 1) % len(faces[f])]  # type: ignore[index]
+        flat[g] = _rigid_onto(local[g], faces[g].index(u), faces[g].index(v), a, b)
+
+    def queue_panel(f: int) -> None:
+        """Placed face `f` queued for the search across folds, then the faces joined to it across
+        flat sides, breadth first, each placed and queued."""
         queue.append(f)
         panel = collections.deque([f])
         while panel:
             h = panel.popleft()
-            for j, (u, v) in enumerate(_face_sides(faces[h])):
-                if frozenset((u, v)) not in flat_sides or not crease(u, v):
-                    continue
-                g = next(x for x in sides[frozenset((u, v))] if x != h)
-                if flat[g] is None:
-                    a, b = flat[h][j], flat[h][(j + 1) % len(faces[h])]  # type: ignore[index]
-                    flat[g] = _rigid_onto(local[g], faces[g].index(u), faces[g].index(v), a, b)
-                    queue.append(g)
-                    panel.append(g)
+            for j, g in unplaced(h, flat_only=True):
+                put(g, h, j)
+                queue.append(g)
+                panel.append(g)
 
-    place(root, None, 0)
+    flat[root] = local[root] - local[root][0]
+    queue_panel(root)
     while queue:
         f = queue.popleft()
-        for k, (u, v) in enumerate(_face_sides(faces[f])):
-            if not crease(u, v):
-                continue
-            g = next(h for h in sides[frozenset((u, v))] if h != f)
-            if flat[g] is None:
-                place(g, f, k)
+        for k, g in unplaced(f, flat_only=False):
+            put(g, f, k)
+            queue_panel(g)
     missing = [f for f, xy in enumerate(flat) if xy is None]
     if missing:
         raise FoldFormatError(

@@ -51,7 +51,6 @@ from ..fold import (
     flat_faces_merged,
     flat_fold,
     length_scale_from_unit,
-    merged_face_of,
     net_geometry,
     read_fold,
     source_and_label,
@@ -737,8 +736,7 @@ def load_net(
             fold, root = FoldFile(frames=(drawing.key_frame,)), drawing.geometry.root
         fold = flat_fold(fold, root=root)
         if flat_creases == "panel":
-            root = None if root is None else merged_face_of(fold, root)
-            fold = flat_faces_merged(fold)
+            fold, root = flat_faces_merged(fold, root)
         geometry = net_geometry(fold, root=root)
         key = fold.frame(0)
         if key.faces_vertices is None:
