@@ -24,11 +24,20 @@ def plate_tables_for(
     )
 
 
-def plate_vertices(tables: PlateTables, poses: Float[Array, "n 4 4"]) -> Float[Array, "n v 3"]:
-    """World positions of every body's polygon vertices (`tables.vertices`, padded) with world
-    poses `poses` (the base last), length units."""
+def plate_vertices(tables: PlateTables, poses: Float[Array, "n 4 4"]) -> Float[Array, "p v 3"]:
+    """World positions of every plate's polygon vertices (`tables.vertices`, padded) with world
+    poses `poses` of the bodies (the base last), length units."""
     local = jnp.asarray(tables.vertices, poses.dtype)
+    if tables.plate_body is not None:
+        poses = poses[tables.plate_body]
     return jnp.einsum("nij,nvj->nvi", poses[:, :3, :3], local) + poses[:, None, :3, 3]
+
+
+def plate_half_thickness(tables: PlateTables, half_thickness: Float[Array, " n"]) -> Array:
+    """Each plate's half-thickness `(p,)` from its body's (`half_thickness` `(n,)`)."""
+    if tables.plate_body is None:
+        return half_thickness
+    return half_thickness[tables.plate_body]
 
 
 def plate_overlaps(
@@ -38,12 +47,18 @@ def plate_overlaps(
     world vertices `x` (`plate_vertices`) and half-thicknesses `half_thickness` `(n,)`: the depth
     of the prisms of their thicknesses for bodies apart in the flat state, of their mid-surfaces
     for bodies that touch there (a shared crease, corner or cut edge: their plates overlap along
-    it by construction); `overlap_depth`. Depths within rounding of zero (``1e-9`` × the largest
-    panel) are 0."""
-    a, b = tables.body_pairs.T
-    joined = tables.joined[a, b]
-    thickness = 2 * half_thickness.astype(x.dtype)
+    it by construction); `overlap_depth`. A panel of several convex plates (a non-convex outline)
+    overlaps another by the deepest of its plates' overlaps. Depths within rounding of zero
+    (``1e-9`` × the largest panel) are 0."""
+    pairs, owner = tables.plate_pairs
+    a, b = pairs.T
+    body = tables.bodies_of_plates
+    joined = tables.joined[body[a], body[b]]
+    thickness = 2 * plate_half_thickness(tables, half_thickness).astype(x.dtype)
     depth = overlap_depth(
         x[a], x[b], jnp.where(joined, 0.0, thickness[a]), jnp.where(joined, 0.0, thickness[b])
     )
-    return jnp.where(depth > 1e-9 * tables.scale, depth, 0.0)
+    depth = jnp.where(depth > 1e-9 * tables.scale, depth, 0.0)
+    if tables.plate_body is None:
+        return depth
+    return jnp.zeros(len(tables.body_pairs), x.dtype).at[owner].max(depth)

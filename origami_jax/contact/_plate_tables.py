@@ -7,6 +7,11 @@ reused for the same panels at another size or another layout of the same topolog
 every vertex of a panel against every other panel's polygon (*vertex–face*), and every edge of a
 panel against every edge of every other panel (*edge–edge*).
 
+A panel whose outline is not convex is several plates of one body, its convex pieces
+(`convex_pieces`): the primitives are the plates', less the pieces' shared diagonals (inside the
+panel) and a corner's repeats (each vertex of a panel counted once against each plate of another);
+two plates of one body never meet.
+
 Left out, because they touch by construction: between two panels that share a crease, the
 primitives within `crease_clearance` × (the smaller panel's size) of it (a point hinge joins the
 two there, so only their far parts can meet, as for `PanelContact`); between any two panels,
@@ -19,8 +24,9 @@ import dataclasses
 import jax
 import numpy as np
 
+from ._convex_pieces import convex_pieces
 from ._primitives import point_polygon_sq, polygon_normal, segment_segment_sq
-from ._tables import _convex_hull, _distance_to_segment, content_digest, plane_frame
+from ._tables import _distance_to_segment, content_digest, plane_frame
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -32,15 +38,20 @@ class PlateTables:
     **Fields:**
     - `n_bodies`: moving bodies; `has_base`: whether a fixed base takes part.
     - `base_pose`: `(4, 4)` world pose of the base's frame (identity if there is no base).
-    - `vertices`: `(n, v, 3)` each body's polygon (the convex hull of its outline, counter-clockwise
-      about the frame's +z) in its body frame, padded by repeating its last vertex.
-    - `vertex_face`: `(k, 3)` integer rows ``(a, i, b)``: vertex `i` of body `a` against the polygon
-      of body `b`.
+    - `vertices`: `(p, v, 3)` each plate's polygon (counter-clockwise about the frame's +z) in its
+      body's frame, padded by repeating its last vertex: one plate per body, its outline's convex
+      hull, where the outline is convex; a non-convex outline's convex pieces otherwise.
+    - `vertex_face`: `(k, 3)` integer rows ``(a, i, b)``: vertex `i` of plate `a` against the polygon
+      of plate `b`.
     - `edge_edge`: `(m, 6)` integer rows ``(a, i0, i1, b, j0, j1)``: the edge from vertex `i0` to `i1`
-      of body `a` against the edge ``j0 → j1`` of body `b` (``a < b``).
+      of plate `a` against the edge ``j0 → j1`` of plate `b` (``a < b``).
     - `joined`: `(n, n)` bool: the two bodies touch in the flat state (a shared crease, corner or
       edge); their overlap is judged on their mid-surfaces (`PlateContact.report`).
     - `scale`: the largest panel's diameter (length).
+    - `plate_body`: `(p,)` each plate's body (the base `n_bodies`); `None` (the default): plate `b`
+      is body `b`, every outline convex.
+    - `outline_edges`: `(p, v)` bool, whether each plate's edge from vertex ``i`` to ``i + 1`` lies
+      on its panel's outline (not a diagonal between two pieces); `None`: every one does.
     """
 
     n_bodies: int
@@ -51,16 +62,25 @@ class PlateTables:
     edge_edge: np.ndarray
     joined: np.ndarray
     scale: float
+    plate_body: np.ndarray | None = None
+    outline_edges: np.ndarray | None = None
     digest: str = dataclasses.field(default="", repr=False)
 
     def __post_init__(self):
         # A NumPy scalar (a float): a leaf that is the same object each time the tables flatten.
         object.__setattr__(self, "scale", np.float64(self.scale))
+        if self.plate_body is not None and np.array_equal(
+            self.plate_body, np.arange(self.n_all)
+        ):  # one convex plate per body: the tables without pieces
+            object.__setattr__(self, "plate_body", None)
+            object.__setattr__(self, "outline_edges", None)
         object.__setattr__(self, "digest", self._content_digest())
 
     def _content_digest(self) -> str:
         arrays = ("base_pose", "vertices", "vertex_face", "edge_edge", "joined")
         scalars = (self.n_bodies, self.has_base, float(self.scale))
+        if self.plate_body is not None:
+            arrays = (*arrays, "plate_body", "outline_edges")
         return content_digest(self, arrays, scalars)
 
     def _digest(self) -> str:
@@ -103,10 +123,38 @@ class PlateTables:
         return len(self.vertex_face) + len(self.edge_edge)
 
     @property
+    def n_all(self) -> int:
+        """How many bodies take part: the moving ones and the base, if any."""
+        return self.n_bodies + int(self.has_base)
+
+    @property
+    def bodies_of_plates(self) -> np.ndarray:
+        """`(p,)` each plate's body (`plate_body`, or every plate its own body)."""
+        if self.plate_body is None:
+            return np.arange(self.vertices.shape[0])
+        return np.asarray(self.plate_body)
+
+    @property
     def body_pairs(self) -> np.ndarray:
         """`(p, 2)` every unordered pair of bodies ``a < b`` (for the overlap report)."""
-        n = self.vertices.shape[0]
+        n = self.n_all
         return np.asarray([(a, b) for a in range(n) for b in range(a + 1, n)], dtype=np.int64)
+
+    @property
+    def plate_pairs(self) -> tuple[np.ndarray, np.ndarray]:
+        """`(q, 2)` every unordered pair of plates ``a < b`` of two bodies, and `(q,)` the index of
+        their bodies' pair in `body_pairs` (each plate pair in order of its body pair)."""
+        if self.plate_body is None:
+            pairs = self.body_pairs
+            return pairs, np.arange(len(pairs))
+        body = self.bodies_of_plates
+        rows, owner = [], []
+        for k, (u, w) in enumerate(self.body_pairs):
+            for a in np.flatnonzero(body == u):
+                for b in np.flatnonzero(body == w):
+                    rows.append((min(a, b), max(a, b)))
+                    owner.append(k)
+        return np.asarray(rows, np.int64).reshape(-1, 2), np.asarray(owner, np.int64)
 
 
 class _PlateIndex:
@@ -120,13 +168,16 @@ class _PlateIndex:
             "vertex_face": tables.vertex_face,
             "edge_edge": tables.edge_edge,
             "joined": tables.joined,
+            "plate_body": tables.plate_body,
+            "outline_edges": tables.outline_edges,
             "digest": "",
         }
         # Not the vertices' shape: a leaf (its shape is part of every compiled program's key), and
         # a pytree partitioned by `equinox.partition` flattens with `None` in its place.
-        self._key = content_digest(
-            tables, ("vertex_face", "edge_edge", "joined"), (tables.n_bodies, tables.has_base)
-        )
+        arrays = ("vertex_face", "edge_edge", "joined")
+        if tables.plate_body is not None:
+            arrays = (*arrays, "plate_body", "outline_edges")
+        self._key = content_digest(tables, arrays, (tables.n_bodies, tables.has_base))
 
     def __hash__(self) -> int:
         return hash(self._key)
@@ -174,26 +225,43 @@ def build_plate_tables(
         base_pose = plane_frame(base_outline)
         local.append((base_outline - base_pose[:3, 3]) @ base_pose[:3, :3])
         world_pose.append(base_pose)
-    hulls = []
-    for polygon in local:
-        hull = _convex_hull(polygon[:, :2])
-        hulls.append(np.concatenate([hull, np.zeros((len(hull), 1))], axis=1))
-    n_all = len(hulls)
-    width = max(len(h) for h in hulls)
-    vertices = np.stack([np.concatenate([h, np.repeat(h[-1:], width - len(h), 0)]) for h in hulls])
-    world = [h @ pose[:3, :3].T + pose[:3, 3] for h, pose in zip(hulls, world_pose, strict=True)]
-    sizes = [float(np.max(np.ptp(w, axis=0))) for w in world]
+    plates, outline_edges, plate_body = [], [], []
+    for body, polygon in enumerate(local):
+        pieces, on_outline = convex_pieces(polygon[:, :2])
+        for piece, edges in zip(pieces, on_outline, strict=True):
+            plates.append(np.concatenate([piece, np.zeros((len(piece), 1))], axis=1))
+            outline_edges.append(edges)
+            plate_body.append(body)
+    plate_body = np.asarray(plate_body, np.int64)
+    n_all = len(local)
+    n_plates = len(plates)
+    width = max(len(h) for h in plates)
+    vertices = np.stack([np.concatenate([h, np.repeat(h[-1:], width - len(h), 0)]) for h in plates])
+    world = [
+        h @ world_pose[b][:3, :3].T + world_pose[b][:3, 3]
+        for h, b in zip(plates, plate_body, strict=True)
+    ]
+    sizes = [
+        float(
+            np.max(
+                np.ptp(
+                    np.concatenate([w for w, c in zip(world, plate_body, strict=True) if c == b]), 0
+                )
+            )
+        )
+        for b in range(n_all)
+    ]
     scale = max(sizes)
     touching = 1e-6 * scale if touching is None else float(touching)
 
     parent = np.where(np.asarray(crease_parent) < 0, n, np.asarray(crease_parent))
     child = np.asarray(crease_child)
-    counts = np.asarray([len(h) for h in hulls])
-    padded = np.stack([w[np.minimum(np.arange(width), len(w) - 1)] for w in world])  # (n, v, 3)
+    counts = np.asarray([len(h) for h in plates])
+    padded = np.stack([w[np.minimum(np.arange(width), len(w) - 1)] for w in world])  # (p, v, 3)
     # Near a shared crease (within `crease_clearance` × the smaller panel): each vertex, and each
-    # edge sampled at 33 points, of either panel against the other.
-    near_vertex = np.zeros((n_all, width, n_all), bool)  # vertex i of a, near its crease with b
-    near_edge = np.zeros((n_all, width, n_all), bool)  # edge i → i+1 of a, likewise
+    # edge sampled at 33 points, of either panel's plates against the other panel.
+    near_vertex = np.zeros((n_plates, width, n_all), bool)  # vertex i of a, near its crease with b
+    near_edge = np.zeros((n_plates, width, n_all), bool)  # edge i → i+1 of a, likewise
     ramp = np.linspace(0, 1, 33)[:, None, None]
     ends = padded[:, (np.arange(width) + 1) % width]
     ends = np.where((np.arange(width) + 1 < counts[:, None])[..., None], ends, padded[:, :1])
@@ -202,41 +270,57 @@ def build_plate_tables(
         a, b = int(parent[h]), int(child[h])
         crease_pair[a, b] = crease_pair[b, a] = True
         reach = crease_clearance * min(sizes[a], sizes[b])
+        segment = np.asarray(crease_ends[h], dtype=float)
         for one, other in ((a, b), (b, a)):
-            segment = np.asarray(crease_ends[h], dtype=float)
-            near_vertex[one, :, other] |= _distance_to_segment(padded[one], *segment) < reach
-            samples = padded[one] + ramp * (ends[one] - padded[one])  # (33, v, 3)
-            edge = _distance_to_segment(samples.reshape(-1, 3), *segment).reshape(33, width)
-            near_edge[one, :, other] |= edge.min(axis=0) < reach
+            for plate in np.flatnonzero(plate_body == one):
+                near_vertex[plate, :, other] |= (
+                    _distance_to_segment(padded[plate], *segment) < reach
+                )
+                samples = padded[plate] + ramp * (ends[plate] - padded[plate])  # (33, v, 3)
+                edge = _distance_to_segment(samples.reshape(-1, 3), *segment).reshape(33, width)
+                near_edge[plate, :, other] |= edge.min(axis=0) < reach
+
+    # A vertex of a panel split into pieces is counted once (in its first plate), and the
+    # diagonals between pieces (inside the panel) are no edges of it.
+    first_copy = np.zeros((n_plates, width), bool)
+    on_outline = np.zeros((n_plates, width), bool)
+    for body in range(n_all):
+        seen = []
+        for plate in np.flatnonzero(plate_body == body):
+            on_outline[plate, : counts[plate]] = outline_edges[plate]
+            for i in range(counts[plate]):
+                point = vertices[plate, i]
+                if not any(np.array_equal(point, other) for other in seen):
+                    first_copy[plate, i] = True
+                    seen.append(point)
+    other_body = plate_body[:, None] != plate_body[None, :]
 
     # Every candidate in the order (a, b, i) and (a, b, i, j); kept unless near a shared crease;
     # those already touching in the flat state are left out and join their bodies.
-    a, b, i = np.nonzero(
-        (np.arange(width)[None, None, :] < counts[:, None, None])
-        & ~np.eye(n_all, dtype=bool)[..., None]
-    )
-    keep = ~near_vertex[a, i, b]
+    a, b, i = np.nonzero(first_copy[:, None, :] & other_body[..., None])
+    keep = ~near_vertex[a, i, plate_body[b]]
     a, b, i = a[keep], b[keep], i[keep]
     polygon = padded[b]
     gap = np.sqrt(point_polygon_sq(padded[a, i], polygon, polygon_normal(polygon, xp=np), xp=np))
     joined = crease_pair.copy()
-    joined[a[gap < touching], b[gap < touching]] = True
-    vertex_face = np.stack([a, i, b], axis=1)[gap >= touching]
+    close = gap < touching
+    joined[plate_body[a[close]], plate_body[b[close]]] = True
+    vertex_face = np.stack([a, i, b], axis=1)[~close]
 
-    edges = np.arange(width)[None, :] < counts[:, None]  # (n, v)
     a, b, i, j = np.nonzero(
-        np.triu(np.ones((n_all, n_all), bool), 1)[:, :, None, None]
-        & edges[:, None, :, None]
-        & edges[None, :, None, :]
+        (np.triu(np.ones((n_plates, n_plates), bool), 1) & other_body)[:, :, None, None]
+        & on_outline[:, None, :, None]
+        & on_outline[None, :, None, :]
     )
-    keep = ~near_edge[a, i, b] & ~near_edge[b, j, a]
+    keep = ~near_edge[a, i, plate_body[b]] & ~near_edge[b, j, plate_body[a]]
     a, b, i, j = a[keep], b[keep], i[keep], j[keep]
     i1, j1 = (i + 1) % counts[a], (j + 1) % counts[b]
     gap = np.sqrt(
         segment_segment_sq(padded[a, i], padded[a, i1], padded[b, j], padded[b, j1], xp=np)
     )
-    joined[a[gap < touching], b[gap < touching]] = True
-    edge_edge = np.stack([a, i, i1, b, j, j1], axis=1)[gap >= touching]
+    close = gap < touching
+    joined[plate_body[a[close]], plate_body[b[close]]] = True
+    edge_edge = np.stack([a, i, i1, b, j, j1], axis=1)[~close]
     return PlateTables(
         n_bodies=n,
         has_base=base_outline is not None,
@@ -246,4 +330,6 @@ def build_plate_tables(
         edge_edge=edge_edge.astype(np.int64).reshape(-1, 6),
         joined=joined | joined.T,
         scale=scale,
+        plate_body=plate_body,
+        outline_edges=on_outline,
     )

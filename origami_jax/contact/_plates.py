@@ -1,8 +1,9 @@
 """`PlateContact`: contact between thin plates from their exact geometry, with continuous collision
 detection.
 
-**Model.** Every panel is a plate: its polygon (the convex hull of its outline, the mid-surface)
-swept by a ball of half its thickness. Two plates are apart by the distance between their polygons
+**Model.** Every panel is a plate: its polygon (the mid-surface; a panel whose outline is not
+convex is several plates of one body, its convex pieces, `PlateTables`) swept by a ball of half
+its thickness. Two plates are apart by the distance between their polygons
 less their two half-thicknesses. That distance is the least over the primitive pairs of
 Incremental Potential Contact (Li et al., SIGGRAPH 2020): every vertex of one polygon against the
 other polygon, and every edge of one against every edge of the other (`PlateTables`; exact for
@@ -79,7 +80,12 @@ from ._barrier import (
     with_default_contact,
 )
 from ._pick import dense_pick, one_hot_rows, pick
-from ._plate_geometry import plate_overlaps, plate_tables_for, plate_vertices
+from ._plate_geometry import (
+    plate_half_thickness,
+    plate_overlaps,
+    plate_tables_for,
+    plate_vertices,
+)
 from ._plate_tables import PlateTables
 from ._primitives import (
     _closest,
@@ -269,7 +275,7 @@ class PlateContact(AbstractContact):
             activation = jnp.maximum(jnp.max(thickness), 0.005 * tables.scale)
         activation = jnp.asarray(activation, dtype)
         check_contact_numbers(thickness, stiffness, damping, activation)
-        n_all = tables.vertices.shape[0]
+        n_all = tables.n_all
         contact = cls(
             tables=tables,
             stiffness=jnp.asarray(stiffness, dtype),
@@ -349,8 +355,9 @@ class PlateContact(AbstractContact):
         return with_base_pose(self.tables, poses)
 
     def vertices(self, mechanism: AbstractMechanism, q: Float[Array, " nq"]) -> Array:
-        """World positions of every body's polygon vertices at ``q``, `(n, v, 3)` (the base last;
-        padded by repeating a vertex), length units."""
+        """World positions of every plate's polygon vertices at ``q``, `(p, v, 3)` (a body's
+        plates: one, or a non-convex panel's convex pieces; the base's last; padded by repeating a
+        vertex), length units."""
         return self._world(self._frames(mechanism.body_poses(q)))
 
     def _world(self, poses):
@@ -388,7 +395,8 @@ class PlateContact(AbstractContact):
         )
 
     def _half_sums(self, dtype):
-        half = self.half_thickness.astype(dtype)
+        """The two half-thicknesses of each vertex–face and each edge–edge pair, added."""
+        half = plate_half_thickness(self.tables, self.half_thickness).astype(dtype)
         vf, ee = self._rows()
         return half[vf[:, 0]] + half[vf[:, 2]], half[ee[:, 0]] + half[ee[:, 3]]
 
@@ -490,10 +498,14 @@ class PlateContact(AbstractContact):
         return self.stiffness * jnp.sum(weight * barrier(gap / self.activation))
 
     def _wrenches(self, x, forces):
-        """One world wrench ``(F, x × F)`` about the origin per body from forces on its vertices."""
-        return jnp.concatenate(
+        """One world wrench ``(F, x × F)`` about the origin per body from forces on its plates'
+        vertices."""
+        wrenches = jnp.concatenate(
             [jnp.sum(forces, axis=1), jnp.sum(jnp.cross(x, forces), axis=1)], axis=-1
         )
+        if self.tables.plate_body is None:
+            return wrenches
+        return jnp.zeros((self.tables.n_all, 6), x.dtype).at[self.tables.plate_body].add(wrenches)
 
     # ---- the contact force ----
 
@@ -502,7 +514,8 @@ class PlateContact(AbstractContact):
         if self.adhesion is None:
             return jnp.zeros((), x.dtype)
         self._check_surface()
-        return adhesion_energy(self.adhesion, self.surface, self.half_thickness, x)
+        half = plate_half_thickness(self.tables, self.half_thickness)
+        return adhesion_energy(self.adhesion, self.surface, half, x)
 
     def potential(self, mechanism, q):
         x = self.vertices(mechanism, q)
@@ -542,7 +555,8 @@ class PlateContact(AbstractContact):
         lo = jnp.minimum(jnp.min(x0, axis=1), jnp.min(x1, axis=1))
         hi = jnp.maximum(jnp.max(x0, axis=1), jnp.max(x1, axis=1))
         # 1 % more: the gaps are taken on a smoothed distance, a hair shorter than the box bound.
-        grow = (self.half_thickness.astype(x0.dtype) + 0.505 * reach)[:, None]
+        half = plate_half_thickness(self.tables, self.half_thickness).astype(x0.dtype)
+        grow = (half + 0.505 * reach)[:, None]
         lo, hi = lo - grow, hi + grow
         return jnp.all((lo[:, None] <= hi[None, :]) & (lo[None, :] <= hi[:, None]), axis=-1)
 
@@ -584,8 +598,7 @@ class PlateContact(AbstractContact):
         )
         n_vf = self._rows()[0].shape[0]
         on_mollifier = self.stiffness * barrier(ratio[n_vf:])
-        n = x.shape[0]
-        wrenches = self._pair_wrenches(pairs, push, on_mollifier, n)
+        wrenches = self._pair_wrenches(pairs, push, on_mollifier, self.tables.n_all)
         if self.adhesion is not None:
             wrenches = wrenches + self._wrenches(x, -jax.grad(self._adhesion)(x))
         if self.friction is not None:
@@ -872,7 +885,7 @@ class PlateContact(AbstractContact):
         ``q1`` than at ``q0`` (boolean scalar): a step that would let a plate through another."""
         x0, x1 = self.vertices(mechanism, q0), self.vertices(mechanism, q1)
         hit = self._swept_impact(x0, x1) <= 1
-        pairs = self.tables.body_pairs
+        pairs = self.tables.plate_pairs[0]
 
         def grew(rows):
             a, b = rows.T
@@ -897,9 +910,14 @@ class PlateContact(AbstractContact):
         return plate_overlaps(self.tables, self.half_thickness, self.vertices(mechanism, q))
 
     def _pair_bodies(self):
+        """The bodies of each evaluated pair's first and second plates, `(k,)` each."""
         vf, ee = self._rows()
         xp = np if self.selection is None else jnp
-        return xp.concatenate([vf[:, 0], ee[:, 0]]), xp.concatenate([vf[:, 2], ee[:, 3]])
+        a, b = xp.concatenate([vf[:, 0], ee[:, 0]]), xp.concatenate([vf[:, 2], ee[:, 3]])
+        if self.tables.plate_body is None:
+            return a, b
+        body = xp.asarray(self.tables.plate_body)
+        return body[a], body[b]
 
     def report(self, mechanism, q) -> dict[str, Array]:
         """Contact state at ``q``: the smallest primitive gap (length, `inf` if none is checked), how
@@ -910,7 +928,7 @@ class PlateContact(AbstractContact):
         x = self.vertices(mechanism, q)
         gap, _ = self._gaps(x)
         near = gap < 1.1 * self.activation
-        n = self.tables.vertices.shape[0]
+        n = self.tables.n_all
         a, b = self._pair_bodies()
         touching = jnp.zeros((n, n), bool).at[a, b].max(near)
         touching = touching | touching.T
@@ -937,7 +955,7 @@ class PlateContact(AbstractContact):
         point, _ = self._vertex_face_points(x)
         on_p, on_q = closest_on_segments(*self._edge_edge_points(x))
         where = jnp.concatenate([point, 0.5 * (on_p + on_q)], axis=0)
-        n = self.tables.vertices.shape[0]
+        n = self.tables.n_all
         a, b = self._pair_bodies()
         count = jnp.zeros((n, n), x.dtype).at[a, b].add(near)
         total = jnp.zeros((n, n, 3), x.dtype).at[a, b].add(near[:, None] * where)

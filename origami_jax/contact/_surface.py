@@ -205,14 +205,15 @@ class Friction(eqx.Module):
 
 @dataclasses.dataclass(frozen=True, eq=False)
 class SurfaceTables:
-    """The static geometry of adhesion (host NumPy arrays; bodies and vertices as `PlateTables`).
+    """The static geometry of adhesion (host NumPy arrays; plates and vertices as `PlateTables`).
 
     **Fields:**
-    - `point_weights`: `(s, n·v)` each quadrature point as an affine combination of the flattened
-      polygon vertices of its body (rigid plates: exact in any pose).
+    - `point_weights`: `(s, p·v)` each quadrature point as an affine combination of the flattened
+      polygon vertices of its plate (rigid plates: exact in any pose).
     - `point_area`: `(s,)` each point's cell area (length²).
-    - `point_body`: `(s,)` its body.
-    - `face_pairs`: `(k, 2)` rows ``(point, b)``: point against the polygon of body `b`.
+    - `point_body`: `(s,)` its plate (its body's, where each body is one plate).
+    - `face_pairs`: `(k, 2)` rows ``(point, b)``: point against the polygon of plate `b` (of
+      another body).
     - `line_pairs`: `(m, 6)` rows ``(a, i0, i1, b, j0, j1)`` as `PlateTables.edge_edge`.
     """
 
@@ -272,20 +273,43 @@ def build_surface_tables(
     panel): points and nearly parallel edge pairs closer than this to the other body in the flat
     state are left out.
     """
+    # Per plate (a body's plates: one, or a non-convex panel's convex pieces, `PlateTables`).
     n_all, width = tables.vertices.shape[:2]
     n = tables.n_bodies
+    plate_body = tables.bodies_of_plates
     clearance = 0.01 * tables.scale if clearance is None else float(clearance)
     poses = [np.asarray(p, float) for p in rest_poses]
     if tables.has_base:
         poses.append(np.asarray(tables.base_pose, float))
     world = np.stack(
-        [tables.vertices[b] @ poses[b][:3, :3].T + poses[b][:3, 3] for b in range(n_all)]
+        [
+            tables.vertices[b] @ poses[plate_body[b]][:3, :3].T + poses[plate_body[b]][:3, 3]
+            for b in range(n_all)
+        ]
     )
     counts = [
         int(np.sum(np.any(np.diff(tables.vertices[b], axis=0) != 0, axis=1))) + 1
         for b in range(n_all)
     ]
-    sizes = [float(np.max(np.ptp(world[b, : counts[b]], axis=0))) for b in range(n_all)]
+    on_outline = (
+        np.ones((n_all, width), bool)
+        if tables.outline_edges is None
+        else np.asarray(tables.outline_edges)
+    )
+    # Each body's size (over its plates).
+    sizes = [
+        float(
+            np.max(
+                np.ptp(
+                    np.concatenate(
+                        [world[p, : counts[p]] for p in np.flatnonzero(plate_body == body)]
+                    ),
+                    axis=0,
+                )
+            )
+        )
+        for body in range(tables.n_all)
+    ]
 
     weights, area, body = [], [], []
     for b in range(n_all):
@@ -304,20 +328,20 @@ def build_surface_tables(
 
     parent = np.where(np.asarray(crease_parent) < 0, n, np.asarray(crease_parent))
     child = np.asarray(crease_child)
-    crease_pair = np.zeros((n_all, n_all), bool)
-    near = np.zeros((len(points), n_all), bool)  # point near its crease with that body
+    crease_pair = np.zeros((tables.n_all, tables.n_all), bool)  # by body
+    near = np.zeros((len(points), n_all), bool)  # point near its crease with that plate's body
     for h in range(len(child)):
         a, b = int(parent[h]), int(child[h])
-        if a >= n_all:
+        if a >= tables.n_all:
             continue
         crease_pair[a, b] = crease_pair[b, a] = True
         reach = _CREASE_CLEARANCE * min(sizes[a], sizes[b])
         segment = np.asarray(crease_ends[h], float)
         close = _distance_to_segment(points, *segment) < reach
-        near[:, b] |= close & (body == a)
-        near[:, a] |= close & (body == b)
+        near[:, plate_body == b] |= (close & (plate_body[body] == a))[:, None]
+        near[:, plate_body == a] |= (close & (plate_body[body] == b))[:, None]
 
-    point, other = np.nonzero((body[:, None] != np.arange(n_all)[None, :]) & ~near)
+    point, other = np.nonzero((plate_body[body][:, None] != plate_body[None, :]) & ~near)
     polygon = world[other]
     gap = np.sqrt(point_polygon_sq(points[point], polygon, polygon_normal(polygon, xp=np), xp=np))
     face_pairs = np.stack([point, other], axis=1)[gap >= clearance]
@@ -325,12 +349,16 @@ def build_surface_tables(
     rows = []
     for a in range(n_all):
         for b in range(a + 1, n_all):
-            if crease_pair[a, b]:
+            if plate_body[a] == plate_body[b] or crease_pair[plate_body[a], plate_body[b]]:
                 continue
             for i in range(counts[a]):
                 i1 = (i + 1) % counts[a]
+                if not on_outline[a, i]:
+                    continue  # a diagonal between two pieces of a panel, inside it
                 for j in range(counts[b]):
                     j1 = (j + 1) % counts[b]
+                    if not on_outline[b, j]:
+                        continue
                     ea, eb = world[a, i1] - world[a, i], world[b, j1] - world[b, j]
                     parallel = np.sum(np.cross(ea, eb) ** 2) < _PARALLEL * (ea @ ea) * (eb @ eb)
                     distance = np.sqrt(

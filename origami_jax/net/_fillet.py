@@ -209,6 +209,8 @@ def seam_contact_exclusions(tables, layout: ArcLayout, seams, bodies, rest_poses
     corners = np.asarray(seams.corners)
     vertices = np.asarray(seams.vertices)
     tolerance = 1e-9 * tables.scale
+    plate_body = tables.bodies_of_plates
+    # Corners left out, as (plate, vertex index, the other body) with the other body's plates.
     drop_vertex, drop_edge = set(), set()
     joined = tables.joined.copy()
     for s in range(corners.shape[0]):
@@ -221,23 +223,30 @@ def seam_contact_exclusions(tables, layout: ArcLayout, seams, bodies, rest_poses
                 body = int(bodies[f])
                 pose = poses[body if body < n else n]
                 local = (layout.face_coords[f, k] - pose[:3, 3]) @ pose[:3, :3]
-                hull = tables.vertices[body]
-                index = np.flatnonzero(np.linalg.norm(hull - local, axis=-1) < tolerance)
-                found.append((body, set(index.tolist())))
+                at = set()
+                for plate in np.flatnonzero(plate_body == body):
+                    index = np.flatnonzero(
+                        np.linalg.norm(tables.vertices[plate] - local, axis=-1) < tolerance
+                    )
+                    at |= {(int(plate), int(i)) for i in index}
+                found.append((body, at))
             (a, ia), (b, ib) = found
             if not ia or not ib:
                 continue
-            drop_vertex |= {(a, i, b) for i in ia} | {(b, i, a) for i in ib}
-            drop_edge |= {(a, i, b, j) for i in ia for j in ib} | {
-                (b, j, a, i) for i in ia for j in ib
-            }
+            drop_vertex |= {(p, i, b) for p, i in ia} | {(p, i, a) for p, i in ib}
+            drop_edge |= {(*x, *y) for x in ia for y in ib} | {(*y, *x) for x in ia for y in ib}
             joined[a, b] = joined[b, a] = True
     vertex_face = np.asarray(tables.vertex_face)
-    keep = np.array([tuple(map(int, row)) not in drop_vertex for row in vertex_face], dtype=bool)
+    keep = np.array(
+        [(int(r[0]), int(r[1]), int(plate_body[r[2]])) not in drop_vertex for r in vertex_face],
+        dtype=bool,
+    )
     edge_edge = np.asarray(tables.edge_edge)
     keep_edge = np.array(
         [
-            not any((int(r[0]), i, int(r[3]), j) in drop_edge for i in r[1:3] for j in r[4:6])
+            not any(
+                (int(r[0]), int(i), int(r[3]), int(j)) in drop_edge for i in r[1:3] for j in r[4:6]
+            )
             for r in edge_edge
         ],
         dtype=bool,

@@ -403,13 +403,13 @@ _REPORT_ELEMENTS = 1 << 27
 
 def _report_size(contact) -> int:
     """About how many intermediates one state's contact report holds (`PlateContact.report`: every
-    primitive pair's gap, every pair of bodies' exact overlap over ``v²`` separating axes), an upper
-    estimate; 0 for contacts without plate tables."""
+    primitive pair's gap, every pair of plates' exact overlap over ``v²`` separating axes), an
+    upper estimate; 0 for contacts without plate tables."""
     tables = getattr(contact, "tables", None)
-    if not hasattr(tables, "n_primitives") or not hasattr(tables, "body_pairs"):
+    if not hasattr(tables, "n_primitives") or not hasattr(tables, "plate_pairs"):
         return 0
     v = tables.vertices.shape[1]
-    return 32 * (tables.n_primitives + len(tables.body_pairs) * v * v)
+    return 32 * (tables.n_primitives + len(tables.plate_pairs[0]) * v * v)
 
 
 def _each_sample(f, states, size: int):
