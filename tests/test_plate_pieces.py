@@ -15,8 +15,7 @@ import numpy as np
 import pytest
 
 from origami_jax.contact import PlateContact
-from origami_jax.contact._convex_pieces import convex_pieces
-from origami_jax.fold import loads_fold
+from origami_jax.fold import convex_pieces, loads_fold
 from origami_jax.net import load_net
 
 SHAPES = {
@@ -238,3 +237,37 @@ def test_adhesion_samples_the_panels_not_their_hulls(jigsaw):
     assert not np.any(in_notch)
     point, other = surface.face_pairs.T
     assert np.all(body[point] != tables.bodies_of_plates[other])
+
+
+@pytest.mark.parametrize("lift", [False, True])
+def test_the_drag_quadrature_integrates_a_u_shaped_panel_over_itself(lift):
+    """`polygon_quadrature` of a U (its notch deep enough that a fan from its vertex mean covers
+    the notch): area, first and second moments against the three rectangles it is made of, every
+    point inside it, every weight positive; in the plane or tilted in space."""
+    from origami_jax.fluid import polygon_quadrature
+
+    u_shape = np.asarray(
+        [[0, 0], [3, 0], [3, 2], [2, 2], [2, 0.5], [1, 0.5], [1, 2], [0, 2]], float
+    )
+    rectangles = [(0, 3, 0, 0.5), (0, 1, 0.5, 2), (2, 3, 0.5, 2)]  # x0, x1, y0, y1
+    area = sum((x1 - x0) * (y1 - y0) for x0, x1, y0, y1 in rectangles)
+    mx = sum((x1**2 - x0**2) / 2 * (y1 - y0) for x0, x1, y0, y1 in rectangles)
+    myy = sum((x1 - x0) * (y1**3 - y0**3) / 3 for x0, x1, y0, y1 in rectangles)
+    mxy = sum((x1**2 - x0**2) / 2 * (y1**2 - y0**2) / 2 for x0, x1, y0, y1 in rectangles)
+    polygon = u_shape
+    if lift:  # the same U tilted in space
+        c, s = np.cos(0.7), np.sin(0.7)
+        rotation = np.asarray([[1, 0, 0], [0, c, -s], [0, s, c]])
+        polygon = np.c_[u_shape, np.zeros(len(u_shape))] @ rotation.T + [5.0, -2.0, 1.0]
+    points, weights = polygon_quadrature(polygon, 2)
+    if lift:
+        points = (points - [5.0, -2.0, 1.0]) @ rotation
+        np.testing.assert_allclose(points[:, 2], 0.0, atol=1e-12)
+    x, y = points[:, 0], points[:, 1]
+    assert np.all(weights > 0)
+    assert np.all(_inside(points[:, :2], u_shape) | (weights == 0))
+    np.testing.assert_allclose(
+        [weights.sum(), weights @ x, weights @ y**2, weights @ (x * y)],
+        [area, mx, myy, mxy],
+        rtol=1e-12,
+    )

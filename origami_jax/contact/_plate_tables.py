@@ -24,7 +24,7 @@ import dataclasses
 import jax
 import numpy as np
 
-from ._convex_pieces import convex_pieces
+from ..fold import convex_pieces
 from ._primitives import point_polygon_sq, polygon_normal, segment_segment_sq
 from ._tables import _distance_to_segment, content_digest, plane_frame
 

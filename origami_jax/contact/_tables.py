@@ -13,6 +13,7 @@ import hashlib
 import numpy as np
 
 from .._limits import CONTACT_SAMPLING
+from ..fold import convex_hull
 
 
 def content_digest(tables, arrays: tuple[str, ...], scalars: tuple) -> str:
@@ -153,7 +154,7 @@ def plane_frame(polygon: np.ndarray) -> np.ndarray:
 def _half_planes(outline: np.ndarray) -> np.ndarray:
     """Inward half-planes of a counter-clockwise convex polygon (its convex hull) in its own x–y plane."""
     xy = outline[:, :2]
-    hull = _convex_hull(xy)
+    hull = convex_hull(xy)
     rows = []
     for a, b in zip(hull, np.roll(hull, -1, axis=0), strict=True):
         edge = b - a
@@ -163,28 +164,6 @@ def _half_planes(outline: np.ndarray) -> np.ndarray:
         inward = np.array([-edge[1], edge[0]]) / length  # left of a counter-clockwise edge
         rows.append([inward[0], inward[1], -float(inward @ a)])
     return np.asarray(rows)
-
-
-def _convex_hull(xy: np.ndarray) -> np.ndarray:
-    """Counter-clockwise convex hull (Andrew's monotone chain)."""
-    pts = sorted({(float(x), float(y)) for x, y in xy})
-    if len(pts) < 3:
-        raise ValueError("a contact outline needs at least three distinct corners.")
-
-    def cross(o, a, b):
-        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
-
-    lower: list = []
-    for p in pts:
-        while len(lower) >= 2 and cross(lower[-2], lower[-1], p) <= 0:
-            lower.pop()
-        lower.append(p)
-    upper: list = []
-    for p in reversed(pts):
-        while len(upper) >= 2 and cross(upper[-2], upper[-1], p) <= 0:
-            upper.pop()
-        upper.append(p)
-    return np.asarray(lower[:-1] + upper[:-1])
 
 
 def _inset_polygon(outline: np.ndarray, inset: float) -> np.ndarray:
@@ -278,7 +257,7 @@ def _sample_points(
         points += ring
         weights += shares
         if rim > 0:
-            hull = _convex_hull(np.asarray(outline, dtype=float)[:, :2])
+            hull = convex_hull(np.asarray(outline, dtype=float)[:, :2])
             hull = np.concatenate([hull, np.zeros((len(hull), 1))], axis=1)
             edge, shares = _ring(hull, rim, RIM_POINTS_PER_EDGE, offset=0.5)
             points += edge

@@ -11,7 +11,8 @@ the physics packages build their objects from it (`origami_jax.vertex.load_singl
   `jsonschema` is installed, by the shipped schema (`fold_schema()`); errors are `FoldFormatError`.
 - Geometry (plain arrays, radians): `list_vertices`, `single_vertex_geometry`, `chain_geometry`,
   `net_geometry` (a net of rigid panels joined by creases into a tree: polyhedra, corner cubes);
-  `unfold_folded_form` (a folded form's flat crease pattern, fold angles from its dihedral angles).
+  `unfold_folded_form` (a folded form's flat crease pattern, fold angles from its dihedral angles);
+  `triangulate`, `signed_area`, `convex_hull` and `convex_pieces` for a face's polygon.
 - Catalogue of shipped nets: `catalogue_names`, `catalogue_path` (accordion, corner cube, the eleven
   cube nets, tetrahedron, the eleven octahedron nets and the first-drawn `octahedron`);
   `catalogue_family` names a family's members (`cube_nets`, `octahedron_nets`:
@@ -30,6 +31,8 @@ from ._catalogue import source_and_label as source_and_label
 from ._chain_geometry import ChainGeometry as ChainGeometry
 from ._chain_geometry import chain_geometry as chain_geometry
 from ._checks import check_fold as check_fold
+from ._convex_pieces import convex_hull as convex_hull
+from ._convex_pieces import convex_pieces as convex_pieces
 from ._errors import FoldFormatError as FoldFormatError
 from ._geometry import VertexGeometry as VertexGeometry
 from ._geometry import VertexInfo as VertexInfo
@@ -51,6 +54,8 @@ from ._model import length_scale_from_unit as length_scale_from_unit
 from ._net_geometry import NetGeometry as NetGeometry
 from ._net_geometry import Seams as Seams
 from ._net_geometry import net_geometry as net_geometry
+from ._polygons import signed_area as signed_area
+from ._polygons import triangulate as triangulate
 from ._read import fold_from_dict as fold_from_dict
 from ._read import loads_fold as loads_fold
 from ._read import read_fold as read_fold

@@ -1,0 +1,131 @@
+"""A panel's outline as convex pieces: the plates of a non-convex panel (an L, a T, a notched tab).
+
+Exact plate contact works on convex polygons (a point's distance to a polygon, two plates' overlap
+by separating axes), so a panel whose outline is not convex is split into convex pieces, each a
+plate of the same body: an ear-clipping triangulation (`triangulate`, as a FOLD file's faces are
+triangulated) whose diagonals are then removed wherever
+the two pieces they separate stay convex (Hertel and Mehlhorn, 1983: at most four times the fewest
+pieces, in practice the fewest for the outlines of panels). Taking its convex hull instead would
+fill the notch: a panel folding into it would be stopped by a plate that is not there. A convex
+outline is one piece, its convex hull.
+"""
+
+import numpy as np
+
+from ._polygons import signed_area, triangulate
+
+
+def convex_hull(xy: np.ndarray) -> np.ndarray:
+    """The convex hull of points `xy` `(k, 2)`: its corners counter-clockwise, `(m, 2)` (Andrew's
+    monotone chain; points on its edges left out).
+
+    **Raises:** `ValueError` for fewer than three distinct points."""
+    pts = sorted({(float(x), float(y)) for x, y in xy})
+    if len(pts) < 3:
+        raise ValueError("a contact outline needs at least three distinct corners.")
+
+    def cross(o, a, b):
+        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+
+    lower: list = []
+    for p in pts:
+        while len(lower) >= 2 and cross(lower[-2], lower[-1], p) <= 0:
+            lower.pop()
+        lower.append(p)
+    upper: list = []
+    for p in reversed(pts):
+        while len(upper) >= 2 and cross(upper[-2], upper[-1], p) <= 0:
+            upper.pop()
+        upper.append(p)
+    return np.asarray(lower[:-1] + upper[:-1])
+
+
+# An outline whose area is within this fraction of its hull's is convex (one piece, its hull).
+_CONVEX = 1e-9
+
+
+def _turn(o, a, b) -> float:
+    return float((a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0]))
+
+
+def _corners(xy: np.ndarray) -> np.ndarray:
+    """The outline's distinct corners, counter-clockwise (repeats, and a closing repeat, dropped)."""
+    points = [p for k, p in enumerate(xy) if k == 0 or np.any(p != xy[k - 1])]
+    if len(points) > 1 and np.all(points[0] == points[-1]):
+        points.pop()
+    points = np.asarray(points, dtype=float).reshape(-1, 2)
+    return points[::-1] if signed_area(points) < 0 else points
+
+
+def _is_convex(points: np.ndarray, piece: list[int]) -> bool:
+    count = len(piece)
+    return all(
+        _turn(points[piece[k - 1]], points[piece[k]], points[piece[(k + 1) % count]]) > 0
+        for k in range(count)
+    )
+
+
+def _merged(first: list[int], second: list[int], i: int, j: int) -> list[int]:
+    """The piece of `first` and `second`, which share the diagonal ``i–j`` (``i → j`` along `first`,
+    ``j → i`` along `second`), counter-clockwise."""
+    a = first.index(j)
+    b = second.index(i)
+    rolled_first = first[a:] + first[:a]  # starts at j, ends at i
+    rolled_second = second[b:] + second[:b]  # starts at i, ends at j
+    return rolled_first[:-1] + rolled_second[:-1]
+
+
+def convex_pieces(xy) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """The convex pieces of a simple planar outline `xy` `(k, 2)` (either orientation): each piece's
+    corners counter-clockwise `(m, 2)`, and for each piece which of its edges (from corner ``i`` to
+    ``i + 1``) lie on the outline, `(m,)` bool (the others are diagonals inside the panel). A convex
+    outline is one piece, its convex hull, every edge on the outline.
+
+    **Raises:** `ValueError` for an outline of fewer than three distinct corners or whose edges
+    cross."""
+    xy = np.asarray(xy, dtype=float)[:, :2]
+    hull = convex_hull(xy)
+    points = _corners(xy)
+    if len(points) < 3 or signed_area(points) >= (1 - _CONVEX) * signed_area(hull):
+        return [hull], [np.ones(len(hull), bool)]
+    try:
+        pieces = [list(t) for t in triangulate(points)]
+    except ValueError:
+        raise ValueError(
+            "a panel outline is not a simple polygon (its edges cross): give each face's "
+            "corners in order around it, without crossing edges."
+        ) from None
+    # The corners the triangles use (straight ones are left out), and each one's next along the
+    # outline: a piece's edge to it lies on the outline, any other edge is a diagonal.
+    used = sorted({i for piece in pieces for i in piece})
+    following = {i: used[(k + 1) % len(used)] for k, i in enumerate(used)}
+    # Remove diagonals while the two pieces they separate stay convex.
+    merging = True
+    while merging:
+        merging = False
+        for p, first in enumerate(pieces):
+            for k in range(len(first)):
+                i, j = first[k], first[(k + 1) % len(first)]
+                if following[i] == j:
+                    continue  # an edge of the outline
+                for s, second in enumerate(pieces):
+                    if s == p or i not in second or j not in second:
+                        continue
+                    if second[(second.index(j) + 1) % len(second)] != i:
+                        continue
+                    union = _merged(first, second, i, j)
+                    if _is_convex(points, union):
+                        pieces[p] = union
+                        pieces.pop(s)
+                        merging = True
+                    break
+                if merging:
+                    break
+            if merging:
+                break
+    corners = [points[piece] for piece in pieces]
+    on_outline = [
+        np.asarray([following[piece[k]] == piece[(k + 1) % len(piece)] for k in range(len(piece))])
+        for piece in pieces
+    ]
+    return corners, on_outline
