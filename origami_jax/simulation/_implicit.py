@@ -146,8 +146,9 @@ _SCHEMES = ("euler", "bdf2")
 # BDF2 with variable steps is zero-stable for step ratios below 1 + √2; a larger jump of the step
 # (a long interval after a short one) restarts it with one Euler step.
 _BDF2_LARGEST_RATIO = 2.4
-# `ImplicitStep.active_pairs`' default per body: a closed cube net (6 bodies, the base one of them)
-# has 24 vertex–face and 41 edge–edge pairs within twice the activation gap, against 36 and 60 kept.
+# `ImplicitStep.active_pairs`' default per plate (a convex panel's body): a closed cube net (6
+# bodies, the base one of them) has 24 vertex–face and 41 edge–edge pairs within twice the
+# activation gap, against 36 and 60 kept.
 _PAIRS_PER_BODY = 16
 # A crease pattern's loops: the closure penalty's weight over the step's other terms (`_loop_hold`).
 # The loops then stay closed to ~1/_LOOP_HOLD of a step's motion; far larger and the Newton matrix
@@ -192,8 +193,9 @@ class ImplicitStep(eqx.Module):
       to 1e-9 rad. Gradients are unchanged (they do not pass through the iterations).
     - `active_pairs`: how many of the plate contact's primitive pairs each step evaluates, those
       of least gap at the step's start (`PlateContact.select_pairs`; split between vertex–face
-      and edge–edge pairs in proportion to their numbers). Default `None`: 16 per body, the base
-      included (96 of a cube net's 253; a closed cube engages 65). The forces are every pair's
+      and edge–edge pairs in proportion to their numbers). Default `None`: 16 per plate (per
+      body, the base included, where every panel is convex; a non-convex panel's convex pieces
+      count one each): 96 of a cube net's 253, of which a closed cube engages 65. The forces are every pair's
       as long as no pair left out comes within the activation gap during the step, which
       `Trajectory.stats["contacts_left_out"]` counts (steps where one did: raise it); the
       collision check covers every pair either way. At least the number of pairs: all of them,
@@ -254,7 +256,7 @@ class ImplicitStep(eqx.Module):
             or self.active_pairs < 1
         ):
             raise ValueError(
-                "ImplicitStep.active_pairs must be a positive integer or None (16 per body), got "
+                "ImplicitStep.active_pairs must be a positive integer or None (16 per plate), got "
                 f"{self.active_pairs!r}."
             )
         for name in ("newton_iterations", "halvings", "ccd_pieces"):
