@@ -13,7 +13,7 @@ import hashlib
 import numpy as np
 
 from .._limits import CONTACT_SAMPLING
-from ..fold import convex_hull
+from ..fold import convex_hull, convex_pieces
 
 
 def content_digest(tables, arrays: tuple[str, ...], scalars: tuple) -> str:
@@ -271,6 +271,17 @@ def _distance_to_segment(points: np.ndarray, a: np.ndarray, b: np.ndarray) -> np
     return np.linalg.norm(points - (a + s[:, None] * ab), axis=-1)
 
 
+def _check_convex(outline: np.ndarray, name: str) -> None:
+    """Refuse a panel whose outline (its frame's x–y plane) is not convex: the sampled contact's
+    faces are convex hulls (`_half_planes`), which would fill its notch."""
+    if len(convex_pieces(outline[:, :2])[0]) > 1:
+        raise ValueError(
+            f"{name} is not convex: the sampled contact would take its convex hull and fill its "
+            "notch; use the plate contact (contact='plate', --contact plate: the default), which "
+            "takes non-convex panels as they are."
+        )
+
+
 def build_tables(
     outlines: list[np.ndarray],
     rest_poses: np.ndarray,
@@ -316,6 +327,7 @@ def build_tables(
             raise ValueError(f"outline {i} must be a polygon of shape (k >= 3, 3).")
         if np.max(np.abs(outline[:, 2])) > 1e-9 * max(1.0, np.max(np.abs(outline))):
             raise ValueError(f"outline {i} does not lie in its body frame's x–y plane.")
+        _check_convex(outline, f"panel {i}")
     faces = list(outlines)
     world_outlines = [
         o @ pose[:3, :3].T + pose[:3, 3] for o, pose in zip(outlines, rest_poses, strict=True)
@@ -325,6 +337,7 @@ def build_tables(
         base_outline = np.asarray(base_outline, dtype=float)
         base_pose = plane_frame(base_outline)
         local = (base_outline - base_pose[:3, 3]) @ base_pose[:3, :3]
+        _check_convex(local, "the base panel")
         faces.append(local)
         world_outlines.append(base_outline)
     sizes = [float(np.max(np.ptp(w, axis=0))) for w in world_outlines]

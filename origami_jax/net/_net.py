@@ -528,7 +528,7 @@ class Net(AbstractPanelPattern):
         `tables.scale` when `system` has contact, else the same from the net's geometry."""
         if system is not None and system.contact is not None:
             return float(system.contact.tables.scale)
-        return float(self.contact_tables().scale)
+        return float(self.plate_tables().scale)
 
     def seam_gap_function(self, system: FoldingSystem) -> "SeamGaps":
         """A traceable ``q ↦`` gap of each seam (design length units, `(s,)`) for a system this net
