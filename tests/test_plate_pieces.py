@@ -79,6 +79,13 @@ def test_a_non_convex_outline_is_cut_into_convex_pieces_that_tile_it(name):
     np.testing.assert_array_equal(count, _inside(points, outline).astype(int))
 
 
+def test_rectilinear_outlines_come_out_in_their_fewest_pieces():
+    """An L and a T are two rectangles' worth of pieces, a U three (the fewest convex pieces):
+    the decomposition tries the triangulations from several corners."""
+    counts = {name: len(convex_pieces(np.asarray(SHAPES[name], float))[0]) for name in "LTU"}
+    assert counts == {"L": 2, "T": 2, "U": 3}
+
+
 def test_a_convex_outline_is_one_piece_its_hull():
     square = np.asarray([[0, 0], [1, 0], [1, 0.5], [1, 1], [0, 1]], float)
     pieces, on_outline = convex_pieces(square[::-1])

@@ -42,6 +42,8 @@ def convex_hull(xy: np.ndarray) -> np.ndarray:
 
 # An outline whose area is within this fraction of its hull's is convex (one piece, its hull).
 _CONVEX = 1e-9
+# Triangulations tried (`convex_pieces`), each clipping from another corner first.
+_STARTS = 16
 
 
 def _turn(o, a, b) -> float:
@@ -75,28 +77,12 @@ def _merged(first: list[int], second: list[int], i: int, j: int) -> list[int]:
     return rolled_first[:-1] + rolled_second[:-1]
 
 
-def convex_pieces(xy) -> tuple[list[np.ndarray], list[np.ndarray]]:
-    """The convex pieces of a simple planar outline `xy` `(k, 2)` (either orientation): each piece's
-    corners counter-clockwise `(m, 2)`, and for each piece which of its edges (from corner ``i`` to
-    ``i + 1``) lie on the outline, `(m,)` bool (the others are diagonals inside the panel). A convex
-    outline is one piece, its convex hull, every edge on the outline.
-
-    **Raises:** `ValueError` for an outline of fewer than three distinct corners or whose edges
-    cross."""
-    xy = np.asarray(xy, dtype=float)[:, :2]
-    hull = convex_hull(xy)
-    points = _corners(xy)
-    if len(points) < 3 or signed_area(points) >= (1 - _CONVEX) * signed_area(hull):
-        return [hull], [np.ones(len(hull), bool)]
-    try:
-        pieces = [list(t) for t in triangulate(points)]
-    except ValueError:
-        raise ValueError(
-            "a panel outline is not a simple polygon (its edges cross): give each face's "
-            "corners in order around it, without crossing edges."
-        ) from None
-    # The corners the triangles use (straight ones are left out), and each one's next along the
-    # outline: a piece's edge to it lies on the outline, any other edge is a diagonal.
+def _merged_triangles(points: np.ndarray) -> tuple[list[list[int]], dict[int, int]]:
+    """Hertel and Mehlhorn's pieces of a simple counter-clockwise polygon from its ear-clipping
+    triangulation (corner indices, counter-clockwise), and each used corner's next one along the
+    outline (a piece's edge to it lies on the outline; any other edge is a diagonal)."""
+    pieces = [list(t) for t in triangulate(points)]
+    # Straight corners are left out of the triangles.
     used = sorted({i for piece in pieces for i in piece})
     following = {i: used[(k + 1) % len(used)] for k, i in enumerate(used)}
     # Remove diagonals while the two pieces they separate stay convex.
@@ -123,6 +109,44 @@ def convex_pieces(xy) -> tuple[list[np.ndarray], list[np.ndarray]]:
                     break
             if merging:
                 break
+    return pieces, following
+
+
+def convex_pieces(xy) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """The convex pieces of a simple planar outline `xy` `(k, 2)` (either orientation): each piece's
+    corners counter-clockwise `(m, 2)`, and for each piece which of its edges (from corner ``i`` to
+    ``i + 1``) lie on the outline, `(m,)` bool (the others are diagonals inside the panel). A convex
+    outline is one piece, its convex hull, every edge on the outline.
+
+    Hertel and Mehlhorn's decomposition depends on the triangulation it starts from: the clipping
+    starts at each of the first `_STARTS` corners in turn, and the fewest pieces are kept (an L or a
+    T then comes out as its two rectangles' worth).
+
+    **Raises:** `ValueError` for an outline of fewer than three distinct corners or whose edges
+    cross."""
+    xy = np.asarray(xy, dtype=float)[:, :2]
+    hull = convex_hull(xy)
+    points = _corners(xy)
+    if len(points) < 3 or signed_area(points) >= (1 - _CONVEX) * signed_area(hull):
+        return [hull], [np.ones(len(hull), bool)]
+    n = len(points)
+    best = None
+    for start in range(min(n, _STARTS)):
+        order = np.roll(np.arange(n), -start)
+        try:
+            pieces, following = _merged_triangles(points[order])
+        except ValueError:
+            raise ValueError(
+                "a panel outline is not a simple polygon (its edges cross): give each face's "
+                "corners in order around it, without crossing edges."
+            ) from None
+        if best is None or len(pieces) < len(best[0]):
+            # Back to the outline's own corner numbers.
+            best = (
+                [[int(order[i]) for i in piece] for piece in pieces],
+                {int(order[i]): int(order[j]) for i, j in following.items()},
+            )
+    pieces, following = best
     corners = [points[piece] for piece in pieces]
     on_outline = [
         np.asarray([following[piece[k]] == piece[(k + 1) % len(piece)] for k in range(len(piece))])
