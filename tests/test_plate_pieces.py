@@ -288,3 +288,22 @@ def test_the_sampled_contact_refuses_a_panel_that_is_not_convex(jigsaw):
         net.system(contact="sampled")
     # Without contact the verdict's scale (the largest panel, 200 µm) needs no contact model.
     assert net.panel_size() == pytest.approx(200.0, rel=1e-12)
+
+
+@pytest.mark.parametrize("angles", [(170.0, 179.75), (179.8, 179.7), (179.85, 179.6)])
+def test_the_contact_force_of_a_split_panel_is_its_energys_gradient(jigsaw, angles):
+    """With the L's two plates engaged on the base (and the tab), the generalized contact force at
+    rest is ``−∂E/∂q`` of the barrier energy (reverse-mode derivative of `potential`): the plates'
+    wrenches are summed onto their body. The forces are of order 1e7 here; agreement to 1e-10
+    relative is rounding."""
+    net, system = jigsaw
+    contact, mechanism = system.contact, system.mechanism
+    q = jnp.deg2rad(jnp.asarray(angles))
+    report = contact.report(mechanism, q)
+    assert int(report["engaged"]) > 0 and bool(report["touching"][1, 2])
+    force = contact.force(mechanism, q, jnp.zeros(2))
+    gradient = -jax.grad(lambda q: contact.potential(mechanism, q))(q)
+    assert float(jnp.max(jnp.abs(force))) > 0
+    np.testing.assert_allclose(
+        force, gradient, rtol=1e-10, atol=1e-10 * float(jnp.max(jnp.abs(force)))
+    )
