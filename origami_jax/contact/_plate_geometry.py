@@ -48,9 +48,9 @@ def plate_overlaps(
     of the prisms of their thicknesses for bodies apart in the flat state, of their mid-surfaces
     for bodies that touch there (a shared crease, corner or cut edge: their plates overlap along
     it by construction); `overlap_depth`. A panel of several convex plates (a non-convex outline)
-    overlaps another by the deepest of its plates' overlaps (a lower bound of
-    the translation that separates the two panels; their exact depth where each is one plate). Depths within rounding of zero
-    (``1e-9`` × the largest panel) are 0."""
+    overlaps another by the deepest of its plates' overlaps (a lower bound of the translation that
+    separates the two panels; their exact depth where each is one plate). Depths within rounding of
+    zero (``1e-9`` × the largest panel) are 0."""
     pairs, owner = tables.plate_pairs
     a, b = pairs.T
     body = tables.bodies_of_plates
