@@ -274,7 +274,7 @@ def build_surface_tables(
     state are left out.
     """
     # Per plate (a body's plates: one, or a non-convex panel's convex pieces, `PlateTables`).
-    n_all, width = tables.vertices.shape[:2]
+    n_plates, width = tables.vertices.shape[:2]
     n = tables.n_bodies
     plate_body = tables.bodies_of_plates
     clearance = 0.01 * tables.scale if clearance is None else float(clearance)
@@ -284,41 +284,31 @@ def build_surface_tables(
     world = np.stack(
         [
             tables.vertices[b] @ poses[plate_body[b]][:3, :3].T + poses[plate_body[b]][:3, 3]
-            for b in range(n_all)
+            for b in range(n_plates)
         ]
     )
     counts = [
         int(np.sum(np.any(np.diff(tables.vertices[b], axis=0) != 0, axis=1))) + 1
-        for b in range(n_all)
+        for b in range(n_plates)
     ]
     on_outline = (
-        np.ones((n_all, width), bool)
+        np.ones((n_plates, width), bool)
         if tables.outline_edges is None
         else np.asarray(tables.outline_edges)
     )
-    # Each body's size (over its plates).
-    sizes = [
-        float(
-            np.max(
-                np.ptp(
-                    np.concatenate(
-                        [world[p, : counts[p]] for p in np.flatnonzero(plate_body == body)]
-                    ),
-                    axis=0,
-                )
-            )
-        )
-        for body in range(tables.n_all)
-    ]
+    sizes = []  # each body's, over its plates
+    for k in range(tables.n_all):
+        mine = np.concatenate([world[p, : counts[p]] for p in np.flatnonzero(plate_body == k)])
+        sizes.append(float(np.max(np.ptp(mine, axis=0))))
 
     weights, area, body = [], [], []
-    for b in range(n_all):
+    for b in range(n_plates):
         rows, fan = _fan_samples(counts[b], samples)
         local = tables.vertices[b, : counts[b]]
         centre = local.mean(axis=0)
         corner, nxt = local, np.roll(local, -1, axis=0)
         fan_area = 0.5 * np.abs(np.cross(corner - centre, nxt - centre)[:, 2])
-        full = np.zeros((len(rows), n_all * width))
+        full = np.zeros((len(rows), n_plates * width))
         full[:, b * width : b * width + counts[b]] = rows
         weights.append(full)
         area.append(fan_area[fan] / samples**2)
@@ -329,7 +319,7 @@ def build_surface_tables(
     parent = np.where(np.asarray(crease_parent) < 0, n, np.asarray(crease_parent))
     child = np.asarray(crease_child)
     crease_pair = np.zeros((tables.n_all, tables.n_all), bool)  # by body
-    near = np.zeros((len(points), n_all), bool)  # point near its crease with that plate's body
+    near = np.zeros((len(points), n_plates), bool)  # point near its crease with that plate's body
     for h in range(len(child)):
         a, b = int(parent[h]), int(child[h])
         if a >= tables.n_all:
@@ -347,8 +337,8 @@ def build_surface_tables(
     face_pairs = np.stack([point, other], axis=1)[gap >= clearance]
 
     rows = []
-    for a in range(n_all):
-        for b in range(a + 1, n_all):
+    for a in range(n_plates):
+        for b in range(a + 1, n_plates):
             if plate_body[a] == plate_body[b] or crease_pair[plate_body[a], plate_body[b]]:
                 continue
             for i in range(counts[a]):
