@@ -2,9 +2,9 @@
 
 Each polygon is split into a fan of triangles from its vertex mean (a polygon that is not convex
 first into its convex pieces, `origami_jax.fold.convex_pieces`: a fan from the mean of an L or a U
-would cover ground outside it), each triangle into ``m²`` similar sub-triangles, and each sub-triangle integrated with
-Radon's 7-point rule, exact for polynomials of degree 5 (Stroud, *Approximate Calculation of Multiple
-Integrals*, 1971, T2:5-1).
+would cover ground outside it), each triangle into ``m²`` similar sub-triangles, and each
+sub-triangle integrated with Radon's 7-point rule, exact for polynomials of degree 5 (Stroud,
+*Approximate Calculation of Multiple Integrals*, 1971, T2:5-1).
 """
 
 import numpy as np

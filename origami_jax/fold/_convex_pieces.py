@@ -3,9 +3,9 @@
 Exact plate contact works on convex polygons (a point's distance to a polygon, two plates' overlap
 by separating axes), so a panel whose outline is not convex is split into convex pieces, each a
 plate of the same body: an ear-clipping triangulation (`triangulate`, as a FOLD file's faces are
-triangulated) whose diagonals are then removed wherever
-the two pieces they separate stay convex (Hertel and Mehlhorn, 1983: at most four times the fewest
-pieces, in practice the fewest for the outlines of panels). Taking its convex hull instead would
+triangulated) whose diagonals are then removed wherever the two pieces they separate stay convex
+(Hertel and Mehlhorn, 1983: at most four times the fewest pieces; the fewest over several starting
+corners is kept). Taking its convex hull instead would
 fill the notch: a panel folding into it would be stopped by a plate that is not there. A convex
 outline is one piece, its convex hull.
 """
@@ -13,6 +13,11 @@ outline is one piece, its convex hull.
 import numpy as np
 
 from ._polygons import signed_area, triangulate
+
+
+def _turn(o, a, b) -> float:
+    """Twice the signed area of the triangle ``o, a, b`` (positive when it turns left)."""
+    return float((a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0]))
 
 
 def convex_hull(xy: np.ndarray) -> np.ndarray:
@@ -23,18 +28,14 @@ def convex_hull(xy: np.ndarray) -> np.ndarray:
     pts = sorted({(float(x), float(y)) for x, y in xy})
     if len(pts) < 3:
         raise ValueError("a contact outline needs at least three distinct corners.")
-
-    def cross(o, a, b):
-        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
-
     lower: list = []
     for p in pts:
-        while len(lower) >= 2 and cross(lower[-2], lower[-1], p) <= 0:
+        while len(lower) >= 2 and _turn(lower[-2], lower[-1], p) <= 0:
             lower.pop()
         lower.append(p)
     upper: list = []
     for p in reversed(pts):
-        while len(upper) >= 2 and cross(upper[-2], upper[-1], p) <= 0:
+        while len(upper) >= 2 and _turn(upper[-2], upper[-1], p) <= 0:
             upper.pop()
         upper.append(p)
     return np.asarray(lower[:-1] + upper[:-1])
@@ -46,12 +47,8 @@ _CONVEX = 1e-9
 _STARTS = 16
 
 
-def _turn(o, a, b) -> float:
-    return float((a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0]))
-
-
 def _corners(xy: np.ndarray) -> np.ndarray:
-    """The outline's distinct corners, counter-clockwise (repeats, and a closing repeat, dropped)."""
+    """The outline's distinct corners, counter-clockwise (repeats and a closing repeat dropped)."""
     points = [p for k, p in enumerate(xy) if k == 0 or np.any(p != xy[k - 1])]
     if len(points) > 1 and np.all(points[0] == points[-1]):
         points.pop()
@@ -68,8 +65,8 @@ def _is_convex(points: np.ndarray, piece: list[int]) -> bool:
 
 
 def _merged(first: list[int], second: list[int], i: int, j: int) -> list[int]:
-    """The piece of `first` and `second`, which share the diagonal ``i–j`` (``i → j`` along `first`,
-    ``j → i`` along `second`), counter-clockwise."""
+    """The piece of `first` and `second`, which share the diagonal ``i–j`` (``i → j`` along
+    `first`, ``j → i`` along `second`), counter-clockwise."""
     a = first.index(j)
     b = second.index(i)
     rolled_first = first[a:] + first[:a]  # starts at j, ends at i
